@@ -1,0 +1,46 @@
+"""lgvi: Lie group variational integrator for rigid-body attitude dynamics on SO(3).
+
+Public names (everything else is private):
+
+- :class:`RigidBody`, :func:`inertia_to_jd`, :func:`jd_to_inertia`
+- :func:`simulate`, :func:`step`, :class:`Trajectory`, :func:`load`
+- :func:`solve_implicit`, :class:`ImplicitSolution`
+- :class:`ConvergenceError`, :class:`TorqueError`, :class:`SimulationInterrupted`
+- modules :mod:`lgvi.so3`, :mod:`lgvi.reference`, :mod:`lgvi.baselines`, :mod:`lgvi.exact`
+
+Importing lgvi compiles nothing: kernels are compiled (or loaded from Numba's cache) on first use.
+"""
+
+from . import so3 as so3
+from ._version import __version__ as __version__
+from .body import RigidBody as RigidBody
+from .body import inertia_to_jd as inertia_to_jd
+from .body import jd_to_inertia as jd_to_inertia
+from .errors import ConvergenceError as ConvergenceError
+from .errors import SimulationInterrupted as SimulationInterrupted
+from .errors import TorqueError as TorqueError
+from .implicit import ImplicitSolution as ImplicitSolution
+from .implicit import solve_implicit as solve_implicit
+from .integrator import StepResult as StepResult
+from .integrator import simulate as simulate
+from .integrator import step as step
+from .trajectory import Trajectory as Trajectory
+from .trajectory import load as load
+
+__all__ = [
+    "ConvergenceError",
+    "ImplicitSolution",
+    "RigidBody",
+    "SimulationInterrupted",
+    "StepResult",
+    "TorqueError",
+    "Trajectory",
+    "__version__",
+    "inertia_to_jd",
+    "jd_to_inertia",
+    "load",
+    "simulate",
+    "so3",
+    "solve_implicit",
+    "step",
+]

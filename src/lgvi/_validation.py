@@ -1,0 +1,89 @@
+"""Input checks shared by the Python layer. Each error names the argument, the value and the rule."""
+
+from __future__ import annotations
+
+import numbers
+import operator
+from typing import Any
+
+import numpy as np
+
+ROTATION_TOL = 1e-9
+
+
+def _short(value: Any) -> str:
+    text = np.array2string(np.asarray(value), precision=6, threshold=12) if isinstance(
+        value, np.ndarray) else repr(value)
+    return text if len(text) <= 120 else text[:117] + "..."
+
+
+def as_float_array(value: Any, name: str, shape: tuple[int | None, ...] | None = None) -> np.ndarray:
+    """Convert to a float64 array, check its shape (``None`` entries are free) and finiteness."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be an array of real numbers, got {_short(value)}") from exc
+    if shape is not None:
+        ok = arr.ndim == len(shape) and all(s is None or s == d for s, d in zip(shape, arr.shape))
+        if not ok:
+            want = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
+            raise ValueError(f"{name} must have shape {want}, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        bad = np.argwhere(~np.isfinite(arr))[0]
+        where = f" at index {tuple(int(i) for i in bad)}" if arr.ndim else ""
+        raise ValueError(f"{name} must be finite (no NaN or inf), found {arr[tuple(bad)]}{where}")
+    return arr
+
+
+def as_float(value: Any, name: str, *, nonzero: bool = False, positive: bool = False) -> float:
+    """A finite real scalar."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
+        if not (isinstance(value, np.ndarray) and value.ndim == 0 and np.issubdtype(value.dtype, np.number)):
+            raise TypeError(f"{name} must be a real number, got {_short(value)} of type {type(value).__name__}")
+    x = float(value)
+    if not np.isfinite(x):
+        raise ValueError(f"{name} must be finite, got {x}")
+    if nonzero and x == 0.0:
+        raise ValueError(f"{name} must be non-zero, got {x}")
+    if positive and not x > 0.0:
+        raise ValueError(f"{name} must be positive, got {x}")
+    return x
+
+
+def as_int(value: Any, name: str, *, minimum: int = 0) -> int:
+    """An integer (Python or NumPy, not bool, not a float) not below ``minimum``."""
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be an integer, got {value!r}")
+    try:
+        n = operator.index(value)
+    except TypeError as exc:
+        raise TypeError(f"{name} must be an integer, got {_short(value)} of type {type(value).__name__}") from exc
+    if n < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {n}")
+    return n
+
+
+def as_rotation(value: Any, name: str = "R0", tol: float = ROTATION_TOL) -> np.ndarray:
+    """A (3,3) rotation matrix (or a scipy ``Rotation``), orthogonal to ``tol`` with det +1."""
+    try:
+        from scipy.spatial.transform import Rotation
+    except ImportError:  # pragma: no cover
+        Rotation = None
+    if Rotation is not None and isinstance(value, Rotation):
+        if not value.single:
+            raise ValueError(f"{name} must be a single rotation, got a stack of {len(value)}")
+        return value.as_matrix().astype(np.float64)
+    R = as_float_array(value, name, (3, 3))
+    err = float(np.linalg.norm(R.T @ R - np.eye(3)))
+    det = float(np.linalg.det(R))
+    if err > tol or det <= 0.0:
+        rule = "determinant -1 (a reflection)" if det < 0 else f"orthogonality error |R^T R - I| = {err:.3g} > {tol:g}"
+        raise ValueError(f"{name} must be a rotation matrix (orthogonal to {tol:g}, determinant +1); "
+                         f"got {rule}. Use lgvi.so3.project({name}) for the nearest rotation.")
+    return R
+
+
+def choice(value: Any, name: str, options: dict[str, int] | tuple[str, ...]) -> str:
+    if not isinstance(value, str) or value not in options:
+        raise ValueError(f"{name} must be one of {', '.join(repr(o) for o in options)}; got {value!r}")
+    return value

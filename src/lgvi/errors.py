@@ -1,0 +1,57 @@
+"""Exceptions raised by lgvi."""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+class ConvergenceError(RuntimeError):
+    """The implicit equation ``hat(h Pi) = F Jd - Jd F^T`` was not solved to tolerance.
+
+    Raised instead of returning an unconverged ``F``. Attributes carry what is known:
+
+    Attributes
+    ----------
+    residual : float
+        ``|vee(F Jd - Jd F^T) - h Pi|`` reached by the last iterate.
+    iterations : int
+        Updates applied before giving up.
+    step : int or None
+        Index ``k`` of the step that failed (``None`` for a single :func:`lgvi.solve_implicit`).
+    time : float or None
+        Time ``t_k`` of that step.
+    trajectory : lgvi.Trajectory or None
+        The part of the run computed before the failed step (states ``0 .. k``).
+    """
+
+    def __init__(self, message: str, *, residual: float = float("nan"), iterations: int = 0,
+                 step: int | None = None, time: float | None = None, trajectory: Any = None):
+        super().__init__(message)
+        self.residual = residual
+        self.iterations = iterations
+        self.step = step
+        self.time = time
+        self.trajectory = trajectory
+
+
+class SimulationInterrupted(KeyboardInterrupt):
+    """A run was interrupted (Ctrl-C); ``trajectory`` holds the part computed so far."""
+
+    def __init__(self, message: str, trajectory: Any = None):
+        super().__init__(message)
+        self.trajectory = trajectory
+
+
+class TorqueError(RuntimeError):
+    """A user torque callable raised or returned an invalid value; ``trajectory`` holds the
+    part of the run computed before that step."""
+
+    def __init__(self, message: str, *, step: int | None = None, time: float | None = None,
+                 trajectory: Any = None):
+        super().__init__(message)
+        self.step = step
+        self.time = time
+        self.trajectory = trajectory
+
+
+__all__ = ["ConvergenceError", "SimulationInterrupted", "TorqueError"]

@@ -1,0 +1,177 @@
+"""The result of a simulation: time-first arrays plus diagnostics, saved and loaded as ``.npz``."""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+
+from ._version import __version__
+
+FORMAT = "lgvi.trajectory/1"
+
+
+def _continuous(q: np.ndarray) -> np.ndarray:
+    """Flip signs along axis 0 so consecutive quaternions have non-negative dot products."""
+    if len(q) < 2:
+        return q
+    flips = np.einsum("ij,ij->i", q[1:], q[:-1]) < 0
+    sign = np.concatenate([[1.0], np.where(np.cumsum(flips) % 2 == 1, -1.0, 1.0)])
+    return q * sign[:, None]
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """A simulated attitude motion, sampled at ``M`` times.
+
+    Attributes
+    ----------
+    t : (M,) ndarray
+        Sample times.
+    R : (M, 3, 3) ndarray
+        Attitude (maps body vectors to inertial ones).
+    Pi : (M, 3) ndarray
+        Body angular momentum ``J Omega``.
+    inertia : (3, 3) ndarray
+        Standard inertia ``J`` of the body.
+    iterations : (steps,) ndarray of int
+        Solver updates used by each step.
+    residual : (steps,) ndarray of float
+        Final residual ``|vee(F Jd - Jd F^T) - h Pi|`` of each step's solve.
+    potential : (M,) ndarray or None
+        Potential energy at each sample, for conservative torque models; ``energy`` adds it.
+    h : float
+        Step size.
+    meta : dict
+        Method, tolerance, package version and any run metadata (JSON-serialisable).
+
+    Derived (computed on first access): ``omega`` (M,3), ``energy`` (M,),
+    ``kinetic_energy`` (M,), ``spatial_momentum`` (M,3), ``quaternion`` (M,4) scalar-last and
+    sign-continuous, ``rotation`` (a scipy ``Rotation``), ``orthogonality_error`` (M,).
+    """
+
+    t: np.ndarray
+    R: np.ndarray
+    Pi: np.ndarray
+    inertia: np.ndarray
+    iterations: np.ndarray
+    residual: np.ndarray
+    h: float
+    potential: np.ndarray | None = None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        for name in ("t", "R", "Pi", "inertia", "iterations", "residual", "potential"):
+            arr = getattr(self, name)
+            if arr is not None:
+                arr = np.asarray(arr)
+                arr.flags.writeable = False
+                object.__setattr__(self, name, arr)
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def __repr__(self) -> str:
+        span = f"t=[{self.t[0]:.6g}, {self.t[-1]:.6g}]" if len(self.t) else "empty"
+        return (f"Trajectory(samples={len(self.t)}, steps={len(self.iterations)}, h={self.h:g}, {span}, "
+                f"method={self.meta.get('method', '?')!r})")
+
+    @property
+    def steps(self) -> int:
+        """Number of steps taken."""
+        return int(len(self.iterations))
+
+    @cached_property
+    def omega(self) -> np.ndarray:
+        """(M, 3) body angular velocity ``J^-1 Pi``."""
+        return np.linalg.solve(self.inertia, self.Pi.T).T
+
+    @cached_property
+    def kinetic_energy(self) -> np.ndarray:
+        """(M,) kinetic energy ``1/2 Pi . J^-1 Pi``."""
+        return 0.5 * np.einsum("ij,ij->i", self.Pi, self.omega)
+
+    @cached_property
+    def energy(self) -> np.ndarray:
+        """(M,) total energy: kinetic plus, for conservative torque models, potential."""
+        if self.potential is None:
+            return self.kinetic_energy
+        return self.kinetic_energy + self.potential
+
+    @cached_property
+    def spatial_momentum(self) -> np.ndarray:
+        """(M, 3) inertial angular momentum ``R Pi``."""
+        return np.einsum("mij,mj->mi", self.R, self.Pi)
+
+    @cached_property
+    def orthogonality_error(self) -> np.ndarray:
+        """(M,) ``|R^T R - I|_F``."""
+        eye = np.eye(3)
+        return np.linalg.norm(np.einsum("mki,mkj->mij", self.R, self.R) - eye, axis=(1, 2))
+
+    @cached_property
+    def quaternion(self) -> np.ndarray:
+        """(M, 4) unit quaternions, scalar-last (as scipy), sign-continuous over time."""
+        return self.quaternions()
+
+    def quaternions(self, *, scalar_first: bool = False) -> np.ndarray:
+        """(M, 4) sign-continuous unit quaternions; ``scalar_first`` as in scipy."""
+        from scipy.spatial.transform import Rotation
+
+        q = _continuous(Rotation.from_matrix(self.R).as_quat()) if len(self.R) else np.zeros((0, 4))
+        return q[:, [3, 0, 1, 2]] if scalar_first else q
+
+    @property
+    def rotation(self):
+        """The attitudes as a scipy ``Rotation`` (a stack of ``M``)."""
+        from scipy.spatial.transform import Rotation
+
+        return Rotation.from_matrix(self.R)
+
+    # ---------------------------------------------------------------- persistence
+    def save(self, path: str | os.PathLike) -> None:
+        """Write to ``path`` (``.npz``, uncompressed); :func:`lgvi.load` reads it back exactly."""
+        meta = dict(self.meta)
+        meta.setdefault("lgvi_version", __version__)
+        arrays = dict(t=self.t, R=self.R, Pi=self.Pi, inertia=self.inertia, iterations=self.iterations,
+                      residual=self.residual, h=np.float64(self.h))
+        if self.potential is not None:
+            arrays["potential"] = self.potential
+        header = json.dumps({"format": FORMAT, "meta": meta})
+        with open(os.fspath(path), "wb") as fh:
+            np.savez(fh, __lgvi__=np.array(header), **arrays)
+
+
+def load(path: str | os.PathLike) -> Trajectory:
+    """Read a trajectory written by :meth:`Trajectory.save`.
+
+    Raises
+    ------
+    ValueError
+        If the file is not an lgvi trajectory (wrong format, truncated, or missing fields).
+    """
+    path = os.fspath(path)
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            if "__lgvi__" not in data.files:
+                raise ValueError(f"{path} is not an lgvi trajectory (no '__lgvi__' header)")
+            header = json.loads(str(data["__lgvi__"]))
+            if header.get("format") != FORMAT:
+                raise ValueError(f"{path}: unsupported trajectory format {header.get('format')!r}, expected {FORMAT!r}")
+            fields = {k: data[k] for k in ("t", "R", "Pi", "inertia", "iterations", "residual")}
+            potential = data["potential"] if "potential" in data.files else None
+            h = float(data["h"])
+    except (OSError, EOFError, KeyError, json.JSONDecodeError) as exc:
+        raise ValueError(f"cannot read trajectory {path}: {exc}") from exc
+    except Exception as exc:  # zipfile.BadZipFile and friends from truncated files
+        if isinstance(exc, ValueError):
+            raise
+        raise ValueError(f"cannot read trajectory {path}: {type(exc).__name__}: {exc}") from exc
+    return Trajectory(h=h, potential=potential, meta=header.get("meta", {}), **fields)
+
+
+__all__ = ["Trajectory", "load"]
