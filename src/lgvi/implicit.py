@@ -140,8 +140,7 @@ def solve_implicit(Jd, hPi, *, method: str = "newton", tol: float = 1e-14, max_i
         g[:] = as_float_array(guess, "guess", (3,))
     E = np.zeros((3, 3))
     hist = np.full(max_iter + 1, np.nan)
-    its, res, status = solve_implicit_kernel(code, Jd, J, hPi, g, tol, max_iter, alpha, E,
-                                             np.zeros((4, 3, 3)), hist)
+    its, res, status = solve_implicit_kernel(code, Jd, hPi, g, tol, max_iter, alpha, E, hist)
     if status != 0:
         raise ConvergenceError(failure_message(status, res, its, float(np.linalg.norm(hPi)), tol),
                                residual=float(res), iterations=int(its))

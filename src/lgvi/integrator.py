@@ -13,8 +13,9 @@ from typing import Any, Callable
 
 import numpy as np
 
+from . import so3
 from ._kernels.solvers import OK, initial_guess
-from ._kernels.stepping import one_step, run_chunk
+from ._kernels.stepping import lgvi_step, run_chunk
 from ._validation import as_float, as_float_array, as_int, as_rotation, choice
 from ._version import __version__
 from .body import RigidBody
@@ -26,6 +27,15 @@ from .trajectory import Trajectory
 CHUNK_STEPS = 1 << 18
 
 TorqueCallable = Callable[[float, np.ndarray, np.ndarray], Any]
+
+_NO_HIST = np.zeros(0)
+
+
+def _solver_state(code: int, body: RigidBody, h: float, Pi: np.ndarray) -> np.ndarray:
+    """Solver history ``G`` (4,3) of the stepping kernels, cold-started from the linearisation."""
+    G = np.zeros((4, 3))
+    initial_guess(code, body.J, h * Pi, G[0])
+    return G
 
 
 @dataclass(frozen=True)
@@ -119,20 +129,17 @@ def step(body: Any, R: Any, Pi: Any, *, h: float, u: Any = None, method: str = "
     Pi = as_float_array(Pi, "Pi", (3,))
     h = as_float(h, "h", nonzero=True)
     uu = np.zeros(3) if u is None else as_float_array(u, "u", (3,))
-    g = np.zeros(3)
-    if guess is None:
-        initial_guess(code, body.J, h * Pi, g)
-    else:
-        g[:] = as_float_array(guess, "guess", (3,))
-    Rn = np.empty((3, 3))
-    Pin = np.empty(3)
-    E = np.zeros((3, 3))
-    its, res, st = one_step(code, body.Jd, body.J, h, R, Pi, g, uu, tol, max_iter, alpha, Rn, Pin, E,
-                            np.zeros((4, 3, 3)))
+    G = _solver_state(code, body, h, Pi)
+    if guess is not None:
+        G[0] = as_float_array(guess, "guess", (3,))
+    Rn = R.copy()
+    Pin = Pi.copy()
+    its, res, st = lgvi_step(code, body.Jd, h, Rn, Pin, G, uu[0], uu[1], uu[2], tol, max_iter, alpha, _NO_HIST)
     if st != OK:
         raise ConvergenceError(failure_message(st, res, its, abs(h) * float(np.linalg.norm(Pi)), tol),
                                residual=float(res), iterations=int(its))
-    return StepResult(R=Rn, Pi=Pin, F=np.eye(3) + E, iterations=int(its), residual=float(res))
+    F = so3.cayley(G[0]) if code == METHODS["cayley"] else so3.exp(G[0])
+    return StepResult(R=Rn, Pi=Pin, F=F, iterations=int(its), residual=float(res))
 
 
 def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: float, steps: int,
@@ -232,8 +239,7 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     Pi_out[0] = Pi
     it_out = np.zeros(steps, dtype=np.int32)
     res_out = np.zeros(steps)
-    g = np.zeros(3)
-    initial_guess(code, body.J, h * Pi, g)
+    G = _solver_state(code, body, h, Pi)
     meta = {"method": method, "tol": tol, "max_iter": max_iter, "alpha": alpha, "save_every": save_every,
             "torque": kind, "forcing": "paper", "lgvi_version": __version__, "t0": t0}
 
@@ -249,12 +255,12 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
         if func is None:
             while k < steps:
                 n = min(CHUNK_STEPS, steps - k)
-                status, k = run_chunk(code, body.Jd, body.J, h, R, Pi, g, U, k, n, tol, max_iter, alpha,
-                                      save_every, R_out, Pi_out, it_out, res_out)
+                status, k = run_chunk(code, body.Jd, h, R, Pi, G, U, k, n, tol, max_iter, alpha,
+                                      save_every, R_out, Pi_out, it_out, res_out, _NO_HIST)
                 if status != OK:
                     break
         else:
-            status, k = _run_callable(func, code, body, h, R, Pi, g, t0, steps, tol, max_iter, alpha,
+            status, k = _run_callable(func, code, body, h, R, Pi, G, t0, steps, tol, max_iter, alpha,
                                       save_every, R_out, Pi_out, it_out, res_out, partial)
     except KeyboardInterrupt:
         raise SimulationInterrupted(f"simulation interrupted after {k} of {steps} steps; "
@@ -272,14 +278,10 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
                       iterations=it_out, residual=res_out, h=h, meta=meta)
 
 
-def _run_callable(func, code, body, h, R, Pi, g, t0, steps, tol, max_iter, alpha, save_every,
+def _run_callable(func, code, body, h, R, Pi, G, t0, steps, tol, max_iter, alpha, save_every,
                   R_out, Pi_out, it_out, res_out, partial):
     """Per-step loop for a Python torque callable: Python calls ``func`` and one compiled step."""
-    Jd, J = body.Jd, body.J
-    Rn = np.empty((3, 3))
-    Pin = np.empty(3)
-    E = np.zeros((3, 3))
-    work = np.zeros((4, 3, 3))
+    Jd = body.Jd
     for k in range(steps):
         t = t0 + k * h
         try:
@@ -295,13 +297,11 @@ def _run_callable(func, code, body, h, R, Pi, g, t0, steps, tol, max_iter, alpha
         except TorqueError as exc:
             exc.trajectory = partial(k)
             raise
-        its, res, st = one_step(code, Jd, J, h, R, Pi, g, u, tol, max_iter, alpha, Rn, Pin, E, work)
+        its, res, st = lgvi_step(code, Jd, h, R, Pi, G, u[0], u[1], u[2], tol, max_iter, alpha, _NO_HIST)
         it_out[k] = its
         res_out[k] = res
         if st != OK:
             return st, k
-        R[:, :] = Rn
-        Pi[:] = Pin
         if (k + 1) % save_every == 0:
             j = (k + 1) // save_every
             R_out[j] = R

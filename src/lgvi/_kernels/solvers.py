@@ -32,17 +32,7 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from .._jit import jit
-from .so3k import (
-    cayley_minus_identity,
-    expm1_from_coeffs,
-    left_jacobian_from_coeffs,
-    matmul3,
-    rodrigues_coeffs,
-    solve3,
-)
 
 METHOD_PAPER = 0
 METHOD_NEWTON = 1
@@ -54,158 +44,206 @@ NOT_FINITE = 2
 SINGULAR = 3
 
 EPS = 2.220446049250313e-16
+#: Below this angle the Rodrigues coefficients use their Taylor series; the first dropped terms
+#: are t^6/5040 and smaller, under 2e-28 relative at t = 1e-4, far below double rounding.
+SMALL_ANGLE = 1e-4
 
 
 @jit
-def residual(E, Jd, hPi, r):
-    """r = vee(E Jd - Jd E^T) - hPi (E = F - I; ``F Jd - Jd F^T = E Jd - Jd E^T``)."""
-    # vee(X - X^T) with X = E Jd needs only the off-diagonal entries of X.
-    x21 = E[2, 0] * Jd[0, 1] + E[2, 1] * Jd[1, 1] + E[2, 2] * Jd[2, 1]
-    x12 = E[1, 0] * Jd[0, 2] + E[1, 1] * Jd[1, 2] + E[1, 2] * Jd[2, 2]
-    x02 = E[0, 0] * Jd[0, 2] + E[0, 1] * Jd[1, 2] + E[0, 2] * Jd[2, 2]
-    x20 = E[2, 0] * Jd[0, 0] + E[2, 1] * Jd[1, 0] + E[2, 2] * Jd[2, 0]
-    x10 = E[1, 0] * Jd[0, 0] + E[1, 1] * Jd[1, 0] + E[1, 2] * Jd[2, 0]
-    x01 = E[0, 0] * Jd[0, 1] + E[0, 1] * Jd[1, 1] + E[0, 2] * Jd[2, 1]
-    r[0] = (x21 - x12) - hPi[0]
-    r[1] = (x02 - x20) - hPi[1]
-    r[2] = (x10 - x01) - hPi[2]
-    return math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
+def expm1_entries(x, y, z, a, b):
+    """Entries of E = a hat(w) + b hat(w)^2 (row-major), w = (x, y, z)."""
+    xx = x * x
+    yy = y * y
+    zz = z * z
+    bxy = b * x * y
+    bxz = b * x * z
+    byz = b * y * z
+    return (-b * (yy + zz), -a * z + bxy, a * y + bxz,
+            a * z + bxy, -b * (xx + zz), -a * x + byz,
+            -a * y + bxz, a * x + byz, -b * (xx + yy))
 
 
 @jit
-def frob3(A):
-    s = 0.0
-    for i in range(3):
-        for j in range(3):
-            s += A[i, j] * A[i, j]
-    return math.sqrt(s)
+def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, tol, max_iter, alpha, hist):
+    """Scalar core of every solver (no arrays touched but ``hist``): see the module docstring.
 
-
-@jit
-def newton_matrix(E, Jd, M):
-    """M = tr(A) I - A with A = F Jd = Jd + E Jd."""
-    matmul3(E, Jd, M)
-    for i in range(3):
-        for j in range(3):
-            M[i, j] = -(M[i, j] + Jd[i, j])
-    tr = -(M[0, 0] + M[1, 1] + M[2, 2])
-    for i in range(3):
-        M[i, i] += tr
-
-
-@jit
-def solve_implicit_kernel(method, Jd, J, hPi, g, tol, max_iter, alpha, E, work, hist):
-    """Solve ``hat(hPi) = F Jd - Jd F^T``; see the module docstring.
-
-    Parameters
-    ----------
-    method : int
-        ``METHOD_PAPER``, ``METHOD_NEWTON`` or ``METHOD_CAYLEY``.
-    Jd, J : (3, 3) float64
-        Nonstandard and standard inertia (``J = tr(Jd) I - Jd``).
-    hPi : (3,) float64
-    g : (3,) float64, in/out
-        Initial coordinates of ``F`` on entry, converged coordinates on exit.
-    tol : float
-    max_iter : int
-    alpha : float
-        Step length of the update (1 for full Newton steps).
-    E : (3, 3) float64, out
-        ``F - I`` of the last iterate.
-    work : (4, 3, 3) float64
-        Scratch space.
-    hist : (n,) float64
-        Residual history ``|r|`` per iterate (entries ``0..iterations``); pass ``n = 0`` to skip.
-
-    Returns
-    -------
-    iterations : int
-        Number of updates applied.
-    rnorm : float
-        ``|r|`` of the returned ``E``.
-    status : int
+    ``d..`` are the entries of the symmetric ``Jd``, ``p`` = ``h Pi``, ``g`` the initial
+    coordinates. Returns ``(g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its, rn,
+    status)`` with ``E = F - I`` of the returned coordinates.
     """
-    M = work[0]
-    B = work[1]
-    Jl = work[2]
-    r = work[3, 0]
-    x = work[3, 1]
+    tr = d00 + d11 + d22
+    # J = tr(Jd) I - Jd, needed by the Cayley form
+    j00 = tr - d00
+    j11 = tr - d11
+    j22 = tr - d22
+    hn2 = p0 * p0 + p1 * p1 + p2 * p2
+    hn = math.sqrt(hn2)
+    jdn = math.sqrt(d00 * d00 + d11 * d11 + d22 * d22 + 2.0 * (d01 * d01 + d02 * d02 + d12 * d12))
     nhist = hist.shape[0]
-    hnorm = math.sqrt(hPi[0] * hPi[0] + hPi[1] * hPi[1] + hPi[2] * hPi[2])
-    jdnorm = frob3(Jd)
     it = 0
+    a = 0.0
+    b = 0.0
+    t2 = 0.0
     while True:
+        t2 = g0 * g0 + g1 * g1 + g2 * g2
         if method == METHOD_CAYLEY:
-            cayley_minus_identity(g, E)
-            b = 0.0
-            c = 0.0
+            a = 2.0 / (1.0 + t2)
+            b = a
+            enorm = 2.83 * math.sqrt(t2)          # |cay(f) - I|_F <= sqrt(2) * 2 atan|f|
         else:
-            a, b, c = rodrigues_coeffs(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
-            expm1_from_coeffs(g, a, b, E)
-        rn = residual(E, Jd, hPi, r)
-        if it < nhist:
-            hist[it] = rn
-        if not math.isfinite(rn):
-            return it, rn, NOT_FINITE
-        if rn <= tol * hnorm + 8.0 * EPS * (jdnorm * frob3(E) + hnorm):
-            return it, rn, OK
-        if it >= max_iter:
-            return it, rn, NOT_CONVERGED
-        if method == METHOD_CAYLEY:
-            # Lee's G(f) and its Jacobian
-            f0 = g[0]
-            f1 = g[1]
-            f2 = g[2]
-            p0 = hPi[0]
-            p1 = hPi[1]
-            p2 = hPi[2]
-            pf = p0 * f0 + p1 * f1 + p2 * f2
-            Jf0 = J[0, 0] * f0 + J[0, 1] * f1 + J[0, 2] * f2
-            Jf1 = J[1, 0] * f0 + J[1, 1] * f1 + J[1, 2] * f2
-            Jf2 = J[2, 0] * f0 + J[2, 1] * f1 + J[2, 2] * f2
-            r[0] = -(p0 + (p1 * f2 - p2 * f1) + pf * f0 - 2.0 * Jf0)
-            r[1] = -(p1 + (p2 * f0 - p0 * f2) + pf * f1 - 2.0 * Jf1)
-            r[2] = -(p2 + (p0 * f1 - p1 * f0) + pf * f2 - 2.0 * Jf2)
-            M[0, 0] = pf + f0 * p0 - 2.0 * J[0, 0]
-            M[0, 1] = -p2 + f0 * p1 - 2.0 * J[0, 1]
-            M[0, 2] = p1 + f0 * p2 - 2.0 * J[0, 2]
-            M[1, 0] = p2 + f1 * p0 - 2.0 * J[1, 0]
-            M[1, 1] = pf + f1 * p1 - 2.0 * J[1, 1]
-            M[1, 2] = -p0 + f1 * p2 - 2.0 * J[1, 2]
-            M[2, 0] = -p1 + f2 * p0 - 2.0 * J[2, 0]
-            M[2, 1] = p0 + f2 * p1 - 2.0 * J[2, 1]
-            M[2, 2] = pf + f2 * p2 - 2.0 * J[2, 2]
-            if solve3(M, r, x) == 0.0:
-                return it, rn, SINGULAR
-        else:
-            newton_matrix(E, Jd, M)
-            if method == METHOD_PAPER:
-                # paper's Df = (tr(A) I - A) F, F = I + E
-                matmul3(M, E, B)
-                for i in range(3):
-                    for j in range(3):
-                        B[i, j] += M[i, j]
+            if t2 < SMALL_ANGLE * SMALL_ANGLE:
+                a = 1.0 - t2 / 6.0 * (1.0 - t2 / 20.0)
+                b = 0.5 - t2 / 24.0 * (1.0 - t2 / 30.0)
+                enorm = 1.5 * math.sqrt(t2)
             else:
-                left_jacobian_from_coeffs(g, b, c, Jl)
-                matmul3(M, Jl, B)
-            for i in range(3):
-                r[i] = -r[i]
-            if solve3(B, r, x) == 0.0:
-                return it, rn, SINGULAR
-        g[0] += alpha * x[0]
-        g[1] += alpha * x[1]
-        g[2] += alpha * x[2]
+                t = math.sqrt(t2)
+                sh = math.sin(0.5 * t)
+                ch = math.cos(0.5 * t)
+                a = 2.0 * sh * ch / t             # sin t / t
+                b = 2.0 * sh * sh / t2            # (1 - cos t) / t^2, no cancellation
+                enorm = 1.5 * t                   # |exp(w) - I|_F <= sqrt(2) |w|
+        E00, E01, E02, E10, E11, E12, E20, E21, E22 = expm1_entries(g0, g1, g2, a, b)
+        # X = E Jd (Jd symmetric); r = vee(X - X^T) - hPi
+        x00 = E00 * d00 + E01 * d01 + E02 * d02
+        x01 = E00 * d01 + E01 * d11 + E02 * d12
+        x02 = E00 * d02 + E01 * d12 + E02 * d22
+        x10 = E10 * d00 + E11 * d01 + E12 * d02
+        x11 = E10 * d01 + E11 * d11 + E12 * d12
+        x12 = E10 * d02 + E11 * d12 + E12 * d22
+        x20 = E20 * d00 + E21 * d01 + E22 * d02
+        x21 = E20 * d01 + E21 * d11 + E22 * d12
+        x22 = E20 * d02 + E21 * d12 + E22 * d22
+        r0 = (x21 - x12) - p0
+        r1 = (x02 - x20) - p1
+        r2 = (x10 - x01) - p2
+        rn2 = r0 * r0 + r1 * r1 + r2 * r2
+        if it < nhist:
+            hist[it] = math.sqrt(rn2)
+        thr = tol * hn + 8.0 * EPS * (jdn * enorm + hn)
+        if rn2 <= thr * thr:
+            return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), OK
+        if not math.isfinite(rn2):
+            return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), NOT_FINITE
+        if it >= max_iter:
+            return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), NOT_CONVERGED
+        if method == METHOD_CAYLEY:
+            # Lee's G(f) = hPi + hPi x f + (hPi . f) f - 2 J f and DG = hat(hPi) + (hPi . f) I + f hPi^T - 2 J
+            pf = p0 * g0 + p1 * g1 + p2 * g2
+            q0 = -(p0 + (p1 * g2 - p2 * g1) + pf * g0 - 2.0 * (j00 * g0 - d01 * g1 - d02 * g2))
+            q1 = -(p1 + (p2 * g0 - p0 * g2) + pf * g1 - 2.0 * (-d01 * g0 + j11 * g1 - d12 * g2))
+            q2 = -(p2 + (p0 * g1 - p1 * g0) + pf * g2 - 2.0 * (-d02 * g0 - d12 * g1 + j22 * g2))
+            m00 = pf + g0 * p0 - 2.0 * j00
+            m01 = -p2 + g0 * p1 + 2.0 * d01
+            m02 = p1 + g0 * p2 + 2.0 * d02
+            m10 = p2 + g1 * p0 + 2.0 * d01
+            m11 = pf + g1 * p1 - 2.0 * j11
+            m12 = -p0 + g1 * p2 + 2.0 * d12
+            m20 = -p1 + g2 * p0 + 2.0 * d02
+            m21 = p0 + g2 * p1 + 2.0 * d12
+            m22 = pf + g2 * p2 - 2.0 * j22
+        else:
+            # A = F Jd = Jd + X; M = tr(A) I - A
+            ta = tr + x00 + x11 + x22
+            m00 = ta - d00 - x00
+            m01 = -d01 - x01
+            m02 = -d02 - x02
+            m10 = -d01 - x10
+            m11 = ta - d11 - x11
+            m12 = -d12 - x12
+            m20 = -d02 - x20
+            m21 = -d12 - x21
+            m22 = ta - d22 - x22
+            if method == METHOD_PAPER:
+                # the paper's Df = M F = M (I + E)
+                n00 = m00 + m00 * E00 + m01 * E10 + m02 * E20
+                n01 = m01 + m00 * E01 + m01 * E11 + m02 * E21
+                n02 = m02 + m00 * E02 + m01 * E12 + m02 * E22
+                n10 = m10 + m10 * E00 + m11 * E10 + m12 * E20
+                n11 = m11 + m10 * E01 + m11 * E11 + m12 * E21
+                n12 = m12 + m10 * E02 + m11 * E12 + m12 * E22
+                n20 = m20 + m20 * E00 + m21 * E10 + m22 * E20
+                n21 = m21 + m20 * E01 + m21 * E11 + m22 * E21
+                n22 = m22 + m20 * E02 + m21 * E12 + m22 * E22
+                m00, m01, m02, m10, m11, m12, m20, m21, m22 = n00, n01, n02, n10, n11, n12, n20, n21, n22
+            q0 = -r0
+            q1 = -r1
+            q2 = -r2
+        # Cramer's rule for m x = q
+        c00 = m11 * m22 - m12 * m21
+        c01 = m12 * m20 - m10 * m22
+        c02 = m10 * m21 - m11 * m20
+        det = m00 * c00 + m01 * c01 + m02 * c02
+        if det == 0.0 or not math.isfinite(det):
+            return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), SINGULAR
+        inv = 1.0 / det
+        c10 = m02 * m21 - m01 * m22
+        c11 = m00 * m22 - m02 * m20
+        c12 = m01 * m20 - m00 * m21
+        c20 = m01 * m12 - m02 * m11
+        c21 = m02 * m10 - m00 * m12
+        c22 = m00 * m11 - m01 * m10
+        s0 = (c00 * q0 + c10 * q1 + c20 * q2) * inv
+        s1 = (c01 * q0 + c11 * q1 + c21 * q2) * inv
+        s2 = (c02 * q0 + c12 * q1 + c22 * q2) * inv
+        if method == METHOD_NEWTON:
+            # left update d = s  ->  coordinates move by Jl(w)^-1 d = d - w x d / 2 + e w x (w x d)
+            if t2 < SMALL_ANGLE * SMALL_ANGLE:
+                e = 1.0 / 12.0 + t2 / 720.0
+            else:
+                e = (1.0 - 0.5 * a / b) / t2
+            u0 = g1 * s2 - g2 * s1
+            u1 = g2 * s0 - g0 * s2
+            u2 = g0 * s1 - g1 * s0
+            v0 = g1 * u2 - g2 * u1
+            v1 = g2 * u0 - g0 * u2
+            v2 = g0 * u1 - g1 * u0
+            s0 = s0 - 0.5 * u0 + e * v0
+            s1 = s1 - 0.5 * u1 + e * v1
+            s2 = s2 - 0.5 * u2 + e * v2
+        g0 += alpha * s0
+        g1 += alpha * s1
+        g2 += alpha * s2
         it += 1
 
 
 @jit
+def solve_implicit_kernel(method, Jd, hPi, g, tol, max_iter, alpha, E, hist):
+    """Array wrapper of :func:`solve_scalar`: ``g`` (3,) in/out, ``E`` (3,3) out, ``hist`` (n,) out.
+
+    Returns ``(iterations, residual, status)``.
+    """
+    res = solve_scalar(method, Jd[0, 0], Jd[0, 1], Jd[0, 2], Jd[1, 1], Jd[1, 2], Jd[2, 2],
+                       hPi[0], hPi[1], hPi[2], g[0], g[1], g[2], tol, max_iter, alpha, hist)
+    g[0] = res[0]
+    g[1] = res[1]
+    g[2] = res[2]
+    E[0, 0] = res[3]
+    E[0, 1] = res[4]
+    E[0, 2] = res[5]
+    E[1, 0] = res[6]
+    E[1, 1] = res[7]
+    E[1, 2] = res[8]
+    E[2, 0] = res[9]
+    E[2, 1] = res[10]
+    E[2, 2] = res[11]
+    return res[12], res[13], res[14]
+
+
+@jit
 def initial_guess(method, J, hPi, g):
-    """Cold start from the linearisation ``hPi = J w`` (``w = 2 f`` for Cayley)."""
-    M = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            M[i, j] = J[i, j]
-    solve3(M, hPi, g)
+    """Cold start from the linearisation ``hPi = J w`` (``w = 2 f`` for Cayley), ``g`` out."""
+    c00 = J[1, 1] * J[2, 2] - J[1, 2] * J[2, 1]
+    c01 = J[1, 2] * J[2, 0] - J[1, 0] * J[2, 2]
+    c02 = J[1, 0] * J[2, 1] - J[1, 1] * J[2, 0]
+    c10 = J[0, 2] * J[2, 1] - J[0, 1] * J[2, 2]
+    c11 = J[0, 0] * J[2, 2] - J[0, 2] * J[2, 0]
+    c12 = J[0, 1] * J[2, 0] - J[0, 0] * J[2, 1]
+    c20 = J[0, 1] * J[1, 2] - J[0, 2] * J[1, 1]
+    c21 = J[0, 2] * J[1, 0] - J[0, 0] * J[1, 2]
+    c22 = J[0, 0] * J[1, 1] - J[0, 1] * J[1, 0]
+    scale = 1.0 / (J[0, 0] * c00 + J[0, 1] * c01 + J[0, 2] * c02)
     if method == METHOD_CAYLEY:
-        for i in range(3):
-            g[i] *= 0.5
+        scale *= 0.5
+    g[0] = (c00 * hPi[0] + c10 * hPi[1] + c20 * hPi[2]) * scale
+    g[1] = (c01 * hPi[0] + c11 * hPi[1] + c21 * hPi[2]) * scale
+    g[2] = (c02 * hPi[0] + c12 * hPi[1] + c22 * hPi[2]) * scale
