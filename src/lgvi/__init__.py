@@ -16,6 +16,9 @@ from ._version import __version__ as __version__
 from .body import RigidBody as RigidBody
 from .body import inertia_to_jd as inertia_to_jd
 from .body import jd_to_inertia as jd_to_inertia
+from .ensemble import EnsembleTrajectory as EnsembleTrajectory
+from .ensemble import load_ensemble as load_ensemble
+from .ensemble import simulate_ensemble as simulate_ensemble
 from .errors import ConvergenceError as ConvergenceError
 from .errors import SimulationInterrupted as SimulationInterrupted
 from .errors import TorqueError as TorqueError
@@ -29,6 +32,7 @@ from .trajectory import load as load
 
 __all__ = [
     "ConvergenceError",
+    "EnsembleTrajectory",
     "ImplicitSolution",
     "RigidBody",
     "SimulationInterrupted",
@@ -39,7 +43,9 @@ __all__ = [
     "inertia_to_jd",
     "jd_to_inertia",
     "load",
+    "load_ensemble",
     "simulate",
+    "simulate_ensemble",
     "so3",
     "solve_implicit",
     "step",
