@@ -6,16 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._kernels.solvers import (
-    METHOD_CAYLEY,
-    METHOD_NEWTON,
-    METHOD_PAPER,
-    NOT_CONVERGED,
-    NOT_FINITE,
-    SINGULAR,
-    initial_guess,
-    solve_implicit_kernel,
-)
+from ._kernels.codes import METHOD_CAYLEY, METHOD_NEWTON, METHOD_PAPER, NOT_CONVERGED, NOT_FINITE, SINGULAR
 from ._validation import as_float, as_float_array, as_int, choice
 from .errors import ConvergenceError
 
@@ -121,6 +112,8 @@ def solve_implicit(Jd, hPi, *, method: str = "newton", tol: float = 1e-14, max_i
     >>> bool(np.allclose(sol.F @ sol.F.T, np.eye(3), atol=1e-14))
     True
     """
+    from ._kernels.solvers import initial_guess, solve_implicit_kernel  # compiled on first use
+
     choice(method, "method", METHODS)
     Jd = check_inertia_matrix(as_float_array(Jd, "Jd", (3, 3)))
     hPi = as_float_array(hPi, "hPi", (3,))

@@ -33,15 +33,10 @@ from __future__ import annotations
 import math
 
 from .._jit import jit
+from .codes import METHOD_CAYLEY, METHOD_NEWTON, METHOD_PAPER, NOT_CONVERGED, NOT_FINITE, OK, SINGULAR
 
-METHOD_PAPER = 0
-METHOD_NEWTON = 1
-METHOD_CAYLEY = 2
-
-OK = 0
-NOT_CONVERGED = 1
-NOT_FINITE = 2
-SINGULAR = 3
+__all__ = ["METHOD_CAYLEY", "METHOD_NEWTON", "METHOD_PAPER", "NOT_CONVERGED", "NOT_FINITE", "OK", "SINGULAR",
+           "initial_guess", "solve_implicit_kernel", "solve_scalar"]
 
 EPS = 2.220446049250313e-16
 #: Below this angle the Rodrigues coefficients use their Taylor series; the first dropped terms

@@ -1,0 +1,10 @@
+"""Integer codes shared by the kernels and the Python layer (importing this loads no Numba)."""
+
+METHOD_PAPER = 0
+METHOD_NEWTON = 1
+METHOD_CAYLEY = 2
+
+OK = 0
+NOT_CONVERGED = 1
+NOT_FINITE = 2
+SINGULAR = 3
