@@ -1,0 +1,731 @@
+r"""Scenario files: a whole run described in TOML, checked once, run with one call.
+
+>>> from lgvi.scenario import Scenario
+>>> sc = Scenario.from_dict({"body": {"inertia": [1.0, 2.0, 3.0]},
+...                          "initial": {"omega": [0.0, 1.0, 0.01]},
+...                          "integrator": {"h": 0.01, "duration": 1.0}})
+>>> sc.steps, sc.save_every
+(100, 1)
+>>> traj = sc.run()
+>>> traj.R.shape
+(101, 3, 3)
+
+Use :func:`load_scenario` for a file; ``lgvi run FILE.toml`` does the same from the command line.
+
+Schema
+------
+A complete example (every key shown; comments say which keys are alternatives)::
+
+    name = "dzhanibekov"                 # optional; default: the file name without .toml
+    description = "T-handle flip"        # optional
+
+    [body]                               # exactly one of: inertia, matrix, shape
+    inertia = [1.0, 2.0, 3.0]            # principal moments [kg m^2]
+    # matrix = [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]]   # full inertia [kg m^2]
+    # shape = "box"                      # solid box about its centre of mass:
+    # mass = 2.0                         #   [kg]
+    # dimensions = [0.1, 0.2, 0.3]       #   edge lengths along body x, y, z [m]
+    # shape = "cylinder"                 # solid cylinder about its centre of mass:
+    # mass = 2.0                         #   [kg]
+    # radius = 0.1                       #   [m]
+    # height = 0.5                       #   [m]
+    # axis = "z"                         #   body axis of symmetry: "x", "y" or "z"
+
+    [initial]                            # attitude R0 (body to inertial): at most one of
+    euler = { sequence = "ZYX", angles = [10.0, 5.0, 0.0], unit = "deg" }
+    # matrix = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]   # orthogonal to 1e-9, det +1
+    # quat_xyzw = [0.0, 0.0, 0.0, 1.0]   # scalar last (as scipy)
+    # quat_wxyz = [1.0, 0.0, 0.0, 0.0]   # scalar first
+    # rotvec = [0.0, 0.0, 0.1]           # rotation vector [rad]
+    omega = [0.001, 1.0, 0.001]          # body angular velocity [rad/s] ...
+    # Pi = [0.001, 2.0, 0.003]           # ... or body angular momentum [kg m^2/s]: exactly one
+
+    [integrator]
+    h = 0.01                             # step [s]; negative integrates backwards
+    duration = 100.0                     # [s]; or steps = 10000 (exactly one of the two)
+    method = "newton"                    # "newton" (default), "paper" or "cayley"
+    tol = 1e-14                          # solver tolerance (default 1e-14)
+    max_iter = 50                        # solver iterations per step (default 50)
+    alpha = 1.0                          # step length of the "paper" iteration, in (0, 1]
+    forcing = "paper"                    # "paper" or "symmetric" (default: the library's)
+    order = 2                            # 2, 4 or 6 (default: the library's)
+    save_every = 10                      # keep every 10th state; must divide the steps
+
+    [[torque]]                           # any number of models; their moments add up
+    type = "uniform_gravity"             # heavy top / 3D pendulum about a fixed pivot
+    mass = 1.0                           # [kg]
+    com = [0.0, 0.0, 0.3]                # centre of mass from the pivot, body frame [m]
+    g = 9.81                             # optional [m/s^2]
+
+    [[torque]]
+    type = "gravity_gradient"            # circular orbit
+    mu = 3.986004418e14                  # gravitational parameter [m^3/s^2]
+    radius = 6778e3                      # orbit radius [m]
+
+    [[torque]]
+    type = "constant"
+    u = [0.0, 0.0, 0.01]                 # body-frame moment [N m]
+
+    [[torque]]
+    type = "damping"
+    c = 0.1                              # u = -c omega; a number, 3 numbers or a 3x3 matrix
+
+    [[torque]]
+    type = "pd"                          # geometric attitude PD controller
+    kp = 2.0                             # a number, 3 numbers or a 3x3 matrix
+    kd = 5.0                             # same
+    target = { euler = { sequence = "ZYX", angles = [60.0, 0.0, 0.0], unit = "deg" } }
+                                         # optional, any attitude form of [initial]; default I
+
+    [output]
+    formats = ["npz", "csv"]             # any of "npz" (default), "csv", "netcdf"
+    plots = true                         # write figures with ``lgvi run`` (default true)
+
+Rules
+-----
+- Unknown keys, wrong types and missing required keys are errors; every error is a
+  :class:`ScenarioError` (a ``ValueError``) whose message names the file, the key as a dotted
+  path (``initial.euler.unit``, ``torque[1].mass``; torque tables are counted from 0) and what
+  was expected. TOML syntax errors name the file, line and column.
+- Numbers: integers are accepted where a real number is expected, not the other way round
+  (``steps = 1e4`` is an error). Booleans are never numbers.
+- The attitude defaults to the identity when no form is given. Euler angles use scipy's
+  convention: an uppercase ``sequence`` (``"ZYX"``) is intrinsic, lowercase (``"zyx"``)
+  extrinsic; ``unit`` is required. A quaternion is normalised if its norm is within ``1e-3`` of
+  1 (rounded decimals) and rejected otherwise.
+- ``duration / h`` must be a non-negative integer to a relative ``1e-9``.
+- ``forcing`` and ``order`` are passed to :func:`lgvi.simulate` only when given, so the
+  library's defaults (and its rules, e.g. potentials always use the symmetric scheme) apply.
+- Torque models are built from :mod:`lgvi.torques` (``UniformGravity``, ``GravityGradient``,
+  ``Constant``, ``LinearDamping``, ``AttitudePD``) and summed with ``+``.
+"""
+
+from __future__ import annotations
+
+import difflib
+import functools
+import inspect
+import math
+import operator
+import os
+import re
+import tomllib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._version import __version__
+
+__all__ = ["Scenario", "ScenarioError", "load_scenario", "to_toml"]
+
+FORMATS = ("npz", "csv", "netcdf")
+METHODS = ("newton", "paper", "cayley")
+FORCINGS = ("paper", "symmetric")
+ORDERS = (2, 4, 6)
+QUAT_NORM_TOL = 1e-3
+DURATION_RTOL = 1e-9
+
+_TOP_KEYS = ("name", "description", "body", "initial", "integrator", "torque", "output")
+_ATTITUDE_KEYS = ("matrix", "quat_xyzw", "quat_wxyz", "euler", "rotvec")
+_TORQUE_PARAMS: dict[str, dict[str, tuple[str, bool]]] = {
+    # type: {key: (kind, required)}; kinds: number, vector, gain (number | vector | matrix), attitude
+    "uniform_gravity": {"mass": ("number", True), "com": ("vector", True), "g": ("number", False)},
+    "gravity_gradient": {"mu": ("number", True), "radius": ("number", True)},
+    "constant": {"u": ("vector", True)},
+    "damping": {"c": ("gain", True)},
+    "pd": {"kp": ("gain", True), "kd": ("gain", True), "target": ("attitude", False)},
+}
+
+
+class ScenarioError(ValueError):
+    """An invalid scenario: the message names the file, the key and what was expected.
+
+    Attributes
+    ----------
+    source : str
+        File name (or ``"<dict>"``).
+    key : str or None
+        Dotted path of the offending key (``None`` for file-level problems such as syntax).
+    line, column : int or None
+        Position of a TOML syntax error.
+    """
+
+    def __init__(self, source: str, key: str | None, message: str, *, line: int | None = None,
+                 column: int | None = None):
+        where = source if key is None else f"{source}: {key}"
+        super().__init__(f"{where}: {message}")
+        self.source = source
+        self.key = key
+        self.line = line
+        self.column = column
+
+
+_MISSING = object()
+
+
+def _show(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _typename(value: Any) -> str:
+    return {bool: "a boolean", int: "an integer", float: "a number", str: "a string", list: "an array",
+            dict: "a table"}.get(type(value), type(value).__name__)
+
+
+class _Checker:
+    """Typed access to the parsed TOML, raising :class:`ScenarioError` with dotted key paths."""
+
+    def __init__(self, source: str):
+        self.source = source
+
+    def error(self, key: str | None, message: str) -> ScenarioError:
+        return ScenarioError(self.source, key, message)
+
+    def expected(self, key: str, what: str, value: Any = _MISSING) -> ScenarioError:
+        if value is _MISSING:
+            return self.error(key, f"missing; expected {what}")
+        return self.error(key, f"expected {what}, got {_show(value)} ({_typename(value)})")
+
+    def table(self, value: Any, key: str, allowed: tuple[str, ...]) -> dict[str, Any]:
+        if not isinstance(value, dict):
+            raise self.expected(key, "a table", value)
+        for k in value:
+            if k not in allowed:
+                close = difflib.get_close_matches(k, allowed, n=1)
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
+                path = f"{key}.{k}" if key else k
+                raise self.error(path, f"unknown key{hint}; expected one of {', '.join(allowed)}")
+        return value
+
+    def number(self, value: Any, key: str, *, positive: bool = False, nonzero: bool = False,
+               nonnegative: bool = False) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise self.expected(key, "a number", value)
+        x = float(value)
+        if not math.isfinite(x):
+            raise self.error(key, f"expected a finite number, got {value!r}")
+        if positive and not x > 0:
+            raise self.error(key, f"expected a positive number, got {value!r}")
+        if nonzero and x == 0:
+            raise self.error(key, f"expected a non-zero number, got {value!r}")
+        if nonnegative and x < 0:
+            raise self.error(key, f"expected a number >= 0, got {value!r}")
+        return x
+
+    def integer(self, value: Any, key: str, *, minimum: int) -> int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise self.expected(key, f"an integer >= {minimum}", value)
+        if value < minimum:
+            raise self.error(key, f"expected an integer >= {minimum}, got {value}")
+        return int(value)
+
+    def string(self, value: Any, key: str, options: tuple[str, ...] | None = None) -> str:
+        if not isinstance(value, str):
+            want = "a string" if options is None else "one of " + ", ".join(f'"{o}"' for o in options)
+            raise self.expected(key, want, value)
+        if options is not None and value not in options:
+            close = difflib.get_close_matches(value, options, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise self.error(key, f"expected one of {', '.join(repr(o) for o in options)}, got {value!r}{hint}")
+        return value
+
+    def boolean(self, value: Any, key: str) -> bool:
+        if not isinstance(value, bool):
+            raise self.expected(key, "true or false", value)
+        return value
+
+    def vector(self, value: Any, key: str, n: int = 3) -> np.ndarray:
+        what = f"an array of {n} numbers"
+        if not isinstance(value, list) or len(value) != n:
+            raise self.expected(key, what, value)
+        return np.array([self.number(v, f"{key}[{i}]") for i, v in enumerate(value)], dtype=np.float64)
+
+    def matrix(self, value: Any, key: str) -> np.ndarray:
+        what = "a 3x3 matrix (an array of 3 arrays of 3 numbers)"
+        if not isinstance(value, list) or len(value) != 3 or not all(isinstance(r, list) and len(r) == 3
+                                                                      for r in value):
+            raise self.expected(key, what, value)
+        return np.array([[self.number(v, f"{key}[{i}][{j}]") for j, v in enumerate(row)]
+                         for i, row in enumerate(value)], dtype=np.float64)
+
+    def gain(self, value: Any, key: str) -> float | np.ndarray:
+        """A number, 3 numbers (a diagonal) or a 3x3 matrix."""
+        if isinstance(value, list):
+            if value and isinstance(value[0], list):
+                return self.matrix(value, key)
+            return self.vector(value, key)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise self.expected(key, "a number, an array of 3 numbers or a 3x3 matrix", value)
+        return self.number(value, key)
+
+
+# ------------------------------------------------------------------------------------ pieces
+def _body(c: _Checker, tbl: Any):
+    from .body import RigidBody
+
+    allowed = ("inertia", "matrix", "shape", "mass", "dimensions", "radius", "height", "axis")
+    tbl = c.table(tbl, "body", allowed)
+    given = [k for k in ("inertia", "matrix", "shape") if k in tbl]
+    if len(given) != 1:
+        got = "none" if not given else " and ".join(given)
+        raise c.error("body", f"expected exactly one of body.inertia, body.matrix, body.shape; got {got}")
+    kind = given[0]
+    shape_keys = {"box": ("mass", "dimensions"), "cylinder": ("mass", "radius", "height", "axis")}
+    if kind != "shape":
+        extra = [k for k in tbl if k != kind]
+        if extra:
+            raise c.error(f"body.{extra[0]}", f"only used with body.shape; with body.{kind} remove it")
+        J = c.vector(tbl[kind], f"body.{kind}") if kind == "inertia" else c.matrix(tbl[kind], "body.matrix")
+        key = f"body.{kind}"
+    else:
+        shape = c.string(tbl["shape"], "body.shape", tuple(shape_keys))
+        need = shape_keys[shape]
+        for k in tbl:
+            if k != "shape" and k not in need:
+                raise c.error(f"body.{k}", f"not a parameter of shape = \"{shape}\"; expected {', '.join(need)}")
+        for k in need:
+            if k not in tbl:
+                raise c.expected(f"body.{k}", {"mass": "a positive number [kg]",
+                                               "dimensions": "an array of 3 positive edge lengths [m]",
+                                               "radius": "a positive number [m]",
+                                               "height": "a positive number [m]",
+                                               "axis": 'one of "x", "y", "z"'}[k])
+        m = c.number(tbl["mass"], "body.mass", positive=True)
+        if shape == "box":
+            a, b, cc = c.vector(tbl["dimensions"], "body.dimensions")
+            for i, d in enumerate((a, b, cc)):
+                if not d > 0:
+                    raise c.error(f"body.dimensions[{i}]", f"expected a positive edge length, got {d}")
+            J = m / 12.0 * np.array([b * b + cc * cc, a * a + cc * cc, a * a + b * b])
+        else:
+            r = c.number(tbl["radius"], "body.radius", positive=True)
+            H = c.number(tbl["height"], "body.height", positive=True)
+            axis = "xyz".index(c.string(tbl["axis"], "body.axis", ("x", "y", "z")))
+            J = np.full(3, m * (3.0 * r * r + H * H) / 12.0)
+            J[axis] = 0.5 * m * r * r
+        key = f"body.{'dimensions' if shape == 'box' else 'shape'}"
+    try:
+        return RigidBody(J)
+    except ValueError as exc:
+        raise c.error(key, f"not a valid inertia: {exc}") from None
+
+
+def _attitude(c: _Checker, tbl: dict[str, Any], key: str) -> np.ndarray:
+    """R from whichever attitude form ``tbl`` holds (identity if none); ``tbl`` already key-checked."""
+    from scipy.spatial.transform import Rotation
+
+    from ._validation import as_rotation
+
+    given = [k for k in _ATTITUDE_KEYS if k in tbl]
+    if len(given) > 1:
+        raise c.error(key, f"give the attitude in one form only; got {' and '.join(given)}")
+    if not given:
+        return np.eye(3)
+    form = given[0]
+    path = f"{key}.{form}"
+    value = tbl[form]
+    if form == "matrix":
+        R = c.matrix(value, path)
+        try:
+            return as_rotation(R, path)
+        except ValueError as exc:
+            raise c.error(path, f"expected a rotation matrix: {exc}") from None
+    if form in ("quat_xyzw", "quat_wxyz"):
+        q = c.vector(value, path, 4)
+        n = float(np.linalg.norm(q))
+        if abs(n - 1.0) > QUAT_NORM_TOL:
+            raise c.error(path, f"expected a unit quaternion (norm within {QUAT_NORM_TOL:g} of 1), got norm {n:.6g}")
+        if form == "quat_wxyz":
+            q = q[[1, 2, 3, 0]]
+        return Rotation.from_quat(q / n).as_matrix()
+    if form == "rotvec":
+        return Rotation.from_rotvec(c.vector(value, path)).as_matrix()
+    # euler
+    eul = c.table(value, path, ("sequence", "angles", "unit"))
+    for k, what in (("sequence", 'a string such as "ZYX" (intrinsic) or "zyx" (extrinsic)'),
+                    ("angles", "an array of 3 numbers"), ("unit", '"deg" or "rad"')):
+        if k not in eul:
+            raise c.expected(f"{path}.{k}", what)
+    seq = c.string(eul["sequence"], f"{path}.sequence")
+    if not re.fullmatch(r"[XYZ]{3}|[xyz]{3}", seq) or seq[0] == seq[1] or seq[1] == seq[2]:
+        raise c.error(f"{path}.sequence", "expected 3 axes from x, y, z, all uppercase (intrinsic) or all "
+                      f"lowercase (extrinsic), no axis twice in a row (e.g. \"ZYX\", \"zxz\"); got {seq!r}")
+    angles = c.vector(eul["angles"], f"{path}.angles")
+    unit = c.string(eul["unit"], f"{path}.unit", ("deg", "rad"))
+    return Rotation.from_euler(seq, angles, degrees=(unit == "deg")).as_matrix()
+
+
+def _torque(c: _Checker, entries: Any) -> tuple[Any, tuple[dict[str, Any], ...]]:
+    if isinstance(entries, dict):
+        raise c.error("torque", "expected an array of tables: write [[torque]] (double brackets) "
+                      "for each torque model")
+    if not isinstance(entries, list):
+        raise c.expected("torque", "an array of tables ([[torque]] sections)", entries)
+    specs = []
+    for i, entry in enumerate(entries):
+        key = f"torque[{i}]"
+        if not isinstance(entry, dict):
+            raise c.expected(key, "a table", entry)
+        if "type" not in entry:
+            raise c.expected(f"{key}.type", "one of " + ", ".join(f'"{t}"' for t in _TORQUE_PARAMS))
+        kind = c.string(entry["type"], f"{key}.type", tuple(_TORQUE_PARAMS))
+        params = _TORQUE_PARAMS[kind]
+        c.table(entry, key, ("type",) + tuple(params))
+        spec: dict[str, Any] = {"type": kind}
+        for name, (what, required) in params.items():
+            path = f"{key}.{name}"
+            if name not in entry:
+                if required:
+                    raise c.expected(path, {"number": "a number", "vector": "an array of 3 numbers",
+                                            "gain": "a number, 3 numbers or a 3x3 matrix"}[what])
+                continue
+            v = entry[name]
+            if what == "number":
+                spec[name] = c.number(v, path, positive=name in ("mass", "mu", "radius", "g"))
+            elif what == "vector":
+                spec[name] = c.vector(v, path)
+            elif what == "gain":
+                spec[name] = c.gain(v, path)
+            else:  # attitude
+                spec[name] = _attitude(c, c.table(v, path, _ATTITUDE_KEYS), path)
+        specs.append(spec)
+    if not specs:
+        return None, ()
+    try:
+        from . import torques
+    except ImportError as exc:
+        raise c.error("torque", f"torque models need the module lgvi.torques, which this installation of lgvi "
+                      f"({__version__}) cannot import ({exc})") from None
+    models = []
+    for i, spec in enumerate(specs):
+        kind = spec["type"]
+        try:
+            if kind == "uniform_gravity":
+                kw = {"g": spec["g"]} if "g" in spec else {}
+                model = torques.UniformGravity(spec["mass"], spec["com"], **kw)
+            elif kind == "gravity_gradient":
+                model = torques.GravityGradient(spec["mu"], spec["radius"])
+            elif kind == "constant":
+                model = torques.Constant(spec["u"])
+            elif kind == "damping":
+                model = torques.LinearDamping(spec["c"])
+            else:
+                model = torques.AttitudePD(spec["kp"], spec["kd"], spec.get("target", np.eye(3)))
+        except (ValueError, TypeError) as exc:
+            raise c.error(f"torque[{i}]", f"invalid {kind} model: {exc}") from None
+        models.append(model)
+    return functools.reduce(operator.add, models), tuple(specs)
+
+
+# ------------------------------------------------------------------------------------ scenario
+@dataclass(frozen=True, eq=False)
+class Scenario:
+    """A checked, ready-to-run scenario (see the module docstring for the file format).
+
+    Attributes
+    ----------
+    name, description : str
+    body : RigidBody
+    R0 : (3, 3) ndarray
+        Initial attitude.
+    Pi0 : (3,) ndarray
+        Initial body angular momentum (``J omega`` when ``omega`` was given).
+    h : float
+    steps : int
+    torque : torque model or None
+        Sum of the :mod:`lgvi.torques` models of the ``[[torque]]`` tables.
+    torque_spec : tuple of dict
+        The checked ``[[torque]]`` tables (arrays as NumPy arrays).
+    forcing : str or None
+    order : int or None
+        ``None`` means "the library's default" (not passed to :func:`lgvi.simulate`).
+    method : str
+    tol, alpha : float
+    max_iter, save_every : int
+    formats : tuple of str
+        Output formats, ``"npz"`` first when present.
+    plots : bool
+    source : str
+        File name (or ``"<dict>"``).
+    text : str
+        The scenario as TOML: the file's own text, or a rendering of the dict.
+    """
+
+    name: str
+    description: str
+    body: Any
+    R0: np.ndarray
+    Pi0: np.ndarray
+    h: float
+    steps: int
+    torque: Any = None
+    torque_spec: tuple[dict[str, Any], ...] = ()
+    forcing: str | None = None
+    order: int | None = None
+    method: str = "newton"
+    tol: float = 1e-14
+    max_iter: int = 50
+    alpha: float = 1.0
+    save_every: int = 1
+    formats: tuple[str, ...] = ("npz",)
+    plots: bool = True
+    source: str = "<dict>"
+    text: str = field(default="", repr=False)
+
+    @property
+    def duration(self) -> float:
+        """``steps * h``."""
+        return self.steps * self.h
+
+    @property
+    def samples(self) -> int:
+        """Number of saved states, ``steps // save_every + 1``."""
+        return self.steps // self.save_every + 1
+
+    def __repr__(self) -> str:
+        tq = "none" if not self.torque_spec else "+".join(s["type"] for s in self.torque_spec)
+        return (f"Scenario(name={self.name!r}, steps={self.steps}, h={self.h:g}, method={self.method!r}, "
+                f"torque={tq}, source={self.source!r})")
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any], source: str = "<dict>", *, text: str | None = None) -> "Scenario":
+        """Check a parsed scenario (the dict ``tomllib`` returns) and resolve it.
+
+        Parameters
+        ----------
+        d : dict
+            Tables as in the module docstring.
+        source : str
+            Name used in error messages (the file name).
+        text : str, optional
+            Original text to keep with the results; default: ``d`` rendered as TOML.
+
+        Raises
+        ------
+        ScenarioError
+            For any invalid, missing or unknown key.
+        """
+        c = _Checker(source)
+        d = c.table(d, "", _TOP_KEYS)
+        for req in ("body", "initial", "integrator"):
+            if req not in d:
+                raise c.error(req, f"missing; expected a [{req}] table")
+        default_name = Path(source).stem if not source.startswith("<") else "scenario"
+        name = c.string(d.get("name", default_name), "name")
+        description = c.string(d.get("description", ""), "description")
+
+        body = _body(c, d["body"])
+
+        init = c.table(d["initial"], "initial", _ATTITUDE_KEYS + ("omega", "Pi"))
+        R0 = _attitude(c, init, "initial")
+        if ("omega" in init) == ("Pi" in init):
+            got = "both" if "omega" in init else "neither"
+            raise c.error("initial", f"expected exactly one of initial.omega [rad/s] or initial.Pi [kg m^2/s]; "
+                          f"got {got}")
+        Pi0 = (body.J @ c.vector(init["omega"], "initial.omega")) if "omega" in init else \
+            c.vector(init["Pi"], "initial.Pi")
+
+        integ = c.table(d["integrator"], "integrator", ("h", "steps", "duration", "method", "tol", "max_iter",
+                                                        "alpha", "forcing", "order", "save_every"))
+        if "h" not in integ:
+            raise c.expected("integrator.h", "a non-zero number (the step size in seconds)")
+        h = c.number(integ["h"], "integrator.h", nonzero=True)
+        if ("steps" in integ) == ("duration" in integ):
+            got = "both" if "steps" in integ else "neither"
+            raise c.error("integrator", f"expected exactly one of integrator.steps or integrator.duration; got {got}")
+        if "steps" in integ:
+            steps = c.integer(integ["steps"], "integrator.steps", minimum=0)
+        else:
+            duration = c.number(integ["duration"], "integrator.duration")
+            ratio = duration / h
+            steps = round(ratio)
+            if ratio < -0.5 or abs(ratio - steps) > DURATION_RTOL * abs(ratio):
+                sign = "" if ratio >= 0 else " (and have the sign of h)"
+                raise c.error("integrator.duration", f"expected a whole number of steps h = {h!r}{sign}; "
+                              f"duration / h = {duration!r} / {h!r} = {ratio!r}")
+            steps = int(steps)
+        method = c.string(integ.get("method", "newton"), "integrator.method", METHODS)
+        tol = c.number(integ.get("tol", 1e-14), "integrator.tol", nonnegative=True)
+        max_iter = c.integer(integ.get("max_iter", 50), "integrator.max_iter", minimum=1)
+        alpha = c.number(integ.get("alpha", 1.0), "integrator.alpha")
+        if not 0.0 < alpha <= 1.0:
+            raise c.error("integrator.alpha", f"expected a number in (0, 1], got {alpha!r}")
+        forcing = c.string(integ["forcing"], "integrator.forcing", FORCINGS) if "forcing" in integ else None
+        order = None
+        if "order" in integ:
+            order = integ["order"]
+            if isinstance(order, bool) or order not in ORDERS or not isinstance(order, int):
+                raise c.expected("integrator.order", "one of 2, 4, 6", order)
+        save_every = c.integer(integ.get("save_every", 1), "integrator.save_every", minimum=1)
+        if steps % save_every:
+            raise c.error("integrator.save_every", f"expected a divisor of the number of steps ({steps}) so the "
+                          f"final state is saved; got {save_every}")
+
+        torque, spec = _torque(c, d["torque"]) if "torque" in d else (None, ())
+
+        out = c.table(d.get("output", {}), "output", ("formats", "plots"))
+        formats: tuple[str, ...] = ("npz",)
+        if "formats" in out:
+            raw = out["formats"]
+            if isinstance(raw, str):
+                raw = [raw]
+            if not isinstance(raw, list) or not raw:
+                raise c.expected("output.formats", 'a non-empty array of "npz", "csv", "netcdf"', out["formats"])
+            formats = tuple(dict.fromkeys(c.string(f, f"output.formats[{i}]", FORMATS) for i, f in enumerate(raw)))
+        plots = c.boolean(out.get("plots", True), "output.plots")
+
+        return cls(name=name, description=description, body=body, R0=R0, Pi0=Pi0, h=h, steps=steps, torque=torque,
+                   torque_spec=spec, forcing=forcing, order=order, method=method, tol=tol, max_iter=max_iter,
+                   alpha=alpha, save_every=save_every, formats=formats, plots=plots, source=source,
+                   text=to_toml(d) if text is None else text)
+
+    def simulate_kwargs(self) -> dict[str, Any]:
+        """Keyword arguments of :func:`lgvi.simulate` for this scenario (after body, R0, Pi0)."""
+        kw: dict[str, Any] = dict(h=self.h, steps=self.steps, torque=self.torque, method=self.method, tol=self.tol,
+                                  max_iter=self.max_iter, alpha=self.alpha, save_every=self.save_every)
+        if self.forcing is not None:
+            kw["forcing"] = self.forcing
+        if self.order is not None:
+            kw["order"] = self.order
+        return kw
+
+    def run(self, progress: bool = False):
+        """Simulate the scenario with :func:`lgvi.simulate`.
+
+        Parameters
+        ----------
+        progress : bool
+            Ask the library for a progress bar (passed on when :func:`lgvi.simulate` has the
+            option; ignored otherwise).
+
+        Returns
+        -------
+        Trajectory
+            With ``meta["scenario"]`` (the TOML text), ``meta["scenario_name"]`` and
+            ``meta["scenario_source"]`` added, so every saved result carries its scenario.
+
+        Raises
+        ------
+        ScenarioError
+            If the scenario asks for an option this version of :func:`lgvi.simulate` lacks.
+        ConvergenceError, TorqueError, SimulationInterrupted
+            As :func:`lgvi.simulate`; their ``.trajectory`` carries the scenario metadata too.
+        """
+        from .integrator import simulate
+
+        kw = self.simulate_kwargs()
+        params = inspect.signature(simulate).parameters
+        for opt in ("forcing", "order"):
+            if opt in kw and opt not in params:
+                raise ScenarioError(self.source, f"integrator.{opt}", f"this version of lgvi.simulate ({__version__}) "
+                                    f"has no {opt!r} option; remove the key")
+        if progress and "progress" in params:
+            kw["progress"] = True
+        try:
+            traj = simulate(self.body, self.R0, self.Pi0, **kw)
+        except (KeyboardInterrupt, RuntimeError) as exc:
+            part = getattr(exc, "trajectory", None)
+            if part is not None:
+                exc.trajectory = self.attach(part)
+            raise
+        return self.attach(traj)
+
+    def attach(self, traj):
+        """A copy of ``traj`` whose ``meta`` also holds this scenario's text, name and source."""
+        meta = dict(traj.meta)
+        meta.update(scenario=self.text, scenario_name=self.name, scenario_source=self.source)
+        meta.setdefault("lgvi_version", __version__)
+        return replace(traj, meta=meta)
+
+
+def load_scenario(path: str | os.PathLike) -> Scenario:
+    """Read and check a scenario file (TOML).
+
+    Parameters
+    ----------
+    path : str or path-like
+
+    Returns
+    -------
+    Scenario
+
+    Raises
+    ------
+    ScenarioError
+        If the file cannot be read, is not valid TOML (the message gives the line and column),
+        or breaks the schema (the message names the key).
+    """
+    source = os.fspath(path)
+    try:
+        with open(source, "rb") as fh:
+            raw = fh.read()
+    except OSError as exc:
+        raise ScenarioError(source, None, f"cannot read the scenario file: {exc.strerror or exc}") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(source, None, f"not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    try:
+        d = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        msg = str(exc)
+        m = re.search(r"\(at line (\d+), column (\d+)\)", msg)
+        if m:
+            line, col = int(m.group(1)), int(m.group(2))
+            detail = msg[:m.start()].strip()
+            raise ScenarioError(source, None, f"line {line}, column {col}: TOML syntax error: {detail}",
+                                line=line, column=col) from None
+        raise ScenarioError(source, None, f"TOML syntax error: {msg}") from None
+    return Scenario.from_dict(d, source=source, text=text)
+
+
+# ------------------------------------------------------------------------------------ TOML out
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)):
+        x = float(v)
+        if math.isnan(x):
+            return "nan"
+        if math.isinf(x):
+            return "inf" if x > 0 else "-inf"
+        return repr(x)
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\t", "\\t") + '"'
+    if isinstance(v, np.ndarray):
+        v = v.tolist()
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(x)}" for k, x in v.items()) + " }"
+    raise TypeError(f"cannot write {type(v).__name__} as TOML")
+
+
+def _toml_key(k: str) -> str:
+    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else _toml_value(k)
+
+
+def to_toml(d: dict[str, Any]) -> str:
+    """Render a scenario dict as TOML text that :func:`tomllib.loads` reads back to the same dict.
+
+    Top-level tables become ``[table]`` sections and lists of tables ``[[table]]`` sections;
+    nested tables inside them are written inline.
+    """
+    lines: list[str] = []
+    sections: list[str] = []
+    for k, v in d.items():
+        if isinstance(v, dict):
+            sections.append(f"\n[{_toml_key(k)}]")
+            sections.extend(f"{_toml_key(kk)} = {_toml_value(vv)}" for kk, vv in v.items())
+        elif isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
+            for x in v:
+                sections.append(f"\n[[{_toml_key(k)}]]")
+                sections.extend(f"{_toml_key(kk)} = {_toml_value(vv)}" for kk, vv in x.items())
+        else:
+            lines.append(f"{_toml_key(k)} = {_toml_value(v)}")
+    return "\n".join(lines + sections).lstrip("\n") + "\n"
