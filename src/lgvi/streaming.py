@@ -1,0 +1,140 @@
+"""Crash-safe streaming of long runs to disk, chunk by chunk.
+
+A stream is a folder::
+
+    run/
+      manifest.json          # format, metadata, the list of complete chunks, the resume state
+      chunk-000000.npz       # t, R, Pi, iterations, residual of the samples/steps of that chunk
+      chunk-000001.npz
+      ...
+
+Every chunk file is written to a temporary name, flushed to disk and renamed into place, and only
+then is the manifest (also written by rename) updated to list it. A rename is atomic, so after a
+crash at any point the folder holds a consistent manifest that lists only complete chunks;
+:func:`read_stream` returns exactly those, and the manifest's ``state`` lets a run resume from the
+end of the last listed chunk (see :func:`lgvi.simulate`'s ``stream=`` and ``resume=``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._version import __version__
+from .trajectory import Trajectory
+
+STREAM_FORMAT = "lgvi.stream/1"
+MANIFEST = "manifest.json"
+
+
+def _fsync_write(path: Path, write) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "wb") as fh:
+        write(fh)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+
+
+class StreamWriter:
+    """Append chunks of a run to a stream folder (see the module notes).
+
+    Parameters
+    ----------
+    folder : path
+        Created if missing. An existing stream there is continued (``resume=True``) or refused.
+    meta : dict
+        Run metadata (JSON-serialisable); stored in the manifest.
+    resume : bool
+        Continue an existing stream instead of refusing to overwrite it.
+    """
+
+    def __init__(self, folder: str | os.PathLike, meta: dict[str, Any], *, resume: bool = False):
+        self.folder = Path(folder)
+        self.folder.mkdir(parents=True, exist_ok=True)
+        manifest = self.folder / MANIFEST
+        if manifest.exists():
+            if not resume:
+                raise FileExistsError(f"{self.folder} already holds an lgvi stream; pass resume=True to continue it "
+                                      "or choose another folder")
+            self.manifest = read_manifest(self.folder)
+        else:
+            self.manifest = {"format": STREAM_FORMAT, "lgvi_version": __version__, "meta": meta, "chunks": [],
+                             "state": None, "complete": False}
+            self._write_manifest()
+
+    @property
+    def state(self) -> dict[str, Any] | None:
+        """The state after the last complete chunk (``k`` steps done, ``R``, ``Pi``, solver history ``G``)."""
+        return self.manifest["state"]
+
+    def _write_manifest(self) -> None:
+        text = json.dumps(self.manifest, indent=1).encode()
+        _fsync_write(self.folder / MANIFEST, lambda fh: fh.write(text))
+
+    def append(self, *, t: np.ndarray, R: np.ndarray, Pi: np.ndarray, iterations: np.ndarray,
+               residual: np.ndarray, state: dict[str, Any], potential: np.ndarray | None = None) -> Path:
+        """Write one chunk (samples ``t, R, Pi``; per-step ``iterations, residual``) and the state after it."""
+        index = len(self.manifest["chunks"])
+        name = f"chunk-{index:06d}.npz"
+        arrays = dict(t=t, R=R, Pi=Pi, iterations=iterations, residual=residual)
+        if potential is not None:
+            arrays["potential"] = potential
+        _fsync_write(self.folder / name, lambda fh: np.savez(fh, **arrays))
+        self.manifest["chunks"].append({"file": name, "samples": int(len(t)), "steps": int(len(iterations))})
+        self.manifest["state"] = {key: (np.asarray(val).tolist() if isinstance(val, np.ndarray) else val)
+                                  for key, val in state.items()}
+        self._write_manifest()
+        return self.folder / name
+
+    def close(self, complete: bool = True) -> None:
+        """Mark the stream complete (or not, for an interrupted run)."""
+        self.manifest["complete"] = bool(complete)
+        self._write_manifest()
+
+
+def read_manifest(folder: str | os.PathLike) -> dict[str, Any]:
+    """The manifest of a stream folder; ``ValueError`` if missing or not an lgvi stream."""
+    path = Path(folder) / MANIFEST
+    try:
+        manifest = json.loads(path.read_text())
+    except FileNotFoundError as exc:
+        raise ValueError(f"{folder} is not an lgvi stream (no {MANIFEST})") from exc
+    except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ValueError(f"cannot read {path}: {exc}") from exc
+    if not isinstance(manifest, dict) or manifest.get("format") != STREAM_FORMAT:
+        raise ValueError(f"{path} is not an lgvi stream manifest (format {STREAM_FORMAT!r} expected)")
+    return manifest
+
+
+def read_stream(folder: str | os.PathLike) -> Trajectory:
+    """Read every complete chunk of a stream folder as one :class:`Trajectory`.
+
+    The first chunk holds the initial sample; chunks not listed in the manifest (a crash while
+    writing them) are ignored.
+    """
+    manifest = read_manifest(folder)
+    parts: dict[str, list[np.ndarray]] = {k: [] for k in ("t", "R", "Pi", "iterations", "residual", "potential")}
+    for entry in manifest["chunks"]:
+        path = Path(folder) / entry["file"]
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                for key in parts:
+                    if key in data.files:
+                        parts[key].append(data[key])
+        except (OSError, ValueError, EOFError) as exc:
+            raise ValueError(f"cannot read stream chunk {path}: {exc}") from exc
+    meta = dict(manifest["meta"], complete=manifest.get("complete", False))
+    if not parts["t"]:
+        raise ValueError(f"{folder} holds no complete chunk yet")
+    cat = {k: np.concatenate(v) for k, v in parts.items() if v}
+    return Trajectory(t=cat["t"], R=cat["R"], Pi=cat["Pi"], inertia=np.asarray(meta["inertia"]),
+                      iterations=cat["iterations"], residual=cat["residual"], h=float(meta["h"]),
+                      potential=cat.get("potential"), meta=meta)
+
+
+__all__ = ["StreamWriter", "read_manifest", "read_stream"]
