@@ -1,0 +1,351 @@
+"""Writing and reading trajectories: ``.npz`` (exact, default), CSV (+ JSON sidecar), netCDF.
+
+=========  ==========================  ===============================================================
+format     writer / reader             what is kept
+=========  ==========================  ===============================================================
+npz        ``Trajectory.save`` /       everything, bit for bit: arrays, per-step ``iterations`` and
+           :func:`lgvi.load`           ``residual``, ``meta`` (scenario text, version) in the header
+csv        :func:`write_csv` /         one row per saved state, ``%.17g`` (floats round-trip exactly);
+           :func:`read_csv`            the sidecar ``NAME.meta.json`` holds the inertia, ``h``, the
+                                       column units, ``meta`` with the scenario text and version. The
+                                       per-step ``iterations`` and ``residual`` are **not** kept: a
+                                       trajectory read from CSV has empty ones (``meta["steps"]``
+                                       still says how many steps were taken).
+netcdf     :func:`write_netcdf` /      everything (as npz), via xarray; ``meta`` as the JSON attribute
+           :func:`read_netcdf`         ``lgvi_meta``, the scenario text also as attribute ``scenario``.
+                                       Needs the optional extra: ``pip install 'lgvi[io]'``.
+=========  ==========================  ===============================================================
+
+CSV columns, in order: ``t``; ``R11 R12 R13 R21 ... R33`` (row ``i``, column ``j`` of the attitude
+matrix, body to inertial); ``qx qy qz qw`` (the unit quaternion, **scalar last** as in scipy,
+Hamilton convention, sign-continuous in time); ``Pi1 Pi2 Pi3`` (body angular momentum);
+``omega1 omega2 omega3`` (body angular velocity); ``energy`` (total: kinetic plus potential);
+``potential`` (only when the run had a potential). The first line is the header; there are no
+comment lines, so any CSV reader takes the file as it is.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+
+from ._version import __version__
+from .trajectory import Trajectory, load
+
+__all__ = [
+    "CSV_COLUMNS",
+    "conservation_drifts",
+    "read_csv",
+    "read_netcdf",
+    "read_trajectory",
+    "sidecar_path",
+    "write_csv",
+    "write_netcdf",
+    "write_trajectory",
+]
+
+CSV_FORMAT = "lgvi.csv/1"
+NETCDF_FORMAT = "lgvi.netcdf/1"
+CSV_COLUMNS: tuple[str, ...] = (
+    ("t",) + tuple(f"R{i}{j}" for i in range(1, 4) for j in range(1, 4)) + ("qx", "qy", "qz", "qw")
+    + ("Pi1", "Pi2", "Pi3", "omega1", "omega2", "omega3", "energy")
+)
+UNITS = {"t": "s", "R": "1", "q": "1", "Pi": "kg m^2/s", "omega": "rad/s", "energy": "J", "potential": "J"}
+EXTENSIONS = {"npz": ".npz", "csv": ".csv", "netcdf": ".nc"}
+IO_HINT = "pip install 'lgvi[io]'"
+
+
+def _jsonable(obj: Any) -> Any:
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"{type(obj).__name__} is not JSON serialisable")
+
+
+def _meta(traj: Trajectory) -> dict[str, Any]:
+    meta = dict(traj.meta)
+    meta.setdefault("lgvi_version", __version__)
+    meta.setdefault("steps", traj.steps)
+    return meta
+
+
+def _unit(column: str) -> str:
+    for prefix in ("omega", "Pi", "R", "q"):
+        if column.startswith(prefix):
+            return UNITS[prefix]
+    return UNITS[column]
+
+
+def sidecar_path(path: str | os.PathLike) -> Path:
+    """The JSON sidecar of a CSV file: ``run.csv`` -> ``run.meta.json``."""
+    p = Path(path)
+    return p.with_name(p.stem + ".meta.json")
+
+
+# ------------------------------------------------------------------------------------ CSV
+def write_csv(traj: Trajectory, path: str | os.PathLike) -> Path:
+    """Write one row per saved state, with named columns, and a JSON sidecar with the metadata.
+
+    Parameters
+    ----------
+    traj : Trajectory
+    path : str or path-like
+        The CSV file; the sidecar goes to ``sidecar_path(path)`` (``NAME.meta.json``).
+
+    Returns
+    -------
+    pathlib.Path
+        The CSV path.
+
+    Notes
+    -----
+    Columns (see the module docstring): ``t, R11..R33, qx, qy, qz, qw`` (scalar last),
+    ``Pi1..3, omega1..3, energy`` and ``potential`` when present. Values are written with 17
+    significant digits, so ``t``, ``R`` and ``Pi`` read back exactly.
+    """
+    path = Path(path)
+    M = len(traj.t)
+    cols = [traj.t[:, None], traj.R.reshape(M, 9), traj.quaternion, traj.Pi, traj.omega, traj.energy[:, None]]
+    names = list(CSV_COLUMNS)
+    if traj.potential is not None:
+        cols.append(np.asarray(traj.potential)[:, None])
+        names.append("potential")
+    data = np.hstack(cols)
+    with open(path, "w", newline="") as fh:
+        np.savetxt(fh, data, delimiter=",", fmt="%.17g", header=",".join(names), comments="")
+    side = {
+        "format": CSV_FORMAT,
+        "lgvi_version": __version__,
+        "csv": path.name,
+        "columns": names,
+        "units": {n: _unit(n) for n in names},
+        "quaternion": "qx, qy, qz, qw: scalar last (as scipy), Hamilton product, rotates body to inertial",
+        "attitude": "Rij: row i, column j of R, which maps body vectors to inertial ones",
+        "not_kept": "per-step solver iterations and residuals (use the npz or netCDF output for those)",
+        "h": traj.h,
+        "inertia": traj.inertia,
+        "samples": M,
+        "meta": _meta(traj),
+    }
+    with open(sidecar_path(path), "w") as fh:
+        json.dump(side, fh, indent=2, default=_jsonable, allow_nan=True)
+        fh.write("\n")
+    return path
+
+
+def read_csv(path: str | os.PathLike, *, inertia: Any = None) -> Trajectory:
+    """Read a CSV written by :func:`write_csv` (with its sidecar) back into a :class:`Trajectory`.
+
+    Parameters
+    ----------
+    path : str or path-like
+    inertia : array_like, optional
+        Needed only when the sidecar ``NAME.meta.json`` is missing.
+
+    Returns
+    -------
+    Trajectory
+        ``t``, ``R``, ``Pi`` (exact) and ``potential``; ``iterations`` and ``residual`` are empty
+        (CSV does not keep them); ``meta["steps"]`` holds the number of steps of the run.
+
+    Raises
+    ------
+    ValueError
+        If the file is not such a CSV (missing columns, unreadable), or neither a sidecar nor
+        ``inertia`` gives the inertia.
+    """
+    path = Path(path)
+    try:
+        with open(path) as fh:
+            header = fh.readline().strip().split(",")
+            data = np.loadtxt(fh, delimiter=",", ndmin=2, dtype=np.float64)
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"cannot read CSV trajectory {path}: {exc}") from exc
+    missing = [c for c in CSV_COLUMNS if c not in header]
+    if missing:
+        raise ValueError(f"{path} is not an lgvi CSV trajectory: missing columns {', '.join(missing)}")
+    if data.size and data.shape[1] != len(header):
+        raise ValueError(f"{path}: {data.shape[1]} values per row but {len(header)} column names")
+    col = {name: data[:, i] if data.size else np.zeros(0) for i, name in enumerate(header)}
+    side: dict[str, Any] = {}
+    sp = sidecar_path(path)
+    if sp.exists():
+        try:
+            side = json.loads(sp.read_text())
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ValueError(f"cannot read the sidecar {sp} of {path}: {exc}") from exc
+    if inertia is None:
+        if "inertia" not in side:
+            raise ValueError(f"{path}: the sidecar {sp.name} with the inertia is missing; pass inertia= to read_csv")
+        inertia = side["inertia"]
+    J = np.asarray(inertia, dtype=np.float64)
+    if J.shape == (3,):
+        J = np.diag(J)
+    R = np.stack([col[f"R{i}{j}"] for i in range(1, 4) for j in range(1, 4)], axis=-1).reshape(-1, 3, 3)
+    Pi = np.stack([col["Pi1"], col["Pi2"], col["Pi3"]], axis=-1)
+    meta = dict(side.get("meta", {}))
+    meta["read_from"] = "csv"
+    h = side.get("h")
+    return Trajectory(t=col["t"].copy(), R=np.ascontiguousarray(R), Pi=np.ascontiguousarray(Pi), inertia=J,
+                      iterations=np.zeros(0, dtype=np.int32), residual=np.zeros(0),
+                      h=float("nan") if h is None else float(h),
+                      potential=col["potential"].copy() if "potential" in col else None, meta=meta)
+
+
+# ------------------------------------------------------------------------------------ netCDF
+def _xarray():
+    try:
+        import xarray
+    except ImportError as exc:
+        raise ImportError(f"netCDF output needs the optional packages xarray and netCDF4: {IO_HINT} "
+                          f"({exc})") from exc
+    return xarray
+
+
+def write_netcdf(traj: Trajectory, path: str | os.PathLike) -> Path:
+    """Write the whole trajectory to a netCDF file through xarray (optional extra ``lgvi[io]``).
+
+    Dimensions ``time`` (M), ``step`` (steps), ``row``/``col``/``axis`` (3) and ``component`` (4,
+    coordinate ``x y z w``: scalar last). Variables ``R``, ``Pi``, ``omega``, ``quaternion``,
+    ``energy`` (and ``potential``), ``inertia``, ``iterations``, ``residual``, with units.
+    Attributes: ``lgvi_format``, ``lgvi_version``, ``h``, ``lgvi_meta`` (JSON of ``meta``) and
+    ``scenario`` (the scenario text, empty if none).
+
+    Raises
+    ------
+    ImportError
+        If xarray (or a netCDF engine) is missing; the message says ``pip install 'lgvi[io]'``.
+    """
+    xr = _xarray()
+    path = Path(path)
+    meta = _meta(traj)
+    data_vars: dict[str, Any] = {
+        "R": (("time", "row", "col"), np.asarray(traj.R),
+              {"long_name": "attitude matrix, maps body vectors to inertial ones", "units": "1"}),
+        "Pi": (("time", "axis"), np.asarray(traj.Pi), {"long_name": "body angular momentum", "units": "kg m2 s-1"}),
+        "omega": (("time", "axis"), traj.omega, {"long_name": "body angular velocity", "units": "rad s-1"}),
+        "quaternion": (("time", "component"), traj.quaternion,
+                       {"long_name": "unit quaternion, scalar last (x, y, z, w), Hamilton", "units": "1"}),
+        "energy": (("time",), traj.energy, {"long_name": "total energy (kinetic + potential)", "units": "J"}),
+        "inertia": (("row", "col"), np.asarray(traj.inertia), {"long_name": "inertia matrix J", "units": "kg m2"}),
+        "iterations": (("step",), np.asarray(traj.iterations, dtype=np.int32),
+                       {"long_name": "solver iterations of each step"}),
+        "residual": (("step",), np.asarray(traj.residual, dtype=np.float64),
+                     {"long_name": "final residual of each step's implicit solve"}),
+    }
+    if traj.potential is not None:
+        data_vars["potential"] = (("time",), np.asarray(traj.potential), {"long_name": "potential energy",
+                                                                           "units": "J"})
+    ds = xr.Dataset(
+        data_vars,
+        coords={"time": ("time", np.asarray(traj.t), {"units": "s", "long_name": "time"}),
+                "component": ("component", np.array(["x", "y", "z", "w"]))},
+        attrs={"title": f"lgvi trajectory{': ' + str(meta['scenario_name']) if 'scenario_name' in meta else ''}",
+               "lgvi_format": NETCDF_FORMAT, "lgvi_version": __version__, "h": float(traj.h),
+               "lgvi_meta": json.dumps(meta, default=_jsonable), "scenario": str(meta.get("scenario", ""))},
+    )
+    try:
+        ds.to_netcdf(path)
+    except ValueError as exc:
+        if "engine" in str(exc).lower():
+            raise ImportError(f"no netCDF engine found for xarray: {IO_HINT} ({exc})") from exc
+        raise
+    return path
+
+
+def read_netcdf(path: str | os.PathLike) -> Trajectory:
+    """Read a file written by :func:`write_netcdf` back into a :class:`Trajectory` (exact)."""
+    xr = _xarray()
+    path = Path(path)
+    try:
+        with xr.open_dataset(path) as ds:
+            ds = ds.load()
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"cannot read netCDF trajectory {path}: {exc}") from exc
+    if ds.attrs.get("lgvi_format") != NETCDF_FORMAT:
+        raise ValueError(f"{path} is not an lgvi netCDF trajectory (attribute lgvi_format = "
+                         f"{ds.attrs.get('lgvi_format')!r}, expected {NETCDF_FORMAT!r})")
+    meta = json.loads(ds.attrs.get("lgvi_meta", "{}"))
+    return Trajectory(t=ds["time"].values.astype(np.float64), R=ds["R"].values.astype(np.float64),
+                      Pi=ds["Pi"].values.astype(np.float64), inertia=ds["inertia"].values.astype(np.float64),
+                      iterations=ds["iterations"].values.astype(np.int32),
+                      residual=ds["residual"].values.astype(np.float64), h=float(ds.attrs["h"]),
+                      potential=ds["potential"].values.astype(np.float64) if "potential" in ds else None, meta=meta)
+
+
+# ------------------------------------------------------------------------------------ any
+def read_trajectory(path: str | os.PathLike) -> Trajectory:
+    """Read a trajectory by its extension: ``.npz`` (:func:`lgvi.load`), ``.csv``, ``.nc``."""
+    suffix = Path(path).suffix.lower()
+    if suffix == ".csv":
+        return read_csv(path)
+    if suffix in (".nc", ".nc4", ".netcdf"):
+        return read_netcdf(path)
+    if suffix == ".npz":
+        return load(path)
+    raise ValueError(f"{path}: unknown trajectory file type {suffix!r}; expected .npz, .csv or .nc")
+
+
+def write_trajectory(traj: Trajectory, outdir: str | os.PathLike, formats: Iterable[str] = ("npz",), *,
+                     stem: str = "trajectory") -> list[Path]:
+    """Write ``traj`` to ``outdir/stem.npz``, ``.csv`` (+ ``.meta.json``), ``.nc`` as asked.
+
+    Returns the paths written (the CSV sidecar included).
+    """
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    for fmt in formats:
+        if fmt not in EXTENSIONS:
+            raise ValueError(f"unknown output format {fmt!r}; expected one of {', '.join(EXTENSIONS)}")
+        p = outdir / (stem + EXTENSIONS[fmt])
+        if fmt == "npz":
+            traj.save(p)
+        elif fmt == "csv":
+            write_csv(traj, p)
+            written.append(p)
+            p = sidecar_path(p)
+        else:
+            write_netcdf(traj, p)
+        written.append(p)
+    return written
+
+
+# ------------------------------------------------------------------------------------ diagnostics
+def _rel(num: float, den: float) -> float | None:
+    return num / den if den > 0 and math.isfinite(num / den) else None
+
+
+def conservation_drifts(traj: Trajectory) -> dict[str, float | None]:
+    """Largest changes over the run of the quantities the free body conserves.
+
+    Returns
+    -------
+    dict
+        ``energy_abs`` = max |E - E0| (total energy), ``energy_rel`` = that / |E0|;
+        ``casimir_rel`` = max ||Pi| - |Pi0|| / |Pi0|; ``spatial_momentum_rel`` =
+        max |R Pi - R0 Pi0| / |R0 Pi0|; ``spatial_momentum_e3_rel`` the same for the vertical
+        component ``e3 . R Pi`` (conserved under uniform gravity); ``orthogonality_max`` =
+        max |R^T R - I|_F. A relative value is ``None`` where its scale is zero.
+    """
+    E = np.asarray(traj.energy)
+    nPi = np.linalg.norm(traj.Pi, axis=1)
+    L = traj.spatial_momentum
+    nL0 = float(np.linalg.norm(L[0]))
+    dE = float(np.max(np.abs(E - E[0])))
+    return {
+        "energy_abs": dE,
+        "energy_rel": _rel(dE, abs(float(E[0]))),
+        "casimir_rel": _rel(float(np.max(np.abs(nPi - nPi[0]))), float(nPi[0])),
+        "spatial_momentum_rel": _rel(float(np.max(np.linalg.norm(L - L[0], axis=1))), nL0),
+        "spatial_momentum_e3_rel": _rel(float(np.max(np.abs(L[:, 2] - L[0, 2]))), nL0),
+        "orthogonality_max": float(np.max(traj.orthogonality_error)),
+    }
