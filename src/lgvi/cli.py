@@ -1,16 +1,36 @@
 """Command line: ``lgvi`` / ``python -m lgvi``.
 
-``lgvi demo`` (also plain ``lgvi``) runs the default scenario: a body spun near its intermediate
-axis (the Dzhanibekov effect), integrated by the LGVI and by SciPy's RK45, and prints how well
-each keeps the invariants.
+=================================================  ==============================================================
+command                                            what it does
+=================================================  ==============================================================
+``lgvi`` or ``lgvi demo [-o DIR]``                 the default scenario (Dzhanibekov effect), LGVI against RK45;
+                                                   with ``-o`` also the trajectory and figures
+``lgvi run SCENARIO.toml [-o DIR]``                runs a scenario file (:mod:`lgvi.scenario`); writes the
+``[--no-plots] [--format npz,csv,netcdf]``         trajectory, ``summary.txt``/``summary.json``, the scenario and
+                                                   the figures
+``lgvi compare SCENARIO.toml --with rk4,rk45``     the same problem through the baselines (``rk4``, ``rk45``,
+``[-o DIR]``                                       ``dop853``): a table of conservation errors and wall times,
+                                                   and with ``-o`` overlaid figures
+``lgvi plot TRAJECTORY [-o DIR] [--animate]``      figures (PNG) of a saved trajectory (``.npz``, ``.csv``, ``.nc``)
+``lgvi info TRAJECTORY``                           shape, times, method, metadata and conservation drifts
+``lgvi warmup``                                    compiles (or loads from Numba's cache) the kernels
+=================================================  ==============================================================
+
+Exit codes: 0 success; 2 a usage or input error (bad arguments, an invalid scenario or trajectory
+file), with a one-line message on stderr; 1 a failure while running (a step's solver did not
+converge, a missing optional package), with its message; 130 interrupted by Ctrl-C (what was
+computed is written first).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import platform
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -18,22 +38,65 @@ DEMO_INERTIA = (1.0, 2.0, 3.0)
 DEMO_OMEGA0 = (1e-3, 1.0, 1e-3)
 DEMO_H = 0.01
 DEMO_STEPS = 100_000
+BASELINES = ("rk4", "rk45", "dop853")
+#: Runs of at least this many steps print their start and end on stderr.
+ANNOUNCE_STEPS = 10_000
+
+
+class UsageError(Exception):
+    """Bad input from the user: exit code 2 with a one-line message."""
+
+
+class RunFailure(Exception):
+    """A failure while running: exit code 1 with a one-line message."""
+
+
+def _err(msg: str) -> None:
+    print(f"lgvi: {msg}", file=sys.stderr)
 
 
 def drift_table_row(name: str, traj, steps: int, wall: float) -> str:
-    L = traj.spatial_momentum
-    nPi = np.linalg.norm(traj.Pi, axis=1)
-    E = traj.energy
-    dL = np.max(np.linalg.norm(L - L[0], axis=1)) / np.linalg.norm(L[0])
-    dPi = np.max(np.abs(nPi - nPi[0])) / nPi[0]
-    dE = np.max(np.abs(E - E[0])) / abs(E[0])
-    orth = np.max(traj.orthogonality_error)
-    return (f"{name:<24} {steps:>9d} {wall:>9.3f} {steps / wall:>11.3e} {dL:>10.2e} {dPi:>10.2e} "
-            f"{dE:>10.2e} {orth:>10.2e}")
+    from .outputs import conservation_drifts
+
+    d = conservation_drifts(traj)
+
+    def f(x: float | None) -> str:
+        return f"{x:>10.2e}" if x is not None else f"{'-':>10}"
+
+    rate = f"{steps / wall:>11.3e}" if wall > 0 else f"{'-':>11}"
+    return (f"{name:<24} {steps:>9d} {wall:>9.3f} {rate} {f(d['spatial_momentum_rel'])} {f(d['casimir_rel'])} "
+            f"{f(d['energy_rel'])} {f(d['orthogonality_max'])}")
 
 
-def run_demo(out: str | None = None, steps: int = DEMO_STEPS, h: float = DEMO_H, rtol: float = 1e-6) -> int:
-    """Run the default scenario and print the comparison table."""
+TABLE_HEADER = (f"{'integrator':<24} {'steps':>9} {'wall [s]':>9} {'steps/s':>11} {'max dL/L':>10} "
+                f"{'d|Pi|/|Pi|':>10} {'dE/E':>10} {'|RtR-I|':>10}")
+
+
+def _plot_module():
+    """``lgvi.plot`` or ``None`` (with a note on stderr) when it or matplotlib is missing."""
+    try:
+        from . import plot
+    except ImportError as exc:
+        _err(f"figures skipped: lgvi.plot is not available ({exc}); install matplotlib: pip install 'lgvi[plot]'")
+        return None
+    return plot
+
+
+def _save_figures(traj, outdir: Path) -> list[Path]:
+    plot = _plot_module()
+    if plot is None:
+        return []
+    try:
+        return list(plot.save_figures(traj, outdir))
+    except ImportError as exc:
+        _err(f"figures skipped: {exc}")
+        return []
+
+
+# ------------------------------------------------------------------------------------ demo
+def run_demo(out: str | None = None, steps: int = DEMO_STEPS, h: float = DEMO_H, rtol: float = 1e-6,
+             plots: bool = True) -> int:
+    """Run the default scenario and print the comparison table; with ``out``, write files too."""
     import lgvi
     from lgvi.baselines import solve_ivp_baseline
 
@@ -53,8 +116,7 @@ def run_demo(out: str | None = None, steps: int = DEMO_STEPS, h: float = DEMO_H,
                             atol=rtol * 1e-3)
     wall_rk = time.perf_counter() - t_0
     print()
-    print(f"{'integrator':<24} {'steps':>9} {'wall [s]':>9} {'steps/s':>11} {'max dL/L':>10} {'d|Pi|/|Pi|':>10} "
-          f"{'dE/E':>10} {'|RtR-I|':>10}")
+    print(TABLE_HEADER)
     print(drift_table_row(f"lgvi newton h={h:g}", traj, steps, wall))
     print(drift_table_row(f"scipy RK45 rtol={rtol:g}", rk, len(rk.t) - 1, wall_rk))
     flips = int(np.sum(np.diff(np.sign(traj.omega[:, 1])) != 0))
@@ -68,25 +130,490 @@ def run_demo(out: str | None = None, steps: int = DEMO_STEPS, h: float = DEMO_H,
         path.mkdir(parents=True, exist_ok=True)
         traj.save(path / "trajectory.npz")
         print(f"  trajectory written to {path / 'trajectory.npz'}")
+        if plots:
+            figs = _save_figures(traj, path)
+            plot = _plot_module() if figs else None
+            if plot is not None:
+                figs += list(plot.save_comparison({f"lgvi h={h:g}": traj, f"RK45 rtol={rtol:g}": rk}, path))
+            if figs:
+                print(f"  figures written to {path}: {', '.join(p.name for p in figs)}")
     return 0
 
 
+def cmd_demo(args: argparse.Namespace) -> int:
+    if args.steps < 1:
+        raise UsageError(f"--steps must be a positive integer, got {args.steps}")
+    return run_demo(out=args.output, steps=args.steps, plots=not args.no_plots)
+
+
+# ------------------------------------------------------------------------------------ run
+def _load(path: str):
+    from .scenario import load_scenario
+
+    return load_scenario(path)
+
+
+def _parse_formats(text: str | None, default: tuple[str, ...]) -> tuple[str, ...]:
+    from .scenario import FORMATS
+
+    if text is None:
+        return default
+    items = [f.strip().lower() for f in text.split(",") if f.strip()]
+    bad = [f for f in items if f not in FORMATS]
+    if bad or not items:
+        raise UsageError(f"--format: expected a comma-separated list of {', '.join(FORMATS)}; got {text!r}")
+    return tuple(dict.fromkeys(items))
+
+
+def _fmt_drift(x: float | None) -> str:
+    return "n/a (zero scale)" if x is None else f"{x:.3e}"
+
+
+def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], *, status: str = "complete",
+                  message: str = "", kernel_load: float | None = None) -> tuple[Path, Path]:
+    """``summary.json`` and ``summary.txt``: drifts, wall time, rate, scenario text, versions.
+
+    ``wall`` is the time of the simulation itself; ``kernel_load`` the time of the short warm-up
+    run before it (loading or compiling the kernels), reported separately.
+    """
+    import lgvi
+
+    from .outputs import conservation_drifts
+
+    drifts = conservation_drifts(traj)
+    steps_done = int(traj.steps)
+    its = np.asarray(traj.iterations)
+    data: dict[str, Any] = {
+        "status": status,
+        "message": message,
+        "scenario_name": scenario.name,
+        "description": scenario.description,
+        "scenario_source": scenario.source,
+        "lgvi_version": lgvi.__version__,
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "steps_requested": scenario.steps,
+        "steps": steps_done,
+        "samples": len(traj.t),
+        "h": scenario.h,
+        "t_start": float(traj.t[0]),
+        "t_end": float(traj.t[-1]),
+        "method": scenario.method,
+        "forcing": traj.meta.get("forcing", scenario.forcing),
+        "order": traj.meta.get("order", scenario.order),
+        "torque": [s["type"] for s in scenario.torque_spec],
+        "wall_time_s": wall,
+        "steps_per_s": steps_done / wall if wall > 0 else None,
+        "kernel_load_s": kernel_load,
+        "iterations_mean": float(its.mean()) if its.size else None,
+        "iterations_max": int(its.max()) if its.size else None,
+        "residual_max": float(np.max(traj.residual)) if np.size(traj.residual) else None,
+        "drifts": drifts,
+        "files": [p.name for p in files],
+        "scenario": scenario.text,
+    }
+    js = outdir / "summary.json"
+    js.write_text(json.dumps(data, indent=2) + "\n")
+    rate = "n/a" if data["steps_per_s"] is None else f"{data['steps_per_s']:.4g}"
+    lines = [
+        f"lgvi {lgvi.__version__} run of scenario {scenario.name!r} ({scenario.source})",
+        *( [f"  {scenario.description}"] if scenario.description else []),
+        f"status:        {status}{': ' + message if message else ''}",
+        f"steps:         {steps_done} of {scenario.steps}, h = {scenario.h:g} s, t = {data['t_start']:g} .. "
+        f"{data['t_end']:g} s, {data['samples']} saved states (every {scenario.save_every})",
+        f"integrator:    method {scenario.method}, forcing {data['forcing']}, order {data['order']}, "
+        f"torque {' + '.join(data['torque']) or 'none'}",
+        f"wall time:     {wall:.4g} s ({rate} steps/s)"
+        + ("" if kernel_load is None else f"; kernel load/compile before it {kernel_load:.3g} s"),
+        f"solver:        mean {data['iterations_mean'] if data['iterations_mean'] is None else round(data['iterations_mean'], 3)}"
+        f" iterations/step, max {data['iterations_max']}, max residual {data['residual_max']}",
+        "conservation (largest change over the run):",
+        f"  energy (total)          abs {drifts['energy_abs']:.3e}   rel {_fmt_drift(drifts['energy_rel'])}",
+        f"  |Pi| (Casimir)          rel {_fmt_drift(drifts['casimir_rel'])}",
+        f"  spatial momentum R Pi   rel {_fmt_drift(drifts['spatial_momentum_rel'])}",
+        f"  vertical e3 . R Pi      rel {_fmt_drift(drifts['spatial_momentum_e3_rel'])}",
+        f"  |R^T R - I|             max {drifts['orthogonality_max']:.3e}",
+        f"files:         {', '.join(data['files'])}",
+        "",
+        "scenario:",
+        *("  " + line for line in scenario.text.rstrip("\n").splitlines()),
+        "",
+    ]
+    txt = outdir / "summary.txt"
+    txt.write_text("\n".join(lines))
+    return txt, js
+
+
+def _default_outdir(scenario) -> Path:
+    return Path.cwd() / f"{scenario.name}_output"
+
+
+def _write_results(traj, scenario, outdir: Path, formats: tuple[str, ...], plots: bool, wall: float, *,
+                   status: str = "complete", message: str = "", kernel_load: float | None = None) -> list[Path]:
+    from .outputs import write_trajectory
+
+    outdir.mkdir(parents=True, exist_ok=True)
+    files = write_trajectory(traj, outdir, formats)
+    (outdir / "scenario.toml").write_text(scenario.text)
+    files.append(outdir / "scenario.toml")
+    if plots:
+        files += _save_figures(traj, outdir)
+    txt, js = write_summary(outdir, traj, scenario, wall, files, status=status, message=message,
+                            kernel_load=kernel_load)
+    return files + [txt, js]
+
+
+def _warm(scenario, baselines: tuple[str, ...] = ()) -> float:
+    """Load (or compile) the kernels the scenario uses with a short run, so timings exclude it."""
+    from dataclasses import replace
+
+    t0 = time.perf_counter()
+    if scenario.steps:
+        short = replace(scenario, steps=scenario.save_every)
+        try:
+            short.run()
+            if "rk4" in baselines:
+                _baseline("rk4", short, 1e-6)
+        except Exception:  # noqa: BLE001 - the real run reports any problem
+            pass
+    return time.perf_counter() - t0
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from .errors import ConvergenceError, SimulationInterrupted, TorqueError
+
+    scenario = _load(args.scenario)
+    formats = _parse_formats(args.format, scenario.formats)
+    plots = scenario.plots and not args.no_plots
+    outdir = Path(args.output) if args.output else _default_outdir(scenario)
+    if "netcdf" in formats:  # fail before a long run, not after it
+        try:
+            import xarray  # noqa: F401
+        except ImportError as exc:
+            raise RunFailure(f"netCDF output needs the optional packages xarray and netCDF4: "
+                             f"pip install 'lgvi[io]' ({exc})") from None
+    t_load = _warm(scenario)
+    loud = scenario.steps >= ANNOUNCE_STEPS
+    if loud:
+        print(f"lgvi run: {scenario.name}: {scenario.steps} steps of h = {scenario.h:g} s "
+              f"({scenario.method}) ...", file=sys.stderr, flush=True)
+    t0 = time.perf_counter()
+    try:
+        traj = scenario.run(progress=True)
+    except SimulationInterrupted as exc:
+        wall = time.perf_counter() - t0
+        part = exc.trajectory
+        if part is not None:
+            files = _write_results(part, scenario, outdir, formats, False, wall, status="interrupted",
+                                   message=str(exc))
+            _err(f"interrupted: {exc}; the {part.steps} steps computed are written to {outdir} "
+                 f"({', '.join(p.name for p in files)})")
+        else:
+            _err(f"interrupted: {exc}")
+        return 130
+    except (ConvergenceError, TorqueError) as exc:
+        wall = time.perf_counter() - t0
+        part = getattr(exc, "trajectory", None)
+        msg = f"{type(exc).__name__}: {exc}"
+        if part is not None and len(part.t):
+            _write_results(part, scenario, outdir, formats, False, wall, status="failed", message=str(exc))
+            msg += f" (the part computed is written to {outdir})"
+        raise RunFailure(msg) from None
+    wall = time.perf_counter() - t0
+    if loud:
+        rate = traj.steps / wall if wall > 0 else float("inf")
+        print(f"lgvi run: {scenario.name}: done in {wall:.3g} s ({rate:.3g} steps/s)", file=sys.stderr, flush=True)
+    files = _write_results(traj, scenario, outdir, formats, plots, wall, kernel_load=t_load)
+    print(f"{scenario.name}: {traj.steps} steps in {wall:.3g} s; wrote {len(files)} files to {outdir}")
+    for p in files:
+        print(f"  {p.name}")
+    return 0
+
+
+# ------------------------------------------------------------------------------------ compare
+def _parse_with(text: str) -> tuple[str, ...]:
+    items = [w.strip().lower() for w in text.split(",") if w.strip()]
+    bad = [w for w in items if w not in BASELINES]
+    if bad or not items:
+        raise UsageError(f"--with: expected a comma-separated list of {', '.join(BASELINES)}; got {text!r}")
+    return tuple(dict.fromkeys(items))
+
+
+def _baseline(name: str, scenario, rtol: float):
+    from . import baselines
+
+    if name == "rk4":
+        if not hasattr(baselines, "rk4"):
+            raise RunFailure("the rk4 baseline is not available in this version of lgvi.baselines")
+        traj = baselines.rk4(scenario.body, scenario.R0, scenario.Pi0, h=scenario.h, steps=scenario.steps,
+                             torque=scenario.torque, save_every=scenario.save_every)
+        return traj, f"RK4 h={scenario.h:g}", scenario.steps
+    method = {"rk45": "RK45", "dop853": "DOP853"}[name]
+    traj = baselines.solve_ivp_baseline(scenario.body, scenario.R0, scenario.Pi0, t_final=scenario.duration,
+                                        samples=scenario.samples, method=method, rtol=rtol, atol=rtol * 1e-3,
+                                        torque=scenario.torque)
+    nfev = int(traj.iterations[0]) if len(traj.iterations) else 0
+    return traj, f"{method} rtol={rtol:g}", nfev
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    from .outputs import conservation_drifts
+
+    scenario = _load(args.scenario)
+    which = _parse_with(args.with_)
+    if not args.rtol > 0:
+        raise UsageError(f"--rtol must be positive, got {args.rtol}")
+    if scenario.steps == 0:
+        raise UsageError(f"{scenario.source}: nothing to compare: the scenario has 0 steps")
+    _warm(scenario, which)
+    print(f"lgvi compare: {scenario.name}: T = {scenario.duration:g} s, h = {scenario.h:g} s, "
+          f"{scenario.steps} steps, torque {' + '.join(s['type'] for s in scenario.torque_spec) or 'none'}")
+    print("  steps column: steps taken (fixed-step methods) or right-hand-side evaluations (solve_ivp)")
+    print()
+    print(TABLE_HEADER)
+    done: list[tuple[str, str, Any]] = []  # (key, label, trajectory)
+    rows: list[dict[str, Any]] = []
+    failed = []
+    runs = [("lgvi", None)] + [(w, w) for w in which]
+    for key, base in runs:
+        t0 = time.perf_counter()
+        try:
+            if base is None:
+                traj = scenario.run()
+                label, count = f"lgvi {scenario.method} h={scenario.h:g}", scenario.steps
+            else:
+                traj, label, count = _baseline(base, scenario, args.rtol)
+        except Exception as exc:  # a failing baseline is reported in its row, the others still run
+            failed.append(key)
+            print(f"{key:<24} failed: {type(exc).__name__}: {exc}")
+            rows.append({"name": key, "status": "failed", "message": f"{type(exc).__name__}: {exc}"})
+            continue
+        wall = time.perf_counter() - t0
+        print(drift_table_row(label, traj, count, wall))
+        done.append((key, label, traj))
+        rows.append({"name": key, "label": label, "status": "ok", "steps_or_nfev": count, "wall_time_s": wall,
+                     "drifts": conservation_drifts(traj)})
+    print()
+    print("  dL: spatial angular momentum R Pi; |Pi|: Casimir; E: total energy; |RtR-I|: distance from SO(3).")
+    if args.output:
+        out = Path(args.output)
+        out.mkdir(parents=True, exist_ok=True)
+        written = []
+        for key, _, traj in done:
+            traj.save(out / f"{key}.npz")
+            written.append(out / f"{key}.npz")
+        (out / "compare.json").write_text(json.dumps({"scenario_name": scenario.name, "rtol": args.rtol,
+                                                      "runs": rows, "scenario": scenario.text}, indent=2) + "\n")
+        written.append(out / "compare.json")
+        if not args.no_plots and done:
+            plot = _plot_module()
+            if plot is not None:
+                written += list(plot.save_comparison({label: traj for _, label, traj in done}, out))
+        print(f"  wrote to {out}: {', '.join(p.name for p in written)}")
+    if failed:
+        raise RunFailure(f"{len(failed)} of {len(runs)} runs failed: {', '.join(failed)}")
+    return 0
+
+
+# ------------------------------------------------------------------------------------ plot / info
+def _read(path: str):
+    from .outputs import read_trajectory
+
+    if not Path(path).exists():
+        raise UsageError(f"{path}: no such file")
+    try:
+        return read_trajectory(path)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    traj = _read(args.trajectory)
+    outdir = Path(args.output) if args.output else Path(args.trajectory).resolve().parent
+    try:
+        from . import plot
+    except ImportError as exc:
+        raise RunFailure(f"figures need lgvi.plot and matplotlib ({exc}): pip install 'lgvi[plot]'") from None
+    files = list(plot.save_figures(traj, outdir, prefix=args.prefix))
+    if args.animate:
+        files.append(Path(plot.animate(traj, outdir / f"{args.prefix}animation.gif")))
+    print(f"wrote {len(files)} files to {outdir}")
+    for p in files:
+        print(f"  {Path(p).name}")
+    return 0
+
+
+def cmd_info(args: argparse.Namespace) -> int:
+    from .outputs import conservation_drifts
+
+    traj = _read(args.trajectory)
+    meta = dict(traj.meta)
+    scenario_text = meta.pop("scenario", None)
+    print(f"{args.trajectory}: {traj!r}")
+    print(f"  samples     {len(traj.t)}  (R {tuple(traj.R.shape)}, Pi {tuple(traj.Pi.shape)})")
+    steps = traj.steps if len(traj.iterations) or "steps" not in meta else meta["steps"]
+    print(f"  steps       {steps}, h = {traj.h:g}")
+    if len(traj.t):
+        print(f"  time        {traj.t[0]:g} .. {traj.t[-1]:g} s")
+    print(f"  method      {meta.get('method', '?')}")
+    J = np.asarray(traj.inertia)
+    print(f"  inertia     {np.array2string(np.diag(J) if np.count_nonzero(J - np.diag(np.diag(J))) == 0 else J, precision=6)}")
+    if len(traj.iterations) and len(traj.residual):
+        print(f"  solver      mean {np.mean(traj.iterations):.3f} iterations/step, max {int(np.max(traj.iterations))}, "
+              f"max residual {np.max(traj.residual):.3e}")
+    if traj.potential is not None:
+        print("  potential   yes (energy = kinetic + potential)")
+    print("  metadata")
+    for k in sorted(meta):
+        print(f"    {k:<16} {meta[k]}")
+    if len(traj.t):
+        d = conservation_drifts(traj)
+        print("  conservation (largest change over the run)")
+        print(f"    energy abs {d['energy_abs']:.3e}, rel {_fmt_drift(d['energy_rel'])}")
+        print(f"    |Pi| rel {_fmt_drift(d['casimir_rel'])}; R Pi rel {_fmt_drift(d['spatial_momentum_rel'])}; "
+              f"e3 . R Pi rel {_fmt_drift(d['spatial_momentum_e3_rel'])}")
+        print(f"    |R^T R - I| max {d['orthogonality_max']:.3e}")
+    if scenario_text:
+        print("  scenario")
+        for line in scenario_text.rstrip("\n").splitlines():
+            print(f"    {line}")
+    return 0
+
+
+# ------------------------------------------------------------------------------------ warmup
+def cmd_warmup(args: argparse.Namespace) -> int:
+    import inspect
+
+    import lgvi
+    from lgvi.implicit import METHODS
+
+    body = lgvi.RigidBody([1.0, 2.0, 3.0])
+    omega0 = [0.1, 1.0, 0.2]
+    total = time.perf_counter()
+    jobs: list[tuple[str, Any]] = [(f"simulate method={m}", dict(method=m)) for m in METHODS]
+    try:
+        from . import torques
+    except ImportError:
+        torques = None
+    params = inspect.signature(lgvi.simulate).parameters
+    if torques is not None:
+        model = torques.UniformGravity(1.0, [0.0, 0.0, 0.3]) + torques.LinearDamping(0.01)
+        jobs.append(("simulate torque model", dict(torque=model)))
+        if "forcing" in params:
+            jobs.append(("simulate torque, symmetric", dict(torque=torques.Constant([0.0, 0.0, 0.01]),
+                                                             forcing="symmetric")))
+    if "order" in params:
+        jobs += [(f"simulate order={o}", dict(order=o)) for o in (4, 6)]
+    for name, kw in jobs:
+        t0 = time.perf_counter()
+        lgvi.simulate(body, np.eye(3), omega0=omega0, h=0.01, steps=20, **kw)
+        print(f"  {name:<32} {time.perf_counter() - t0:8.2f} s")
+    from . import baselines
+
+    if hasattr(baselines, "rk4"):
+        t0 = time.perf_counter()
+        baselines.rk4(body, np.eye(3), omega0=omega0, h=0.01, steps=20)
+        print(f"  {'baseline rk4':<32} {time.perf_counter() - t0:8.2f} s")
+    print(f"kernels ready in {time.perf_counter() - total:.2f} s (compiled now or loaded from Numba's cache)")
+    return 0
+
+
+# ------------------------------------------------------------------------------------ parser
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="lgvi", description="Lie group variational integrator for rigid-body "
-                                     "attitude dynamics on SO(3).")
-    sub = parser.add_subparsers(dest="command")
+    from ._version import __version__
+
+    parser = argparse.ArgumentParser(
+        prog="lgvi", description="Lie group variational integrator for rigid-body attitude dynamics on SO(3). "
+        "Without a command, runs the demo.",
+        epilog="Exit codes: 0 ok, 1 run failure, 2 usage or input error, 130 interrupted.")
+    parser.add_argument("--version", action="version", version=f"lgvi {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
     demo = sub.add_parser("demo", help="run the default scenario (Dzhanibekov effect) and compare with RK45",
-                          description="Run the default scenario and print a conservation table against RK45.")
-    demo.add_argument("-o", "--output", default=None, help="folder to write the trajectory to")
+                          description="Run the default scenario and print a conservation table against RK45; "
+                          "with -o also write the trajectory and figures.")
+    demo.add_argument("-o", "--output", default=None, metavar="DIR", help="folder for the trajectory and figures")
     demo.add_argument("--steps", type=int, default=DEMO_STEPS, help=f"number of steps (default {DEMO_STEPS})")
+    demo.add_argument("--no-plots", action="store_true", help="do not write figures")
+    demo.set_defaults(func=cmd_demo)
+
+    run = sub.add_parser("run", help="run a scenario file (TOML)",
+                         description="Run a scenario file and write the trajectory, summary.txt, summary.json, "
+                         "scenario.toml and figures. The file format is documented in lgvi.scenario "
+                         "(python -c 'import lgvi.scenario; help(lgvi.scenario)').")
+    run.add_argument("scenario", metavar="SCENARIO.toml", help="scenario file")
+    run.add_argument("-o", "--output", default=None, metavar="DIR",
+                     help="output folder (default ./NAME_output, NAME the scenario name)")
+    run.add_argument("--no-plots", action="store_true", help="do not write figures")
+    run.add_argument("--format", default=None, metavar="FORMATS",
+                     help="comma-separated output formats among npz, csv, netcdf (default: the scenario's "
+                     "[output] formats, else npz)")
+    run.set_defaults(func=cmd_run)
+
+    cmp_ = sub.add_parser("compare", help="the same scenario through classical baselines",
+                          description="Run a scenario with the LGVI and with baselines (fixed-step RK4 at the "
+                          "same h; SciPy RK45/DOP853 at a tolerance) and print conservation errors and wall "
+                          "times; with -o also write each trajectory, compare.json and overlaid figures.")
+    cmp_.add_argument("scenario", metavar="SCENARIO.toml", help="scenario file")
+    cmp_.add_argument("--with", dest="with_", default="rk4,rk45", metavar="LIST",
+                      help=f"comma-separated baselines among {', '.join(BASELINES)} (default rk4,rk45)")
+    cmp_.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance of rk45/dop853 (default 1e-6; "
+                      "atol = rtol * 1e-3)")
+    cmp_.add_argument("-o", "--output", default=None, metavar="DIR", help="folder for trajectories and figures")
+    cmp_.add_argument("--no-plots", action="store_true", help="do not write figures")
+    cmp_.set_defaults(func=cmd_compare)
+
+    plot = sub.add_parser("plot", help="figures of a saved trajectory",
+                          description="Write PNG figures (attitude, rates, conservation, iterations, polhode) of "
+                          "a trajectory file (.npz, .csv with its .meta.json, or .nc).")
+    plot.add_argument("trajectory", metavar="TRAJECTORY", help="trajectory file (.npz, .csv, .nc)")
+    plot.add_argument("-o", "--output", default=None, metavar="DIR",
+                      help="folder for the figures (default: the trajectory's folder)")
+    plot.add_argument("--prefix", default="", help="prefix of the figure file names")
+    plot.add_argument("--animate", action="store_true", help="also write animation.gif of the body")
+    plot.set_defaults(func=cmd_plot)
+
+    info = sub.add_parser("info", help="describe a saved trajectory",
+                          description="Print the shape, times, method, metadata (with the scenario) and "
+                          "conservation drifts of a trajectory file (.npz, .csv, .nc).")
+    info.add_argument("trajectory", metavar="TRAJECTORY", help="trajectory file (.npz, .csv, .nc)")
+    info.set_defaults(func=cmd_info)
+
+    warm = sub.add_parser("warmup", help="compile and cache the kernels",
+                          description="Compile (or load from Numba's cache) every kernel by running each solver "
+                          "method, torque path and baseline on a tiny problem; prints the time taken.")
+    warm.set_defaults(func=cmd_warmup)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
-    if args.command in (None, "demo"):
-        return run_demo(out=getattr(args, "output", None), steps=getattr(args, "steps", DEMO_STEPS))
-    return 2  # pragma: no cover
+    """Entry point of ``lgvi`` and ``python -m lgvi``; returns the exit code."""
+    from .scenario import ScenarioError
+
+    parser = build_parser()
+    try:
+        args = parser.parse_args(sys.argv[1:] if argv is None else argv)
+    except SystemExit as exc:  # --help (0) or a usage error (2, argparse printed it)
+        return int(exc.code) if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+    if args.command is None:
+        args = parser.parse_args(["demo"])
+    try:
+        return int(args.func(args))
+    except (ScenarioError, UsageError) as exc:
+        _err(f"error: {exc}")
+        return 2
+    except ValueError as exc:  # input the library rejected (after the scenario's own checks)
+        _err(f"error: {exc}")
+        return 2
+    except RunFailure as exc:
+        _err(f"failed: {exc}")
+        return 1
+    except KeyboardInterrupt:
+        _err("interrupted")
+        return 130
+    except RuntimeError as exc:  # ConvergenceError, TorqueError and other run failures
+        _err(f"failed: {type(exc).__name__}: {exc}")
+        return 1
 
 
-__all__ = ["main", "run_demo"]
+__all__ = ["main", "run_demo", "write_summary"]
