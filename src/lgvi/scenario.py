@@ -68,11 +68,11 @@ A complete example (every key shown; comments say which keys are alternatives)::
 
     [[torque]]
     type = "damping"
-    c = 0.1                              # u = -c omega; a number, 3 numbers or a 3x3 matrix
+    c = 0.1                              # u = -c omega; a number or 3 numbers (per body axis)
 
     [[torque]]
     type = "pd"                          # geometric attitude PD controller
-    kp = 2.0                             # a number, 3 numbers or a 3x3 matrix
+    kp = 2.0                             # a number or 3 numbers (per body axis), >= 0
     kd = 5.0                             # same
     target = { euler = { sequence = "ZYX", angles = [60.0, 0.0, 0.0], unit = "deg" } }
                                          # optional, any attitude form of [initial]; default I
@@ -130,7 +130,7 @@ DURATION_RTOL = 1e-9
 _TOP_KEYS = ("name", "description", "body", "initial", "integrator", "torque", "output")
 _ATTITUDE_KEYS = ("matrix", "quat_xyzw", "quat_wxyz", "euler", "rotvec")
 _TORQUE_PARAMS: dict[str, dict[str, tuple[str, bool]]] = {
-    # type: {key: (kind, required)}; kinds: number, vector, gain (number | vector | matrix), attitude
+    # type: {key: (kind, required)}; kinds: number, vector, gain (number | 3 numbers), attitude
     "uniform_gravity": {"mass": ("number", True), "com": ("vector", True), "g": ("number", False)},
     "gravity_gradient": {"mu": ("number", True), "radius": ("number", True)},
     "constant": {"u": ("vector", True)},
@@ -252,14 +252,19 @@ class _Checker:
                          for i, row in enumerate(value)], dtype=np.float64)
 
     def gain(self, value: Any, key: str) -> float | np.ndarray:
-        """A number, 3 numbers (a diagonal) or a 3x3 matrix."""
+        """A gain >= 0: one number (every body axis) or 3 numbers (per body axis)."""
+        what = "a number >= 0 or an array of 3 numbers >= 0 (one per body axis)"
         if isinstance(value, list):
-            if value and isinstance(value[0], list):
-                return self.matrix(value, key)
-            return self.vector(value, key)
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise self.expected(key, "a number, an array of 3 numbers or a 3x3 matrix", value)
-        return self.number(value, key)
+            if len(value) != 3:
+                raise self.expected(key, what, value)
+            g = self.vector(value, key)
+        elif isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise self.expected(key, what, value)
+        else:
+            g = np.array(self.number(value, key))
+        if np.any(g < 0):
+            raise self.error(key, f"expected {what}, got {value!r}")
+        return g if g.ndim else float(g)
 
 
 # ------------------------------------------------------------------------------------ pieces
@@ -380,7 +385,7 @@ def _torque(c: _Checker, entries: Any) -> tuple[Any, tuple[dict[str, Any], ...]]
             if name not in entry:
                 if required:
                     raise c.expected(path, {"number": "a number", "vector": "an array of 3 numbers",
-                                            "gain": "a number, 3 numbers or a 3x3 matrix"}[what])
+                                            "gain": "a number or an array of 3 numbers"}[what])
                 continue
             v = entry[name]
             if what == "number":
