@@ -1,0 +1,875 @@
+"""Figures and animations of a :class:`~lgvi.Trajectory` (matplotlib, imported lazily).
+
+Every plotting function takes an existing ``ax`` (or ``axes``) to draw into, or creates a new
+figure when it is ``None``, and returns the :class:`matplotlib.figure.Figure`. New figures are
+plain ``Figure`` objects, not registered with ``pyplot``: nothing is shown, nothing leaks, and
+any backend (including the headless Agg) works. In a notebook a returned figure displays itself;
+in a script save it with ``fig.savefig(...)``, or pass ``ax=`` from your own ``plt.subplots()``.
+
+========================  =======================================================================
+:func:`attitude`          Euler angles (unwrapped) or quaternion components against time
+:func:`rates`             body angular velocity ``omega`` and body momentum ``Pi`` against time
+:func:`conservation`      relative errors of energy, ``|Pi|``, spatial momentum; ``|R^T R - I|``
+:func:`iterations`        solver updates per step and final residual of each step
+:func:`polhode`           body momentum path on the momentum sphere, with analytic polhodes
+:func:`animate`           the body as a box with its principal axes and the momentum (GIF/MP4)
+:func:`save_figures`      all of the above (but the animation) as PNG files
+:func:`save_comparison`   conservation diagnostics of several trajectories overlaid
+========================  =======================================================================
+
+Long runs are thinned before drawing (at most ``max_points`` points per curve): time series keep
+the minimum and maximum of every bin, error curves the maximum, so no excursion is hidden.
+
+Requires matplotlib (``pip install lgvi[plot]``).
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
+
+import numpy as np
+
+if TYPE_CHECKING:  # pragma: no cover
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+    from .trajectory import Trajectory
+
+#: Size of the figures made by this module, in inches, and the resolution of saved PNGs.
+FIGSIZE: tuple[float, float] = (8.0, 5.0)
+POLHODE_FIGSIZE: tuple[float, float] = (8.0, 7.0)
+ATTITUDE_PANELS_FIGSIZE: tuple[float, float] = (8.0, 6.5)
+COMPARISON_FIGSIZE: tuple[float, float] = (10.0, 7.0)
+DPI: int = 100
+
+#: Pixel size ``(width, height)`` of each PNG written by :func:`save_figures` and
+#: :func:`save_comparison` (figure size in inches times :data:`DPI`).
+FIGURE_PIXELS: dict[str, tuple[int, int]] = {
+    "attitude": (800, 650),
+    "rates": (800, 500),
+    "conservation": (800, 500),
+    "iterations": (800, 500),
+    "polhode": (800, 700),
+    "comparison": (1000, 700),
+}
+
+#: Errors below this are drawn at this value on the logarithmic axes (an exact zero has no log).
+ERROR_FLOOR: float = 1e-17
+
+#: Default number of points per drawn curve (longer series are thinned, see the module notes).
+MAX_POINTS: int = 10_000
+
+#: Names of the PNG files written by :func:`save_figures` (before the prefix).
+FIGURE_NAMES: tuple[str, ...] = ("attitude", "rates", "conservation", "iterations", "polhode")
+
+_COMPONENT_COLORS = ("tab:red", "tab:green", "tab:blue", "tab:gray")
+_UNITS = {"t": "time $t$ (s)", "omega": "rad/s", "Pi": "kg m$^2$/s", "angle": "rad"}
+
+
+# ------------------------------------------------------------------------------------------------
+# helpers
+# ------------------------------------------------------------------------------------------------
+def _mpl():
+    try:
+        import matplotlib
+    except ImportError as exc:  # pragma: no cover - exercised only without the extra
+        raise ImportError("lgvi.plot needs matplotlib: pip install 'lgvi[plot]' (or pip install matplotlib)") from exc
+    return matplotlib
+
+
+def _figure(figsize: tuple[float, float] = FIGSIZE) -> Figure:
+    """A new stand-alone figure (not managed by pyplot) with constrained layout."""
+    _mpl()
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=figsize, dpi=DPI, layout="constrained")
+
+
+def _axes(ax: Axes | None, figsize: tuple[float, float] = FIGSIZE) -> tuple[Figure, Axes]:
+    if ax is None:
+        fig = _figure(figsize)
+        return fig, fig.add_subplot()
+    return ax.get_figure(), ax
+
+
+def _axes_list(axes: Sequence[Axes] | None, n: int, name: str) -> tuple[Figure, list[Axes]]:
+    if axes is None:
+        fig = _figure()
+        axs = list(np.atleast_1d(fig.subplots(n, 1, sharex=True)))
+        return fig, axs
+    axs = list(np.ravel(np.asarray(axes, dtype=object)))
+    if len(axs) != n:
+        raise ValueError(f"{name}: axes must be a sequence of {n} Axes, got {len(axs)}")
+    return axs[0].get_figure(), axs
+
+
+def _check_traj(traj: Any, name: str) -> None:
+    for attr in ("t", "R", "Pi", "inertia"):
+        if not hasattr(traj, attr):
+            raise TypeError(f"{name}: expected an lgvi.Trajectory, got {type(traj).__name__} (no .{attr})")
+    if len(traj.t) == 0:
+        raise ValueError(f"{name}: the trajectory is empty (no samples to plot)")
+
+
+def _label(traj: Trajectory) -> str:
+    meta = getattr(traj, "meta", {}) or {}
+    method = str(meta.get("method", "lgvi"))
+    if method.startswith("solve_ivp:"):
+        return f"{method.split(':', 1)[1]} (rtol={meta.get('rtol', '?'):g})" if "rtol" in meta else method
+    h = getattr(traj, "h", float("nan"))
+    return f"lgvi {method}, h={h:g} s" if np.isfinite(h) else f"lgvi {method}"
+
+
+def _forced(traj: Trajectory) -> bool:
+    meta = getattr(traj, "meta", {}) or {}
+    torque = meta.get("torque", "none")
+    return torque not in (None, "none", "")
+
+
+def _bins(n: int, max_points: int) -> int:
+    return 0 if n <= max_points else max(1, max_points // 2)
+
+
+def _thin_minmax(t: np.ndarray, y: np.ndarray, max_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """Keep the minimum and the maximum of each bin (in time order) of a 1-D series."""
+    n = len(t)
+    nb = _bins(n, max_points)
+    if nb == 0:
+        return t, y
+    edges = np.linspace(0, n, nb + 1).astype(np.int64)
+    lo = np.minimum.reduceat(y, edges[:-1])
+    hi = np.maximum.reduceat(y, edges[:-1])
+    # positions of min and max within each bin, to keep time order within the bin
+    idx = np.arange(n)
+    bin_of = np.repeat(np.arange(nb), np.diff(edges))
+    i_lo = np.full(nb, n, dtype=np.int64)
+    i_hi = np.full(nb, n, dtype=np.int64)
+    np.minimum.at(i_lo, bin_of, np.where(y == lo[bin_of], idx, n))
+    np.minimum.at(i_hi, bin_of, np.where(y == hi[bin_of], idx, n))
+    i_lo = np.minimum(i_lo, n - 1)
+    i_hi = np.minimum(i_hi, n - 1)
+    first = np.minimum(i_lo, i_hi)
+    second = np.maximum(i_lo, i_hi)
+    keep = np.unique(np.concatenate([first, second, [0, n - 1]]))
+    return t[keep], y[keep]
+
+
+def _thin_max(t: np.ndarray, y: np.ndarray, max_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per-bin maximum of an error series (drawn at the bin's start time); the last point kept."""
+    n = len(t)
+    nb = _bins(n, max_points)
+    if nb == 0:
+        return t, y
+    edges = np.linspace(0, n, nb + 1).astype(np.int64)[:-1]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        peaks = np.fmax.reduceat(y, edges)  # NaN (a gap) only where a whole bin is NaN
+    return np.append(t[edges], t[-1]), np.append(peaks, y[-1])
+
+
+def _floor(err: np.ndarray) -> np.ndarray:
+    err = np.asarray(err, dtype=np.float64)
+    return np.where(np.isfinite(err), np.maximum(err, ERROR_FLOOR), np.nan)
+
+
+def _relative(values: np.ndarray, ref: float) -> tuple[np.ndarray, bool]:
+    """``|values - ref| / |ref|``, or the absolute error when ``ref`` is zero."""
+    scale = abs(float(ref))
+    if scale > 0:
+        return np.abs(values - ref) / scale, True
+    return np.abs(values - ref), False
+
+
+def _conservation_series(traj: Trajectory) -> dict[str, tuple[np.ndarray, str]]:
+    """The four diagnostics of :func:`conservation`: name -> (error per sample, legend label)."""
+    E = np.asarray(traj.energy, dtype=np.float64)
+    dE, rel = _relative(E, E[0])
+    nPi = np.linalg.norm(traj.Pi, axis=1)
+    dPi, relPi = _relative(nPi, nPi[0])
+    L = np.asarray(traj.spatial_momentum, dtype=np.float64)
+    nL0 = float(np.linalg.norm(L[0]))
+    dL = np.linalg.norm(L - L[0], axis=1) / (nL0 if nL0 > 0 else 1.0)
+    orth = np.asarray(traj.orthogonality_error, dtype=np.float64)
+    energy_name = "total energy" if getattr(traj, "potential", None) is not None else "kinetic energy"
+    return {
+        "energy": (dE, f"{energy_name} $|E - E_0|/|E_0|$" if rel else f"{energy_name} $|E - E_0|$ (J)"),
+        "casimir": (dPi, r"$\,||\Pi| - |\Pi_0||/|\Pi_0|$" if relPi else r"$||\Pi| - |\Pi_0||$ (kg m$^2$/s)"),
+        "momentum": (dL, r"spatial momentum $|R\Pi - R_0\Pi_0|/|R_0\Pi_0|$"),
+        "orthogonality": (orth, r"orthogonality $\|R^T R - I\|_F$"),
+    }
+
+
+_CONSERVATION_TITLES = {
+    "energy": "energy error (relative)",
+    "casimir": r"$|\Pi|$ error (relative)",
+    "momentum": "spatial momentum error (relative)",
+    "orthogonality": r"distance from SO(3): $\|R^T R - I\|_F$",
+}
+
+
+def _style_log(ax: Axes) -> None:
+    ax.set_yscale("log")
+    ax.set_ylim(bottom=ERROR_FLOOR / 2)
+    ax.grid(True, which="major", alpha=0.3)
+
+
+# ------------------------------------------------------------------------------------------------
+# time series
+# ------------------------------------------------------------------------------------------------
+def attitude(traj: Trajectory, kind: str = "euler", sequence: str = "ZYX", ax: Axes | None = None, *,
+             degrees: bool = False, scalar_first: bool = False, max_points: int = MAX_POINTS) -> Figure:
+    """Attitude against time: Euler angles (unwrapped) or quaternion components.
+
+    Parameters
+    ----------
+    traj : Trajectory
+    kind : {"euler", "quaternion"}
+        Euler angles of ``R`` (body to inertial) in ``sequence``, unwrapped over time so that
+        full turns show as ramps instead of jumps; or the sign-continuous unit quaternion.
+    sequence : str
+        Euler sequence as in :meth:`scipy.spatial.transform.Rotation.as_euler`: upper case is
+        intrinsic (``"ZYX"``: yaw, pitch, roll), lower case extrinsic.
+    ax : matplotlib Axes, optional
+        Axes to draw into; a new figure otherwise.
+    degrees : bool
+        Euler angles in degrees instead of radians.
+    scalar_first : bool
+        Quaternion order ``(w, x, y, z)`` instead of scipy's ``(x, y, z, w)`` (labels follow).
+    max_points : int
+        Most points per curve (longer runs keep each bin's minimum and maximum).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Notes
+    -----
+    Euler angles are singular where the middle angle reaches +-90 deg (``"ZYX"``, ``"XYZ"``, ...)
+    or 0/180 deg (``"ZXZ"``, ...): there the first and third angles jump however they are
+    unwrapped. The quaternion view has no such singularity.
+    """
+    _check_traj(traj, "attitude")
+    if kind not in ("euler", "quaternion"):
+        raise ValueError(f"attitude: kind must be 'euler' or 'quaternion', got {kind!r}")
+    fig, ax = _axes(ax)
+    t = np.asarray(traj.t)
+    if kind == "euler":
+        if not isinstance(sequence, str) or len(sequence) != 3:
+            raise ValueError(f"attitude: sequence must be 3 axis letters such as 'ZYX' or 'zxz', got {sequence!r}")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # scipy's "Gimbal lock detected"
+            ang = np.unwrap(traj.rotation.as_euler(sequence), axis=0)
+        unit = "deg" if degrees else "rad"
+        if degrees:
+            ang = np.degrees(ang)
+        intrinsic = sequence.isupper()
+        primes = ("", "'", "''") if intrinsic else ("", "", "")
+        # shade where the middle angle is within 5 deg of the singularity (gimbal lock)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            mid = traj.rotation.as_euler(sequence)[:, 1]
+        if sequence[0].lower() == sequence[2].lower():  # proper Euler: singular at 0 and pi
+            dist = np.minimum(np.abs(mid), np.abs(np.pi - np.abs(mid)))
+        else:  # Tait-Bryan: singular at +-pi/2
+            dist = np.abs(np.pi / 2 - np.abs(mid))
+        near = dist < np.radians(5.0)
+        if near.any():
+            ax.fill_between(t, 0, 1, where=near, transform=ax.get_xaxis_transform(), color="0.85",
+                            step="mid", label="near gimbal lock (angles 1, 3 ill-defined)")
+        for i in range(3):
+            tt, yy = _thin_minmax(t, ang[:, i], max_points)
+            ax.plot(tt, yy, color=_COMPONENT_COLORS[i], lw=1.2,
+                    label=f"angle {i + 1}: about {sequence[i].upper()}{primes[i]}")
+        ax.set_ylabel(f"Euler angle ({unit})")
+        ax.set_title(f"Attitude: {'intrinsic' if intrinsic else 'extrinsic'} {sequence} Euler angles "
+                     "(unwrapped), body to inertial")
+    else:
+        q = traj.quaternions(scalar_first=scalar_first)
+        names = ("w", "x", "y", "z") if scalar_first else ("x", "y", "z", "w")
+        colors = (_COMPONENT_COLORS[3],) + _COMPONENT_COLORS[:3] if scalar_first else _COMPONENT_COLORS
+        for i in range(4):
+            tt, yy = _thin_minmax(t, q[:, i], max_points)
+            ax.plot(tt, yy, color=colors[i], lw=1.2, label=f"$q_{names[i]}$")
+        ax.set_ylabel("quaternion component (1)")
+        ax.set_ylim(-1.08, 1.08)
+        order = "scalar-first (w, x, y, z)" if scalar_first else "scalar-last (x, y, z, w)"
+        ax.set_title(f"Attitude: unit quaternion, {order}, sign-continuous")
+    ax.set_xlabel(_UNITS["t"])
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="upper right", fontsize="small", framealpha=0.85)
+    return fig
+
+
+def rates(traj: Trajectory, axes: Sequence[Axes] | None = None, *, max_points: int = MAX_POINTS) -> Figure:
+    """Body angular velocity ``omega`` (top) and body angular momentum ``Pi`` (bottom) against time.
+
+    Parameters
+    ----------
+    traj : Trajectory
+    axes : two matplotlib Axes, optional
+        Axes for ``omega`` and ``Pi``; a new two-panel figure otherwise.
+    max_points : int
+        Most points per curve.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    _check_traj(traj, "rates")
+    fig, (ax_w, ax_p) = _axes_list(axes, 2, "rates")
+    t = np.asarray(traj.t)
+    for ax, data, sym, unit in ((ax_w, traj.omega, r"\omega", _UNITS["omega"]),
+                                (ax_p, traj.Pi, r"\Pi", _UNITS["Pi"])):
+        for i in range(3):
+            tt, yy = _thin_minmax(t, np.asarray(data)[:, i], max_points)
+            ax.plot(tt, yy, color=_COMPONENT_COLORS[i], lw=1.2, label=f"${sym}_{i + 1}$")
+        ax.set_ylabel(f"${sym}$ ({unit})")
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="upper right", fontsize="small", ncols=3, framealpha=0.85)
+    ax_w.set_title(r"Body angular velocity $\omega = J^{-1}\Pi$ and body angular momentum $\Pi$")
+    ax_p.set_xlabel(_UNITS["t"])
+    return fig
+
+
+def conservation(traj: Trajectory, ax: Axes | None = None, *, max_points: int = MAX_POINTS) -> Figure:
+    """Conservation diagnostics on a logarithmic axis against time.
+
+    Draws the relative error of the energy (kinetic plus potential, if the run has one), of the
+    Casimir ``|Pi|`` and of the spatial momentum ``R Pi``, and the distance ``|R^T R - I|_F`` of
+    the attitude from SO(3). Zeros are drawn at :data:`ERROR_FLOOR`; long runs show each bin's
+    maximum. For a forced run ``|Pi|`` and ``R Pi`` are not invariants: they are drawn dashed.
+
+    Parameters
+    ----------
+    traj : Trajectory
+    ax : matplotlib Axes, optional
+    max_points : int
+        Most points per curve.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    _check_traj(traj, "conservation")
+    fig, ax = _axes(ax)
+    t = np.asarray(traj.t)
+    forced = _forced(traj)
+    for i, (key, (err, label)) in enumerate(_conservation_series(traj).items()):
+        dashed = forced and key in ("casimir", "momentum")
+        tt, yy = _thin_max(t, _floor(err), max_points)
+        ax.plot(tt, yy, color=_COMPONENT_COLORS[i], lw=1.2, ls="--" if dashed else "-",
+                label=label + (" (not an invariant here)" if dashed else ""))
+    _style_log(ax)
+    ax.set_xlabel(_UNITS["t"])
+    ax.set_ylabel("error (relative, 1)")
+    ax.set_title(f"Conservation: {_label(traj)}")
+    ax.legend(loc="best", fontsize="small", framealpha=0.85)
+    return fig
+
+
+def iterations(traj: Trajectory, axes: Sequence[Axes] | None = None, *, max_points: int = MAX_POINTS) -> Figure:
+    """Solver updates per step (top) and the final residual of each step's solve (bottom).
+
+    Step ``k`` (from ``t_k`` to ``t_k + h``) is drawn at ``t_k``. Long runs are binned: the top
+    panel then shows the mean per bin with the bin's range shaded, the bottom the bin's maximum.
+
+    Parameters
+    ----------
+    traj : Trajectory
+        A run of :func:`lgvi.simulate` (baselines have no per-step record: ``ValueError``).
+    axes : two matplotlib Axes, optional
+    max_points : int
+        Most points per curve.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    _check_traj(traj, "iterations")
+    its = np.asarray(traj.iterations, dtype=np.float64)
+    res = np.asarray(traj.residual, dtype=np.float64)
+    if len(res) == 0 or len(res) != len(its):
+        raise ValueError("iterations: this trajectory has no per-step solver record "
+                         f"(method {traj.meta.get('method', '?')!r}); only lgvi.simulate runs have one")
+    fig, (ax_i, ax_r) = _axes_list(axes, 2, "iterations")
+    h = float(traj.h)
+    tk = float(traj.t[0]) + h * np.arange(len(its))
+    n = len(its)
+    nb = _bins(n, max_points)
+    if nb == 0:
+        ax_i.step(tk, its, where="post", color="tab:blue", lw=1.2, label="updates in step $k$")
+    else:
+        edges = np.linspace(0, n, nb + 1).astype(np.int64)
+        start = edges[:-1]
+        mean = np.add.reduceat(its, start) / np.diff(edges)
+        lo = np.minimum.reduceat(its, start)
+        hi = np.maximum.reduceat(its, start)
+        ax_i.fill_between(tk[start], lo, hi, step="post", color="tab:blue", alpha=0.25,
+                          label=f"range over bins of {n // nb} steps")
+        ax_i.step(tk[start], mean, where="post", color="tab:blue", lw=1.2, label="mean per bin")
+    top = max(1.0, float(its.max()) if n else 1.0)
+    ax_i.set_ylim(-0.05 * top, top * 1.15 + 0.5)
+    ax_i.yaxis.get_major_locator().set_params(integer=True)
+    ax_i.set_ylabel("solver updates (1)")
+    ax_i.grid(True, alpha=0.3)
+    meta = traj.meta or {}
+    ax_i.set_title(f"Implicit solves: method {meta.get('method', '?')!r}, tol {meta.get('tol', '?')}, "
+                   f"mean {its.mean() if n else 0:.2f} updates/step")
+    ax_i.legend(loc="upper right", fontsize="small", framealpha=0.85)
+    # residuals are absolute (units of h Pi), often far below 1e-17, and often exactly zero:
+    # exact zeros are left out (gaps) and counted in the legend
+    positive = np.isfinite(res) & (res > 0)
+    rfloor = float(res[positive].min()) if positive.any() else ERROR_FLOOR
+    tt, rr = _thin_max(tk, np.where(positive, res, np.nan), max_points)
+    label = r"$|\mathrm{vee}(F J_d - J_d F^T) - h\Pi_k|$"
+    zeros = int(np.count_nonzero(res == 0))
+    if zeros:
+        label += f"; {zeros / len(res):.0%} of steps exactly 0 (gaps)"
+    ax_r.plot(tt, rr, color="tab:purple", lw=0.8, label=label)
+    ax_r.set_yscale("log")
+    ax_r.grid(True, which="major", alpha=0.3)
+    top = float(np.nanmax(rr)) if np.isfinite(rr).any() else rfloor
+    tol = meta.get("tol")
+    if isinstance(tol, (int, float)) and tol > 0 and len(traj.Pi):
+        level = float(tol) * abs(h) * float(np.linalg.norm(traj.Pi[0]))
+        ax_r.axhline(level, color="0.4", ls=":", lw=1.0, label=r"tolerance tol $|h\,\Pi_0|$")
+        top = max(top, level)
+    ax_r.set_ylim(rfloor / 3, top * 1e3)
+    ax_r.set_ylabel(r"residual (kg m$^2$)")
+    ax_r.set_xlabel(r"time $t_k$ of the step (s)")
+    ax_r.legend(loc="upper right", fontsize="small", framealpha=0.85)
+    return fig
+
+
+# ------------------------------------------------------------------------------------------------
+# polhode
+# ------------------------------------------------------------------------------------------------
+def polhode_curves(moments: Sequence[float], radius: float, energies: Sequence[float], *,
+                   points: int = 241) -> list[np.ndarray]:
+    """Analytic polhodes: where the momentum sphere meets energy ellipsoids, in principal axes.
+
+    Parameters
+    ----------
+    moments : (3,) array_like
+        Principal moments ``I1 <= I2 <= I3`` (ascending, positive).
+    radius : float
+        ``|Pi|``, the radius of the momentum sphere.
+    energies : sequence of float
+        Kinetic energies ``E``, each in ``[|Pi|^2 / (2 I3), |Pi|^2 / (2 I1)]``.
+    points : int
+        Points per closed curve.
+
+    Returns
+    -------
+    list of (points, 3) ndarray
+        Closed curves ``{Pi : |Pi| = radius, Pi . diag(1/I) Pi = 2E}``: two per energy (around
+        the ``+`` and ``-`` end of the axis they circle), or, on the separatrix
+        ``E = |Pi|^2 / (2 I2)``, the two great circles through the middle axis.
+    """
+    I1, I2, I3 = (float(m) for m in moments)
+    if not 0 < I1 <= I2 <= I3:
+        raise ValueError(f"polhode_curves: moments must be positive and ascending, got {tuple(moments)}")
+    L2 = float(radius) ** 2
+    phi = np.linspace(0.0, 2.0 * np.pi, points)
+    c, s = np.cos(phi), np.sin(phi)
+    curves: list[np.ndarray] = []
+    for E in energies:
+        two_e = 2.0 * float(E)
+        if I1 == I3:
+            continue  # a sphere: every momentum is steady
+        sep = L2 / I2
+        if np.isclose(two_e, sep, rtol=1e-12, atol=0.0) and I1 < I2 < I3:
+            k = np.sqrt((1 / I2 - 1 / I3) / (1 / I1 - 1 / I2))
+            u2 = np.array([0.0, 1.0, 0.0])
+            for sign in (1.0, -1.0):
+                u1 = np.array([sign * k, 0.0, 1.0]) / np.hypot(k, 1.0)
+                curves.append(np.sqrt(L2) * (np.outer(c, u2) + np.outer(s, u1)))
+            continue
+        if two_e < sep:  # circles the major axis 3
+            a1, a2 = 1 / I1 - 1 / I3, 1 / I2 - 1 / I3
+            cc = max(two_e - L2 / I3, 0.0)
+            if a2 <= 0:
+                continue
+            x = np.sqrt(cc / a1) * c
+            y = np.sqrt(cc / a2) * s
+            z = np.sqrt(np.clip(L2 - x * x - y * y, 0.0, None))
+            curves += [np.column_stack([x, y, z]), np.column_stack([x, y, -z])]
+        else:  # circles the minor axis 1
+            b2, b3 = 1 / I1 - 1 / I2, 1 / I1 - 1 / I3
+            d = max(L2 / I1 - two_e, 0.0)
+            if b2 <= 0:
+                continue
+            y = np.sqrt(d / b2) * c
+            z = np.sqrt(d / b3) * s
+            x = np.sqrt(np.clip(L2 - y * y - z * z, 0.0, None))
+            curves += [np.column_stack([x, y, z]), np.column_stack([-x, y, z])]
+    return curves
+
+
+def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_points: int = MAX_POINTS) -> Figure:
+    """The body angular momentum path on the momentum sphere, with analytic polhodes.
+
+    Draws (in body axes, kg m^2/s): a wireframe of the sphere ``|Pi| = |Pi_0|``; ``levels``
+    analytic polhodes (intersections of the sphere with energy ellipsoids
+    ``Pi . J^-1 Pi = 2E``) on each side of the separatrix, and the separatrix itself; the
+    polhode of the run's initial energy (dashed), the path ``Pi_k`` of the run, its start, and the
+    principal axes. For the free body the path lies on its dashed polhode.
+
+    Parameters
+    ----------
+    traj : Trajectory
+    ax : matplotlib 3D Axes, optional
+        Made with ``projection="3d"``; a new figure otherwise.
+    levels : int
+        Reference polhodes per side of the separatrix.
+    max_points : int
+        Most points of the path (evenly strided).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    _check_traj(traj, "polhode")
+    if ax is None:
+        fig = _figure(POLHODE_FIGSIZE)
+        ax = fig.add_subplot(projection="3d")
+    else:
+        if getattr(ax, "name", "") != "3d":
+            raise ValueError("polhode: ax must be a 3D Axes (add_subplot(projection='3d'))")
+        fig = ax.get_figure()
+    J = np.asarray(traj.inertia, dtype=np.float64)
+    moments, V = np.linalg.eigh(0.5 * (J + J.T))
+    if np.linalg.det(V) < 0:
+        V[:, 0] = -V[:, 0]
+    Pi = np.asarray(traj.Pi, dtype=np.float64)
+    L = float(np.linalg.norm(Pi[0]))
+    scale = L if L > 0 else 1.0
+
+    # sphere wireframe
+    uu, vv = np.meshgrid(np.linspace(0, 2 * np.pi, 37), np.linspace(0, np.pi, 19))
+    ax.plot_wireframe(scale * np.cos(uu) * np.sin(vv), scale * np.sin(uu) * np.sin(vv), scale * np.cos(vv),
+                      color="0.75", lw=0.4, alpha=0.6)
+    # principal axes
+    for i in range(3):
+        a = V[:, i] * 1.25 * scale
+        ax.plot(*np.column_stack([-a, a]), color=_COMPONENT_COLORS[i], lw=1.0, alpha=0.8)
+        ax.text(*(a * 1.05), f"axis {i + 1} ($J_{i + 1}$={moments[i]:.3g})", color=_COMPONENT_COLORS[i],
+                fontsize="small")
+    # reference polhodes
+    if L > 0 and moments[0] < moments[2]:
+        I1, I2, I3 = moments
+        e_min, e_mid, e_max = L * L / (2 * I3), L * L / (2 * I2), L * L / (2 * I1)
+        fr = (np.arange(1, levels + 1) / (levels + 1)) ** 1.5
+        energies = [e_min + f * (e_mid - e_min) for f in fr if e_mid > e_min]
+        energies += [e_max - f * (e_max - e_mid) for f in fr if e_max > e_mid]
+        first = True
+        for curve in polhode_curves(moments, L, energies):
+            ax.plot(*(curve @ V.T).T, color="tab:olive", lw=0.8, alpha=0.8,
+                    label="polhodes (other energies)" if first else None)
+            first = False
+        if I1 < I2 < I3:
+            for j, curve in enumerate(polhode_curves(moments, L, [e_mid])):
+                ax.plot(*(curve @ V.T).T, color="tab:orange", lw=1.0, alpha=0.9,
+                        label="separatrix $E = |\\Pi|^2/(2J_2)$" if j == 0 else None)
+        E0 = 0.5 * float(Pi[0] @ np.linalg.solve(J, Pi[0]))
+        E0 = min(max(E0, e_min), e_max)
+        for j, curve in enumerate(polhode_curves(moments, L, [E0])):
+            ax.plot(*(curve @ V.T).T, color="black", lw=1.0, ls="--",
+                    label=f"analytic polhode, $E_0$ = {E0:.4g} J" if j == 0 else None)
+    step = max(1, int(np.ceil(len(Pi) / max_points)))
+    path = np.vstack([Pi[::step], Pi[-1:]])
+    ax.plot(*path.T, color="tab:blue", lw=1.6, label=r"path $\Pi_k$ of the run")
+    ax.scatter(*Pi[0], color="tab:blue", s=30, depthshade=False, label=r"start $\Pi_0$")
+    lim = 1.3 * scale
+    ax.set_xlim(-lim, lim)
+    ax.set_ylim(-lim, lim)
+    ax.set_zlim(-lim, lim)
+    ax.set_box_aspect((1, 1, 1))
+    ax.set_xlabel(r"$\Pi_1$ (kg m$^2$/s)")
+    ax.set_ylabel(r"$\Pi_2$ (kg m$^2$/s)")
+    ax.set_zlabel(r"$\Pi_3$ (kg m$^2$/s)")
+    ax.set_title(f"Polhode: body momentum on the sphere $|\\Pi|$ = {L:.4g} kg m$^2$/s")
+    ax.legend(loc="upper left", fontsize="small", framealpha=0.85)
+    return fig
+
+
+# ------------------------------------------------------------------------------------------------
+# animation
+# ------------------------------------------------------------------------------------------------
+def _box_half_sides(moments: np.ndarray) -> np.ndarray:
+    """Half side lengths of the uniform box with these principal moments (unit mass, scaled to 1)."""
+    I1, I2, I3 = moments
+    sq = 6.0 * np.array([I2 + I3 - I1, I1 + I3 - I2, I1 + I2 - I3])  # side^2 for unit mass
+    sides = np.sqrt(np.clip(sq, 0.0, None))
+    sides = sides / sides.max()
+    return 0.5 * np.maximum(sides, 0.04)  # a flat body still gets a visible thickness
+
+
+_CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64)
+_FACES = [(0, 1, 3, 2), (4, 5, 7, 6), (0, 1, 5, 4), (2, 3, 7, 6), (0, 2, 6, 4), (1, 3, 7, 5)]
+
+
+def animate(traj: Trajectory, path: str | os.PathLike, *, fps: int = 30, max_frames: int = 300,
+            dpi: int = DPI) -> Path:
+    """Animate the body: a box shaped by the principal moments, its axes and the momentum vector.
+
+    The box is the uniform box with the body's principal moments (flat bodies get a thin slab),
+    turned by ``R_k``; its principal axes are drawn in red, green and blue (1, 2, 3 in ascending
+    moment), the spatial angular momentum ``R Pi`` as a black arrow, and the trace of the tip of
+    axis 2 in green. Frames are evenly spread over the run.
+
+    Parameters
+    ----------
+    traj : Trajectory
+    path : str or os.PathLike
+        Output file: ``.gif`` (Pillow, always available) or ``.mp4`` (needs ``ffmpeg`` on PATH).
+    fps : int
+        Frames per second of the file.
+    max_frames : int
+        Most frames (the run is sampled evenly, first and last sample included).
+    dpi : int
+        Resolution (the frame is 6 x 6 inches).
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+
+    Raises
+    ------
+    ValueError
+        Unsupported suffix, ``fps < 1`` or ``max_frames < 1``.
+    RuntimeError
+        ``.mp4`` requested but ffmpeg is not available.
+    """
+    _check_traj(traj, "animate")
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in (".gif", ".mp4"):
+        raise ValueError(f"animate: path must end in .gif or .mp4, got {str(path)!r}")
+    if int(fps) < 1 or int(max_frames) < 1:
+        raise ValueError(f"animate: fps and max_frames must be >= 1, got fps={fps}, max_frames={max_frames}")
+    _mpl()
+    from matplotlib import animation
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    if suffix == ".mp4":
+        if not animation.writers.is_available("ffmpeg"):
+            raise RuntimeError(f"animate: writing {path.name} needs ffmpeg, which is not on PATH; install ffmpeg "
+                               "or save a .gif instead (Pillow, always available)")
+        writer = animation.FFMpegWriter(fps=int(fps))
+    else:
+        writer = animation.PillowWriter(fps=int(fps))
+
+    J = np.asarray(traj.inertia, dtype=np.float64)
+    moments, V = np.linalg.eigh(0.5 * (J + J.T))
+    if np.linalg.det(V) < 0:
+        V[:, 0] = -V[:, 0]
+    half = _box_half_sides(moments)
+    verts_body = (_CORNERS * half) @ V.T            # box corners in body axes
+    axes_body = (V * 1.35 * half.max() * 1.6).T     # rows: principal axes (body frame), length ~1.1
+    R = np.asarray(traj.R, dtype=np.float64)
+    Lsp = np.asarray(traj.spatial_momentum, dtype=np.float64)
+    Lmax = float(np.max(np.linalg.norm(Lsp, axis=1))) or 1.0
+    n = len(R)
+    frames = np.unique(np.linspace(0, n - 1, min(n, int(max_frames))).round().astype(np.int64))
+    # trace of the tip of axis 2, sampled finer than the frames (at most ~20 points per frame)
+    stride = max(1, int(np.ceil(n / (20 * len(frames)))))
+    fine = np.unique(np.concatenate([np.arange(0, n, stride), frames]))
+    tip = np.einsum("mij,j->mi", R[fine], axes_body[1])
+    upto = np.searchsorted(fine, frames, side="right")  # trace points shown at each frame
+
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6.0, 6.0), dpi=dpi)  # fixed layout: a layout engine would cost a pass per frame
+    ax = fig.add_subplot(projection="3d")
+    fig.subplots_adjust(left=0.02, right=0.95, bottom=0.04, top=0.95)
+    ax.grid(False)
+    lim = 1.2
+    ax.set_xlim(-lim, lim)
+    ax.set_ylim(-lim, lim)
+    ax.set_zlim(-lim, lim)
+    ax.set_box_aspect((1, 1, 1))
+    ax.set_xlabel("inertial x")
+    ax.set_ylabel("inertial y")
+    ax.set_zlabel("inertial z")
+    box = Poly3DCollection([], facecolor="lightsteelblue", edgecolor="0.3", linewidths=0.6, alpha=0.55)
+    ax.add_collection3d(box)
+    axis_lines = [ax.plot([], [], [], color=_COMPONENT_COLORS[i], lw=2.2,
+                          label=f"principal axis {i + 1} (J{i + 1} = {moments[i]:.3g} kg m²)")[0]
+                  for i in range(3)]
+    mom_line = ax.plot([], [], [], color="black", lw=2.5, label="spatial momentum R Π (scaled)")[0]
+    mom_head = ax.plot([], [], [], "k^", ms=7)[0]
+    trace = ax.plot([], [], [], color=_COMPONENT_COLORS[1], lw=0.8, alpha=0.6)[0]
+    title = ax.set_title("")
+    ax.legend(loc="upper left", fontsize="x-small", framealpha=0.85)
+
+    def draw(j: int):
+        k = frames[j]
+        Rk = R[k]
+        v = verts_body @ Rk.T
+        box.set_verts([v[list(f)] for f in _FACES])
+        for i, line in enumerate(axis_lines):
+            a = Rk @ axes_body[i]
+            line.set_data_3d([0.0, a[0]], [0.0, a[1]], [0.0, a[2]])
+        m = Lsp[k] / Lmax * 1.1
+        mom_line.set_data_3d([0.0, m[0]], [0.0, m[1]], [0.0, m[2]])
+        mom_head.set_data_3d([m[0]], [m[1]], [m[2]])
+        tr = tip[: upto[j]]
+        trace.set_data_3d(tr[:, 0], tr[:, 1], tr[:, 2])
+        title.set_text(f"t = {traj.t[k]:8.3f} s")
+        return [box, *axis_lines, mom_line, mom_head, trace, title]
+
+    anim = animation.FuncAnimation(fig, draw, frames=len(frames), blit=False)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    anim.save(os.fspath(path), writer=writer, dpi=dpi)
+    return path
+
+
+# ------------------------------------------------------------------------------------------------
+# files
+# ------------------------------------------------------------------------------------------------
+def _save(fig: Figure, path: Path) -> Path:
+    _mpl()
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    FigureCanvasAgg(fig)  # render with Agg whatever the session's backend
+    fig.savefig(path, dpi=DPI, format="png")
+    return path
+
+
+def _attitude_panels(traj: Trajectory) -> Figure:
+    """Euler angles (top) and quaternion (bottom): the figure ``attitude.png`` of :func:`save_figures`."""
+    fig = _figure(ATTITUDE_PANELS_FIGSIZE)
+    ax_e, ax_q = fig.subplots(2, 1, sharex=True)
+    attitude(traj, "euler", ax=ax_e)
+    attitude(traj, "quaternion", ax=ax_q)
+    ax_e.set_xlabel("")
+    ax_e.set_title("Attitude (body to inertial): ZYX Euler angles, unwrapped", fontsize="medium")
+    ax_q.set_title("unit quaternion, scalar-last (x, y, z, w), sign-continuous", fontsize="medium")
+    for ax in (ax_e, ax_q):
+        ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize="small")
+    return fig
+
+
+def save_figures(traj: Trajectory, outdir: str | os.PathLike, *, prefix: str = "") -> list[Path]:
+    """Write the figures of one trajectory as PNG files (pixel sizes in :data:`FIGURE_PIXELS`).
+
+    Files ``{prefix}attitude.png``, ``rates.png``, ``conservation.png``, ``iterations.png``
+    (only for runs with a per-step solver record, i.e. :func:`lgvi.simulate` runs) and
+    ``polhode.png`` in ``outdir`` (created if needed).
+
+    Parameters
+    ----------
+    traj : Trajectory
+    outdir : str or os.PathLike
+    prefix : str
+        Prepended to every file name.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written, in the order above.
+    """
+    _check_traj(traj, "save_figures")
+    out = Path(outdir)
+    out.mkdir(parents=True, exist_ok=True)
+    makers = {"attitude": attitude, "rates": rates, "conservation": conservation, "iterations": iterations,
+              "polhode": polhode}
+    has_record = len(traj.residual) > 0 and len(traj.residual) == len(traj.iterations)
+    written = []
+    for name in FIGURE_NAMES:
+        if name == "iterations" and not has_record:
+            continue
+        fig = _attitude_panels(traj) if name == "attitude" else makers[name](traj)
+        written.append(_save(fig, out / f"{prefix}{name}.png"))
+    return written
+
+
+def comparison(trajs: Mapping[str, Trajectory], axes: Sequence[Axes] | None = None, *,
+               max_points: int = MAX_POINTS) -> Figure:
+    """Conservation diagnostics of several trajectories overlaid: one panel per quantity.
+
+    Parameters
+    ----------
+    trajs : mapping of label -> Trajectory
+        E.g. ``{"lgvi": traj, "RK45": rk}``; the labels go into the legend.
+    axes : four matplotlib Axes, optional
+        Panels for energy, ``|Pi|``, spatial momentum and orthogonality errors.
+    max_points : int
+        Most points per curve.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    if not isinstance(trajs, Mapping) or not trajs:
+        raise ValueError("comparison: trajs must be a non-empty mapping of label -> Trajectory")
+    for label, tr in trajs.items():
+        _check_traj(tr, f"comparison[{label!r}]")
+    if axes is None:
+        fig = _figure(COMPARISON_FIGSIZE)
+        axs = list(fig.subplots(2, 2, sharex=True).ravel())
+    else:
+        axs = list(np.ravel(np.asarray(axes, dtype=object)))
+        if len(axs) != 4:
+            raise ValueError(f"comparison: axes must be 4 Axes, got {len(axs)}")
+        fig = axs[0].get_figure()
+    from matplotlib import colormaps
+
+    cmap = colormaps["tab10"]
+    for j, (label, tr) in enumerate(trajs.items()):
+        series = _conservation_series(tr)
+        for ax, key in zip(axs, _CONSERVATION_TITLES):
+            tt, yy = _thin_max(np.asarray(tr.t), _floor(series[key][0]), max_points)
+            ax.plot(tt, yy, color=cmap(j % 10), lw=1.2, label=str(label))
+    for ax, (key, title) in zip(axs, _CONSERVATION_TITLES.items()):
+        _style_log(ax)
+        ax.set_title(title, fontsize="medium")
+        ax.set_ylabel("error (1)")
+    for ax in axs[2:]:
+        ax.set_xlabel(_UNITS["t"])
+    axs[0].legend(loc="best", fontsize="small", framealpha=0.85)
+    fig.suptitle("Conservation compared (zeros drawn at 1e-17)")
+    return fig
+
+
+def save_comparison(trajs: Mapping[str, Trajectory], outdir: str | os.PathLike) -> list[Path]:
+    """Write :func:`comparison` of several trajectories as ``comparison.png`` (1000 x 700 pixels).
+
+    Parameters
+    ----------
+    trajs : mapping of label -> Trajectory
+    outdir : str or os.PathLike
+        Folder (created if needed).
+
+    Returns
+    -------
+    list of pathlib.Path
+        ``[outdir / "comparison.png"]``.
+    """
+    out = Path(outdir)
+    out.mkdir(parents=True, exist_ok=True)
+    return [_save(comparison(trajs), out / "comparison.png")]
+
+
+__all__ = [
+    "DPI",
+    "ERROR_FLOOR",
+    "FIGSIZE",
+    "FIGURE_NAMES",
+    "FIGURE_PIXELS",
+    "animate",
+    "attitude",
+    "comparison",
+    "conservation",
+    "iterations",
+    "polhode",
+    "polhode_curves",
+    "rates",
+    "save_comparison",
+    "save_figures",
+]
