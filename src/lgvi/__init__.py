@@ -6,12 +6,13 @@ Public names (everything else is private):
 - :func:`simulate`, :func:`step`, :class:`Trajectory`, :func:`load`
 - :func:`solve_implicit`, :class:`ImplicitSolution`
 - :class:`ConvergenceError`, :class:`TorqueError`, :class:`SimulationInterrupted`
-- modules :mod:`lgvi.so3`, :mod:`lgvi.reference`, :mod:`lgvi.baselines`, :mod:`lgvi.exact`
+- modules :mod:`lgvi.so3`, :mod:`lgvi.torques`, :mod:`lgvi.reference`, :mod:`lgvi.baselines`, :mod:`lgvi.exact`
 
 Importing lgvi compiles nothing: kernels are compiled (or loaded from Numba's cache) on first use.
 """
 
 from . import so3 as so3
+from . import torques as torques
 from ._version import __version__ as __version__
 from .body import RigidBody as RigidBody
 from .body import inertia_to_jd as inertia_to_jd
@@ -49,4 +50,5 @@ __all__ = [
     "so3",
     "solve_implicit",
     "step",
+    "torques",
 ]

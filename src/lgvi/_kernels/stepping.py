@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from .._jit import jit
 from .solvers import OK, solve_scalar
+from .torque_kernels import model_moments, momentum_diag
 
 
 @jit
@@ -116,3 +117,217 @@ def run_chunk(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_ever
                 for b in range(3):
                     R_out[j, a, b] = R[a, b]
     return OK, k0 + n
+
+
+# ------------------------------------------------------------------------------------------------
+# Forced steps: potentials (variational), paper or symmetric forcing, and compositions
+# ------------------------------------------------------------------------------------------------
+#
+# One (sub)step of size ``hs`` from ``(t, R_k, Pi_k)`` to ``t1``, with the moments split as in
+# :mod:`.torque_kernels` (``P`` conservative, ``N = Q - D Omega`` the rest):
+#
+#     mu       = Pi_k + hs/2 P_k (+ hs/2 N_k if symmetric)
+#     hat(hs mu) = F Jd - Jd F^T                        (solve_scalar with right-hand side hs mu)
+#     R_{k+1}  = R_k F
+#     Pi_{k+1} = F^T mu + hs/2 P_{k+1} + hs N_k                          (forcing "paper")
+#     Pi_{k+1} = F^T mu + hs/2 P_{k+1} + hs/2 N_{k+1}(Pi_{k+1})           (forcing "symmetric")
+#
+# With ``N = Q - D J^-1 Pi`` the symmetric momentum equation is linear in ``Pi_{k+1}``:
+# ``(I + hs/2 D J^-1) Pi_{k+1} = F^T mu + hs/2 (P_{k+1} + Q_{k+1})``, solved with the
+# precomputed inverse ``A`` of the matrix on the left (no iteration, exact to round-off).
+#
+# The moments at the current state are cached in ``S`` (7,): ``P`` in ``S[0:3]``, ``N`` in
+# ``S[3:6]``, ``S[6]`` = 1 when valid. A step evaluates the model once, at its end, and leaves
+# the result for the next step; the cache travels between chunks with ``R``, ``Pi`` and ``G``.
+
+
+@jit(inline="always")
+def forced_stage(method, Jd, J, J_inv, hs, t1, R, Pi, G, S, codes, params, D0, D1, D2, has_D, A, sym,
+                 v0, v1, v2, tol, max_iter, alpha, hist):
+    """One substep in place on ``R``, ``Pi``, ``G`` (this stage's history), ``S``.
+
+    ``v`` is an extra explicit moment at the end point added to ``Q`` (torque arrays in symmetric
+    mode; zero otherwise). Returns ``(iterations, residual, status)``; on failure nothing changed.
+    """
+    P0 = S[0]
+    P1 = S[1]
+    P2 = S[2]
+    N0 = S[3]
+    N1 = S[4]
+    N2 = S[5]
+    hh = 0.5 * hs
+    if sym:
+        m0 = Pi[0] + hh * (P0 + N0)
+        m1 = Pi[1] + hh * (P1 + N1)
+        m2 = Pi[2] + hh * (P2 + N2)
+    else:
+        m0 = Pi[0] + hh * P0
+        m1 = Pi[1] + hh * P1
+        m2 = Pi[2] + hh * P2
+    q0, q1, q2 = predict(G)
+    (g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its, rn,
+     st) = solve_scalar(method, Jd[0, 0], Jd[0, 1], Jd[0, 2], Jd[1, 1], Jd[1, 2], Jd[2, 2],
+                        hs * m0, hs * m1, hs * m2, q0, q1, q2, tol, max_iter, alpha, hist)
+    if st != OK:
+        return its, rn, st
+    push(G, g0, g1, g2)
+    for i in range(3):
+        a0 = R[i, 0]
+        a1 = R[i, 1]
+        a2 = R[i, 2]
+        R[i, 0] = a0 + a0 * E00 + a1 * E10 + a2 * E20
+        R[i, 1] = a1 + a0 * E01 + a1 * E11 + a2 * E21
+        R[i, 2] = a2 + a0 * E02 + a1 * E12 + a2 * E22
+    # F^T mu
+    b0 = m0 + (E00 * m0 + E10 * m1 + E20 * m2)
+    b1 = m1 + (E01 * m0 + E11 * m1 + E21 * m2)
+    b2 = m2 + (E02 * m0 + E12 * m1 + E22 * m2)
+    P0, P1, P2, Q0, Q1, Q2 = model_moments(codes, params, J, t1, R)
+    Q0 += v0
+    Q1 += v1
+    Q2 += v2
+    if sym:
+        b0 += hh * (P0 + Q0)
+        b1 += hh * (P1 + Q1)
+        b2 += hh * (P2 + Q2)
+        if has_D:
+            c0 = A[0, 0] * b0 + A[0, 1] * b1 + A[0, 2] * b2
+            c1 = A[1, 0] * b0 + A[1, 1] * b1 + A[1, 2] * b2
+            c2 = A[2, 0] * b0 + A[2, 1] * b1 + A[2, 2] * b2
+            b0 = c0
+            b1 = c1
+            b2 = c2
+    else:
+        b0 += hh * P0 + hs * N0
+        b1 += hh * P1 + hs * N1
+        b2 += hh * P2 + hs * N2
+    Pi[0] = b0
+    Pi[1] = b1
+    Pi[2] = b2
+    if has_D:
+        Q0 -= D0 * (J_inv[0, 0] * b0 + J_inv[0, 1] * b1 + J_inv[0, 2] * b2)
+        Q1 -= D1 * (J_inv[1, 0] * b0 + J_inv[1, 1] * b1 + J_inv[1, 2] * b2)
+        Q2 -= D2 * (J_inv[2, 0] * b0 + J_inv[2, 1] * b1 + J_inv[2, 2] * b2)
+    S[0] = P0
+    S[1] = P1
+    S[2] = P2
+    S[3] = Q0
+    S[4] = Q1
+    S[5] = Q2
+    S[6] = 1.0
+    return its, rn, st
+
+
+@jit
+def init_moments(codes, params, J, J_inv, t, R, Pi, S, v0, v1, v2):
+    """Fill the moment cache ``S`` at the state ``(t, R, Pi)`` (``v`` an extra explicit moment)."""
+    P0, P1, P2, Q0, Q1, Q2 = model_moments(codes, params, J, t, R)
+    D0, D1, D2 = momentum_diag(codes, params)
+    S[0] = P0
+    S[1] = P1
+    S[2] = P2
+    S[3] = (Q0 + v0) - D0 * (J_inv[0, 0] * Pi[0] + J_inv[0, 1] * Pi[1] + J_inv[0, 2] * Pi[2])
+    S[4] = (Q1 + v1) - D1 * (J_inv[1, 0] * Pi[0] + J_inv[1, 1] * Pi[1] + J_inv[1, 2] * Pi[2])
+    S[5] = (Q2 + v2) - D2 * (J_inv[2, 0] * Pi[0] + J_inv[2, 1] * Pi[1] + J_inv[2, 2] * Pi[2])
+    S[6] = 1.0
+
+
+@jit
+def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, S, codes, params, U, sym,
+                     k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out, it_out, res_out, hist):
+    """Advance ``n`` steps ``k0 .. k0+n-1`` of a forced and/or composed scheme (see notes above).
+
+    Each step of size ``h`` is the composition of ``s = gam.shape[0]`` substeps of sizes
+    ``gam[i] h`` (``s = 1``, ``gam = [1]``: the plain second-order scheme). Substep ``i`` of step
+    ``k`` ends at ``t0 + (k + cum[i + 1]) h`` (``cum[0] = 0``, ``cum[s] = 1``). ``A`` (s,3,3)
+    holds ``(I + gam[i] h/2 D J^-1)^-1`` (used only with symmetric forcing and ``D != 0``).
+    ``G`` (s,4,3) keeps one solver history per substep, so each warm start extrapolates
+    solutions of the same substep, equally spaced by ``h``. ``U`` (steps+1, 3) or empty: explicit
+    moments at the grid points (symmetric forcing, ``s = 1``). ``it_out[k]`` records the solver
+    updates summed over the substeps and ``res_out[k]`` the largest final residual.
+
+    Returns ``(status, k)`` as :func:`run_chunk`; after a failure ``R``, ``Pi`` and ``S`` are the
+    state at the start of step ``k``.
+    """
+    s = gam.shape[0]
+    has_u = U.shape[0] > 0
+    D0, D1, D2 = momentum_diag(codes, params)
+    has_D = D0 != 0.0 or D1 != 0.0 or D2 != 0.0
+    if S[6] == 0.0:
+        if has_u:
+            init_moments(codes, params, J, J_inv, t0 + k0 * h, R, Pi, S, U[k0, 0], U[k0, 1], U[k0, 2])
+        else:
+            init_moments(codes, params, J, J_inv, t0 + k0 * h, R, Pi, S, 0.0, 0.0, 0.0)
+    R0 = R.copy()
+    Pi0 = Pi.copy()
+    S0 = S.copy()
+    v0 = 0.0
+    v1 = 0.0
+    v2 = 0.0
+    for k in range(k0, k0 + n):
+        if s > 1:
+            R0[:, :] = R
+            Pi0[:] = Pi
+            S0[:] = S
+        if has_u:
+            v0 = U[k + 1, 0]
+            v1 = U[k + 1, 1]
+            v2 = U[k + 1, 2]
+        its_sum = 0
+        rmax = 0.0
+        for i in range(s):
+            t1 = t0 + (k + cum[i + 1]) * h
+            its, rn, st = forced_stage(method, Jd, J, J_inv, gam[i] * h, t1, R, Pi, G[i], S, codes, params,
+                                       D0, D1, D2, has_D, A[i], sym, v0, v1, v2, tol, max_iter, alpha, hist)
+            its_sum += its
+            if rn > rmax:
+                rmax = rn
+            if st != OK:
+                it_out[k] = its_sum
+                res_out[k] = rn
+                if s > 1:
+                    R[:, :] = R0
+                    Pi[:] = Pi0
+                    S[:] = S0
+                return st, k
+        it_out[k] = its_sum
+        res_out[k] = rmax
+        if (k + 1) % save_every == 0:
+            j = (k + 1) // save_every
+            for a in range(3):
+                Pi_out[j, a] = Pi[a]
+                for b in range(3):
+                    R_out[j, a, b] = R[a, b]
+    return OK, k0 + n
+
+
+@jit
+def shifted_step(method, Jd, hs, R, Pi, G, m0, m1, m2, tol, max_iter, alpha, hist):
+    """Variational half of a symmetric step for a Python torque callable, in place.
+
+    With ``mu = Pi + hs/2 m``: solves ``hat(hs mu) = F Jd - Jd F^T``, sets ``R <- R F`` and
+    ``Pi <- F^T mu``; the caller then adds ``hs/2 M_{k+1}``. Returns ``(iterations, residual,
+    status)``; on failure nothing changed.
+    """
+    hh = 0.5 * hs
+    m0 = Pi[0] + hh * m0
+    m1 = Pi[1] + hh * m1
+    m2 = Pi[2] + hh * m2
+    q0, q1, q2 = predict(G)
+    (g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its, rn,
+     st) = solve_scalar(method, Jd[0, 0], Jd[0, 1], Jd[0, 2], Jd[1, 1], Jd[1, 2], Jd[2, 2],
+                        hs * m0, hs * m1, hs * m2, q0, q1, q2, tol, max_iter, alpha, hist)
+    if st != OK:
+        return its, rn, st
+    push(G, g0, g1, g2)
+    for i in range(3):
+        a0 = R[i, 0]
+        a1 = R[i, 1]
+        a2 = R[i, 2]
+        R[i, 0] = a0 + a0 * E00 + a1 * E10 + a2 * E20
+        R[i, 1] = a1 + a0 * E01 + a1 * E11 + a2 * E21
+        R[i, 2] = a2 + a0 * E02 + a1 * E12 + a2 * E22
+    Pi[0] = m0 + (E00 * m0 + E10 * m1 + E20 * m2)
+    Pi[1] = m1 + (E01 * m0 + E11 * m1 + E21 * m2)
+    Pi[2] = m2 + (E02 * m0 + E12 * m1 + E22 * m2)
+    return its, rn, st

@@ -1,0 +1,539 @@
+r"""Torque and potential models: moments described as data, evaluated inside compiled kernels.
+
+A model is passed as ``simulate(..., torque=model)``. The integrator never calls back into Python
+for it: :meth:`TorqueModel.encode` turns the model into two flat arrays (integer codes and float
+parameters) that :mod:`lgvi._kernels.torque_kernels` evaluates in every step. Each model also
+has a plain NumPy evaluator, :meth:`TorqueModel.moment`, vectorised over leading axes, for
+baselines, plots and tests.
+
+Models add up: ``UniformGravity(1.0, [0, 0, 0.3]) + LinearDamping(0.01)`` is a
+:class:`TorqueSum`, itself a model.
+
+================================  ============  ==================  ==============
+model                             conservative  depends on momentum time-dependent
+================================  ============  ==================  ==============
+:class:`UniformGravity`           yes           no                  no
+:class:`GravityGradient`          yes           no                  yes (the orbit)
+:class:`Constant`                 no            no                  no
+:class:`LinearDamping`            no            yes                 no
+:class:`AttitudePD`               no            yes                 no
+================================  ============  ==================  ==============
+
+Conventions
+-----------
+All moments are in the body frame. ``R`` maps body vectors to inertial ones, ``Pi = J Omega``.
+A conservative model has a potential ``U(t, R)`` and its moment is ``M = -dU`` in the sense of
+the LGVI: for every ``eta`` in R^3,
+
+.. math::
+
+    \frac{d}{d\epsilon} U(t, R \exp(\epsilon \hat\eta)) \Big|_{\epsilon=0} = -M \cdot \eta .
+
+The integrator treats conservative moments with the variational (symmetric) LGVI of Lee, Leok and
+McClamroch and reports ``U`` in :attr:`lgvi.Trajectory.potential`.
+
+Kernel encoding
+---------------
+``encode()`` returns ``codes`` (n, 2) int64, one row ``(kind, offset)`` per term, and ``params``
+float64 in which term ``i`` owns ``params[offset : offset + PARAM_COUNT[kind]]``:
+
+* ``GRAVITY`` (1): ``mass * g * com`` (3)
+* ``GRAVITY_GRADIENT`` (2): ``3 mu / r^3``, ``n = sqrt(mu / r^3)`` (2)
+* ``CONSTANT`` (3): ``u`` (3)
+* ``DAMPING`` (4): ``c`` (3, per body axis)
+* ``ATTITUDE_PD`` (5): ``kp`` (3), ``kd`` (3), ``R_target`` row-major (9)
+
+Every momentum dependence of the built-in models is ``-D Omega`` with a diagonal ``D`` (the
+damping ``c`` and the derivative gain ``kd``), which lets the symmetric scheme solve for
+``Pi_{k+1}`` exactly with one 3x3 linear solve.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ._validation import as_float, as_float_array, as_rotation
+
+__all__ = [
+    "AttitudePD",
+    "Constant",
+    "GravityGradient",
+    "LinearDamping",
+    "TorqueModel",
+    "TorqueSum",
+    "UniformGravity",
+]
+
+# kernel codes (shared with lgvi._kernels.torque_kernels)
+GRAVITY = 1
+GRAVITY_GRADIENT = 2
+CONSTANT = 3
+DAMPING = 4
+ATTITUDE_PD = 5
+PARAM_COUNT = {GRAVITY: 3, GRAVITY_GRADIENT: 2, CONSTANT: 3, DAMPING: 3, ATTITUDE_PD: 15}
+
+E3 = np.array([0.0, 0.0, 1.0])
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=np.float64)
+    a.flags.writeable = False
+    return a
+
+
+def _num(x: float) -> str:
+    return f"{x:.10g}"
+
+
+def _vec_text(v: np.ndarray) -> str:
+    return "[" + ", ".join(_num(float(x)) for x in v) + "]"
+
+
+def _gain(value: Any, name: str) -> np.ndarray:
+    """A non-negative gain: a scalar (the same on every body axis) or (3,) per body axis."""
+    arr = as_float_array(value, name)
+    if arr.ndim == 0:
+        arr = np.full(3, float(arr))
+    elif arr.shape != (3,):
+        raise ValueError(f"{name} must be a scalar or have shape (3,), got shape {arr.shape}")
+    if np.any(arr < 0.0):
+        raise ValueError(f"{name} must be >= 0 (a gain, per body axis), got {arr}")
+    return arr
+
+
+def _gain_text(v: np.ndarray) -> str:
+    return _num(float(v[0])) if v[0] == v[1] == v[2] else _vec_text(v)
+
+
+def _body_arrays(body: Any) -> tuple[np.ndarray, np.ndarray]:
+    from .body import RigidBody
+
+    b = body if isinstance(body, RigidBody) else RigidBody(body)
+    return b.J, b.J_inv
+
+
+def _state(R: Any, Pi: Any | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    R = np.asarray(R, dtype=np.float64)
+    if R.ndim < 2 or R.shape[-2:] != (3, 3):
+        raise ValueError(f"R must have shape (..., 3, 3), got shape {R.shape}")
+    if Pi is not None:
+        Pi = np.asarray(Pi, dtype=np.float64)
+        if Pi.ndim < 1 or Pi.shape[-1] != 3:
+            raise ValueError(f"Pi must have shape (..., 3), got shape {Pi.shape}")
+    return R, Pi
+
+
+def _time(t: Any) -> np.ndarray:
+    t = np.asarray(t, dtype=np.float64)
+    return t
+
+
+class TorqueModel:
+    """Base class of the torque models (a moment given as data; see the module notes).
+
+    Subclasses set the class attributes and implement ``_terms`` (kernel encoding), ``moment``
+    and, when conservative, ``potential``.
+    """
+
+    #: The moment derives from a potential ``U(t, R)`` (``M = -dU``, see the module notes).
+    conservative: bool = False
+    #: The moment depends on the angular momentum (``Pi``, through ``Omega = J^-1 Pi``).
+    depends_on_momentum: bool = False
+    #: The moment depends explicitly on time.
+    time_dependent: bool = False
+
+    # -- kernel encoding ------------------------------------------------------------------
+    def _terms(self) -> list[tuple[int, np.ndarray]]:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    @property
+    def terms(self) -> tuple["TorqueModel", ...]:
+        """The elementary models this one is made of (itself for a single model)."""
+        return (self,)
+
+    def encode(self) -> tuple[np.ndarray, np.ndarray]:
+        """Kernel form: ``codes`` (n, 2) int64 rows ``(kind, offset)`` and ``params`` float64.
+
+        See the module notes for the layout of each kind.
+        """
+        rows = []
+        chunks = []
+        offset = 0
+        for kind, p in self._terms():
+            rows.append((kind, offset))
+            chunks.append(np.asarray(p, dtype=np.float64).ravel())
+            offset += PARAM_COUNT[kind]
+        codes = np.array(rows, dtype=np.int64).reshape(len(rows), 2)
+        params = np.concatenate(chunks) if chunks else np.zeros(0)
+        return codes, np.ascontiguousarray(params, dtype=np.float64)
+
+    # -- NumPy evaluation --------------------------------------------------------------------
+    def moment(self, t: Any, R: Any, Pi: Any, body: Any) -> np.ndarray:
+        """Body-frame moment at time ``t`` and state ``(R, Pi)``.
+
+        Parameters
+        ----------
+        t : float or array_like
+            Time (broadcast against the leading axes of ``R``).
+        R : (..., 3, 3) array_like
+            Attitudes.
+        Pi : (..., 3) array_like
+            Body angular momenta (ignored by models that do not depend on them).
+        body : RigidBody or array_like
+            The body (or its inertia).
+
+        Returns
+        -------
+        (..., 3) ndarray
+        """
+        raise NotImplementedError  # pragma: no cover - abstract
+
+    def potential(self, t: Any, R: Any, body: Any) -> np.ndarray | None:
+        """Potential energy ``U(t, R)`` (shape ``R.shape[:-2]``), or ``None`` if not conservative."""
+        return None
+
+    # -- algebra -----------------------------------------------------------------------------
+    def __add__(self, other: Any) -> "TorqueSum":
+        if not isinstance(other, TorqueModel):
+            return NotImplemented
+        return TorqueSum(*self.terms, *other.terms)
+
+    def __radd__(self, other: Any) -> "TorqueModel":
+        if isinstance(other, (int, float)) and not isinstance(other, bool) and other == 0:
+            return self  # so that sum(models) works
+        return NotImplemented
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, TorqueModel):
+            return NotImplemented
+        a_codes, a_params = self.encode()
+        b_codes, b_params = other.encode()
+        return bool(np.array_equal(a_codes, b_codes) and np.array_equal(a_params, b_params))
+
+    def __hash__(self) -> int:
+        codes, params = self.encode()
+        return hash((codes.tobytes(), (params + 0.0).tobytes()))
+
+
+class UniformGravity(TorqueModel):
+    r"""Uniform gravity on a body pivoting about a fixed point (heavy top, 3D pendulum).
+
+    Inertial ``e3`` points up and gravity acts along ``-e3``; ``com`` is the centre of mass in the
+    body frame, measured from the pivot (the origin of the body frame, about which ``J`` is taken).
+
+    Parameters
+    ----------
+    mass : float
+        Mass, > 0.
+    com : (3,) array_like
+        Centre of mass in the body frame, from the pivot.
+    g : float
+        Gravitational acceleration, >= 0 (default 9.81).
+
+    Notes
+    -----
+    ``U(R) = mass g e3 . (R com)`` and ``M = mass g (R^T e3) x com``. About the vertical the
+    moment has no component (``e3 . R M = 0``), so the LGVI conserves ``e3 . R Pi`` to round-off.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from lgvi.torques import UniformGravity
+    >>> m = UniformGravity(1.0, [0.0, 0.0, 0.3])
+    >>> m
+    UniformGravity(mass=1, com=[0, 0, 0.3], g=9.81)
+    >>> float(m.potential(0.0, np.eye(3), [1.0, 1.0, 1.0]))
+    2.943
+    """
+
+    conservative = True
+
+    def __init__(self, mass: float, com: Any, g: float = 9.81):
+        self.mass = as_float(mass, "mass", positive=True)
+        self.com = _readonly(as_float_array(com, "com", (3,)))
+        self.g = as_float(g, "g")
+        if self.g < 0.0:
+            raise ValueError(f"g must be >= 0 (gravity acts along -e3), got {self.g}")
+
+    def __repr__(self) -> str:
+        return f"UniformGravity(mass={_num(self.mass)}, com={_vec_text(self.com)}, g={_num(self.g)})"
+
+    def _terms(self):
+        return [(GRAVITY, self.mass * self.g * self.com)]
+
+    def moment(self, t, R, Pi, body):
+        R, _ = _state(R)
+        s = R[..., 2, :]                                   # R^T e3
+        return np.cross(s, self.mass * self.g * self.com)
+
+    def potential(self, t, R, body):
+        R, _ = _state(R)
+        return self.mass * self.g * (R[..., 2, :] @ self.com)
+
+
+class GravityGradient(TorqueModel):
+    r"""Gravity-gradient moment on a body on a circular orbit.
+
+    The orbit lies in the inertial ``e1``-``e2`` plane (orbit normal ``e3``), with radius ``r``
+    and rate ``n = sqrt(mu / r^3)``; the position direction is
+    ``r_hat(t) = (cos n t, sin n t, 0)`` (on ``e1`` at ``t = 0``).
+
+    Parameters
+    ----------
+    mu : float
+        Gravitational parameter, > 0.
+    radius : float
+        Orbit radius ``r``, > 0.
+
+    Notes
+    -----
+    With ``c = -R^T r_hat(t)`` the nadir direction in the body frame,
+
+    ``M = 3 mu / r^3  c x (J c)``,   ``U = 3/2 mu / r^3  c . J c``.
+
+    ``U`` is the gravity-gradient part of the potential; the dropped terms
+    ``-mu m / r - mu tr(J) / (2 r^3)`` are constant on a circular orbit. The body is at rest
+    in the orbiting frame when its axis of least inertia points to nadir.
+
+    Axis naming (used by the libration tests): the local-vertical local-horizontal frame has
+    roll axis ``x`` along the orbital velocity, pitch axis ``y`` along the negative orbit normal
+    and yaw axis ``z`` to nadir; with the body's principal axes on them (body axis 1 along the
+    velocity, 2 against the orbit normal, 3 to nadir) and ``J = diag(J1, J2, J3)``, small pitch
+    librations have frequency ``sqrt(3 n^2 (J1 - J3) / J2)``. That attitude is
+    ``R(t) = [v_hat(t), -e3, -r_hat(t)]`` (columns), ``v_hat = (-sin n t, cos n t, 0)``, and its
+    body rate is ``Omega = (0, -n, 0)``.
+
+    Examples
+    --------
+    >>> from lgvi.torques import GravityGradient
+    >>> GravityGradient(mu=3.986e14, radius=7.0e6)
+    GravityGradient(mu=3.986e+14, radius=7000000)
+    """
+
+    conservative = True
+    time_dependent = True
+
+    def __init__(self, mu: float, radius: float):
+        self.mu = as_float(mu, "mu", positive=True)
+        self.radius = as_float(radius, "radius", positive=True)
+        k = self.mu / self.radius ** 3
+        if not (np.isfinite(k) and k > 0.0):
+            raise ValueError(f"mu / radius^3 must be a positive finite number, got {k} "
+                             f"(mu={self.mu}, radius={self.radius})")
+
+    @property
+    def mean_motion(self) -> float:
+        """Orbital rate ``n = sqrt(mu / r^3)``."""
+        return float(np.sqrt(self.mu / self.radius ** 3))
+
+    def __repr__(self) -> str:
+        return f"GravityGradient(mu={_num(self.mu)}, radius={_num(self.radius)})"
+
+    def _terms(self):
+        k = self.mu / self.radius ** 3
+        return [(GRAVITY_GRADIENT, np.array([3.0 * k, np.sqrt(k)]))]
+
+    def nadir(self, t: Any, R: Any) -> np.ndarray:
+        """Nadir direction ``c = -R^T r_hat(t)`` in the body frame, shape ``(..., 3)``."""
+        R, _ = _state(R)
+        nt = self.mean_motion * _time(t)
+        r_hat = np.stack(np.broadcast_arrays(np.cos(nt), np.sin(nt), np.zeros_like(nt)), axis=-1)
+        return -np.einsum("...ji,...j->...i", R, r_hat)
+
+    def moment(self, t, R, Pi, body):
+        J, _ = _body_arrays(body)
+        c = self.nadir(t, R)
+        return 3.0 * self.mu / self.radius ** 3 * np.cross(c, c @ J.T)
+
+    def potential(self, t, R, body):
+        J, _ = _body_arrays(body)
+        c = self.nadir(t, R)
+        return 1.5 * self.mu / self.radius ** 3 * np.einsum("...i,...i->...", c, c @ J.T)
+
+
+class Constant(TorqueModel):
+    """A constant body-frame moment ``u`` (for example a thruster fixed on the body).
+
+    Parameters
+    ----------
+    u : (3,) array_like
+        The moment, in the body frame.
+
+    Examples
+    --------
+    >>> from lgvi.torques import Constant
+    >>> Constant([0.0, 0.0, 1e-3])
+    Constant(u=[0, 0, 0.001])
+    """
+
+    def __init__(self, u: Any):
+        self.u = _readonly(as_float_array(u, "u", (3,)))
+
+    def __repr__(self) -> str:
+        return f"Constant(u={_vec_text(self.u)})"
+
+    def _terms(self):
+        return [(CONSTANT, self.u)]
+
+    def moment(self, t, R, Pi, body):
+        R, Pi = _state(R, Pi)
+        shape = np.broadcast_shapes(R.shape[:-2], Pi.shape[:-1]) if Pi is not None else R.shape[:-2]
+        return np.broadcast_to(self.u, shape + (3,)).copy()
+
+
+class LinearDamping(TorqueModel):
+    """Linear viscous damping ``u = -c Omega`` (``Omega = J^-1 Pi``).
+
+    Parameters
+    ----------
+    c : float or (3,) array_like
+        Damping coefficient, >= 0: one for all body axes or one per body axis
+        (``u_i = -c_i Omega_i``).
+
+    Examples
+    --------
+    >>> from lgvi.torques import LinearDamping
+    >>> LinearDamping(0.1), LinearDamping([0.1, 0.2, 0.3])
+    (LinearDamping(c=0.1), LinearDamping(c=[0.1, 0.2, 0.3]))
+    """
+
+    depends_on_momentum = True
+
+    def __init__(self, c: Any):
+        self.c = _readonly(_gain(c, "c"))
+
+    def __repr__(self) -> str:
+        return f"LinearDamping(c={_gain_text(self.c)})"
+
+    def _terms(self):
+        return [(DAMPING, self.c)]
+
+    def moment(self, t, R, Pi, body):
+        _, J_inv = _body_arrays(body)
+        Pi = np.asarray(Pi, dtype=np.float64)
+        return -self.c * (Pi @ J_inv.T)
+
+
+class AttitudePD(TorqueModel):
+    r"""Geometric attitude controller (proportional-derivative on SO(3)) towards ``R_target``.
+
+    ``e_R = vee(R_d^T R - R^T R_d) / 2``, ``u = -kp e_R - kd Omega``.
+
+    Parameters
+    ----------
+    kp, kd : float or (3,) array_like
+        Proportional and derivative gains, >= 0 (one for all body axes, or per body axis).
+    R_target : (3, 3) array_like or scipy Rotation, optional
+        Desired attitude ``R_d`` (default the identity).
+
+    Notes
+    -----
+    With scalar ``kp`` the proportional part is the moment of the potential
+    ``kp / 2 tr(I - R_d^T R)`` = ``kp (1 - cos angle)``, and with ``kd > 0`` the closed loop
+    converges to ``R_d`` from any attitude rotated less than pi away from it (almost global
+    convergence). The model is not conservative as a whole (``kd`` dissipates).
+
+    Examples
+    --------
+    >>> from lgvi.torques import AttitudePD
+    >>> AttitudePD(kp=2.0, kd=1.5)
+    AttitudePD(kp=2, kd=1.5, R_target=identity)
+    """
+
+    depends_on_momentum = True
+
+    def __init__(self, kp: Any, kd: Any, R_target: Any = None):
+        self.kp = _readonly(_gain(kp, "kp"))
+        self.kd = _readonly(_gain(kd, "kd"))
+        Rd = np.eye(3) if R_target is None else as_rotation(R_target, "R_target")
+        self.R_target = _readonly(Rd)
+
+    def __repr__(self) -> str:
+        if np.array_equal(self.R_target, np.eye(3)):
+            target = "identity"
+        else:
+            target = "[" + ", ".join(_vec_text(row) for row in self.R_target) + "]"
+        return f"AttitudePD(kp={_gain_text(self.kp)}, kd={_gain_text(self.kd)}, R_target={target})"
+
+    def _terms(self):
+        return [(ATTITUDE_PD, np.concatenate([self.kp, self.kd, self.R_target.ravel()]))]
+
+    def attitude_error(self, R: Any) -> np.ndarray:
+        """``e_R = vee(R_d^T R - R^T R_d) / 2``, shape ``(..., 3)``."""
+        R, _ = _state(R)
+        A = np.einsum("ji,...jk->...ik", self.R_target, R)   # R_d^T R
+        return 0.5 * np.stack([A[..., 2, 1] - A[..., 1, 2], A[..., 0, 2] - A[..., 2, 0],
+                               A[..., 1, 0] - A[..., 0, 1]], axis=-1)
+
+    def moment(self, t, R, Pi, body):
+        _, J_inv = _body_arrays(body)
+        Pi = np.asarray(Pi, dtype=np.float64)
+        return -self.kp * self.attitude_error(R) - self.kd * (Pi @ J_inv.T)
+
+
+class TorqueSum(TorqueModel):
+    """A sum of torque models (what ``model_a + model_b`` returns); nested sums are flattened.
+
+    Conservative when every term is; depends on momentum or time when any term does. Its
+    ``potential`` is the sum of the potentials of its conservative terms (``None`` if there are
+    none), so a damped heavy top reports the gravity energy.
+
+    Examples
+    --------
+    >>> from lgvi.torques import UniformGravity, LinearDamping
+    >>> UniformGravity(1.0, [0, 0, 0.3]) + LinearDamping(0.01)
+    TorqueSum(UniformGravity(mass=1, com=[0, 0, 0.3], g=9.81), LinearDamping(c=0.01))
+    """
+
+    def __init__(self, *models: TorqueModel):
+        flat: list[TorqueModel] = []
+        for i, m in enumerate(models):
+            if not isinstance(m, TorqueModel):
+                raise TypeError(f"TorqueSum terms must be torque models (lgvi.torques), got "
+                                f"{type(m).__name__} as term {i}")
+            flat.extend(m.terms)
+        if not flat:
+            raise ValueError("TorqueSum needs at least one model")
+        self._models = tuple(flat)
+
+    @property
+    def terms(self) -> tuple[TorqueModel, ...]:
+        return self._models
+
+    @property
+    def conservative(self) -> bool:  # type: ignore[override]
+        return all(m.conservative for m in self._models)
+
+    @property
+    def depends_on_momentum(self) -> bool:  # type: ignore[override]
+        return any(m.depends_on_momentum for m in self._models)
+
+    @property
+    def time_dependent(self) -> bool:  # type: ignore[override]
+        return any(m.time_dependent for m in self._models)
+
+    def __repr__(self) -> str:
+        return "TorqueSum(" + ", ".join(repr(m) for m in self._models) + ")"
+
+    def _terms(self):
+        out = []
+        for m in self._models:
+            out.extend(m._terms())
+        return out
+
+    def moment(self, t, R, Pi, body):
+        total = None
+        for m in self._models:
+            v = m.moment(t, R, Pi, body)
+            total = v if total is None else total + v
+        return total
+
+    def potential(self, t, R, body):
+        total = None
+        for m in self._models:
+            if m.conservative:
+                v = m.potential(t, R, body)
+                total = v if total is None else total + v
+        return total
