@@ -334,7 +334,8 @@ def rates(traj: Trajectory, axes: Sequence[Axes] | None = None, *, max_points: i
     return fig
 
 
-def conservation(traj: Trajectory, ax: Axes | None = None, *, max_points: int = MAX_POINTS) -> Figure:
+def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str, Any] | None = None,
+                 max_points: int = MAX_POINTS) -> Figure:
     """Conservation diagnostics on a logarithmic axis against time.
 
     Draws the relative error of the energy (kinetic plus potential, if the run has one), of the
@@ -346,12 +347,23 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, max_points: int = 
     ----------
     traj : Trajectory
     ax : matplotlib Axes, optional
+    extra : mapping of label -> (M,) array_like, optional
+        More error series to draw (one value per sample), e.g. the vertical momentum error
+        ``|e3 . (R Pi - R_0 Pi_0)| / |e3 . R_0 Pi_0|`` of a heavy top.
     max_points : int
         Most points per curve.
 
     Returns
     -------
     matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> import numpy as np, lgvi, lgvi.plot
+    >>> traj = lgvi.simulate([1.0, 2.0, 3.0], np.eye(3), omega0=[0.3, 1.0, 0.2], h=0.01, steps=200)
+    >>> fig = lgvi.plot.conservation(traj)
+    >>> fig.axes[0].get_yscale()
+    'log'
     """
     _check_traj(traj, "conservation")
     fig, ax = _axes(ax)
@@ -362,6 +374,13 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, max_points: int = 
         tt, yy = _thin_max(t, _floor(err), max_points)
         ax.plot(tt, yy, color=_COMPONENT_COLORS[i], lw=1.2, ls="--" if dashed else "-",
                 label=label + (" (not an invariant here)" if dashed else ""))
+    for j, (label, err) in enumerate((extra or {}).items()):
+        err = np.asarray(err, dtype=np.float64)
+        if err.shape != t.shape:
+            raise ValueError(f"conservation: extra[{label!r}] must have shape {t.shape} (one value per sample), "
+                             f"got {err.shape}")
+        tt, yy = _thin_max(t, _floor(err), max_points)
+        ax.plot(tt, yy, color=f"C{4 + j}", lw=1.2, label=str(label))
     _style_log(ax)
     ax.set_xlabel(_UNITS["t"])
     ax.set_ylabel("error (relative, 1)")
@@ -509,6 +528,14 @@ def polhode_curves(moments: Sequence[float], radius: float, energies: Sequence[f
     return curves
 
 
+def _axis_name(v: np.ndarray, moment: float) -> str:
+    """Label of a principal axis: its moment, and the body axis it lies on, if any."""
+    j = int(np.argmax(np.abs(v)))
+    on_body_axis = abs(abs(v[j]) - 1.0) < 1e-12
+    where = f"body axis {j + 1}" if on_body_axis else "principal axis"
+    return f"{where}, J = {moment:.3g} kg m$^2$"
+
+
 def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_points: int = MAX_POINTS) -> Figure:
     """The body angular momentum path on the momentum sphere, with analytic polhodes.
 
@@ -555,9 +582,8 @@ def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_po
     # principal axes
     for i in range(3):
         a = V[:, i] * 1.25 * scale
-        ax.plot(*np.column_stack([-a, a]), color=_COMPONENT_COLORS[i], lw=1.0, alpha=0.8)
-        ax.text(*(a * 1.05), f"axis {i + 1} ($J_{i + 1}$={moments[i]:.3g})", color=_COMPONENT_COLORS[i],
-                fontsize="small")
+        ax.plot(*np.column_stack([-a, a]), color=_COMPONENT_COLORS[i], lw=1.2, alpha=0.9,
+                label=_axis_name(V[:, i], moments[i]))
     # reference polhodes
     if L > 0 and moments[0] < moments[2]:
         I1, I2, I3 = moments
@@ -581,8 +607,8 @@ def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_po
                     label=f"analytic polhode, $E_0$ = {E0:.4g} J" if j == 0 else None)
     step = max(1, int(np.ceil(len(Pi) / max_points)))
     path = np.vstack([Pi[::step], Pi[-1:]])
-    ax.plot(*path.T, color="tab:blue", lw=1.6, label=r"path $\Pi_k$ of the run")
-    ax.scatter(*Pi[0], color="tab:blue", s=30, depthshade=False, label=r"start $\Pi_0$")
+    ax.plot(*path.T, color="tab:purple", lw=2.0, label=r"path $\Pi_k$ of the run")
+    ax.scatter(*Pi[0], color="tab:purple", edgecolor="black", s=40, depthshade=False, label=r"start $\Pi_0$")
     lim = 1.3 * scale
     ax.set_xlim(-lim, lim)
     ax.set_ylim(-lim, lim)
