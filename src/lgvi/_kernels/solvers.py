@@ -84,19 +84,18 @@ def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, t
         if method == METHOD_CAYLEY:
             a = 2.0 / (1.0 + t2)
             b = a
-            enorm = 2.83 * math.sqrt(t2)          # |cay(f) - I|_F <= sqrt(2) * 2 atan|f|
         else:
             if t2 < SMALL_ANGLE * SMALL_ANGLE:
                 a = 1.0 - t2 / 6.0 * (1.0 - t2 / 20.0)
                 b = 0.5 - t2 / 24.0 * (1.0 - t2 / 30.0)
-                enorm = 1.5 * math.sqrt(t2)
             else:
                 t = math.sqrt(t2)
                 sh = math.sin(0.5 * t)
                 ch = math.cos(0.5 * t)
                 a = 2.0 * sh * ch / t             # sin t / t
                 b = 2.0 * sh * sh / t2            # (1 - cos t) / t^2, no cancellation
-                enorm = 1.5 * t                   # |exp(w) - I|_F <= sqrt(2) |w|
+        # |F - I|_F^2 = 4 (1 - cos angle) = 4 b |g|^2 for both maps (b = a for Cayley): at most 8
+        enorm = 2.0 * math.sqrt(b * t2)
         E00, E01, E02, E10, E11, E12, E20, E21, E22 = expm1_entries(g0, g1, g2, a, b)
         # X = E Jd (Jd symmetric); r = vee(X - X^T) - hPi
         x00 = E00 * d00 + E01 * d01 + E02 * d02
