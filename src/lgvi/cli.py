@@ -25,6 +25,7 @@ computed is written first).
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import platform
 import sys
@@ -75,7 +76,7 @@ TABLE_HEADER = (f"{'integrator':<24} {'steps':>9} {'wall [s]':>9} {'steps/s':>11
 def _plot_module():
     """``lgvi.plot`` or ``None`` (with a note on stderr) when it or matplotlib is missing."""
     try:
-        from . import plot
+        plot = importlib.import_module("lgvi.plot")
     except ImportError as exc:
         _err(f"figures skipped: lgvi.plot is not available ({exc}); install matplotlib: pip install 'lgvi[plot]'")
         return None
@@ -424,14 +425,15 @@ def _read(path: str):
     try:
         return read_trajectory(path)
     except ValueError as exc:
-        raise UsageError(str(exc)) from None
+        msg = str(exc)
+        raise UsageError(msg if str(path) in msg else f"{path}: {msg}") from None
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
     traj = _read(args.trajectory)
     outdir = Path(args.output) if args.output else Path(args.trajectory).resolve().parent
     try:
-        from . import plot
+        plot = importlib.import_module("lgvi.plot")
     except ImportError as exc:
         raise RunFailure(f"figures need lgvi.plot and matplotlib ({exc}): pip install 'lgvi[plot]'") from None
     files = list(plot.save_figures(traj, outdir, prefix=args.prefix))
