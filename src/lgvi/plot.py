@@ -28,7 +28,7 @@ from __future__ import annotations
 import os
 import warnings
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -192,12 +192,14 @@ def _conservation_series(traj: Trajectory) -> dict[str, tuple[np.ndarray, str]]:
     L = np.asarray(traj.spatial_momentum, dtype=np.float64)
     nL0 = float(np.linalg.norm(L[0]))
     dL = np.linalg.norm(L - L[0], axis=1) / (nL0 if nL0 > 0 else 1.0)
+    relL = nL0 > 0
     orth = np.asarray(traj.orthogonality_error, dtype=np.float64)
     energy_name = "total energy" if getattr(traj, "potential", None) is not None else "kinetic energy"
     return {
         "energy": (dE, f"{energy_name} $|E - E_0|/|E_0|$" if rel else f"{energy_name} $|E - E_0|$ (J)"),
         "casimir": (dPi, r"$\,||\Pi| - |\Pi_0||/|\Pi_0|$" if relPi else r"$||\Pi| - |\Pi_0||$ (kg m$^2$/s)"),
-        "momentum": (dL, r"spatial momentum $|R\Pi - R_0\Pi_0|/|R_0\Pi_0|$"),
+        "momentum": (dL, r"spatial momentum $|R\Pi - R_0\Pi_0|/|R_0\Pi_0|$" if relL
+                     else r"spatial momentum $|R\Pi - R_0\Pi_0|$ (kg m$^2$/s)"),
         "orthogonality": (orth, r"orthogonality $\|R^T R - I\|_F$"),
     }
 
@@ -335,13 +337,13 @@ def rates(traj: Trajectory, axes: Sequence[Axes] | None = None, *, max_points: i
 
 
 def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str, Any] | None = None,
-                 max_points: int = MAX_POINTS) -> Figure:
+                 invariants: Sequence[str] | None = None, max_points: int = MAX_POINTS) -> Figure:
     """Conservation diagnostics on a logarithmic axis against time.
 
     Draws the relative error of the energy (kinetic plus potential, if the run has one), of the
     Casimir ``|Pi|`` and of the spatial momentum ``R Pi``, and the distance ``|R^T R - I|_F`` of
     the attitude from SO(3). Zeros are drawn at :data:`ERROR_FLOOR`; long runs show each bin's
-    maximum. For a forced run ``|Pi|`` and ``R Pi`` are not invariants: they are drawn dashed.
+    maximum. Quantities that are not invariants of the run are drawn dashed and say so.
 
     Parameters
     ----------
@@ -350,6 +352,10 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     extra : mapping of label -> (M,) array_like, optional
         More error series to draw (one value per sample), e.g. the vertical momentum error
         ``|e3 . (R Pi - R_0 Pi_0)| / |e3 . R_0 Pi_0|`` of a heavy top.
+    invariants : sequence of {"energy", "casimir", "momentum"}, optional
+        Which of the three are invariants of this run. Default: all three for a free body, the
+        energy alone for a forced run (right for a fixed potential; pass ``()`` for a
+        dissipative or time-dependent torque).
     max_points : int
         Most points per curve.
 
@@ -368,9 +374,14 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     _check_traj(traj, "conservation")
     fig, ax = _axes(ax)
     t = np.asarray(traj.t)
-    forced = _forced(traj)
+    if invariants is None:
+        invariants = ("energy",) if _forced(traj) else ("energy", "casimir", "momentum")
+    unknown = set(invariants) - {"energy", "casimir", "momentum"}
+    if unknown:
+        raise ValueError(f"conservation: invariants must be among 'energy', 'casimir', 'momentum'; "
+                         f"got {sorted(unknown)}")
     for i, (key, (err, label)) in enumerate(_conservation_series(traj).items()):
-        dashed = forced and key in ("casimir", "momentum")
+        dashed = key != "orthogonality" and key not in invariants
         tt, yy = _thin_max(t, _floor(err), max_points)
         ax.plot(tt, yy, color=_COMPONENT_COLORS[i], lw=1.2, ls="--" if dashed else "-",
                 label=label + (" (not an invariant here)" if dashed else ""))
@@ -528,12 +539,26 @@ def polhode_curves(moments: Sequence[float], radius: float, energies: Sequence[f
     return curves
 
 
-def _axis_name(v: np.ndarray, moment: float) -> str:
-    """Label of a principal axis: its moment, and the body axis it lies on, if any."""
-    j = int(np.argmax(np.abs(v)))
-    on_body_axis = abs(abs(v[j]) - 1.0) < 1e-12
-    where = f"body axis {j + 1}" if on_body_axis else "principal axis"
-    return f"{where}, J = {moment:.3g} kg m$^2$"
+def _principal_axes(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str], list[str]]:
+    """Principal moments (ascending), axes (columns, det +1), names and colours.
+
+    An axis that lies on a body axis is named and coloured after it ("body axis 2", green, as
+    ``omega_2`` elsewhere); otherwise "principal axis" with the colour of its rank.
+    """
+    J = np.asarray(inertia, dtype=np.float64)
+    moments, V = np.linalg.eigh(0.5 * (J + J.T))
+    if np.linalg.det(V) < 0:
+        V[:, 0] = -V[:, 0]
+    names, colors = [], []
+    for i in range(3):
+        j = int(np.argmax(np.abs(V[:, i])))
+        if abs(abs(V[j, i]) - 1.0) < 1e-12:
+            names.append(f"body axis {j + 1}")
+            colors.append(_COMPONENT_COLORS[j])
+        else:
+            names.append(f"principal axis {i + 1}")
+            colors.append(_COMPONENT_COLORS[i])
+    return moments, V, names, colors
 
 
 def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_points: int = MAX_POINTS) -> Figure:
@@ -568,22 +593,21 @@ def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_po
             raise ValueError("polhode: ax must be a 3D Axes (add_subplot(projection='3d'))")
         fig = ax.get_figure()
     J = np.asarray(traj.inertia, dtype=np.float64)
-    moments, V = np.linalg.eigh(0.5 * (J + J.T))
-    if np.linalg.det(V) < 0:
-        V[:, 0] = -V[:, 0]
+    moments, V, names, colors = _principal_axes(J)
     Pi = np.asarray(traj.Pi, dtype=np.float64)
     L = float(np.linalg.norm(Pi[0]))
-    scale = L if L > 0 else 1.0
+    scale = max(L, float(np.max(np.linalg.norm(Pi, axis=1))))  # a forced run may leave the sphere
+    scale = scale if scale > 0 else 1.0
 
-    # sphere wireframe
-    uu, vv = np.meshgrid(np.linspace(0, 2 * np.pi, 37), np.linspace(0, np.pi, 19))
-    ax.plot_wireframe(scale * np.cos(uu) * np.sin(vv), scale * np.sin(uu) * np.sin(vv), scale * np.cos(vv),
-                      color="0.75", lw=0.4, alpha=0.6)
+    if L > 0:  # sphere wireframe
+        uu, vv = np.meshgrid(np.linspace(0, 2 * np.pi, 37), np.linspace(0, np.pi, 19))
+        ax.plot_wireframe(L * np.cos(uu) * np.sin(vv), L * np.sin(uu) * np.sin(vv), L * np.cos(vv),
+                          color="0.75", lw=0.4, alpha=0.6)
     # principal axes
     for i in range(3):
         a = V[:, i] * 1.25 * scale
-        ax.plot(*np.column_stack([-a, a]), color=_COMPONENT_COLORS[i], lw=1.2, alpha=0.9,
-                label=_axis_name(V[:, i], moments[i]))
+        ax.plot(*np.column_stack([-a, a]), color=colors[i], lw=1.2, alpha=0.9,
+                label=f"{names[i]}, J = {moments[i]:.3g} kg m$^2$")
     # reference polhodes
     if L > 0 and moments[0] < moments[2]:
         I1, I2, I3 = moments
@@ -617,7 +641,10 @@ def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_po
     ax.set_xlabel(r"$\Pi_1$ (kg m$^2$/s)")
     ax.set_ylabel(r"$\Pi_2$ (kg m$^2$/s)")
     ax.set_zlabel(r"$\Pi_3$ (kg m$^2$/s)")
-    ax.set_title(f"Polhode: body momentum on the sphere $|\\Pi|$ = {L:.4g} kg m$^2$/s")
+    if L > 0:
+        ax.set_title(f"Polhode: body momentum on the sphere $|\\Pi|$ = $|\\Pi_0|$ = {L:.4g} kg m$^2$/s")
+    else:
+        ax.set_title("Body momentum path (no momentum sphere: $\\Pi_0$ = 0)")
     ax.legend(loc="upper left", fontsize="small", framealpha=0.85)
     return fig
 
@@ -643,9 +670,10 @@ def animate(traj: Trajectory, path: str | os.PathLike, *, fps: int = 30, max_fra
     """Animate the body: a box shaped by the principal moments, its axes and the momentum vector.
 
     The box is the uniform box with the body's principal moments (flat bodies get a thin slab),
-    turned by ``R_k``; its principal axes are drawn in red, green and blue (1, 2, 3 in ascending
-    moment), the spatial angular momentum ``R Pi`` as a black arrow, and the trace of the tip of
-    axis 2 in green. Frames are evenly spread over the run.
+    turned by ``R_k``; its principal axes are drawn in red, green and blue (body axes 1, 2, 3
+    when the principal axes are body axes), the spatial angular momentum ``R Pi`` as a black
+    arrow (scaled to the largest ``|R Pi|`` of the run), and the trace of the tip of the axis of
+    intermediate moment. Frames are evenly spread over the run.
 
     Parameters
     ----------
@@ -690,10 +718,7 @@ def animate(traj: Trajectory, path: str | os.PathLike, *, fps: int = 30, max_fra
     else:
         writer = animation.PillowWriter(fps=int(fps))
 
-    J = np.asarray(traj.inertia, dtype=np.float64)
-    moments, V = np.linalg.eigh(0.5 * (J + J.T))
-    if np.linalg.det(V) < 0:
-        V[:, 0] = -V[:, 0]
+    moments, V, names, colors = _principal_axes(traj.inertia)
     half = _box_half_sides(moments)
     verts_body = (_CORNERS * half) @ V.T            # box corners in body axes
     axes_body = (V * 1.35 * half.max() * 1.6).T     # rows: principal axes (body frame), length ~1.1
@@ -724,12 +749,11 @@ def animate(traj: Trajectory, path: str | os.PathLike, *, fps: int = 30, max_fra
     ax.set_zlabel("inertial z")
     box = Poly3DCollection([], facecolor="lightsteelblue", edgecolor="0.3", linewidths=0.6, alpha=0.55)
     ax.add_collection3d(box)
-    axis_lines = [ax.plot([], [], [], color=_COMPONENT_COLORS[i], lw=2.2,
-                          label=f"principal axis {i + 1} (J{i + 1} = {moments[i]:.3g} kg m²)")[0]
+    axis_lines = [ax.plot([], [], [], color=colors[i], lw=2.2, label=f"{names[i]}, J = {moments[i]:.3g} kg m²")[0]
                   for i in range(3)]
     mom_line = ax.plot([], [], [], color="black", lw=2.5, label="spatial momentum R Π (scaled)")[0]
     mom_head = ax.plot([], [], [], "k^", ms=7)[0]
-    trace = ax.plot([], [], [], color=_COMPONENT_COLORS[1], lw=0.8, alpha=0.6)[0]
+    trace = ax.plot([], [], [], color=colors[1], lw=0.8, alpha=0.6)[0]  # tip of the intermediate axis
     title = ax.set_title("")
     ax.legend(loc="upper left", fontsize="x-small", framealpha=0.85)
 
@@ -816,6 +840,7 @@ def save_figures(traj: Trajectory, outdir: str | os.PathLike, *, prefix: str = "
 
 
 def comparison(trajs: Mapping[str, Trajectory], axes: Sequence[Axes] | None = None, *,
+               extra: Mapping[str, Callable[[Trajectory], Any]] | None = None,
                max_points: int = MAX_POINTS) -> Figure:
     """Conservation diagnostics of several trajectories overlaid: one panel per quantity.
 
@@ -823,47 +848,71 @@ def comparison(trajs: Mapping[str, Trajectory], axes: Sequence[Axes] | None = No
     ----------
     trajs : mapping of label -> Trajectory
         E.g. ``{"lgvi": traj, "RK45": rk}``; the labels go into the legend.
-    axes : four matplotlib Axes, optional
-        Panels for energy, ``|Pi|``, spatial momentum and orthogonality errors.
+    axes : sequence of matplotlib Axes, optional
+        Panels for the energy, ``|Pi|``, spatial momentum and orthogonality errors, then one per
+        ``extra`` entry; a new figure otherwise (2 x 2 panels, 2 x 3 with extras).
+    extra : mapping of title -> callable, optional
+        More panels: ``extra[title](traj)`` returns the ``(M,)`` error series of a trajectory,
+        e.g. the vertical momentum error of a heavy top.
     max_points : int
         Most points per curve.
 
     Returns
     -------
     matplotlib.figure.Figure
+
+    Notes
+    -----
+    When every trajectory is forced (``meta["torque"]`` other than ``"none"``) the ``|Pi|``
+    and spatial momentum panels are marked as not invariants.
     """
     if not isinstance(trajs, Mapping) or not trajs:
         raise ValueError("comparison: trajs must be a non-empty mapping of label -> Trajectory")
     for label, tr in trajs.items():
         _check_traj(tr, f"comparison[{label!r}]")
+    extra = dict(extra or {})
+    n_panels = 4 + len(extra)
     if axes is None:
-        fig = _figure(COMPARISON_FIGSIZE)
-        axs = list(fig.subplots(2, 2, sharex=True).ravel())
+        ncols = 2 if n_panels <= 4 else 3
+        nrows = -(-n_panels // ncols)
+        fig = _figure(COMPARISON_FIGSIZE if ncols == 2 else (13.0, 3.5 * nrows))
+        grid = fig.subplots(nrows, ncols, sharex=True)
+        axs = list(np.ravel(grid))
+        for ax in axs[n_panels:]:
+            ax.set_visible(False)
+        axs = axs[:n_panels]
     else:
         axs = list(np.ravel(np.asarray(axes, dtype=object)))
-        if len(axs) != 4:
-            raise ValueError(f"comparison: axes must be 4 Axes, got {len(axs)}")
+        if len(axs) != n_panels:
+            raise ValueError(f"comparison: axes must be {n_panels} Axes (4 + one per extra), got {len(axs)}")
         fig = axs[0].get_figure()
     from matplotlib import colormaps
 
     cmap = colormaps["tab10"]
+    titles = dict(_CONSERVATION_TITLES)
+    if all(_forced(tr) for tr in trajs.values()):
+        for key in ("casimir", "momentum"):
+            titles[key] += "\n(not an invariant under this torque)"
     for j, (label, tr) in enumerate(trajs.items()):
-        series = _conservation_series(tr)
-        for ax, key in zip(axs, _CONSERVATION_TITLES):
-            tt, yy = _thin_max(np.asarray(tr.t), _floor(series[key][0]), max_points)
+        series = {key: err for key, (err, _) in _conservation_series(tr).items()}
+        for name, fn in extra.items():
+            series[name] = np.asarray(fn(tr), dtype=np.float64)
+        for ax, key in zip(axs, list(titles) + list(extra)):
+            tt, yy = _thin_max(np.asarray(tr.t), _floor(series[key]), max_points)
             ax.plot(tt, yy, color=cmap(j % 10), lw=1.2, label=str(label))
-    for ax, (key, title) in zip(axs, _CONSERVATION_TITLES.items()):
+    for ax, title in zip(axs, list(titles.values()) + list(extra)):
         _style_log(ax)
         ax.set_title(title, fontsize="medium")
         ax.set_ylabel("error (1)")
-    for ax in axs[2:]:
         ax.set_xlabel(_UNITS["t"])
+        ax.tick_params(labelbottom=True)
     axs[0].legend(loc="best", fontsize="small", framealpha=0.85)
     fig.suptitle("Conservation compared (zeros drawn at 1e-17)")
     return fig
 
 
-def save_comparison(trajs: Mapping[str, Trajectory], outdir: str | os.PathLike) -> list[Path]:
+def save_comparison(trajs: Mapping[str, Trajectory], outdir: str | os.PathLike, *,
+                    extra: Mapping[str, Callable[[Trajectory], Any]] | None = None) -> list[Path]:
     """Write :func:`comparison` of several trajectories as ``comparison.png`` (1000 x 700 pixels).
 
     Parameters
@@ -871,6 +920,8 @@ def save_comparison(trajs: Mapping[str, Trajectory], outdir: str | os.PathLike) 
     trajs : mapping of label -> Trajectory
     outdir : str or os.PathLike
         Folder (created if needed).
+    extra : mapping of title -> callable, optional
+        More panels, as in :func:`comparison` (the figure is then 1300 pixels wide).
 
     Returns
     -------
@@ -879,7 +930,7 @@ def save_comparison(trajs: Mapping[str, Trajectory], outdir: str | os.PathLike) 
     """
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
-    return [_save(comparison(trajs), out / "comparison.png")]
+    return [_save(comparison(trajs, extra=extra), out / "comparison.png")]
 
 
 __all__ = [
