@@ -53,7 +53,8 @@ class RunFailure(Exception):
 
 
 def _err(msg: str) -> None:
-    print(f"lgvi: {msg}", file=sys.stderr)
+    """One line on stderr (messages that span lines are joined)."""
+    print("lgvi: " + " ".join(str(msg).split("\n")), file=sys.stderr)
 
 
 def drift_table_row(name: str, traj, steps: int, wall: float) -> str:
