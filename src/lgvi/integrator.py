@@ -416,10 +416,11 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
                 codes, params = model.encode() if model is not None else (_NO_CODES, np.zeros(0))
                 A = _momentum_matrices(body, codes, params, gam * h, sym)
                 S = np.zeros(7)
+                gidx = np.arange(len(gam), dtype=np.int64)
                 while k < steps:
                     n = min(CHUNK_STEPS, steps - k)
                     status, k = run_chunk_forced(code, body.Jd, body.J, body.J_inv, h, t0, gam, cum, A, R, Pi, G,
-                                                 S, codes, params, U, int(sym), k, n, tol, max_iter, alpha,
+                                                 gidx, S, codes, params, U, int(sym), k, n, tol, max_iter, alpha,
                                                  save_every, R_out, Pi_out, it_out, res_out, _NO_HIST)
                     if status != OK:
                         break
@@ -542,7 +543,7 @@ def _run_callable_symmetric(func, code, body, h, gam, cum, R, Pi, G, t0, steps, 
             t1 = t0 + (k + cum[i + 1]) * h
             if M is None:
                 M = _call_torque(func, t0 + (k + cum[i]) * h, R, Pi, k, partial)
-            its, rn, st = shifted_step(code, Jd, hs, R, Pi, G[i], M[0], M[1], M[2], tol, max_iter, alpha,
+            its, rn, st = shifted_step(code, Jd, body.J_inv, hs, R, Pi, G[i], M[0], M[1], M[2], tol, max_iter, alpha,
                                        _NO_HIST)
             its_sum += its
             rmax = max(rmax, rn)

@@ -318,7 +318,8 @@ class GravityGradient(TorqueModel):
     def __init__(self, mu: float, radius: float):
         self.mu = as_float(mu, "mu", positive=True)
         self.radius = as_float(radius, "radius", positive=True)
-        k = self.mu / self.radius ** 3
+        with np.errstate(over="ignore", divide="ignore", under="ignore"):
+            k = float(np.float64(self.mu) / np.float64(self.radius) ** 3)
         if not (np.isfinite(k) and k > 0.0):
             raise ValueError(f"mu / radius^3 must be a positive finite number, got {k} "
                              f"(mu={self.mu}, radius={self.radius})")
@@ -439,7 +440,7 @@ class AttitudePD(TorqueModel):
     --------
     >>> from lgvi.torques import AttitudePD
     >>> AttitudePD(kp=2.0, kd=1.5)
-    AttitudePD(kp=2, kd=1.5, R_target=identity)
+    AttitudePD(kp=2, kd=1.5)
     """
 
     depends_on_momentum = True
@@ -451,11 +452,10 @@ class AttitudePD(TorqueModel):
         self.R_target = _readonly(Rd)
 
     def __repr__(self) -> str:
-        if np.array_equal(self.R_target, np.eye(3)):
-            target = "identity"
-        else:
-            target = "[" + ", ".join(_vec_text(row) for row in self.R_target) + "]"
-        return f"AttitudePD(kp={_gain_text(self.kp)}, kd={_gain_text(self.kd)}, R_target={target})"
+        text = f"AttitudePD(kp={_gain_text(self.kp)}, kd={_gain_text(self.kd)}"
+        if not np.array_equal(self.R_target, np.eye(3)):
+            text += ", R_target=[" + ", ".join(_vec_text(row) for row in self.R_target) + "]"
+        return text + ")"
 
     def _terms(self):
         return [(ATTITUDE_PD, np.concatenate([self.kp, self.kd, self.R_target.ravel()]))]

@@ -20,7 +20,7 @@ converged result beyond the tolerance.
 from __future__ import annotations
 
 from .._jit import jit
-from .solvers import OK, solve_scalar
+from .solvers import METHOD_CAYLEY, OK, solve_scalar
 from .torque_kernels import model_moments, momentum_diag
 
 
@@ -142,6 +142,43 @@ def run_chunk(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_ever
 
 
 @jit(inline="always")
+def solve_warm(method, Jd, J_inv, p0, p1, p2, G, tol, max_iter, alpha, hist):
+    """``solve_scalar`` from the extrapolated guess, with fallbacks after a failure.
+
+    Quadratic extrapolation is excellent for smooth motions but can overshoot when steps turn the
+    body by large angles (long substeps of a composition), and Newton may then not come back.
+    After a failure the solve is repeated from the last solution, then from the linearisation
+    ``J w = h Pi`` (the cold start). The fallbacks only run after a failure, so they never change
+    a result that converged; the reported iterations include every attempt.
+    """
+    q0, q1, q2 = predict(G)
+    res = solve_scalar(method, Jd[0, 0], Jd[0, 1], Jd[0, 2], Jd[1, 1], Jd[1, 2], Jd[2, 2],
+                       p0, p1, p2, q0, q1, q2, tol, max_iter, alpha, hist)
+    if res[14] == OK:
+        return res
+    spent = res[12]
+    for attempt in range(2):
+        if attempt == 0:
+            if G[3, 0] < 2.0:
+                continue                      # the first guess was the last solution already
+            q0 = G[0, 0]
+            q1 = G[0, 1]
+            q2 = G[0, 2]
+        else:
+            c = 0.5 if method == METHOD_CAYLEY else 1.0
+            q0 = c * (J_inv[0, 0] * p0 + J_inv[0, 1] * p1 + J_inv[0, 2] * p2)
+            q1 = c * (J_inv[1, 0] * p0 + J_inv[1, 1] * p1 + J_inv[1, 2] * p2)
+            q2 = c * (J_inv[2, 0] * p0 + J_inv[2, 1] * p1 + J_inv[2, 2] * p2)
+        res = solve_scalar(method, Jd[0, 0], Jd[0, 1], Jd[0, 2], Jd[1, 1], Jd[1, 2], Jd[2, 2],
+                           p0, p1, p2, q0, q1, q2, tol, max_iter, alpha, hist)
+        spent += res[12]
+        if res[14] == OK:
+            break
+    return (res[0], res[1], res[2], res[3], res[4], res[5], res[6], res[7], res[8], res[9], res[10], res[11],
+            spent, res[13], res[14])
+
+
+@jit(inline="always")
 def forced_stage(method, Jd, J, J_inv, hs, t1, R, Pi, G, S, codes, params, D0, D1, D2, has_D, A, sym,
                  v0, v1, v2, tol, max_iter, alpha, hist):
     """One substep in place on ``R``, ``Pi``, ``G`` (this stage's history), ``S``.
@@ -164,10 +201,8 @@ def forced_stage(method, Jd, J, J_inv, hs, t1, R, Pi, G, S, codes, params, D0, D
         m0 = Pi[0] + hh * P0
         m1 = Pi[1] + hh * P1
         m2 = Pi[2] + hh * P2
-    q0, q1, q2 = predict(G)
     (g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its, rn,
-     st) = solve_scalar(method, Jd[0, 0], Jd[0, 1], Jd[0, 2], Jd[1, 1], Jd[1, 2], Jd[2, 2],
-                        hs * m0, hs * m1, hs * m2, q0, q1, q2, tol, max_iter, alpha, hist)
+     st) = solve_warm(method, Jd, J_inv, hs * m0, hs * m1, hs * m2, G, tol, max_iter, alpha, hist)
     if st != OK:
         return its, rn, st
     push(G, g0, g1, g2)
@@ -233,7 +268,7 @@ def init_moments(codes, params, J, J_inv, t, R, Pi, S, v0, v1, v2):
 
 
 @jit
-def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, S, codes, params, U, sym,
+def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S, codes, params, U, sym,
                      k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out, it_out, res_out, hist):
     """Advance ``n`` steps ``k0 .. k0+n-1`` of a forced and/or composed scheme (see notes above).
 
@@ -241,8 +276,10 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, S, code
     ``gam[i] h`` (``s = 1``, ``gam = [1]``: the plain second-order scheme). Substep ``i`` of step
     ``k`` ends at ``t0 + (k + cum[i + 1]) h`` (``cum[0] = 0``, ``cum[s] = 1``). ``A`` (s,3,3)
     holds ``(I + gam[i] h/2 D J^-1)^-1`` (used only with symmetric forcing and ``D != 0``).
-    ``G`` (s,4,3) keeps one solver history per substep, so each warm start extrapolates
-    solutions of the same substep, equally spaced by ``h``. ``U`` (steps+1, 3) or empty: explicit
+    ``G`` (m,4,3) holds solver histories and substep ``i`` uses ``G[gidx[i]]``; the integrator
+    keeps one history per substep (``gidx = 0 .. s-1``), so each warm start extrapolates
+    solutions of the same substep, equally spaced by ``h`` (a history shared by substeps of
+    different sizes, or by equal substeps at unequal spacing, extrapolates badly). ``U`` (steps+1, 3) or empty: explicit
     moments at the grid points (symmetric forcing, ``s = 1``). ``it_out[k]`` records the solver
     updates summed over the substeps and ``res_out[k]`` the largest final residual.
 
@@ -277,7 +314,7 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, S, code
         rmax = 0.0
         for i in range(s):
             t1 = t0 + (k + cum[i + 1]) * h
-            its, rn, st = forced_stage(method, Jd, J, J_inv, gam[i] * h, t1, R, Pi, G[i], S, codes, params,
+            its, rn, st = forced_stage(method, Jd, J, J_inv, gam[i] * h, t1, R, Pi, G[gidx[i]], S, codes, params,
                                        D0, D1, D2, has_D, A[i], sym, v0, v1, v2, tol, max_iter, alpha, hist)
             its_sum += its
             if rn > rmax:
@@ -302,7 +339,7 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, S, code
 
 
 @jit
-def shifted_step(method, Jd, hs, R, Pi, G, m0, m1, m2, tol, max_iter, alpha, hist):
+def shifted_step(method, Jd, J_inv, hs, R, Pi, G, m0, m1, m2, tol, max_iter, alpha, hist):
     """Variational half of a symmetric step for a Python torque callable, in place.
 
     With ``mu = Pi + hs/2 m``: solves ``hat(hs mu) = F Jd - Jd F^T``, sets ``R <- R F`` and
@@ -313,10 +350,8 @@ def shifted_step(method, Jd, hs, R, Pi, G, m0, m1, m2, tol, max_iter, alpha, his
     m0 = Pi[0] + hh * m0
     m1 = Pi[1] + hh * m1
     m2 = Pi[2] + hh * m2
-    q0, q1, q2 = predict(G)
     (g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its, rn,
-     st) = solve_scalar(method, Jd[0, 0], Jd[0, 1], Jd[0, 2], Jd[1, 1], Jd[1, 2], Jd[2, 2],
-                        hs * m0, hs * m1, hs * m2, q0, q1, q2, tol, max_iter, alpha, hist)
+     st) = solve_warm(method, Jd, J_inv, hs * m0, hs * m1, hs * m2, G, tol, max_iter, alpha, hist)
     if st != OK:
         return its, rn, st
     push(G, g0, g1, g2)
