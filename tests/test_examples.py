@@ -1,0 +1,82 @@
+"""Every example script runs in its short form and prints what it promises (and its figures exist)."""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+HAVE_TORQUES = importlib.util.find_spec("lgvi.torques") is not None
+needs_torques = pytest.mark.skipif(not HAVE_TORQUES, reason="lgvi.torques not available")
+
+
+def run_example(name: str, *args: str, cwd: Path, timeout: float = 120.0) -> str:
+    env = dict(os.environ, MPLBACKEND="Agg")
+    proc = subprocess.run([sys.executable, str(EXAMPLES / name), *args], cwd=cwd, env=env, capture_output=True,
+                          text=True, timeout=timeout)
+    assert proc.returncode == 0, f"{name} failed:\n{proc.stdout}\n{proc.stderr}"
+    return proc.stdout
+
+
+def number(pattern: str, text: str) -> float:
+    m = re.search(pattern, text)
+    assert m, f"{pattern!r} not in output:\n{text}"
+    return float(m.group(1))
+
+
+def test_dzhanibekov(tmp_path):
+    out = run_example("dzhanibekov.py", "--quick", "--out", str(tmp_path / "figs"), cwd=tmp_path)
+    assert number(r"sign changes of omega_2\): (\d+)", out) >= 1
+    assert number(r"energy ([0-9.e+-]+),", out) < 1e-13
+    names = {p.name for p in (tmp_path / "figs").iterdir()}
+    assert {"attitude.png", "rates.png", "conservation.png", "iterations.png", "polhode.png"} <= names
+
+
+@needs_torques
+def test_heavy_top(tmp_path):
+    out = run_example("heavy_top.py", "--quick", "--no-plots", cwd=tmp_path)
+    assert number(r"vertical momentum e3.R Pi ([0-9.e+-]+)", out) < 1e-12
+    assert 1.0 < number(r"precession rate ([0-9.]+) rad/s", out) < 1.6
+
+
+@needs_torques
+def test_pendulum3d(tmp_path):
+    out = run_example("pendulum3d.py", "--quick", "--out", str(tmp_path / "figs"), cwd=tmp_path)
+    lgvi_row = next(line for line in out.splitlines() if line.startswith("lgvi"))
+    dE, dLz, orth = (float(x) for x in lgvi_row.split()[-3:])
+    assert dE < 1e-2 and dLz < 1e-12 and orth < 1e-12
+    assert (tmp_path / "figs" / "comparison.png").exists()
+
+
+@needs_torques
+def test_slew_pd(tmp_path):
+    out = run_example("slew_pd.py", "--quick", "--no-plots", cwd=tmp_path)
+    assert number(r"initial angle to target ([0-9.]+) deg", out) > 70
+    assert number(r"final ([0-9.e+-]+) deg", out) < 0.1
+
+
+@needs_torques
+def test_gravity_gradient(tmp_path):
+    out = run_example("gravity_gradient.py", "--steps", "2000", "--no-plots", cwd=tmp_path)
+    measured = number(r"measured ([0-9.]+) s", out)
+    predicted = number(r"prediction ([0-9.]+) s", out)
+    assert measured == pytest.approx(predicted, rel=0.01)
+    assert number(r"Jacobi integral E - n e3.R Pi ([0-9.e+-]+)", out) < 1e-4
+
+
+def test_kepler(tmp_path):
+    out = run_example("kepler.py", "--steps", "2000", cwd=tmp_path)
+    row = next(line for line in out.splitlines() if line.startswith("Stormer-Verlet"))
+    assert float(row.split()[-4]) < 1e-12  # angular momentum kept to round-off
+
+
+def test_every_script_is_tested():
+    tested = {"dzhanibekov.py", "heavy_top.py", "pendulum3d.py", "slew_pd.py", "gravity_gradient.py", "kepler.py"}
+    scripts = {p.name for p in EXAMPLES.glob("*.py")}
+    assert scripts <= tested, f"example scripts without a test here: {sorted(scripts - tested)}"

@@ -1,0 +1,241 @@
+"""lgvi.plot: every function returns a labelled Figure; files are real images of the promised size."""
+
+from __future__ import annotations
+
+import struct
+import sys
+
+import numpy as np
+import pytest
+
+import lgvi
+
+matplotlib = pytest.importorskip("matplotlib")
+matplotlib.use("Agg")
+
+from matplotlib.figure import Figure  # noqa: E402
+
+from lgvi import plot  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def traj() -> lgvi.Trajectory:
+    # the Dzhanibekov demo, short: one flip happens near t = 14 s
+    return lgvi.simulate(lgvi.RigidBody([1.0, 2.0, 3.0]), np.eye(3), omega0=[1e-3, 1.0, 1e-3], h=0.01, steps=2000)
+
+
+@pytest.fixture(scope="module")
+def rk(traj) -> lgvi.Trajectory:
+    from lgvi.baselines import solve_ivp_baseline
+
+    return solve_ivp_baseline([1.0, 2.0, 3.0], np.eye(3), omega0=[1e-3, 1.0, 1e-3], t_final=20.0, samples=201)
+
+
+def png_size(path) -> tuple[int, int]:
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n", f"{path} is not a PNG"
+    assert data[12:16] == b"IHDR"
+    width, height = struct.unpack(">II", data[16:24])
+    return width, height
+
+
+def labelled(ax) -> bool:
+    return bool(ax.get_xlabel()) and bool(ax.get_ylabel())
+
+
+def test_import_does_not_load_matplotlib():
+    import subprocess
+
+    code = "import lgvi, lgvi.plot, sys; print('matplotlib' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+
+
+@pytest.mark.parametrize("kind", ["euler", "quaternion"])
+def test_attitude(traj, kind):
+    fig = plot.attitude(traj, kind=kind)
+    assert isinstance(fig, Figure)
+    (ax,) = fig.axes
+    assert labelled(ax) and "(s)" in ax.get_xlabel()
+    assert ("rad" in ax.get_ylabel()) if kind == "euler" else ("quaternion" in ax.get_ylabel())
+    assert ax.get_title() and ax.get_legend() is not None
+    n_lines = 3 if kind == "euler" else 4
+    assert len(ax.get_lines()) == n_lines
+
+
+def test_attitude_unwraps(traj):
+    fig = plot.attitude(traj, kind="euler")
+    for line in fig.axes[0].get_lines():
+        y = line.get_ydata()
+        assert np.max(np.abs(np.diff(y))) < np.pi  # no 2 pi jumps left
+
+
+def test_attitude_rejects_bad_kind(traj):
+    with pytest.raises(ValueError, match="kind"):
+        plot.attitude(traj, kind="dcm")
+    with pytest.raises(ValueError, match="sequence"):
+        plot.attitude(traj, sequence="ZY")
+
+
+def test_attitude_into_given_axes(traj):
+    fig = Figure()
+    ax = fig.add_subplot()
+    assert plot.attitude(traj, ax=ax) is fig
+
+
+def test_rates(traj):
+    fig = plot.rates(traj)
+    ax_w, ax_p = fig.axes
+    assert "rad/s" in ax_w.get_ylabel() and "kg m" in ax_p.get_ylabel()
+    assert "(s)" in ax_p.get_xlabel()
+    assert len(ax_w.get_lines()) == 3 and len(ax_p.get_lines()) == 3
+    np.testing.assert_allclose(ax_p.get_lines()[1].get_ydata(), traj.Pi[:, 1])
+
+
+def test_conservation(traj):
+    fig = plot.conservation(traj)
+    (ax,) = fig.axes
+    assert ax.get_yscale() == "log" and labelled(ax)
+    lines = ax.get_lines()
+    assert len(lines) == 4
+    for line in lines:  # zeros are floored, so every value can be drawn on the log axis
+        y = np.asarray(line.get_ydata())
+        assert np.all(y >= plot.ERROR_FLOOR) and np.all(y < 1e-12)
+
+
+def test_conservation_extra_and_invariants(traj):
+    extra = {"something": np.zeros(len(traj))}
+    fig = plot.conservation(traj, extra=extra, invariants=("energy",))
+    lines = fig.axes[0].get_lines()
+    assert len(lines) == 5
+    assert [line.get_linestyle() for line in lines[:3]] == ["-", "--", "--"]
+    with pytest.raises(ValueError, match="shape"):
+        plot.conservation(traj, extra={"bad": np.zeros(3)})
+    with pytest.raises(ValueError, match="invariants"):
+        plot.conservation(traj, invariants=("angular",))
+
+
+def test_iterations(traj):
+    fig = plot.iterations(traj)
+    ax_i, ax_r = fig.axes
+    assert ax_i.get_ylabel() and labelled(ax_r) and ax_r.get_yscale() == "log"  # shared time axis
+    np.testing.assert_array_equal(ax_i.get_lines()[0].get_ydata(), traj.iterations)
+
+
+def test_iterations_binned_for_long_runs(traj):
+    fig = plot.iterations(traj, max_points=100)
+    mean_line = fig.axes[0].get_lines()[0]
+    assert len(mean_line.get_ydata()) <= 100
+
+
+def test_iterations_needs_a_solver_record(rk):
+    with pytest.raises(ValueError, match="solver record"):
+        plot.iterations(rk)
+
+
+def test_polhode(traj):
+    fig = plot.polhode(traj)
+    (ax,) = fig.axes
+    assert ax.name == "3d"
+    assert "kg m" in ax.get_xlabel() and "kg m" in ax.get_ylabel() and "kg m" in ax.get_zlabel()
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert any("path" in s for s in labels) and any("polhode" in s for s in labels)
+
+
+def test_polhode_curves_lie_on_sphere_and_ellipsoid():
+    moments = np.array([1.0, 2.0, 3.0])
+    L = 2.0
+    energies = [0.7, 0.9, 1.0, 1.2, 1.8]  # between L^2/6 and L^2/2, separatrix at 1.0
+    curves = plot.polhode_curves(moments, L, energies)
+    assert len(curves) == 2 * len(energies)
+    for k, curve in enumerate(curves):
+        E = energies[k // 2]
+        np.testing.assert_allclose(np.linalg.norm(curve, axis=1), L, rtol=1e-12)
+        np.testing.assert_allclose(0.5 * np.sum(curve**2 / moments, axis=1), E, rtol=1e-12)
+
+
+def test_polhode_rejects_2d_axes(traj):
+    fig = Figure()
+    with pytest.raises(ValueError, match="3D"):
+        plot.polhode(traj, ax=fig.add_subplot())
+
+
+def test_comparison(traj, rk):
+    fig = plot.comparison({"lgvi": traj, "RK45": rk})
+    axes = [ax for ax in fig.axes if ax.get_visible()]
+    assert len(axes) == 4
+    for ax in axes:
+        assert ax.get_yscale() == "log" and labelled(ax) and len(ax.get_lines()) == 2
+    assert [t.get_text() for t in axes[0].get_legend().get_texts()] == ["lgvi", "RK45"]
+    fig = plot.comparison({"lgvi": traj}, extra={"zero": lambda tr: np.zeros(len(tr))})
+    assert len([ax for ax in fig.axes if ax.get_visible()]) == 5
+
+
+def test_wrong_input():
+    with pytest.raises(TypeError, match="Trajectory"):
+        plot.rates(np.zeros((3, 3)))
+    with pytest.raises(ValueError, match="non-empty"):
+        plot.comparison({})
+
+
+def test_save_figures(traj, tmp_path):
+    files = plot.save_figures(traj, tmp_path / "figs", prefix="demo_")
+    assert [f.name for f in files] == [f"demo_{n}.png" for n in plot.FIGURE_NAMES]
+    for f in files:
+        name = f.stem.removeprefix("demo_")
+        assert png_size(f) == plot.FIGURE_PIXELS[name], f.name
+        image = matplotlib.image.imread(f)
+        assert image.std() > 0.05  # not blank
+
+
+def test_save_figures_of_a_baseline_skips_iterations(rk, tmp_path):
+    files = plot.save_figures(rk, tmp_path)
+    assert "iterations.png" not in {f.name for f in files} and len(files) == len(plot.FIGURE_NAMES) - 1
+
+
+def test_save_comparison(traj, rk, tmp_path):
+    (f,) = plot.save_comparison({"lgvi": traj, "RK45": rk}, tmp_path)
+    assert f.name == "comparison.png" and png_size(f) == plot.FIGURE_PIXELS["comparison"]
+
+
+def test_forced_run_figures(tmp_path):
+    torques = pytest.importorskip("lgvi.torques", reason="lgvi.torques not available")
+    body = lgvi.RigidBody([0.13, 0.28, 0.17])
+    tr = lgvi.simulate(body, np.eye(3), omega0=[4.14, 4.14, 4.14], h=0.01, steps=200,
+                       torque=torques.UniformGravity(1.0, [0.0, 0.0, 0.3]))
+    fig = plot.conservation(tr)
+    styles = [line.get_linestyle() for line in fig.axes[0].get_lines()]
+    assert styles == ["-", "--", "--", "-"]  # |Pi| and R Pi are not invariants under gravity
+    assert len(plot.save_figures(tr, tmp_path)) == len(plot.FIGURE_NAMES)
+
+
+def test_animate_gif(traj, tmp_path):
+    from PIL import Image
+
+    path = plot.animate(traj, tmp_path / "spin.gif", fps=10, max_frames=4)
+    assert path == tmp_path / "spin.gif" and path.exists()
+    with Image.open(path) as im:
+        assert im.format == "GIF" and im.n_frames == 4
+
+
+def test_animate_errors(traj, tmp_path):
+    with pytest.raises(ValueError, match=r"\.gif or \.mp4"):
+        plot.animate(traj, tmp_path / "spin.avi")
+    with pytest.raises(ValueError, match="max_frames"):
+        plot.animate(traj, tmp_path / "spin.gif", max_frames=0)
+    from matplotlib import animation
+
+    if not animation.writers.is_available("ffmpeg"):
+        with pytest.raises(RuntimeError, match="ffmpeg"):
+            plot.animate(traj, tmp_path / "spin.mp4", max_frames=2)
+
+
+def test_thinning_keeps_extremes():
+    t = np.linspace(0.0, 1.0, 100_001)
+    y = np.sin(2 * np.pi * 500 * t)
+    y[12_345] = 7.0
+    tt, yy = plot._thin_minmax(t, y, 1000)
+    assert len(tt) <= 1002 and yy.max() == 7.0 and yy.min() == pytest.approx(-1.0, abs=1e-3)
+    assert np.all(np.diff(tt) > 0)
+    tt, yy = plot._thin_max(t, np.abs(y), 1000)
+    assert yy.max() == 7.0 and tt[-1] == t[-1]
