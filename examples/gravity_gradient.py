@@ -51,6 +51,34 @@ def jacobi_integral(traj: lgvi.Trajectory) -> np.ndarray:
     return traj.energy - N * traj.spatial_momentum[:, 2]
 
 
+def run(steps: int) -> lgvi.Trajectory:
+    """Start 5 deg off in pitch, turning with the orbit, and integrate ``steps`` steps."""
+    R0 = lvlh(np.zeros(1))[0] @ Rotation.from_rotvec([0.0, np.radians(PITCH0_DEG), 0.0]).as_matrix()
+    return lgvi.simulate(lgvi.RigidBody(J), R0, omega0=[0.0, -N, 0.0], h=H, steps=steps, torque=MODEL,
+                         forcing="symmetric")
+
+
+def predicted_period() -> float:
+    """Small-angle pitch libration period ``2 pi / (n sqrt(3 (J1 - J3) / J2))`` (s)."""
+    return 2 * np.pi / (N * np.sqrt(3 * (J[0] - J[2]) / J[1]))
+
+
+def pitch_figure(traj: lgvi.Trajectory):
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(8, 5), dpi=100, layout="constrained")
+    ax = fig.add_subplot()
+    ax.plot(traj.t, np.degrees(pitch(traj)), label="lgvi")
+    ax.plot(traj.t, PITCH0_DEG * np.cos(2 * np.pi * traj.t / predicted_period()), "--", lw=1,
+            label="small-angle theory")
+    ax.set_xlabel("time $t$ (s)")
+    ax.set_ylabel("pitch relative to the local vertical (deg)")
+    ax.set_title("Gravity-gradient pitch libration")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="upper right")
+    return fig
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=2000, help="number of steps (default 2000, 3.6 orbits)")
@@ -60,13 +88,11 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     steps = 1000 if args.quick else args.steps
 
-    R0 = lvlh(np.zeros(1))[0] @ Rotation.from_rotvec([0.0, np.radians(PITCH0_DEG), 0.0]).as_matrix()
-    traj = lgvi.simulate(lgvi.RigidBody(J), R0, omega0=[0.0, -N, 0.0], h=H, steps=steps, torque=MODEL,
-                         forcing="symmetric")
+    traj = run(steps)
     theta = pitch(traj)
     up = np.nonzero((theta[:-1] < 0) & (theta[1:] >= 0))[0]       # upward zero crossings
     t_up = traj.t[up] - theta[up] * H / (theta[up + 1] - theta[up])  # linear interpolation
-    predicted = 2 * np.pi / (N * np.sqrt(3 * (J[0] - J[2]) / J[1]))
+    predicted = predicted_period()
     E, C = traj.energy, jacobi_integral(traj)
     print(f"Gravity gradient: J = diag{J} kg m^2, {MODEL!r}, orbit period {2 * np.pi / N:.0f} s, "
           f"h = {H:g} s, {steps} steps ({steps * H:g} s)")
@@ -76,8 +102,6 @@ def main(argv: list[str] | None = None) -> int:
     print(f"  max relative change: energy E {np.max(np.abs(E - E[0])) / abs(E[0]):.1e} (not an invariant: "
           f"the field turns), Jacobi integral E - n e3.R Pi {np.max(np.abs(C - C[0])) / abs(C[0]):.1e}")
     if not args.no_plots:
-        from matplotlib.figure import Figure
-
         from lgvi import plot
 
         out = Path(args.out)
@@ -86,18 +110,8 @@ def main(argv: list[str] | None = None) -> int:
         plot.conservation(traj, extra={r"Jacobi integral $E - n\,e_3 \cdot R\Pi$ (relative)":
                                        np.abs(C - C[0]) / abs(C[0])},
                           invariants=()).savefig(out / "gravity_gradient_conservation.png")
-        fig = Figure(figsize=(8, 5), dpi=100, layout="constrained")
-        ax = fig.add_subplot()
-        ax.plot(traj.t, np.degrees(theta), label="lgvi")
-        ax.plot(traj.t, PITCH0_DEG * np.cos(2 * np.pi * traj.t / predicted), "--", lw=1,
-                label="small-angle theory")
-        ax.set_xlabel("time $t$ (s)")
-        ax.set_ylabel("pitch relative to the local vertical (deg)")
-        ax.set_title("Gravity-gradient pitch libration")
-        ax.grid(True, alpha=0.3)
-        ax.legend(loc="upper right")
         files.append(out / "gravity_gradient_pitch.png")
-        fig.savefig(files[-1], dpi=100)
+        pitch_figure(traj).savefig(files[-1], dpi=100)
         print("  figures: " + ", ".join(str(f) for f in files))
     return 0
 
