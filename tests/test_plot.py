@@ -193,6 +193,16 @@ def test_save_figures_of_a_baseline_skips_iterations(rk, tmp_path):
     assert "iterations.png" not in {f.name for f in files} and len(files) == len(plot.FIGURE_NAMES) - 1
 
 
+def test_rk4_baseline_has_no_solver_record(tmp_path):
+    from lgvi.baselines import rk4
+
+    tr = rk4([1.0, 2.0, 3.0], np.eye(3), omega0=[0.3, 1.0, 0.2], h=0.01, steps=100)
+    assert not plot.has_solver_record(tr)
+    with pytest.raises(ValueError, match="solver record"):
+        plot.iterations(tr)
+    assert "iterations.png" not in {f.name for f in plot.save_figures(tr, tmp_path)}
+
+
 def test_save_comparison(traj, rk, tmp_path):
     (f,) = plot.save_comparison({"lgvi": traj, "RK45": rk}, tmp_path)
     assert f.name == "comparison.png" and png_size(f) == plot.FIGURE_PIXELS["comparison"]

@@ -129,6 +129,20 @@ def _forced(traj: Trajectory) -> bool:
     return torque not in (None, "none", "")
 
 
+def has_solver_record(traj: Trajectory) -> bool:
+    """Whether ``traj`` carries the per-step record of LGVI solves that :func:`iterations` draws.
+
+    True for runs of :func:`lgvi.simulate` (and their ``.npz``/netCDF copies); False for the
+    baselines of :mod:`lgvi.baselines` (no implicit solves) and trajectories read from CSV.
+    """
+    from .implicit import METHODS
+
+    its = getattr(traj, "iterations", ())
+    res = getattr(traj, "residual", ())
+    method = str((getattr(traj, "meta", {}) or {}).get("method", ""))
+    return len(res) > 0 and len(res) == len(its) and method in METHODS
+
+
 def _bins(n: int, max_points: int) -> int:
     return 0 if n <= max_points else max(1, max_points // 2)
 
@@ -421,7 +435,7 @@ def iterations(traj: Trajectory, axes: Sequence[Axes] | None = None, *, max_poin
     _check_traj(traj, "iterations")
     its = np.asarray(traj.iterations, dtype=np.float64)
     res = np.asarray(traj.residual, dtype=np.float64)
-    if len(res) == 0 or len(res) != len(its):
+    if not has_solver_record(traj):
         raise ValueError("iterations: this trajectory has no per-step solver record "
                          f"(method {traj.meta.get('method', '?')!r}); only lgvi.simulate runs have one")
     fig, (ax_i, ax_r) = _axes_list(axes, 2, "iterations")
@@ -809,7 +823,7 @@ def save_figures(traj: Trajectory, outdir: str | os.PathLike, *, prefix: str = "
     """Write the figures of one trajectory as PNG files (pixel sizes in :data:`FIGURE_PIXELS`).
 
     Files ``{prefix}attitude.png``, ``rates.png``, ``conservation.png``, ``iterations.png``
-    (only for runs with a per-step solver record, i.e. :func:`lgvi.simulate` runs) and
+    (only for runs with a per-step solver record, see :func:`has_solver_record`) and
     ``polhode.png`` in ``outdir`` (created if needed).
 
     Parameters
@@ -829,7 +843,7 @@ def save_figures(traj: Trajectory, outdir: str | os.PathLike, *, prefix: str = "
     out.mkdir(parents=True, exist_ok=True)
     makers = {"attitude": attitude, "rates": rates, "conservation": conservation, "iterations": iterations,
               "polhode": polhode}
-    has_record = len(traj.residual) > 0 and len(traj.residual) == len(traj.iterations)
+    has_record = has_solver_record(traj)
     written = []
     for name in FIGURE_NAMES:
         if name == "iterations" and not has_record:
@@ -943,6 +957,7 @@ __all__ = [
     "attitude",
     "comparison",
     "conservation",
+    "has_solver_record",
     "iterations",
     "polhode",
     "polhode_curves",
