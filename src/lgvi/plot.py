@@ -656,7 +656,10 @@ def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_po
     ax.set_ylabel(r"$\Pi_2$ (kg m$^2$/s)")
     ax.set_zlabel(r"$\Pi_3$ (kg m$^2$/s)")
     if L > 0:
-        ax.set_title(f"Polhode: body momentum on the sphere $|\\Pi|$ = $|\\Pi_0|$ = {L:.4g} kg m$^2$/s")
+        title = f"Polhode: body momentum on the sphere $|\\Pi|$ = $|\\Pi_0|$ = {L:.4g} kg m$^2$/s"
+        if _forced(traj):
+            title += "\n(forced run: the path may leave the sphere; curves are free-body polhodes)"
+        ax.set_title(title)
     else:
         ax.set_title("Body momentum path (no momentum sphere: $\\Pi_0$ = 0)")
     ax.legend(loc="upper left", fontsize="small", framealpha=0.85)
