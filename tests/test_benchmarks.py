@@ -1,0 +1,58 @@
+"""The benchmark scripts run end to end at reduced size (``--quick``) and print their tables.
+
+No timing assertions (timings on shared CI machines are noise); what is checked is that each
+script exits 0 within a time limit and prints its table header, so a broken benchmark cannot fail
+silently. Basilisk rows are exercised when ``bsk`` is installed and skipped cleanly otherwise.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+BENCHMARKS = Path(__file__).resolve().parent.parent / "benchmarks"
+TIMEOUT = 55  # seconds per script
+
+
+def _run(script: str, *args: str) -> subprocess.CompletedProcess:
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    env.pop("NUMBA_DISABLE_JIT", None)   # benchmarks time the compiled kernels, even in an interpreted test run
+    try:
+        return subprocess.run([sys.executable, str(BENCHMARKS / script), *args], capture_output=True, text=True,
+                              timeout=TIMEOUT, env=env, cwd=BENCHMARKS.parent)
+    except subprocess.TimeoutExpired as exc:
+        pytest.fail(f"{script} {' '.join(args)} took longer than {TIMEOUT} s:\n{exc.stdout}\n{exc.stderr}")
+
+
+def _check(proc: subprocess.CompletedProcess, *needles: str) -> None:
+    assert proc.returncode == 0, f"exit code {proc.returncode}\nstdout:\n{proc.stdout}\nstderr:\n{proc.stderr}"
+    for needle in needles:
+        assert needle in proc.stdout, f"{needle!r} not printed\nstdout:\n{proc.stdout}\nstderr:\n{proc.stderr}"
+
+
+@pytest.mark.slow
+def test_time_to_accuracy_quick():
+    proc = _run("time_to_accuracy.py", "--quick")
+    _check(proc, "problem", "target", "solver", "h or tol", "error rad", "wall s", "ext. peer/this",
+           "lgvi newton order 2", "scipy DOP853", "free body", "3D pendulum", "reference free body")
+    assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
+def test_peers_quick():
+    proc = _run("peers.py", "--quick")
+    _check(proc, "case", "steps/s", "us/step", "lgvi newton, order 2", "scipy solve_ivp RK45",
+           "lgvi.baselines.rk4", "pure-NumPy reference", "3D pendulum")
+    assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
+def test_basilisk_peer_quick():
+    """The convention check passes when Basilisk is installed; otherwise the script says so and exits 0."""
+    proc = _run("basilisk_peer.py", "--quick")
+    _check(proc)
+    assert ("convention check" in proc.stdout) or ("Basilisk not installed" in proc.stdout)
