@@ -29,8 +29,13 @@ def kinetic_energy(Omega: np.ndarray, Jd: np.ndarray) -> float:
 
 
 def discrete_lagrangian(F: np.ndarray, Jd: np.ndarray, h: float) -> float:
-    """``L_d(R_k, R_{k+1}) = 1/(2h) tr((I - F_k) J_d)``."""
-    return np.trace((np.eye(3) - F) @ Jd) / (2.0 * h)
+    """``L_d(R_k, R_{k+1}) = h L(R_k, (R_{k+1} - R_k)/h) = 1/h tr((I - F_k) J_d)``.
+
+    The paper prints ``1/(2h)``; expanding its previous line,
+    ``1/(2h) tr((F - I) J_d (F - I)^T) = 1/(2h) (2 tr J_d - 2 tr(F J_d))``, gives ``1/h``, and only
+    ``1/h`` yields the momentum ``Pi_k`` of eq. AttDyn (checked in ``tests/test_reference.py``).
+    """
+    return np.trace((np.eye(3) - F) @ Jd) / h
 
 
 def f(w: np.ndarray, Jd: np.ndarray, hPi: np.ndarray) -> np.ndarray:
