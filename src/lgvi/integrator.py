@@ -543,7 +543,7 @@ def _run_callable_symmetric(func, code, body, h, gam, cum, R, Pi, G, t0, steps, 
             t1 = t0 + (k + cum[i + 1]) * h
             if M is None:
                 M = _call_torque(func, t0 + (k + cum[i]) * h, R, Pi, k, partial)
-            its, rn, st = shifted_step(code, Jd, body.J_inv, hs, R, Pi, G[i], M[0], M[1], M[2], tol, max_iter, alpha,
+            its, rn, st = shifted_step(code, Jd, body.J_inv, hs, R, Pi, G, i, M[0], M[1], M[2], tol, max_iter, alpha,
                                        _NO_HIST)
             its_sum += its
             rmax = max(rmax, rn)

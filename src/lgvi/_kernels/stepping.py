@@ -15,6 +15,10 @@ solve starts from the quadratic extrapolation ``3 G0 - 3 G1 + G2`` (linear with 
 fewer): the coordinates of ``F_k`` vary smoothly with ``k``, so the guess is O(h^3) off and one
 Newton update usually reaches 1e-14. The guess only changes the iteration count, never the
 converged result beyond the tolerance.
+
+The second half of this module (:func:`run_chunk_forced`) adds torque models given as data
+(:mod:`.torque_kernels`), the symmetric forcing of Lee, Leok and McClamroch and symmetric
+compositions of it; there ``G`` is a stack (m,4,3) with one history per substep.
 """
 
 from __future__ import annotations
@@ -48,6 +52,32 @@ def push(G, g0, g1, g2):
     G[0, 2] = g2
     if G[3, 0] < 3.0:
         G[3, 0] += 1.0
+
+
+@jit(inline="always")
+def predict_at(G, j):
+    """:func:`predict` for history ``G[j]`` of a stack ``G`` (m,4,3), without making a view."""
+    n = G[j, 3, 0]
+    if n >= 3.0:
+        return (3.0 * (G[j, 0, 0] - G[j, 1, 0]) + G[j, 2, 0], 3.0 * (G[j, 0, 1] - G[j, 1, 1]) + G[j, 2, 1],
+                3.0 * (G[j, 0, 2] - G[j, 1, 2]) + G[j, 2, 2])
+    if n >= 2.0:
+        return 2.0 * G[j, 0, 0] - G[j, 1, 0], 2.0 * G[j, 0, 1] - G[j, 1, 1], 2.0 * G[j, 0, 2] - G[j, 1, 2]
+    return G[j, 0, 0], G[j, 0, 1], G[j, 0, 2]
+
+
+@jit(inline="always")
+def push_at(G, j, g0, g1, g2):
+    """:func:`push` for history ``G[j]`` of a stack ``G`` (m,4,3)."""
+    for i in range(2, 0, -1):
+        G[j, i, 0] = G[j, i - 1, 0]
+        G[j, i, 1] = G[j, i - 1, 1]
+        G[j, i, 2] = G[j, i - 1, 2]
+    G[j, 0, 0] = g0
+    G[j, 0, 1] = g1
+    G[j, 0, 2] = g2
+    if G[j, 3, 0] < 3.0:
+        G[j, 3, 0] += 1.0
 
 
 @jit
@@ -142,7 +172,7 @@ def run_chunk(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_ever
 
 
 @jit(inline="always")
-def solve_warm(method, Jd, J_inv, p0, p1, p2, G, tol, max_iter, alpha, hist):
+def solve_warm(method, Jd, J_inv, p0, p1, p2, G, j, tol, max_iter, alpha, hist):
     """``solve_scalar`` from the extrapolated guess, with fallbacks after a failure.
 
     Quadratic extrapolation is excellent for smooth motions but can overshoot when steps turn the
@@ -151,7 +181,7 @@ def solve_warm(method, Jd, J_inv, p0, p1, p2, G, tol, max_iter, alpha, hist):
     ``J w = h Pi`` (the cold start). The fallbacks only run after a failure, so they never change
     a result that converged; the reported iterations include every attempt.
     """
-    q0, q1, q2 = predict(G)
+    q0, q1, q2 = predict_at(G, j)
     res = solve_scalar(method, Jd[0, 0], Jd[0, 1], Jd[0, 2], Jd[1, 1], Jd[1, 2], Jd[2, 2],
                        p0, p1, p2, q0, q1, q2, tol, max_iter, alpha, hist)
     if res[14] == OK:
@@ -159,11 +189,11 @@ def solve_warm(method, Jd, J_inv, p0, p1, p2, G, tol, max_iter, alpha, hist):
     spent = res[12]
     for attempt in range(2):
         if attempt == 0:
-            if G[3, 0] < 2.0:
+            if G[j, 3, 0] < 2.0:
                 continue                      # the first guess was the last solution already
-            q0 = G[0, 0]
-            q1 = G[0, 1]
-            q2 = G[0, 2]
+            q0 = G[j, 0, 0]
+            q1 = G[j, 0, 1]
+            q2 = G[j, 0, 2]
         else:
             c = 0.5 if method == METHOD_CAYLEY else 1.0
             q0 = c * (J_inv[0, 0] * p0 + J_inv[0, 1] * p1 + J_inv[0, 2] * p2)
@@ -179,9 +209,11 @@ def solve_warm(method, Jd, J_inv, p0, p1, p2, G, tol, max_iter, alpha, hist):
 
 
 @jit(inline="always")
-def forced_stage(method, Jd, J, J_inv, hs, t1, R, Pi, G, S, codes, params, D0, D1, D2, has_D, A, sym,
+def forced_stage(method, Jd, J, J_inv, hs, t1, R, Pi, G, j, S, codes, params, D0, D1, D2, has_D, A, i_A, sym,
                  v0, v1, v2, tol, max_iter, alpha, hist):
-    """One substep in place on ``R``, ``Pi``, ``G`` (this stage's history), ``S``.
+    """One substep in place on ``R``, ``Pi``, ``G[j]`` (this stage's history) and ``S``.
+
+    ``A[i_A]`` is the momentum matrix of this substep (see :func:`run_chunk_forced`).
 
     ``v`` is an extra explicit moment at the end point added to ``Q`` (torque arrays in symmetric
     mode; zero otherwise). Returns ``(iterations, residual, status)``; on failure nothing changed.
@@ -202,10 +234,10 @@ def forced_stage(method, Jd, J, J_inv, hs, t1, R, Pi, G, S, codes, params, D0, D
         m1 = Pi[1] + hh * P1
         m2 = Pi[2] + hh * P2
     (g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its, rn,
-     st) = solve_warm(method, Jd, J_inv, hs * m0, hs * m1, hs * m2, G, tol, max_iter, alpha, hist)
+     st) = solve_warm(method, Jd, J_inv, hs * m0, hs * m1, hs * m2, G, j, tol, max_iter, alpha, hist)
     if st != OK:
         return its, rn, st
-    push(G, g0, g1, g2)
+    push_at(G, j, g0, g1, g2)
     for i in range(3):
         a0 = R[i, 0]
         a1 = R[i, 1]
@@ -226,9 +258,9 @@ def forced_stage(method, Jd, J, J_inv, hs, t1, R, Pi, G, S, codes, params, D0, D
         b1 += hh * (P1 + Q1)
         b2 += hh * (P2 + Q2)
         if has_D:
-            c0 = A[0, 0] * b0 + A[0, 1] * b1 + A[0, 2] * b2
-            c1 = A[1, 0] * b0 + A[1, 1] * b1 + A[1, 2] * b2
-            c2 = A[2, 0] * b0 + A[2, 1] * b1 + A[2, 2] * b2
+            c0 = A[i_A, 0, 0] * b0 + A[i_A, 0, 1] * b1 + A[i_A, 0, 2] * b2
+            c1 = A[i_A, 1, 0] * b0 + A[i_A, 1, 1] * b1 + A[i_A, 1, 2] * b2
+            c2 = A[i_A, 2, 0] * b0 + A[i_A, 2, 1] * b1 + A[i_A, 2, 2] * b2
             b0 = c0
             b1 = c1
             b2 = c2
@@ -314,8 +346,8 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
         rmax = 0.0
         for i in range(s):
             t1 = t0 + (k + cum[i + 1]) * h
-            its, rn, st = forced_stage(method, Jd, J, J_inv, gam[i] * h, t1, R, Pi, G[gidx[i]], S, codes, params,
-                                       D0, D1, D2, has_D, A[i], sym, v0, v1, v2, tol, max_iter, alpha, hist)
+            its, rn, st = forced_stage(method, Jd, J, J_inv, gam[i] * h, t1, R, Pi, G, gidx[i], S, codes,
+                                       params, D0, D1, D2, has_D, A, i, sym, v0, v1, v2, tol, max_iter, alpha, hist)
             its_sum += its
             if rn > rmax:
                 rmax = rn
@@ -339,7 +371,7 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
 
 
 @jit
-def shifted_step(method, Jd, J_inv, hs, R, Pi, G, m0, m1, m2, tol, max_iter, alpha, hist):
+def shifted_step(method, Jd, J_inv, hs, R, Pi, G, j, m0, m1, m2, tol, max_iter, alpha, hist):
     """Variational half of a symmetric step for a Python torque callable, in place.
 
     With ``mu = Pi + hs/2 m``: solves ``hat(hs mu) = F Jd - Jd F^T``, sets ``R <- R F`` and
@@ -351,10 +383,10 @@ def shifted_step(method, Jd, J_inv, hs, R, Pi, G, m0, m1, m2, tol, max_iter, alp
     m1 = Pi[1] + hh * m1
     m2 = Pi[2] + hh * m2
     (g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its, rn,
-     st) = solve_warm(method, Jd, J_inv, hs * m0, hs * m1, hs * m2, G, tol, max_iter, alpha, hist)
+     st) = solve_warm(method, Jd, J_inv, hs * m0, hs * m1, hs * m2, G, j, tol, max_iter, alpha, hist)
     if st != OK:
         return its, rn, st
-    push(G, g0, g1, g2)
+    push_at(G, j, g0, g1, g2)
     for i in range(3):
         a0 = R[i, 0]
         a1 = R[i, 1]
