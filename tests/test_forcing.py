@@ -285,3 +285,30 @@ def test_backward_damped_step_too_large_is_rejected():
     """Backwards, I + h/2 D J^-1 can become singular; a clear error instead of garbage."""
     with pytest.raises(ValueError, match="reduce \\|h\\|"):
         lgvi.simulate(BODY, R0, PI0, h=-1.0, steps=2, torque=LinearDamping(100.0), forcing="symmetric")
+
+
+def test_forced_kernels_interpreted_match_compiled():
+    """The forced kernels run as plain Python (NUMBA_DISABLE_JIT=1) give the compiled results:
+    catches typing or integer-width differences between the two modes (same IEEE arithmetic,
+    so agreement to round-off; 1e-13 allows for LLVM's different operation order)."""
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import numpy as np, lgvi\n"
+        "from lgvi.torques import *\n"
+        "b = lgvi.RigidBody([[0.9, 0.05, -0.1], [0.05, 1.3, 0.08], [-0.1, 0.08, 1.7]])\n"
+        "m = UniformGravity(1, [0.05, 0, .3]) + LinearDamping(0.1) + GravityGradient(1, 1) + AttitudePD(1, 1)\n"
+        "a = lgvi.simulate(b, lgvi.so3.exp([0.3, -0.2, 0.5]), [0.6, -0.9, 1.2], h=0.02, steps=30, torque=m,\n"
+        "                  forcing='symmetric', order=4)\n"
+        "c = lgvi.simulate(b, np.eye(3), [0.6, -0.9, 1.2], h=0.02, steps=30, torque=m)\n"
+        "result = np.concatenate([a.R[-1].ravel(), a.Pi[-1], c.R[-1].ravel(), c.Pi[-1]])\n"
+    )
+    env = dict(os.environ, NUMBA_DISABLE_JIT="1")
+    out = subprocess.run([sys.executable, "-c", code + "print(repr(result.tolist()))\n"], env=env,
+                         capture_output=True, text=True, check=True)
+    interpreted = np.array(eval(out.stdout.strip().splitlines()[-1]))
+    ns: dict = {}
+    exec(code, ns)
+    np.testing.assert_allclose(interpreted, np.array(ns["result"]), rtol=0, atol=1e-13)
