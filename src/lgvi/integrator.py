@@ -23,8 +23,7 @@ from typing import Any, Callable
 import numpy as np
 
 from . import so3
-from ._kernels.solvers import OK, initial_guess
-from ._kernels.solvers import EPS
+from ._kernels.solvers import EPS, OK, initial_guess
 from ._kernels.stepping import lgvi_step, run_chunk, run_chunk_forced, shifted_step
 from ._kernels.torque_kernels import momentum_diag
 from ._validation import as_float, as_float_array, as_int, as_rotation, choice
