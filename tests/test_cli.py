@@ -226,14 +226,10 @@ def test_run_interrupted_writes_the_part_computed(capsys, tmp_path, scenario_fil
     part = lgvi.Trajectory(t=full.t[:5], R=full.R[:5], Pi=full.Pi[:5], inertia=full.inertia,
                            iterations=full.iterations[:20], residual=full.residual[:20], h=full.h, meta=full.meta)
 
-    real_run = Scenario.run
-
-    def interrupted(self, progress=False):
-        if self.steps < STEPS:  # the short warm-up run before the timed one
-            return real_run(self, progress)
+    def interrupted(self, folder, *, resume=False, progress=False, chunk_steps=None):
         raise SimulationInterrupted("simulation interrupted after 20 of 200 steps", trajectory=part)
 
-    monkeypatch.setattr(Scenario, "run", interrupted)
+    monkeypatch.setattr(Scenario, "run_stream", interrupted)
     code, _, err = run(capsys, "run", scenario_file, "-o", tmp_path / "o")
     assert code == 130 and "interrupted" in err and "20 steps" in err
     assert len(lgvi.load(tmp_path / "o" / "trajectory.npz").t) == 5

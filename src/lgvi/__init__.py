@@ -27,6 +27,7 @@ from .implicit import ImplicitSolution as ImplicitSolution
 from .implicit import solve_implicit as solve_implicit
 from .integrator import StepResult as StepResult
 from .integrator import simulate as simulate
+from .integrator import simulate_stream as simulate_stream
 from .integrator import step as step
 from .trajectory import Trajectory as Trajectory
 from .trajectory import load as load
@@ -47,6 +48,7 @@ __all__ = [
     "load_ensemble",
     "simulate",
     "simulate_ensemble",
+    "simulate_stream",
     "so3",
     "solve_implicit",
     "step",

@@ -28,6 +28,7 @@ import argparse
 import importlib
 import json
 import platform
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -303,8 +304,11 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"lgvi run: {scenario.name}: {scenario.steps} steps of h = {scenario.h:g} s "
               f"({scenario.method}) ...", file=sys.stderr, flush=True)
     t0 = time.perf_counter()
+    stream = outdir / "stream"
+    if args.resume and not (stream / "manifest.json").exists():
+        raise UsageError(f"--resume: no interrupted run to resume in {stream}")
     try:
-        traj = scenario.run(progress=True)
+        traj = scenario.run_stream(stream, resume=args.resume, progress=True)
     except SimulationInterrupted as exc:
         wall = time.perf_counter() - t0
         part = exc.trajectory
@@ -312,7 +316,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             files = _write_results(part, scenario, outdir, formats, False, wall, status="interrupted",
                                    message=str(exc))
             _err(f"interrupted: {exc}; the {part.steps} steps computed are written to {outdir} "
-                 f"({', '.join(p.name for p in files)})")
+                 f"({', '.join(p.name for p in files)}); `lgvi run {args.scenario} -o {outdir} --resume` "
+                 "continues the run")
         else:
             _err(f"interrupted: {exc}")
         return 130
@@ -329,6 +334,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         rate = traj.steps / wall if wall > 0 else float("inf")
         print(f"lgvi run: {scenario.name}: done in {wall:.3g} s ({rate:.3g} steps/s)", file=sys.stderr, flush=True)
     files = _write_results(traj, scenario, outdir, formats, plots, wall, kernel_load=t_load)
+    if not args.keep_stream:
+        shutil.rmtree(stream, ignore_errors=True)
     print(f"{scenario.name}: {traj.steps} steps in {wall:.3g} s; wrote {len(files)} files to {outdir}")
     for p in files:
         print(f"  {p.name}")
@@ -551,6 +558,11 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("-o", "--output", default=None, metavar="DIR",
                      help="output folder (default ./NAME_output, NAME the scenario name)")
     run.add_argument("--no-plots", action="store_true", help="do not write figures")
+    run.add_argument("--resume", action="store_true",
+                     help="continue an interrupted or killed run from its last complete chunk in DIR/stream "
+                          "(the result equals an uninterrupted run bit for bit)")
+    run.add_argument("--keep-stream", action="store_true",
+                     help="keep the chunk files of DIR/stream after a successful run")
     run.add_argument("--format", default=None, metavar="FORMATS",
                      help="comma-separated output formats among npz, csv, netcdf (default: the scenario's "
                      "[output] formats, else npz)")

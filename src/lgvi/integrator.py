@@ -16,16 +16,19 @@ Schemes (see :func:`simulate`):
 
 from __future__ import annotations
 
+import os
+import signal
+import sys
+import threading
 import time as _time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 
 from . import so3
-from ._kernels.solvers import EPS, OK, initial_guess
-from ._kernels.stepping import lgvi_step, run_chunk, run_chunk_forced, shifted_step
-from ._kernels.torque_kernels import momentum_diag
+from ._kernels.codes import OK
 from ._validation import as_float, as_float_array, as_int, as_rotation, choice
 from ._version import __version__
 from .body import RigidBody
@@ -36,6 +39,10 @@ from .trajectory import Trajectory
 
 #: Steps per compiled call; between chunks Ctrl-C is honoured and progress reported.
 CHUNK_STEPS = 1 << 18
+#: Steps per chunk of the Python loop that serves a torque callable.
+CALLABLE_CHUNK_STEPS = 1 << 12
+
+EPS = float(np.finfo(np.float64).eps)
 
 TorqueCallable = Callable[[float, np.ndarray, np.ndarray], Any]
 
@@ -104,6 +111,8 @@ DEFAULT_COMPOSITION = {4: "suzuki4", 6: "kahan-li6"}
 
 def _solver_state(code: int, body: RigidBody, h: float, Pi: np.ndarray) -> np.ndarray:
     """Solver history ``G`` (4,3) of the stepping kernels, cold-started from the linearisation."""
+    from ._kernels.solvers import initial_guess  # kernels compile (or load) on first use only
+
     G = np.zeros((4, 3))
     initial_guess(code, body.J, h * Pi, G[0])
     return G
@@ -194,6 +203,8 @@ def step(body: Any, R: Any, Pi: Any, *, h: float, u: Any = None, method: str = "
     >>> bool(np.isclose(np.linalg.norm(s.Pi), np.linalg.norm([0.1, 1.0, 0.2]), rtol=1e-14))
     True
     """
+    from ._kernels.stepping import lgvi_step
+
     body = as_body(body)
     code, tol, max_iter, alpha = _options(method, tol, max_iter, alpha)
     R = as_rotation(R, "R")
@@ -216,7 +227,7 @@ def step(body: Any, R: Any, Pi: Any, *, h: float, u: Any = None, method: str = "
 def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: float, steps: int,
              torque: Any = None, method: str = "newton", tol: float = 1e-14, max_iter: int = 50,
              alpha: float = 1.0, save_every: int = 1, t0: float = 0.0, forcing: str = "paper",
-             order: int = 2, composition: str | None = None) -> Trajectory:
+             order: int = 2, composition: str | None = None, progress: Any = False) -> Trajectory:
     r"""Simulate the attitude of a rigid body with the Lie group variational integrator.
 
     Each step solves ``hat(h Pi_k) = F_k Jd - Jd F_k^T`` for ``F_k`` in SO(3), then sets
@@ -273,6 +284,9 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     composition : str, optional
         Name in :data:`COMPOSITIONS` (``"suzuki4"``, ``"yoshida4"``, ``"kahan-li6"``,
         ``"yoshida6"``); its order must equal ``order``. Default :data:`DEFAULT_COMPOSITION`.
+    progress : bool or callable
+        ``True`` draws a progress bar on stderr between compiled chunks; a callable is called as
+        ``progress(steps_done, steps)``; ``False`` (default) is silent.
 
     Returns
     -------
@@ -331,117 +345,373 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     >>> bool(np.abs(traj.energy - traj.energy[0]).max() < 1e-2 * traj.energy[0])
     True
     """
-    body = as_body(body)
-    code, tol, max_iter, alpha = _options(method, tol, max_iter, alpha)
-    R = as_rotation(R0, "R0").copy()
-    Pi = _initial_momentum(body, Pi0, omega0)
-    h = as_float(h, "h", nonzero=True)
-    t0 = as_float(t0, "t0")
-    steps = as_int(steps, "steps", minimum=0)
-    save_every = as_int(save_every, "save_every", minimum=1)
-    if steps % save_every != 0:
-        raise ValueError(f"save_every must divide steps so that the final state is saved; got "
-                         f"steps={steps}, save_every={save_every} (steps % save_every = {steps % save_every})")
-    choice(forcing, "forcing", FORCINGS)
-    comp = _composition(order, composition)
-    sym = forcing == "symmetric"
-    U = np.zeros((0, 3))
-    func = None
-    model = None
-    if torque is None:
-        kind = "none"
-    elif isinstance(torque, TorqueModel):
-        model, kind = torque, "model"
-    elif callable(torque):
-        func, kind = torque, "callable"
-    else:
-        kind = "array"
-        if sym:
-            U = as_float_array(torque, "torque", (steps + 1, 3))
-        else:
-            U = as_float_array(torque, "torque", (steps, 3))
-        U = np.ascontiguousarray(U)
-    _check_order(comp, kind, forcing, model)
-
+    run = _Run(body, R0, Pi0, omega0=omega0, h=h, steps=steps, torque=torque, method=method, tol=tol,
+               max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0, forcing=forcing, order=order,
+               composition=composition)
+    steps, save_every = run.steps, run.save_every
     M = steps // save_every + 1
     R_out = np.empty((M, 3, 3))
     Pi_out = np.empty((M, 3))
-    R_out[0] = R
-    Pi_out[0] = Pi
+    R_out[0] = run.R
+    Pi_out[0] = run.Pi
     it_out = np.zeros(steps, dtype=np.int32)
     res_out = np.zeros(steps)
-    meta = {"method": method, "tol": tol, "max_iter": max_iter, "alpha": alpha, "save_every": save_every,
-            "torque": kind, "forcing": forcing, "lgvi_version": __version__, "t0": t0, "order": comp.order}
-    if comp.order != 2:
-        meta["composition"] = comp.name
-    if model is not None:
-        meta["torque_model"] = repr(model)
-    has_potential = model is not None and any(m.conservative for m in model.terms)
-
-    def potential(t: np.ndarray, R_saved: np.ndarray) -> np.ndarray | None:
-        return model.potential(t, R_saved, body) if has_potential else None
 
     def partial(k_done: int) -> Trajectory:
         m = k_done // save_every + 1
-        t = t0 + h * save_every * np.arange(m)
-        return Trajectory(t=t, R=R_out[:m].copy(), Pi=Pi_out[:m].copy(),
-                          inertia=body.J.copy(), iterations=it_out[:k_done].copy(),
-                          residual=res_out[:k_done].copy(), h=h, potential=potential(t, R_out[:m]),
-                          meta=dict(meta, partial=True))
+        return run.trajectory(run.times(0, m), R_out[:m].copy(), Pi_out[:m].copy(), it_out[:k_done].copy(),
+                              res_out[:k_done].copy(), partial=True)
 
-    # the paper's scheme (and the free body at order 2) keeps the original kernels, bit for bit
-    legacy = comp.order == 2 and (kind == "none" or (kind in ("array", "callable") and not sym))
-    k = 0
-    status = OK
-    try:
-        if legacy:
-            G = _solver_state(code, body, h, Pi)
-            if func is None:
-                while k < steps:
-                    n = min(CHUNK_STEPS, steps - k)
-                    status, k = run_chunk(code, body.Jd, h, R, Pi, G, U, k, n, tol, max_iter, alpha,
-                                          save_every, R_out, Pi_out, it_out, res_out, _NO_HIST)
-                    if status != OK:
-                        break
-            else:
-                status, k = _run_callable(func, code, body, h, R, Pi, G, t0, steps, tol, max_iter, alpha,
-                                          save_every, R_out, Pi_out, it_out, res_out, partial)
+    with _Interrupts() as stop, _Progress(progress, steps) as bar:
+        while run.k < steps:
+            k0 = run.k
+            n = min(run.chunk, steps - k0)
+            j0 = k0 // save_every + 1
+            status = run.advance(n, R_out[j0:j0 + n // save_every], Pi_out[j0:j0 + n // save_every],
+                                 it_out[k0:k0 + n], res_out[k0:k0 + n], partial)
+            if status != OK:
+                raise run.failure(status, float(res_out[run.k]), int(it_out[run.k]), partial(run.k))
+            bar.update(run.k)
+            if stop.requested:
+                raise SimulationInterrupted(f"simulation interrupted after {run.k} of {steps} steps; "
+                                            "the computed part is in .trajectory", trajectory=partial(run.k))
+    return run.trajectory(run.times(0, M), R_out, Pi_out, it_out, res_out)
+
+
+def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None,
+                    h: float, steps: int, torque: Any = None, method: str = "newton", tol: float = 1e-14,
+                    max_iter: int = 50, alpha: float = 1.0, save_every: int = 1, t0: float = 0.0,
+                    forcing: str = "paper", order: int = 2, composition: str | None = None,
+                    progress: Any = False, resume: bool = False, chunk_steps: int | None = None,
+                    meta: dict[str, Any] | None = None) -> Path:
+    """Run :func:`simulate` straight to a crash-safe stream folder, in bounded memory.
+
+    The run goes in chunks of ``chunk_steps`` steps (a multiple of ``save_every``); each chunk's
+    samples and per-step solver records are written to ``folder`` as soon as it is done (see
+    :mod:`lgvi.streaming`), so memory stays bounded whatever ``steps`` is, an interrupted or
+    killed run keeps every complete chunk, and ``resume=True`` continues a stream from its last
+    complete chunk with the exact state (attitude, momentum, solver history), giving bit for bit
+    the result of an uninterrupted run.
+
+    Parameters
+    ----------
+    folder : path
+        The stream folder (created; must not hold a stream unless ``resume=True``).
+    body, R0, Pi0, omega0, h, steps, torque, method, tol, max_iter, alpha, save_every, t0, forcing,
+    order, composition, progress
+        As in :func:`simulate` (a callable torque works too). With ``resume=True`` they must be
+        the same as in the interrupted run (checked against the stream's metadata).
+    resume : bool
+        Continue the stream in ``folder`` (a complete stream is left as it is).
+    chunk_steps : int, optional
+        Steps per chunk (default: about 2^18, rounded to a multiple of ``save_every``).
+    meta : dict, optional
+        Extra JSON-serialisable metadata stored with the stream (e.g. the scenario text).
+
+    Returns
+    -------
+    pathlib.Path
+        The folder; read it with :func:`lgvi.streaming.read_stream`.
+
+    Examples
+    --------
+    >>> import numpy as np, lgvi, tempfile, pathlib
+    >>> from lgvi.streaming import read_stream
+    >>> folder = pathlib.Path(tempfile.mkdtemp()) / "run"
+    >>> _ = lgvi.simulate_stream(folder, [1., 2., 3.], np.eye(3), omega0=[0.3, 1., 0.2], h=0.01,
+    ...                          steps=1000, save_every=10, chunk_steps=200)
+    >>> traj = read_stream(folder)
+    >>> traj.R.shape, traj.iterations.shape
+    ((101, 3, 3), (1000,))
+    """
+    from .streaming import StreamWriter, read_stream
+
+    run = _Run(body, R0, Pi0, omega0=omega0, h=h, steps=steps, torque=torque, method=method, tol=tol,
+               max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0, forcing=forcing, order=order,
+               composition=composition)
+    if chunk_steps is not None:
+        run.chunk = max(1, as_int(chunk_steps, "chunk_steps", minimum=1) // run.save_every) * run.save_every
+    stream_meta = dict(run.meta, **(meta or {}), h=run.h, steps=run.steps, inertia=run.body.J.tolist())
+    folder = Path(folder)
+    writer = StreamWriter(folder, stream_meta, resume=resume)
+    if resume and writer.state is not None:
+        _check_resume(writer.manifest["meta"], stream_meta, folder)
+        run.load_state(writer.state)
+        if writer.manifest.get("complete") and run.k == run.steps:
+            return folder
+    steps, se = run.steps, run.save_every
+    R_buf = np.empty((run.chunk // se, 3, 3))
+    Pi_buf = np.empty((run.chunk // se, 3))
+    it_buf = np.zeros(run.chunk, dtype=np.int32)
+    res_buf = np.zeros(run.chunk)
+
+    chunk_start: dict[str, Any] = {}
+
+    def partial(k_done: int | None = None) -> Trajectory:
+        """The complete chunks on disk plus the steps of the current chunk up to ``k_done``."""
+        try:
+            done = read_stream(folder)
+            parts = [(done.t, done.R, done.Pi, done.iterations, done.residual)]
+        except ValueError:  # no complete chunk yet
+            parts = [(run.times(0, 1), chunk_start["R"][None], chunk_start["Pi"][None], np.zeros(0, np.int32),
+                      np.zeros(0))]
+        k0 = chunk_start["k0"]
+        if k_done is not None and k_done > k0:
+            m = (k_done - k0) // se
+            j0 = k0 // se + 1
+            parts.append((run.times(j0, j0 + m), R_buf[:m], Pi_buf[:m], it_buf[:k_done - k0], res_buf[:k_done - k0]))
+        t, R_, Pi_, it, res = (np.concatenate(a) for a in zip(*parts))
+        return run.trajectory(t, R_, Pi_, it, res, partial=True)
+
+    if run.k == 0 and not writer.manifest["chunks"] and steps == 0:
+        writer.append(t=run.times(0, 1), R=run.R[None].copy(), Pi=run.Pi[None].copy(),
+                      iterations=np.zeros(0, dtype=np.int32), residual=np.zeros(0), state=run.state(),
+                      potential=run.potential(run.times(0, 1), run.R[None]))
+    with _Interrupts() as stop, _Progress(progress, steps, start=run.k) as bar:
+        while run.k < steps:
+            k0 = run.k
+            first = k0 == 0
+            chunk_start.update(k0=k0, R=run.R.copy(), Pi=run.Pi.copy())
+            n = min(run.chunk, steps - k0)
+            m = n // se
+            status = run.advance(n, R_buf[:m], Pi_buf[:m], it_buf[:n], res_buf[:n], partial)
+            if status != OK:
+                writer.close(complete=False)
+                raise run.failure(status, float(res_buf[run.k - k0]), int(it_buf[run.k - k0]), partial(run.k),
+                                  where=f" Complete chunks are in {folder}.")
+            j0 = k0 // se + 1
+            t = run.times(j0, j0 + m)
+            R_c, Pi_c = R_buf[:m], Pi_buf[:m]
+            if first:
+                t = np.concatenate([run.times(0, 1), t])
+                R_c = np.concatenate([chunk_start["R"][None], R_c])
+                Pi_c = np.concatenate([chunk_start["Pi"][None], Pi_c])
+            writer.append(t=t, R=R_c, Pi=Pi_c, iterations=it_buf[:n], residual=res_buf[:n], state=run.state(),
+                          potential=run.potential(t, R_c))
+            bar.update(run.k)
+            if stop.requested:
+                writer.close(complete=False)
+                raise SimulationInterrupted(f"simulation interrupted after {run.k} of {steps} steps; every "
+                                            f"complete chunk is in {folder} (resume=True continues it)",
+                                            trajectory=partial())
+    writer.close(complete=True)
+    return folder
+
+
+def _check_resume(old: dict[str, Any], new: dict[str, Any], folder: Path) -> None:
+    keys = ("method", "tol", "max_iter", "alpha", "save_every", "forcing", "order", "composition", "torque",
+            "torque_model", "t0", "h", "steps", "inertia")
+    diff = [k for k in keys if old.get(k) != new.get(k)]
+    if diff:
+        k = diff[0]
+        raise ValueError(f"resume: the stream in {folder} was started with {k}={old.get(k)!r}, now {k}="
+                         f"{new.get(k)!r}; a stream resumes only the same run (differences: {', '.join(diff)})")
+
+
+class _Interrupts:
+    """Turn Ctrl-C during a run into a request honoured between chunks (a second Ctrl-C aborts at once).
+
+    Outside the main thread signals cannot be caught; a ``KeyboardInterrupt`` there still ends the
+    run the usual way.
+    """
+
+    def __init__(self) -> None:
+        self.requested = False
+        self._old: Any = None
+
+    def _handler(self, signum, frame) -> None:
+        if self.requested:
+            raise KeyboardInterrupt
+        self.requested = True
+
+    def __enter__(self) -> "_Interrupts":
+        if threading.current_thread() is threading.main_thread():
+            try:
+                self._old = signal.signal(signal.SIGINT, self._handler)
+            except (ValueError, OSError):  # pragma: no cover - embedded interpreters
+                self._old = None
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        if self._old is not None:
+            signal.signal(signal.SIGINT, self._old)
+
+
+class _Progress:
+    """A progress report between chunks: ``progress=True`` draws a bar on stderr, a callable is
+    called as ``progress(steps_done, steps)``, ``False`` is silent."""
+
+    def __init__(self, progress: Any, steps: int, start: int = 0) -> None:
+        if not (isinstance(progress, bool) or callable(progress)):
+            raise TypeError(f"progress must be True, False or a callable progress(done, total), got {progress!r}")
+        self.progress = progress
+        self.steps = steps
+        self.start = start
+        self.t0 = _time.perf_counter()
+        self.last = 0.0
+
+    def __enter__(self) -> "_Progress":
+        return self
+
+    def update(self, k: int, final: bool = False) -> None:
+        if self.progress is False:
+            return
+        if callable(self.progress) and not isinstance(self.progress, bool):
+            self.progress(k, self.steps)
+            return
+        now = _time.perf_counter()
+        if not final and now - self.last < 0.2:
+            return
+        self.last = now
+        frac = k / self.steps if self.steps else 1.0
+        rate = (k - self.start) / max(now - self.t0, 1e-9)
+        eta = (self.steps - k) / rate if rate > 0 else float("inf")
+        bar = "#" * int(30 * frac)
+        sys.stderr.write(f"\r[{bar:<30}] {100 * frac:5.1f}% {k}/{self.steps} steps, {rate:.3g} steps/s, "
+                         f"ETA {eta:.0f} s ")
+        sys.stderr.flush()
+
+    def __exit__(self, *exc: Any) -> None:
+        if self.progress is True and self.steps:
+            if exc[0] is None:
+                self.update(self.steps, final=True)
+            sys.stderr.write("\n")
+            sys.stderr.flush()
+
+
+class _Run:
+    """One validated simulation: the inputs, the kernel choice and the state carried across chunks.
+
+    ``advance(n, ...)`` runs the next ``n`` steps (``n`` a multiple of ``save_every``) in place;
+    ``k`` counts the steps done (after a failure: the index of the failed step). ``state()`` and
+    ``load_state()`` carry everything the kernels keep between steps, so a run continued from a
+    saved state is bit for bit the uninterrupted run.
+    """
+
+    def __init__(self, body: Any, R0: Any, Pi0: Any, *, omega0: Any, h: Any, steps: Any, torque: Any,
+                 method: str, tol: Any, max_iter: Any, alpha: Any, save_every: Any, t0: Any, forcing: Any,
+                 order: Any, composition: Any) -> None:
+        self.body = body = as_body(body)
+        self.code, self.tol, self.max_iter, self.alpha = _options(method, tol, max_iter, alpha)
+        self.R = as_rotation(R0, "R0").copy()
+        self.Pi = _initial_momentum(body, Pi0, omega0)
+        self.h = h = as_float(h, "h", nonzero=True)
+        self.t0 = as_float(t0, "t0")
+        self.steps = steps = as_int(steps, "steps", minimum=0)
+        self.save_every = save_every = as_int(save_every, "save_every", minimum=1)
+        if steps % save_every != 0:
+            raise ValueError(f"save_every must divide steps so that the final state is saved; got "
+                             f"steps={steps}, save_every={save_every} (steps % save_every = {steps % save_every})")
+        choice(forcing, "forcing", FORCINGS)
+        self.comp = comp = _composition(order, composition)
+        self.sym = sym = forcing == "symmetric"
+        self.U = np.zeros((0, 3))
+        self.func = None
+        self.model = None
+        if torque is None:
+            kind = "none"
+        elif isinstance(torque, TorqueModel):
+            self.model, kind = torque, "model"
+        elif callable(torque):
+            self.func, kind = torque, "callable"
         else:
-            gam = np.array(comp.coefficients)
-            cum = np.concatenate([[0.0], np.cumsum(gam)])
+            kind = "array"
+            shape = (steps + 1, 3) if sym else (steps, 3)
+            self.U = np.ascontiguousarray(as_float_array(torque, "torque", shape))
+        self.kind = kind
+        _check_order(comp, kind, forcing, self.model)
+        self.meta: dict[str, Any] = {"method": method, "tol": self.tol, "max_iter": self.max_iter,
+                                     "alpha": self.alpha, "save_every": save_every, "torque": kind,
+                                     "forcing": forcing, "lgvi_version": __version__, "t0": self.t0,
+                                     "order": comp.order}
+        if comp.order != 2:
+            self.meta["composition"] = comp.name
+        if self.model is not None:
+            self.meta["torque_model"] = repr(self.model)
+        self.has_potential = self.model is not None and any(m.conservative for m in self.model.terms)
+        # the paper's scheme (and the free body at order 2) keeps the original kernels, bit for bit
+        self.legacy = comp.order == 2 and (kind == "none" or (kind in ("array", "callable") and not sym))
+        self.k = 0
+        self.M_cb: np.ndarray | None = None  # last moment of a callable with symmetric forcing
+        if self.legacy:
+            self.G = _solver_state(self.code, body, h, self.Pi)
+        else:
+            self.gam = np.array(comp.coefficients)
+            cum = np.concatenate([[0.0], np.cumsum(self.gam)])
             cum[-1] = 1.0
-            G = np.stack([_solver_state(code, body, g * h, Pi) for g in gam])
-            if func is None:
-                codes, params = model.encode() if model is not None else (_NO_CODES, np.zeros(0))
-                A = _momentum_matrices(body, codes, params, gam * h, sym)
-                S = np.zeros(7)
-                gidx = np.arange(len(gam), dtype=np.int64)
-                while k < steps:
-                    n = min(CHUNK_STEPS, steps - k)
-                    status, k = run_chunk_forced(code, body.Jd, body.J, body.J_inv, h, t0, gam, cum, A, R, Pi, G,
-                                                 gidx, S, codes, params, U, int(sym), k, n, tol, max_iter, alpha,
-                                                 save_every, R_out, Pi_out, it_out, res_out, _NO_HIST)
-                    if status != OK:
-                        break
-            else:
-                status, k = _run_callable_symmetric(func, code, body, h, gam, cum, R, Pi, G, t0, steps, tol,
-                                                    max_iter, alpha, save_every, R_out, Pi_out, it_out,
-                                                    res_out, partial)
-    except KeyboardInterrupt:
-        raise SimulationInterrupted(f"simulation interrupted after {k} of {steps} steps; "
-                                    "the computed part is in .trajectory", trajectory=partial(k)) from None
-    if status != OK:
-        t_fail = t0 + k * h
-        hnorm = abs(h) * float(np.linalg.norm(Pi))
-        msg = (f"step {k} (t = {t_fail:g}) failed: "
-               + failure_message(status, float(res_out[k]), int(it_out[k]), hnorm, tol)
-               + f" The run up to step {k} is in .trajectory.")
-        # the saved samples stop at the last multiple of save_every; keep the failing state too
-        raise ConvergenceError(msg, residual=float(res_out[k]), iterations=int(it_out[k]), step=k, time=t_fail,
-                               trajectory=partial(k))
-    t = t0 + h * save_every * np.arange(M)
-    return Trajectory(t=t, R=R_out, Pi=Pi_out, inertia=body.J.copy(), iterations=it_out, residual=res_out,
-                      h=h, potential=potential(t, R_out), meta=meta)
+            self.cum = cum
+            self.G = np.stack([_solver_state(self.code, body, g * h, self.Pi) for g in self.gam])
+            if self.func is None:
+                self.codes, self.params = (self.model.encode() if self.model is not None
+                                           else (_NO_CODES, np.zeros(0)))
+                self.A = _momentum_matrices(body, self.codes, self.params, self.gam * h, sym)
+                self.S = np.zeros(7)
+                self.gidx = np.arange(len(self.gam), dtype=np.int64)
+        base = CHUNK_STEPS if self.func is None else CALLABLE_CHUNK_STEPS
+        self.chunk = max(1, base // save_every) * save_every
+
+    # ------------------------------------------------------------------ results
+    def times(self, j0: int, j1: int) -> np.ndarray:
+        """Times of samples ``j0 .. j1-1`` (the same floating-point values in every code path)."""
+        return self.t0 + self.h * self.save_every * np.arange(j0, j1)
+
+    def potential(self, t: np.ndarray, R_saved: np.ndarray) -> np.ndarray | None:
+        return self.model.potential(t, R_saved, self.body) if self.has_potential else None
+
+    def trajectory(self, t, R_out, Pi_out, it_out, res_out, partial: bool = False) -> Trajectory:
+        meta = dict(self.meta, partial=True) if partial else self.meta
+        return Trajectory(t=t, R=R_out, Pi=Pi_out, inertia=self.body.J.copy(), iterations=it_out,
+                          residual=res_out, h=self.h, potential=self.potential(t, R_out), meta=meta)
+
+    def failure(self, status: int, residual: float, iterations: int, trajectory: Any,
+                where: str = "") -> ConvergenceError:
+        k = self.k
+        t_fail = self.t0 + k * self.h
+        hnorm = abs(self.h) * float(np.linalg.norm(self.Pi))
+        msg = (f"step {k} (t = {t_fail:g}) failed: " + failure_message(status, residual, iterations, hnorm, self.tol)
+               + f" The run up to step {k} is in .trajectory." + where)
+        return ConvergenceError(msg, residual=residual, iterations=iterations, step=k, time=t_fail,
+                                trajectory=trajectory)
+
+    # ------------------------------------------------------------------ state
+    def state(self) -> dict[str, Any]:
+        st: dict[str, Any] = {"k": self.k, "R": self.R.copy(), "Pi": self.Pi.copy(), "G": self.G.copy()}
+        if not self.legacy and self.func is None:
+            st["S"] = self.S.copy()
+        if self.M_cb is not None:
+            st["M_cb"] = self.M_cb.copy()
+        return st
+
+    def load_state(self, st: dict[str, Any]) -> None:
+        self.k = int(st["k"])
+        self.R[:] = np.asarray(st["R"], dtype=np.float64)
+        self.Pi[:] = np.asarray(st["Pi"], dtype=np.float64)
+        self.G[:] = np.asarray(st["G"], dtype=np.float64)
+        if "S" in st:
+            self.S[:] = np.asarray(st["S"], dtype=np.float64)
+        self.M_cb = np.asarray(st["M_cb"], dtype=np.float64) if "M_cb" in st else None
+
+    # ------------------------------------------------------------------ stepping
+    def advance(self, n: int, R_out, Pi_out, it_out, res_out, partial) -> int:
+        """Run steps ``k .. k+n-1`` into the chunk buffers; returns the status (``k`` is updated)."""
+        from ._kernels.stepping import run_chunk, run_chunk_forced
+
+        body = self.body
+        if self.func is not None:
+            runner = _run_callable if self.legacy else _run_callable_symmetric
+            status, self.k = runner(self, n, R_out, Pi_out, it_out, res_out, partial)
+        elif self.legacy:
+            status, self.k = run_chunk(self.code, body.Jd, self.h, self.R, self.Pi, self.G, self.U, self.k, n,
+                                       self.tol, self.max_iter, self.alpha, self.save_every, R_out, Pi_out,
+                                       it_out, res_out, _NO_HIST)
+        else:
+            status, self.k = run_chunk_forced(self.code, body.Jd, body.J, body.J_inv, self.h, self.t0, self.gam,
+                                              self.cum, self.A, self.R, self.Pi, self.G, self.gidx, self.S,
+                                              self.codes, self.params, self.U, int(self.sym), self.k, n, self.tol,
+                                              self.max_iter, self.alpha, self.save_every, R_out, Pi_out, it_out,
+                                              res_out, _NO_HIST)
+        return int(status)
+
 
 
 def _composition(order: Any, composition: Any) -> Composition:
@@ -487,6 +757,8 @@ def _check_order(comp: Composition, kind: str, forcing: str, model: TorqueModel 
 def _momentum_matrices(body: RigidBody, codes: np.ndarray, params: np.ndarray, hs: np.ndarray,
                        sym: bool) -> np.ndarray:
     """``(I + hs/2 D J^-1)^-1`` per substep: the symmetric momentum equation of damped models."""
+    from ._kernels.torque_kernels import momentum_diag
+
     D = np.array(momentum_diag(codes, params))
     A = np.tile(np.eye(3), (len(hs), 1, 1))
     if not sym or not np.any(D):
@@ -520,37 +792,45 @@ def _call_torque(func, t, R, Pi, k, partial):
         raise
 
 
-def _run_callable_symmetric(func, code, body, h, gam, cum, R, Pi, G, t0, steps, tol, max_iter, alpha,
-                            save_every, R_out, Pi_out, it_out, res_out, partial):
-    """Symmetric forcing (and compositions) for a Python torque callable.
+def _run_callable_symmetric(run: _Run, n: int, R_out, Pi_out, it_out, res_out, partial) -> tuple[int, int]:
+    """Symmetric forcing (and compositions) for a Python torque callable, steps ``run.k .. +n-1``.
 
     Per substep: the compiled :func:`shifted_step` gives ``R_{k+1}`` and ``a = F^T (Pi_k + hs/2
     M_k)``; then ``Pi = a + hs/2 M(t_{k+1}, R_{k+1}, Pi)`` is solved by fixed-point iteration. The
     accepted ``Pi_{k+1}`` is the last point where ``M`` was evaluated, so ``M_{k+1}`` is exact for
-    the next step and the momentum equation holds to ``tol``.
+    the next step (kept in ``run.M_cb``) and the momentum equation holds to ``tol``.
     """
+    from ._kernels.stepping import shifted_step
+
+    func, code, body, h, gam, cum = run.func, run.code, run.body, run.h, run.gam, run.cum
+    R, Pi, G, t0, tol, max_iter, alpha = run.R, run.Pi, run.G, run.t0, run.tol, run.max_iter, run.alpha
     Jd = body.Jd
     s = len(gam)
-    M = None
-    for k in range(steps):
+    k0 = run.k
+    countdown = run.save_every
+    j = 0
+    for k in range(k0, k0 + n):
         R_start = R.copy()
         Pi_start = Pi.copy()
+        M_start = run.M_cb
         its_sum = 0
         rmax = 0.0
         for i in range(s):
             hs = gam[i] * h
             t1 = t0 + (k + cum[i + 1]) * h
-            if M is None:
-                M = _call_torque(func, t0 + (k + cum[i]) * h, R, Pi, k, partial)
-            its, rn, st = shifted_step(code, Jd, body.J_inv, hs, R, Pi, G, i, M[0], M[1], M[2], tol, max_iter, alpha,
-                                       _NO_HIST)
+            if run.M_cb is None:
+                run.M_cb = _call_torque(func, t0 + (k + cum[i]) * h, R, Pi, k, partial)
+            M = run.M_cb
+            its, rn, st = shifted_step(code, Jd, body.J_inv, hs, R, Pi, G, i, M[0], M[1], M[2], tol, max_iter,
+                                       alpha, _NO_HIST)
             its_sum += its
             rmax = max(rmax, rn)
             if st != OK:
-                it_out[k] = its_sum
-                res_out[k] = rn
+                it_out[k - k0] = its_sum
+                res_out[k - k0] = rn
                 R[:] = R_start
                 Pi[:] = Pi_start
+                run.M_cb = M_start
                 return st, k
             a = Pi.copy()
             P = a + (0.5 * hs) * M
@@ -565,6 +845,7 @@ def _run_callable_symmetric(func, code, body, h, gam, cum, R, Pi, G, t0, steps, 
             else:
                 R[:] = R_start
                 Pi[:] = Pi_start
+                run.M_cb = M_start
                 t = t0 + k * h
                 raise ConvergenceError(
                     f"step {k} (t = {t:g}): the momentum equation Pi_(k+1) = F^T (Pi_k + h/2 M_k) + h/2 "
@@ -573,45 +854,44 @@ def _run_callable_symmetric(func, code, body, h, gam, cum, R, Pi, G, t0, steps, 
                     f"callable depends too strongly on Pi for this step: reduce |h|. The run up to step "
                     f"{k} is in .trajectory.", residual=change, iterations=max_iter, step=k, time=t,
                     trajectory=partial(k))
+            run.M_cb = M
             Pi[:] = P
-        it_out[k] = its_sum
-        res_out[k] = rmax
-        if (k + 1) % save_every == 0:
-            j = (k + 1) // save_every
+        it_out[k - k0] = its_sum
+        res_out[k - k0] = rmax
+        countdown -= 1
+        if countdown == 0:
+            countdown = run.save_every
             R_out[j] = R
             Pi_out[j] = Pi
-    return OK, steps
+            j += 1
+    return OK, k0 + n
 
 
-def _run_callable(func, code, body, h, R, Pi, G, t0, steps, tol, max_iter, alpha, save_every,
-                  R_out, Pi_out, it_out, res_out, partial):
-    """Per-step loop for a Python torque callable: Python calls ``func`` and one compiled step."""
-    Jd = body.Jd
-    for k in range(steps):
-        t = t0 + k * h
-        try:
-            u = func(t, R.copy(), Pi.copy())
-        except (KeyboardInterrupt, TorqueError):
-            raise
-        except Exception as exc:
-            raise TorqueError(f"the torque callable raised {type(exc).__name__} at step {k} (t = {t:g}): {exc}. "
-                              f"The run up to step {k} is in .trajectory.", step=k, time=t,
-                              trajectory=partial(k)) from exc
-        try:
-            u = _check_torque_value(u, k, t)
-        except TorqueError as exc:
-            exc.trajectory = partial(k)
-            raise
+def _run_callable(run: _Run, n: int, R_out, Pi_out, it_out, res_out, partial) -> tuple[int, int]:
+    """Per-step loop for a Python torque callable (paper forcing): Python calls the torque and one
+    compiled step, steps ``run.k .. run.k + n - 1``."""
+    from ._kernels.stepping import lgvi_step
+
+    func, code, h, R, Pi, G, t0 = run.func, run.code, run.h, run.R, run.Pi, run.G, run.t0
+    Jd, tol, max_iter, alpha = run.body.Jd, run.tol, run.max_iter, run.alpha
+    k0 = run.k
+    countdown = run.save_every
+    j = 0
+    for k in range(k0, k0 + n):
+        u = _call_torque(func, t0 + k * h, R, Pi, k, partial)
         its, res, st = lgvi_step(code, Jd, h, R, Pi, G, u[0], u[1], u[2], tol, max_iter, alpha, _NO_HIST)
-        it_out[k] = its
-        res_out[k] = res
+        it_out[k - k0] = its
+        res_out[k - k0] = res
         if st != OK:
             return st, k
-        if (k + 1) % save_every == 0:
-            j = (k + 1) // save_every
+        countdown -= 1
+        if countdown == 0:
+            countdown = run.save_every
             R_out[j] = R
             Pi_out[j] = Pi
-    return OK, steps
+            j += 1
+    return OK, k0 + n
 
 
-__all__ = ["COMPOSITIONS", "Composition", "DEFAULT_COMPOSITION", "StepResult", "simulate", "step"]
+__all__ = ["COMPOSITIONS", "Composition", "DEFAULT_COMPOSITION", "StepResult", "simulate", "simulate_stream",
+           "step"]

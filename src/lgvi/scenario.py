@@ -104,7 +104,6 @@ from __future__ import annotations
 
 import difflib
 import functools
-import inspect
 import math
 import operator
 import os
@@ -603,8 +602,7 @@ class Scenario:
         Parameters
         ----------
         progress : bool
-            Ask the library for a progress bar (passed on when :func:`lgvi.simulate` has the
-            option; ignored otherwise).
+            Show the library's progress bar on stderr.
 
         Returns
         -------
@@ -614,29 +612,42 @@ class Scenario:
 
         Raises
         ------
-        ScenarioError
-            If the scenario asks for an option this version of :func:`lgvi.simulate` lacks.
         ConvergenceError, TorqueError, SimulationInterrupted
             As :func:`lgvi.simulate`; their ``.trajectory`` carries the scenario metadata too.
         """
         from .integrator import simulate
 
-        kw = self.simulate_kwargs()
-        params = inspect.signature(simulate).parameters
-        for opt in ("forcing", "order"):
-            if opt in kw and opt not in params:
-                raise ScenarioError(self.source, f"integrator.{opt}", f"this version of lgvi.simulate ({__version__}) "
-                                    f"has no {opt!r} option; remove the key")
-        if progress and "progress" in params:
-            kw["progress"] = True
         try:
-            traj = simulate(self.body, self.R0, self.Pi0, **kw)
+            traj = simulate(self.body, self.R0, self.Pi0, progress=progress, **self.simulate_kwargs())
         except (KeyboardInterrupt, RuntimeError) as exc:
             part = getattr(exc, "trajectory", None)
             if part is not None:
                 exc.trajectory = self.attach(part)
             raise
         return self.attach(traj)
+
+    def run_stream(self, folder, *, resume: bool = False, progress: bool = False, chunk_steps: int | None = None):
+        """Simulate the scenario into a crash-safe stream folder (:func:`lgvi.simulate_stream`) and
+        read it back; ``resume=True`` continues an interrupted or killed run bit for bit.
+
+        Returns
+        -------
+        Trajectory
+            As :meth:`run`.
+        """
+        from .integrator import simulate_stream
+        from .streaming import read_stream
+
+        try:
+            simulate_stream(folder, self.body, self.R0, self.Pi0, progress=progress, resume=resume,
+                            chunk_steps=chunk_steps, meta={"scenario_name": self.name},
+                            **self.simulate_kwargs())
+        except (KeyboardInterrupt, RuntimeError) as exc:
+            part = getattr(exc, "trajectory", None)
+            if part is not None:
+                exc.trajectory = self.attach(part)
+            raise
+        return self.attach(read_stream(folder))
 
     def attach(self, traj):
         """A copy of ``traj`` whose ``meta`` also holds this scenario's text, name and source."""

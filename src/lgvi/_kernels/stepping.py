@@ -119,9 +119,11 @@ def run_chunk(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_ever
               R_out, Pi_out, it_out, res_out, hist):
     """Advance ``n`` steps ``k0 .. k0+n-1`` with moments ``U`` (``U.shape[0] == 0``: free body).
 
-    Samples are saved after step ``k`` when ``(k + 1) % save_every == 0``, at index
-    ``(k + 1) // save_every`` of ``R_out``/``Pi_out``; ``it_out[k]``, ``res_out[k]`` record the
-    solver's iterations and final residual of every step. ``hist`` is an empty float64 array.
+    Output buffers are relative to the chunk, whose start ``k0`` must be a multiple of
+    ``save_every``: the sample after step ``k`` with ``(k + 1 - k0) % save_every == 0`` goes to
+    ``R_out[(k + 1 - k0) // save_every - 1]`` (the caller passes a view starting at sample
+    ``k0 // save_every + 1``), and ``it_out[k - k0]``, ``res_out[k - k0]`` record the solver's
+    iterations and final residual of every step. ``hist`` is an empty float64 array.
 
     Returns ``(status, k)``: ``OK`` and ``k = k0 + n`` on success; otherwise the solver status of
     the failed step ``k``, with ``R, Pi`` the state before that step.
@@ -130,22 +132,26 @@ def run_chunk(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_ever
     u0 = 0.0
     u1 = 0.0
     u2 = 0.0
+    countdown = save_every
+    j = 0
     for k in range(k0, k0 + n):
         if has_u:
             u0 = U[k, 0]
             u1 = U[k, 1]
             u2 = U[k, 2]
         its, rn, st = lgvi_step(method, Jd, h, R, Pi, G, u0, u1, u2, tol, max_iter, alpha, hist)
-        it_out[k] = its
-        res_out[k] = rn
+        it_out[k - k0] = its
+        res_out[k - k0] = rn
         if st != OK:
             return st, k
-        if (k + 1) % save_every == 0:
-            j = (k + 1) // save_every
+        countdown -= 1
+        if countdown == 0:
+            countdown = save_every
             for a in range(3):
                 Pi_out[j, a] = Pi[a]
                 for b in range(3):
                     R_out[j, a, b] = R[a, b]
+            j += 1
     return OK, k0 + n
 
 
@@ -312,8 +318,9 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
     keeps one history per substep (``gidx = 0 .. s-1``), so each warm start extrapolates
     solutions of the same substep, equally spaced by ``h`` (a history shared by substeps of
     different sizes, or by equal substeps at unequal spacing, extrapolates badly). ``U`` (steps+1, 3) or empty: explicit
-    moments at the grid points (symmetric forcing, ``s = 1``). ``it_out[k]`` records the solver
-    updates summed over the substeps and ``res_out[k]`` the largest final residual.
+    moments at the grid points (symmetric forcing, ``s = 1``). Output buffers are relative to the
+    chunk as in :func:`run_chunk`; ``it_out[k - k0]`` records the solver updates summed over the
+    substeps and ``res_out[k - k0]`` the largest final residual.
 
     Returns ``(status, k)`` as :func:`run_chunk`; after a failure ``R``, ``Pi`` and ``S`` are the
     state at the start of step ``k``.
@@ -333,6 +340,8 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
     v0 = 0.0
     v1 = 0.0
     v2 = 0.0
+    countdown = save_every
+    jout = 0
     for k in range(k0, k0 + n):
         if s > 1:
             R0[:, :] = R
@@ -352,21 +361,23 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
             if rn > rmax:
                 rmax = rn
             if st != OK:
-                it_out[k] = its_sum
-                res_out[k] = rn
+                it_out[k - k0] = its_sum
+                res_out[k - k0] = rn
                 if s > 1:
                     R[:, :] = R0
                     Pi[:] = Pi0
                     S[:] = S0
                 return st, k
-        it_out[k] = its_sum
-        res_out[k] = rmax
-        if (k + 1) % save_every == 0:
-            j = (k + 1) // save_every
+        it_out[k - k0] = its_sum
+        res_out[k - k0] = rmax
+        countdown -= 1
+        if countdown == 0:
+            countdown = save_every
             for a in range(3):
-                Pi_out[j, a] = Pi[a]
+                Pi_out[jout, a] = Pi[a]
                 for b in range(3):
-                    R_out[j, a, b] = R[a, b]
+                    R_out[jout, a, b] = R[a, b]
+            jout += 1
     return OK, k0 + n
 
 
