@@ -139,10 +139,12 @@ def check_inertia(inertia: ArrayLike, name: str = "inertia") -> _FloatArray:
     Raises
     ------
     ValueError
-        If the shape is neither (3,) nor (3, 3); if a value is not finite; if the matrix is not
-        symmetric to ``1e-12 * max|J|``; if it is not positive definite; or if it violates the
-        triangle inequality of a physical body (each principal moment at most the sum of the
-        other two, within ``1e-12`` relative), i.e. ``Jd`` is not positive semidefinite.
+        If the shape is neither (3,) nor (3, 3); if the values are not real numbers (booleans
+        are refused) or not finite; if the matrix is not symmetric to ``1e-12 * max|J|``; if it
+        is not positive definite; if ``tr(J)`` or ``1 / J1`` overflows (no finite ``Jd`` or
+        ``J^-1``); or if it violates the triangle inequality of a physical body (each principal
+        moment at most the sum of the other two, within ``1e-12`` relative), i.e. ``Jd`` is not
+        positive semidefinite.
 
     Examples
     --------
@@ -162,7 +164,7 @@ def check_inertia(inertia: ArrayLike, name: str = "inertia") -> _FloatArray:
         raise ValueError(
             f"{name} must be an array of shape (3,) or (3, 3), got {_fmt(inertia)}"
         ) from exc
-    if arr.dtype.kind not in "biuf":
+    if arr.dtype.kind not in "iuf":  # booleans are not moments of inertia
         raise ValueError(
             f"{name} must be an array of real numbers of shape (3,) or (3, 3), "
             f"got {_fmt(inertia)} (dtype {arr.dtype})"
@@ -199,6 +201,14 @@ def check_inertia(inertia: ArrayLike, name: str = "inertia") -> _FloatArray:
             f"got {_fmt(arr)}"
         )
     J1, J2, J3 = (float(x) for x in moments)
+    with np.errstate(over="ignore", divide="ignore"):
+        trace, inverse = float(np.trace(J)), 1.0 / J1
+    if not (np.isfinite(trace) and np.isfinite(inverse)):
+        raise ValueError(
+            f"{name} is outside the range of double precision: tr(J) = {trace:.10g} and "
+            f"1 / (smallest principal moment) = {inverse:.10g} must be finite for Jd and J^-1; "
+            f"change the units, got {_fmt(arr)}"
+        )
     if J3 - (J1 + J2) > RTOL * J3:
         raise ValueError(
             f"{name} violates the triangle inequality of a physical body: "
