@@ -42,10 +42,29 @@ class ImplicitSolution:
     coordinates: np.ndarray = field(repr=False)
 
 
+def _text(A: np.ndarray) -> str:
+    return " ".join(np.array2string(np.asarray(A), precision=10, separator=", ").split())
+
+
 def check_inertia_matrix(Jd: np.ndarray) -> np.ndarray:
-    if not np.allclose(Jd, Jd.T, rtol=0, atol=1e-12 * max(1.0, float(np.max(np.abs(Jd))))):
-        raise ValueError("Jd must be symmetric (Jd = tr(J)/2 I - J for a symmetric inertia J)")
-    return 0.5 * (Jd + Jd.T)
+    """``Jd`` symmetrised, after checking it is the nonstandard inertia of a physical body.
+
+    ``Jd = tr(J)/2 I - J`` of an SPD ``J`` obeying the triangle inequality is positive
+    semidefinite (zero eigenvalue for a flat body) and ``J = tr(Jd) I - Jd`` is positive
+    definite (the sum of the two smallest eigenvalues of ``Jd`` is positive).
+    """
+    scale = float(np.max(np.abs(Jd)))
+    asym = float(np.max(np.abs(Jd - Jd.T)))
+    if asym > 1e-12 * max(1.0, scale):
+        raise ValueError(f"Jd must be symmetric (Jd = tr(J)/2 I - J for a symmetric inertia J): "
+                         f"max |Jd - Jd^T| = {asym:.3g}, got {_text(Jd)}")
+    Jd = 0.5 * (Jd + Jd.T)
+    d = np.linalg.eigvalsh(Jd)
+    if not (d[0] >= -1e-12 * scale and d[0] + d[1] > 0.0):
+        raise ValueError(f"Jd must be the nonstandard inertia tr(J)/2 I - J of a physical body: positive "
+                         f"semidefinite, with J = tr(Jd) I - Jd positive definite; its eigenvalues are "
+                         f"{_text(d)}, got {_text(Jd)}")
+    return Jd
 
 
 def failure_message(status: int, residual: float, iterations: int, hnorm: float, tol: float) -> str:
@@ -65,7 +84,8 @@ def solve_implicit(Jd, hPi, *, method: str = "newton", tol: float = 1e-14, max_i
     Parameters
     ----------
     Jd : (3, 3) array_like
-        Nonstandard inertia ``Jd = tr(J)/2 I - J`` (symmetric).
+        Nonstandard inertia ``Jd = tr(J)/2 I - J`` of a physical body: symmetric, positive
+        semidefinite, with ``J = tr(Jd) I - Jd`` positive definite (``ValueError`` otherwise).
     hPi : (3,) array_like
         Step size times body angular momentum, ``h Pi_k``.
     method : {"newton", "paper", "cayley"}
@@ -134,6 +154,8 @@ def solve_implicit(Jd, hPi, *, method: str = "newton", tol: float = 1e-14, max_i
     E = np.zeros((3, 3))
     hist = np.full(max_iter + 1, np.nan)
     its, res, status = solve_implicit_kernel(code, Jd, hPi, g, tol, max_iter, alpha, E, hist)
+    if status == 0 and not (np.isfinite(res) and np.all(np.isfinite(E)) and np.all(np.isfinite(g))):
+        status = NOT_FINITE  # never hand out a non-finite F (the stopping rule overflows for |hPi| > 1e154)
     if status != 0:
         raise ConvergenceError(failure_message(status, res, its, float(np.linalg.norm(hPi)), tol),
                                residual=float(res), iterations=int(its))
