@@ -256,6 +256,11 @@ class UniformGravity(TorqueModel):
         self.g = as_float(g, "g")
         if self.g < 0.0:
             raise ValueError(f"g must be >= 0 (gravity acts along -e3), got {self.g}")
+        with np.errstate(over="ignore", invalid="ignore"):
+            moment = self.mass * self.g * self.com
+        if not np.all(np.isfinite(moment)):
+            raise ValueError(f"mass * g * com must be finite (the kernels use it), got {moment} "
+                             f"(mass={self.mass}, g={self.g}, com={self.com})")
 
     def __repr__(self) -> str:
         return f"UniformGravity(mass={_num(self.mass)}, com={_vec_text(self.com)}, g={_num(self.g)})"
