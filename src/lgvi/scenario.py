@@ -346,7 +346,12 @@ def _attitude(c: _Checker, tbl: dict[str, Any], key: str) -> np.ndarray:
             q = q[[1, 2, 3, 0]]
         return Rotation.from_quat(q / n).as_matrix()
     if form == "rotvec":
-        return Rotation.from_rotvec(c.vector(value, path)).as_matrix()
+        v = c.vector(value, path)
+        with np.errstate(over="ignore"):
+            angle = float(np.linalg.norm(v))
+        if not math.isfinite(angle):
+            raise c.error(path, f"expected a rotation vector of finite length, got length {angle}")
+        return Rotation.from_rotvec(v).as_matrix()
     # euler
     eul = c.table(value, path, ("sequence", "angles", "unit"))
     for k, what in (("sequence", 'a string such as "ZYX" (intrinsic) or "zyx" (extrinsic)'),
@@ -529,8 +534,12 @@ class Scenario:
             got = "both" if "omega" in init else "neither"
             raise c.error("initial", f"expected exactly one of initial.omega [rad/s] or initial.Pi [kg m^2/s]; "
                           f"got {got}")
-        Pi0 = (body.J @ c.vector(init["omega"], "initial.omega")) if "omega" in init else \
-            c.vector(init["Pi"], "initial.Pi")
+        with np.errstate(over="ignore", invalid="ignore"):
+            Pi0 = (body.J @ c.vector(init["omega"], "initial.omega")) if "omega" in init else \
+                c.vector(init["Pi"], "initial.Pi")
+        if not np.all(np.isfinite(Pi0)):
+            raise c.error("initial.omega", f"expected an angular velocity whose momentum J omega is finite, "
+                          f"got J omega = {Pi0.tolist()}")
 
         integ = c.table(d["integrator"], "integrator", ("h", "steps", "duration", "method", "tol", "max_iter",
                                                         "alpha", "forcing", "order", "save_every"))
@@ -545,6 +554,9 @@ class Scenario:
         else:
             duration = c.number(integ["duration"], "integrator.duration")
             ratio = duration / h
+            if not math.isfinite(ratio):
+                raise c.error("integrator.duration", f"expected a whole number of steps h = {h!r}; "
+                              f"duration / h = {duration!r} / {h!r} overflows")
             steps = round(ratio)
             if ratio < -0.5 or abs(ratio - steps) > DURATION_RTOL * abs(ratio):
                 sign = "" if ratio >= 0 else " (and have the sign of h)"
@@ -686,6 +698,8 @@ def load_scenario(path: str | os.PathLike) -> Scenario:
         raise ScenarioError(source, None, f"not UTF-8 text ({exc.reason} at byte {exc.start})") from None
     try:
         d = tomllib.loads(text)
+    except RecursionError:
+        raise ScenarioError(source, None, "TOML syntax error: arrays or tables nested too deeply") from None
     except tomllib.TOMLDecodeError as exc:
         msg = str(exc)
         m = re.search(r"\(at line (\d+), column (\d+)\)", msg)
