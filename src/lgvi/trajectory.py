@@ -146,30 +146,78 @@ class Trajectory:
             np.savez(fh, __lgvi__=np.array(header), **arrays)
 
 
+_FIELDS = ("t", "R", "Pi", "inertia", "iterations", "residual")
+
+
+def _check_arrays(fields: dict[str, np.ndarray], potential: np.ndarray | None) -> None:
+    """Shapes and dtypes of a stored trajectory (ValueError naming the field and the rule)."""
+    for name, arr in list(fields.items()) + [("potential", potential)]:
+        if arr is None:
+            continue
+        kinds = "iu" if name == "iterations" else "iuf"
+        if arr.dtype.kind not in kinds:
+            raise ValueError(f"field {name!r} must hold {'integers' if kinds == 'iu' else 'real numbers'}, "
+                             f"got dtype {arr.dtype}")
+    t = fields["t"]
+    if t.ndim != 1:
+        raise ValueError(f"field 't' must have shape (M,), got shape {t.shape}")
+    M = len(t)
+    want = {"R": (M, 3, 3), "Pi": (M, 3), "inertia": (3, 3)}
+    for name, shape in want.items():
+        if fields[name].shape != shape:
+            raise ValueError(f"field {name!r} must have shape {shape} (M = {M} samples), got shape {fields[name].shape}")
+    for name in ("iterations", "residual"):  # (steps,), or other lengths for baselines (solve_ivp: [nfev], [])
+        if fields[name].ndim != 1:
+            raise ValueError(f"field {name!r} must be one-dimensional, got shape {fields[name].shape}")
+    if potential is not None and potential.shape != (M,):
+        raise ValueError(f"field 'potential' must have shape ({M},), got shape {potential.shape}")
+
+
+def _read(path: str) -> tuple[dict[str, Any], dict[str, np.ndarray], np.ndarray | None, float]:
+    with open(path, "rb") as fh:
+        head = fh.read(4)
+    if head[:2] != b"PK":  # an .npz is a zip archive; anything else (a PNG, an .npy, text) is refused here
+        what = "an empty file" if not head else f"a file starting with {head!r}"
+        raise ValueError(f"{path} is not an lgvi trajectory: an .npz (zip) archive was expected, got {what}")
+    with np.load(path, allow_pickle=False) as data:
+        if "__lgvi__" not in data.files:
+            raise ValueError(f"{path} is not an lgvi trajectory (no '__lgvi__' header)")
+        header = json.loads(str(data["__lgvi__"]))
+        if not isinstance(header, dict):
+            raise ValueError(f"{path} is not an lgvi trajectory (the '__lgvi__' header is not a JSON object)")
+        if header.get("format") != FORMAT:
+            raise ValueError(f"{path}: unsupported trajectory format {header.get('format')!r}, expected {FORMAT!r}")
+        if not isinstance(header.get("meta", {}), dict):
+            raise ValueError(f"{path}: the header's 'meta' must be a JSON object, got {type(header['meta']).__name__}")
+        missing = [k for k in _FIELDS + ("h",) if k not in data.files]
+        if missing:
+            raise ValueError(f"{path} is not a complete lgvi trajectory: missing field(s) {', '.join(missing)}")
+        fields = {k: data[k] for k in _FIELDS}
+        potential = data["potential"] if "potential" in data.files else None
+        h_arr = data["h"]
+    if h_arr.size != 1 or h_arr.dtype.kind not in "iuf":
+        raise ValueError(f"field 'h' must be one real number, got shape {h_arr.shape}, dtype {h_arr.dtype}")
+    _check_arrays(fields, potential)
+    return header, fields, potential, float(h_arr.reshape(()))
+
+
 def load(path: str | os.PathLike) -> Trajectory:
     """Read a trajectory written by :meth:`Trajectory.save`.
 
     Raises
     ------
     ValueError
-        If the file is not an lgvi trajectory (wrong format, truncated, or missing fields).
+        If the file cannot be read or is not an lgvi trajectory (wrong format, truncated, missing
+        fields, arrays of the wrong shape or type); the message names the file.
     """
     path = os.fspath(path)
     try:
-        with np.load(path, allow_pickle=False) as data:
-            if "__lgvi__" not in data.files:
-                raise ValueError(f"{path} is not an lgvi trajectory (no '__lgvi__' header)")
-            header = json.loads(str(data["__lgvi__"]))
-            if header.get("format") != FORMAT:
-                raise ValueError(f"{path}: unsupported trajectory format {header.get('format')!r}, expected {FORMAT!r}")
-            fields = {k: data[k] for k in ("t", "R", "Pi", "inertia", "iterations", "residual")}
-            potential = data["potential"] if "potential" in data.files else None
-            h = float(data["h"])
-    except (OSError, EOFError, KeyError, json.JSONDecodeError) as exc:
-        raise ValueError(f"cannot read trajectory {path}: {exc}") from exc
-    except Exception as exc:  # zipfile.BadZipFile and friends from truncated files
-        if isinstance(exc, ValueError):
-            raise
+        header, fields, potential, h = _read(path)
+    except MemoryError:
+        raise
+    except ValueError as exc:  # numpy's own ValueErrors (pickled data, bad .npy headers) lack the path
+        raise (exc if path in str(exc) else ValueError(f"cannot read trajectory {path}: {exc}")) from exc
+    except Exception as exc:  # OSError, EOFError, zipfile.BadZipFile and friends from truncated files
         raise ValueError(f"cannot read trajectory {path}: {type(exc).__name__}: {exc}") from exc
     return Trajectory(h=h, potential=potential, meta=header.get("meta", {}), **fields)
 
