@@ -59,12 +59,18 @@ def expm1_entries(x, y, z, a, b):
 
 
 @jit
-def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, tol, max_iter, alpha, hist):
+def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, tol, max_iter, alpha, hist,
+                 eager=False):
     """Scalar core of every solver (no arrays touched but ``hist``): see the module docstring.
 
     ``d..`` are the entries of the symmetric ``Jd``, ``p`` = ``h Pi``, ``g`` the initial
     coordinates. Returns ``(g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its, rn,
     status)`` with ``E = F - I`` of the returned coordinates.
+
+    ``eager=True`` (Cayley only; used by the stepping loops, whose extrapolated guess is never
+    within 1e-14) applies the first Newton update before the first residual check: Lee's ``G``
+    needs no ``F``, so this saves one evaluation of ``F - I`` and of the residual per step. The
+    result still satisfies the same stopping rule; only ``iterations`` is at least 1.
     """
     tr = d00 + d11 + d22
     # J = tr(Jd) I - Jd, needed by the Cayley form
@@ -79,47 +85,55 @@ def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, t
     a = 0.0
     b = 0.0
     t2 = 0.0
+    skip_check = eager and method == METHOD_CAYLEY and max_iter > 0
+    x00 = x01 = x02 = x10 = x11 = x12 = x20 = x21 = x22 = 0.0
+    E00 = E01 = E02 = E10 = E11 = E12 = E20 = E21 = E22 = 0.0
+    r0 = r1 = r2 = 0.0
+    rn2 = math.inf  # no residual evaluated yet (eager first update)
     while True:
-        t2 = g0 * g0 + g1 * g1 + g2 * g2
-        if method == METHOD_CAYLEY:
-            a = 2.0 / (1.0 + t2)
-            b = a
+        if skip_check:
+            skip_check = False
         else:
-            if t2 < SMALL_ANGLE * SMALL_ANGLE:
-                a = 1.0 - t2 / 6.0 * (1.0 - t2 / 20.0)
-                b = 0.5 - t2 / 24.0 * (1.0 - t2 / 30.0)
+            t2 = g0 * g0 + g1 * g1 + g2 * g2
+            if method == METHOD_CAYLEY:
+                a = 2.0 / (1.0 + t2)
+                b = a
             else:
-                t = math.sqrt(t2)
-                sh = math.sin(0.5 * t)
-                ch = math.cos(0.5 * t)
-                a = 2.0 * sh * ch / t             # sin t / t
-                b = 2.0 * sh * sh / t2            # (1 - cos t) / t^2, no cancellation
-        # |F - I|_F^2 = 4 (1 - cos angle) = 4 b |g|^2 for both maps (b = a for Cayley): at most 8
-        enorm = 2.0 * math.sqrt(b * t2)
-        E00, E01, E02, E10, E11, E12, E20, E21, E22 = expm1_entries(g0, g1, g2, a, b)
-        # X = E Jd (Jd symmetric); r = vee(X - X^T) - hPi
-        x00 = E00 * d00 + E01 * d01 + E02 * d02
-        x01 = E00 * d01 + E01 * d11 + E02 * d12
-        x02 = E00 * d02 + E01 * d12 + E02 * d22
-        x10 = E10 * d00 + E11 * d01 + E12 * d02
-        x11 = E10 * d01 + E11 * d11 + E12 * d12
-        x12 = E10 * d02 + E11 * d12 + E12 * d22
-        x20 = E20 * d00 + E21 * d01 + E22 * d02
-        x21 = E20 * d01 + E21 * d11 + E22 * d12
-        x22 = E20 * d02 + E21 * d12 + E22 * d22
-        r0 = (x21 - x12) - p0
-        r1 = (x02 - x20) - p1
-        r2 = (x10 - x01) - p2
-        rn2 = r0 * r0 + r1 * r1 + r2 * r2
-        if it < nhist:
-            hist[it] = math.sqrt(rn2)
-        thr = tol * hn + 8.0 * EPS * (jdn * enorm + hn)
-        if rn2 <= thr * thr:
-            return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), OK
-        if not math.isfinite(rn2):
-            return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), NOT_FINITE
-        if it >= max_iter:
-            return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), NOT_CONVERGED
+                if t2 < SMALL_ANGLE * SMALL_ANGLE:
+                    a = 1.0 - t2 / 6.0 * (1.0 - t2 / 20.0)
+                    b = 0.5 - t2 / 24.0 * (1.0 - t2 / 30.0)
+                else:
+                    t = math.sqrt(t2)
+                    sh = math.sin(0.5 * t)
+                    ch = math.cos(0.5 * t)
+                    a = 2.0 * sh * ch / t             # sin t / t
+                    b = 2.0 * sh * sh / t2            # (1 - cos t) / t^2, no cancellation
+            # |F - I|_F^2 = 4 (1 - cos angle) = 4 b |g|^2 for both maps (b = a for Cayley): at most 8
+            enorm = 2.0 * math.sqrt(b * t2)
+            E00, E01, E02, E10, E11, E12, E20, E21, E22 = expm1_entries(g0, g1, g2, a, b)
+            # X = E Jd (Jd symmetric); r = vee(X - X^T) - hPi
+            x00 = E00 * d00 + E01 * d01 + E02 * d02
+            x01 = E00 * d01 + E01 * d11 + E02 * d12
+            x02 = E00 * d02 + E01 * d12 + E02 * d22
+            x10 = E10 * d00 + E11 * d01 + E12 * d02
+            x11 = E10 * d01 + E11 * d11 + E12 * d12
+            x12 = E10 * d02 + E11 * d12 + E12 * d22
+            x20 = E20 * d00 + E21 * d01 + E22 * d02
+            x21 = E20 * d01 + E21 * d11 + E22 * d12
+            x22 = E20 * d02 + E21 * d12 + E22 * d22
+            r0 = (x21 - x12) - p0
+            r1 = (x02 - x20) - p1
+            r2 = (x10 - x01) - p2
+            rn2 = r0 * r0 + r1 * r1 + r2 * r2
+            if it < nhist:
+                hist[it] = math.sqrt(rn2)
+            thr = tol * hn + 8.0 * EPS * (jdn * enorm + hn)
+            if rn2 <= thr * thr:
+                return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), OK
+            if not math.isfinite(rn2):
+                return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), NOT_FINITE
+            if it >= max_iter:
+                return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), NOT_CONVERGED
         if method == METHOD_CAYLEY:
             # Lee's G(f) = hPi + hPi x f + (hPi . f) f - 2 J f and DG = hat(hPi) + (hPi . f) I + f hPi^T - 2 J
             pf = p0 * g0 + p1 * g1 + p2 * g2

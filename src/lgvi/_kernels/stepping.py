@@ -92,7 +92,7 @@ def lgvi_step(method, Jd, h, R, Pi, G, u0, u1, u2, tol, max_iter, alpha, hist):
     q0, q1, q2 = predict(G)
     (g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its, rn,
      st) = solve_scalar(method, Jd[0, 0], Jd[0, 1], Jd[0, 2], Jd[1, 1], Jd[1, 2], Jd[2, 2],
-                        p0, p1, p2, q0, q1, q2, tol, max_iter, alpha, hist)
+                        p0, p1, p2, q0, q1, q2, tol, max_iter, alpha, hist, True)
     if st != OK:
         return its, rn, st
     push(G, g0, g1, g2)
@@ -189,7 +189,7 @@ def solve_warm(method, Jd, J_inv, p0, p1, p2, G, j, tol, max_iter, alpha, hist):
     """
     q0, q1, q2 = predict_at(G, j)
     res = solve_scalar(method, Jd[0, 0], Jd[0, 1], Jd[0, 2], Jd[1, 1], Jd[1, 2], Jd[2, 2],
-                       p0, p1, p2, q0, q1, q2, tol, max_iter, alpha, hist)
+                       p0, p1, p2, q0, q1, q2, tol, max_iter, alpha, hist, True)
     if res[14] == OK:
         return res
     spent = res[12]
