@@ -35,7 +35,7 @@ from typing import Any, Iterable
 import numpy as np
 
 from ._version import __version__
-from .trajectory import Trajectory, load
+from .trajectory import Trajectory, _check_arrays, load
 
 __all__ = [
     "CSV_COLUMNS",
@@ -175,29 +175,39 @@ def read_csv(path: str | os.PathLike, *, inertia: Any = None) -> Trajectory:
     if data.size and data.shape[1] != len(header):
         raise ValueError(f"{path}: {data.shape[1]} values per row but {len(header)} column names")
     col = {name: data[:, i] if data.size else np.zeros(0) for i, name in enumerate(header)}
-    side: dict[str, Any] = {}
+    side: Any = {}
     sp = sidecar_path(path)
     if sp.exists():
         try:
             side = json.loads(sp.read_text())
-        except (OSError, json.JSONDecodeError) as exc:
+        except (OSError, ValueError) as exc:  # JSONDecodeError, UnicodeDecodeError
             raise ValueError(f"cannot read the sidecar {sp} of {path}: {exc}") from exc
+        if not isinstance(side, dict):
+            raise ValueError(f"the sidecar {sp} of {path} must hold a JSON object, got {type(side).__name__}")
     if inertia is None:
         if "inertia" not in side:
             raise ValueError(f"{path}: the sidecar {sp.name} with the inertia is missing; pass inertia= to read_csv")
         inertia = side["inertia"]
-    J = np.asarray(inertia, dtype=np.float64)
-    if J.shape == (3,):
-        J = np.diag(J)
+    try:
+        J = np.asarray(inertia, dtype=np.float64)
+        if J.shape == (3,):
+            J = np.diag(J)
+        meta = dict(side.get("meta", {}))
+        h = side.get("h")
+        h = float("nan") if h is None else float(h)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{path}: invalid inertia, h or meta in the sidecar {sp.name}: {exc}") from exc
     R = np.stack([col[f"R{i}{j}"] for i in range(1, 4) for j in range(1, 4)], axis=-1).reshape(-1, 3, 3)
     Pi = np.stack([col["Pi1"], col["Pi2"], col["Pi3"]], axis=-1)
-    meta = dict(side.get("meta", {}))
     meta["read_from"] = "csv"
-    h = side.get("h")
-    return Trajectory(t=col["t"].copy(), R=np.ascontiguousarray(R), Pi=np.ascontiguousarray(Pi), inertia=J,
-                      iterations=np.zeros(0, dtype=np.int32), residual=np.zeros(0),
-                      h=float("nan") if h is None else float(h),
-                      potential=col["potential"].copy() if "potential" in col else None, meta=meta)
+    fields = dict(t=col["t"].copy(), R=np.ascontiguousarray(R), Pi=np.ascontiguousarray(Pi), inertia=J,
+                  iterations=np.zeros(0, dtype=np.int32), residual=np.zeros(0))
+    potential = col["potential"].copy() if "potential" in col else None
+    try:
+        _check_arrays(fields, potential)
+    except ValueError as exc:
+        raise ValueError(f"{path} is not a valid lgvi CSV trajectory: {exc}") from exc
+    return Trajectory(h=h, potential=potential, meta=meta, **fields)
 
 
 # ------------------------------------------------------------------------------------ netCDF
@@ -262,23 +272,42 @@ def write_netcdf(traj: Trajectory, path: str | os.PathLike) -> Path:
 
 
 def read_netcdf(path: str | os.PathLike) -> Trajectory:
-    """Read a file written by :func:`write_netcdf` back into a :class:`Trajectory` (exact)."""
+    """Read a file written by :func:`write_netcdf` back into a :class:`Trajectory` (exact).
+
+    Raises
+    ------
+    ValueError
+        If the file cannot be read (truncated, corrupt, not netCDF) or is not an lgvi netCDF
+        trajectory (missing variables or attributes, wrong shapes); the message names the file.
+    ImportError
+        If xarray or netCDF4 is missing.
+    """
     xr = _xarray()
     path = Path(path)
     try:
         with xr.open_dataset(path) as ds:
             ds = ds.load()
-    except (OSError, ValueError) as exc:
-        raise ValueError(f"cannot read netCDF trajectory {path}: {exc}") from exc
+    except (ImportError, MemoryError):
+        raise
+    except Exception as exc:  # OSError, ValueError, and RuntimeError("NetCDF: HDF error") from corrupt files
+        raise ValueError(f"cannot read netCDF trajectory {path}: {type(exc).__name__}: {exc}") from exc
     if ds.attrs.get("lgvi_format") != NETCDF_FORMAT:
         raise ValueError(f"{path} is not an lgvi netCDF trajectory (attribute lgvi_format = "
                          f"{ds.attrs.get('lgvi_format')!r}, expected {NETCDF_FORMAT!r})")
-    meta = json.loads(ds.attrs.get("lgvi_meta", "{}"))
-    return Trajectory(t=ds["time"].values.astype(np.float64), R=ds["R"].values.astype(np.float64),
+    try:
+        meta = json.loads(ds.attrs.get("lgvi_meta", "{}"))
+        if not isinstance(meta, dict):
+            raise ValueError(f"attribute lgvi_meta must hold a JSON object, got {type(meta).__name__}")
+        fields = dict(t=ds["time"].values.astype(np.float64), R=ds["R"].values.astype(np.float64),
                       Pi=ds["Pi"].values.astype(np.float64), inertia=ds["inertia"].values.astype(np.float64),
                       iterations=ds["iterations"].values.astype(np.int32),
-                      residual=ds["residual"].values.astype(np.float64), h=float(ds.attrs["h"]),
-                      potential=ds["potential"].values.astype(np.float64) if "potential" in ds else None, meta=meta)
+                      residual=ds["residual"].values.astype(np.float64))
+        potential = ds["potential"].values.astype(np.float64) if "potential" in ds else None
+        h = float(ds.attrs["h"])
+        _check_arrays(fields, potential)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"{path} is not a valid lgvi netCDF trajectory: {type(exc).__name__}: {exc}") from exc
+    return Trajectory(h=h, potential=potential, meta=meta, **fields)
 
 
 # ------------------------------------------------------------------------------------ any
