@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -65,6 +66,20 @@ def check_inertia_matrix(Jd: np.ndarray) -> np.ndarray:
                          f"semidefinite, with J = tr(Jd) I - Jd positive definite; its eigenvalues are "
                          f"{_text(d)}, got {_text(Jd)}")
     return Jd
+
+
+def solver_options(method: str, tol: Any, max_iter: Any, alpha: Any, *,
+                   min_iter: int = 1) -> tuple[int, float, int, float]:
+    """Validate the solver options shared by every entry point; returns ``(code, tol, max_iter, alpha)``."""
+    choice(method, "method", METHODS)
+    tol = as_float(tol, "tol")
+    if tol < 0:
+        raise ValueError(f"tol must be >= 0, got {tol}")
+    max_iter = as_int(max_iter, "max_iter", minimum=min_iter)
+    alpha = as_float(alpha, "alpha")
+    if not 0.0 < alpha <= 1.0:
+        raise ValueError(f"alpha must be in (0, 1], got {alpha}")
+    return METHODS[method], tol, max_iter, alpha
 
 
 def failure_message(status: int, residual: float, iterations: int, hnorm: float, tol: float) -> str:
@@ -134,18 +149,10 @@ def solve_implicit(Jd, hPi, *, method: str = "newton", tol: float = 1e-14, max_i
     """
     from ._kernels.solvers import initial_guess, solve_implicit_kernel  # compiled on first use
 
-    choice(method, "method", METHODS)
+    code, tol, max_iter, alpha = solver_options(method, tol, max_iter, alpha, min_iter=0)
     Jd = check_inertia_matrix(as_float_array(Jd, "Jd", (3, 3)))
     hPi = as_float_array(hPi, "hPi", (3,))
-    tol = as_float(tol, "tol")
-    if tol < 0:
-        raise ValueError(f"tol must be >= 0, got {tol}")
-    max_iter = as_int(max_iter, "max_iter", minimum=0)
-    alpha = as_float(alpha, "alpha")
-    if not 0.0 < alpha <= 1.0:
-        raise ValueError(f"alpha must be in (0, 1], got {alpha}")
     J = np.trace(Jd) * np.eye(3) - Jd
-    code = METHODS[method]
     g = np.zeros(3)
     if guess is None:
         initial_guess(code, J, hPi, g)

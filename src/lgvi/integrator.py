@@ -33,7 +33,7 @@ from ._validation import as_float, as_float_array, as_int, as_rotation, choice
 from ._version import __version__
 from .body import RigidBody
 from .errors import ConvergenceError, SimulationInterrupted, TorqueError
-from .implicit import METHODS, failure_message
+from .implicit import METHODS, failure_message, solver_options
 from .torques import TorqueModel
 from .trajectory import Trajectory
 
@@ -134,15 +134,7 @@ def as_body(body: Any) -> RigidBody:
 
 
 def _options(method: str, tol: Any, max_iter: Any, alpha: Any) -> tuple[int, float, int, float]:
-    choice(method, "method", METHODS)
-    tol = as_float(tol, "tol")
-    if tol < 0:
-        raise ValueError(f"tol must be >= 0, got {tol}")
-    max_iter = as_int(max_iter, "max_iter", minimum=1)
-    alpha = as_float(alpha, "alpha")
-    if not 0.0 < alpha <= 1.0:
-        raise ValueError(f"alpha must be in (0, 1], got {alpha}")
-    return METHODS[method], tol, max_iter, alpha
+    return solver_options(method, tol, max_iter, alpha, min_iter=1)
 
 
 def _initial_momentum(body: RigidBody, Pi0: Any, omega0: Any) -> np.ndarray:
