@@ -92,6 +92,45 @@ def failure_message(status: int, residual: float, iterations: int, hnorm: float,
             "or method='newton'.")
 
 
+def largest_step(Jd: np.ndarray, Pi: np.ndarray, h: float, method: str = "newton", *, tol: float = 1e-14,
+                 max_iter: int = 50, bisections: int = 30) -> float:
+    """Largest ``|h'| <= |h|`` for which ``hat(h' Pi) = F Jd - Jd F^T`` is solved from a cold start.
+
+    A bisection on the step (each trial a cold-started solve), used to turn a failed step into a
+    concrete hint. The solution branch near the identity exists only while ``|h Pi|`` is below a
+    bound of the order of ``|Jd|``; beyond it no step size works at this state.
+
+    Returns
+    -------
+    float
+        The largest working step found, with the sign of ``h`` (0.0 if none was found).
+    """
+    from ._kernels.solvers import initial_guess, solve_implicit_kernel
+
+    code = METHODS[method]
+    Jd = np.asarray(Jd, dtype=np.float64)
+    J = np.trace(Jd) * np.eye(3) - Jd
+    E = np.zeros((3, 3))
+    nohist = np.zeros(0)
+
+    def works(step: float) -> bool:
+        hPi = step * np.asarray(Pi, dtype=np.float64)
+        g = np.zeros(3)
+        initial_guess(code, J, hPi, g)
+        return solve_implicit_kernel(code, Jd, hPi, g, tol, max_iter, 1.0, E, nohist)[2] == 0
+
+    lo, hi = 0.0, abs(float(h))
+    if works(hi):
+        return float(h)
+    for _ in range(bisections):
+        mid = 0.5 * (lo + hi)
+        if works(np.copysign(mid, h)):
+            lo = mid
+        else:
+            hi = mid
+    return float(np.copysign(lo, h))
+
+
 def solve_implicit(Jd, hPi, *, method: str = "newton", tol: float = 1e-14, max_iter: int = 50,
                    alpha: float = 1.0, guess=None) -> ImplicitSolution:
     """Solve ``hat(h Pi) = F Jd - Jd F^T`` for ``F`` in SO(3).

@@ -33,7 +33,7 @@ from ._validation import as_float, as_float_array, as_int, as_rotation, choice
 from ._version import __version__
 from .body import RigidBody
 from .errors import ConvergenceError, SimulationInterrupted, TorqueError
-from .implicit import METHODS, failure_message, solver_options
+from .implicit import METHODS, failure_message, largest_step, solver_options
 from .torques import TorqueModel
 from .trajectory import Trajectory
 
@@ -43,6 +43,7 @@ CHUNK_STEPS = 1 << 18
 CALLABLE_CHUNK_STEPS = 1 << 12
 
 EPS = float(np.finfo(np.float64).eps)
+METHOD_NAMES = {code: name for name, code in METHODS.items()}
 
 TorqueCallable = Callable[[float, np.ndarray, np.ndarray], Any]
 
@@ -660,10 +661,17 @@ class _Run:
         k = self.k
         t_fail = self.t0 + k * self.h
         hnorm = abs(self.h) * float(np.linalg.norm(self.Pi))
+        hint = ""
+        if self.legacy and self.func is None and self.kind == "none":
+            h_ok = largest_step(self.body.Jd, self.Pi, self.h, METHOD_NAMES[self.code], tol=self.tol,
+                                max_iter=self.max_iter)
+            hint = (f" At this state the largest step that solves is about h = {h_ok:.4g}."
+                    if h_ok != 0.0 else " No step size solves at this state.")
         msg = (f"step {k} (t = {t_fail:g}) failed: " + failure_message(status, residual, iterations, hnorm, self.tol)
-               + f" The run up to step {k} is in .trajectory." + where)
-        return ConvergenceError(msg, residual=residual, iterations=iterations, step=k, time=t_fail,
-                                trajectory=trajectory)
+               + hint + f" The run up to step {k} is in .trajectory." + where)
+        err = ConvergenceError(msg, residual=residual, iterations=iterations, step=k, time=t_fail,
+                               trajectory=trajectory)
+        return err
 
     # ------------------------------------------------------------------ state
     def state(self) -> dict[str, Any]:
