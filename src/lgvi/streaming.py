@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from ._version import __version__
-from .trajectory import Trajectory
+from .trajectory import Trajectory, _check_arrays
 
 STREAM_FORMAT = "lgvi.stream/1"
 MANIFEST = "manifest.json"
@@ -111,29 +111,63 @@ def read_manifest(folder: str | os.PathLike) -> dict[str, Any]:
     return manifest
 
 
+_CHUNK_FIELDS = ("t", "R", "Pi", "iterations", "residual")
+
+
 def read_stream(folder: str | os.PathLike) -> Trajectory:
     """Read every complete chunk of a stream folder as one :class:`Trajectory`.
 
     The first chunk holds the initial sample; chunks not listed in the manifest (a crash while
     writing them) are ignored.
+
+    Raises
+    ------
+    ValueError
+        If the folder holds no lgvi stream, the manifest is damaged, or a listed chunk cannot be
+        read or does not fit the others; the message names the file.
     """
     manifest = read_manifest(folder)
-    parts: dict[str, list[np.ndarray]] = {k: [] for k in ("t", "R", "Pi", "iterations", "residual", "potential")}
-    for entry in manifest["chunks"]:
-        path = Path(folder) / entry["file"]
+    mpath = Path(folder) / MANIFEST
+    chunks = manifest.get("chunks")
+    meta = manifest.get("meta")
+    if not isinstance(chunks, list) or not isinstance(meta, dict):
+        raise ValueError(f"{mpath} is damaged: 'chunks' must be a list and 'meta' an object")
+    try:
+        inertia = np.asarray(meta["inertia"], dtype=np.float64)
+        h = float(meta["h"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"{mpath} is damaged: meta needs the inertia (3, 3) and h ({type(exc).__name__}: "
+                         f"{exc})") from exc
+    parts: dict[str, list[np.ndarray]] = {k: [] for k in _CHUNK_FIELDS + ("potential",)}
+    for i, entry in enumerate(chunks):
+        name = entry.get("file") if isinstance(entry, dict) else None
+        if not isinstance(name, str) or not name or Path(name).name != name or name.startswith("."):
+            raise ValueError(f"{mpath} is damaged: chunk {i} must name a file in the stream folder, got {entry!r}")
+        path = Path(folder) / name
         try:
             with np.load(path, allow_pickle=False) as data:
+                missing = [k for k in _CHUNK_FIELDS if k not in data.files]
+                if missing:
+                    raise ValueError(f"missing field(s) {', '.join(missing)}")
                 for key in parts:
                     if key in data.files:
                         parts[key].append(data[key])
-        except (OSError, ValueError, EOFError) as exc:
-            raise ValueError(f"cannot read stream chunk {path}: {exc}") from exc
-    meta = dict(manifest["meta"], complete=manifest.get("complete", False))
+        except MemoryError:
+            raise
+        except Exception as exc:  # OSError, EOFError, zipfile.BadZipFile, numpy's ValueErrors, ...
+            raise ValueError(f"cannot read stream chunk {path}: {type(exc).__name__}: {exc}") from exc
+    meta = dict(meta, complete=manifest.get("complete", False))
     if not parts["t"]:
         raise ValueError(f"{folder} holds no complete chunk yet")
-    cat = {k: np.concatenate(v) for k, v in parts.items() if v}
-    return Trajectory(t=cat["t"], R=cat["R"], Pi=cat["Pi"], inertia=np.asarray(meta["inertia"]),
-                      iterations=cat["iterations"], residual=cat["residual"], h=float(meta["h"]),
+    if parts["potential"] and len(parts["potential"]) != len(parts["t"]):
+        raise ValueError(f"{folder}: only some chunks hold the potential")
+    try:
+        cat = {k: np.concatenate(v) for k, v in parts.items() if v}
+        _check_arrays(dict(inertia=inertia, **{k: cat[k] for k in _CHUNK_FIELDS}), cat.get("potential"))
+    except ValueError as exc:
+        raise ValueError(f"the chunks of the stream {folder} do not fit together: {exc}") from exc
+    return Trajectory(t=cat["t"], R=cat["R"], Pi=cat["Pi"], inertia=inertia,
+                      iterations=cat["iterations"], residual=cat["residual"], h=h,
                       potential=cat.get("potential"), meta=meta)
 
 
