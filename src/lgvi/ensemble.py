@@ -3,8 +3,9 @@
 :func:`simulate_ensemble` runs ``B`` bodies (each with its own inertia if wanted) through the
 same attitude LGVI as :func:`lgvi.simulate`, in one compiled kernel that splits the bodies over
 the machine's cores (Numba ``prange``). With ``client=`` (a ``dask.distributed.Client``) the
-bodies are split into blocks that run on a Dask cluster; every body gives bit for bit the
-trajectory :func:`lgvi.simulate` gives it, whichever path runs it.
+bodies are split into blocks that run as Dask tasks; with ``out_dir=`` each block is written to
+its own file, for ensembles larger than memory. Every body gives bit for bit the trajectory
+:func:`lgvi.simulate` gives it, whichever path, thread or block runs it.
 """
 
 from __future__ import annotations
@@ -12,25 +13,41 @@ from __future__ import annotations
 import json
 import math
 import os
+import sys
+import time as _time
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
-from ._validation import as_float, as_float_array, as_int, ROTATION_TOL
+from ._kernels.codes import OK
+from ._validation import ROTATION_TOL, as_float, as_float_array, as_int, choice
 from ._version import __version__
-from .body import RigidBody, check_inertia
+from .body import RigidBody
 from .errors import ConvergenceError, SimulationInterrupted
-from .implicit import METHODS, failure_message
+from .implicit import failure_message
+from .torques import TorqueModel
 from .trajectory import Trajectory
 
-#: Steps per compiled call (for all bodies); Ctrl-C is honoured between chunks.
-CHUNK_STEPS = 1 << 14
+#: Body-substeps per compiled call (about 0.1-0.5 s); Ctrl-C and progress are handled between calls.
+CHUNK_BODY_STEPS = 1 << 22
+#: Default size of one block's samples (``R`` and ``Pi``) with ``client=`` or ``out_dir=``.
+BLOCK_BYTES = 1 << 28
 
 ENSEMBLE_FORMAT = "lgvi.ensemble/1"
+#: File names of the blocks written with ``out_dir=`` (block number, from 0).
+BLOCK_PATTERN = "ensemble-{:05d}.npz"
+_BLOCK_KEYS = ("block", "first_body", "bodies_total")
 
+_NO_HIST = np.zeros(0)
+_NO_CODES = np.zeros((0, 2), dtype=np.int64)
+
+
+# ------------------------------------------------------------------------------------------------
+# Result
+# ------------------------------------------------------------------------------------------------
 
 @dataclass(frozen=True, eq=False)
 class EnsembleTrajectory:
@@ -39,15 +56,27 @@ class EnsembleTrajectory:
     Attributes
     ----------
     t : (M,) ndarray
+        Sample times (the same for every body).
     R : (B, M, 3, 3) ndarray
+        Attitudes.
     Pi : (B, M, 3) ndarray
+        Body angular momenta.
     inertia : (B, 3, 3) ndarray
+        Standard inertia of each body.
     iterations : (B,) ndarray of int
-        Total solver updates of each body over the run.
+        Total solver updates of each body over the run (all steps and substeps).
     residual : (B,) ndarray
         Largest final residual of any step of each body.
     h : float
+        Step size.
+    potential : (B, M) ndarray or None
+        Potential energy at each sample, for torque models with a conservative part.
     meta : dict
+        Run options (method, forcing, order, torque model, ...), JSON-serialisable.
+
+    Derived (computed on first access): ``omega`` (B,M,3), ``kinetic_energy`` (B,M),
+    ``energy`` (B,M) kinetic plus potential, ``spatial_momentum`` (B,M,3). ``ens[b]`` is body
+    ``b`` as a :class:`lgvi.Trajectory` (without per-step solver records).
     """
 
     t: np.ndarray
@@ -57,39 +86,57 @@ class EnsembleTrajectory:
     iterations: np.ndarray
     residual: np.ndarray
     h: float
+    potential: np.ndarray | None = None
     meta: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        for name in ("t", "R", "Pi", "inertia", "iterations", "residual"):
-            arr = np.asarray(getattr(self, name))
-            arr.flags.writeable = False
-            object.__setattr__(self, name, arr)
+        for name in ("t", "R", "Pi", "inertia", "iterations", "residual", "potential"):
+            arr = getattr(self, name)
+            if arr is not None:
+                arr = np.asarray(arr)
+                arr.flags.writeable = False
+                object.__setattr__(self, name, arr)
 
     def __len__(self) -> int:
         return int(self.R.shape[0])
 
+    @property
+    def bodies(self) -> int:
+        """Number of bodies ``B``."""
+        return len(self)
+
     def __repr__(self) -> str:
-        return (f"EnsembleTrajectory(bodies={len(self)}, samples={len(self.t)}, h={self.h:g}, "
+        span = f", t=[{self.t[0]:.6g}, {self.t[-1]:.6g}]" if len(self.t) else ""
+        return (f"EnsembleTrajectory(bodies={len(self)}, samples={len(self.t)}, h={self.h:g}{span}, "
                 f"method={self.meta.get('method', '?')!r})")
 
     def __getitem__(self, b: int) -> Trajectory:
-        """Body ``b`` as a :class:`Trajectory` (without per-step solver records)."""
+        """Body ``b`` as a :class:`lgvi.Trajectory` (its ``iterations``/``residual`` are empty)."""
         b = int(b)
         if not -len(self) <= b < len(self):
-            raise IndexError(f"body index {b} out of range for an ensemble of {len(self)}")
+            raise IndexError(f"body index {b} out of range for an ensemble of {len(self)} bodies")
+        b %= len(self)
         return Trajectory(t=self.t, R=self.R[b], Pi=self.Pi[b], inertia=self.inertia[b],
                           iterations=np.zeros(0, dtype=np.int32), residual=np.zeros(0), h=self.h,
+                          potential=None if self.potential is None else self.potential[b],
                           meta=dict(self.meta, body=b))
 
     @cached_property
     def omega(self) -> np.ndarray:
-        """(B, M, 3) body angular velocity."""
+        """(B, M, 3) body angular velocity ``J^-1 Pi``."""
         return np.linalg.solve(self.inertia[:, None], self.Pi[..., None])[..., 0]
 
     @cached_property
-    def energy(self) -> np.ndarray:
-        """(B, M) kinetic energy."""
+    def kinetic_energy(self) -> np.ndarray:
+        """(B, M) kinetic energy ``1/2 Pi . J^-1 Pi``."""
         return 0.5 * np.einsum("bmi,bmi->bm", self.Pi, self.omega)
+
+    @cached_property
+    def energy(self) -> np.ndarray:
+        """(B, M) total energy: kinetic plus, for conservative torque models, potential."""
+        if self.potential is None:
+            return self.kinetic_energy
+        return self.kinetic_energy + self.potential
 
     @cached_property
     def spatial_momentum(self) -> np.ndarray:
@@ -97,62 +144,137 @@ class EnsembleTrajectory:
         return np.einsum("bmij,bmj->bmi", self.R, self.Pi)
 
     def save(self, path: str | os.PathLike) -> None:
-        """Write to ``.npz`` (exact round trip with :func:`load_ensemble`)."""
+        """Write to ``path`` (``.npz``, uncompressed); :func:`load_ensemble` reads it back exactly."""
+        arrays = dict(t=self.t, R=self.R, Pi=self.Pi, inertia=self.inertia, iterations=self.iterations,
+                      residual=self.residual, h=np.float64(self.h))
+        if self.potential is not None:
+            arrays["potential"] = self.potential
         header = json.dumps({"format": ENSEMBLE_FORMAT, "meta": self.meta})
         with open(os.fspath(path), "wb") as fh:
-            np.savez(fh, __lgvi__=np.array(header), t=self.t, R=self.R, Pi=self.Pi, inertia=self.inertia,
-                     iterations=self.iterations, residual=self.residual, h=np.float64(self.h))
+            np.savez(fh, __lgvi__=np.array(header), **arrays)
 
 
-def load_ensemble(path: str | os.PathLike) -> EnsembleTrajectory:
-    """Read an ensemble written by :meth:`EnsembleTrajectory.save`."""
-    path = os.fspath(path)
+def _load_one(path: str) -> EnsembleTrajectory:
     try:
+        with open(path, "rb") as fh:
+            head = fh.read(2)
+        if head != b"PK":
+            raise ValueError("not an .npz (zip) archive")
         with np.load(path, allow_pickle=False) as data:
+            if "__lgvi__" not in data.files:
+                raise ValueError("no '__lgvi__' header")
             header = json.loads(str(data["__lgvi__"]))
-            if header.get("format") != ENSEMBLE_FORMAT:
-                raise ValueError(f"{path} is not an lgvi ensemble (format {header.get('format')!r})")
-            fields = {k: data[k] for k in ("t", "R", "Pi", "inertia", "iterations", "residual")}
-            h = float(data["h"])
-    except (OSError, KeyError, EOFError, json.JSONDecodeError) as exc:
+            if not isinstance(header, dict) or header.get("format") != ENSEMBLE_FORMAT:
+                what = header.get("format") if isinstance(header, dict) else header
+                raise ValueError(f"format {what!r}, expected {ENSEMBLE_FORMAT!r}")
+            names = ("t", "R", "Pi", "inertia", "iterations", "residual", "h")
+            missing = [k for k in names if k not in data.files]
+            if missing:
+                raise ValueError(f"missing field(s) {', '.join(missing)}")
+            fields = {k: data[k] for k in names[:-1]}
+            potential = data["potential"] if "potential" in data.files else None
+            h = data["h"]
+    except OSError as exc:
         raise ValueError(f"cannot read ensemble {path}: {exc}") from exc
-    return EnsembleTrajectory(h=h, meta=header.get("meta", {}), **fields)
+    except Exception as exc:  # zip, JSON and numpy errors of damaged files
+        raise ValueError(f"{path} is not a readable lgvi ensemble: {type(exc).__name__}: {exc}") from exc
+    t = fields["t"]
+    B = fields["R"].shape[0] if fields["R"].ndim else -1
+    M = t.shape[0] if t.ndim == 1 else -1
+    want = {"R": (B, M, 3, 3), "Pi": (B, M, 3), "inertia": (B, 3, 3), "iterations": (B,), "residual": (B,)}
+    if potential is not None:
+        want["potential"] = (B, M)
+    for name, shape in want.items():
+        arr = potential if name == "potential" else fields[name]
+        if t.ndim != 1 or arr.shape != shape or arr.dtype.kind not in ("iu" if name == "iterations" else "iuf"):
+            raise ValueError(f"{path}: field {name!r} must have shape {shape} (B bodies, M samples), got shape "
+                             f"{arr.shape} and dtype {arr.dtype}")
+    if h.size != 1:
+        raise ValueError(f"{path}: field 'h' must be one number, got shape {h.shape}")
+    meta = header.get("meta", {})
+    if not isinstance(meta, dict):
+        raise ValueError(f"{path}: the header's 'meta' must be a JSON object")
+    return EnsembleTrajectory(h=float(h.reshape(())), potential=potential, meta=meta, **fields)
 
 
-def concatenate(parts: list[EnsembleTrajectory]) -> EnsembleTrajectory:
-    """Join ensembles of the same run split by bodies, in order."""
+def load_ensemble(path: str | os.PathLike | Sequence[str | os.PathLike]) -> EnsembleTrajectory:
+    """Read an ensemble written by :meth:`EnsembleTrajectory.save` or by ``simulate_ensemble(out_dir=)``.
+
+    Parameters
+    ----------
+    path : path, folder, or sequence of paths
+        One ``.npz`` file; a folder written with ``out_dir=`` (all its ``ensemble-XXXXX.npz``
+        blocks, checked to cover the ensemble in order); or a list of files, joined in order.
+
+    Returns
+    -------
+    EnsembleTrajectory
+
+    Raises
+    ------
+    ValueError
+        If a file is not an lgvi ensemble, or the blocks of a folder are incomplete or overlap;
+        the message names the file.
+    """
+    if isinstance(path, (list, tuple)):
+        return concatenate([_load_one(os.fspath(p)) for p in path])
+    folder = Path(os.fspath(path))
+    if not folder.is_dir():
+        return _load_one(str(folder))
+    files = sorted(folder.glob("ensemble-*.npz"))
+    if not files:
+        raise ValueError(f"{folder} holds no ensemble blocks (ensemble-XXXXX.npz)")
+    parts = [_load_one(str(p)) for p in files]
+    expected = 0
+    total = parts[0].meta.get("bodies_total")
+    for p, part in zip(files, parts):
+        first = part.meta.get("first_body")
+        if first is not None and first != expected:
+            raise ValueError(f"{p}: block starts at body {first}, but the blocks before it end at body {expected} "
+                             f"(a block is missing or the folder mixes runs)")
+        expected += len(part)
+    if total is not None and expected != total:
+        raise ValueError(f"{folder}: the blocks hold {expected} bodies, but the run had {total} "
+                         "(the last blocks are missing: the run did not finish?)")
+    return concatenate(parts)
+
+
+def concatenate(parts: Sequence[EnsembleTrajectory]) -> EnsembleTrajectory:
+    """Join ensembles of the same run split by bodies, in the given order.
+
+    Raises ``ValueError`` if the parts differ in their sample times, step size or run options.
+    """
+    parts = list(parts)
     if not parts:
         raise ValueError("parts must hold at least one ensemble")
     first = parts[0]
-    return EnsembleTrajectory(t=first.t, R=np.concatenate([p.R for p in parts]),
-                              Pi=np.concatenate([p.Pi for p in parts]),
-                              inertia=np.concatenate([p.inertia for p in parts]),
-                              iterations=np.concatenate([p.iterations for p in parts]),
-                              residual=np.concatenate([p.residual for p in parts]), h=first.h,
-                              meta=dict(first.meta))
+    keep = {k: v for k, v in first.meta.items() if k not in _BLOCK_KEYS}
+    for i, p in enumerate(parts[1:], 1):
+        if not isinstance(p, EnsembleTrajectory):
+            raise TypeError(f"parts[{i}] must be an EnsembleTrajectory, got {type(p).__name__}")
+        if p.h != first.h or not np.array_equal(p.t, first.t):
+            raise ValueError(f"parts[{i}] has other sample times or step size than parts[0]; only blocks of "
+                             "one run can be joined")
+        if (p.potential is None) != (first.potential is None):
+            raise ValueError(f"parts[{i}] {'lacks' if p.potential is None else 'has'} a potential, parts[0] "
+                             f"{'has' if first.potential is not None else 'lacks'} one")
+        other = {k: v for k, v in p.meta.items() if k not in _BLOCK_KEYS}
+        if other != keep:
+            diff = sorted(k for k in set(other) | set(keep) if other.get(k) != keep.get(k))
+            raise ValueError(f"parts[{i}] was run with other options than parts[0] (differences: {', '.join(diff)})")
+
+    def cat(name: str) -> np.ndarray:
+        return np.concatenate([getattr(p, name) for p in parts])
+
+    return EnsembleTrajectory(t=first.t, R=cat("R"), Pi=cat("Pi"), inertia=cat("inertia"),
+                              iterations=cat("iterations"), residual=cat("residual"), h=first.h,
+                              potential=None if first.potential is None else cat("potential"),
+                              meta=dict(keep, bodies=sum(len(p) for p in parts)))
 
 
-def _inertias(bodies: Any, B: int | None) -> np.ndarray:
-    """(B, 3, 3) inertia matrices from a body, a list of bodies, or arrays of inertias."""
-    if isinstance(bodies, RigidBody):
-        J = bodies.J[None]
-    elif isinstance(bodies, (list, tuple)) and bodies and all(isinstance(b, RigidBody) for b in bodies):
-        J = np.stack([b.J for b in bodies])
-    else:
-        arr = as_float_array(bodies, "bodies")
-        if arr.shape in ((3,), (3, 3)):
-            J = RigidBody(arr).J[None]
-        elif arr.ndim in (2, 3) and arr.shape[1:] in ((3,), (3, 3)):
-            J = np.stack([check_inertia(a, name=f"bodies[{i}]") for i, a in enumerate(arr)])
-        else:
-            raise ValueError(f"bodies must be a RigidBody, a list of them, or inertias of shape (3,), (3,3), "
-                             f"(B,3) or (B,3,3); got shape {arr.shape}")
-    if B is not None and len(J) == 1:
-        J = np.repeat(J, B, axis=0)
-    if B is not None and len(J) != B:
-        raise ValueError(f"bodies gives {len(J)} inertias but R0 has {B} attitudes")
-    return J
-
+# ------------------------------------------------------------------------------------------------
+# Validation
+# ------------------------------------------------------------------------------------------------
 
 def _rotations(R0: Any) -> np.ndarray:
     try:
@@ -163,183 +285,489 @@ def _rotations(R0: Any) -> np.ndarray:
         pass
     R = as_float_array(R0, "R0")
     if R.ndim != 3 or R.shape[1:] != (3, 3):
-        raise ValueError(f"R0 must have shape (B, 3, 3), got shape {R.shape}")
+        raise ValueError(f"R0 must have shape (B, 3, 3) (one rotation matrix per body), got shape {R.shape}")
+    if R.shape[0] == 0:
+        raise ValueError("R0 must hold at least one attitude, got shape (0, 3, 3)")
     err = np.linalg.norm(np.einsum("bki,bkj->bij", R, R) - np.eye(3), axis=(1, 2))
     det = np.linalg.det(R)
     bad = np.flatnonzero((err > ROTATION_TOL) | (det <= 0))
     if bad.size:
         b = int(bad[0])
+        rule = ("determinant -1 (a reflection)" if det[b] < 0
+                else f"orthogonality error |R^T R - I| = {err[b]:.3g} > {ROTATION_TOL:g}")
         raise ValueError(f"R0[{b}] must be a rotation matrix (orthogonal to {ROTATION_TOL:g}, determinant +1); "
-                         f"got orthogonality error {err[b]:.3g}, determinant {det[b]:.6g} ({bad.size} bad in all). "
+                         f"got {rule} ({bad.size} of {len(R)} attitudes are not rotations). "
                          "Use lgvi.so3.project(R0) for the nearest rotations.")
     return np.array(R, dtype=np.float64, order="C", copy=True)
 
 
+def _bodies(bodies: Any, B: int) -> tuple[list[RigidBody], np.ndarray]:
+    """Distinct bodies and the index ``ib`` (B,) of each body's among them."""
+    if isinstance(bodies, RigidBody):
+        return [bodies], np.zeros(B, dtype=np.int64)
+    if isinstance(bodies, (list, tuple)) and any(isinstance(x, RigidBody) for x in bodies):
+        items = list(bodies)
+    else:
+        try:
+            arr = np.asarray(bodies)
+        except Exception as exc:
+            raise TypeError(f"bodies must be a RigidBody, a sequence of B of them, or inertias; got "
+                            f"{type(bodies).__name__}") from exc
+        if arr.shape in ((3,), (3, 3)):
+            return [RigidBody(arr)], np.zeros(B, dtype=np.int64)
+        if arr.ndim not in (2, 3) or arr.shape[1:] not in ((3,), (3, 3)):
+            raise ValueError(f"bodies must be a RigidBody, a sequence of them, or inertias of shape (3,), (3, 3), "
+                             f"(B, 3) or (B, 3, 3); got shape {arr.shape}")
+        items = list(arr)
+    if len(items) != B:
+        raise ValueError(f"bodies gives {len(items)} bodies but R0 has {B} attitudes; give one body for all "
+                         "or one per attitude")
+    unique: list[RigidBody] = []
+    seen: dict[bytes, int] = {}
+    ib = np.empty(B, dtype=np.int64)
+    for b, item in enumerate(items):
+        if isinstance(item, RigidBody):
+            key = b"J" + item.J.tobytes()
+        else:
+            a = np.asarray(item)
+            key = str(a.shape).encode() + a.dtype.str.encode() + a.tobytes()
+        q = seen.get(key)
+        if q is None:
+            try:
+                body = item if isinstance(item, RigidBody) else RigidBody(item)
+            except (TypeError, ValueError) as exc:
+                raise type(exc)(f"bodies[{b}]: {exc}") from exc
+            q = seen[key] = len(unique)
+            unique.append(body)
+        ib[b] = q
+    return unique, ib
+
+
+def _momenta(bodies: list[RigidBody], ib: np.ndarray, Pi0: Any, omega0: Any) -> np.ndarray:
+    B = len(ib)
+    if Pi0 is None and omega0 is None:
+        raise ValueError("give the initial body angular momenta Pi0 (B, 3) or the angular velocities omega0 (B, 3)")
+    if Pi0 is not None and omega0 is not None:
+        raise ValueError("give either Pi0 or omega0, not both")
+    if Pi0 is not None:
+        return np.array(as_float_array(Pi0, "Pi0", (B, 3)), dtype=np.float64, order="C", copy=True)
+    omega = as_float_array(omega0, "omega0", (B, 3))
+    Pi = np.empty((B, 3))
+    for b in range(B):  # as simulate computes it (J @ omega0), bit for bit
+        Pi[b] = bodies[ib[b]].J @ omega[b]
+    return Pi
+
+
+class _Setup:
+    """A validated ensemble run: inputs, scheme, and everything the kernels need but the state."""
+
+    def __init__(self, bodies: Any, R0: Any, Pi0: Any, omega0: Any, *, h: Any, steps: Any, torque: Any,
+                 method: str, tol: Any, max_iter: Any, alpha: Any, save_every: Any, t0: Any, forcing: Any,
+                 order: Any, composition: Any, threads: Any) -> None:
+        from .integrator import _check_order, _composition, _options
+
+        self.code, self.tol, self.max_iter, self.alpha = _options(method, tol, max_iter, alpha)
+        self.R = _rotations(R0)
+        B = len(self.R)
+        self.bodies, self.ib = _bodies(bodies, B)
+        self.Pi = _momenta(self.bodies, self.ib, Pi0, omega0)
+        self.h = h = as_float(h, "h", nonzero=True)
+        self.t0 = as_float(t0, "t0")
+        self.steps = steps = as_int(steps, "steps", minimum=0)
+        self.save_every = save_every = as_int(save_every, "save_every", minimum=1)
+        if steps % save_every != 0:
+            raise ValueError(f"save_every must divide steps so that the final state is saved; got "
+                             f"steps={steps}, save_every={save_every} (steps % save_every = {steps % save_every})")
+        choice(forcing, "forcing", ("paper", "symmetric"))
+        self.comp = comp = _composition(order, composition)
+        self.sym = forcing == "symmetric"
+        if torque is None:
+            self.model, kind = None, "none"
+        elif isinstance(torque, TorqueModel):
+            self.model, kind = torque, "model"
+        elif callable(torque):
+            raise TypeError("simulate_ensemble takes torque=None or a torque model of lgvi.torques (one model, the "
+                            f"same for every body), got the callable {torque!r}: a Python function cannot run "
+                            "inside the compiled parallel kernel. Write the moment as a model (or a sum of "
+                            "models), or call lgvi.simulate per body.")
+        else:
+            raise TypeError("simulate_ensemble takes torque=None or a torque model of lgvi.torques (one model, the "
+                            f"same for every body), got {type(torque).__name__}: torque arrays are not supported "
+                            "for ensembles; call lgvi.simulate per body for tabulated moments.")
+        _check_order(comp, kind, forcing, self.model)
+        if threads is not None:
+            threads = as_int(threads, "threads", minimum=1)
+        self.threads = threads
+        # the free body at order 2 runs the original step (as simulate does), bit for bit
+        self.legacy = comp.order == 2 and kind == "none"
+        self.gam = np.array(comp.coefficients)
+        cum = np.concatenate([[0.0], np.cumsum(self.gam)])
+        cum[-1] = 1.0
+        self.cum = cum
+        if self.model is not None:
+            self.codes, self.params = self.model.encode()
+        else:
+            self.codes, self.params = _NO_CODES, np.zeros(0)
+        self.has_potential = self.model is not None and any(m.conservative for m in self.model.terms)
+        self.meta: dict[str, Any] = {"method": method, "tol": self.tol, "max_iter": self.max_iter,
+                                     "alpha": self.alpha, "save_every": save_every, "steps": steps,
+                                     "torque": kind, "forcing": forcing, "order": comp.order, "t0": self.t0,
+                                     "bodies": B, "lgvi_version": __version__}
+        if comp.order != 2:
+            self.meta["composition"] = comp.name
+        if self.model is not None:
+            self.meta["torque_model"] = repr(self.model)
+
+    def __len__(self) -> int:
+        return len(self.ib)
+
+    def block(self, start: int, stop: int, threads: int | None) -> "_Setup":
+        """Bodies ``start .. stop-1`` as a run of their own (only the bodies it uses)."""
+        sub = object.__new__(_Setup)
+        sub.__dict__.update(self.__dict__)
+        used, ib = np.unique(self.ib[start:stop], return_inverse=True)
+        sub.bodies = [self.bodies[q] for q in used]
+        sub.ib = ib.astype(np.int64).reshape(-1)
+        sub.R = self.R[start:stop].copy()
+        sub.Pi = self.Pi[start:stop].copy()
+        sub.threads = threads
+        sub.meta = dict(self.meta, bodies=stop - start)
+        return sub
+
+    def times(self, m: int) -> np.ndarray:
+        """Times of the first ``m`` samples (the same floating-point values as :func:`lgvi.simulate`)."""
+        return self.t0 + self.h * self.save_every * np.arange(m)
+
+    def inertia(self) -> np.ndarray:
+        return np.stack([b.J for b in self.bodies])[self.ib]
+
+    def potential(self, t: np.ndarray, R_out: np.ndarray) -> np.ndarray | None:
+        if not self.has_potential:
+            return None
+        U = np.empty(R_out.shape[:2])
+        for q, body in enumerate(self.bodies):
+            idx = np.flatnonzero(self.ib == q)
+            U[idx] = self.model.potential(t, R_out[idx], body)
+        return U
+
+
+# ------------------------------------------------------------------------------------------------
+# Runs
+# ------------------------------------------------------------------------------------------------
+
 def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: float, steps: int,
                       torque: Any = None, method: str = "newton", tol: float = 1e-14, max_iter: int = 50,
-                      alpha: float = 1.0, save_every: int = 1, threads: int | None = None,
+                      alpha: float = 1.0, save_every: int = 1, t0: float = 0.0, forcing: str = "paper",
+                      order: int = 2, composition: str | None = None, threads: int | None = None,
                       client: Any = None, block_size: int | None = None,
-                      out_dir: str | os.PathLike | None = None) -> EnsembleTrajectory | list[Path]:
-    """Simulate ``B`` rigid bodies at once with the attitude LGVI.
+                      out_dir: str | os.PathLike | None = None,
+                      progress: Any = False) -> EnsembleTrajectory | list[Path]:
+    """Simulate ``B`` rigid bodies at once with the attitude LGVI, in parallel over cores.
+
+    Body ``b`` follows bit for bit the trajectory of
+    ``lgvi.simulate(body_b, R0[b], Pi0[b], <same options>)``: the ensemble kernel runs the same
+    compiled steps on each body's own state (its solver histories and moment cache included).
 
     Parameters
     ----------
-    bodies : RigidBody, sequence of RigidBody, or array_like
-        One body for all, ``B`` bodies, or inertias ``(B, 3)`` / ``(B, 3, 3)``.
+    bodies : RigidBody, sequence of B RigidBody, or array_like
+        One body for all, or one per body: inertias ``(3,)``/``(3, 3)`` for all, ``(B, 3)``
+        principal moments or ``(B, 3, 3)`` matrices.
     R0 : (B, 3, 3) array_like or scipy Rotation stack
-        Initial attitudes.
+        Initial attitudes, rotations to 1e-9 (the error names the first bad index).
     Pi0, omega0 : (B, 3) array_like
-        Initial body momenta or angular velocities (one of the two).
-    h, steps, method, tol, max_iter, alpha, save_every
+        Initial body angular momenta or angular velocities (give one of the two).
+    h, steps, method, tol, max_iter, alpha, save_every, t0, forcing, order, composition
         As in :func:`lgvi.simulate`.
-    torque : None
-        Only the free body is supported by the ensemble kernel so far; anything else raises
-        ``NotImplementedError``.
+    torque : None or lgvi.torques.TorqueModel
+        The free body, or one built-in torque model (or a sum of them) applied to every body; it
+        is evaluated with each body's own inertia and state. Python callables and torque arrays
+        are refused (``TypeError``): they cannot run inside the compiled parallel kernel.
     threads : int, optional
-        Numba threads for this call (default: all cores).
+        Threads of this call (default: Numba's current number, all cores unless changed; at most
+        ``numba.config.NUMBA_NUM_THREADS``). ``threads=1`` runs a serial kernel. With ``client``
+        it is the threads of each Dask task (default 1: the cluster's workers give the
+        parallelism).
     client : dask.distributed.Client, optional
-        Run blocks of ``block_size`` bodies as Dask tasks and gather them (``pip install lgvi[dask]``).
+        Split the bodies into blocks of ``block_size`` that run as Dask tasks, each one an
+        in-process ensemble run on its worker, and gather them (``pip install lgvi[dask]``).
     block_size : int, optional
-        Bodies per Dask task (default: the ensemble split into two blocks per worker).
+        Bodies per block with ``client`` or ``out_dir`` (default: two blocks per Dask worker,
+        at most about 256 MB of samples per block).
     out_dir : path, optional
-        With ``client``: each block writes ``ensemble-XXXXX.npz`` there and the paths are returned
-        instead of the gathered ensemble (for ensembles larger than memory).
+        Write each block to ``out_dir/ensemble-XXXXX.npz`` (block number from 0) and return the
+        paths instead of an ensemble, for ensembles larger than memory; read them back with
+        :func:`load_ensemble` (one file, a list of them, or the whole folder). Without
+        ``client`` the blocks run one after the other in this process; with it, on the
+        workers, which must see ``out_dir`` (a shared file system). The folder must not hold
+        ensemble blocks already.
+    progress : bool or callable
+        ``True`` draws a progress bar on stderr, a callable is called as ``progress(done, total)``
+        (steps of the whole ensemble in process; bodies of finished blocks with ``client`` or
+        ``out_dir``).
 
     Returns
     -------
-    EnsembleTrajectory
-        ``R`` (B, M, 3, 3), ``Pi`` (B, M, 3) with ``M = steps // save_every + 1`` (or the list of
-        block files with ``out_dir``).
+    EnsembleTrajectory or list of pathlib.Path
+        ``R`` (B, M, 3, 3), ``Pi`` (B, M, 3) with ``M = steps // save_every + 1``, ``potential``
+        (B, M) for conservative models, ``iterations`` and ``residual`` (B,) per body; with
+        ``out_dir`` the block files in order.
 
     Raises
     ------
+    ValueError, TypeError
+        Invalid input; the message names the argument (and the index of a bad body or attitude).
     ConvergenceError
-        If any body's implicit equation fails; ``err.trajectory`` holds the ensemble up to the
-        first failing step (all bodies), ``err.step`` that step.
+        A body's implicit equation failed: the message names the body, the step and the time
+        (``err.body``, ``err.step``, ``err.time``); ``err.trajectory`` holds the ensemble up to the
+        failing step (all bodies). With ``client`` it holds that of the failing block.
+    SimulationInterrupted
+        Ctrl-C (honoured between compiled chunks of steps); ``err.trajectory`` holds the part
+        computed so far (in process; with ``client`` the tasks are cancelled and it is ``None``).
+
+    Notes
+    -----
+    The loop over bodies runs inside the compiled kernel (Numba ``prange``); each thread takes
+    a contiguous block of bodies and advances each one through a whole chunk of steps with its
+    state in cache. Results do not depend on the number of threads, the chunking or the blocks.
 
     Examples
     --------
     >>> import numpy as np, lgvi
     >>> rng = np.random.default_rng(0)
     >>> R0 = lgvi.so3.exp(0.1 * rng.normal(size=(8, 3)))
-    >>> ens = lgvi.simulate_ensemble(lgvi.RigidBody([1., 2., 3.]), R0, omega0=rng.normal(size=(8, 3)),
-    ...                              h=0.01, steps=100, save_every=10)
+    >>> body = lgvi.RigidBody([1., 2., 3.])
+    >>> w0 = [0.3, 1.0, 0.2] + 0.01 * rng.normal(size=(8, 3))
+    >>> ens = lgvi.simulate_ensemble(body, R0, omega0=w0, h=0.01, steps=100, save_every=10)
     >>> ens.R.shape, ens.Pi.shape
     ((8, 11, 3, 3), (8, 11, 3))
+    >>> one = lgvi.simulate(body, R0[3], omega0=w0[3], h=0.01, steps=100, save_every=10)
+    >>> bool(np.array_equal(ens.R[3], one.R))
+    True
     """
-    from .integrator import _options
-
-    code, tol, max_iter, alpha = _options(method, tol, max_iter, alpha)
-    R = _rotations(R0)
-    B = R.shape[0]
-    J = _inertias(bodies, B)
-    if (Pi0 is None) == (omega0 is None):
-        raise ValueError("give exactly one of Pi0 (B, 3) and omega0 (B, 3)")
-    if Pi0 is not None:
-        Pi = as_float_array(Pi0, "Pi0", (B, 3)).copy()
-    else:
-        Pi = np.einsum("bij,bj->bi", J, as_float_array(omega0, "omega0", (B, 3)))
-    h = as_float(h, "h", nonzero=True)
-    steps = as_int(steps, "steps", minimum=0)
-    save_every = as_int(save_every, "save_every", minimum=1)
-    if steps % save_every != 0:
-        raise ValueError(f"save_every must divide steps so that the final state is saved; got steps={steps}, "
-                         f"save_every={save_every}")
-    if torque is not None:
-        raise NotImplementedError("simulate_ensemble supports the free body only (torque=None) so far")
-    if threads is not None:
-        threads = as_int(threads, "threads", minimum=1)
-    meta = {"method": method, "tol": tol, "max_iter": max_iter, "alpha": alpha, "save_every": save_every,
-            "steps": steps, "lgvi_version": __version__}
+    setup = _Setup(bodies, R0, Pi0, omega0, h=h, steps=steps, torque=torque, method=method, tol=tol,
+                   max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0, forcing=forcing, order=order,
+                   composition=composition, threads=threads)
+    if not (isinstance(progress, bool) or callable(progress)):
+        raise TypeError(f"progress must be True, False or a callable progress(done, total), got {progress!r}")
+    if block_size is not None:
+        block_size = as_int(block_size, "block_size", minimum=1)
+        if client is None and out_dir is None:
+            raise ValueError("block_size is used with client= or out_dir= (blocks of bodies); an in-process run "
+                             "needs no blocks")
     if client is not None:
-        return _run_dask(client, J, R, Pi, h=h, steps=steps, method=method, tol=tol, max_iter=max_iter,
-                         alpha=alpha, save_every=save_every, block_size=block_size, out_dir=out_dir)
+        return _run_dask(setup, client, block_size, out_dir, progress)
     if out_dir is not None:
-        raise ValueError("out_dir is used with client= (per-block files); for one process call .save()")
-    return _run_local(code, J, R, Pi, h, steps, tol, max_iter, alpha, save_every, threads, meta)
+        return _run_blocks(setup, block_size, out_dir, progress)
+    return _run_local(setup, progress)
 
 
-def _run_local(code, J, R, Pi, h, steps, tol, max_iter, alpha, save_every, threads, meta) -> EnsembleTrajectory:
-    import numba
+class _Threads:
+    """Set Numba's thread count for the calling thread during a run, and restore it."""
 
-    from ._kernels.ensemble_kernels import run_ensemble_chunk
-    from ._kernels.solvers import OK, initial_guess
+    def __init__(self, threads: int | None) -> None:
+        self.threads = threads
+        self.old: int | None = None
 
-    B = R.shape[0]
-    Jd = np.ascontiguousarray(0.5 * np.trace(J, axis1=1, axis2=2)[:, None, None] * np.eye(3) - J)
-    M = steps // save_every + 1
+    def __enter__(self) -> bool:
+        """Returns whether to run the parallel kernel."""
+        if self.threads is None:
+            return True
+        if self.threads == 1:
+            return False
+        import numba
+
+        self.old = numba.get_num_threads()
+        numba.set_num_threads(min(self.threads, numba.config.NUMBA_NUM_THREADS))
+        return True
+
+    def __exit__(self, *exc: Any) -> None:
+        if self.old is not None:
+            import numba
+
+            numba.set_num_threads(self.old)
+
+
+def _run_local(s: _Setup, progress: Any = False, first_body: int = 0) -> EnsembleTrajectory:
+    """Run the whole ensemble ``s`` in this process (``first_body``: global index of body 0, for messages)."""
+    from ._kernels import ensemble_kernels as ek
+    from .integrator import _Interrupts, _momentum_matrices, _Progress
+
+    B, steps, se, h = len(s), s.steps, s.save_every, s.h
+    M = steps // se + 1
     R_out = np.empty((B, M, 3, 3))
     Pi_out = np.empty((B, M, 3))
-    R_out[:, 0] = R
-    Pi_out[:, 0] = Pi
-    G = np.zeros((B, 4, 3))
-    for b in range(B):
-        initial_guess(code, J[b], h * Pi[b], G[b, 0])
+    R_out[:, 0] = s.R
+    Pi_out[:, 0] = s.Pi
+    R = s.R.copy()
+    Pi = s.Pi.copy()
+    Jd = np.ascontiguousarray(np.stack([b.Jd for b in s.bodies]))
+    J = np.ascontiguousarray(np.stack([b.J for b in s.bodies]))
+    J_inv = np.ascontiguousarray(np.stack([b.J_inv for b in s.bodies]))
+    stages = 1 if s.legacy else len(s.gam)
+    hs = np.array([h]) if s.legacy else s.gam * h
+    G = np.zeros((B, stages, 4, 3))
+    ek.init_histories(s.code, J, s.ib, hs, Pi, G)
+    if not s.legacy:
+        A = np.ascontiguousarray(np.stack([_momentum_matrices(b, s.codes, s.params, s.gam * h, s.sym)
+                                           for b in s.bodies]))
+        S = np.zeros((B, 7))
     its = np.zeros(B, dtype=np.int64)
     res = np.zeros(B)
     status = np.zeros(B, dtype=np.int64)
     fail_step = np.full(B, -1, dtype=np.int64)
-    old_threads = numba.get_num_threads()
-    k = 0
+    fail_res = np.zeros(B)
+    fail_its = np.zeros(B, dtype=np.int64)
+    chunk = max(1, CHUNK_BODY_STEPS // (B * stages))
 
     def result(m: int, partial: bool = False) -> EnsembleTrajectory:
-        return EnsembleTrajectory(t=h * save_every * np.arange(m), R=R_out[:, :m], Pi=Pi_out[:, :m],
-                                  inertia=J, iterations=its, residual=res, h=h,
-                                  meta=dict(meta, partial=partial) if partial else meta)
+        t = s.times(m)
+        Rm = R_out[:, :m].copy() if partial else R_out
+        Pim = Pi_out[:, :m].copy() if partial else Pi_out
+        meta = dict(s.meta, partial=True) if partial else s.meta
+        return EnsembleTrajectory(t=t, R=Rm, Pi=Pim, inertia=s.inertia(), iterations=its.copy(), residual=res.copy(),
+                                  h=h, potential=s.potential(t, Rm), meta=meta)
 
-    try:
-        if threads is not None:
-            numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    k = 0
+    with _Interrupts() as stop, _Progress(progress, steps) as bar, _Threads(s.threads) as parallel:
         while k < steps:
-            n = min(CHUNK_STEPS, steps - k)
-            run_ensemble_chunk(code, Jd, h, R, Pi, G, k, n, tol, max_iter, alpha, save_every,
-                               R_out, Pi_out, its, res, status, fail_step)
+            n = min(chunk, steps - k)
+            if s.legacy:
+                run = ek.run_free_parallel if parallel else ek.run_free_serial
+                run(s.code, Jd, s.ib, h, R, Pi, G, k, n, s.tol, s.max_iter, s.alpha, se, R_out, Pi_out, its, res,
+                    status, fail_step, fail_res, fail_its, _NO_HIST)
+            else:
+                run = ek.run_forced_parallel if parallel else ek.run_forced_serial
+                run(s.code, Jd, J, J_inv, s.ib, h, s.t0, s.gam, s.cum, A, R, Pi, G, S, s.codes, s.params,
+                    int(s.sym), k, n, s.tol, s.max_iter, s.alpha, se, R_out, Pi_out, its, res, status, fail_step,
+                    fail_res, fail_its, _NO_HIST)
             if np.any(status != OK):
                 break
             k += n
-    except KeyboardInterrupt:
-        raise SimulationInterrupted(f"ensemble interrupted after {k} of {steps} steps; the computed part is "
-                                    "in .trajectory", trajectory=result(k // save_every + 1, True)) from None
-    finally:
-        numba.set_num_threads(old_threads)
+            bar.update(k)
+            if stop.requested:
+                raise SimulationInterrupted(f"ensemble interrupted after {k} of {steps} steps; the computed part "
+                                            "(all bodies) is in .trajectory", trajectory=result(k // se + 1, True))
     failed = np.flatnonzero(status != OK)
     if failed.size:
-        first = int(failed[np.argmin(fail_step[failed])])
-        kf = int(fail_step[first])
-        hn = abs(h) * float(np.linalg.norm(Pi[first]))
-        msg = (f"body {first} failed at step {kf} (t = {kf * h:g}), {failed.size} of {B} bodies failed: "
-               + failure_message(int(status[first]), float("nan"), max_iter, hn, tol))
-        raise ConvergenceError(msg, step=kf, time=kf * h, trajectory=result(kf // save_every + 1, True))
+        b = int(failed[np.argmin(fail_step[failed])])
+        kf = int(fail_step[b])
+        t_fail = s.t0 + kf * h
+        hnorm = abs(h) * float(np.linalg.norm(Pi[b]))
+        body = first_body + b
+        more = f" ({failed.size} of {B} bodies failed)" if failed.size > 1 else ""
+        msg = (f"body {body} failed at step {kf} (t = {t_fail:g}){more}: "
+               + failure_message(int(status[b]), float(fail_res[b]), int(fail_its[b]), hnorm, s.tol)
+               + f" The ensemble up to step {kf} (all bodies) is in .trajectory.")
+        err = ConvergenceError(msg, residual=float(fail_res[b]), iterations=int(fail_its[b]), step=kf, time=t_fail,
+                               trajectory=result(kf // se + 1, True))
+        err.body = body  # type: ignore[attr-defined]
+        raise err
     return result(M)
 
 
-def _block_task(J, R, Pi, kwargs, path):
-    ens = simulate_ensemble(J, R, Pi, **kwargs)
+def _blocks(s: _Setup, block_size: int | None, workers: int) -> list[tuple[int, int]]:
+    B = len(s)
+    per_body = (s.steps // s.save_every + 1) * 12 * 8
+    cap = max(1, BLOCK_BYTES // per_body)
+    if block_size is None:
+        block_size = min(cap, math.ceil(B / (2 * workers)) if workers > 0 else B)
+    return [(a, min(a + block_size, B)) for a in range(0, B, block_size)]
+
+
+def _prepare_dir(out_dir: str | os.PathLike) -> Path:
+    folder = Path(os.fspath(out_dir))
+    folder.mkdir(parents=True, exist_ok=True)
+    old = sorted(folder.glob("ensemble-*.npz"))
+    if old:
+        raise ValueError(f"out_dir {folder} already holds ensemble blocks ({old[0].name}, ...); use an empty "
+                         "folder or remove them (load_ensemble(folder) would mix the runs)")
+    return folder
+
+
+class _BlockProgress:
+    """Progress over blocks: ``True`` draws a bar of bodies done, a callable gets ``(done, total)``."""
+
+    def __init__(self, progress: Any, total: int) -> None:
+        self.progress, self.total, self.done, self.t0 = progress, total, 0, _time.perf_counter()
+
+    def add(self, n: int) -> None:
+        self.done += n
+        if self.progress is False:
+            return
+        if callable(self.progress) and not isinstance(self.progress, bool):
+            self.progress(self.done, self.total)
+            return
+        frac = self.done / self.total
+        rate = self.done / max(_time.perf_counter() - self.t0, 1e-9)
+        sys.stderr.write(f"\r[{'#' * int(30 * frac):<30}] {100 * frac:5.1f}% {self.done}/{self.total} bodies, "
+                         f"{rate:.3g} bodies/s ")
+        if self.done >= self.total:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
+def _block_meta(ens: EnsembleTrajectory, i: int, start: int, total: int) -> EnsembleTrajectory:
+    meta = dict(ens.meta, block=i, first_body=start, bodies_total=total)
+    return EnsembleTrajectory(t=ens.t, R=ens.R, Pi=ens.Pi, inertia=ens.inertia, iterations=ens.iterations,
+                              residual=ens.residual, h=ens.h, potential=ens.potential, meta=meta)
+
+
+def _block_task(sub: _Setup, start: int, path: str | None, index: int, total: int) -> Any:
+    """One block: an in-process ensemble run (on a Dask worker), returned or written to ``path``."""
+    ens = _run_local(sub, first_body=start)
     if path is None:
         return ens
-    ens.save(path)
+    _block_meta(ens, index, start, total).save(path)
     return path
 
 
-def _run_dask(client, J, R, Pi, *, block_size, out_dir, **kwargs):
-    B = R.shape[0]
-    if block_size is None:
-        try:
-            workers = max(1, len(client.scheduler_info()["workers"]))
-        except Exception:  # pragma: no cover - defensive: any client without that call
-            workers = 1
-        block_size = max(1, math.ceil(B / (2 * workers)))
-    block_size = as_int(block_size, "block_size", minimum=1)
+def _run_blocks(s: _Setup, block_size: int | None, out_dir: Any, progress: Any) -> list[Path]:
+    folder = _prepare_dir(out_dir)
+    bar = _BlockProgress(progress, len(s))
+    paths = []
+    for i, (a, b) in enumerate(_blocks(s, block_size, 0)):
+        path = folder / BLOCK_PATTERN.format(i)
+        _block_task(s.block(a, b, s.threads), a, str(path), i, len(s))
+        paths.append(path)
+        bar.add(b - a)
+    return paths
+
+
+def _run_dask(s: _Setup, client: Any, block_size: int | None, out_dir: Any,
+              progress: Any) -> EnsembleTrajectory | list[Path]:
+    try:
+        from distributed import as_completed
+    except ImportError as exc:  # pragma: no cover - a client without distributed cannot exist
+        raise ImportError("client= needs dask.distributed: pip install 'lgvi[dask]'") from exc
+    try:
+        workers = max(1, len(client.scheduler_info().get("workers", {})))
+    except Exception:  # pragma: no cover - clients without scheduler_info
+        workers = 1
+    folder = _prepare_dir(out_dir) if out_dir is not None else None
+    threads = 1 if s.threads is None else s.threads
+    blocks = _blocks(s, block_size, workers)
     futures = []
-    for i, start in enumerate(range(0, B, block_size)):
-        sl = slice(start, start + block_size)
-        path = None
-        if out_dir is not None:
-            Path(out_dir).mkdir(parents=True, exist_ok=True)
-            path = Path(out_dir) / f"ensemble-{i:05d}.npz"
-        futures.append(client.submit(_block_task, J[sl], R[sl], Pi[sl], kwargs, path, pure=False))
-    results = client.gather(futures)
-    if out_dir is not None:
+    for i, (a, b) in enumerate(blocks):
+        path = None if folder is None else str(folder / BLOCK_PATTERN.format(i))
+        futures.append(client.submit(_block_task, s.block(a, b, threads), a, path, i, len(s), pure=False))
+    index = {f.key: i for i, f in enumerate(futures)}
+    results: list[Any] = [None] * len(futures)
+    bar = _BlockProgress(progress, len(s))
+    try:
+        for fut in as_completed(futures):
+            i = index[fut.key]
+            results[i] = fut.result()  # raises the task's error (ConvergenceError names the global body)
+            bar.add(blocks[i][1] - blocks[i][0])
+    except KeyboardInterrupt:
+        client.cancel(futures)
+        raise SimulationInterrupted("ensemble interrupted: the Dask tasks were cancelled"
+                                    + (f"; finished blocks are in {folder}" if folder else ""),
+                                    trajectory=None) from None
+    except BaseException:
+        client.cancel(futures)
+        raise
+    if folder is not None:
         return [Path(p) for p in results]
     return concatenate(results)
 
