@@ -22,7 +22,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ._kernels.codes import OK
+from ._kernels.codes import METHOD_CAYLEY, OK
 from ._validation import ROTATION_TOL, as_float, as_float_array, as_int, choice
 from ._version import __version__
 from .body import RigidBody
@@ -619,6 +619,11 @@ def _run_local(s: _Setup, progress: Any = False, first_body: int = 0) -> Ensembl
     fail_res = np.zeros(B)
     fail_its = np.zeros(B, dtype=np.int64)
     chunk = max(1, CHUNK_BODY_STEPS // (B * stages))
+    # the free body with Cayley runs LANES bodies in lockstep (SIMD), the same values bit for bit
+    lockstep = s.legacy and s.code == METHOD_CAYLEY
+    if lockstep:
+        X = np.zeros(((B + ek.LANES - 1) // ek.LANES, ek.NF * ek.LANES))
+        ek.pack_groups(R, Pi, G, Jd, s.ib, status, its, res, X)
 
     def result(m: int, partial: bool = False) -> EnsembleTrajectory:
         t = s.times(m)
@@ -632,7 +637,11 @@ def _run_local(s: _Setup, progress: Any = False, first_body: int = 0) -> Ensembl
     with _Interrupts() as stop, _Progress(progress, steps) as bar, _Threads(s.threads) as parallel:
         while k < steps:
             n = min(chunk, steps - k)
-            if s.legacy:
+            if lockstep:
+                run = ek.run_lockstep_parallel if parallel else ek.run_lockstep_serial
+                run(X, Jd, s.ib, s.code, h, k, n, s.tol, s.max_iter, s.alpha, se, R_out, Pi_out, its, res, status,
+                    fail_step, fail_res, fail_its, _NO_HIST)
+            elif s.legacy:
                 run = ek.run_free_parallel if parallel else ek.run_free_serial
                 run(s.code, Jd, s.ib, h, R, Pi, G, k, n, s.tol, s.max_iter, s.alpha, se, R_out, Pi_out, its, res,
                     status, fail_step, fail_res, fail_its, _NO_HIST)
@@ -650,6 +659,8 @@ def _run_local(s: _Setup, progress: Any = False, first_body: int = 0) -> Ensembl
                                             "(all bodies) is in .trajectory", trajectory=result(k // se + 1, True))
     failed = np.flatnonzero(status != OK)
     if failed.size:
+        if lockstep:
+            ek.unpack_groups(X, R, Pi)
         b = int(failed[np.argmin(fail_step[failed])])
         kf = int(fail_step[b])
         t_fail = s.t0 + kf * h

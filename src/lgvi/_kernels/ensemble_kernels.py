@@ -32,6 +32,8 @@ from many Python threads at once, as Dask workers do).
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -193,3 +195,317 @@ def run_forced_serial(method, Jd, J, J_inv, ib, h, t0, gam, cum, A, R, Pi, G, S,
             advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, A, R, Pi, G, S, codes, params, sym, k0,
                            n, tol, max_iter, alpha, save_every, R_out, Pi_out, its, res, status, fail_step,
                            fail_res, fail_its, hist)
+
+
+# ------------------------------------------------------------------------------------------------
+# Lockstep path: free body, Cayley, order 2, LANES bodies per group in SIMD registers
+# ------------------------------------------------------------------------------------------------
+#
+# The scalar step runs near the core's scalar floating-point throughput; the remaining lever for
+# an ensemble is SIMD across bodies. Bodies are packed in groups of LANES, structure of arrays
+# X (ngroups, NF * LANES) (field f of lane l at f * LANES + l), and one group step is a loop over the lanes with no branches, which
+# LLVM vectorises (AVX2: four doubles per instruction). Every lane evaluates the same IEEE
+# operations, in the same order, as the scalar path (lgvi_step -> solve_scalar with eager=True:
+# predict, one Cayley Newton update, the residual check, R <- R (I + E), Pi <- (I + E)^T Pi), so
+# a lane's result is bit for bit the scalar one. A lane that the one update does not settle
+# (its check fails: more iterations needed, a singular or non-finite Newton matrix) is left
+# untouched by the vector step and redone by the scalar lgvi_step from the same state, which
+# then decides exactly as simulate does. The expressions below must stay those of
+# solvers.solve_scalar and stepping.lgvi_step; tests/test_ensemble.py checks the equality.
+
+LANES = 8
+# fields: X[g, f * LANES + lane]
+X_R = 0        # R row-major (9)
+X_PI = 9       # Pi (3)
+X_G = 12       # solver history rows 0..2 (9), row-major as G[0:3, :]
+X_N = 21       # number of valid history rows, G[3, 0]
+X_D = 22       # d00, d01, d02, d11, d12, d22 (6)
+X_ALIVE = 28   # 1.0 while the body runs
+X_RMAX = 29    # largest residual so far
+X_OK = 30      # 1.0 when the last vector step settled this lane
+X_ITS = 31     # solver updates so far (a float counts exactly to 2^53)
+NF = 32
+EPS = 2.220446049250313e-16
+
+
+@jit
+def lockstep_cayley(X, h, tol, alpha):
+    """One Cayley step of every lane of the group ``X`` (NF * LANES,) that it settles (see notes).
+
+    Returns the number of running lanes it did not settle (``X_OK`` zero), to be redone by
+    the scalar step.
+    """
+    u0 = 0.0
+    bad = 0
+    for l in range(LANES):
+        d00 = X[X_D * LANES + l]
+        d01 = X[(X_D + 1) * LANES + l]
+        d02 = X[(X_D + 2) * LANES + l]
+        d11 = X[(X_D + 3) * LANES + l]
+        d12 = X[(X_D + 4) * LANES + l]
+        d22 = X[(X_D + 5) * LANES + l]
+        b0 = X[X_PI * LANES + l]
+        b1 = X[(X_PI + 1) * LANES + l]
+        b2 = X[(X_PI + 2) * LANES + l]
+        p0 = h * b0
+        p1 = h * b1
+        p2 = h * b2
+        # predict (stepping.predict)
+        n = X[X_N * LANES + l]
+        G00 = X[X_G * LANES + l]
+        G01 = X[(X_G + 1) * LANES + l]
+        G02 = X[(X_G + 2) * LANES + l]
+        G10 = X[(X_G + 3) * LANES + l]
+        G11 = X[(X_G + 4) * LANES + l]
+        G12 = X[(X_G + 5) * LANES + l]
+        G20 = X[(X_G + 6) * LANES + l]
+        G21 = X[(X_G + 7) * LANES + l]
+        G22 = X[(X_G + 8) * LANES + l]
+        e0 = 3.0 * (G00 - G10) + G20
+        e1 = 3.0 * (G01 - G11) + G21
+        e2 = 3.0 * (G02 - G12) + G22
+        f0 = 2.0 * G00 - G10
+        f1 = 2.0 * G01 - G11
+        f2 = 2.0 * G02 - G12
+        three = n >= 3.0
+        two = n >= 2.0
+        g0 = e0 if three else (f0 if two else G00)
+        g1 = e1 if three else (f1 if two else G01)
+        g2 = e2 if three else (f2 if two else G02)
+        # solvers.solve_scalar, METHOD_CAYLEY, eager: one update, then the check
+        tr = d00 + d11 + d22
+        j00 = tr - d00
+        j11 = tr - d11
+        j22 = tr - d22
+        hn2 = p0 * p0 + p1 * p1 + p2 * p2
+        hn = math.sqrt(hn2)
+        jdn = math.sqrt(d00 * d00 + d11 * d11 + d22 * d22 + 2.0 * (d01 * d01 + d02 * d02 + d12 * d12))
+        pf = p0 * g0 + p1 * g1 + p2 * g2
+        q0 = -(p0 + (p1 * g2 - p2 * g1) + pf * g0 - 2.0 * (j00 * g0 - d01 * g1 - d02 * g2))
+        q1 = -(p1 + (p2 * g0 - p0 * g2) + pf * g1 - 2.0 * (-d01 * g0 + j11 * g1 - d12 * g2))
+        q2 = -(p2 + (p0 * g1 - p1 * g0) + pf * g2 - 2.0 * (-d02 * g0 - d12 * g1 + j22 * g2))
+        m00 = pf + g0 * p0 - 2.0 * j00
+        m01 = -p2 + g0 * p1 + 2.0 * d01
+        m02 = p1 + g0 * p2 + 2.0 * d02
+        m10 = p2 + g1 * p0 + 2.0 * d01
+        m11 = pf + g1 * p1 - 2.0 * j11
+        m12 = -p0 + g1 * p2 + 2.0 * d12
+        m20 = -p1 + g2 * p0 + 2.0 * d02
+        m21 = p0 + g2 * p1 + 2.0 * d12
+        m22 = pf + g2 * p2 - 2.0 * j22
+        c00 = m11 * m22 - m12 * m21
+        c01 = m12 * m20 - m10 * m22
+        c02 = m10 * m21 - m11 * m20
+        det = m00 * c00 + m01 * c01 + m02 * c02
+        inv = 1.0 / det
+        c10 = m02 * m21 - m01 * m22
+        c11 = m00 * m22 - m02 * m20
+        c12 = m01 * m20 - m00 * m21
+        c20 = m01 * m12 - m02 * m11
+        c21 = m02 * m10 - m00 * m12
+        c22 = m00 * m11 - m01 * m10
+        s0 = (c00 * q0 + c10 * q1 + c20 * q2) * inv
+        s1 = (c01 * q0 + c11 * q1 + c21 * q2) * inv
+        s2 = (c02 * q0 + c12 * q1 + c22 * q2) * inv
+        g0 += alpha * s0
+        g1 += alpha * s1
+        g2 += alpha * s2
+        t2 = g0 * g0 + g1 * g1 + g2 * g2
+        a = 2.0 / (1.0 + t2)
+        b = a
+        enorm = 2.0 * math.sqrt(b * t2)
+        # solvers.expm1_entries
+        xx = g0 * g0
+        yy = g1 * g1
+        zz = g2 * g2
+        bxy = b * g0 * g1
+        bxz = b * g0 * g2
+        byz = b * g1 * g2
+        E00 = -b * (yy + zz)
+        E01 = -a * g2 + bxy
+        E02 = a * g1 + bxz
+        E10 = a * g2 + bxy
+        E11 = -b * (xx + zz)
+        E12 = -a * g0 + byz
+        E20 = -a * g1 + bxz
+        E21 = a * g0 + byz
+        E22 = -b * (xx + yy)
+        x01 = E00 * d01 + E01 * d11 + E02 * d12
+        x02 = E00 * d02 + E01 * d12 + E02 * d22
+        x10 = E10 * d00 + E11 * d01 + E12 * d02
+        x12 = E10 * d02 + E11 * d12 + E12 * d22
+        x20 = E20 * d00 + E21 * d01 + E22 * d02
+        x21 = E20 * d01 + E21 * d11 + E22 * d12
+        r0 = (x21 - x12) - p0
+        r1 = (x02 - x20) - p1
+        r2 = (x10 - x01) - p2
+        rn2 = r0 * r0 + r1 * r1 + r2 * r2
+        thr = tol * hn + 8.0 * EPS * (jdn * enorm + hn)
+        alive = X[X_ALIVE * LANES + l] != 0.0
+        ok = (rn2 <= thr * thr) & (det != 0.0) & (abs(det) < math.inf) & alive
+        bad += 1 if (alive & ~ok) else 0
+        # stepping.push
+        X[(X_G + 6) * LANES + l] = G10 if ok else G20
+        X[(X_G + 7) * LANES + l] = G11 if ok else G21
+        X[(X_G + 8) * LANES + l] = G12 if ok else G22
+        X[(X_G + 3) * LANES + l] = G00 if ok else G10
+        X[(X_G + 4) * LANES + l] = G01 if ok else G11
+        X[(X_G + 5) * LANES + l] = G02 if ok else G12
+        X[X_G * LANES + l] = g0 if ok else G00
+        X[(X_G + 1) * LANES + l] = g1 if ok else G01
+        X[(X_G + 2) * LANES + l] = g2 if ok else G02
+        X[X_N * LANES + l] = (n + 1.0 if n < 3.0 else n) if ok else n
+        # R <- R (I + E)
+        for i in range(3):
+            a0 = X[(X_R + 3 * i) * LANES + l]
+            a1 = X[(X_R + 3 * i + 1) * LANES + l]
+            a2 = X[(X_R + 3 * i + 2) * LANES + l]
+            y0 = a0 + a0 * E00 + a1 * E10 + a2 * E20
+            y1 = a1 + a0 * E01 + a1 * E11 + a2 * E21
+            y2 = a2 + a0 * E02 + a1 * E12 + a2 * E22
+            X[(X_R + 3 * i) * LANES + l] = y0 if ok else a0
+            X[(X_R + 3 * i + 1) * LANES + l] = y1 if ok else a1
+            X[(X_R + 3 * i + 2) * LANES + l] = y2 if ok else a2
+        # Pi <- (I + E)^T Pi + h u
+        z0 = b0 + (E00 * b0 + E10 * b1 + E20 * b2) + h * u0
+        z1 = b1 + (E01 * b0 + E11 * b1 + E21 * b2) + h * u0
+        z2 = b2 + (E02 * b0 + E12 * b1 + E22 * b2) + h * u0
+        X[X_PI * LANES + l] = z0 if ok else b0
+        X[(X_PI + 1) * LANES + l] = z1 if ok else b1
+        X[(X_PI + 2) * LANES + l] = z2 if ok else b2
+        rn = math.sqrt(rn2)
+        rmax = X[X_RMAX * LANES + l]
+        X[X_RMAX * LANES + l] = rn if (ok & (rn > rmax)) else rmax
+        X[X_OK * LANES + l] = 1.0 if ok else 0.0
+        X[X_ITS * LANES + l] += 1.0 if ok else 0.0
+    return bad
+
+
+@jit
+def pack_groups(R, Pi, G, Jd, ib, status, its, res, X):
+    """Fill the groups ``X`` (ngroups, NF * LANES) from the per-body state; padding lanes copy the
+    last body and never run."""
+    B = R.shape[0]
+    for gi in range(X.shape[0]):
+        for l in range(LANES):
+            b = gi * LANES + l
+            src = b if b < B else B - 1
+            for i in range(3):
+                X[gi, (X_PI + i) * LANES + l] = Pi[src, i]
+                for c in range(3):
+                    X[gi, (X_R + 3 * i + c) * LANES + l] = R[src, i, c]
+                    X[gi, (X_G + 3 * i + c) * LANES + l] = G[src, 0, i, c]
+            X[gi, X_N * LANES + l] = G[src, 0, 3, 0]
+            q = ib[src]
+            X[gi, X_D * LANES + l] = Jd[q, 0, 0]
+            X[gi, (X_D + 1) * LANES + l] = Jd[q, 0, 1]
+            X[gi, (X_D + 2) * LANES + l] = Jd[q, 0, 2]
+            X[gi, (X_D + 3) * LANES + l] = Jd[q, 1, 1]
+            X[gi, (X_D + 4) * LANES + l] = Jd[q, 1, 2]
+            X[gi, (X_D + 5) * LANES + l] = Jd[q, 2, 2]
+            X[gi, X_ALIVE * LANES + l] = 1.0 if (b < B and status[src] == OK) else 0.0
+            X[gi, X_RMAX * LANES + l] = res[src]
+            X[gi, X_OK * LANES + l] = 0.0
+            X[gi, X_ITS * LANES + l] = float(its[src])
+
+
+@jit
+def advance_group(gi, X, Jd, ib, method, h, k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out, its, res,
+                  status, fail_step, fail_res, fail_its, hist):
+    """Group ``gi`` of ``X`` through steps ``k0 .. k0+n-1`` of the free-body Cayley step in lockstep,
+    lanes the vector step does not settle redone by :func:`.stepping.lgvi_step`."""
+    B = R_out.shape[0]
+    Xg = X[gi]
+    alive = 0
+    for l in range(LANES):
+        if Xg[X_ALIVE * LANES + l] != 0.0:
+            alive += 1
+    if alive == 0:
+        return
+    Rs = np.empty((3, 3))
+    Ps = np.empty(3)
+    Gs = np.zeros((4, 3))
+    j = k0 // save_every + 1
+    countdown = save_every - k0 % save_every
+    for k in range(k0, k0 + n):
+        bad = lockstep_cayley(Xg, h, tol, alpha)
+        if bad > 0:
+            for l in range(LANES):
+                if Xg[X_ALIVE * LANES + l] == 0.0 or Xg[X_OK * LANES + l] != 0.0:
+                    continue
+                b = gi * LANES + l
+                for i in range(3):
+                    Ps[i] = Xg[(X_PI + i) * LANES + l]
+                    for c in range(3):
+                        Rs[i, c] = Xg[(X_R + 3 * i + c) * LANES + l]
+                        Gs[i, c] = Xg[(X_G + 3 * i + c) * LANES + l]
+                Gs[3, 0] = Xg[X_N * LANES + l]
+                it, rn, st = lgvi_step(method, Jd[ib[b]], h, Rs, Ps, Gs, 0.0, 0.0, 0.0, tol, max_iter, alpha, hist)
+                Xg[X_ITS * LANES + l] += it
+                if st != OK:
+                    status[b] = st
+                    fail_step[b] = k
+                    fail_res[b] = rn
+                    fail_its[b] = it
+                    Xg[X_ALIVE * LANES + l] = 0.0
+                    alive -= 1
+                    continue
+                if rn > Xg[X_RMAX * LANES + l]:
+                    Xg[X_RMAX * LANES + l] = rn
+                for i in range(3):
+                    Xg[(X_PI + i) * LANES + l] = Ps[i]
+                    for c in range(3):
+                        Xg[(X_R + 3 * i + c) * LANES + l] = Rs[i, c]
+                        Xg[(X_G + 3 * i + c) * LANES + l] = Gs[i, c]
+                Xg[X_N * LANES + l] = Gs[3, 0]
+            if alive == 0:
+                break
+        countdown -= 1
+        if countdown == 0:
+            countdown = save_every
+            for l in range(LANES):
+                if Xg[X_ALIVE * LANES + l] != 0.0:
+                    b = gi * LANES + l
+                    for i in range(3):
+                        Pi_out[b, j, i] = Xg[(X_PI + i) * LANES + l]
+                        for c in range(3):
+                            R_out[b, j, i, c] = Xg[(X_R + 3 * i + c) * LANES + l]
+            j += 1
+    for l in range(LANES):
+        b = gi * LANES + l
+        if b < B:
+            its[b] = np.int64(Xg[X_ITS * LANES + l])
+            res[b] = Xg[X_RMAX * LANES + l]
+
+
+@jit_parallel
+def run_lockstep_parallel(X, Jd, ib, method, h, k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out, its, res,
+                          status, fail_step, fail_res, fail_its, hist):
+    """Every group through steps ``k0 .. k0+n-1`` (free body, Cayley), groups in parallel."""
+    for gi in numba.prange(X.shape[0]):
+        advance_group(gi, X, Jd, ib, method, h, k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out, its, res,
+                      status, fail_step, fail_res, fail_its, hist)
+
+
+@jit
+def run_lockstep_serial(X, Jd, ib, method, h, k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out, its, res,
+                        status, fail_step, fail_res, fail_its, hist):
+    """:func:`run_lockstep_parallel` on the calling thread only."""
+    for gi in range(X.shape[0]):
+        advance_group(gi, X, Jd, ib, method, h, k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out, its, res,
+                      status, fail_step, fail_res, fail_its, hist)
+
+
+@jit
+def unpack_groups(X, R, Pi):
+    """Copy the attitudes and momenta of the groups ``X`` back to ``R`` (B,3,3) and ``Pi`` (B,3)."""
+    B = R.shape[0]
+    for gi in range(X.shape[0]):
+        for l in range(LANES):
+            b = gi * LANES + l
+            if b >= B:
+                break
+            for i in range(3):
+                Pi[b, i] = X[gi, (X_PI + i) * LANES + l]
+                for c in range(3):
+                    R[b, i, c] = X[gi, (X_R + 3 * i + c) * LANES + l]
