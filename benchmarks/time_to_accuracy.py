@@ -200,6 +200,33 @@ def lgvi_config(p: Problem, method: str, order: int) -> Config:
     return cfg
 
 
+def modified_config(p: Problem, order: int) -> Config:
+    """The modified-inertia DMV method (free body only): one solve per step at any order."""
+    cfg = Config(f"lgvi modified-inertia order {order}", False, "fixed", float(order))
+    if p.torque() is not None:
+        cfg.unavailable = "n/a (free body only)"
+        return cfg
+    try:
+        from lgvi.modified import simulate_modified
+
+        moments = np.asarray(p.inertia, dtype=float)
+
+        def run(N: float) -> tuple[np.ndarray, float]:
+            N = int(N)
+            start = time.perf_counter()
+            try:
+                tr = simulate_modified(moments, p.R0, p.Pi0, h=p.T / N, steps=N, order=order, save_every=N)
+            except (lgvi.ConvergenceError, ValueError):     # step beyond the method's range: no result
+                return np.full((3, 3), np.nan), time.perf_counter() - start
+            return tr.R[-1], time.perf_counter() - start
+
+        simulate_modified(moments, p.R0, p.Pi0, h=p.h_start, steps=10, order=order)
+        cfg.run = run
+    except (TypeError, ValueError, NotImplementedError, ImportError, AttributeError) as exc:
+        cfg.unavailable = f"n/a ({type(exc).__name__}: {exc})"
+    return cfg
+
+
 def rk4_config(p: Problem) -> Config:
     cfg = Config("lgvi.baselines.rk4", True, "fixed", 4.0)
     try:
@@ -271,6 +298,7 @@ def basilisk_configs(p: Problem, quick: bool) -> list[Config]:
 
 def configurations(p: Problem, quick: bool, only: set[str] | None) -> list[Config]:
     cfgs = [lgvi_config(p, m, o) for o in (2, 4, 6) for m in ("newton", "cayley")]
+    cfgs += [modified_config(p, o) for o in (6, 8, 10)]
     cfgs += [scipy_config(p, "RK45"), scipy_config(p, "DOP853"), rk4_config(p)]
     cfgs += basilisk_configs(p, quick)
     if only:

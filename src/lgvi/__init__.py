@@ -29,6 +29,7 @@ from .integrator import StepResult as StepResult
 from .integrator import simulate as simulate
 from .integrator import simulate_stream as simulate_stream
 from .integrator import step as step
+from .modified import simulate_modified as simulate_modified
 from .trajectory import Trajectory as Trajectory
 from .trajectory import load as load
 
@@ -48,6 +49,7 @@ __all__ = [
     "load_ensemble",
     "simulate",
     "simulate_ensemble",
+    "simulate_modified",
     "simulate_stream",
     "so3",
     "solve_implicit",
