@@ -39,7 +39,7 @@ BLOCK_BYTES = 1 << 28
 ENSEMBLE_FORMAT = "lgvi.ensemble/1"
 #: File names of the blocks written with ``out_dir=`` (block number, from 0).
 BLOCK_PATTERN = "ensemble-{:05d}.npz"
-_BLOCK_KEYS = ("block", "first_body", "bodies_total")
+_BLOCK_KEYS = ("block", "first_body", "bodies_total", "bodies")
 
 _NO_HIST = np.zeros(0)
 _NO_CODES = np.zeros((0, 2), dtype=np.int64)
@@ -472,7 +472,8 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
     ----------
     bodies : RigidBody, sequence of B RigidBody, or array_like
         One body for all, or one per body: inertias ``(3,)``/``(3, 3)`` for all, ``(B, 3)``
-        principal moments or ``(B, 3, 3)`` matrices.
+        principal moments or ``(B, 3, 3)`` matrices. A ``(3, 3)`` array is always one inertia
+        matrix (for three bodies' principal moments pass three ``RigidBody``).
     R0 : (B, 3, 3) array_like or scipy Rotation stack
         Initial attitudes, rotations to 1e-9 (the error names the first bad index).
     Pi0, omega0 : (B, 3) array_like

@@ -343,7 +343,7 @@ def lockstep_cayley(X, h, tol, alpha):
         thr = tol * hn + 8.0 * EPS * (jdn * enorm + hn)
         alive = X[X_ALIVE * LANES + l] != 0.0
         ok = (rn2 <= thr * thr) & (det != 0.0) & (abs(det) < math.inf) & alive
-        bad += 1 if (alive & ~ok) else 0
+        bad += 1 if (alive and not ok) else 0
         # stepping.push
         X[(X_G + 6) * LANES + l] = G10 if ok else G20
         X[(X_G + 7) * LANES + l] = G11 if ok else G21
