@@ -1,0 +1,132 @@
+"""Ensemble throughput: body-steps per second of simulate_ensemble on 1 thread and on all cores.
+
+Usage::
+
+    python benchmarks/bench_ensemble.py            # full size: 4000 bodies x 2000 steps per run
+    python benchmarks/bench_ensemble.py --quick    # reduced size, for CI (no timing assertions)
+
+Case: the free body ``J = diag(1, 2, 3)``, rates ``(0.3, 1, 0.2) rad/s`` perturbed by 1 % and
+attitudes by 2 degrees per body, ``h = 0.01``, ``tol = 1e-14``, saved sparsely
+(``save_every = steps``: the first and last state of each body). Rows: the solver (``cayley``
+runs bodies in SIMD lockstep groups, ``newton`` the per-body kernel), and the heavy top
+(``UniformGravity``) at order 4 for the forced kernel (a step is one composed step of size
+``h``, five solves); each on 1 thread and on ``--threads`` (default: all of Numba's threads).
+
+Every figure is the median of ``--repeat`` timed runs after an untimed warm-up (compilation
+excluded), the configurations interleaved repeat by repeat so that changes in the machine's load
+hit all of them alike; ratios are taken between numbers measured in this run. The column
+"vs simulate" compares with :func:`lgvi.simulate` of one body for the same number of steps in
+total (same solver, saved sparsely). The load average before and after is printed: on a shared
+machine other processes take cores, and the multi-thread ratio drops with them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import time
+
+import numpy as np
+
+import lgvi
+from lgvi.torques import UniformGravity
+
+J = (1.0, 2.0, 3.0)
+OMEGA0 = (0.3, 1.0, 0.2)
+H = 0.01
+TOP = lgvi.RigidBody([0.13, 0.28, 0.17])
+GRAVITY = UniformGravity(1.0, [0.0, 0.0, 0.3])
+
+
+def initial(bodies: int, top: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(0)
+    R0 = lgvi.so3.exp(np.deg2rad(2.0) * rng.normal(size=(bodies, 3)))
+    w = np.array([4.14, 4.14, 4.14]) if top else np.array(OMEGA0)
+    return R0, w * (1.0 + 0.01 * rng.normal(size=(bodies, 3)))
+
+
+def main(argv: list[str] | None = None) -> int:
+    import numba
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="reduced size for CI: 256 bodies x 200 steps")
+    parser.add_argument("--bodies", type=int, default=4000, help="bodies per run (default 4000)")
+    parser.add_argument("--steps", type=int, default=2000, help="steps per run (default 2000)")
+    parser.add_argument("--repeat", type=int, default=7, help="timed runs per configuration (default 7)")
+    parser.add_argument("--threads", type=int, default=numba.config.NUMBA_NUM_THREADS,
+                        help=f"threads of the parallel rows (default {numba.config.NUMBA_NUM_THREADS})")
+    args = parser.parse_args(argv)
+    B, steps, repeat = (256, 200, 3) if args.quick else (args.bodies, args.steps, args.repeat)
+    threads = sorted({1, max(1, args.threads)})
+    load0 = os.getloadavg()
+
+    body = lgvi.RigidBody(J)
+    R0, w0 = initial(B)
+    R0_top, w0_top = initial(B, top=True)
+    top_steps = max(1, steps // 5)
+    cases = {
+        "free body, cayley": (dict(bodies=body, R0=R0, omega0=w0, method="cayley"), steps),
+        "free body, newton": (dict(bodies=body, R0=R0, omega0=w0, method="newton"), steps),
+        "heavy top, order 4": (dict(bodies=TOP, R0=R0_top, omega0=w0_top, torque=GRAVITY, order=4), top_steps),
+    }
+
+    def ensemble_run(case: str, n_threads: int) -> float:
+        kw, n = cases[case]
+        kw = dict(kw)
+        t0 = time.perf_counter()
+        lgvi.simulate_ensemble(kw.pop("bodies"), kw.pop("R0"), omega0=kw.pop("omega0"), h=H, steps=n, save_every=n,
+                               threads=n_threads, **kw)
+        return time.perf_counter() - t0
+
+    def single_run(case: str) -> float:
+        kw, n = cases[case]
+        total = B * n
+        extra = {k: v for k, v in kw.items() if k not in ("bodies", "R0", "omega0")}
+        t0 = time.perf_counter()
+        lgvi.simulate(kw["bodies"], kw["R0"][0], omega0=kw["omega0"][0], h=H, steps=total, save_every=total, **extra)
+        return time.perf_counter() - t0
+
+    configs = [(c, th) for c in cases for th in threads] + [(c, "simulate") for c in cases]
+    for c, th in configs:                                  # warm-up: compile or load every kernel
+        kw, _ = cases[c]
+        small = dict(kw, R0=kw["R0"][:16], omega0=kw["omega0"][:16])
+        extra = {k: v for k, v in small.items() if k not in ("bodies", "R0", "omega0")}
+        if th == "simulate":
+            lgvi.simulate(small["bodies"], small["R0"][0], omega0=small["omega0"][0], h=H, steps=10, **extra)
+        else:
+            lgvi.simulate_ensemble(small["bodies"], small["R0"], omega0=small["omega0"], h=H, steps=10,
+                                   threads=th, **extra)
+    times: dict[tuple[str, object], list[float]] = {cfg: [] for cfg in configs}
+    for _ in range(repeat):
+        for c, th in configs:
+            times[(c, th)].append(single_run(c) if th == "simulate" else ensemble_run(c, th))
+    load1 = os.getloadavg()
+
+    def rate(c: str, th: object) -> float:
+        return B * cases[c][1] / statistics.median(times[(c, th)])
+
+    print(f"ensemble throughput: {B} bodies x {steps} steps (heavy top {top_steps}), h = {H}, saved sparsely, "
+          f"median of {repeat}")
+    print(f"machine: {os.cpu_count()} cores, Numba threading layer {numba.threading_layer()}, "
+          f"load average {load0[0]:.2f} before, {load1[0]:.2f} after (1 min)")
+    many = threads[-1]
+    head = (f"{'case':<30} {'threads':>7} {'body-steps/s':>13} {'us/body-step':>12} "
+            f"{f'{many} threads / 1':>16} {'vs simulate':>11}")
+    print(head)
+    print("-" * len(head))
+    for c in cases:
+        single = rate(c, "simulate")
+        for th in threads:
+            r = rate(c, th)
+            scale = f"{r / rate(c, 1):.2f}x" if th != 1 else ""
+            print(f"{c:<30} {th:>7} {r:>13.3g} {1e6 / r:>12.4f} {scale:>16} {r / single:>10.2f}x")
+        print(f"{c + ' (simulate)':<30} {1:>7} {single:>13.3g} {1e6 / single:>12.4f} {'':>16} {'1.00x':>11}")
+    best = rate("free body, cayley", many)
+    print(f"targets: {many} threads / 1 >= 1.8x on 2 cores (cayley: {rate('free body, cayley', many) / rate('free body, cayley', 1):.2f}x); "
+          f">= 2e7 body-steps/s in total for the free body (cayley: {best:.3g}, {best / 2e7:.2f} of it)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
