@@ -6,6 +6,9 @@ other scheme calls :func:`.stepping.forced_stage` per substep (as
 :func:`.stepping.run_chunk_forced` does), with the same arguments in the same order. With IEEE
 arithmetic (``fastmath`` is never on) a body of the ensemble therefore follows bit for bit the
 trajectory ``simulate`` gives it, whichever thread runs it and however the steps are chunked.
+The free body with the Cayley solver has a third path, :func:`run_lockstep_parallel`: groups of
+``LANES`` bodies step in lockstep in SIMD registers, with the same operations per lane (see the
+notes before :data:`LANES`).
 
 Layout (``B`` bodies, ``s`` substeps per step, ``nb`` distinct bodies)::
 
@@ -25,7 +28,7 @@ bodies, each for a whole chunk of steps with its state in cache; the step loop a
 nothing (views are made once per body and chunk). Samples may fall anywhere in a chunk: the
 chunk start ``k0`` need not be a multiple of ``save_every``.
 
-Each driver comes twice: ``*_parallel`` (``numba.prange`` over bodies) and ``*_serial`` (a plain
+Each driver comes twice: ``*_parallel`` (``numba.prange`` over bodies or groups) and ``*_serial`` (a plain
 loop, used for ``threads=1``, which never touches Numba's threading layer and so is safe to call
 from many Python threads at once, as Dask workers do).
 """
@@ -203,15 +206,18 @@ def run_forced_serial(method, Jd, J, J_inv, ib, h, t0, gam, cum, A, R, Pi, G, S,
 #
 # The scalar step runs near the core's scalar floating-point throughput; the remaining lever for
 # an ensemble is SIMD across bodies. Bodies are packed in groups of LANES, structure of arrays
-# X (ngroups, NF * LANES) (field f of lane l at f * LANES + l), and one group step is a loop over the lanes with no branches, which
-# LLVM vectorises (AVX2: four doubles per instruction). Every lane evaluates the same IEEE
-# operations, in the same order, as the scalar path (lgvi_step -> solve_scalar with eager=True:
-# predict, one Cayley Newton update, the residual check, R <- R (I + E), Pi <- (I + E)^T Pi), so
-# a lane's result is bit for bit the scalar one. A lane that the one update does not settle
-# (its check fails: more iterations needed, a singular or non-finite Newton matrix) is left
-# untouched by the vector step and redone by the scalar lgvi_step from the same state, which
-# then decides exactly as simulate does. The expressions below must stay those of
-# solvers.solve_scalar and stepping.lgvi_step; tests/test_ensemble.py checks the equality.
+# X (ngroups, NF * LANES): field f of lane l at f * LANES + l. With LANES a compile-time constant
+# every access of a lane loop sits at a constant offset from the group's start, so LLVM proves the
+# fields do not overlap and vectorises the loop over lanes, which has no branches (AVX2: four
+# doubles per instruction). Every lane evaluates the same IEEE operations, in the same order, as
+# the scalar path (lgvi_step -> solve_scalar with eager=True: predict, one Cayley Newton update,
+# the residual check, R <- R (I + E), Pi <- (I + E)^T Pi); without fast-math LLVM neither
+# reassociates nor fuses a * b + c, so a lane's result is bit for bit the scalar one. A lane that
+# the one update does not settle (its check fails: more iterations needed, a singular or
+# non-finite Newton matrix) is left untouched by the vector step and redone by the scalar
+# lgvi_step from the same state, which then decides exactly as simulate does. The expressions
+# below must stay those of solvers.solve_scalar and stepping.lgvi_step; tests/test_ensemble.py
+# checks the equality for every solver path.
 
 LANES = 8
 # fields: X[g, f * LANES + lane]
