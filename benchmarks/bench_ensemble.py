@@ -16,14 +16,18 @@ Every figure is the median of ``--repeat`` timed runs after an untimed warm-up (
 excluded), the configurations interleaved repeat by repeat so that changes in the machine's load
 hit all of them alike; ratios are taken between numbers measured in this run. The column
 "vs simulate" compares with :func:`lgvi.simulate` of one body for the same number of steps in
-total (same solver, saved sparsely). The load average before and after is printed: on a shared
-machine other processes take cores, and the multi-thread ratio drops with them.
+total (same solver, saved sparsely). The column "cores used" is the process's CPU time (all its
+threads) over the wall time: with 2 threads it reaches 2.0 only when nothing else runs. On a
+shared machine other processes take cores (Linux's autogroup scheduling gives each session a
+fair share, so one busy process elsewhere leaves this one a single core), and the
+multi-thread ratio drops with them; the load average before and after is printed too.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import resource
 import statistics
 import time
 
@@ -71,21 +75,27 @@ def main(argv: list[str] | None = None) -> int:
         "heavy top, order 4": (dict(bodies=TOP, R0=R0_top, omega0=w0_top, torque=GRAVITY, order=4), top_steps),
     }
 
-    def ensemble_run(case: str, n_threads: int) -> float:
+    def timed(fn) -> tuple[float, float]:
+        """Wall time and the cores the process used meanwhile (CPU time of all its threads / wall)."""
+        r0 = resource.getrusage(resource.RUSAGE_SELF)
+        t0 = time.perf_counter()
+        fn()
+        wall = time.perf_counter() - t0
+        r1 = resource.getrusage(resource.RUSAGE_SELF)
+        return wall, (r1.ru_utime - r0.ru_utime + r1.ru_stime - r0.ru_stime) / wall
+
+    def ensemble_run(case: str, n_threads: int) -> tuple[float, float]:
         kw, n = cases[case]
         kw = dict(kw)
-        t0 = time.perf_counter()
-        lgvi.simulate_ensemble(kw.pop("bodies"), kw.pop("R0"), omega0=kw.pop("omega0"), h=H, steps=n, save_every=n,
-                               threads=n_threads, **kw)
-        return time.perf_counter() - t0
+        return timed(lambda: lgvi.simulate_ensemble(kw.pop("bodies"), kw.pop("R0"), omega0=kw.pop("omega0"), h=H,
+                                                    steps=n, save_every=n, threads=n_threads, **kw))
 
-    def single_run(case: str) -> float:
+    def single_run(case: str) -> tuple[float, float]:
         kw, n = cases[case]
         total = B * n
         extra = {k: v for k, v in kw.items() if k not in ("bodies", "R0", "omega0")}
-        t0 = time.perf_counter()
-        lgvi.simulate(kw["bodies"], kw["R0"][0], omega0=kw["omega0"][0], h=H, steps=total, save_every=total, **extra)
-        return time.perf_counter() - t0
+        return timed(lambda: lgvi.simulate(kw["bodies"], kw["R0"][0], omega0=kw["omega0"][0], h=H, steps=total,
+                                           save_every=total, **extra))
 
     configs = [(c, th) for c in cases for th in threads] + [(c, "simulate") for c in cases]
     for c, th in configs:                                  # warm-up: compile or load every kernel
@@ -97,14 +107,17 @@ def main(argv: list[str] | None = None) -> int:
         else:
             lgvi.simulate_ensemble(small["bodies"], small["R0"], omega0=small["omega0"], h=H, steps=10,
                                    threads=th, **extra)
-    times: dict[tuple[str, object], list[float]] = {cfg: [] for cfg in configs}
+    times: dict[tuple[str, object], list[tuple[float, float]]] = {cfg: [] for cfg in configs}
     for _ in range(repeat):
         for c, th in configs:
             times[(c, th)].append(single_run(c) if th == "simulate" else ensemble_run(c, th))
     load1 = os.getloadavg()
 
     def rate(c: str, th: object) -> float:
-        return B * cases[c][1] / statistics.median(times[(c, th)])
+        return B * cases[c][1] / statistics.median(w for w, _ in times[(c, th)])
+
+    def cores(c: str, th: object) -> float:
+        return statistics.median(u for _, u in times[(c, th)])
 
     print(f"ensemble throughput: {B} bodies x {steps} steps (heavy top {top_steps}), h = {H}, saved sparsely, "
           f"median of {repeat}")
@@ -112,7 +125,7 @@ def main(argv: list[str] | None = None) -> int:
           f"load average {load0[0]:.2f} before, {load1[0]:.2f} after (1 min)")
     many = threads[-1]
     head = (f"{'case':<30} {'threads':>7} {'body-steps/s':>13} {'us/body-step':>12} "
-            f"{f'{many} threads / 1':>16} {'vs simulate':>11}")
+            f"{f'{many} threads / 1':>16} {'vs simulate':>11} {'cores used':>10}")
     print(head)
     print("-" * len(head))
     for c in cases:
@@ -120,12 +133,16 @@ def main(argv: list[str] | None = None) -> int:
         for th in threads:
             r = rate(c, th)
             scale = f"{r / rate(c, 1):.2f}x" if th != 1 else ""
-            print(f"{c:<30} {th:>7} {r:>13.3g} {1e6 / r:>12.4f} {scale:>16} {r / single:>10.2f}x")
-        print(f"{c + ' (simulate)':<30} {1:>7} {single:>13.3g} {1e6 / single:>12.4f} {'':>16} {'1.00x':>11}")
+            print(f"{c:<30} {th:>7} {r:>13.3g} {1e6 / r:>12.4f} {scale:>16} {r / single:>10.2f}x "
+                  f"{cores(c, th):>10.2f}")
+        print(f"{c + ' (simulate)':<30} {1:>7} {single:>13.3g} {1e6 / single:>12.4f} {'':>16} {'1.00x':>11} "
+              f"{cores(c, 'simulate'):>10.2f}")
     best = rate("free body, cayley", many)
     scaling = best / rate("free body, cayley", 1)
     print(f"targets: {many} threads / 1 >= 1.8x on 2 cores (cayley: {scaling:.2f}x); >= 2e7 body-steps/s in "
           f"total for the free body (cayley: {best:.3g}, {best / 2e7:.2f} of it)")
+    print("'cores used' is the CPU time of all the process's threads over the wall time: below the thread count, "
+          "other processes held the cores (compare the scaling with it)")
     return 0
 
 
