@@ -322,3 +322,10 @@ def test_benchmark_quick():
     assert proc.returncode == 0, proc.stdout + proc.stderr
     for needle in ("body-steps/s", "threads", "2 threads / 1", "load average"):
         assert needle in proc.stdout, proc.stdout
+
+
+def test_docstring_examples():
+    import doctest
+
+    result = doctest.testmod(ensemble, optionflags=doctest.ELLIPSIS)
+    assert result.attempted > 0 and result.failed == 0
