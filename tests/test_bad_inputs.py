@@ -389,6 +389,11 @@ _XFAIL_ROWS: list[tuple[str, Callable[[], Any], type[BaseException], tuple[str, 
     ("torque-array-overflows-Pi", lambda: sim(h=2.0, steps=1, Pi0=[0, 0, 0.1], torque=[[1.7e308, 0.0, 0.0]]),
      (ValueError, lgvi.ConvergenceError), (r"\btorque\b|\bPi\b", r"inf|overflow", r"finite|overflow"),
      _KERNEL_OVERFLOW),
+    ("steps-beyond-any-memory", lambda: sim(steps=10**20), (ValueError, MemoryError),
+     (r"\bsteps\b", r"100000000000000000000|1e\+20", r"memory|save_every|simulate_stream"),
+     "BUG (lgvi.integrator.simulate): the output arrays are allocated from steps without a check, so "
+     "steps=10**20 raises numpy's 'ValueError: Maximum allowed dimension exceeded' (and steps=10**12 "
+     "'MemoryError: Unable to allocate 65.5 TiB ...'), naming neither steps nor save_every / simulate_stream"),
     ("callable-raises-TorqueError", lambda: sim(torque=from_step(5, lgvi.TorqueError("controller saturated"))),
      lgvi.TorqueError, (r"controller saturated", r"step 5", r"\.trajectory"),
      "BUG (lgvi.integrator._run_callable/_call_torque): a TorqueError raised by the user's torque callable "
