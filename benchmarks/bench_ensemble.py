@@ -50,6 +50,16 @@ def initial(bodies: int, top: bool = False) -> tuple[np.ndarray, np.ndarray]:
     return R0, w * (1.0 + 0.01 * rng.normal(size=(bodies, 3)))
 
 
+def machine_busy() -> float | None:
+    """CPU seconds all processes of the machine have spent so far (Linux ``/proc/stat``), or None."""
+    try:
+        with open("/proc/stat") as fh:
+            ticks = [int(x) for x in fh.readline().split()[1:]]
+        return (sum(ticks) - ticks[3] - ticks[4]) / os.sysconf("SC_CLK_TCK")   # all but idle and iowait
+    except (OSError, ValueError, IndexError):
+        return None
+
+
 def main(argv: list[str] | None = None) -> int:
     import numba
 
@@ -75,14 +85,22 @@ def main(argv: list[str] | None = None) -> int:
         "heavy top, order 4": (dict(bodies=TOP, R0=R0_top, omega0=w0_top, torque=GRAVITY, order=4), top_steps),
     }
 
+    others: list[float] = []
+
     def timed(fn) -> tuple[float, float]:
-        """Wall time and the cores the process used meanwhile (CPU time of all its threads / wall)."""
+        """Wall time and the cores the process used meanwhile (CPU time of all its threads / wall);
+        the cores the rest of the machine used meanwhile go to ``others``."""
+        m0 = machine_busy()
         r0 = resource.getrusage(resource.RUSAGE_SELF)
         t0 = time.perf_counter()
         fn()
         wall = time.perf_counter() - t0
         r1 = resource.getrusage(resource.RUSAGE_SELF)
-        return wall, (r1.ru_utime - r0.ru_utime + r1.ru_stime - r0.ru_stime) / wall
+        m1 = machine_busy()
+        mine = (r1.ru_utime - r0.ru_utime + r1.ru_stime - r0.ru_stime) / wall
+        if m0 is not None and m1 is not None:
+            others.append(max(0.0, (m1 - m0) / wall - mine))
+        return wall, mine
 
     def ensemble_run(case: str, n_threads: int) -> tuple[float, float]:
         kw, n = cases[case]
@@ -143,6 +161,9 @@ def main(argv: list[str] | None = None) -> int:
           f"total for the free body (cayley: {best:.3g}, {best / 2e7:.2f} of it)")
     print("'cores used' is the CPU time of all the process's threads over the wall time: below the thread count, "
           "other processes held the cores (compare the scaling with it)")
+    if others:
+        print(f"other processes on the machine used {statistics.median(others):.2f} cores (median over the runs, "
+              "from /proc/stat)")
     return 0
 
 
