@@ -348,7 +348,10 @@ def lockstep_cayley(X, h, tol, alpha):
         rn2 = r0 * r0 + r1 * r1 + r2 * r2
         thr = tol * hn + 8.0 * EPS * (jdn * enorm + hn)
         alive = X[X_ALIVE * LANES + l] != 0.0
-        ok = (rn2 <= thr * thr) & (det != 0.0) & (abs(det) < math.inf) & alive
+        # settled only where every test of the scalar solver passes (a finite Newton matrix, iterate,
+        # residual and threshold, and the tolerance); anything else goes to the scalar step
+        ok = ((rn2 <= thr * thr) & (rn2 < math.inf) & (thr < math.inf) & (t2 < math.inf) & (det != 0.0)
+              & (abs(det) < math.inf) & alive)
         bad += 1 if (alive and not ok) else 0
         # stepping.push
         X[(X_G + 6) * LANES + l] = G10 if ok else G20
