@@ -360,7 +360,7 @@ def sim(body, **overrides):
         (dict(torque="gravity"), TypeError, r"torque must be an array of real numbers"),
         (dict(method="rk45"), ValueError, r"method must be one of 'paper', 'newton', 'cayley'; got 'rk45'"),
         (dict(alpha=0.0), ValueError, r"alpha must be in \(0, 1\]"),
-        (dict(tol=-1.0), ValueError, r"tol must be >= 0"),
+        (dict(tol=-1.0), ValueError, r"tol must be in \[0, 1\)"),
         (dict(max_iter=0), ValueError, r"max_iter must be an integer >= 1"),
     ],
 )

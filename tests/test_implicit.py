@@ -298,7 +298,7 @@ def test_max_iter_too_small_raises(method, max_iter, full_body):
         (dict(alpha=-0.5), ValueError, r"alpha must be in \(0, 1\]"),
         (dict(alpha=1.0000001), ValueError, r"alpha must be in \(0, 1\]"),
         (dict(alpha=float("nan")), ValueError, r"alpha must be finite"),
-        (dict(tol=-1e-3), ValueError, r"tol must be >= 0"),
+        (dict(tol=-1e-3), ValueError, r"tol must be in \[0, 1\)"),
         (dict(tol=float("nan")), ValueError, r"tol must be finite"),
         (dict(max_iter=-1), ValueError, r"max_iter must be an integer >= 0"),
         (dict(max_iter=5.0), TypeError, r"max_iter must be an integer"),

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from ._kernels.codes import METHOD_CAYLEY, METHOD_NEWTON, METHOD_PAPER, NOT_CONVERGED, NOT_FINITE, SINGULAR
+from ._kernels.codes import METHOD_CAYLEY, METHOD_NEWTON, METHOD_PAPER, NOT_CONVERGED, NOT_FINITE, OVERFLOW, SINGULAR
 from ._validation import as_float, as_float_array, as_int, choice
 from .errors import ConvergenceError
 
@@ -73,8 +73,8 @@ def solver_options(method: str, tol: Any, max_iter: Any, alpha: Any, *,
     """Validate the solver options shared by every entry point; returns ``(code, tol, max_iter, alpha)``."""
     choice(method, "method", METHODS)
     tol = as_float(tol, "tol")
-    if tol < 0:
-        raise ValueError(f"tol must be >= 0, got {tol}")
+    if not 0.0 <= tol < 1.0:
+        raise ValueError(f"tol must be in [0, 1) (it is relative to |h Pi|), got {tol}")
     max_iter = as_int(max_iter, "max_iter", minimum=min_iter)
     alpha = as_float(alpha, "alpha")
     if not 0.0 < alpha <= 1.0:
@@ -83,12 +83,17 @@ def solver_options(method: str, tol: Any, max_iter: Any, alpha: Any, *,
 
 
 def failure_message(status: int, residual: float, iterations: int, hnorm: float, tol: float) -> str:
+    """The text of a :class:`ConvergenceError` for a kernel status code."""
+    if status == OVERFLOW:
+        return (f"the momentum Pi after the step is not finite (the implicit equation was solved, residual "
+                f"{residual:.3e}, but the torque term h u overflowed, or the moment at the new state is "
+                "infinite): check the torque's magnitude, or reduce the step h.")
     what = {NOT_CONVERGED: f"did not reach the tolerance in {iterations} iterations",
-            NOT_FINITE: f"produced a non-finite iterate after {iterations} iterations",
+            NOT_FINITE: f"produced a non-finite iterate or residual after {iterations} iterations",
             SINGULAR: f"hit a singular Newton matrix after {iterations} iterations"}[status]
     return (f"the implicit equation hat(h Pi) = F Jd - Jd F^T {what}: residual {residual:.3e} "
             f"(relative {residual / hnorm if hnorm else float('inf'):.3e}, tolerance {tol:g}) at |h Pi| = {hnorm:.3g}. "
-            "Try a smaller step h, a damped update alpha < 1, more iterations (max_iter), "
+            "Try a smaller step h, more iterations (max_iter), a damped update alpha < 1, "
             "or method='newton'.")
 
 

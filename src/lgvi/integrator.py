@@ -501,6 +501,23 @@ def _check_resume(old: dict[str, Any], new: dict[str, Any], folder: Path) -> Non
                          f"{new.get(k)!r}; a stream resumes only the same run (differences: {', '.join(diff)})")
 
 
+def _physical_memory() -> int:
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - not POSIX
+        return 1 << 62
+
+
+def _check_memory(steps: int, save_every: int) -> None:
+    """Refuse a run whose in-memory result cannot fit: 96 bytes a sample, 12 bytes a step."""
+    need = 96 * (steps // save_every + 1) + 12 * steps
+    have = _physical_memory()
+    if need > have:
+        raise ValueError(f"steps={steps} with save_every={save_every} needs {need / 2**30:.3g} GiB for the "
+                         f"result, more than this machine's {have / 2**30:.3g} GiB: save sparsely (a larger "
+                         "save_every) or run it to disk with lgvi.simulate_stream")
+
+
 class _Interrupts:
     """Turn Ctrl-C during a run into a request honoured between chunks (a second Ctrl-C aborts at once).
 
@@ -595,6 +612,7 @@ class _Run:
         if steps % save_every != 0:
             raise ValueError(f"save_every must divide steps so that the final state is saved; got "
                              f"steps={steps}, save_every={save_every} (steps % save_every = {steps % save_every})")
+        _check_memory(steps, save_every)
         choice(forcing, "forcing", FORCINGS)
         self.comp = comp = _composition(order, composition)
         self.sym = sym = forcing == "symmetric"
@@ -665,8 +683,9 @@ class _Run:
         if self.legacy and self.func is None and self.kind == "none":
             h_ok = largest_step(self.body.Jd, self.Pi, self.h, METHOD_NAMES[self.code], tol=self.tol,
                                 max_iter=self.max_iter)
-            hint = (f" At this state the largest step that solves is about h = {h_ok:.4g}."
-                    if h_ok != 0.0 else " No step size solves at this state.")
+            # the bisection finds the edge of what converges in max_iter; stay 10 % inside it
+            hint = (f" At this state steps up to about h = {0.9 * h_ok:.4g} solve (the largest found is "
+                    f"{h_ok:.4g})." if h_ok != 0.0 else " No step size solves at this state.")
         msg = (f"step {k} (t = {t_fail:g}) failed: " + failure_message(status, residual, iterations, hnorm, self.tol)
                + hint + f" The run up to step {k} is in .trajectory." + where)
         err = ConvergenceError(msg, residual=residual, iterations=iterations, step=k, time=t_fail,
@@ -779,9 +798,9 @@ def _momentum_matrices(body: RigidBody, codes: np.ndarray, params: np.ndarray, h
 def _call_torque(func, t, R, Pi, k, partial):
     try:
         u = func(t, R.copy(), Pi.copy())
-    except (KeyboardInterrupt, TorqueError):
+    except KeyboardInterrupt:
         raise
-    except Exception as exc:
+    except Exception as exc:  # the user's own TorqueError too: it gets the step, time and trajectory
         raise TorqueError(f"the torque callable raised {type(exc).__name__} at step {k} (t = {t:g}): {exc}. "
                           f"The run up to step {k} is in .trajectory.", step=k, time=t,
                           trajectory=partial(k)) from exc

@@ -8,3 +8,4 @@ OK = 0
 NOT_CONVERGED = 1
 NOT_FINITE = 2
 SINGULAR = 3
+OVERFLOW = 4  # the solve converged but the new momentum (or the moment there) is not finite

@@ -95,6 +95,8 @@ def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, t
             skip_check = False
         else:
             t2 = g0 * g0 + g1 * g1 + g2 * g2
+            if not math.isfinite(t2):   # a diverged iterate (checked before any trigonometry)
+                return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), NOT_FINITE
             if method == METHOD_CAYLEY:
                 a = 2.0 / (1.0 + t2)
                 b = a
@@ -128,10 +130,11 @@ def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, t
             if it < nhist:
                 hist[it] = math.sqrt(rn2)
             thr = tol * hn + 8.0 * EPS * (jdn * enorm + hn)
+            if not math.isfinite(rn2) or not math.isfinite(thr):
+                # also |hPi| beyond ~1e154, where the squares overflow: no meaningful solve exists
+                return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), NOT_FINITE
             if rn2 <= thr * thr:
                 return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), OK
-            if not math.isfinite(rn2):
-                return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), NOT_FINITE
             if it >= max_iter:
                 return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), NOT_CONVERGED
         if method == METHOD_CAYLEY:

@@ -23,7 +23,10 @@ compositions of it; there ``G`` is a stack (m,4,3) with one history per substep.
 
 from __future__ import annotations
 
+import math
+
 from .._jit import jit
+from .codes import OVERFLOW
 from .solvers import METHOD_CAYLEY, OK, solve_scalar
 from .torque_kernels import model_moments, momentum_diag
 
@@ -95,6 +98,15 @@ def lgvi_step(method, Jd, h, R, Pi, G, u0, u1, u2, tol, max_iter, alpha, hist):
                         p0, p1, p2, q0, q1, q2, tol, max_iter, alpha, hist, True)
     if st != OK:
         return its, rn, st
+    # Pi <- (I + E)^T Pi + h u, checked before anything is written (a huge moment can overflow it)
+    b0 = Pi[0]
+    b1 = Pi[1]
+    b2 = Pi[2]
+    c0 = b0 + (E00 * b0 + E10 * b1 + E20 * b2) + h * u0
+    c1 = b1 + (E01 * b0 + E11 * b1 + E21 * b2) + h * u1
+    c2 = b2 + (E02 * b0 + E12 * b1 + E22 * b2) + h * u2
+    if not (math.isfinite(c0) and math.isfinite(c1) and math.isfinite(c2)):
+        return its, rn, OVERFLOW
     push(G, g0, g1, g2)
     # R <- R (I + E)
     for i in range(3):
@@ -104,13 +116,9 @@ def lgvi_step(method, Jd, h, R, Pi, G, u0, u1, u2, tol, max_iter, alpha, hist):
         R[i, 0] = a0 + a0 * E00 + a1 * E10 + a2 * E20
         R[i, 1] = a1 + a0 * E01 + a1 * E11 + a2 * E21
         R[i, 2] = a2 + a0 * E02 + a1 * E12 + a2 * E22
-    # Pi <- (I + E)^T Pi + h u
-    b0 = Pi[0]
-    b1 = Pi[1]
-    b2 = Pi[2]
-    Pi[0] = b0 + (E00 * b0 + E10 * b1 + E20 * b2) + h * u0
-    Pi[1] = b1 + (E01 * b0 + E11 * b1 + E21 * b2) + h * u1
-    Pi[2] = b2 + (E02 * b0 + E12 * b1 + E22 * b2) + h * u2
+    Pi[0] = c0
+    Pi[1] = c1
+    Pi[2] = c2
     return its, rn, st
 
 
@@ -292,6 +300,15 @@ def forced_stage(method, Jd, J, J_inv, hs, t1, R, Pi, G, j, S, codes, params, D0
 
 
 @jit
+def finite_state(Pi, S):
+    """True when the momentum and the cached moments are all finite."""
+    ok = math.isfinite(Pi[0]) and math.isfinite(Pi[1]) and math.isfinite(Pi[2])
+    for i in range(6):
+        ok = ok and math.isfinite(S[i])
+    return ok
+
+
+@jit
 def init_moments(codes, params, J, J_inv, t, R, Pi, S, v0, v1, v2):
     """Fill the moment cache ``S`` at the state ``(t, R, Pi)`` (``v`` an extra explicit moment)."""
     P0, P1, P2, Q0, Q1, Q2 = model_moments(codes, params, J, t, R)
@@ -343,10 +360,9 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
     countdown = save_every
     jout = 0
     for k in range(k0, k0 + n):
-        if s > 1:
-            R0[:, :] = R
-            Pi0[:] = Pi
-            S0[:] = S
+        R0[:, :] = R
+        Pi0[:] = Pi
+        S0[:] = S
         if has_u:
             v0 = U[k + 1, 0]
             v1 = U[k + 1, 1]
@@ -360,13 +376,14 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
             its_sum += its
             if rn > rmax:
                 rmax = rn
+            if st == OK and not finite_state(Pi, S):
+                st = OVERFLOW              # a moment overflowed the momentum: never keep it
             if st != OK:
                 it_out[k - k0] = its_sum
                 res_out[k - k0] = rn
-                if s > 1:
-                    R[:, :] = R0
-                    Pi[:] = Pi0
-                    S[:] = S0
+                R[:, :] = R0
+                Pi[:] = Pi0
+                S[:] = S0
                 return st, k
         it_out[k - k0] = its_sum
         res_out[k - k0] = rmax
