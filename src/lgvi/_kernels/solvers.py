@@ -42,6 +42,10 @@ EPS = 2.220446049250313e-16
 #: Below this angle (rad) the Rodrigues coefficients use their Taylor series through t^8, exact to
 #: rounding there: the first dropped terms are below 3e-18 relative at t = 0.1.
 SERIES_ANGLE = 0.1
+# Horner coefficients (multiplications only: a division by a constant is not turned into one)
+_A1, _A2, _A3, _A4 = -1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362880.0          # sin t / t
+_B1, _B2, _B3, _B4 = -1.0 / 24.0, 1.0 / 720.0, -1.0 / 40320.0, 1.0 / 3628800.0       # (1 - cos t) / t^2
+_E0, _E1, _E2, _E3 = 1.0 / 12.0, 1.0 / 720.0, 1.0 / 30240.0, 1.0 / 1209600.0       # (1 - t/2 cot t/2) / t^2
 
 
 @jit
@@ -105,8 +109,8 @@ def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, t
                     # sin t / t and (1 - cos t) / t^2 through t^8: no trigonometry for the usual
                     # steps (|h Omega| < 0.1); the first dropped terms, t^10/11! and t^10/12!, are
                     # below 3e-18 relative at t = 0.1 (checked against 50-digit values: 0.5 ulp)
-                    a = 1.0 - t2 / 6.0 * (1.0 - t2 / 20.0 * (1.0 - t2 / 42.0 * (1.0 - t2 / 72.0)))
-                    b = 0.5 - t2 / 24.0 * (1.0 - t2 / 30.0 * (1.0 - t2 / 56.0 * (1.0 - t2 / 90.0)))
+                    a = 1.0 + t2 * (_A1 + t2 * (_A2 + t2 * (_A3 + t2 * _A4)))
+                    b = 0.5 + t2 * (_B1 + t2 * (_B2 + t2 * (_B3 + t2 * _B4)))
                 else:
                     t = math.sqrt(t2)
                     sh = math.sin(0.5 * t)
@@ -204,7 +208,7 @@ def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, t
             if t2 < SERIES_ANGLE * SERIES_ANGLE:
                 # (1 - (t/2) cot(t/2)) / t^2 through t^6 (2.6e-15 relative at t = 0.1; it only
                 # scales a second-order correction of the update)
-                e = 1.0 / 12.0 + t2 * (1.0 / 720.0 + t2 * (1.0 / 30240.0 + t2 / 1209600.0))
+                e = _E0 + t2 * (_E1 + t2 * (_E2 + t2 * _E3))
             else:
                 e = (1.0 - 0.5 * a / b) / t2
             u0 = g1 * s2 - g2 * s1
