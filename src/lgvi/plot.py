@@ -235,6 +235,11 @@ def _style_log(ax: Axes) -> None:
 # ------------------------------------------------------------------------------------------------
 # time series
 # ------------------------------------------------------------------------------------------------
+#: Sign changes of the quaternion shown at most (about this many oscillations) before the
+#: quaternion view zooms in on the start of the run.
+QUAT_CYCLES = 40
+
+
 def attitude(traj: Trajectory, kind: str = "euler", sequence: str = "ZYX", ax: Axes | None = None, *,
              degrees: bool = False, scalar_first: bool = False, max_points: int = MAX_POINTS) -> Figure:
     """Attitude against time: Euler angles (unwrapped) or quaternion components.
@@ -306,13 +311,20 @@ def attitude(traj: Trajectory, kind: str = "euler", sequence: str = "ZYX", ax: A
         q = traj.quaternions(scalar_first=scalar_first)
         names = ("w", "x", "y", "z") if scalar_first else ("x", "y", "z", "w")
         colors = (_COMPONENT_COLORS[3],) + _COMPONENT_COLORS[:3] if scalar_first else _COMPONENT_COLORS
+        # a long run of a fast rotation oscillates more often than there are pixels (a solid band):
+        # show the first ~QUAT_CYCLES oscillations only, and say so
+        crossings = np.flatnonzero(np.diff(np.signbit(q), axis=0).any(axis=1))
+        window = slice(None)
+        if len(crossings) > 4 * QUAT_CYCLES:
+            window = slice(0, int(crossings[2 * QUAT_CYCLES]) + 1)
         for i in range(4):
-            tt, yy = _thin_minmax(t, q[:, i], max_points)
+            tt, yy = _thin_minmax(t[window], q[window, i], max_points)
             ax.plot(tt, yy, color=colors[i], lw=1.2, label=f"$q_{names[i]}$")
         ax.set_ylabel("quaternion component (1)")
         ax.set_ylim(-1.08, 1.08)
         order = "scalar-first (w, x, y, z)" if scalar_first else "scalar-last (x, y, z, w)"
-        ax.set_title(f"Attitude: unit quaternion, {order}, sign-continuous")
+        shown = "" if window == slice(None) else f"; first {t[window][-1] - t[0]:.4g} s of {t[-1] - t[0]:.4g} s"
+        ax.set_title(f"Attitude: unit quaternion, {order}, sign-continuous{shown}")
     ax.set_xlabel(_UNITS["t"])
     ax.grid(True, alpha=0.3)
     ax.legend(loc="upper right", fontsize="small", framealpha=0.85)
@@ -645,7 +657,13 @@ def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_po
                     label=f"analytic polhode, $E_0$ = {E0:.4g} J" if j == 0 else None)
     step = max(1, int(np.ceil(len(Pi) / max_points)))
     path = np.vstack([Pi[::step], Pi[-1:]])
-    ax.plot(*path.T, color="tab:purple", lw=2.0, label=r"path $\Pi_k$ of the run")
+    chords = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    if len(chords) and float(chords.max()) > 0.15 * max(scale, 1e-300):
+        # samples too far apart along the path (sparse saving, or thinning of a long run): joining
+        # them would draw chords across the sphere, so show the points themselves
+        ax.scatter(*path.T, color="tab:purple", s=3, depthshade=False, label=r"samples $\Pi_k$ of the run")
+    else:
+        ax.plot(*path.T, color="tab:purple", lw=2.0, label=r"path $\Pi_k$ of the run")
     ax.scatter(*Pi[0], color="tab:purple", edgecolor="black", s=40, depthshade=False, label=r"start $\Pi_0$")
     lim = 1.3 * scale
     ax.set_xlim(-lim, lim)
@@ -811,12 +829,13 @@ def _save(fig: Figure, path: Path) -> Path:
 def _attitude_panels(traj: Trajectory) -> Figure:
     """Euler angles (top) and quaternion (bottom): the figure ``attitude.png`` of :func:`save_figures`."""
     fig = _figure(ATTITUDE_PANELS_FIGSIZE)
-    ax_e, ax_q = fig.subplots(2, 1, sharex=True)
+    ax_e, ax_q = fig.subplots(2, 1)  # not shared: the quaternion panel may show only the start
     attitude(traj, "euler", ax=ax_e)
     attitude(traj, "quaternion", ax=ax_q)
-    ax_e.set_xlabel("")
     ax_e.set_title("Attitude (body to inertial): ZYX Euler angles, unwrapped", fontsize="medium")
-    ax_q.set_title("unit quaternion, scalar-last (x, y, z, w), sign-continuous", fontsize="medium")
+    zoom = ax_q.get_title().partition("; ")[2]
+    ax_q.set_title("unit quaternion, scalar-last (x, y, z, w), sign-continuous" + (f"; {zoom}" if zoom else ""),
+                   fontsize="medium")
     for ax in (ax_e, ax_q):
         ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize="small")
     return fig
