@@ -84,6 +84,18 @@ def push_at(G, j, g0, g1, g2):
 
 
 @jit
+def rotate(R, E00, E01, E02, E10, E11, E12, E20, E21, E22):
+    """``R <- R (I + E)`` in place: the attitude update ``R_{k+1} = R_k F_k`` with ``E = F_k - I``."""
+    for i in range(3):
+        a0 = R[i, 0]
+        a1 = R[i, 1]
+        a2 = R[i, 2]
+        R[i, 0] = a0 + a0 * E00 + a1 * E10 + a2 * E20
+        R[i, 1] = a1 + a0 * E01 + a1 * E11 + a2 * E21
+        R[i, 2] = a2 + a0 * E02 + a1 * E12 + a2 * E22
+
+
+@jit
 def lgvi_step(method, Jd, h, R, Pi, G, u0, u1, u2, tol, max_iter, alpha, hist):
     """One step in place on ``R``, ``Pi``, ``G``; returns ``(iterations, residual, status)``.
 
@@ -108,14 +120,7 @@ def lgvi_step(method, Jd, h, R, Pi, G, u0, u1, u2, tol, max_iter, alpha, hist):
     if not (math.isfinite(c0) and math.isfinite(c1) and math.isfinite(c2)):
         return its, rn, OVERFLOW
     push(G, g0, g1, g2)
-    # R <- R (I + E)
-    for i in range(3):
-        a0 = R[i, 0]
-        a1 = R[i, 1]
-        a2 = R[i, 2]
-        R[i, 0] = a0 + a0 * E00 + a1 * E10 + a2 * E20
-        R[i, 1] = a1 + a0 * E01 + a1 * E11 + a2 * E21
-        R[i, 2] = a2 + a0 * E02 + a1 * E12 + a2 * E22
+    rotate(R, E00, E01, E02, E10, E11, E12, E20, E21, E22)      # R <- R (I + E)
     Pi[0] = c0
     Pi[1] = c1
     Pi[2] = c2
@@ -252,13 +257,7 @@ def forced_stage(method, Jd, J, J_inv, hs, t1, R, Pi, G, j, S, codes, params, D0
     if st != OK:
         return its, rn, st
     push_at(G, j, g0, g1, g2)
-    for i in range(3):
-        a0 = R[i, 0]
-        a1 = R[i, 1]
-        a2 = R[i, 2]
-        R[i, 0] = a0 + a0 * E00 + a1 * E10 + a2 * E20
-        R[i, 1] = a1 + a0 * E01 + a1 * E11 + a2 * E21
-        R[i, 2] = a2 + a0 * E02 + a1 * E12 + a2 * E22
+    rotate(R, E00, E01, E02, E10, E11, E12, E20, E21, E22)      # R <- R (I + E)
     # F^T mu
     b0 = m0 + (E00 * m0 + E10 * m1 + E20 * m2)
     b1 = m1 + (E01 * m0 + E11 * m1 + E21 * m2)
@@ -415,13 +414,7 @@ def shifted_step(method, Jd, J_inv, hs, R, Pi, G, j, m0, m1, m2, tol, max_iter, 
     if st != OK:
         return its, rn, st
     push_at(G, j, g0, g1, g2)
-    for i in range(3):
-        a0 = R[i, 0]
-        a1 = R[i, 1]
-        a2 = R[i, 2]
-        R[i, 0] = a0 + a0 * E00 + a1 * E10 + a2 * E20
-        R[i, 1] = a1 + a0 * E01 + a1 * E11 + a2 * E21
-        R[i, 2] = a2 + a0 * E02 + a1 * E12 + a2 * E22
+    rotate(R, E00, E01, E02, E10, E11, E12, E20, E21, E22)      # R <- R (I + E)
     Pi[0] = m0 + (E00 * m0 + E10 * m1 + E20 * m2)
     Pi[1] = m1 + (E01 * m0 + E11 * m1 + E21 * m2)
     Pi[2] = m2 + (E02 * m0 + E12 * m1 + E22 * m2)
