@@ -401,3 +401,33 @@ def test_wrong_format_scenario_through_the_command_line(tmp_path, capsys):
     assert main(["run", str(p), "-o", str(tmp_path / "out"), "--no-plots"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and str(p) in err[0]
+
+
+def test_editing_any_kernel_file_invalidates_every_cached_kernel(tmp_path):
+    """Numba keys a cached function by its own file's time stamp; lgvi keys every kernel by a hash
+    of all kernel sources, so a kernel that inlines another module's code never survives an edit
+    of that module (a stale cache would silently mix two versions)."""
+    src = tmp_path / "src"
+    shutil.copytree(SRC / "lgvi", src / "lgvi", ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+    env = _env(PYTHONPATH=str(src), NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    probe = textwrap.dedent("""
+        import numpy as np, lgvi
+        from lgvi._kernels import stepping
+        lgvi.simulate([1.0, 2.0, 3.0], np.eye(3), [0.3, 2.0, 0.6], h=0.01, steps=10)
+        stats = stepping.run_chunk.stats
+        print(sum(stats.cache_hits.values()), sum(stats.cache_misses.values()))
+        """)
+
+    def hits_misses() -> tuple[int, int]:
+        run = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, env=env, timeout=300)
+        assert run.returncode == 0, run.stderr[-2000:]
+        hits, misses = run.stdout.split()[-2:]
+        return int(hits), int(misses)
+
+    first = hits_misses()
+    again = hits_misses()
+    with open(src / "lgvi" / "_kernels" / "solvers.py", "a") as fh:  # stepping.py itself is untouched
+        fh.write("\n# an edit\n")
+    edited = hits_misses()
+    assert first[1] >= 1 and again[0] >= 1 and again[1] == 0, (first, again)
+    assert edited[1] >= 1 and edited[0] == 0, edited

@@ -9,8 +9,10 @@ Public names (everything else is private):
 - modules :mod:`lgvi.so3`, :mod:`lgvi.torques`, :mod:`lgvi.reference`, :mod:`lgvi.baselines`, :mod:`lgvi.exact`
 
 Importing lgvi compiles nothing: kernels are compiled (or loaded from Numba's cache) on first use.
+Numba itself is imported here (about 0.3 s) so that the first simulation does not pay for it.
 """
 
+from . import _jit  # noqa: F401  (imports Numba now; compiles nothing)
 from . import so3 as so3
 from . import torques as torques
 from ._version import __version__ as __version__

@@ -7,7 +7,11 @@ compilation options live in a single spot:
 * ``cache=True`` unless the environment variable ``LGVI_NUMBA_CACHE`` is ``0``. When no cache
   location is writable (a read-only install with an unwritable ``NUMBA_CACHE_DIR`` and home),
   Numba refuses ``cache=True``; the kernels are then compiled in memory and a warning says so;
-* ``fastmath`` is never enabled: conservation to round-off depends on IEEE semantics.
+* ``fastmath`` is never enabled: conservation to round-off depends on IEEE semantics;
+* the cache of every kernel is keyed by a hash of *all* the kernel sources. Numba's own key is
+  the defining file's time stamp only, so after an edit of ``solvers.py`` a cached kernel of
+  ``stepping.py`` would keep the old solver inlined (an in-place upgrade or a development tree
+  would silently mix versions); with the hash, any change of any kernel file recompiles them all.
 
 Setting ``NUMBA_DISABLE_JIT=1`` runs every kernel as plain Python (slow, but identical maths),
 which the test suite uses to check the kernels interpreted.
@@ -15,6 +19,7 @@ which the test suite uses to check the kernels interpreted.
 
 from __future__ import annotations
 
+import hashlib
 import os
 import warnings
 from typing import Any, Callable
@@ -24,6 +29,54 @@ import numba
 CACHE: bool = os.environ.get("LGVI_NUMBA_CACHE", "1").strip().lower() not in {"0", "false", "no", "off"}
 
 _OPTIONS: dict[str, Any] = {"nogil": True, "error_model": "numpy"}
+_KERNELS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_kernels")
+
+
+def _kernel_sources_hash() -> str:
+    digest = hashlib.sha256()
+    for name in sorted(os.listdir(_KERNELS)):
+        if name.endswith(".py"):
+            digest.update(name.encode())
+            with open(os.path.join(_KERNELS, name), "rb") as fh:
+                digest.update(fh.read())
+    return digest.hexdigest()
+
+
+def _install_cache_key() -> None:
+    """Key the Numba cache of lgvi's kernels by the hash of all kernel sources (see above).
+
+    This uses Numba's cache locator classes; should their layout change, lgvi falls back to
+    Numba's default key (the defining file's stamp), which is correct for installed releases.
+    """
+    try:
+        from numba.core import caching
+
+        stamp = ("lgvi-kernels", _kernel_sources_hash())
+        bases = [caching.UserProvidedCacheLocator, caching.InTreeCacheLocator, caching.UserWideCacheLocator]
+    except Exception:  # pragma: no cover - a Numba without these internals
+        return
+
+    def make(base: type) -> type:
+        class Locator(base):  # type: ignore[misc, valid-type]
+            @classmethod
+            def from_function(cls, py_func, py_file):
+                if os.path.dirname(os.path.abspath(py_file)) != _KERNELS:
+                    return None
+                return super().from_function(py_func, py_file)
+
+            def get_source_stamp(self):
+                return stamp
+
+        Locator.__name__ = f"Lgvi{base.__name__}"
+        return Locator
+
+    classes = caching.CacheImpl._locator_classes
+    if not any(c.__name__.startswith("Lgvi") for c in classes):
+        classes[0:0] = [make(b) for b in bases]
+
+
+if CACHE:
+    _install_cache_key()
 _warned = False
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numbers
+import sys
 import operator
 from typing import Any
 
@@ -63,13 +64,16 @@ def as_int(value: Any, name: str, *, minimum: int = 0) -> int:
     return n
 
 
+def is_scipy_rotation(value: Any) -> bool:
+    """``isinstance(value, scipy.spatial.transform.Rotation)`` without importing SciPy (0.4 s): a
+    Rotation can only exist if its module is loaded already."""
+    module = sys.modules.get("scipy.spatial.transform")
+    return module is not None and isinstance(value, module.Rotation)
+
+
 def as_rotation(value: Any, name: str = "R0", tol: float = ROTATION_TOL) -> np.ndarray:
     """A (3,3) rotation matrix (or a scipy ``Rotation``), orthogonal to ``tol`` with det +1."""
-    try:
-        from scipy.spatial.transform import Rotation
-    except ImportError:  # pragma: no cover
-        Rotation = None
-    if Rotation is not None and isinstance(value, Rotation):
+    if is_scipy_rotation(value):
         if not value.single:
             raise ValueError(f"{name} must be a single rotation, got a stack of {len(value)}")
         return value.as_matrix().astype(np.float64)

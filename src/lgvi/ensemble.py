@@ -23,7 +23,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ._kernels.codes import METHOD_CAYLEY, OK
-from ._validation import ROTATION_TOL, as_float, as_float_array, as_int, choice
+from ._validation import ROTATION_TOL, as_float, as_float_array, as_int, choice, is_scipy_rotation
 from ._version import __version__
 from .body import RigidBody
 from .errors import ConvergenceError, SimulationInterrupted
@@ -277,12 +277,8 @@ def concatenate(parts: Sequence[EnsembleTrajectory]) -> EnsembleTrajectory:
 # ------------------------------------------------------------------------------------------------
 
 def _rotations(R0: Any) -> np.ndarray:
-    try:
-        from scipy.spatial.transform import Rotation
-        if isinstance(R0, Rotation):
-            R0 = R0.as_matrix()
-    except ImportError:  # pragma: no cover
-        pass
+    if is_scipy_rotation(R0):
+        R0 = R0.as_matrix()
     R = as_float_array(R0, "R0")
     if R.ndim != 3 or R.shape[1:] != (3, 3):
         raise ValueError(f"R0 must have shape (B, 3, 3) (one rotation matrix per body), got shape {R.shape}")
