@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml
 install: $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/python -m lgvi demo
+	$(BIN)/python -m lgvi demo -o lgvi-demo
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
