@@ -21,32 +21,6 @@ from scipy.integrate import solve_ivp
 from lgvi import discrete
 
 
-def rk4_kepler(q0, p0, h: float, steps: int, mu: float = 1.0):
-    """Classical fixed-step RK4 for ``q' = p, p' = -mu q/|q|^3`` (vectorised over leading axes)."""
-
-    def acc(q):
-        r2 = np.einsum("...i,...i->...", q, q)[..., None]
-        return (-mu / (r2 * np.sqrt(r2))) * q
-
-    q = np.array(q0, dtype=float)
-    p = np.array(p0, dtype=float)
-    Q = np.empty((steps + 1,) + q.shape)
-    P = np.empty_like(Q)
-    Q[0], P[0] = q, p
-    for k in range(steps):
-        a1 = acc(q)
-        q2, p2 = q + 0.5 * h * p, p + 0.5 * h * a1
-        a2 = acc(q2)
-        q3, p3 = q + 0.5 * h * p2, p + 0.5 * h * a2
-        a3 = acc(q3)
-        q4, p4 = q + h * p3, p + h * a3
-        a4 = acc(q4)
-        q = q + h / 6 * (p + 2 * p2 + 2 * p3 + p4)
-        p = p + h / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
-        Q[k + 1], P[k + 1] = q, p
-    return Q, P
-
-
 def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=20_000, help="number of steps (default 20000)")
@@ -68,7 +42,7 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
     runs["Stormer-Verlet (lgvi)"] = (traj.q, traj.p, time.perf_counter() - start)
 
     start = time.perf_counter()
-    Q, P = rk4_kepler(q0, p0, h, steps, mu)
+    Q, P = discrete.kepler_rk4(q0, p0, h, steps, mu)
     runs[f"RK4, h = {h:g}"] = (Q, P, time.perf_counter() - start)
 
     start = time.perf_counter()

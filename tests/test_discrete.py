@@ -28,32 +28,6 @@ H_LONG = 0.05          # step of the long runs: ~800 orbits in 1e5 steps
 STEPS_LONG = 100_000
 
 
-def rk4_kepler(q0, p0, h: float, steps: int, mu: float = 1.0):
-    """Classical fixed-step RK4 for ``q' = p, p' = -mu q/|q|^3`` (vectorised over leading axes)."""
-
-    def acc(q):
-        r2 = np.einsum("...i,...i->...", q, q)[..., None]
-        return (-mu / (r2 * np.sqrt(r2))) * q
-
-    q = np.array(q0, dtype=float)
-    p = np.array(p0, dtype=float)
-    Q = np.empty((steps + 1,) + q.shape)
-    P = np.empty_like(Q)
-    Q[0], P[0] = q, p
-    for k in range(steps):
-        a1 = acc(q)
-        q2, p2 = q + 0.5 * h * p, p + 0.5 * h * a1
-        a2 = acc(q2)
-        q3, p3 = q + 0.5 * h * p2, p + 0.5 * h * a2
-        a3 = acc(q3)
-        q4, p4 = q + h * p3, p + h * a3
-        a4 = acc(q4)
-        q = q + h / 6 * (p + 2 * p2 + 2 * p3 + p4)
-        p = p + h / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
-        Q[k + 1], P[k + 1] = q, p
-    return Q, P
-
-
 def drift_stats(E: np.ndarray, L: np.ndarray) -> dict[str, float]:
     dE = E - E[0]
     m = len(E) // 10
@@ -72,7 +46,7 @@ def kepler_runs():
     q0, p0 = kepler_initial_state(ECC)
     Ld = kepler().discrete_lagrangian(H_LONG)
     sv = simulate_discrete(Ld, q0, p0, steps=STEPS_LONG)
-    Q, P = rk4_kepler(q0, p0, H_LONG, STEPS_LONG)
+    Q, P = discrete.kepler_rk4(q0, p0, H_LONG, STEPS_LONG)
     return {
         "traj": sv,
         "sv": drift_stats(kepler_energy(sv.q, sv.p), kepler_angular_momentum(sv.q, sv.p)),

@@ -67,6 +67,7 @@ __all__ = [
     "kepler_angular_momentum",
     "kepler_energy",
     "kepler_initial_state",
+    "kepler_rk4",
     "mechanical_lagrangian",
     "numerical_jacobian",
     "simulate_discrete",
@@ -780,3 +781,33 @@ def kepler_angular_momentum(q: Any, p: Any) -> np.ndarray:
     if q.shape[-1] == 3:
         return np.cross(q, p)
     raise ValueError(f"q must have 2 or 3 coordinates in its last axis, got shape {q.shape}")
+
+
+def kepler_rk4(q0: Any, p0: Any, h: float, steps: int, mu: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Classical fixed-step RK4 for ``q' = p, p' = -mu q/|q|^3``: the paper's non-variational contrast.
+
+    Vectorised over leading axes of ``q0``/``p0``; returns ``Q, P`` of shape ``(steps + 1,) + q0.shape``.
+    A NumPy loop: a baseline for short comparisons, not a production integrator.
+    """
+
+    def acc(q):
+        r2 = np.einsum("...i,...i->...", q, q)[..., None]
+        return (-mu / (r2 * np.sqrt(r2))) * q
+
+    q = np.array(q0, dtype=float)
+    p = np.array(p0, dtype=float)
+    Q = np.empty((steps + 1,) + q.shape)
+    P = np.empty_like(Q)
+    Q[0], P[0] = q, p
+    for k in range(steps):
+        a1 = acc(q)
+        q2, p2 = q + 0.5 * h * p, p + 0.5 * h * a1
+        a2 = acc(q2)
+        q3, p3 = q + 0.5 * h * p2, p + 0.5 * h * a2
+        a3 = acc(q3)
+        q4, p4 = q + h * p3, p + h * a3
+        a4 = acc(q4)
+        q = q + h / 6 * (p + 2 * p2 + 2 * p3 + p4)
+        p = p + h / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
+        Q[k + 1], P[k + 1] = q, p
+    return Q, P
