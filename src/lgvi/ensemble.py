@@ -29,7 +29,7 @@ from .body import RigidBody
 from .errors import ConvergenceError, SimulationInterrupted
 from .implicit import failure_message
 from .torques import TorqueModel
-from .trajectory import Trajectory
+from .trajectory import ARRAY_FIELDS, Trajectory, freeze_arrays
 
 #: Body-substeps per compiled call (about 0.1-0.5 s); Ctrl-C and progress are handled between calls.
 CHUNK_BODY_STEPS = 1 << 22
@@ -90,12 +90,7 @@ class EnsembleTrajectory:
     meta: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        for name in ("t", "R", "Pi", "inertia", "iterations", "residual", "potential"):
-            arr = getattr(self, name)
-            if arr is not None:
-                arr = np.asarray(arr)
-                arr.flags.writeable = False
-                object.__setattr__(self, name, arr)
+        freeze_arrays(self, ARRAY_FIELDS)
 
     def __len__(self) -> int:
         return int(self.R.shape[0])

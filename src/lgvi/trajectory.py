@@ -14,6 +14,19 @@ from ._version import __version__
 
 FORMAT = "lgvi.trajectory/1"
 
+#: The array fields of a result (``potential`` may be ``None``).
+ARRAY_FIELDS = ("t", "R", "Pi", "inertia", "iterations", "residual", "potential")
+
+
+def freeze_arrays(obj: Any, names: tuple[str, ...]) -> None:
+    """Turn the named fields of a frozen dataclass into read-only arrays (``None`` stays)."""
+    for name in names:
+        arr = getattr(obj, name)
+        if arr is not None:
+            arr = np.asarray(arr)
+            arr.flags.writeable = False
+            object.__setattr__(obj, name, arr)
+
 
 def _continuous(q: np.ndarray) -> np.ndarray:
     """Flip signs along axis 0 so consecutive quaternions have non-negative dot products."""
@@ -65,12 +78,7 @@ class Trajectory:
     meta: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        for name in ("t", "R", "Pi", "inertia", "iterations", "residual", "potential"):
-            arr = getattr(self, name)
-            if arr is not None:
-                arr = np.asarray(arr)
-                arr.flags.writeable = False
-                object.__setattr__(self, name, arr)
+        freeze_arrays(self, ARRAY_FIELDS)
 
     def __len__(self) -> int:
         return len(self.t)

@@ -43,7 +43,7 @@ import numpy as np
 from .._jit import jit, jit_parallel
 from .codes import OK
 from .solvers import initial_guess
-from .stepping import forced_stage, init_moments, lgvi_step
+from .stepping import forced_stage, init_moments, lgvi_step, store
 from .torque_kernels import momentum_diag
 
 
@@ -89,10 +89,7 @@ def advance_free(b, method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, sa
         countdown -= 1
         if countdown == 0:
             countdown = save_every
-            for a in range(3):
-                Pi_out[b, j, a] = Pib[a]
-                for c in range(3):
-                    R_out[b, j, a, c] = Rb[a, c]
+            store(R_out[b], Pi_out[b], j, Rb, Pib)
             j += 1
     its[b] = it_sum
     res[b] = rmax
@@ -147,10 +144,7 @@ def advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, A, R, Pi, G, S,
         countdown -= 1
         if countdown == 0:
             countdown = save_every
-            for a in range(3):
-                Pi_out[b, j, a] = Pib[a]
-                for c in range(3):
-                    R_out[b, j, a, c] = Rb[a, c]
+            store(R_out[b], Pi_out[b], j, Rb, Pib)
             j += 1
     its[b] = it_sum
     res[b] = rmax

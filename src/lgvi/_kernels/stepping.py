@@ -96,6 +96,15 @@ def rotate(R, E00, E01, E02, E10, E11, E12, E20, E21, E22):
 
 
 @jit
+def store(R_out, Pi_out, j, R, Pi):
+    """Write the state ``(R, Pi)`` as sample ``j`` of the output buffers."""
+    for a in range(3):
+        Pi_out[j, a] = Pi[a]
+        for b in range(3):
+            R_out[j, a, b] = R[a, b]
+
+
+@jit
 def lgvi_step(method, Jd, h, R, Pi, G, u0, u1, u2, tol, max_iter, alpha, hist):
     """One step in place on ``R``, ``Pi``, ``G``; returns ``(iterations, residual, status)``.
 
@@ -160,10 +169,7 @@ def run_chunk(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_ever
         countdown -= 1
         if countdown == 0:
             countdown = save_every
-            for a in range(3):
-                Pi_out[j, a] = Pi[a]
-                for b in range(3):
-                    R_out[j, a, b] = R[a, b]
+            store(R_out, Pi_out, j, R, Pi)
             j += 1
     return OK, k0 + n
 
@@ -389,10 +395,7 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
         countdown -= 1
         if countdown == 0:
             countdown = save_every
-            for a in range(3):
-                Pi_out[jout, a] = Pi[a]
-                for b in range(3):
-                    R_out[jout, a, b] = R[a, b]
+            store(R_out, Pi_out, jout, R, Pi)
             jout += 1
     return OK, k0 + n
 
