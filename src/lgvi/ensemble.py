@@ -427,7 +427,9 @@ class _Setup:
 
     def times(self, m: int) -> np.ndarray:
         """Times of the first ``m`` samples (the same floating-point values as :func:`lgvi.simulate`)."""
-        return self.t0 + self.h * self.save_every * np.arange(m)
+        from .integrator import sample_times
+
+        return sample_times(self.t0, self.h * self.save_every, 0, m)
 
     def inertia(self) -> np.ndarray:
         return np.stack([b.J for b in self.bodies])[self.ib]

@@ -503,6 +503,14 @@ def _check_resume(old: dict[str, Any], new: dict[str, Any], folder: Path) -> Non
                          f"{new.get(k)!r}; a stream resumes only the same run (differences: {', '.join(diff)})")
 
 
+def sample_times(t0: float, dt: float, j0: int, j1: int) -> np.ndarray:
+    """``t0 + dt * j`` for ``j = j0 .. j1-1``, in place in one array (no temporaries to fault in)."""
+    t = np.arange(j0, j1, dtype=np.float64)
+    t *= dt
+    t += t0
+    return t
+
+
 def _physical_memory() -> int:
     try:
         return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
@@ -666,7 +674,7 @@ class _Run:
     # ------------------------------------------------------------------ results
     def times(self, j0: int, j1: int) -> np.ndarray:
         """Times of samples ``j0 .. j1-1`` (the same floating-point values in every code path)."""
-        return self.t0 + self.h * self.save_every * np.arange(j0, j1)
+        return sample_times(self.t0, self.h * self.save_every, j0, j1)
 
     def potential(self, t: np.ndarray, R_saved: np.ndarray) -> np.ndarray | None:
         return self.model.potential(t, R_saved, self.body) if self.has_potential else None
@@ -715,16 +723,17 @@ class _Run:
     # ------------------------------------------------------------------ stepping
     def advance(self, n: int, R_out, Pi_out, it_out, res_out, partial) -> int:
         """Run steps ``k .. k+n-1`` into the chunk buffers; returns the status (``k`` is updated)."""
-        from ._kernels.stepping import run_chunk, run_chunk_forced
+        from ._kernels.stepping import METHOD_CAYLEY, run_chunk, run_chunk_cayley, run_chunk_forced
 
         body = self.body
         if self.func is not None:
             runner = _run_callable if self.legacy else _run_callable_symmetric
             status, self.k = runner(self, n, R_out, Pi_out, it_out, res_out, partial)
         elif self.legacy:
-            status, self.k = run_chunk(self.code, body.Jd, self.h, self.R, self.Pi, self.G, self.U, self.k, n,
-                                       self.tol, self.max_iter, self.alpha, self.save_every, R_out, Pi_out,
-                                       it_out, res_out, _NO_HIST)
+            kernel = run_chunk_cayley if self.code == METHOD_CAYLEY else run_chunk
+            status, self.k = kernel(self.code, body.Jd, self.h, self.R, self.Pi, self.G, self.U, self.k, n, self.tol,
+                                    self.max_iter, self.alpha, self.save_every, R_out, Pi_out, it_out, res_out,
+                                    _NO_HIST)
         else:
             status, self.k = run_chunk_forced(self.code, body.Jd, body.J, body.J_inv, self.h, self.t0, self.gam,
                                               self.cum, self.A, self.R, self.Pi, self.G, self.gidx, self.S,

@@ -1,7 +1,7 @@
 """Ensemble stepping: the loop over bodies inside the compiled kernel, parallel over cores.
 
 Each body runs exactly the per-step code of :func:`lgvi.simulate` on its own state: the free
-body at order 2 calls :func:`.stepping.lgvi_step` (as :func:`.stepping.run_chunk` does), every
+body at order 2 runs :func:`.stepping.free_steps` (the loop of :func:`.stepping.run_chunk`), every
 other scheme calls :func:`.stepping.forced_stage` per substep (as
 :func:`.stepping.run_chunk_forced` does), with the same arguments in the same order. With IEEE
 arithmetic (``fastmath`` is never on) a body of the ensemble therefore follows bit for bit the
@@ -43,7 +43,7 @@ import numpy as np
 from .._jit import jit, jit_parallel
 from .codes import OK
 from .solvers import initial_guess
-from .stepping import forced_stage, init_moments, lgvi_step, store
+from .stepping import forced_stage, free_steps, init_moments, lgvi_step, store
 from .torque_kernels import momentum_diag
 
 
@@ -63,36 +63,22 @@ def init_histories(method, J, ib, hs, Pi, G):
             initial_guess(method, J[ib[b]], hPi, G[b, i, 0])
 
 
-@jit
+@jit(_nrt=False)
 def advance_free(b, method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out,
                  its, res, status, fail_step, fail_res, fail_its, hist):
-    """Free body, order 2: body ``b`` through steps ``k0 .. k0+n-1`` (see :func:`.stepping.run_chunk`)."""
-    Rb = R[b]
-    Pib = Pi[b]
-    Gb = G[b, 0]
-    Jdb = Jd[ib[b]]
-    j = k0 // save_every + 1
-    countdown = save_every - k0 % save_every
-    it_sum = its[b]
-    rmax = res[b]
-    for k in range(k0, k0 + n):
-        it, rn, st = lgvi_step(method, Jdb, h, Rb, Pib, Gb, 0.0, 0.0, 0.0, tol, max_iter, alpha, hist)
-        it_sum += it
-        if st != OK:
-            status[b] = st
-            fail_step[b] = k
-            fail_res[b] = rn
-            fail_its[b] = it
-            break
-        if rn > rmax:
-            rmax = rn
-        countdown -= 1
-        if countdown == 0:
-            countdown = save_every
-            store(R_out[b], Pi_out[b], j, Rb, Pib)
-            j += 1
-    its[b] = it_sum
-    res[b] = rmax
+    """Free body, order 2: body ``b`` through steps ``k0 .. k0+n-1`` (the loop of
+    :func:`.stepping.run_chunk`, without per-step records)."""
+    st, k, it_sum, rmax, it, rn = free_steps(method, Jd[ib[b]], h, R[b], Pi[b], G[b, 0], hist[:0, None], k0, n,
+                                             tol, max_iter, alpha, save_every, save_every - k0 % save_every,
+                                             k0 // save_every + 1, R_out[b], Pi_out[b], False, hist, hist, hist)
+    its[b] += it_sum
+    if rmax > res[b]:
+        res[b] = rmax
+    if st != OK:
+        status[b] = st
+        fail_step[b] = k
+        fail_res[b] = rn
+        fail_its[b] = it
 
 
 @jit

@@ -36,7 +36,7 @@ from .._jit import jit
 from .codes import METHOD_CAYLEY, METHOD_NEWTON, METHOD_PAPER, NOT_CONVERGED, NOT_FINITE, OK, SINGULAR
 
 __all__ = ["METHOD_CAYLEY", "METHOD_NEWTON", "METHOD_PAPER", "NOT_CONVERGED", "NOT_FINITE", "OK", "SINGULAR",
-           "initial_guess", "solve_implicit_kernel", "solve_scalar"]
+           "initial_guess", "solve_implicit_kernel", "solve_scalar", "solve_scalar_call"]
 
 EPS = 2.220446049250313e-16
 #: Below this angle (rad) the Rodrigues coefficients use their Taylor series through t^8, exact to
@@ -48,7 +48,7 @@ _B1, _B2, _B3, _B4 = -1.0 / 24.0, 1.0 / 720.0, -1.0 / 40320.0, 1.0 / 3628800.0  
 _E0, _E1, _E2, _E3 = 1.0 / 12.0, 1.0 / 720.0, 1.0 / 30240.0, 1.0 / 1209600.0       # (1 - t/2 cot t/2) / t^2
 
 
-@jit
+@jit(inline="always")
 def expm1_entries(x, y, z, a, b):
     """Entries of E = a hat(w) + b hat(w)^2 (row-major), w = (x, y, z)."""
     xx = x * x
@@ -62,7 +62,7 @@ def expm1_entries(x, y, z, a, b):
             -a * y + bxz, a * x + byz, -b * (xx + yy))
 
 
-@jit
+@jit(inline="always")
 def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, tol, max_iter, alpha, hist,
                  eager=False):
     """Scalar core of every solver (no arrays touched but ``hist``): see the module docstring.
@@ -90,7 +90,7 @@ def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, t
     b = 0.0
     t2 = 0.0
     skip_check = eager and method == METHOD_CAYLEY and max_iter > 0
-    x00 = x01 = x02 = x10 = x11 = x12 = x20 = x21 = x22 = 0.0
+    x01 = x02 = x10 = x12 = x20 = x21 = 0.0
     E00 = E01 = E02 = E10 = E11 = E12 = E20 = E21 = E22 = 0.0
     r0 = r1 = r2 = 0.0
     rn2 = math.inf  # no residual evaluated yet (eager first update)
@@ -120,16 +120,13 @@ def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, t
             # |F - I|_F^2 = 4 (1 - cos angle) = 4 b |g|^2 for both maps (b = a for Cayley): at most 8
             enorm = 2.0 * math.sqrt(b * t2)
             E00, E01, E02, E10, E11, E12, E20, E21, E22 = expm1_entries(g0, g1, g2, a, b)
-            # X = E Jd (Jd symmetric); r = vee(X - X^T) - hPi
-            x00 = E00 * d00 + E01 * d01 + E02 * d02
+            # X = E Jd (Jd symmetric); r = vee(X - X^T) - hPi needs the off-diagonal entries only
             x01 = E00 * d01 + E01 * d11 + E02 * d12
             x02 = E00 * d02 + E01 * d12 + E02 * d22
             x10 = E10 * d00 + E11 * d01 + E12 * d02
-            x11 = E10 * d01 + E11 * d11 + E12 * d12
             x12 = E10 * d02 + E11 * d12 + E12 * d22
             x20 = E20 * d00 + E21 * d01 + E22 * d02
             x21 = E20 * d01 + E21 * d11 + E22 * d12
-            x22 = E20 * d02 + E21 * d12 + E22 * d22
             r0 = (x21 - x12) - p0
             r1 = (x02 - x20) - p1
             r2 = (x10 - x01) - p2
@@ -161,6 +158,9 @@ def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, t
             m22 = pf + g2 * p2 - 2.0 * j22
         else:
             # A = F Jd = Jd + X; M = tr(A) I - A
+            x00 = E00 * d00 + E01 * d01 + E02 * d02
+            x11 = E10 * d01 + E11 * d11 + E12 * d12
+            x22 = E20 * d02 + E21 * d12 + E22 * d22
             ta = tr + x00 + x11 + x22
             m00 = ta - d00 - x00
             m01 = -d01 - x01
@@ -224,6 +224,19 @@ def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, t
         g1 += alpha * s1
         g2 += alpha * s2
         it += 1
+
+
+@jit(_nrt=False)
+def solve_scalar_call(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, tol, max_iter, alpha, hist,
+                      eager):
+    """:func:`solve_scalar` compiled once as a function of its own instead of inlined.
+
+    For the forced and composed kernels, whose steps do enough other work that a call per solve
+    costs little, while inlining the solver into each of them would add seconds of compilation.
+    Compiled without reference counting (it allocates nothing), so the call updates no counts.
+    """
+    return solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, tol, max_iter, alpha, hist,
+                        eager)
 
 
 @jit

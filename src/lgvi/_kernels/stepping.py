@@ -27,23 +27,27 @@ import math
 
 from .._jit import jit
 from .codes import OVERFLOW
-from .solvers import METHOD_CAYLEY, OK, solve_scalar
+from .solvers import METHOD_CAYLEY, OK, solve_scalar, solve_scalar_call
 from .torque_kernels import model_moments, momentum_diag
 
 
-@jit
+@jit(inline="always")
+def extrapolate(n, a0, a1, a2, b0, b1, b2, c0, c1, c2):
+    """Guess from the last three solutions ``a`` (newest), ``b``, ``c`` of which ``n`` are valid."""
+    if n >= 3.0:
+        return 3.0 * (a0 - b0) + c0, 3.0 * (a1 - b1) + c1, 3.0 * (a2 - b2) + c2
+    if n >= 2.0:
+        return 2.0 * a0 - b0, 2.0 * a1 - b1, 2.0 * a2 - b2
+    return a0, a1, a2
+
+
+@jit(inline="always")
 def predict(G):
     """Initial coordinates for the next solve from the history ``G`` (see the module notes)."""
-    n = G[3, 0]
-    if n >= 3.0:
-        return (3.0 * (G[0, 0] - G[1, 0]) + G[2, 0], 3.0 * (G[0, 1] - G[1, 1]) + G[2, 1],
-                3.0 * (G[0, 2] - G[1, 2]) + G[2, 2])
-    if n >= 2.0:
-        return 2.0 * G[0, 0] - G[1, 0], 2.0 * G[0, 1] - G[1, 1], 2.0 * G[0, 2] - G[1, 2]
-    return G[0, 0], G[0, 1], G[0, 2]
+    return extrapolate(G[3, 0], G[0, 0], G[0, 1], G[0, 2], G[1, 0], G[1, 1], G[1, 2], G[2, 0], G[2, 1], G[2, 2])
 
 
-@jit
+@jit(inline="always")
 def push(G, g0, g1, g2):
     """Record a converged solution in the history ``G``."""
     for i in range(2, 0, -1):
@@ -60,13 +64,8 @@ def push(G, g0, g1, g2):
 @jit(inline="always")
 def predict_at(G, j):
     """:func:`predict` for history ``G[j]`` of a stack ``G`` (m,4,3), without making a view."""
-    n = G[j, 3, 0]
-    if n >= 3.0:
-        return (3.0 * (G[j, 0, 0] - G[j, 1, 0]) + G[j, 2, 0], 3.0 * (G[j, 0, 1] - G[j, 1, 1]) + G[j, 2, 1],
-                3.0 * (G[j, 0, 2] - G[j, 1, 2]) + G[j, 2, 2])
-    if n >= 2.0:
-        return 2.0 * G[j, 0, 0] - G[j, 1, 0], 2.0 * G[j, 0, 1] - G[j, 1, 1], 2.0 * G[j, 0, 2] - G[j, 1, 2]
-    return G[j, 0, 0], G[j, 0, 1], G[j, 0, 2]
+    return extrapolate(G[j, 3, 0], G[j, 0, 0], G[j, 0, 1], G[j, 0, 2], G[j, 1, 0], G[j, 1, 1], G[j, 1, 2],
+                       G[j, 2, 0], G[j, 2, 1], G[j, 2, 2])
 
 
 @jit(inline="always")
@@ -83,19 +82,29 @@ def push_at(G, j, g0, g1, g2):
         G[j, 3, 0] += 1.0
 
 
-@jit
+@jit(inline="always")
+def rotated_row(a0, a1, a2, E00, E01, E02, E10, E11, E12, E20, E21, E22):
+    """Row ``a (I + E)`` of the attitude update ``R_{k+1} = R_k F_k`` (``E = F_k - I``)."""
+    return (a0 + a0 * E00 + a1 * E10 + a2 * E20, a1 + a0 * E01 + a1 * E11 + a2 * E21,
+            a2 + a0 * E02 + a1 * E12 + a2 * E22)
+
+
+@jit(inline="always")
 def rotate(R, E00, E01, E02, E10, E11, E12, E20, E21, E22):
     """``R <- R (I + E)`` in place: the attitude update ``R_{k+1} = R_k F_k`` with ``E = F_k - I``."""
     for i in range(3):
-        a0 = R[i, 0]
-        a1 = R[i, 1]
-        a2 = R[i, 2]
-        R[i, 0] = a0 + a0 * E00 + a1 * E10 + a2 * E20
-        R[i, 1] = a1 + a0 * E01 + a1 * E11 + a2 * E21
-        R[i, 2] = a2 + a0 * E02 + a1 * E12 + a2 * E22
+        R[i, 0], R[i, 1], R[i, 2] = rotated_row(R[i, 0], R[i, 1], R[i, 2], E00, E01, E02, E10, E11, E12,
+                                                E20, E21, E22)
 
 
-@jit
+@jit(inline="always")
+def momentum(b0, b1, b2, E00, E01, E02, E10, E11, E12, E20, E21, E22, hu0, hu1, hu2):
+    """``(I + E)^T Pi + h u``: the momentum update ``Pi_{k+1} = F_k^T Pi_k + h u_k``."""
+    return (b0 + (E00 * b0 + E10 * b1 + E20 * b2) + hu0, b1 + (E01 * b0 + E11 * b1 + E21 * b2) + hu1,
+            b2 + (E02 * b0 + E12 * b1 + E22 * b2) + hu2)
+
+
+@jit(inline="always")
 def store(R_out, Pi_out, j, R, Pi):
     """Write the state ``(R, Pi)`` as sample ``j`` of the output buffers."""
     for a in range(3):
@@ -104,7 +113,7 @@ def store(R_out, Pi_out, j, R, Pi):
             R_out[j, a, b] = R[a, b]
 
 
-@jit
+@jit(inline="always")
 def lgvi_step(method, Jd, h, R, Pi, G, u0, u1, u2, tol, max_iter, alpha, hist):
     """One step in place on ``R``, ``Pi``, ``G``; returns ``(iterations, residual, status)``.
 
@@ -120,12 +129,7 @@ def lgvi_step(method, Jd, h, R, Pi, G, u0, u1, u2, tol, max_iter, alpha, hist):
     if st != OK:
         return its, rn, st
     # Pi <- (I + E)^T Pi + h u, checked before anything is written (a huge moment can overflow it)
-    b0 = Pi[0]
-    b1 = Pi[1]
-    b2 = Pi[2]
-    c0 = b0 + (E00 * b0 + E10 * b1 + E20 * b2) + h * u0
-    c1 = b1 + (E01 * b0 + E11 * b1 + E21 * b2) + h * u1
-    c2 = b2 + (E02 * b0 + E12 * b1 + E22 * b2) + h * u2
+    c0, c1, c2 = momentum(Pi[0], Pi[1], Pi[2], E00, E01, E02, E10, E11, E12, E20, E21, E22, h * u0, h * u1, h * u2)
     if not (math.isfinite(c0) and math.isfinite(c1) and math.isfinite(c2)):
         return its, rn, OVERFLOW
     push(G, g0, g1, g2)
@@ -136,7 +140,101 @@ def lgvi_step(method, Jd, h, R, Pi, G, u0, u1, u2, tol, max_iter, alpha, hist):
     return its, rn, st
 
 
-@jit
+@jit(inline="always")
+def free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_every, countdown, j, R_out, Pi_out,
+               records, it_out, res_out, hist):
+    """Steps ``k0 .. k0+n-1`` of :func:`lgvi_step` in a loop: the body of :func:`run_chunk` and of
+    the ensemble's per-body loop.
+
+    The state (``R``, ``Pi``, ``G``) and ``Jd`` are held in local scalars between steps and
+    written back at the end: no memory round trip on the chain of dependent steps, and the
+    solver's set-up for ``Jd`` is loop-invariant. Every helper is inlined and nothing allocates,
+    so a caller compiled without reference counting (``_nrt=False``) runs pure arithmetic per step.
+
+    The first sample is stored after ``countdown`` steps at ``R_out[j]``, then every
+    ``save_every`` steps. With ``records`` the solver's iterations and final residual of step
+    ``k`` go to ``it_out[k - k0]``, ``res_out[k - k0]``. Returns ``(status, k, its, rmax, it,
+    rn)``: ``OK`` and ``k = k0 + n``, or the status and index of the failed step (the state is
+    the one before it); ``its`` the iterations summed over the steps tried, ``rmax`` the largest
+    final residual of the steps taken, ``it``, ``rn`` those of the last step tried.
+    """
+    has_u = U.shape[0] > 0
+    d00 = Jd[0, 0]
+    d01 = Jd[0, 1]
+    d02 = Jd[0, 2]
+    d11 = Jd[1, 1]
+    d12 = Jd[1, 2]
+    d22 = Jd[2, 2]
+    r00, r01, r02 = R[0, 0], R[0, 1], R[0, 2]
+    r10, r11, r12 = R[1, 0], R[1, 1], R[1, 2]
+    r20, r21, r22 = R[2, 0], R[2, 1], R[2, 2]
+    P0, P1, P2 = Pi[0], Pi[1], Pi[2]
+    a0, a1, a2 = G[0, 0], G[0, 1], G[0, 2]
+    b0, b1, b2 = G[1, 0], G[1, 1], G[1, 2]
+    c0, c1, c2 = G[2, 0], G[2, 1], G[2, 2]
+    ng = G[3, 0]
+    u0 = 0.0
+    u1 = 0.0
+    u2 = 0.0
+    status = OK
+    kend = k0 + n
+    it_sum = 0
+    rmax = 0.0
+    its = 0
+    rn = 0.0
+    for k in range(k0, k0 + n):
+        if has_u:
+            u0 = U[k, 0]
+            u1 = U[k, 1]
+            u2 = U[k, 2]
+        q0, q1, q2 = extrapolate(ng, a0, a1, a2, b0, b1, b2, c0, c1, c2)
+        (g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its, rn,
+         st) = solve_scalar(method, d00, d01, d02, d11, d12, d22, h * P0, h * P1, h * P2, q0, q1, q2,
+                            tol, max_iter, alpha, hist, True)
+        it_sum += its
+        if records:
+            it_out[k - k0] = its
+            res_out[k - k0] = rn
+        if st != OK:
+            status = st
+            kend = k
+            break
+        m0, m1, m2 = momentum(P0, P1, P2, E00, E01, E02, E10, E11, E12, E20, E21, E22, h * u0, h * u1, h * u2)
+        if not (math.isfinite(m0) and math.isfinite(m1) and math.isfinite(m2)):
+            status = OVERFLOW
+            kend = k
+            break
+        if rn > rmax:
+            rmax = rn
+        c0, c1, c2 = b0, b1, b2
+        b0, b1, b2 = a0, a1, a2
+        a0, a1, a2 = g0, g1, g2
+        if ng < 3.0:
+            ng += 1.0
+        r00, r01, r02 = rotated_row(r00, r01, r02, E00, E01, E02, E10, E11, E12, E20, E21, E22)
+        r10, r11, r12 = rotated_row(r10, r11, r12, E00, E01, E02, E10, E11, E12, E20, E21, E22)
+        r20, r21, r22 = rotated_row(r20, r21, r22, E00, E01, E02, E10, E11, E12, E20, E21, E22)
+        P0, P1, P2 = m0, m1, m2
+        countdown -= 1
+        if countdown == 0:
+            countdown = save_every
+            R_out[j, 0, 0], R_out[j, 0, 1], R_out[j, 0, 2] = r00, r01, r02
+            R_out[j, 1, 0], R_out[j, 1, 1], R_out[j, 1, 2] = r10, r11, r12
+            R_out[j, 2, 0], R_out[j, 2, 1], R_out[j, 2, 2] = r20, r21, r22
+            Pi_out[j, 0], Pi_out[j, 1], Pi_out[j, 2] = P0, P1, P2
+            j += 1
+    R[0, 0], R[0, 1], R[0, 2] = r00, r01, r02
+    R[1, 0], R[1, 1], R[1, 2] = r10, r11, r12
+    R[2, 0], R[2, 1], R[2, 2] = r20, r21, r22
+    Pi[0], Pi[1], Pi[2] = P0, P1, P2
+    G[0, 0], G[0, 1], G[0, 2] = a0, a1, a2
+    G[1, 0], G[1, 1], G[1, 2] = b0, b1, b2
+    G[2, 0], G[2, 1], G[2, 2] = c0, c1, c2
+    G[3, 0] = ng
+    return status, kend, it_sum, rmax, its, rn
+
+
+@jit(_nrt=False)
 def run_chunk(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_every,
               R_out, Pi_out, it_out, res_out, hist):
     """Advance ``n`` steps ``k0 .. k0+n-1`` with moments ``U`` (``U.shape[0] == 0``: free body).
@@ -149,29 +247,29 @@ def run_chunk(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_ever
 
     Returns ``(status, k)``: ``OK`` and ``k = k0 + n`` on success; otherwise the solver status of
     the failed step ``k``, with ``R, Pi`` the state before that step.
+
+    Compiled without Numba's reference counting: the loop (:func:`free_steps`) is inlined and
+    allocates nothing, so no step pays for reference-count updates of array arguments (atomic
+    operations, about a third of a step's time when the step was a call of its own).
     """
-    has_u = U.shape[0] > 0
-    u0 = 0.0
-    u1 = 0.0
-    u2 = 0.0
-    countdown = save_every
-    j = 0
-    for k in range(k0, k0 + n):
-        if has_u:
-            u0 = U[k, 0]
-            u1 = U[k, 1]
-            u2 = U[k, 2]
-        its, rn, st = lgvi_step(method, Jd, h, R, Pi, G, u0, u1, u2, tol, max_iter, alpha, hist)
-        it_out[k - k0] = its
-        res_out[k - k0] = rn
-        if st != OK:
-            return st, k
-        countdown -= 1
-        if countdown == 0:
-            countdown = save_every
-            store(R_out, Pi_out, j, R, Pi)
-            j += 1
-    return OK, k0 + n
+    status, kend, _, _, _, _ = free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_every,
+                                          save_every, 0, R_out, Pi_out, True, it_out, res_out, hist)
+    return status, kend
+
+
+@jit(_nrt=False)
+def run_chunk_cayley(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_every,
+                     R_out, Pi_out, it_out, res_out, hist):
+    """:func:`run_chunk` compiled for ``method == METHOD_CAYLEY`` only (the argument is ignored).
+
+    With the method a constant, LLVM drops the other solvers' branches from the loop: fewer
+    values live across a step, fewer register spills, about 10 % less time per step. A separate
+    kernel rather than a branch in :func:`run_chunk`, because each inlined copy of the loop costs
+    seconds of compilation and a kernel compiles only when first used.
+    """
+    status, kend, _, _, _, _ = free_steps(METHOD_CAYLEY, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha,
+                                          save_every, save_every, 0, R_out, Pi_out, True, it_out, res_out, hist)
+    return status, kend
 
 
 # ------------------------------------------------------------------------------------------------
@@ -207,25 +305,21 @@ def solve_warm(method, Jd, J_inv, p0, p1, p2, G, j, tol, max_iter, alpha, hist):
     a result that converged; the reported iterations include every attempt.
     """
     q0, q1, q2 = predict_at(G, j)
-    res = solve_scalar(method, Jd[0, 0], Jd[0, 1], Jd[0, 2], Jd[1, 1], Jd[1, 2], Jd[2, 2],
-                       p0, p1, p2, q0, q1, q2, tol, max_iter, alpha, hist, True)
-    if res[14] == OK:
-        return res
-    spent = res[12]
-    for attempt in range(2):
-        if attempt == 0:
+    spent = 0
+    for attempt in range(3):
+        if attempt == 1:
             if G[j, 3, 0] < 2.0:
                 continue                      # the first guess was the last solution already
             q0 = G[j, 0, 0]
             q1 = G[j, 0, 1]
             q2 = G[j, 0, 2]
-        else:
+        elif attempt == 2:
             c = 0.5 if method == METHOD_CAYLEY else 1.0
             q0 = c * (J_inv[0, 0] * p0 + J_inv[0, 1] * p1 + J_inv[0, 2] * p2)
             q1 = c * (J_inv[1, 0] * p0 + J_inv[1, 1] * p1 + J_inv[1, 2] * p2)
             q2 = c * (J_inv[2, 0] * p0 + J_inv[2, 1] * p1 + J_inv[2, 2] * p2)
-        res = solve_scalar(method, Jd[0, 0], Jd[0, 1], Jd[0, 2], Jd[1, 1], Jd[1, 2], Jd[2, 2],
-                           p0, p1, p2, q0, q1, q2, tol, max_iter, alpha, hist)
+        res = solve_scalar_call(method, Jd[0, 0], Jd[0, 1], Jd[0, 2], Jd[1, 1], Jd[1, 2], Jd[2, 2],
+                                p0, p1, p2, q0, q1, q2, tol, max_iter, alpha, hist, attempt == 0)
         spent += res[12]
         if res[14] == OK:
             break
@@ -304,7 +398,7 @@ def forced_stage(method, Jd, J, J_inv, hs, t1, R, Pi, G, j, S, codes, params, D0
     return its, rn, st
 
 
-@jit
+@jit(inline="always")
 def finite_state(Pi, S):
     """True when the momentum and the cached moments are all finite."""
     ok = math.isfinite(Pi[0]) and math.isfinite(Pi[1]) and math.isfinite(Pi[2])
@@ -327,7 +421,7 @@ def init_moments(codes, params, J, J_inv, t, R, Pi, S, v0, v1, v2):
     S[6] = 1.0
 
 
-@jit
+@jit(_nrt=False)
 def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S, codes, params, U, sym,
                      k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out, it_out, res_out, hist):
     """Advance ``n`` steps ``k0 .. k0+n-1`` of a forced and/or composed scheme (see notes above).
@@ -356,18 +450,17 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
             init_moments(codes, params, J, J_inv, t0 + k0 * h, R, Pi, S, U[k0, 0], U[k0, 1], U[k0, 2])
         else:
             init_moments(codes, params, J, J_inv, t0 + k0 * h, R, Pi, S, 0.0, 0.0, 0.0)
-    R0 = R.copy()
-    Pi0 = Pi.copy()
-    S0 = S.copy()
     v0 = 0.0
     v1 = 0.0
     v2 = 0.0
     countdown = save_every
     jout = 0
     for k in range(k0, k0 + n):
-        R0[:, :] = R
-        Pi0[:] = Pi
-        S0[:] = S
+        # the state at the start of the step, restored if a substep fails (no allocation: this kernel
+        # runs without reference counting, like run_chunk)
+        Rk = (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2])
+        Pk = (Pi[0], Pi[1], Pi[2])
+        Sk = (S[0], S[1], S[2], S[3], S[4], S[5], S[6])
         if has_u:
             v0 = U[k + 1, 0]
             v1 = U[k + 1, 1]
@@ -386,9 +479,12 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
             if st != OK:
                 it_out[k - k0] = its_sum
                 res_out[k - k0] = rn
-                R[:, :] = R0
-                Pi[:] = Pi0
-                S[:] = S0
+                for a in range(9):
+                    R[a // 3, a % 3] = Rk[a]
+                for a in range(3):
+                    Pi[a] = Pk[a]
+                for a in range(7):
+                    S[a] = Sk[a]
                 return st, k
         it_out[k - k0] = its_sum
         res_out[k - k0] = rmax
