@@ -56,3 +56,16 @@ def test_basilisk_peer_quick():
     proc = _run("basilisk_peer.py", "--quick")
     _check(proc)
     assert ("convention check" in proc.stdout) or ("Basilisk not installed" in proc.stdout)
+
+
+@pytest.mark.slow
+def test_floor_quick():
+    """The floor script counts a step's operations from the kernel's own source and prints its table."""
+    proc = _run("floor.py", "--quick")
+    _check(proc, "latency: add", "throughput: add/mul mix", "lat.floor", "thr.floor", "kern/floor", "newton ",
+           "cayley ")
+    assert "Traceback" not in proc.stderr
+    rows = {line.split()[0]: line.split() for line in proc.stdout.splitlines() if line.startswith(("newton ", "cayley "))}
+    # one solver update per step with the warm start, and the Cayley step needs no more operations than Newton's
+    assert rows["cayley"][1] == rows["newton"][1] == "1"
+    assert 0 < int(rows["cayley"][3]) <= int(rows["newton"][3])
