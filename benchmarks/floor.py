@@ -218,29 +218,19 @@ class Tracked:
     def __neg__(self):
         return Tracked(-self.v, self.t)           # a sign flip folds into the next add/subtract
 
-    def _cmp(self, o, f):
+    __hash__ = None
+
+
+def _comparison(f):
+    def compare(self, o):
         Tracked.counts["cmp"] += 1
         return f(self.v, float(o))
 
-    def __lt__(self, o):
-        return self._cmp(o, float.__lt__)
+    return compare
 
-    def __le__(self, o):
-        return self._cmp(o, float.__le__)
 
-    def __gt__(self, o):
-        return self._cmp(o, float.__gt__)
-
-    def __ge__(self, o):
-        return self._cmp(o, float.__ge__)
-
-    def __eq__(self, o):
-        return self._cmp(o, float.__eq__)
-
-    def __ne__(self, o):
-        return self._cmp(o, float.__ne__)
-
-    __hash__ = None
+for _name in ("lt", "le", "gt", "ge", "eq", "ne"):
+    setattr(Tracked, f"__{_name}__", _comparison(getattr(float, f"__{_name}__")))
 
 
 class _TrackedMath:
