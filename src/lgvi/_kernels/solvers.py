@@ -36,7 +36,7 @@ from .._jit import jit
 from .codes import METHOD_CAYLEY, METHOD_NEWTON, METHOD_PAPER, NOT_CONVERGED, NOT_FINITE, OK, SINGULAR
 
 __all__ = ["METHOD_CAYLEY", "METHOD_NEWTON", "METHOD_PAPER", "NOT_CONVERGED", "NOT_FINITE", "OK", "SINGULAR",
-           "initial_guess", "solve_implicit_kernel", "solve_scalar", "solve_scalar_call"]
+           "initial_guess", "solve_implicit_kernel", "solve_scalar"]
 
 EPS = 2.220446049250313e-16
 #: Below this angle (rad) the Rodrigues coefficients use their Taylor series through t^8, exact to
@@ -224,19 +224,6 @@ def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, t
         g1 += alpha * s1
         g2 += alpha * s2
         it += 1
-
-
-@jit(_nrt=False)
-def solve_scalar_call(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, tol, max_iter, alpha, hist,
-                      eager):
-    """:func:`solve_scalar` compiled once as a function of its own instead of inlined.
-
-    For the forced and composed kernels, whose steps do enough other work that a call per solve
-    costs little, while inlining the solver into each of them would add seconds of compilation.
-    Compiled without reference counting (it allocates nothing), so the call updates no counts.
-    """
-    return solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, tol, max_iter, alpha, hist,
-                        eager)
 
 
 @jit

@@ -27,8 +27,8 @@ import math
 
 from .._jit import jit
 from .codes import OVERFLOW
-from .solvers import METHOD_CAYLEY, OK, solve_scalar, solve_scalar_call
-from .torque_kernels import model_moments, momentum_diag
+from .solvers import METHOD_CAYLEY, OK, solve_scalar
+from .torque_kernels import model_moments, model_moments_s, momentum_diag
 
 
 @jit(inline="always")
@@ -306,6 +306,7 @@ def solve_warm(method, Jd, J_inv, p0, p1, p2, G, j, tol, max_iter, alpha, hist):
     """
     q0, q1, q2 = predict_at(G, j)
     spent = 0
+    # one call site for the three attempts: each inlined copy of the solver costs compilation time
     for attempt in range(3):
         if attempt == 1:
             if G[j, 3, 0] < 2.0:
@@ -318,8 +319,8 @@ def solve_warm(method, Jd, J_inv, p0, p1, p2, G, j, tol, max_iter, alpha, hist):
             q0 = c * (J_inv[0, 0] * p0 + J_inv[0, 1] * p1 + J_inv[0, 2] * p2)
             q1 = c * (J_inv[1, 0] * p0 + J_inv[1, 1] * p1 + J_inv[1, 2] * p2)
             q2 = c * (J_inv[2, 0] * p0 + J_inv[2, 1] * p1 + J_inv[2, 2] * p2)
-        res = solve_scalar_call(method, Jd[0, 0], Jd[0, 1], Jd[0, 2], Jd[1, 1], Jd[1, 2], Jd[2, 2],
-                                p0, p1, p2, q0, q1, q2, tol, max_iter, alpha, hist, attempt == 0)
+        res = solve_scalar(method, Jd[0, 0], Jd[0, 1], Jd[0, 2], Jd[1, 1], Jd[1, 2], Jd[2, 2],
+                           p0, p1, p2, q0, q1, q2, tol, max_iter, alpha, hist, attempt == 0)
         spent += res[12]
         if res[14] == OK:
             break
@@ -328,41 +329,45 @@ def solve_warm(method, Jd, J_inv, p0, p1, p2, G, j, tol, max_iter, alpha, hist):
 
 
 @jit(inline="always")
-def forced_stage(method, Jd, J, J_inv, hs, t1, R, Pi, G, j, S, codes, params, D0, D1, D2, has_D, A, i_A, sym,
-                 v0, v1, v2, tol, max_iter, alpha, hist):
-    """One substep in place on ``R``, ``Pi``, ``G[j]`` (this stage's history) and ``S``.
+def forced_stage_s(method, Jd, J, J_inv, hs, t1, Rt, Pt, Mt, G, j, codes, params, D0, D1, D2, has_D, A, i_A, sym,
+                   v0, v1, v2, tol, max_iter, alpha, hist):
+    """One substep from the state ``Rt`` (the 9 entries of ``R``, row-major), ``Pt`` (``Pi``),
+    ``Mt`` (the cached moments ``P``, ``N``) and the history ``G[j]`` (this stage's, updated in
+    place on success). Tuples rather than 18 separate numbers: a call with more than 30
+    arguments compiles to a star-args call, which Numba cannot inline.
 
     ``A[i_A]`` is the momentum matrix of this substep (see :func:`run_chunk_forced`).
 
     ``v`` is an extra explicit moment at the end point added to ``Q`` (torque arrays in symmetric
-    mode; zero otherwise). Returns ``(iterations, residual, status)``; on failure nothing changed.
+    mode; zero otherwise). Returns ``(iterations, residual, status, Rt, Pt, Mt)``, the new state;
+    on failure the state given, and ``G`` unchanged.
     """
-    P0 = S[0]
-    P1 = S[1]
-    P2 = S[2]
-    N0 = S[3]
-    N1 = S[4]
-    N2 = S[5]
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = Rt
+    pi0, pi1, pi2 = Pt
+    P0, P1, P2, N0, N1, N2 = Mt
     hh = 0.5 * hs
     if sym:
-        m0 = Pi[0] + hh * (P0 + N0)
-        m1 = Pi[1] + hh * (P1 + N1)
-        m2 = Pi[2] + hh * (P2 + N2)
+        m0 = pi0 + hh * (P0 + N0)
+        m1 = pi1 + hh * (P1 + N1)
+        m2 = pi2 + hh * (P2 + N2)
     else:
-        m0 = Pi[0] + hh * P0
-        m1 = Pi[1] + hh * P1
-        m2 = Pi[2] + hh * P2
+        m0 = pi0 + hh * P0
+        m1 = pi1 + hh * P1
+        m2 = pi2 + hh * P2
     (g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its, rn,
      st) = solve_warm(method, Jd, J_inv, hs * m0, hs * m1, hs * m2, G, j, tol, max_iter, alpha, hist)
     if st != OK:
-        return its, rn, st
+        return its, rn, st, Rt, Pt, Mt
     push_at(G, j, g0, g1, g2)
-    rotate(R, E00, E01, E02, E10, E11, E12, E20, E21, E22)      # R <- R (I + E)
+    # R <- R (I + E)
+    r00, r01, r02 = rotated_row(r00, r01, r02, E00, E01, E02, E10, E11, E12, E20, E21, E22)
+    r10, r11, r12 = rotated_row(r10, r11, r12, E00, E01, E02, E10, E11, E12, E20, E21, E22)
+    r20, r21, r22 = rotated_row(r20, r21, r22, E00, E01, E02, E10, E11, E12, E20, E21, E22)
     # F^T mu
     b0 = m0 + (E00 * m0 + E10 * m1 + E20 * m2)
     b1 = m1 + (E01 * m0 + E11 * m1 + E21 * m2)
     b2 = m2 + (E02 * m0 + E12 * m1 + E22 * m2)
-    P0, P1, P2, Q0, Q1, Q2 = model_moments(codes, params, J, t1, R)
+    P0, P1, P2, Q0, Q1, Q2 = model_moments_s(codes, params, J, t1, r00, r01, r02, r10, r11, r12, r20, r21, r22)
     Q0 += v0
     Q1 += v1
     Q2 += v2
@@ -381,29 +386,37 @@ def forced_stage(method, Jd, J, J_inv, hs, t1, R, Pi, G, j, S, codes, params, D0
         b0 += hh * P0 + hs * N0
         b1 += hh * P1 + hs * N1
         b2 += hh * P2 + hs * N2
-    Pi[0] = b0
-    Pi[1] = b1
-    Pi[2] = b2
     if has_D:
         Q0 -= D0 * (J_inv[0, 0] * b0 + J_inv[0, 1] * b1 + J_inv[0, 2] * b2)
         Q1 -= D1 * (J_inv[1, 0] * b0 + J_inv[1, 1] * b1 + J_inv[1, 2] * b2)
         Q2 -= D2 * (J_inv[2, 0] * b0 + J_inv[2, 1] * b1 + J_inv[2, 2] * b2)
-    S[0] = P0
-    S[1] = P1
-    S[2] = P2
-    S[3] = Q0
-    S[4] = Q1
-    S[5] = Q2
+    return (its, rn, st, (r00, r01, r02, r10, r11, r12, r20, r21, r22), (b0, b1, b2), (P0, P1, P2, Q0, Q1, Q2))
+
+
+@jit(inline="always")
+def forced_stage(method, Jd, J, J_inv, hs, t1, R, Pi, G, j, S, codes, params, D0, D1, D2, has_D, A, i_A, sym,
+                 v0, v1, v2, tol, max_iter, alpha, hist):
+    """:func:`forced_stage_s` in place on the arrays ``R``, ``Pi``, ``G[j]`` and the moment cache
+    ``S``. Returns ``(iterations, residual, status)``; on failure nothing changed."""
+    Rt = (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2])
+    its, rn, st, Rt, Pt, Mt = forced_stage_s(method, Jd, J, J_inv, hs, t1, Rt, (Pi[0], Pi[1], Pi[2]),
+                                             (S[0], S[1], S[2], S[3], S[4], S[5]), G, j, codes, params, D0, D1, D2,
+                                             has_D, A, i_A, sym, v0, v1, v2, tol, max_iter, alpha, hist)
+    if st != OK:
+        return its, rn, st
+    R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2] = Rt
+    Pi[0], Pi[1], Pi[2] = Pt
+    S[0], S[1], S[2], S[3], S[4], S[5] = Mt
     S[6] = 1.0
     return its, rn, st
 
 
 @jit(inline="always")
-def finite_state(Pi, S):
-    """True when the momentum and the cached moments are all finite."""
-    ok = math.isfinite(Pi[0]) and math.isfinite(Pi[1]) and math.isfinite(Pi[2])
+def finite_moments(Pt, Mt):
+    """True when the momentum ``Pt`` and the cached moments ``Mt`` are all finite."""
+    ok = math.isfinite(Pt[0]) and math.isfinite(Pt[1]) and math.isfinite(Pt[2])
     for i in range(6):
-        ok = ok and math.isfinite(S[i])
+        ok = ok and math.isfinite(Mt[i])
     return ok
 
 
@@ -455,45 +468,52 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
     v2 = 0.0
     countdown = save_every
     jout = 0
+    # the state in local tuples (written back at the end, as in free_steps)
+    Rt = (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2])
+    Pt = (Pi[0], Pi[1], Pi[2])
+    Mt = (S[0], S[1], S[2], S[3], S[4], S[5])
+    status = OK
+    kend = k0 + n
     for k in range(k0, k0 + n):
-        # the state at the start of the step, restored if a substep fails (no allocation: this kernel
-        # runs without reference counting, like run_chunk)
-        Rk = (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2])
-        Pk = (Pi[0], Pi[1], Pi[2])
-        Sk = (S[0], S[1], S[2], S[3], S[4], S[5], S[6])
         if has_u:
             v0 = U[k + 1, 0]
             v1 = U[k + 1, 1]
             v2 = U[k + 1, 2]
         its_sum = 0
         rmax = 0.0
+        # substeps work on copies: a failed step leaves the state at its start
+        Rx, Px, Mx = Rt, Pt, Mt
         for i in range(s):
             t1 = t0 + (k + cum[i + 1]) * h
-            its, rn, st = forced_stage(method, Jd, J, J_inv, gam[i] * h, t1, R, Pi, G, gidx[i], S, codes,
-                                       params, D0, D1, D2, has_D, A, i, sym, v0, v1, v2, tol, max_iter, alpha, hist)
+            its, rn, st, Rx, Px, Mx = forced_stage_s(method, Jd, J, J_inv, gam[i] * h, t1, Rx, Px, Mx, G, gidx[i],
+                                                     codes, params, D0, D1, D2, has_D, A, i, sym, v0, v1, v2, tol,
+                                                     max_iter, alpha, hist)
             its_sum += its
             if rn > rmax:
                 rmax = rn
-            if st == OK and not finite_state(Pi, S):
+            if st == OK and not finite_moments(Px, Mx):
                 st = OVERFLOW              # a moment overflowed the momentum: never keep it
             if st != OK:
-                it_out[k - k0] = its_sum
-                res_out[k - k0] = rn
-                for a in range(9):
-                    R[a // 3, a % 3] = Rk[a]
-                for a in range(3):
-                    Pi[a] = Pk[a]
-                for a in range(7):
-                    S[a] = Sk[a]
-                return st, k
+                status = st
+                break
         it_out[k - k0] = its_sum
+        if status != OK:
+            res_out[k - k0] = rn
+            kend = k
+            break
         res_out[k - k0] = rmax
+        Rt, Pt, Mt = Rx, Px, Mx
         countdown -= 1
         if countdown == 0:
             countdown = save_every
-            store(R_out, Pi_out, jout, R, Pi)
+            (R_out[jout, 0, 0], R_out[jout, 0, 1], R_out[jout, 0, 2], R_out[jout, 1, 0], R_out[jout, 1, 1],
+             R_out[jout, 1, 2], R_out[jout, 2, 0], R_out[jout, 2, 1], R_out[jout, 2, 2]) = Rt
+            Pi_out[jout, 0], Pi_out[jout, 1], Pi_out[jout, 2] = Pt
             jout += 1
-    return OK, k0 + n
+    R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2] = Rt
+    Pi[0], Pi[1], Pi[2] = Pt
+    S[0], S[1], S[2], S[3], S[4], S[5] = Mt
+    return status, kend
 
 
 @jit

@@ -28,8 +28,9 @@ ATTITUDE_PD = 5
 
 
 @jit(inline="always")
-def model_moments(codes, params, J, t, R):
-    """``(P0, P1, P2, Q0, Q1, Q2)``: conservative and other attitude/time moments at ``(t, R)``."""
+def model_moments_s(codes, params, J, t, r00, r01, r02, r10, r11, r12, r20, r21, r22):
+    """``(P0, P1, P2, Q0, Q1, Q2)``: conservative and other attitude/time moments at ``(t, R)``,
+    ``R`` given by its entries ``rij``."""
     P0 = 0.0
     P1 = 0.0
     P2 = 0.0
@@ -41,9 +42,9 @@ def model_moments(codes, params, J, t, R):
         o = codes[i, 1]
         if kind == GRAVITY:
             # M = (R^T e3) x (mass g com); R^T e3 is the third row of R
-            s0 = R[2, 0]
-            s1 = R[2, 1]
-            s2 = R[2, 2]
+            s0 = r20
+            s1 = r21
+            s2 = r22
             w0 = params[o]
             w1 = params[o + 1]
             w2 = params[o + 2]
@@ -56,9 +57,9 @@ def model_moments(codes, params, J, t, R):
             nt = params[o + 1] * t
             ct = math.cos(nt)
             st = math.sin(nt)
-            c0 = -(R[0, 0] * ct + R[1, 0] * st)
-            c1 = -(R[0, 1] * ct + R[1, 1] * st)
-            c2 = -(R[0, 2] * ct + R[1, 2] * st)
+            c0 = -(r00 * ct + r10 * st)
+            c1 = -(r01 * ct + r11 * st)
+            c2 = -(r02 * ct + r12 * st)
             j0 = J[0, 0] * c0 + J[0, 1] * c1 + J[0, 2] * c2
             j1 = J[1, 0] * c0 + J[1, 1] * c1 + J[1, 2] * c2
             j2 = J[2, 0] * c0 + J[2, 1] * c1 + J[2, 2] * c2
@@ -73,17 +74,24 @@ def model_moments(codes, params, J, t, R):
             # e_R = vee(A - A^T) / 2 with A = R_d^T R; only the off-diagonal entries are needed
             # R_d row-major at params[o + 6 ...]: (R_d^T R)_ij = sum_m R_d[m, i] R[m, j]
             d = o + 6
-            a01 = params[d] * R[0, 1] + params[d + 3] * R[1, 1] + params[d + 6] * R[2, 1]
-            a02 = params[d] * R[0, 2] + params[d + 3] * R[1, 2] + params[d + 6] * R[2, 2]
-            a10 = params[d + 1] * R[0, 0] + params[d + 4] * R[1, 0] + params[d + 7] * R[2, 0]
-            a12 = params[d + 1] * R[0, 2] + params[d + 4] * R[1, 2] + params[d + 7] * R[2, 2]
-            a20 = params[d + 2] * R[0, 0] + params[d + 5] * R[1, 0] + params[d + 8] * R[2, 0]
-            a21 = params[d + 2] * R[0, 1] + params[d + 5] * R[1, 1] + params[d + 8] * R[2, 1]
+            a01 = params[d] * r01 + params[d + 3] * r11 + params[d + 6] * r21
+            a02 = params[d] * r02 + params[d + 3] * r12 + params[d + 6] * r22
+            a10 = params[d + 1] * r00 + params[d + 4] * r10 + params[d + 7] * r20
+            a12 = params[d + 1] * r02 + params[d + 4] * r12 + params[d + 7] * r22
+            a20 = params[d + 2] * r00 + params[d + 5] * r10 + params[d + 8] * r20
+            a21 = params[d + 2] * r01 + params[d + 5] * r11 + params[d + 8] * r21
             Q0 -= params[o] * (0.5 * (a21 - a12))
             Q1 -= params[o + 1] * (0.5 * (a02 - a20))
             Q2 -= params[o + 2] * (0.5 * (a10 - a01))
         # DAMPING: only the -D Omega part, see momentum_diag
     return P0, P1, P2, Q0, Q1, Q2
+
+
+@jit(inline="always")
+def model_moments(codes, params, J, t, R):
+    """:func:`model_moments_s` of the array ``R`` (3,3)."""
+    return model_moments_s(codes, params, J, t, R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0],
+                           R[2, 1], R[2, 2])
 
 
 @jit(inline="always")
