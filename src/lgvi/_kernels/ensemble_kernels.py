@@ -81,7 +81,7 @@ def advance_free(b, method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, sa
         fail_its[b] = it
 
 
-@jit
+@jit(_nrt=False)
 def advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, A, R, Pi, G, S, codes, params, sym, k0, n, tol,
                    max_iter, alpha, save_every, R_out, Pi_out, its, res, status, fail_step, fail_res, fail_its,
                    hist):
