@@ -136,9 +136,11 @@ def assert_meets_stopping_rule(Jd: np.ndarray, hPi: np.ndarray, sol: lgvi.Implic
     r = np.array([X[2, 1] - X[1, 2], X[0, 2] - X[2, 0], X[1, 0] - X[0, 1]], dtype=LD) - p
     rn, hn = np.sqrt(r @ r), np.sqrt(p @ p)
     floor = 8 * LD(EPS) * (np.sqrt((JdL * JdL).sum()) * enorm + hn)
-    # the kernel's own float64 evaluation meets the rule exactly; the exact residual may exceed it
-    # by the rounding of that evaluation (measured: 1.0005 x on 3000 random cases), hence 1.01
-    slack = 1.01 if EXTENDED else 2.0
+    # the kernel stops when its own float64 residual meets tol |hPi| + floor; the floor term is by
+    # construction a bound on the rounding of that float64 evaluation, so the exact residual meets
+    # tol |hPi| + 2 floor (the excess seen: up to 4 % of the floor, on a body with J3/J1 ~ 14);
+    # without extended precision this check's own evaluation adds up to one more floor
+    slack = 2.0 if EXTENDED else 3.0
     assert rn <= tol * hn + slack * floor, (
         f"{method}: residual {float(rn):.3e} > rule {float(tol * hn + floor):.3e} (|hPi| = {float(hn):.3e})")
     assert sol.residual <= float(tol * hn + floor) * (1 + 1e-9)
@@ -366,13 +368,16 @@ def test_free_body_invariants_on_random_bodies(body, R0, axis, size, h_omega, si
     assert np.max(traj.orthogonality_error) <= 1e-13
     assert np.all(traj.residual <= 1.01e-14 * abs(h) * nPi[:-1] + 16 * EPS * (np.linalg.norm(body.Jd) * 2.0
                                                                              + abs(h) * nPi[:-1]))
-    # reversibility: back from step n with -h. Round-off (solver tolerance ~1e-14 per step) is
-    # amplified at most like exp(lambda t), and lambda <= |Omega| for a free body (the unstable
-    # spin about the intermediate axis), hence the bound; a non-symmetric scheme would miss by
-    # O((h |Omega|)^3) per step
+    # reversibility: back from step n with -h. Each solve meets |f| <= tol |h Pi| + round-off, so
+    # its F is off by up to that over the smallest singular value of the derivative tr(A) I - A,
+    # which is about the smallest principal moment J_min near F = I (a thin rod, J_min = 1e-5 J_max,
+    # turns the tolerance into 1e-9 per step); these errors grow at most like exp(lambda t), with
+    # lambda <= |Omega| for a free body (the unstable spin about the intermediate axis), hence the
+    # bound; a non-symmetric scheme would miss by O((h |Omega|)^3) per step
     n = min(STEPS, 40)
     back = lgvi.simulate(body, traj.R[n], traj.Pi[n], h=-h, steps=n, method=method, max_iter=max_iter)
-    bound = 1e-13 * n * math.exp(h_omega * n)
+    per_step = 1e-13 + 4 * TOL * abs(h) * nPi[0] / body.principal_moments[0]
+    bound = per_step * n * math.exp(h_omega * n)
     np.testing.assert_allclose(back.R[-1], R0, rtol=0, atol=bound)
     np.testing.assert_allclose(back.Pi[-1], Pi0, rtol=0, atol=bound * nPi[0])
 
