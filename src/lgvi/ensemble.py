@@ -23,7 +23,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ._kernels.codes import METHOD_CAYLEY, OK
-from ._validation import ROTATION_TOL, as_float, as_float_array, as_int, choice, is_scipy_rotation
+from ._validation import ROTATION_TOL, as_float_array, as_int, choice, is_scipy_rotation
 from ._version import __version__
 from .body import RigidBody
 from .errors import ConvergenceError, SimulationInterrupted
@@ -355,21 +355,16 @@ class _Setup:
     def __init__(self, bodies: Any, R0: Any, Pi0: Any, omega0: Any, *, h: Any, steps: Any, torque: Any,
                  method: str, tol: Any, max_iter: Any, alpha: Any, save_every: Any, t0: Any, forcing: Any,
                  order: Any, composition: Any, threads: Any) -> None:
-        from .integrator import _check_order, _composition, _options
+        from .integrator import FORCINGS, _check_order, _composition, _options, time_grid
 
         self.code, self.tol, self.max_iter, self.alpha = _options(method, tol, max_iter, alpha)
         self.R = _rotations(R0)
         B = len(self.R)
         self.bodies, self.ib = _bodies(bodies, B)
         self.Pi = _momenta(self.bodies, self.ib, Pi0, omega0)
-        self.h = h = as_float(h, "h", nonzero=True)
-        self.t0 = as_float(t0, "t0")
-        self.steps = steps = as_int(steps, "steps", minimum=0)
-        self.save_every = save_every = as_int(save_every, "save_every", minimum=1)
-        if steps % save_every != 0:
-            raise ValueError(f"save_every must divide steps so that the final state is saved; got "
-                             f"steps={steps}, save_every={save_every} (steps % save_every = {steps % save_every})")
-        choice(forcing, "forcing", ("paper", "symmetric"))
+        self.h, self.t0, self.steps, self.save_every = time_grid(h, t0, steps, save_every)
+        steps, save_every = self.steps, self.save_every
+        choice(forcing, "forcing", FORCINGS)
         self.comp = comp = _composition(order, composition)
         self.sym = forcing == "symmetric"
         if torque is None:
@@ -391,10 +386,7 @@ class _Setup:
         self.threads = threads
         # the free body at order 2 runs the original step (as simulate does), bit for bit
         self.legacy = comp.order == 2 and kind == "none"
-        self.gam = np.array(comp.coefficients)
-        cum = np.concatenate([[0.0], np.cumsum(self.gam)])
-        cum[-1] = 1.0
-        self.cum = cum
+        self.gam, self.cum = comp.arrays()
         if self.model is not None:
             self.codes, self.params = self.model.encode()
         else:

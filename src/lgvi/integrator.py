@@ -72,6 +72,14 @@ class Composition:
     def stages(self) -> int:
         return len(self.coefficients)
 
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """``gam`` (s,), the substep fractions, and ``cum`` (s+1,), the fraction of the step at the
+        end of each substep (``cum[0] = 0``, ``cum[s] = 1`` exactly), as the kernels take them."""
+        gam = np.array(self.coefficients)
+        cum = np.concatenate([[0.0], np.cumsum(gam)])
+        cum[-1] = 1.0
+        return gam, cum
+
 
 def _symmetric(half: list[float]) -> tuple[float, ...]:
     """``half + [middle] + reversed(half)`` with the middle fixing the sum to 1."""
@@ -503,6 +511,19 @@ def _check_resume(old: dict[str, Any], new: dict[str, Any], folder: Path) -> Non
                          f"{new.get(k)!r}; a stream resumes only the same run (differences: {', '.join(diff)})")
 
 
+def time_grid(h: Any, t0: Any, steps: Any, save_every: Any) -> tuple[float, float, int, int]:
+    """Validated ``(h, t0, steps, save_every)`` of a run: ``h != 0``, ``steps >= 0``,
+    ``save_every >= 1`` dividing ``steps`` (so that the final state is saved)."""
+    h = as_float(h, "h", nonzero=True)
+    t0 = as_float(t0, "t0")
+    steps = as_int(steps, "steps", minimum=0)
+    save_every = as_int(save_every, "save_every", minimum=1)
+    if steps % save_every != 0:
+        raise ValueError(f"save_every must divide steps so that the final state is saved; got "
+                         f"steps={steps}, save_every={save_every} (steps % save_every = {steps % save_every})")
+    return h, t0, steps, save_every
+
+
 def sample_times(t0: float, dt: float, j0: int, j1: int) -> np.ndarray:
     """``t0 + dt * j`` for ``j = j0 .. j1-1``, in place in one array (no temporaries to fault in)."""
     t = np.arange(j0, j1, dtype=np.float64)
@@ -615,13 +636,8 @@ class _Run:
         self.code, self.tol, self.max_iter, self.alpha = _options(method, tol, max_iter, alpha)
         self.R = as_rotation(R0, "R0").copy()
         self.Pi = _initial_momentum(body, Pi0, omega0)
-        self.h = h = as_float(h, "h", nonzero=True)
-        self.t0 = as_float(t0, "t0")
-        self.steps = steps = as_int(steps, "steps", minimum=0)
-        self.save_every = save_every = as_int(save_every, "save_every", minimum=1)
-        if steps % save_every != 0:
-            raise ValueError(f"save_every must divide steps so that the final state is saved; got "
-                             f"steps={steps}, save_every={save_every} (steps % save_every = {steps % save_every})")
+        self.h, self.t0, self.steps, self.save_every = time_grid(h, t0, steps, save_every)
+        h, steps, save_every = self.h, self.steps, self.save_every
         _check_memory(steps, save_every)
         choice(forcing, "forcing", FORCINGS)
         self.comp = comp = _composition(order, composition)
@@ -657,10 +673,7 @@ class _Run:
         if self.legacy:
             self.G = _solver_state(self.code, body, h, self.Pi)
         else:
-            self.gam = np.array(comp.coefficients)
-            cum = np.concatenate([[0.0], np.cumsum(self.gam)])
-            cum[-1] = 1.0
-            self.cum = cum
+            self.gam, self.cum = comp.arrays()
             self.G = np.stack([_solver_state(self.code, body, g * h, self.Pi) for g in self.gam])
             if self.func is None:
                 self.codes, self.params = (self.model.encode() if self.model is not None
