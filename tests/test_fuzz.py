@@ -380,7 +380,7 @@ toml_values = st.recursive(
 
 
 def _paths(d, prefix=()):
-    """Every (path, container) to a value in a nested dict/list."""
+    """Every path (a tuple of keys and indices) to a value in a nested dict/list."""
     items = d.items() if isinstance(d, dict) else enumerate(d)
     for k, v in items:
         yield prefix + (k,)
@@ -388,17 +388,10 @@ def _paths(d, prefix=()):
             yield from _paths(v, prefix + (k,))
 
 
-@FUZZ
-@given(data=st.data(), action=st.sampled_from(["replace", "drop", "add"]), value=toml_values,
-       via_file=st.booleans())
-def test_scenario_structured(data, action, value, via_file):
-    """The valid scenario with one value replaced by a random one, one key dropped, or one added."""
-    import tomllib
-
-    d = tomllib.loads(SCENARIO)
-    paths = list(_paths(d))
-    path = data.draw(st.sampled_from(paths))
-    *head, last = path
+def _mutate(data, d, action: str, value) -> None:
+    """At a drawn path of the nested dict/list ``d``: replace the value, drop it, or add ``value``
+    beside it (a new random key in a dict, appended to a list)."""
+    *head, last = data.draw(st.sampled_from(list(_paths(d))))
     parent = d
     for k in head:
         parent = parent[k]
@@ -410,6 +403,17 @@ def test_scenario_structured(data, action, value, via_file):
         parent[data.draw(st.text(min_size=1, max_size=8))] = value
     else:
         parent.append(value)
+
+
+@FUZZ
+@given(data=st.data(), action=st.sampled_from(["replace", "drop", "add"]), value=toml_values,
+       via_file=st.booleans())
+def test_scenario_structured(data, action, value, via_file):
+    """The valid scenario with one value replaced by a random one, one key dropped, or one added."""
+    import tomllib
+
+    d = tomllib.loads(SCENARIO)
+    _mutate(data, d, action, value)
     if not via_file:
         try:
             sc = Scenario.from_dict(copy.deepcopy(d), "fuzz.toml")
@@ -460,16 +464,7 @@ def test_read_stream_structured_manifest(stream_folder, data, value, action, rem
         folder = Path(d) / "run"
         _copy_stream(stream_folder, folder)
         manifest = json.loads((folder / "manifest.json").read_text())
-        paths = list(_paths(manifest))
-        path = data.draw(st.sampled_from(paths))
-        *head, last = path
-        parent = manifest
-        for k in head:
-            parent = parent[k]
-        if action == "replace":
-            parent[last] = value
-        else:
-            del parent[last]
+        _mutate(data, manifest, action, value)
         (folder / "manifest.json").write_text(json.dumps(manifest, allow_nan=True))
         if remove_chunk:
             (folder / remove_chunk).unlink()
