@@ -433,6 +433,16 @@ def test_scenario_structured(data, action, value, via_file):
 # --------------------------------------------------------------------------------------------
 # streams
 # --------------------------------------------------------------------------------------------
+def _read_or_reject(folder: Path) -> None:
+    """A damaged stream folder is read consistently or refused with a ValueError naming it."""
+    try:
+        tr = streaming.read_stream(folder)
+    except ValueError as exc:
+        assert str(folder) in str(exc), str(exc)
+        return
+    _consistent(tr)
+
+
 def _copy_stream(src: Path, dst: Path) -> None:
     dst.mkdir()
     for f in src.iterdir():
@@ -448,12 +458,7 @@ def test_read_stream_mutated_files(stream_folder, data, target):
         _copy_stream(stream_folder, folder)
         f = folder / target
         f.write_bytes(data.draw(mutated(f.read_bytes())))
-        try:
-            tr = streaming.read_stream(folder)
-        except ValueError as exc:
-            assert str(folder) in str(exc), str(exc)
-            return
-        _consistent(tr)
+        _read_or_reject(folder)
 
 
 @FUZZ
@@ -468,12 +473,7 @@ def test_read_stream_structured_manifest(stream_folder, data, value, action, rem
         (folder / "manifest.json").write_text(json.dumps(manifest, allow_nan=True))
         if remove_chunk:
             (folder / remove_chunk).unlink()
-        try:
-            tr = streaming.read_stream(folder)
-        except ValueError as exc:
-            assert str(folder) in str(exc), str(exc)
-            return
-        _consistent(tr)
+        _read_or_reject(folder)
 
 
 def test_read_stream_refuses_paths_outside_the_folder(stream_folder, tmp_path, traj):
