@@ -27,6 +27,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import os
 import platform
 import shutil
 import sys
@@ -251,7 +252,39 @@ def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], 
 
 
 def _default_outdir(scenario) -> Path:
-    return Path.cwd() / f"{scenario.name}_output"
+    """``./SLUG_output``: the scenario name made a safe file name, so no name read from a file
+    (``../x``, ``/abs``, control characters) puts the results outside the current folder."""
+    from ._untrusted import safe_name
+
+    return Path.cwd() / f"{safe_name(scenario.name)}_output"
+
+
+def _check_run_fits(scenario) -> None:
+    """Refuse, before anything is written, a run whose result (read back whole at the end) cannot
+    fit in this machine's memory: a file declaring ``steps = 10**15`` fails now, not after days."""
+    need = scenario.samples * 13 * 8 + scenario.steps * 12  # t, R, Pi (+ energy) per sample; its, res per step
+    try:
+        ram = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):
+        return
+    if need > ram:
+        raise UsageError(f"{scenario.source}: integrator.steps = {scenario.steps} (save_every = "
+                         f"{scenario.save_every}) needs about {need / 2**30:.3g} GiB for the result, more than "
+                         f"this machine's {ram / 2**30:.3g} GiB of memory; use fewer steps or a larger save_every")
+
+
+def _check_outdir(outdir: Path) -> None:
+    """Refuse an output folder holding a symbolic link that points outside it (a folder from
+    elsewhere must not redirect where the results are written)."""
+    from ._untrusted import inside
+
+    for folder in (outdir, outdir / "stream"):
+        if not folder.is_dir():
+            continue
+        for p in [folder, *folder.iterdir()]:
+            if p.is_symlink() and p != outdir and not inside(outdir, p):
+                raise UsageError(f"{p} is a symbolic link to {os.path.realpath(p)}, outside the output folder "
+                                 f"{outdir}; remove it or choose another folder with -o")
 
 
 def _write_results(traj, scenario, outdir: Path, formats: tuple[str, ...], plots: bool, wall: float, *,
@@ -292,6 +325,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     formats = _parse_formats(args.format, scenario.formats)
     plots = scenario.plots and not args.no_plots
     outdir = Path(args.output) if args.output else _default_outdir(scenario)
+    _check_run_fits(scenario)
+    _check_outdir(outdir)
     if "netcdf" in formats:  # fail before a long run, not after it
         try:
             import xarray  # noqa: F401
@@ -556,7 +591,7 @@ def build_parser() -> argparse.ArgumentParser:
                          "(python -c 'import lgvi.scenario; help(lgvi.scenario)').")
     run.add_argument("scenario", metavar="SCENARIO.toml", help="scenario file")
     run.add_argument("-o", "--output", default=None, metavar="DIR",
-                     help="output folder (default ./NAME_output, NAME the scenario name)")
+                     help="output folder (default ./NAME_output, NAME the scenario name as a safe file name)")
     run.add_argument("--no-plots", action="store_true", help="do not write figures")
     run.add_argument("--resume", action="store_true",
                      help="continue an interrupted or killed run from its last complete chunk in DIR/stream "
