@@ -259,20 +259,6 @@ def _default_outdir(scenario) -> Path:
     return Path.cwd() / f"{safe_name(scenario.name)}_output"
 
 
-def _check_run_fits(scenario) -> None:
-    """Refuse, before anything is written, a run whose result (read back whole at the end) cannot
-    fit in this machine's memory: a file declaring ``steps = 10**15`` fails now, not after days."""
-    need = scenario.samples * 13 * 8 + scenario.steps * 12  # t, R, Pi (+ energy) per sample; its, res per step
-    try:
-        ram = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (AttributeError, ValueError, OSError):
-        return
-    if need > ram:
-        raise UsageError(f"{scenario.source}: integrator.steps = {scenario.steps} (save_every = "
-                         f"{scenario.save_every}) needs about {need / 2**30:.3g} GiB for the result, more than "
-                         f"this machine's {ram / 2**30:.3g} GiB of memory; use fewer steps or a larger save_every")
-
-
 def _check_outdir(outdir: Path) -> None:
     """Refuse an output folder holding a symbolic link that points outside it (a folder from
     elsewhere must not redirect where the results are written)."""
@@ -325,7 +311,6 @@ def cmd_run(args: argparse.Namespace) -> int:
     formats = _parse_formats(args.format, scenario.formats)
     plots = scenario.plots and not args.no_plots
     outdir = Path(args.output) if args.output else _default_outdir(scenario)
-    _check_run_fits(scenario)
     _check_outdir(outdir)
     if "netcdf" in formats:  # fail before a long run, not after it
         try:
