@@ -25,6 +25,7 @@ paths in .npz metadata / CSV sidecar   never used as paths: ``info`` writes noth
 manifest naming ``../x.npz`` or an     refused ("must name a file in the stream folder")
 absolute path
 chunk or manifest symlinked outside    refused ("symbolic link ... not followed")
+a FIFO as a chunk, manifest or block   refused ("not a regular file"), never waited on
 planted ``*.tmp`` symlink on resume    replaced, never followed; the resumed run is exact
 resume state ``k`` out of range /      refused ("resume state")
 enormous chunk counts
@@ -35,10 +36,12 @@ ensemble block symlinked outside       refused
 from __future__ import annotations
 
 import ast
+import contextlib
 import io
 import json
 import os
 import shutil
+import threading
 import zipfile
 from dataclasses import replace
 from pathlib import Path
@@ -381,6 +384,39 @@ def test_manifest_symlinked_outside_the_folder_is_refused(tree):
     (folder / "manifest.json").symlink_to(tree / "elsewhere" / "manifest.json")
     with pytest.raises(ValueError, match=r"manifest\.json is a symbolic link to .*outside the stream folder"):
         streaming.read_stream(folder)
+
+
+@contextlib.contextmanager
+def fifo(path: Path):
+    """A named pipe at ``path`` with a writer that closes at once: a reader that opens it gets an
+    empty file instead of waiting forever, so a regression fails the test instead of hanging it."""
+    os.mkfifo(path)
+    writer = threading.Thread(target=lambda: os.close(os.open(path, os.O_WRONLY)), daemon=True)
+    writer.start()
+    try:
+        yield path
+    finally:
+        if writer.is_alive():  # nobody opened it (the fix): let the writer's open return
+            fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+            writer.join()
+            os.close(fd)
+        writer.join()
+
+
+@pytest.mark.parametrize("which", ["chunk-000001.npz", "manifest.json"])
+def test_a_fifo_in_a_stream_folder_is_refused_not_waited_on(tree, which):
+    folder = _stream(tree / "work" / "run")
+    (folder / which).unlink()
+    with fifo(folder / which), pytest.raises(ValueError, match=r"is not a regular file"):
+        streaming.read_stream(folder)
+
+
+def test_a_fifo_in_an_ensemble_folder_is_refused_not_waited_on(tree):
+    folder = tree / "work" / "ens"
+    folder.mkdir()
+    with fifo(folder / "ensemble-00000.npz"), pytest.raises(ValueError, match=r"ensemble-00000\.npz is not a "
+                                                                              r"regular file"):
+        load_ensemble(folder)
 
 
 def _interrupted(tree: Path) -> tuple[Path, lgvi.Trajectory]:

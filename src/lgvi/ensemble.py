@@ -223,6 +223,8 @@ def load_ensemble(path: str | os.PathLike | Sequence[str | os.PathLike]) -> Ense
         if not inside(folder, p):
             raise ValueError(f"{p} is a symbolic link to {os.path.realpath(p)}, outside the folder {folder}; "
                              "it is not followed")
+        if not p.is_file():  # a FIFO or a device would block or never end
+            raise ValueError(f"{p} is not a regular file")
     if not files:
         raise ValueError(f"{folder} holds no ensemble blocks (ensemble-XXXXX.npz)")
     parts = [_load_one(str(p)) for p in files]

@@ -132,6 +132,8 @@ def read_manifest(folder: str | os.PathLike) -> dict[str, Any]:
     if path.is_symlink() and not inside(folder, path):
         raise ValueError(f"{path} is a symbolic link to {os.path.realpath(path)}, outside the stream folder; "
                          "it is not followed")
+    if path.exists() and not path.is_file():
+        raise ValueError(f"{path} is not a regular file")
     try:
         manifest = json.loads(path.read_text())
     except FileNotFoundError as exc:
@@ -179,6 +181,8 @@ def read_stream(folder: str | os.PathLike) -> Trajectory:
         if not inside(folder, path):
             raise ValueError(f"{mpath}: chunk {i} ({name}) is a symbolic link to {os.path.realpath(path)}, outside "
                              "the stream folder; it is not followed")
+        if path.exists() and not path.is_file():  # a FIFO or a device would block or never end
+            raise ValueError(f"{mpath}: chunk {i} ({name}) is not a regular file")
         try:
             check_npz(path)
             with np.load(path, allow_pickle=False) as data:
