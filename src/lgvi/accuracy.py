@@ -121,13 +121,15 @@ class ErrorEstimate:
                 f"{self.momentum:.3g} kg m^2/s{rel} (Richardson, order {self.order}, shadow run at h/2 = {self.h / 2:g})"
                 + regime)
 
-    def advice(self) -> str:
-        """What to change for accuracy: a higher order, or the step the ``h^p`` scaling asks for."""
+    def advice(self, toml: bool = False) -> str:
+        """What to change for accuracy: a higher order, or the step the ``h^p`` scaling asks for
+        (``toml=True``: as keys of a scenario's ``[integrator]`` table, else as arguments)."""
         target = self.warn if self.warn is not None else DEFAULT_WARN
-        tip = {1: "forcing='symmetric' (order 2) or with order=4 or 6", 2: "order=4 or order=6"}.get(
-            self.order, "a smaller step")
+        eq, q, where = (" = ", '"', " in [integrator]") if toml else ("=", "'", "")
+        tip = {1: f"forcing{eq}{q}symmetric{q} (order 2; also with order{eq}4 or 6){where}",
+               2: f"order{eq}4 or order{eq}6{where}"}.get(self.order, f"a smaller h{where}")
         if self.asymptotic and self.attitude > 0.0:
-            tip += f", or h = {self.step_for(target):.3g} at order {self.order} for about {target:g} rad"
+            tip += f", or h{eq}{self.step_for(target):.3g} (order {self.order}) for about {target:g} rad"
         return f"for accuracy use {tip}"
 
     def to_dict(self) -> dict[str, Any]:
