@@ -259,3 +259,25 @@ def test_cli_summary_reports_and_warns(tmp_path, capsys):
     text = (tmp_path / "out2" / "summary.txt").read_text()
     assert "accuracy:      not estimated (error_estimate = true under [integrator]" in text
     assert "WARNING" not in text
+
+
+@pytest.mark.slow
+def test_benchmark_script_quick():
+    """benchmarks/error_estimate.py runs at reduced size and prints its table (no timing assertions)."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    env.pop("NUMBA_DISABLE_JIT", None)
+    proc = subprocess.run([sys.executable, str(root / "benchmarks" / "error_estimate.py"), "--quick", "--repeat", "1"],
+                          capture_output=True, text=True, timeout=120, env=env, cwd=root)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    for needle in ("true error rad", "estimate rad", "est/true", "with/without", "reference order 6"):
+        assert needle in proc.stdout, needle
+    rows = [line.split() for line in proc.stdout.splitlines() if line.strip().startswith(("2 ", "4 ", "6 "))]
+    assert len(rows) == 6
+    for row in rows[:5]:  # est/true, away from round-off (order 6 at h = 0.2 is 1e-9 rad)
+        assert float(row[5]) == pytest.approx(1.0, abs=0.05), row

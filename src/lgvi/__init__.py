@@ -6,7 +6,8 @@ Public names (everything else is private):
 - :func:`simulate`, :func:`step`, :class:`Trajectory`, :func:`load`
 - :func:`solve_implicit`, :class:`ImplicitSolution`
 - :class:`ConvergenceError`, :class:`TorqueError`, :class:`SimulationInterrupted`, :class:`AccuracyWarning`
-- modules :mod:`lgvi.so3`, :mod:`lgvi.torques`, :mod:`lgvi.reference`, :mod:`lgvi.baselines`, :mod:`lgvi.exact`
+- modules :mod:`lgvi.so3`, :mod:`lgvi.torques`, :mod:`lgvi.reference`, :mod:`lgvi.baselines`, :mod:`lgvi.exact`,
+  :mod:`lgvi.accuracy` (the error estimate of ``simulate(..., error_estimate=True)``)
 
 Importing lgvi compiles nothing: kernels are compiled (or loaded from Numba's cache) on first use.
 Numba itself is imported here (about 0.3 s) so that the first simulation does not pay for it.
