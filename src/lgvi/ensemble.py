@@ -658,7 +658,7 @@ def _run_local(s: _Setup, progress: Any = False, first_body: int = 0) -> Ensembl
         body = first_body + b
         more = f" ({failed.size} of {B} bodies failed)" if failed.size > 1 else ""
         msg = (f"body {body} failed at step {kf} (t = {t_fail:g}){more}: "
-               + failure_message(int(status[b]), float(fail_res[b]), int(fail_its[b]), hnorm, s.tol)
+               + failure_message(int(status[b]), float(fail_res[b]), int(fail_its[b]), hnorm, s.tol, s.code, s.alpha)
                + f" The ensemble up to step {kf} (all bodies) is in .trajectory.")
         err = ConvergenceError(msg, residual=float(fail_res[b]), iterations=int(fail_its[b]), step=kf, time=t_fail,
                                trajectory=result(kf // se + 1, True))
