@@ -71,9 +71,19 @@ def test_gravity_gradient(tmp_path):
 
 
 def test_kepler(tmp_path):
-    out = run_example("kepler.py", "--steps", "2000", cwd=tmp_path)
+    out = run_example("kepler.py", "--steps", "2000", "--no-plots", cwd=tmp_path)
     row = next(line for line in out.splitlines() if line.startswith("Stormer-Verlet"))
     assert float(row.split()[-4]) < 1e-12  # angular momentum kept to round-off
+    assert not (tmp_path / "output").exists()
+
+
+def test_kepler_takes_the_common_options(tmp_path):
+    """``--quick`` and ``--out DIR``, as every example script (the README documents them)."""
+    out = run_example("kepler.py", "--quick", "--out", str(tmp_path / "figs"), cwd=tmp_path)
+    assert "2000 steps" in out
+    png = tmp_path / "figs" / "kepler_errors.png"
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert str(png) in out
 
 
 def test_every_script_is_tested():
