@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import tomllib
+import warnings
 from dataclasses import replace
 from pathlib import Path
 
@@ -132,6 +133,51 @@ def test_pi_instead_of_omega():
     assert np.array_equal(Scenario.from_dict(d).Pi0, [0.5, 0.25, 1.0])
 
 
+def test_omega_takes_a_unit_like_the_euler_angles():
+    """``omega = { values = [...], unit = "deg/s" }`` (or "rad/s"); a bare array stays rad/s."""
+    d = base_dict()
+    plain = Scenario.from_dict(d)
+    d["initial"]["omega"] = {"values": [0.1, 1.0, 0.2], "unit": "rad/s"}
+    assert np.array_equal(Scenario.from_dict(d).Pi0, plain.Pi0)
+    d["initial"]["omega"] = {"values": np.degrees([0.1, 1.0, 0.2]).tolist(), "unit": "deg/s"}
+    np.testing.assert_allclose(Scenario.from_dict(d).Pi0, plain.Pi0, rtol=1e-15)
+    d["initial"]["omega"] = {"values": [0.0, 90.0, 0.0], "unit": "deg/s"}
+    np.testing.assert_allclose(Scenario.from_dict(d).Pi0, [0.0, 2.0 * np.pi / 4.0 * 2.0, 0.0], rtol=1e-15)
+    # the documented spelling runs from a file, and survives the round trip through to_toml
+    text = edit(BASE, "omega = [0.1, 1.0, 0.2]", 'omega = { values = [0.0, 90.0, 0.0], unit = "deg/s" }')
+    assert np.array_equal(Scenario.from_dict(tomllib.loads(to_toml(tomllib.loads(text)))).Pi0,
+                          Scenario.from_dict(d).Pi0)
+
+
+def test_matrix_slightly_off_so3_is_replaced_by_the_nearest_rotation_with_a_warning(tmp_path):
+    """A rotation written with 7 digits (||R^T R - I||_F ~ 1e-7) is accepted: R0 is its nearest
+    rotation, and a warning names the file and the key. A rotation to round-off stays as written."""
+    R = Rotation.from_euler("ZYX", [30.0, 20.0, -10.0], degrees=True).as_matrix()
+    rounded = np.round(R, 7)
+    assert 1e-9 < lgvi.so3.orthogonality_error(rounded) < 1e-6
+    path = write(tmp_path, edit(BASE, "omega =", f"matrix = {rounded.tolist()}\nomega ="), "seven.toml")
+    with pytest.warns(lgvi.errors.AttitudeWarning, match=rf"{path}: initial\.matrix is [0-9.e-]+ away from a "
+                      r"rotation.*using the nearest rotation"):
+        sc = load_scenario(path)
+    assert np.array_equal(sc.R0, lgvi.so3.project(rounded))
+    assert lgvi.so3.orthogonality_error(sc.R0) < 1e-15 and np.max(np.abs(sc.R0 - R)) < 1e-7
+    d = base_dict()
+    d["initial"]["matrix"] = R.tolist()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert np.array_equal(Scenario.from_dict(d).R0, R)        # as written, bit for bit
+
+
+def test_matrix_errors_say_what_to_write_in_the_file(tmp_path):
+    """A scenario error speaks TOML: what to write in the file, never a Python call."""
+    path = write(tmp_path, edit(BASE, "omega =", "matrix = [[1, 0, 0], [0, 1, 0.001], [0, 0, 1]]\nomega ="))
+    with pytest.raises(ScenarioError, match=r"initial\.matrix: expected a rotation matrix: .*orthogonal to 1e-06.*"
+                       r"Write initial\.matrix with orthonormal rows and determinant \+1 .* or give the attitude "
+                       r"as rotvec, quat_xyzw, quat_wxyz or euler instead\.") as info:
+        load_scenario(path)
+    assert "lgvi." not in str(info.value) and "(" not in str(info.value).split("Write", 1)[1]
+
+
 @pytest.mark.parametrize("h, duration, steps", [(0.01, 1.0, 100), (0.1, 0.3, 3), (-0.01, -0.5, 50),
                                                 (0.001, 20.0, 20000), (0.01, 0.0, 0)])
 def test_duration_gives_steps(h, duration, steps):
@@ -251,6 +297,12 @@ BAD = {
     "neither omega nor Pi": (edit(BASE, "omega = [0.1, 1.0, 0.2]", ""), "initial", "exactly one of initial.omega"),
     "omega too short": (edit(BASE, "omega = [0.1, 1.0, 0.2]", "omega = [0.1, 1.0]"), "initial.omega",
                         "array of 3 numbers"),
+    "omega unit unknown": (edit(BASE, "omega = [0.1, 1.0, 0.2]", 'omega = { values = [0.1, 1.0, 0.2], unit = "rpm" }'),
+                           "initial.omega.unit", "'rad/s', 'deg/s'"),
+    "omega table without unit": (edit(BASE, "omega = [0.1, 1.0, 0.2]", "omega = { values = [0.1, 1.0, 0.2] }"),
+                                 "initial.omega.unit", "missing"),
+    "omega table unknown key": (edit(BASE, "omega = [0.1, 1.0, 0.2]", 'omega = { value = [0.1, 1.0, 0.2], '
+                                     'unit = "deg/s" }'), "initial.omega.value", "did you mean 'values'"),
     "omega entry not a number": (edit(BASE, "omega = [0.1, 1.0, 0.2]", 'omega = [0.1, "x", 0.2]'),
                                  "initial.omega[1]", "expected a number"),
     "duration not a multiple of h": (edit(BASE, "steps = 40\nsave_every = 4", "duration = 1.005"),

@@ -242,7 +242,8 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     body : RigidBody or array_like
         The body, or its inertia: ``(3,)`` principal moments or ``(3, 3)`` matrix.
     R0 : (3, 3) array_like or scipy.spatial.transform.Rotation
-        Initial attitude (body to inertial), a rotation to 1e-9.
+        Initial attitude (body to inertial), a rotation to 1e-9 (to 1e-6: replaced by the
+        nearest rotation, with an ``AttitudeWarning``).
     Pi0 : (3,) array_like, optional
         Initial body angular momentum. Give this or ``omega0``.
     omega0 : (3,) array_like, optional
