@@ -52,6 +52,25 @@ def test_pendulum3d(tmp_path):
     dE, dLz, orth = (float(x) for x in lgvi_row.split()[-3:])
     assert dE < 1e-2 and dLz < 1e-12 and orth < 1e-12
     assert (tmp_path / "figs" / "comparison.png").exists()
+    assert number(r"E0 = ([0-9.]+) J \(hanging start\)", out) == 2.027   # Lee: 2.03 J
+
+
+@needs_torques
+def test_pendulum3d_script_starts_hanging_like_lee():
+    """The script's setup is Lee's hanging pendulum: centre of mass below the pivot along gravity at
+    R0 = I, and E0 = 2.03 J (Lee's figure, to the digits given)."""
+    spec = importlib.util.spec_from_file_location("pendulum3d_example", EXAMPLES / "pendulum3d.py")
+    ex = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(ex)
+    import numpy as np
+
+    import lgvi
+
+    body = lgvi.RigidBody(ex.J)
+    com_inertial = np.eye(3) @ ex.GRAVITY.com                     # R0 = I
+    assert com_inertial @ np.array([0.0, 0.0, -1.0]) == 0.3       # below the pivot along gravity (-e3)
+    traj = lgvi.simulate(body, np.eye(3), omega0=ex.OMEGA0, h=ex.H, steps=1, torque=ex.GRAVITY)
+    assert round(float(traj.energy[0]), 2) == 2.03
 
 
 @needs_torques

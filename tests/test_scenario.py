@@ -260,12 +260,23 @@ def test_example_loads_and_runs_short(path):
 
 @needs_torques
 def test_pendulum3d_example_is_lees_pendulum():
+    """Lee, Leok and McClamroch's start hangs: their e3 points along gravity and rho = 0.3 e3, so
+    here (e3 up) com = -0.3 e3, the centre of mass is below the pivot and E0 = 2.03 J (the inverted
+    start, com = +0.3 e3, has 7.91 J)."""
     sc = load_scenario(EXAMPLES / "pendulum3d.toml")
     assert np.array_equal(sc.body.J, np.diag([0.13, 0.28, 0.17]))
     np.testing.assert_allclose(sc.body.J_inv @ sc.Pi0, [4.14, 4.14, 4.14], rtol=1e-15)
     assert sc.h == 0.01 and np.array_equal(sc.R0, np.eye(3))
     term = sc.torque.terms[0]
-    assert term.mass == 1.0 and np.array_equal(term.com, [0.0, 0.0, 0.3])
+    assert term.mass == 1.0 and term.g == 9.81 and np.array_equal(term.com, [0.0, 0.0, -0.3])
+    gravity = np.array([0.0, 0.0, -1.0])                          # lgvi: gravity acts along -e3
+    assert (sc.R0 @ term.com) @ gravity == pytest.approx(0.3)     # 0.3 m below the pivot, along gravity
+    E0 = 0.5 * sc.Pi0 @ sc.body.J_inv @ sc.Pi0 + float(sc.torque.potential(0.0, sc.R0, sc.body))
+    assert round(E0, 2) == 2.03                                   # Lee's figure, to the digits given
+    # Lee's moment m g hat(rho) R^T e3_Lee (e3_Lee = down = -e3 here, rho = 0.3 e3) is ours, number for number
+    R = lgvi.so3.exp([0.4, -0.7, 1.1])
+    lee = 9.81 * lgvi.so3.hat([0.0, 0.0, 0.3]) @ R.T @ np.array([0.0, 0.0, 1.0])
+    np.testing.assert_allclose(sc.torque.moment(0.0, R, sc.Pi0, sc.body), lee, rtol=1e-15, atol=1e-15)
 
 
 @needs_torques
