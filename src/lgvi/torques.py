@@ -237,6 +237,9 @@ class UniformGravity(TorqueModel):
     ``U(R) = mass g e3 . (R com)`` and ``M = mass g (R^T e3) x com``. About the vertical the
     moment has no component (``e3 . R M = 0``), so the LGVI conserves ``e3 . R Pi`` to round-off.
 
+    Lee, Leok and McClamroch take ``e3`` along gravity (down): their ``rho`` is ``-com`` here,
+    and their 3D pendulum (``rho = 0.3 e3``, hanging at ``R = I``) is ``com = [0, 0, -0.3]``.
+
     Examples
     --------
     >>> import numpy as np
