@@ -28,6 +28,7 @@ from ._version import __version__
 from .body import RigidBody
 from .errors import ConvergenceError, SimulationInterrupted
 from .implicit import failure_message
+from .invariants import declaration_of, forcing_used
 from .torques import TorqueModel
 from .trajectory import ARRAY_FIELDS, Trajectory, freeze_arrays
 
@@ -400,6 +401,8 @@ class _Setup:
             self.meta["composition"] = comp.name
         if self.model is not None:
             self.meta["torque_model"] = repr(self.model)
+        self.meta["forcing"] = forcing_used(kind, forcing, self.model)
+        self.meta["invariants"] = declaration_of(self.model)
 
     def __len__(self) -> int:
         return len(self.ib)
