@@ -215,7 +215,8 @@ def test_forced_run_figures(tmp_path):
                        torque=torques.UniformGravity(1.0, [0.0, 0.0, 0.3]))
     fig = plot.conservation(tr)
     styles = [line.get_linestyle() for line in fig.axes[0].get_lines()]
-    assert styles == ["-", "--", "--", "-"]  # |Pi| and R Pi are not invariants under gravity
+    # energy, |Pi| and R Pi (not invariants under gravity), e3 . R Pi (exact), |R^T R - I|
+    assert styles == ["-", "--", "--", "-", "-"]
     assert len(plot.save_figures(tr, tmp_path)) == len(plot.FIGURE_NAMES)
 
 

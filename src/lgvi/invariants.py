@@ -252,15 +252,18 @@ class Declaration:
         """``"exact"``, ``"bounded"`` or ``"not an invariant"``."""
         return self.kind(key) or NOT_INVARIANT
 
+    def labels(self) -> dict[str, str]:
+        """Quantity key -> ``"exact"``, ``"bounded"`` or ``"not an invariant"``, for the declared
+        quantities and the usual ones (JSON summaries)."""
+        return {k: self.label(k) for k in QUANTITIES if k in self.entries or k in USUAL}
+
     def note(self) -> str:
-        """One line: what is and is not conserved, for summaries and figure notes."""
+        """Whose invariants these are, in a few words (summaries, figure titles)."""
         if not self.recorded:
-            return (f"invariants not recorded for this run ({self.system}): none shown; re-run with this "
-                    "lgvi to record them")
+            return f"invariants not recorded for this run ({self.system}): none shown"
         if not self.entries:
-            return f"no invariants for this system ({self.system}): nothing here is conserved"
-        names = [QUANTITIES[k].name for k in self.not_invariants()]
-        return f"invariants of {self.system}" + (f"; not invariants: {', '.join(names)}" if names else "")
+            return f"{self.system} has no invariants"
+        return f"invariants of {self.system}"
 
 
 def _system(meta: Mapping[str, Any]) -> str:

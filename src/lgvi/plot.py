@@ -189,41 +189,57 @@ def _floor(err: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(err), np.maximum(err, ERROR_FLOOR), np.nan)
 
 
-def _relative(values: np.ndarray, ref: float) -> tuple[np.ndarray, bool]:
-    """``|values - ref| / |ref|``, or the absolute error when ``ref`` is zero."""
-    scale = abs(float(ref))
-    if scale > 0:
-        return np.abs(values - ref) / scale, True
-    return np.abs(values - ref), False
-
-
-def _conservation_series(traj: Trajectory) -> dict[str, tuple[np.ndarray, str]]:
-    """The four diagnostics of :func:`conservation`: name -> (error per sample, legend label)."""
-    E = np.asarray(traj.energy, dtype=np.float64)
-    dE, rel = _relative(E, E[0])
-    nPi = np.linalg.norm(traj.Pi, axis=1)
-    dPi, relPi = _relative(nPi, nPi[0])
-    L = np.asarray(traj.spatial_momentum, dtype=np.float64)
-    nL0 = float(np.linalg.norm(L[0]))
-    dL = np.linalg.norm(L - L[0], axis=1) / (nL0 if nL0 > 0 else 1.0)
-    relL = nL0 > 0
-    orth = np.asarray(traj.orthogonality_error, dtype=np.float64)
-    energy_name = "total energy" if getattr(traj, "potential", None) is not None else "kinetic energy"
-    return {
-        "energy": (dE, f"{energy_name} $|E - E_0|/|E_0|$" if rel else f"{energy_name} $|E - E_0|$ (J)"),
-        "casimir": (dPi, r"$\,||\Pi| - |\Pi_0||/|\Pi_0|$" if relPi else r"$||\Pi| - |\Pi_0||$ (kg m$^2$/s)"),
-        "momentum": (dL, r"spatial momentum $|R\Pi - R_0\Pi_0|/|R_0\Pi_0|$" if relL
-                     else r"spatial momentum $|R\Pi - R_0\Pi_0|$ (kg m$^2$/s)"),
-        "orthogonality": (orth, r"orthogonality $\|R^T R - I\|_F$"),
-    }
-
-
+#: Error series drawn by :func:`conservation` and :func:`comparison`, in this order (the first three
+#: always in :func:`conservation`, marked when they are not invariants; the others when declared).
+_SERIES_ORDER = ("energy", "casimir", "spatial_momentum", "spatial_momentum_e3", "jacobi")
+_SERIES_COLORS = {"energy": "tab:red", "casimir": "tab:green", "spatial_momentum": "tab:blue",
+                  "spatial_momentum_e3": "tab:purple", "jacobi": "tab:orange", "orthogonality": "tab:gray"}
+_SERIES_LABELS = {
+    "energy": ("energy", "$|E - E_0|/|E_0|$", "$|E - E_0|$ (J)"),
+    "casimir": ("", r"$\,||\Pi| - |\Pi_0||/|\Pi_0|$", r"$||\Pi| - |\Pi_0||$ (kg m$^2$/s)"),
+    "spatial_momentum": ("spatial momentum", r"$|R\Pi - R_0\Pi_0|/|R_0\Pi_0|$",
+                         r"$|R\Pi - R_0\Pi_0|$ (kg m$^2$/s)"),
+    "spatial_momentum_e3": ("vertical momentum", r"$|e_3\cdot(R\Pi - R_0\Pi_0)|/|R_0\Pi_0|$",
+                            r"$|e_3\cdot(R\Pi - R_0\Pi_0)|$ (kg m$^2$/s)"),
+    "jacobi": ("Jacobi integral", r"$|C - C_0|/|C_0|$, $C = E - n\,e_3\cdot R\Pi$",
+               r"$|C - C_0|$ (J), $C = E - n\,e_3\cdot R\Pi$"),
+}
 _CONSERVATION_TITLES = {
     "energy": "energy error (relative)",
     "casimir": r"$|\Pi|$ error (relative)",
-    "momentum": "spatial momentum error (relative)",
+    "spatial_momentum": "spatial momentum error (relative)",
+    "spatial_momentum_e3": r"vertical momentum $e_3\cdot R\Pi$ error (relative to $|R_0\Pi_0|$)",
+    "jacobi": r"Jacobi integral $C = E - n\,e_3\cdot R\Pi$ error (relative)",
     "orthogonality": r"distance from SO(3): $\|R^T R - I\|_F$",
 }
+_LEGACY_NAMES = {"momentum": "spatial_momentum"}
+
+
+def _declaration(trajs: Sequence[Trajectory]):
+    """The invariants of the problem: those of the first trajectory that records (or implies) them."""
+    from .invariants import declared
+
+    decls = [declared(tr) for tr in trajs]
+    return next((d for d in decls if d.recorded), decls[0])
+
+
+def _shown(keys: Sequence[str]) -> list[str]:
+    """Declared quantities worth a curve of their own: ``e3 . R Pi`` only without ``R Pi``."""
+    return [k for k in _SERIES_ORDER if k in keys and not (k == "spatial_momentum_e3" and "spatial_momentum" in keys)]
+
+
+def _error(traj: Trajectory, key: str, decl: Any) -> tuple[np.ndarray, str]:
+    """Error series of one quantity (``"orthogonality"`` too) and its legend label."""
+    from .invariants import error_series
+
+    if key == "orthogonality":
+        return np.asarray(traj.orthogonality_error, dtype=np.float64), r"orthogonality $\|R^T R - I\|_F$"
+    entry = decl.entries.get(key, {})
+    err, rel = error_series(traj, key, {k: v for k, v in entry.items() if k != "kind"})
+    name, rel_text, abs_text = _SERIES_LABELS[key]
+    if key == "energy":
+        name = "total energy" if getattr(traj, "potential", None) is not None else "kinetic energy"
+    return err, (f"{name} " if name else "") + (rel_text if rel else abs_text)
 
 
 def _style_log(ax: Axes) -> None:
@@ -367,9 +383,12 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     """Conservation diagnostics on a logarithmic axis against time.
 
     Draws the relative error of the energy (kinetic plus potential, if the run has one), of the
-    Casimir ``|Pi|`` and of the spatial momentum ``R Pi``, and the distance ``|R^T R - I|_F`` of
-    the attitude from SO(3). Zeros are drawn at :data:`ERROR_FLOOR`; long runs show each bin's
-    maximum. Quantities that are not invariants of the run are drawn dashed and say so.
+    Casimir ``|Pi|`` and of the spatial momentum ``R Pi``, of every other invariant the run's
+    system declares (``e3 . R Pi`` under uniform gravity, the Jacobi integral under the gravity
+    gradient; see :mod:`lgvi.invariants`), and the distance ``|R^T R - I|_F`` of the attitude from
+    SO(3). Zeros are drawn at :data:`ERROR_FLOOR`; long runs show each bin's maximum. Each
+    invariant's legend says how the LGVI keeps it (exact or bounded); quantities that are not
+    invariants of the run are drawn dashed and say so.
 
     Parameters
     ----------
@@ -378,10 +397,10 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     extra : mapping of label -> (M,) array_like, optional
         More error series to draw (one value per sample), e.g. the vertical momentum error
         ``|e3 . (R Pi - R_0 Pi_0)| / |e3 . R_0 Pi_0|`` of a heavy top.
-    invariants : sequence of {"energy", "casimir", "momentum"}, optional
-        Which of the three are invariants of this run. Default: all three for a free body, the
-        energy alone for a forced run (right for a fixed potential; pass ``()`` for a
-        dissipative or time-dependent torque).
+    invariants : sequence of {"energy", "casimir", "momentum", ...}, optional
+        Which quantities to draw as invariants (keys of :data:`lgvi.invariants.QUANTITIES`;
+        ``"momentum"`` is ``"spatial_momentum"``). Default: the run's declaration
+        (``meta["invariants"]``, see :func:`lgvi.invariants.declared`).
     max_points : int
         Most points per curve.
 
@@ -400,17 +419,28 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     _check_traj(traj, "conservation")
     fig, ax = _axes(ax)
     t = np.asarray(traj.t)
+    from .invariants import KIND_TEXT, QUANTITIES
+
+    decl = _declaration([traj])
     if invariants is None:
-        invariants = ("energy",) if _forced(traj) else ("energy", "casimir", "momentum")
-    unknown = set(invariants) - {"energy", "casimir", "momentum"}
-    if unknown:
-        raise ValueError(f"conservation: invariants must be among 'energy', 'casimir', 'momentum'; "
-                         f"got {sorted(unknown)}")
-    for i, (key, (err, label)) in enumerate(_conservation_series(traj).items()):
-        dashed = key != "orthogonality" and key not in invariants
+        solid = decl.quantities()
+    else:
+        solid = [_LEGACY_NAMES.get(k, k) for k in invariants]
+        unknown = sorted(k for k in solid if k not in QUANTITIES or (k == "jacobi" and k not in decl.entries))
+        if unknown:
+            raise ValueError(f"conservation: invariants must be among 'energy', 'casimir', 'momentum', "
+                             f"'spatial_momentum_e3' (and 'jacobi' when the run declares it); got {unknown}")
+    keys = ["energy", "casimir", "spatial_momentum"] + [k for k in _shown(solid) if k in _SERIES_ORDER[3:]]
+    for key in keys + ["orthogonality"]:
+        err, label = _error(traj, key, decl)
+        dashed = key != "orthogonality" and key not in solid
+        kind = decl.kind(key)
+        if dashed:
+            label += " (not an invariant here)"
+        elif kind is not None and invariants is None:
+            label += f": {KIND_TEXT[kind]}"
         tt, yy = _thin_max(t, _floor(err), max_points)
-        ax.plot(tt, yy, color=_COMPONENT_COLORS[i], lw=1.2, ls="--" if dashed else "-",
-                label=label + (" (not an invariant here)" if dashed else ""))
+        ax.plot(tt, yy, color=_SERIES_COLORS[key], lw=1.2, ls="--" if dashed else "-", label=label)
     for j, (label, err) in enumerate((extra or {}).items()):
         err = np.asarray(err, dtype=np.float64)
         if err.shape != t.shape:
@@ -421,7 +451,7 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     _style_log(ax)
     ax.set_xlabel(_UNITS["t"])
     ax.set_ylabel("error (relative, 1)")
-    ax.set_title(f"Conservation: {_label(traj)}")
+    ax.set_title(f"Conservation: {_label(traj)}\n({decl.note()})", fontsize="medium")
     ax.legend(loc="best", fontsize="small", framealpha=0.85)
     return fig
 
@@ -899,15 +929,22 @@ def comparison(trajs: Mapping[str, Trajectory], axes: Sequence[Axes] | None = No
 
     Notes
     -----
-    When every trajectory is forced (``meta["torque"]`` other than ``"none"``) the ``|Pi|``
-    and spatial momentum panels are marked as not invariants.
+    The panels are the invariants of the problem (the declaration of the first trajectory that
+    records one, see :func:`lgvi.invariants.declared`): for the free body the energy, ``|Pi|``
+    and ``R Pi``; under uniform gravity the energy and ``e3 . R Pi``; under the gravity gradient
+    the Jacobi integral; then ``|R^T R - I|``. The quantities that are not invariants are left
+    out, and the figure's title says which.
     """
     if not isinstance(trajs, Mapping) or not trajs:
         raise ValueError("comparison: trajs must be a non-empty mapping of label -> Trajectory")
     for label, tr in trajs.items():
         _check_traj(tr, f"comparison[{label!r}]")
     extra = dict(extra or {})
-    n_panels = 4 + len(extra)
+    from .invariants import KIND_TEXT, QUANTITIES
+
+    decl = _declaration(list(trajs.values()))
+    keys = _shown(decl.quantities()) + ["orthogonality"]
+    n_panels = len(keys) + len(extra)
     if axes is None:
         ncols = 2 if n_panels <= 4 else 3
         nrows = -(-n_panels // ncols)
@@ -920,17 +957,16 @@ def comparison(trajs: Mapping[str, Trajectory], axes: Sequence[Axes] | None = No
     else:
         axs = list(np.ravel(np.asarray(axes, dtype=object)))
         if len(axs) != n_panels:
-            raise ValueError(f"comparison: axes must be {n_panels} Axes (4 + one per extra), got {len(axs)}")
+            raise ValueError(f"comparison: axes must be {n_panels} Axes ({len(keys)} for the invariants of "
+                             f"{decl.system} and |R^T R - I|, + one per extra), got {len(axs)}")
         fig = axs[0].get_figure()
     from matplotlib import colormaps
 
     cmap = colormaps["tab10"]
-    titles = dict(_CONSERVATION_TITLES)
-    if all(_forced(tr) for tr in trajs.values()):
-        for key in ("casimir", "momentum"):
-            titles[key] += "\n(not an invariant under this torque)"
+    titles = {k: _CONSERVATION_TITLES[k] + (f"\n{KIND_TEXT[decl.kind(k)]} for the LGVI" if decl.kind(k) else "")
+              for k in keys}
     for j, (label, tr) in enumerate(trajs.items()):
-        series = {key: err for key, (err, _) in _conservation_series(tr).items()}
+        series = {key: _error(tr, key, decl)[0] for key in keys}
         for name, fn in extra.items():
             series[name] = np.asarray(fn(tr), dtype=np.float64)
         for ax, key in zip(axs, list(titles) + list(extra)):
@@ -943,7 +979,9 @@ def comparison(trajs: Mapping[str, Trajectory], axes: Sequence[Axes] | None = No
         ax.set_xlabel(_UNITS["t"])
         ax.tick_params(labelbottom=True)
     axs[0].legend(loc="best", fontsize="small", framealpha=0.85)
-    fig.suptitle("Conservation compared (zeros drawn at 1e-17)")
+    missing = [QUANTITIES[k].name for k in decl.not_invariants()]
+    fig.suptitle(f"Conservation compared ({decl.note()}; zeros drawn at 1e-17)"
+                 + (f"\nnot invariants here, not shown: {', '.join(missing)}" if missing else ""), fontsize="medium")
     return fig
 
 
