@@ -123,12 +123,6 @@ def _label(traj: Trajectory) -> str:
     return f"lgvi {method}, h={h:g} s" if np.isfinite(h) else f"lgvi {method}"
 
 
-def _forced(traj: Trajectory) -> bool:
-    meta = getattr(traj, "meta", {}) or {}
-    torque = meta.get("torque", "none")
-    return torque not in (None, "none", "")
-
-
 def has_solver_record(traj: Trajectory) -> bool:
     """Whether ``traj`` carries the per-step record of LGVI solves that :func:`iterations` draws.
 
@@ -255,6 +249,89 @@ def _style_log(ax: Axes) -> None:
 #: quaternion view zooms in on the start of the run.
 QUAT_CYCLES = 40
 
+#: Largest rotation between consecutive samples (rad) that the attitude curves resolve: beyond a
+#: quarter turn they alias, and :func:`attitude` says so on the figure.
+SPARSE_TURN = np.pi / 2
+
+#: Half-width of the band around an Euler singularity (gimbal lock) that is shaded and not
+#: unwrapped across (rad).
+GIMBAL_BAND = np.radians(5.0)
+
+
+def _unwrap_euler(raw: np.ndarray, near: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Euler angles with whole turns of angles 1 and 3 removed, never across a singularity.
+
+    A step between consecutive samples is a *break* when either sample lies in the band ``near``
+    the singularity, or when angle 1 or 3 changes by more than a quarter turn beyond whole turns
+    (a jump of the representation, or samples too sparse to follow the motion). Each run of
+    samples between breaks starts from the principal value and is unwrapped within itself, so
+    the angles stay bounded by the turns of one run (an unwrap across the jumps of a spin through
+    gimbal lock climbs a staircase, one half turn per passage). Angle 2 is never unwrapped.
+
+    Returns ``(angles (M, 3), breaks (M-1,) bool)``.
+    """
+    ang = np.array(raw, dtype=np.float64)
+    if len(ang) < 2:
+        return ang, np.zeros(0, dtype=bool)
+    d = np.diff(ang[:, [0, 2]], axis=0)
+    turns = np.round(d / (2.0 * np.pi))
+    jump = np.abs(d - 2.0 * np.pi * turns).max(axis=1) > np.pi / 2
+    breaks = jump | near[:-1] | near[1:]
+    turns[breaks] = 0.0
+    # whole turns counted from the start of each run between breaks: every run starts from the
+    # principal value, so turns that only make up for the jumps at the breaks never add up
+    count = np.vstack([np.zeros((1, 2)), np.cumsum(turns, axis=0)])
+    run = np.concatenate([[0], np.cumsum(breaks)])
+    first = np.flatnonzero(np.diff(run, prepend=-1))
+    ang[:, [0, 2]] -= 2.0 * np.pi * (count - count[first][run])
+    return ang, breaks
+
+
+def _thin_segments(t: np.ndarray, y: np.ndarray, breaks: np.ndarray, skip: np.ndarray,
+                   max_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_thin_minmax` of each run of samples between breaks, joined by NaN gaps (so no line
+    is drawn across a break); runs whose samples are all in ``skip`` are left out."""
+    n = len(t)
+    cut = np.flatnonzero(breaks) + 1
+    starts = np.concatenate([[0], cut])
+    ends = np.concatenate([cut, [n]])
+    parts_t, parts_y = [], []
+    for a, b in zip(starts, ends):
+        if skip[a:b].all():
+            continue
+        tt, yy = _thin_minmax(t[a:b], y[a:b], max(4, int(max_points * (b - a) / n)))
+        parts_t += [tt, tt[-1:]]
+        parts_y += [yy, [np.nan]]
+    if not parts_t:
+        return t[:0], y[:0]
+    return np.concatenate(parts_t[:-1]), np.concatenate(parts_y[:-1])
+
+
+def sampling_note(traj: Trajectory) -> str | None:
+    """A warning when the saved samples are too sparse for the motion, else ``None``.
+
+    Sparse means: somewhere the body turns by more than a quarter turn (:data:`SPARSE_TURN`)
+    between consecutive samples (``|omega| dt``, with the larger rate of the two samples); then
+    every attitude curve (Euler angles and quaternion alike) aliases.
+    """
+    t = np.asarray(traj.t, dtype=np.float64)
+    if len(t) < 2:
+        return None
+    w = np.linalg.norm(np.asarray(traj.omega, dtype=np.float64), axis=1)
+    turn = np.maximum(w[:-1], w[1:]) * np.abs(np.diff(t))
+    worst = float(np.max(turn))
+    if not worst > SPARSE_TURN:
+        return None
+    return (f"samples too sparse for the motion: up to {np.degrees(worst):.0f} deg of rotation between saved\n"
+            f"samples (over a quarter turn), so these curves alias; save more often (smaller save_every)")
+
+
+def _note(ax: Axes, text: str | None) -> None:
+    if text:
+        ax.text(0.5, 0.97, text, transform=ax.transAxes, ha="center", va="top", fontsize="x-small",
+                color="darkred", bbox=dict(boxstyle="round", facecolor="white", edgecolor="darkred", alpha=0.9),
+                zorder=10)
+
 
 def attitude(traj: Trajectory, kind: str = "euler", sequence: str = "ZYX", ax: Axes | None = None, *,
              degrees: bool = False, scalar_first: bool = False, max_points: int = MAX_POINTS) -> Figure:
@@ -265,7 +342,8 @@ def attitude(traj: Trajectory, kind: str = "euler", sequence: str = "ZYX", ax: A
     traj : Trajectory
     kind : {"euler", "quaternion"}
         Euler angles of ``R`` (body to inertial) in ``sequence``, unwrapped over time so that
-        full turns show as ramps instead of jumps; or the sign-continuous unit quaternion.
+        full turns show as ramps instead of jumps (but never across a singularity, see the
+        notes); or the sign-continuous unit quaternion.
     sequence : str
         Euler sequence as in :meth:`scipy.spatial.transform.Rotation.as_euler`: upper case is
         intrinsic (``"ZYX"``: yaw, pitch, roll), lower case extrinsic.
@@ -286,7 +364,11 @@ def attitude(traj: Trajectory, kind: str = "euler", sequence: str = "ZYX", ax: A
     -----
     Euler angles are singular where the middle angle reaches +-90 deg (``"ZYX"``, ``"XYZ"``, ...)
     or 0/180 deg (``"ZXZ"``, ...): there the first and third angles jump however they are
-    unwrapped. The quaternion view has no such singularity.
+    unwrapped. Samples within 5 deg of it are shaded and left out, and the curves of angles 1 and
+    3 are broken (not unwrapped) there and wherever they jump by more than a quarter turn, so
+    they stay bounded. The quaternion view has no such singularity. When the samples are further
+    apart than a quarter turn of the body, both views say so on the figure
+    (:func:`sampling_note`).
     """
     _check_traj(traj, "attitude")
     if kind not in ("euler", "quaternion"):
@@ -298,26 +380,28 @@ def attitude(traj: Trajectory, kind: str = "euler", sequence: str = "ZYX", ax: A
             raise ValueError(f"attitude: sequence must be 3 axis letters such as 'ZYX' or 'zxz', got {sequence!r}")
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # scipy's "Gimbal lock detected"
-            ang = np.unwrap(traj.rotation.as_euler(sequence), axis=0)
+            raw = traj.rotation.as_euler(sequence)
         unit = "deg" if degrees else "rad"
-        if degrees:
-            ang = np.degrees(ang)
         intrinsic = sequence.isupper()
         primes = ("", "'", "''") if intrinsic else ("", "", "")
         # shade where the middle angle is within 5 deg of the singularity (gimbal lock)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)
-            mid = traj.rotation.as_euler(sequence)[:, 1]
+        mid = raw[:, 1]
         if sequence[0].lower() == sequence[2].lower():  # proper Euler: singular at 0 and pi
             dist = np.minimum(np.abs(mid), np.abs(np.pi - np.abs(mid)))
         else:  # Tait-Bryan: singular at +-pi/2
             dist = np.abs(np.pi / 2 - np.abs(mid))
-        near = dist < np.radians(5.0)
+        near = dist < GIMBAL_BAND
+        ang, breaks = _unwrap_euler(raw, near)
+        if degrees:
+            ang = np.degrees(ang)
         if near.any():
             ax.fill_between(t, 0, 1, where=near, transform=ax.get_xaxis_transform(), color="0.85",
                             step="mid", label="near gimbal lock (angles 1, 3 ill-defined)")
         for i in range(3):
-            tt, yy = _thin_minmax(t, ang[:, i], max_points)
+            if i == 1:
+                tt, yy = _thin_minmax(t, ang[:, i], max_points)
+            else:  # broken at the singularity and at jumps, never unwrapped across them
+                tt, yy = _thin_segments(t, ang[:, i], breaks, near, max_points)
             ax.plot(tt, yy, color=_COMPONENT_COLORS[i], lw=1.2,
                     label=f"angle {i + 1}: about {sequence[i].upper()}{primes[i]}")
         ax.set_ylabel(f"Euler angle ({unit})")
@@ -341,6 +425,7 @@ def attitude(traj: Trajectory, kind: str = "euler", sequence: str = "ZYX", ax: A
         order = "scalar-first (w, x, y, z)" if scalar_first else "scalar-last (x, y, z, w)"
         shown = "" if window == slice(None) else f"; first {t[window][-1] - t[0]:.4g} s of {t[-1] - t[0]:.4g} s"
         ax.set_title(f"Attitude: unit quaternion, {order}, sign-continuous{shown}")
+    _note(ax, sampling_note(traj))
     ax.set_xlabel(_UNITS["t"])
     ax.grid(True, alpha=0.3)
     ax.legend(loc="upper right", fontsize="small", framealpha=0.85)
@@ -617,14 +702,43 @@ def _principal_axes(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[s
     return moments, V, names, colors
 
 
+def _polhodes_apply(traj: Trajectory) -> bool:
+    """Free-body polhodes describe the run: its system conserves ``|Pi|`` and the energy."""
+    decl = _declaration([traj])
+    return decl.kind("casimir") is not None and decl.kind("energy") is not None
+
+
+def _visited_branch(moments: np.ndarray, radius: float, energy: float, p0: np.ndarray) -> list[np.ndarray]:
+    """The branch of the polhode of ``energy`` through ``p0`` (principal coordinates): one curve.
+
+    Below the separatrix the branches circle the major axis 3 on either side (the sign of
+    ``p0[2]`` chooses); above it they circle the minor axis 1 (the sign of ``p0[0]``); on it, the
+    great circle whose plane ``p0`` is nearer.
+    """
+    curves = polhode_curves(moments, radius, [energy])
+    if len(curves) < 2:
+        return curves
+    I1, I2, I3 = (float(m) for m in moments)
+    two_e, sep = 2.0 * float(energy), float(radius) ** 2 / I2
+    if np.isclose(two_e, sep, rtol=1e-12, atol=0.0) and I1 < I2 < I3:
+        normals = [np.cross(c[0], c[len(c) // 4]) for c in curves[:2]]  # planes of the great circles
+        off = [abs(float(nv @ p0)) / float(np.linalg.norm(nv)) for nv in normals]
+        return [curves[int(np.argmin(off))]]
+    side = p0[2] if two_e < sep else p0[0]
+    return [curves[0] if side >= 0 else curves[1]]
+
+
 def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_points: int = MAX_POINTS) -> Figure:
     """The body angular momentum path on the momentum sphere, with analytic polhodes.
 
     Draws (in body axes, kg m^2/s): a wireframe of the sphere ``|Pi| = |Pi_0|``; ``levels``
     analytic polhodes (intersections of the sphere with energy ellipsoids
-    ``Pi . J^-1 Pi = 2E``) on each side of the separatrix, and the separatrix itself; the
-    polhode of the run's initial energy (dashed), the path ``Pi_k`` of the run, its start, and the
-    principal axes. For the free body the path lies on its dashed polhode.
+    ``Pi . J^-1 Pi = 2E``) on each side of the separatrix, the path ``Pi_k`` of the run, its
+    start, and the principal axes; over the path the separatrix and, dashed, the branch of the
+    polhode of the run's initial energy that the run follows (the other branch of that energy is
+    not drawn). For the free body the path lies on its dashed polhode. For a forced run (a
+    system that does not conserve ``|Pi|`` and the energy, see :mod:`lgvi.invariants`) no
+    polhode is drawn: free-body polhodes do not apply.
 
     Parameters
     ----------
@@ -648,6 +762,7 @@ def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_po
         if getattr(ax, "name", "") != "3d":
             raise ValueError("polhode: ax must be a 3D Axes (add_subplot(projection='3d'))")
         fig = ax.get_figure()
+    ax.computed_zorder = False  # draw in the order below, not by depth (keeps the curves on top)
     J = np.asarray(traj.inertia, dtype=np.float64)
     moments, V, names, colors = _principal_axes(J)
     Pi = np.asarray(traj.Pi, dtype=np.float64)
@@ -664,8 +779,11 @@ def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_po
         a = V[:, i] * 1.25 * scale
         ax.plot(*np.column_stack([-a, a]), color=colors[i], lw=1.2, alpha=0.9,
                 label=f"{names[i]}, J = {moments[i]:.3g} kg m$^2$")
-    # reference polhodes
-    if L > 0 and moments[0] < moments[2]:
+    # reference polhodes: free-body curves, drawn only for a free body
+    free = _polhodes_apply(traj)
+    separatrix: list[np.ndarray] = []
+    own: list[np.ndarray] = []
+    if free and L > 0 and moments[0] < moments[2]:
         I1, I2, I3 = moments
         e_min, e_mid, e_max = L * L / (2 * I3), L * L / (2 * I2), L * L / (2 * I1)
         fr = (np.arange(1, levels + 1) / (levels + 1)) ** 1.5
@@ -677,14 +795,10 @@ def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_po
                     label="polhodes (other energies)" if first else None)
             first = False
         if I1 < I2 < I3:
-            for j, curve in enumerate(polhode_curves(moments, L, [e_mid])):
-                ax.plot(*(curve @ V.T).T, color="tab:orange", lw=1.0, alpha=0.9,
-                        label="separatrix $E = |\\Pi|^2/(2J_2)$" if j == 0 else None)
+            separatrix = polhode_curves(moments, L, [e_mid])
         E0 = 0.5 * float(Pi[0] @ np.linalg.solve(J, Pi[0]))
         E0 = min(max(E0, e_min), e_max)
-        for j, curve in enumerate(polhode_curves(moments, L, [E0])):
-            ax.plot(*(curve @ V.T).T, color="black", lw=1.0, ls="--",
-                    label=f"analytic polhode, $E_0$ = {E0:.4g} J" if j == 0 else None)
+        own = _visited_branch(moments, L, E0, V.T @ Pi[0])
     step = max(1, int(np.ceil(len(Pi) / max_points)))
     path = np.vstack([Pi[::step], Pi[-1:]])
     chords = np.linalg.norm(np.diff(path, axis=0), axis=1)
@@ -693,7 +807,15 @@ def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_po
         # them would draw chords across the sphere, so show the points themselves
         ax.scatter(*path.T, color="tab:purple", s=3, depthshade=False, label=r"samples $\Pi_k$ of the run")
     else:
-        ax.plot(*path.T, color="tab:purple", lw=2.0, label=r"path $\Pi_k$ of the run")
+        ax.plot(*path.T, color="tab:purple", lw=3.5, alpha=0.55, label=r"path $\Pi_k$ of the run")
+    # on top of the path (drawing order, see computed_zorder above): the separatrix, then the run's
+    # own analytic branch, dashed, so that both stay visible where they run along the path
+    for j, curve in enumerate(separatrix):
+        ax.plot(*(curve @ V.T).T, color="tab:orange", lw=1.5, alpha=0.95,
+                label="separatrix $E = |\\Pi|^2/(2J_2)$" if j == 0 else None)
+    for curve in own:
+        ax.plot(*(curve @ V.T).T, color="black", lw=1.0, ls="--",
+                label=f"analytic polhode of the run ($E_0$ = {E0:.4g} J)")
     ax.scatter(*Pi[0], color="tab:purple", edgecolor="black", s=40, depthshade=False, label=r"start $\Pi_0$")
     lim = 1.3 * scale
     ax.set_xlim(-lim, lim)
@@ -705,8 +827,9 @@ def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_po
     ax.set_zlabel(r"$\Pi_3$ (kg m$^2$/s)")
     if L > 0:
         title = f"Polhode: body momentum on the sphere $|\\Pi|$ = $|\\Pi_0|$ = {L:.4g} kg m$^2$/s"
-        if _forced(traj):
-            title += "\n(forced run: the path may leave the sphere; curves are free-body polhodes)"
+        if not free:
+            title += ("\n(forced run: free-body polhodes do not apply and are not drawn; the path may "
+                      "leave the sphere)")
         ax.set_title(title)
     else:
         ax.set_title("Body momentum path (no momentum sphere: $\\Pi_0$ = 0)")
@@ -1022,6 +1145,7 @@ __all__ = [
     "polhode",
     "polhode_curves",
     "rates",
+    "sampling_note",
     "save_comparison",
     "save_figures",
 ]
