@@ -82,7 +82,7 @@ def table_header(invariants=None) -> str:
     """Header of the conservation table: one column per declared invariant (default: the free body's)."""
     from .invariants import FREE_BODY, QUANTITIES, Declaration
 
-    decl = invariants if invariants is not None else Declaration(FREE_BODY, "free body")
+    decl = invariants if invariants is not None else Declaration(FREE_BODY, "the free body")
     cols = "".join(f" {QUANTITIES[k].column:>10}" for k in decl.quantities())
     return f"{'integrator':<24} {'steps':>9} {'wall [s]':>9} {'steps/s':>11}{cols} {'|RtR-I|':>10}"
 
@@ -97,17 +97,21 @@ def table_legend(invariants=None) -> str:
     """What the columns of :func:`table_header` are, how the LGVI conserves each, what is left out."""
     from .invariants import FREE_BODY, KIND_TEXT, QUANTITIES, Declaration
 
-    decl = invariants if invariants is not None else Declaration(FREE_BODY, "free body")
+    decl = invariants if invariants is not None else Declaration(FREE_BODY, "the free body")
     keys = decl.quantities()
-    lines = ["  " + "; ".join(f"{_LEGEND[k][0]}: {_LEGEND[k][1]}" for k in keys)
-             + ("; " if keys else "") + "|RtR-I|: distance from SO(3). All are the largest changes over the run."]
+    import textwrap
+
+    lines = textwrap.wrap("; ".join(f"{_LEGEND[k][0]}: {_LEGEND[k][1]}" for k in keys) + ("; " if keys else "")
+                          + "|RtR-I|: distance from SO(3). All are the largest changes over the run.",
+                          width=110, initial_indent="  ", subsequent_indent="  ")
     kinds = [f"{', '.join(_LEGEND[k][0] for k in keys if decl.kind(k) == kind)} {KIND_TEXT[kind]}"
              for kind in KIND_TEXT if any(decl.kind(k) == kind for k in keys)]
     if kinds:
         lines.append(f"  Invariants of {decl.system}; the LGVI keeps " + " and ".join(kinds) + ".")
     if decl.not_invariants():
-        lines.append(f"  Not invariants of {decl.system}, so not shown: "
-                     + ", ".join(QUANTITIES[k].name for k in decl.not_invariants()) + ".")
+        lines += textwrap.wrap(f"Not invariants of {decl.system}, so not shown: "
+                               + ", ".join(QUANTITIES[k].name for k in decl.not_invariants()) + ".",
+                               width=110, initial_indent="  ", subsequent_indent="  ")
     return "\n".join(lines)
 
 
@@ -437,7 +441,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     print()
     # the problem's invariants, for every run (the baselines' trajectories carry no declaration)
     decl = Declaration(declaration_of(scenario.torque),
-                       "free body" if scenario.torque is None else repr(scenario.torque))
+                       "the free body" if scenario.torque is None else repr(scenario.torque))
     print(table_header(decl))
     done: list[tuple[str, str, Any]] = []  # (key, label, trajectory)
     rows: list[dict[str, Any]] = []

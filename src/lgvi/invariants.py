@@ -18,15 +18,16 @@ kind        meaning (for the LGVI, at any order)
 
 A quantity absent from the declaration is not an invariant of the problem.
 
-================================  ================================================================
-system                            invariants
-================================  ================================================================
-free body (no torque)             energy, ``|Pi|``, ``R Pi`` (and so ``e3 . R Pi``): exact
-:class:`~lgvi.torques.UniformGravity`   total energy: bounded; ``e3 . R Pi`` (about the gravity axis): exact
-:class:`~lgvi.torques.GravityGradient`  Jacobi integral ``E - n e3 . R Pi``: bounded
-damping, PD control, constant     none
-moments, torque arrays, callables
-================================  ================================================================
+==========================================  ======================================================
+system                                      invariants
+==========================================  ======================================================
+free body (no torque)                       energy, ``|Pi|``, ``R Pi`` (so ``e3 . R Pi``): exact
+:class:`~lgvi.torques.UniformGravity`       total energy: bounded; ``e3 . R Pi`` (about the
+                                            gravity axis): exact
+:class:`~lgvi.torques.GravityGradient`      Jacobi integral ``E - n e3 . R Pi``: bounded
+damping, PD control, constant moments,      none
+torque arrays, callables
+==========================================  ======================================================
 
 The Jacobi integral. :class:`~lgvi.torques.GravityGradient`'s potential ``U(t, R)`` depends on
 time only through the orbit: ``U(t + s, Rz(n s) R) = U(t, R)`` for every ``s``, ``Rz`` the rotation
@@ -225,7 +226,7 @@ class Declaration:
     entries : dict
         Quantity key -> ``{"kind": "exact" | "bounded", **parameters}``, in display order.
     system : str
-        What the run simulated ("free body", the torque model, "torque array", ...).
+        What the run simulated ("the free body", the torque model, "torque array", ...).
     recorded : bool
         False when the trajectory carries no declaration and none could be inferred (a forced
         run saved by an older lgvi, or a baseline of a forced problem): nothing is declared.
@@ -269,7 +270,7 @@ class Declaration:
 def _system(meta: Mapping[str, Any]) -> str:
     torque = meta.get("torque", "none")
     if torque in (None, "none", ""):
-        return "free body"
+        return "the free body"
     if "torque_model" in meta:
         return str(meta["torque_model"])
     return f"torque {torque}"
@@ -287,7 +288,7 @@ def declared(traj: Any, default: Declaration | None = None) -> Declaration:
     if "invariants" in meta:
         return Declaration(_check(meta["invariants"], "meta['invariants']"), system)
     if meta.get("torque", "none") in (None, "none", "") and getattr(traj, "potential", None) is None:
-        return Declaration({k: dict(v) for k, v in FREE_BODY.items()}, "free body")
+        return Declaration({k: dict(v) for k, v in FREE_BODY.items()}, "the free body")
     if default is not None:
         return default
     return Declaration({}, system, recorded=False)
