@@ -254,19 +254,20 @@ def test_thinning_keeps_extremes():
 
 # ------------------------------------------------------------------------------------ misleading figures
 def y_spin(save_every: int) -> lgvi.Trajectory:
-    """A spin about body y (the intermediate axis, exactly: it stays a y-spin), 1000 s at 1 rad/s:
-    ZYX Euler angles pass through gimbal lock twice per turn."""
-    return lgvi.simulate(lgvi.RigidBody([1.0, 2.0, 3.0]), np.eye(3), omega0=[0.0, 1.0, 0.0], h=0.01, steps=100_000,
-                         save_every=save_every)
+    """The demo: a spin about body y (the intermediate axis, slightly off, so it flips now and
+    then), 1000 s at 1 rad/s: ZYX Euler angles pass near gimbal lock twice per turn."""
+    return lgvi.simulate(lgvi.RigidBody([1.0, 2.0, 3.0]), np.eye(3), omega0=[1e-3, 1.0, 1e-3], h=0.01,
+                         steps=100_000, save_every=save_every)
 
 
 def test_euler_angles_are_not_unwrapped_across_gimbal_lock():
     """Unwrapping across the jumps at gimbal lock made the angle about Z climb in a staircase to
-    about 190 rad over 160 turns; broken there instead, every angle stays within one turn."""
+    about 190 rad over 160 turns. Broken there instead, it stays within one turn; angle 3 still
+    winds between two passages near the lock (a genuine turn about X'', up to 16 rad measured),
+    but never over the whole run."""
     fig = plot.attitude(y_spin(10), kind="euler")
-    for line in fig.axes[0].get_lines():
-        y = np.asarray(line.get_ydata(), dtype=float)
-        assert np.nanmax(np.abs(y)) <= 2 * np.pi, line.get_label()
+    peaks = [np.nanmax(np.abs(np.asarray(line.get_ydata(), dtype=float))) for line in fig.axes[0].get_lines()]
+    assert peaks[0] <= 2 * np.pi and max(peaks) < 6 * np.pi, peaks
     text = " ".join(t.get_text() for t in fig.axes[0].texts)
     assert "too sparse" not in text  # 0.1 rad between samples is fine
 
