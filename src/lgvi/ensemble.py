@@ -402,7 +402,8 @@ class _Setup:
         if self.model is not None:
             self.meta["torque_model"] = repr(self.model)
         self.meta["forcing"] = forcing_used(kind, forcing, self.model)
-        self.meta["invariants"] = declaration_of(self.model)
+        if self.model is not None:  # the free body's are implied by torque "none"
+            self.meta["invariants"] = declaration_of(self.model)
 
     def __len__(self) -> int:
         return len(self.ib)

@@ -667,7 +667,8 @@ class _Run:
         if self.model is not None:
             self.meta["torque_model"] = repr(self.model)
         self.meta["forcing"] = forcing_used(kind, forcing, self.model)
-        self.meta["invariants"] = declaration_of(None if kind == "none" else (self.model or torque))
+        if kind != "none":  # the free body's are implied by torque "none" (lgvi.invariants.declared)
+            self.meta["invariants"] = declaration_of(self.model or torque)
         self.has_potential = self.model is not None and any(m.conservative for m in self.model.terms)
         # the paper's scheme (and the free body at order 2) keeps the original kernels, bit for bit
         self.legacy = comp.order == 2 and (kind == "none" or (kind in ("array", "callable") and not sym))

@@ -3,7 +3,8 @@ r"""What a run conserves: one declaration that summaries, tables, figures and te
 Every system declares its invariants: each torque model (:meth:`lgvi.torques.TorqueModel.invariants`,
 sums combine their members' declarations with :func:`combine`), the free body (:data:`FREE_BODY`),
 and, for torques given as arrays or callables, nothing. :func:`lgvi.simulate` stores the declaration
-of its run in ``meta["invariants"]``; :func:`declared` reads it back from any trajectory, and
+of a forced run in ``meta["invariants"]`` (a free body's follows from ``meta["torque"]`` being
+``"none"``); :func:`declared` reads it back from any trajectory, and
 :func:`lgvi.outputs.conservation_drifts`, ``lgvi run``'s summary, ``lgvi compare``, ``lgvi info``
 and :mod:`lgvi.plot` show the declared quantities and mark the others as not invariants.
 
