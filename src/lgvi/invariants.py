@@ -45,6 +45,7 @@ parameters); a system declares it by key.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping
 
@@ -259,13 +260,18 @@ class Declaration:
         quantities and the usual ones (JSON summaries)."""
         return {k: self.label(k) for k in QUANTITIES if k in self.entries or k in USUAL}
 
-    def note(self) -> str:
-        """Whose invariants these are, in a few words (summaries, figure titles)."""
+    def note(self, short: bool = False) -> str:
+        """Whose invariants these are, in a few words (summaries; ``short`` for figure titles:
+        model names without their parameters)."""
+        system = self.system
+        if short:
+            names = [m for m in re.findall(r"([A-Za-z_]\w*)\(", system) if m != "TorqueSum"]
+            system = " + ".join(names) if names else system
         if not self.recorded:
-            return f"invariants not recorded for this run ({self.system}): none shown"
+            return f"invariants not recorded for this run ({system}): none shown"
         if not self.entries:
-            return f"{self.system} has no invariants"
-        return f"invariants of {self.system}"
+            return f"{system} has no invariants"
+        return f"invariants of {system}"
 
 
 def _system(meta: Mapping[str, Any]) -> str:

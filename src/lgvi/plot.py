@@ -536,7 +536,7 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     _style_log(ax)
     ax.set_xlabel(_UNITS["t"])
     ax.set_ylabel("error (relative, 1)")
-    ax.set_title(f"Conservation: {_label(traj)}\n({decl.note()})", fontsize="medium")
+    ax.set_title(f"Conservation: {_label(traj)}\n({decl.note(short=True)})", fontsize="medium")
     ax.legend(loc="best", fontsize="small", framealpha=0.85)
     return fig
 
@@ -1103,7 +1103,7 @@ def comparison(trajs: Mapping[str, Trajectory], axes: Sequence[Axes] | None = No
         ax.tick_params(labelbottom=True)
     axs[0].legend(loc="best", fontsize="small", framealpha=0.85)
     missing = [QUANTITIES[k].name for k in decl.not_invariants()]
-    fig.suptitle(f"Conservation compared ({decl.note()}; zeros drawn at 1e-17)"
+    fig.suptitle(f"Conservation compared ({decl.note(short=True)}; zeros drawn at 1e-17)"
                  + (f"\nnot invariants here, not shown: {', '.join(missing)}" if missing else ""), fontsize="medium")
     return fig
 
