@@ -67,8 +67,7 @@ def main(argv: list[str] | None = None) -> int:
 
         out = Path(args.out)
         files = plot.save_figures(lg, out, prefix="pendulum3d_")
-        files += plot.save_comparison({"lgvi": lg, "RK45": rk}, out, extra={
-            r"vertical momentum $e_3 \cdot R\Pi$ error (relative)": vertical_momentum_error})
+        files += plot.save_comparison({"lgvi": lg, "RK45": rk}, out)  # panels: the invariants, E and e3 . R Pi
         print("  figures: " + ", ".join(str(f) for f in files))
     return 0
 

@@ -29,6 +29,7 @@ from ._version import __version__
 from .body import RigidBody
 from .errors import ConvergenceError, SimulationInterrupted
 from .implicit import failure_message
+from .invariants import declaration_of, forcing_used
 from .so3 import project
 from .torques import TorqueModel
 from .trajectory import ARRAY_FIELDS, Trajectory, freeze_arrays
@@ -415,6 +416,9 @@ class _Setup:
             self.meta["composition"] = comp.name
         if self.model is not None:
             self.meta["torque_model"] = repr(self.model)
+        self.meta["forcing"] = forcing_used(kind, forcing, self.model)
+        if self.model is not None:  # the free body's are implied by torque "none"
+            self.meta["invariants"] = declaration_of(self.model)
 
     def __len__(self) -> int:
         return len(self.ib)

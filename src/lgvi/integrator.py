@@ -34,6 +34,7 @@ from ._version import __version__
 from .body import RigidBody
 from .errors import ConvergenceError, SimulationInterrupted, TorqueError
 from .implicit import METHODS, failure_message, largest_step, solver_options
+from .invariants import declaration_of, forcing_used
 from .torques import TorqueModel
 from .trajectory import Trajectory
 
@@ -685,6 +686,9 @@ class _Run:
             self.meta["composition"] = comp.name
         if self.model is not None:
             self.meta["torque_model"] = repr(self.model)
+        self.meta["forcing"] = forcing_used(kind, forcing, self.model)
+        if kind != "none":  # the free body's are implied by torque "none" (lgvi.invariants.declared)
+            self.meta["invariants"] = declaration_of(self.model or torque)
         self.has_potential = self.model is not None and any(m.conservative for m in self.model.terms)
         # the paper's scheme (and the free body at order 2) keeps the original kernels, bit for bit
         self.legacy = comp.order == 2 and (kind == "none" or (kind in ("array", "callable") and not sym))
