@@ -39,6 +39,7 @@ from ._kernels import rk4_kernels as _rk
 from ._validation import as_float, as_float_array, as_int, as_rotation
 from ._version import __version__
 from .errors import SimulationInterrupted, TorqueError
+from .registry import torque_kind
 from .trajectory import Trajectory
 
 #: RK4 steps per compiled call; between chunks Ctrl-C is honoured.
@@ -91,11 +92,7 @@ def _quat_of(R: np.ndarray) -> np.ndarray:
 # torques: None, a callable, or a model; built-in models run compiled from their encoding
 # ------------------------------------------------------------------------------------------------
 def _builtin_model(torque: Any) -> bool:
-    try:
-        from .torques import TorqueModel
-    except ImportError:  # pragma: no cover - torques is part of the package
-        return False
-    return isinstance(torque, TorqueModel)
+    return torque_kind(torque) == "model"
 
 
 @dataclasses.dataclass
@@ -138,10 +135,11 @@ _FREE = dict(codes=np.zeros((0, 2), dtype=np.int64), params=np.zeros(0), D=np.ze
 
 
 def _resolve_torque(torque: Any, body) -> _Torque:
-    if torque is None:
+    kind = torque_kind(torque)  # lgvi.registry: the one classification of torque=
+    if kind == "none":
         return _Torque("none", **_FREE)
-    if hasattr(torque, "moment"):
-        if _builtin_model(torque):
+    if kind == "model" or hasattr(torque, "moment"):  # a built-in model, or any object with moment()
+        if kind == "model":
             try:
                 codes, params = torque.encode()
             except NotImplementedError:       # a user subclass without a kernel encoding
@@ -155,7 +153,7 @@ def _resolve_torque(torque: Any, body) -> _Torque:
                 return _Torque("model", codes=codes, params=params, D=D, model=torque)
         moment = torque.moment
         return _Torque("model", func=lambda t, R, Pi: moment(t, R, Pi, body), model=torque)
-    if callable(torque):
+    if kind == "callable":
         return _Torque("callable", func=torque)
     raise TypeError(f"torque must be None, a callable torque(t, R, Pi) -> (3,), or a torque model with a "
                     f"moment(t, R, Pi, body) method; got {type(torque).__name__}. (The Runge-Kutta baselines need "

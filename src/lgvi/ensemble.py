@@ -31,7 +31,7 @@ from .errors import ConvergenceError, SimulationInterrupted
 from .implicit import failure_message
 from .invariants import declaration_of, forcing_used
 from .so3 import project
-from .torques import TorqueModel
+from .registry import torque_kind
 from .trajectory import ARRAY_FIELDS, Trajectory, freeze_arrays
 
 #: Body-substeps per compiled call (about 0.1-0.5 s); Ctrl-C and progress are handled between calls.
@@ -383,16 +383,14 @@ class _Setup:
         choice(forcing, "forcing", FORCINGS)
         self.comp = comp = _composition(order, composition)
         self.sym = forcing == "symmetric"
-        if torque is None:
-            self.model, kind = None, "none"
-        elif isinstance(torque, TorqueModel):
-            self.model, kind = torque, "model"
-        elif callable(torque):
+        kind = torque_kind(torque)  # lgvi.registry: the one classification of torque=
+        self.model = torque if kind == "model" else None
+        if kind == "callable":
             raise TypeError("simulate_ensemble takes torque=None or a torque model of lgvi.torques (one model, the "
                             f"same for every body), got the callable {torque!r}: a Python function cannot run "
                             "inside the compiled parallel kernel. Write the moment as a model (or a sum of "
                             "models), or call lgvi.simulate per body.")
-        else:
+        elif kind == "array":
             raise TypeError("simulate_ensemble takes torque=None or a torque model of lgvi.torques (one model, the "
                             f"same for every body), got {type(torque).__name__}: torque arrays are not supported "
                             "for ensembles; call lgvi.simulate per body for tabulated moments.")

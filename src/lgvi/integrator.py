@@ -35,6 +35,8 @@ from .body import RigidBody
 from .errors import ConvergenceError, SimulationInterrupted, TorqueError
 from .implicit import METHODS, failure_message, largest_step, solver_options
 from .invariants import declaration_of, forcing_used
+from .registry import (COMPOSITIONS, DEFAULT_COMPOSITION, FORCINGS, SOLVER_METHODS, Composition,  # noqa: F401
+                       composition_for, torque_kind)
 from .torques import TorqueModel
 from .trajectory import Trajectory
 
@@ -51,72 +53,6 @@ TorqueCallable = Callable[[float, np.ndarray, np.ndarray], Any]
 _NO_HIST = np.zeros(0)
 _NO_CODES = np.zeros((0, 2), dtype=np.int64)
 
-FORCINGS = ("paper", "symmetric")
-
-
-@dataclass(frozen=True)
-class Composition:
-    """A symmetric composition ``Phi_{g_s h} o ... o Phi_{g_1 h}`` of the symmetric step.
-
-    Composing a symmetric method of order 2 with coefficients ``g`` that are symmetric
-    (``g_i = g_{s+1-i}``), sum to 1 and satisfy the order conditions gives a symmetric method of
-    the stated order (Hairer, Lubich and Wanner, *Geometric Numerical Integration*, 2nd ed.,
-    Section V.3).
-    """
-
-    name: str
-    order: int
-    coefficients: tuple[float, ...]
-    source: str
-
-    @property
-    def stages(self) -> int:
-        return len(self.coefficients)
-
-    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
-        """``gam`` (s,), the substep fractions, and ``cum`` (s+1,), the fraction of the step at the
-        end of each substep (``cum[0] = 0``, ``cum[s] = 1`` exactly), as the kernels take them."""
-        gam = np.array(self.coefficients)
-        cum = np.concatenate([[0.0], np.cumsum(gam)])
-        cum[-1] = 1.0
-        return gam, cum
-
-
-def _symmetric(half: list[float]) -> tuple[float, ...]:
-    """``half + [middle] + reversed(half)`` with the middle fixing the sum to 1."""
-    middle = 1.0 - 2.0 * sum(half)
-    return tuple(half) + (middle,) + tuple(reversed(half))
-
-
-def _triple_jump(base: tuple[float, ...], p: int) -> tuple[float, ...]:
-    """Yoshida's triple jump raising a symmetric method of order ``p`` to ``p + 2``."""
-    g1 = 1.0 / (2.0 - 2.0 ** (1.0 / (p + 1)))
-    g0 = 1.0 - 2.0 * g1                         # = -2^(1/(p+1)) / (2 - 2^(1/(p+1)))
-    return tuple(g1 * c for c in base) + tuple(g0 * c for c in base) + tuple(g1 * c for c in base)
-
-
-_SUZUKI = 1.0 / (4.0 - 4.0 ** (1.0 / 3.0))
-
-#: Registry of compositions by name (``simulate(..., composition=name)``).
-COMPOSITIONS: dict[str, Composition] = {
-    c.name: c for c in (
-        Composition("yoshida4", 4, _triple_jump((1.0,), 2),
-                    "Yoshida (1990), Phys. Lett. A 150, 262: triple jump, "
-                    "g1 = g3 = 1/(2 - 2^(1/3)), g2 = 1 - 2 g1"),
-        Composition("suzuki4", 4, _symmetric([_SUZUKI, _SUZUKI]),
-                    "Suzuki (1990), Phys. Lett. A 146, 319: fractal 5-stage, "
-                    "g1 = g2 = g4 = g5 = 1/(4 - 4^(1/3)), g3 = 1 - 4 g1"),
-        Composition("yoshida6", 6, _triple_jump(_triple_jump((1.0,), 2), 4),
-                    "Yoshida (1990): triple jump of the triple jump, 9 stages"),
-        Composition("kahan-li6", 6, _symmetric([0.39216144400731413927925056, 0.33259913678935943859974864,
-                                                 -0.70624617255763935980996482, 0.08221359629355080023149045]),
-                    "Kahan and Li (1997), Math. Comp. 66, 1089, scheme s9odr6a, as printed in "
-                    "Hairer, Lubich and Wanner, Geometric Numerical Integration, Sect. V.3.2"),
-    )
-}
-
-#: Composition used by ``order=4`` and ``order=6`` unless ``composition=`` names another.
-DEFAULT_COMPOSITION = {4: "suzuki4", 6: "kahan-li6"}
 
 
 def _solver_state(code: int, body: RigidBody, h: float, Pi: np.ndarray) -> np.ndarray:
@@ -224,7 +160,7 @@ def step(body: Any, R: Any, Pi: Any, *, h: float, u: Any = None, method: str = "
     if st != OK:
         raise ConvergenceError(failure_message(st, res, its, abs(h) * float(np.linalg.norm(Pi)), tol, code, alpha),
                                residual=float(res), iterations=int(its))
-    F = so3.cayley(G[0]) if code == METHODS["cayley"] else so3.exp(G[0])
+    F = so3.cayley(G[0]) if SOLVER_METHODS[method].coordinates == "cayley" else so3.exp(G[0])
     return StepResult(R=Rn, Pi=Pin, F=F, iterations=int(its), residual=float(res))
 
 
@@ -641,7 +577,7 @@ class _Progress:
             sys.stderr.flush()
 
 
-class _Run:
+class Run:
     """One validated simulation: the inputs, the kernel choice and the state carried across chunks.
 
     ``advance(n, ...)`` runs the next ``n`` steps (``n`` a multiple of ``save_every``) in place;
@@ -666,14 +602,12 @@ class _Run:
         self.U = np.zeros((0, 3))
         self.func = None
         self.model = None
-        if torque is None:
-            kind = "none"
-        elif isinstance(torque, TorqueModel):
-            self.model, kind = torque, "model"
-        elif callable(torque):
-            self.func, kind = torque, "callable"
-        else:
-            kind = "array"
+        kind = torque_kind(torque)  # lgvi.registry: the one classification of torque=
+        if kind == "model":
+            self.model = torque
+        elif kind == "callable":
+            self.func = torque
+        elif kind == "array":
             shape = (steps + 1, 3) if sym else (steps, 3)
             self.U = np.ascontiguousarray(as_float_array(torque, "torque", shape))
         self.kind = kind
@@ -781,23 +715,8 @@ class _Run:
 
 
 
-def _composition(order: Any, composition: Any) -> Composition:
-    if isinstance(order, (bool, np.bool_)) or not isinstance(order, (int, np.integer)) or order not in (2, 4, 6):
-        raise ValueError(f"order must be 2, 4 or 6, got {order!r}")
-    order = int(order)
-    if composition is None:
-        if order == 2:
-            return _SECOND_ORDER
-        return COMPOSITIONS[DEFAULT_COMPOSITION[order]]
-    choice(composition, "composition", tuple(COMPOSITIONS))
-    comp = COMPOSITIONS[composition]
-    if comp.order != order:
-        raise ValueError(f"composition {composition!r} is of order {comp.order}, but order={order}; "
-                         f"pass order={comp.order} with it")
-    return comp
-
-
-_SECOND_ORDER = Composition("none", 2, (1.0,), "the symmetric LGVI step itself")
+_Run = Run  # its name before the system seam (lgvi.systems.rigid_body)
+_composition = composition_for
 
 
 def _check_order(comp: Composition, kind: str, forcing: str, model: TorqueModel | None) -> None:
