@@ -39,6 +39,7 @@ from ._kernels import rk4_kernels as _rk
 from ._validation import as_float, as_float_array, as_int, as_rotation
 from ._version import __version__
 from .errors import SimulationInterrupted, TorqueError
+from .driver import time_grid
 from .registry import torque_kind
 from .trajectory import Trajectory
 
@@ -194,7 +195,8 @@ def _python_rhs(tq: _Torque, body) -> Callable[[float, np.ndarray], np.ndarray]:
 
 
 def _initial_state(body: Any, R0: Any, Pi0: Any, omega0: Any):
-    from .integrator import _initial_momentum, as_body
+    from .driver import initial_momentum as _initial_momentum
+    from .integrator import as_body
 
     body = as_body(body)
     R0 = as_rotation(R0, "R0")
@@ -261,13 +263,7 @@ def rk4(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: float, st
     True
     """
     body, R0, Pi = _initial_state(body, R0, Pi0, omega0)
-    h = as_float(h, "h", nonzero=True)
-    t0 = as_float(t0, "t0")
-    steps = as_int(steps, "steps", minimum=0)
-    save_every = as_int(save_every, "save_every", minimum=1)
-    if steps % save_every != 0:
-        raise ValueError(f"save_every must divide steps so that the final state is saved; got "
-                         f"steps={steps}, save_every={save_every} (steps % save_every = {steps % save_every})")
+    h, t0, steps, save_every = time_grid(h, t0, steps, save_every)  # lgvi.driver: the shared checks
     if not isinstance(normalize, (bool, np.bool_)):
         raise TypeError(f"normalize must be True or False, got {normalize!r}")
     normalize = bool(normalize)

@@ -170,6 +170,27 @@ def composition_for(order: Any, composition: Any) -> Composition:
     return comp
 
 
+def check_composable(comp: Composition, kind: str, forcing: str, model: Any) -> None:
+    """Reject compositions whose base step is not symmetric (they would not raise the order)."""
+    if comp.order == 2:
+        return
+    why = (f"order={comp.order} composes the symmetric step, and composition raises the order only of "
+           f"a symmetric method")
+    if kind == "array":
+        raise ValueError(f"{why}; a torque array holds moments at the grid times only, but the substeps of "
+                         f"order={comp.order} need them at intermediate times (some substeps even step "
+                         "backwards). Pass a callable torque(t, R, Pi) or a torque model instead.")
+    if forcing == "paper":
+        if kind == "callable":
+            raise ValueError(f"{why}; the paper's update Pi_(k+1) = F^T Pi_k + h u_k is first order and "
+                             "not symmetric. Pass forcing='symmetric' to compose the callable torque.")
+        if model is not None and not all(m.conservative for m in model.terms):
+            bad = ", ".join(repr(m) for m in model.terms if not m.conservative)
+            raise ValueError(f"{why}; the non-conservative part of the torque model ({bad}) uses the "
+                             "paper's first-order update Pi_(k+1) = F^T Pi_k + h u_k, which is not symmetric. "
+                             "Pass forcing='symmetric'.")
+
+
 # ------------------------------------------------------------------------------------ torques
 #: The kinds of ``torque=`` a run can be given.
 TORQUE_KINDS = ("none", "model", "callable", "array")
@@ -206,4 +227,4 @@ def __getattr__(name: str) -> Any:
 
 __all__ = ["COMPOSITIONS", "Composition", "DEFAULT_COMPOSITION", "DEFAULT_METHOD", "FORCINGS", "FORCING_DOCS",
            "ORDERS", "SECOND_ORDER", "SOLVER_METHODS", "SolverMethod", "TORQUE_KINDS", "TORQUE_MODELS",
-           "composition_for", "method_names", "torque_kind"]
+           "check_composable", "composition_for", "method_names", "torque_kind"]

@@ -704,8 +704,7 @@ class Scenario:
             As :meth:`run`; with ``error_estimate`` the shadow run at ``h/2`` is made in memory
             after the stream is complete.
         """
-        from .integrator import simulate_stream
-        from .streaming import read_stream
+        from .streaming import read_stream, simulate_stream
 
         try:
             simulate_stream(folder, self.body, self.R0, self.Pi0, progress=progress, resume=resume,

@@ -14,7 +14,6 @@ two bodies are each a new subpackage plus a :func:`register` call.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from importlib import import_module
 from typing import Any, Callable
 
 import numpy as np
@@ -52,14 +51,14 @@ class System:
         The state saved at every sample, in the order the run's ``advance`` takes its buffers.
     records : tuple of Field
         The per-step records of the solver (after the state buffers in ``advance``).
-    kernels : tuple of str
-        The compiled step kernels, ``"module:function"`` below :mod:`lgvi._kernels`.
+    kernels : callable
+        ``kernels() -> dict``: its compiled step kernels by name (imports them on first call).
     results : tuple of str
         The fields of its result object (e.g. :class:`lgvi.Trajectory`).
     scenario_section : str
         The scenario table that describes the system (``[body]`` for a rigid body).
-    run_factory : str
-        ``"module:callable"`` building the validated run object the driver runs: it has ``k``,
+    run_factory : callable
+        Builds the validated run object the driver runs (imported lazily): it has ``k``,
         ``steps``, ``save_every``, ``chunk``, ``advance(n, *state_buffers, *record_buffers, partial)``,
         ``failure(...)``, ``state()``, ``load_state()``, ``trajectory(...)``, ``times(j0, j1)``.
     invariants : callable
@@ -71,21 +70,15 @@ class System:
     doc: str
     state: tuple[Field, ...]
     records: tuple[Field, ...]
-    kernels: tuple[str, ...]
+    kernels: Callable[[], dict[str, Any]]
     results: tuple[str, ...]
     scenario_section: str
-    run_factory: str
+    run_factory: Callable[..., Any]
     invariants: Callable[[Any], dict[str, dict[str, Any]]]
 
     def run(self, *args: Any, **kwargs: Any) -> Any:
         """A validated run of this system (see ``run_factory``)."""
-        module, name = self.run_factory.split(":")
-        return getattr(import_module(module), name)(*args, **kwargs)
-
-    def kernel(self, spec: str) -> Any:
-        """The compiled kernel ``"module:function"`` (imported on first use)."""
-        module, name = spec.split(":")
-        return getattr(import_module(f"lgvi._kernels.{module}"), name)
+        return self.run_factory(*args, **kwargs)
 
 
 #: The registry of systems by name.
