@@ -190,10 +190,11 @@ def run_forced_serial(method, Jd, J, J_inv, ib, h, t0, gam, cum, A, R, Pi, G, S,
 # every access of a lane loop sits at a constant offset from the group's start, so LLVM proves the
 # fields do not overlap and vectorises the loop over lanes, which has no branches (AVX2: four
 # doubles per instruction). Every lane evaluates the same IEEE operations, in the same order, as
-# the scalar path (lgvi_step -> solve_scalar with eager=True: predict, one Cayley Newton update,
-# the residual check, R <- R (I + E), Pi <- (I + E)^T Pi); without fast-math LLVM neither
-# reassociates nor fuses a * b + c, so a lane's result is bit for bit the scalar one. A lane that
-# the one update does not settle (its check fails: more iterations needed, a singular or
+# the scalar path (lgvi_step -> solve_scalar with eager=True: predict, one Cayley Newton update
+# with its third-order correction, the residual check, R <- R (I + E), Pi <- (I + E)^T Pi);
+# without fast-math LLVM neither reassociates nor fuses a * b + c, so a lane's result is bit for
+# bit the scalar one. A lane that the one update does not settle (its residual above the round-off
+# floor: more iterations needed, or a singular or
 # non-finite Newton matrix) is left untouched by the vector step and redone by the scalar
 # lgvi_step from the same state, which then decides exactly as simulate does. The expressions
 # below must stay those of solvers.solve_scalar and stepping.lgvi_step; tests/test_ensemble.py
@@ -293,6 +294,9 @@ def lockstep_cayley(X, h, tol, alpha):
         s0 = (c00 * q0 + c10 * q1 + c20 * q2) * inv
         s1 = (c01 * q0 + c11 * q1 + c21 * q2) * inv
         s2 = (c02 * q0 + c12 * q1 + c22 * q2) * inv
+        ps = (p0 * s0 + p1 * s1 + p2 * s2) * inv
+        s0, s1, s2 = (s0 - ps * (c00 * s0 + c10 * s1 + c20 * s2), s1 - ps * (c01 * s0 + c11 * s1 + c21 * s2),
+                      s2 - ps * (c02 * s0 + c12 * s1 + c22 * s2))
         g0 += alpha * s0
         g1 += alpha * s1
         g2 += alpha * s2
@@ -326,11 +330,13 @@ def lockstep_cayley(X, h, tol, alpha):
         r1 = (x02 - x20) - p1
         r2 = (x10 - x01) - p2
         rn2 = r0 * r0 + r1 * r1 + r2 * r2
-        thr = tol * hn + 8.0 * EPS * (jdn * enorm + hn)
+        floor = 8.0 * EPS * (jdn * enorm + hn)
+        thr = tol * hn + floor
         alive = X[X_ALIVE * LANES + l] != 0.0
         # settled only where every test of the scalar solver passes (a finite Newton matrix, iterate,
-        # residual and threshold, and the tolerance); anything else goes to the scalar step
-        ok = ((rn2 <= thr * thr) & (rn2 < math.inf) & (thr < math.inf) & (t2 < math.inf) & (det != 0.0)
+        # residual and threshold, and the residual at the round-off floor: within tol but above it,
+        # the scalar solver polishes once more); anything else goes to the scalar step
+        ok = ((rn2 <= floor * floor) & (rn2 < math.inf) & (thr < math.inf) & (t2 < math.inf) & (det != 0.0)
               & (abs(det) < math.inf) & alive)
         bad += 1 if (alive and not ok) else 0
         # stepping.push
