@@ -229,6 +229,29 @@ def test_conservation_1e5_steps(order):
     assert tr.steps == n and tr.iterations.min() >= 1
 
 
+@pytest.mark.parametrize("order", [10, 12])
+def test_round_off_floor_hlw_free_body(order):
+    """Hairer, Lubich and Wanner's free body, h = 0.05, T = 100: at orders 10 and 12 the truncation
+    error is far below 1e-13, so the final attitude error is round-off. Each Cayley solve must end
+    at round-off (third-order update, one more update above the round-off floor): a solve stopped
+    anywhere within tol = 1e-14 leaves about 1e-12 rad here (1.0e-12 at order 10 before the fix;
+    Hairer and Vilmart's Fortran DMV10 reaches 1.3e-13). One trajectory's round-off is one draw,
+    so the root mean square over eight starts Pi0 (1 + 1e-7 j) is asserted as well (2.4e-13 after,
+    1.1e-12 before). The reference lgvi.exact agrees with a 24-digit Taylor integration (mpmath)
+    to 7.5e-15 rad at T = 100 (benchmarks/roundoff.py prints that check)."""
+    J = np.array([0.5, 0.85, 1.0])
+    errs = []
+    for j in range(8):
+        Pi0 = np.array([0.2, 1.0, 0.4]) * (1.0 + 1e-7 * j)
+        tr = simulate_modified(J, np.eye(3), Pi0, h=0.05, steps=2000, order=order, save_every=2000)
+        R_ex = free_body_attitude(J, np.eye(3), Pi0, 100.0)
+        errs.append(float(np.linalg.norm(so3.log(R_ex.T @ tr.R[-1]))))
+    errs = np.array(errs)
+    assert errs[0] <= 4e-13
+    assert np.sqrt(np.mean(errs**2)) <= 4e-13
+    assert errs.max() <= 6e-13
+
+
 def test_symmetric_backwards_retraces():
     J, Pi0 = BODY_B
     fwd = simulate_modified(J, np.eye(3), Pi0, h=0.2, steps=500, order=10)

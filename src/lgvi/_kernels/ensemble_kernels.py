@@ -42,7 +42,7 @@ import numpy as np
 
 from .._jit import jit, jit_parallel
 from .codes import OK
-from .solvers import initial_guess
+from .solvers import CHEBYSHEV_MIN, initial_guess
 from .stepping import forced_stage, free_steps, init_moments, lgvi_step, store
 from .torque_kernels import momentum_diag
 
@@ -294,9 +294,14 @@ def lockstep_cayley(X, h, tol, alpha):
         s0 = (c00 * q0 + c10 * q1 + c20 * q2) * inv
         s1 = (c01 * q0 + c11 * q1 + c21 * q2) * inv
         s2 = (c02 * q0 + c12 * q1 + c22 * q2) * inv
+        cheb = s0 * s0 + s1 * s1 + s2 * s2 > CHEBYSHEV_MIN
         ps = (p0 * s0 + p1 * s1 + p2 * s2) * inv
-        s0, s1, s2 = (s0 - ps * (c00 * s0 + c10 * s1 + c20 * s2), s1 - ps * (c01 * s0 + c11 * s1 + c21 * s2),
-                      s2 - ps * (c02 * s0 + c12 * s1 + c22 * s2))
+        ch0 = s0 - ps * (c00 * s0 + c10 * s1 + c20 * s2)
+        ch1 = s1 - ps * (c01 * s0 + c11 * s1 + c21 * s2)
+        ch2 = s2 - ps * (c02 * s0 + c12 * s1 + c22 * s2)
+        s0 = ch0 if cheb else s0
+        s1 = ch1 if cheb else s1
+        s2 = ch2 if cheb else s2
         g0 += alpha * s0
         g1 += alpha * s1
         g2 += alpha * s2

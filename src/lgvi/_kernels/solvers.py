@@ -50,6 +50,8 @@ EPS = 2.220446049250313e-16
 #: rounding there: the first dropped terms are below 3e-18 relative at t = 0.1.
 SERIES_ANGLE = 0.1
 # Horner coefficients (multiplications only: a division by a constant is not turned into one)
+#: Cayley updates ``s`` with ``|s|^2`` at most this skip the quadratic correction (see solve_scalar).
+CHEBYSHEV_MIN = 2.0 ** -56
 _A1, _A2, _A3, _A4 = -1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362880.0          # sin t / t
 _B1, _B2, _B3, _B4 = -1.0 / 24.0, 1.0 / 720.0, -1.0 / 40320.0, 1.0 / 3628800.0       # (1 - cos t) / t^2
 _E0, _E1, _E2, _E3 = 1.0 / 12.0, 1.0 / 720.0, 1.0 / 30240.0, 1.0 / 1209600.0       # (1 - t/2 cot t/2) / t^2
@@ -216,9 +218,10 @@ def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, t
         s0 = (c00 * q0 + c10 * q1 + c20 * q2) * inv
         s1 = (c01 * q0 + c11 * q1 + c21 * q2) * inv
         s2 = (c02 * q0 + c12 * q1 + c22 * q2) * inv
-        if method == METHOD_CAYLEY:
+        if method == METHOD_CAYLEY and s0 * s0 + s1 * s1 + s2 * s2 > CHEBYSHEV_MIN:
             # G is quadratic: G(f + s) = G(f) + DG s + (hPi . s) s exactly. Removing the last term
-            # with the same DG (Chebyshev's method) makes the update third order
+            # with the same DG (Chebyshev's method) makes the update third order; skipped when that
+            # term is below a sixteenth of an ulp of hPi (|s|^2 <= 2^-56), as for small steps
             ps = (p0 * s0 + p1 * s1 + p2 * s2) * inv
             s0, s1, s2 = (s0 - ps * (c00 * s0 + c10 * s1 + c20 * s2), s1 - ps * (c01 * s0 + c11 * s1 + c21 * s2),
                           s2 - ps * (c02 * s0 + c12 * s1 + c22 * s2))
