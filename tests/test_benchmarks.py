@@ -73,7 +73,7 @@ def test_floor_quick():
 
 @pytest.mark.slow
 def test_roundoff_quick():
-    """The round-off script prints the reference check, the floor of orders 8-12, the drift and the speed."""
+    """The round-off script prints the reference check, the floor of orders 8-12, the drift, the speed."""
     proc = _run("roundoff.py", "--quick")
     _check(proc, "lgvi.exact vs DOP853", "floor: final attitude error", "drift over", "energy", "|Pi|", "R Pi",
            "steps/s", "loop cayley, HLW order 10", "simulate_modified, HLW order 10")
