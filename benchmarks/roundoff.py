@@ -161,7 +161,7 @@ def _kernel_runner(pkg, J, Pi0, h, code, steps):
     kernel = st.run_chunk_cayley if code == 2 else st.run_chunk
 
     def run():
-        G = np.zeros((4, 3))
+        G = np.zeros((5, 3))              # rows 0-3 the solver history, row 4 (newer) Pi's low part
         G[0] = np.linalg.solve(body.J, h * Pi0) * (0.5 if code == 2 else 1.0)
         G[3, 0] = 1.0
         status, _ = kernel(code, body.Jd, h, np.eye(3), Pi0.copy(), G, np.zeros((0, 3)), 0, steps, 1e-14, 50, 1.0,

@@ -13,7 +13,7 @@ notes before :data:`LANES`).
 Layout (``B`` bodies, ``s`` substeps per step, ``nb`` distinct bodies)::
 
     R (B,3,3), Pi (B,3)         state, in place
-    G (B,s,4,3)                 solver histories, one per body and substep (see .stepping)
+    G (B,s,5,3)                 solver histories, one per body and substep (see .stepping)
     S (B,7)                     moment caches of the forced scheme (see .stepping)
     ib (B,) int64               body b has inertia number ib[b]
     Jd, J, J_inv (nb,3,3)       per distinct inertia
@@ -51,7 +51,7 @@ from .torque_kernels import momentum_diag
 def init_histories(method, J, ib, hs, Pi, G):
     """Cold-start the solver histories: ``G[b, i, 0]`` from the linearisation ``J w = hs[i] Pi[b]``.
 
-    ``G`` (B,s,4,3) must be zero on entry (no valid history). The same values as
+    ``G`` (B,s,5,3) must be zero on entry (no valid history). The same values as
     ``integrator._solver_state(method, body, hs[i], Pi[b])``.
     """
     hPi = np.empty(3)
@@ -191,7 +191,7 @@ def run_forced_serial(method, Jd, J, J_inv, ib, h, t0, gam, cum, A, R, Pi, G, S,
 # fields do not overlap and vectorises the loop over lanes, which has no branches (AVX2: four
 # doubles per instruction). Every lane evaluates the same IEEE operations, in the same order, as
 # the scalar path (lgvi_step -> solve_scalar with eager=True: predict, one Cayley Newton update
-# with its third-order correction, the residual check, R <- R (I + E), Pi <- (I + E)^T Pi);
+# with its third-order correction, the residual check, R <- R (I + E), Pi <- (I + E)^T Pi compensated);
 # without fast-math LLVM neither reassociates nor fuses a * b + c, so a lane's result is bit for
 # bit the scalar one. A lane that the one update does not settle (its residual above the round-off
 # floor: more iterations needed, or a singular or
@@ -211,7 +211,8 @@ X_ALIVE = 28   # 1.0 while the body runs
 X_RMAX = 29    # largest residual so far
 X_OK = 30      # 1.0 when the last vector step settled this lane
 X_ITS = 31     # solver updates so far (a float counts exactly to 2^53)
-NF = 32
+X_L = 32       # low part of Pi (3), G[4, :] (compensated momentum update, stepping.momentum_c)
+NF = 35
 EPS = 2.220446049250313e-16
 
 
@@ -234,6 +235,9 @@ def lockstep_cayley(X, h, tol, alpha):
         b0 = X[X_PI * LANES + l]
         b1 = X[(X_PI + 1) * LANES + l]
         b2 = X[(X_PI + 2) * LANES + l]
+        l0 = X[X_L * LANES + l]
+        l1 = X[(X_L + 1) * LANES + l]
+        l2 = X[(X_L + 2) * LANES + l]
         p0 = h * b0
         p1 = h * b1
         p2 = h * b2
@@ -366,13 +370,19 @@ def lockstep_cayley(X, h, tol, alpha):
             X[(X_R + 3 * i) * LANES + l] = y0 if ok else a0
             X[(X_R + 3 * i + 1) * LANES + l] = y1 if ok else a1
             X[(X_R + 3 * i + 2) * LANES + l] = y2 if ok else a2
-        # Pi <- (I + E)^T Pi + h u
-        z0 = b0 + (E00 * b0 + E10 * b1 + E20 * b2) + h * u0
-        z1 = b1 + (E01 * b0 + E11 * b1 + E21 * b2) + h * u0
-        z2 = b2 + (E02 * b0 + E12 * b1 + E22 * b2) + h * u0
+        # Pi <- (I + E)^T Pi + h u, compensated (stepping.momentum_c)
+        v0 = ((E00 * b0 + E10 * b1 + E20 * b2) + h * u0) + l0
+        v1 = ((E01 * b0 + E11 * b1 + E21 * b2) + h * u0) + l1
+        v2 = ((E02 * b0 + E12 * b1 + E22 * b2) + h * u0) + l2
+        z0 = b0 + v0
+        z1 = b1 + v1
+        z2 = b2 + v2
         X[X_PI * LANES + l] = z0 if ok else b0
         X[(X_PI + 1) * LANES + l] = z1 if ok else b1
         X[(X_PI + 2) * LANES + l] = z2 if ok else b2
+        X[X_L * LANES + l] = ((b0 - z0) + v0) if ok else l0
+        X[(X_L + 1) * LANES + l] = ((b1 - z1) + v1) if ok else l1
+        X[(X_L + 2) * LANES + l] = ((b2 - z2) + v2) if ok else l2
         rn = math.sqrt(rn2)
         rmax = X[X_RMAX * LANES + l]
         X[X_RMAX * LANES + l] = rn if (ok & (rn > rmax)) else rmax
@@ -396,6 +406,8 @@ def pack_groups(R, Pi, G, Jd, ib, status, its, res, X):
                     X[gi, (X_R + 3 * i + c) * LANES + l] = R[src, i, c]
                     X[gi, (X_G + 3 * i + c) * LANES + l] = G[src, 0, i, c]
             X[gi, X_N * LANES + l] = G[src, 0, 3, 0]
+            for i in range(3):
+                X[gi, (X_L + i) * LANES + l] = G[src, 0, 4, i]
             q = ib[src]
             X[gi, X_D * LANES + l] = Jd[q, 0, 0]
             X[gi, (X_D + 1) * LANES + l] = Jd[q, 0, 1]
@@ -424,7 +436,7 @@ def advance_group(gi, X, Jd, ib, method, h, k0, n, tol, max_iter, alpha, save_ev
         return
     Rs = np.empty((3, 3))
     Ps = np.empty(3)
-    Gs = np.zeros((4, 3))
+    Gs = np.zeros((5, 3))
     j = k0 // save_every + 1
     countdown = save_every - k0 % save_every
     for k in range(k0, k0 + n):
@@ -440,6 +452,8 @@ def advance_group(gi, X, Jd, ib, method, h, k0, n, tol, max_iter, alpha, save_ev
                         Rs[i, c] = Xg[(X_R + 3 * i + c) * LANES + l]
                         Gs[i, c] = Xg[(X_G + 3 * i + c) * LANES + l]
                 Gs[3, 0] = Xg[X_N * LANES + l]
+                for i in range(3):
+                    Gs[4, i] = Xg[(X_L + i) * LANES + l]
                 it, rn, st = lgvi_step(method, Jd[ib[b]], h, Rs, Ps, Gs, 0.0, 0.0, 0.0, tol, max_iter, alpha, hist)
                 Xg[X_ITS * LANES + l] += it
                 if st != OK:
@@ -458,6 +472,8 @@ def advance_group(gi, X, Jd, ib, method, h, k0, n, tol, max_iter, alpha, save_ev
                         Xg[(X_R + 3 * i + c) * LANES + l] = Rs[i, c]
                         Xg[(X_G + 3 * i + c) * LANES + l] = Gs[i, c]
                 Xg[X_N * LANES + l] = Gs[3, 0]
+                for i in range(3):
+                    Xg[(X_L + i) * LANES + l] = Gs[4, i]
             if alive == 0:
                 break
         countdown -= 1
