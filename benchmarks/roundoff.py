@@ -5,6 +5,7 @@ Usage::
     python benchmarks/roundoff.py                    # full size
     python benchmarks/roundoff.py --quick            # reduced size, for CI (no assertions)
     python benchmarks/roundoff.py --before 9a10d4f   # also an earlier commit, interleaved
+    python benchmarks/roundoff.py --before 9a10d4f --speed-only --repeat 21   # the speed table only
 
 The problem is Hairer, Lubich and Wanner's free body: principal moments ``I = (0.5, 0.85, 1)``,
 ``Pi0 = (0.2, 1.0, 0.4)``, ``R0 = I``, step ``h = 0.05``, run with :func:`lgvi.simulate_modified`
@@ -154,7 +155,7 @@ def drift(pkg, steps: int) -> tuple[float, float, float]:
 
 
 def _kernel_runner(pkg, J, Pi0, h, code, steps):
-    st = pkg._kernels.stepping
+    st = importlib.import_module(pkg.__name__ + "._kernels.stepping")
     body = pkg.RigidBody(J)
     Pi0 = np.asarray(Pi0, dtype=float)
     out = (np.ones((steps, 3, 3)), np.ones((steps, 3)), np.ones(steps, np.int32), np.ones(steps))
@@ -187,11 +188,33 @@ def speed_cases(pkg, steps: int):
             ("simulate_modified, HLW order 10", modified)]
 
 
+def accuracy(versions, quick: bool, starts: int, drift_steps: int) -> None:
+    """Print the reference check, the floor table and the drift table."""
+    import lgvi.exact
+
+    print("reference at T = 100:")
+    for line in reference_check(lgvi.exact, not quick):
+        print(line)
+    print(f"\nfloor: final attitude error (rad) at T = {T_END:g} against lgvi.exact; rms and max over "
+          f"{starts} starts Pi0 (1 + 1e-7 j)")
+    print(f"  {'version':22s} {'order':>5s} {'HLW':>9s} {'rms':>9s} {'max':>9s}")
+    for name, pkg in versions:
+        for order in ORDERS:
+            e0, rms, emax = floor_errors(pkg, order, starts)
+            print(f"  {name:22s} {order:5d} {e0:9.2e} {rms:9.2e} {emax:9.2e}")
+    print(f"\ndrift over {drift_steps:.0e} steps (order 10, h = {HLW_H}): largest relative deviation")
+    print(f"  {'version':22s} {'energy':>9s} {'|Pi|':>9s} {'R Pi':>9s}")
+    for name, pkg in versions:
+        dE, dC, dL = drift(pkg, drift_steps)
+        print(f"  {name:22s} {dE:9.2e} {dC:9.2e} {dL:9.2e}")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="reduced size for CI")
     parser.add_argument("--repeat", type=int, default=None, help="timed runs per entry (median)")
     parser.add_argument("--before", metavar="REV", help="also measure the sources at this git revision")
+    parser.add_argument("--speed-only", action="store_true", help="only the speed table")
     args = parser.parse_args(argv)
     starts = 8 if args.quick else 24
     drift_steps = 20_000 if args.quick else 100_000
@@ -199,6 +222,7 @@ def main(argv: list[str] | None = None) -> int:
     repeat = args.repeat or (3 if args.quick else 11)
 
     import lgvi
+    import lgvi._kernels.stepping
     import lgvi.exact
     import lgvi.modified
 
@@ -207,21 +231,8 @@ def main(argv: list[str] | None = None) -> int:
         if args.before:
             versions.insert(0, (f"before ({args.before})", load_before(args.before, tmp)))
         print(f"HLW free body: I = {HLW_I}, Pi0 = {HLW_PI0}, h = {HLW_H}, simulate_modified (cayley, tol = 1e-14)")
-        print("reference at T = 100:")
-        for line in reference_check(lgvi.exact, not args.quick):
-            print(line)
-        print(f"\nfloor: final attitude error (rad) at T = {T_END:g} against lgvi.exact; rms and max over "
-              f"{starts} starts Pi0 (1 + 1e-7 j)")
-        print(f"  {'version':22s} {'order':>5s} {'HLW':>9s} {'rms':>9s} {'max':>9s}")
-        for name, pkg in versions:
-            for order in ORDERS:
-                e0, rms, emax = floor_errors(pkg, order, starts)
-                print(f"  {name:22s} {order:5d} {e0:9.2e} {rms:9.2e} {emax:9.2e}")
-        print(f"\ndrift over {drift_steps:.0e} steps (order 10, h = {HLW_H}): largest relative deviation")
-        print(f"  {'version':22s} {'energy':>9s} {'|Pi|':>9s} {'R Pi':>9s}")
-        for name, pkg in versions:
-            dE, dC, dL = drift(pkg, drift_steps)
-            print(f"  {name:22s} {dE:9.2e} {dC:9.2e} {dL:9.2e}")
+        if not args.speed_only:
+            accuracy(versions, args.quick, starts, drift_steps)
         print(f"\nspeed: steps/s, {speed_steps:.0e} steps, median of {repeat}"
               + (", versions interleaved" if len(versions) > 1 else ""))
         cases = [speed_cases(pkg, speed_steps) for _, pkg in versions]
