@@ -11,10 +11,10 @@ as a sequence of chunks that continue exactly where the previous one stopped:
 
 ``R`` (3,3), ``Pi`` (3,), and the solver history ``G`` (5,3): rows 0-2 hold the coordinates of
 the last three solutions (row 0 the newest), ``G[3, 0]`` how many of them are valid, and row 4
-the low part of ``Pi`` (free steps only): the momentum update is summed with compensation
-(:func:`momentum_c`), ``Pi + G[4]`` carrying the rounding error of the last addition to the next
-step, so the momentum (and with it ``|Pi|``, the energy and the phase) does not random-walk by an
-ulp per step. The next
+the low part of ``Pi``: the momentum update of a step without moment is summed with
+compensation (:func:`momentum_step`), ``Pi + G[4]`` carrying the rounding error of the last
+addition to the next step, so the momentum (and with it ``|Pi|``, the energy and the phase) does
+not random-walk by an ulp per step. The next
 solve starts from the quadratic extrapolation ``3 G0 - 3 G1 + G2`` (linear with two, ``G0`` with
 fewer): the coordinates of ``F_k`` vary smoothly with ``k``, so the guess is O(h^3) off and one
 Newton update usually reaches 1e-14. The guess only changes the iteration count, never the
@@ -122,6 +122,17 @@ def momentum_c(b0, b1, b2, l0, l1, l2, E00, E01, E02, E10, E11, E12, E20, E21, E
 
 
 @jit(inline="always")
+def momentum_step(b0, b1, b2, l0, l1, l2, E00, E01, E02, E10, E11, E12, E20, E21, E22, hu0, hu1, hu2):
+    """The momentum update of a step: :func:`momentum_c` (compensated) when the step's moment is
+    zero, else :func:`momentum` with a zero low part, the sum of the forced kernels (so a moment
+    given as an array and as a model keep identical bits). Returns ``(m0, m1, m2, n0, n1, n2)``."""
+    if hu0 == 0.0 and hu1 == 0.0 and hu2 == 0.0:
+        return momentum_c(b0, b1, b2, l0, l1, l2, E00, E01, E02, E10, E11, E12, E20, E21, E22, hu0, hu1, hu2)
+    m0, m1, m2 = momentum(b0, b1, b2, E00, E01, E02, E10, E11, E12, E20, E21, E22, hu0, hu1, hu2)
+    return m0, m1, m2, 0.0, 0.0, 0.0
+
+
+@jit(inline="always")
 def store(R_out, Pi_out, j, R, Pi):
     """Write the state ``(R, Pi)`` as sample ``j`` of the output buffers."""
     for a in range(3):
@@ -146,8 +157,8 @@ def lgvi_step(method, Jd, h, R, Pi, G, u0, u1, u2, tol, max_iter, alpha, hist):
     if st != OK:
         return its, rn, st
     # Pi <- (I + E)^T Pi + h u, checked before anything is written (a huge moment can overflow it)
-    c0, c1, c2, n0, n1, n2 = momentum_c(Pi[0], Pi[1], Pi[2], G[4, 0], G[4, 1], G[4, 2], E00, E01, E02, E10, E11, E12,
-                                        E20, E21, E22, h * u0, h * u1, h * u2)
+    c0, c1, c2, n0, n1, n2 = momentum_step(Pi[0], Pi[1], Pi[2], G[4, 0], G[4, 1], G[4, 2], E00, E01, E02, E10, E11,
+                                           E12, E20, E21, E22, h * u0, h * u1, h * u2)
     if not (math.isfinite(c0) and math.isfinite(c1) and math.isfinite(c2)):
         return its, rn, OVERFLOW
     push(G, g0, g1, g2)
@@ -221,8 +232,8 @@ def free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_eve
             status = st
             kend = k
             break
-        m0, m1, m2, n0, n1, n2 = momentum_c(P0, P1, P2, l0, l1, l2, E00, E01, E02, E10, E11, E12, E20, E21, E22,
-                                            h * u0, h * u1, h * u2)
+        m0, m1, m2, n0, n1, n2 = momentum_step(P0, P1, P2, l0, l1, l2, E00, E01, E02, E10, E11, E12, E20, E21, E22,
+                                               h * u0, h * u1, h * u2)
         if not (math.isfinite(m0) and math.isfinite(m1) and math.isfinite(m2)):
             status = OVERFLOW
             kend = k
