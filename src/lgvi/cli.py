@@ -27,10 +27,12 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import os
 import platform
 import shutil
 import sys
 import time
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -58,24 +60,65 @@ def _err(msg: str) -> None:
     print("lgvi: " + " ".join(str(msg).split("\n")), file=sys.stderr)
 
 
-def drift_table_row(name: str, traj, steps: int, wall: float) -> str:
+def drift_table_row(name: str, traj, steps: int, wall: float, invariants=None) -> str:
+    """One row of the table: the relative drift of each quantity the system conserves.
+
+    ``invariants`` (an :class:`lgvi.invariants.Declaration`) chooses the columns, as in
+    :func:`table_header`; default the trajectory's own declaration.
+    """
+    from .invariants import QUANTITIES, declared
     from .outputs import conservation_drifts
 
-    d = conservation_drifts(traj)
+    decl = invariants if invariants is not None else declared(traj)
+    d = conservation_drifts(traj, decl)
 
     def f(x: float | None) -> str:
         return f"{x:>10.2e}" if x is not None else f"{'-':>10}"
 
     rate = f"{steps / wall:>11.3e}" if wall > 0 else f"{'-':>11}"
-    return (f"{name:<24} {steps:>9d} {wall:>9.3f} {rate} {f(d['spatial_momentum_rel'])} "
-            f"{f(d['spatial_momentum_e3_rel'])} {f(d['casimir_rel'])} {f(d['energy_rel'])} {f(d['orthogonality_max'])}")
+    cols = " ".join(f(d[QUANTITIES[k].rel_key]) for k in decl.quantities())
+    return f"{name:<24} {steps:>9d} {wall:>9.3f} {rate} {cols + ' ' if cols else ''}{f(d['orthogonality_max'])}"
 
 
-TABLE_HEADER = (f"{'integrator':<24} {'steps':>9} {'wall [s]':>9} {'steps/s':>11} {'max dL/L':>10} "
-                f"{'dL3/L':>10} {'d|Pi|/|Pi|':>10} {'dE/E':>10} {'|RtR-I|':>10}")
-TABLE_LEGEND = ("  dL: spatial angular momentum R Pi; dL3: its vertical component e3 . R Pi (conserved under "
-                "uniform gravity);\n  |Pi|: Casimir; E: total energy; |RtR-I|: distance from SO(3). "
-                "All are the largest changes over the run.")
+def table_header(invariants=None) -> str:
+    """Header of the conservation table: one column per declared invariant (default: the free body's)."""
+    from .invariants import FREE_BODY, QUANTITIES, Declaration
+
+    decl = invariants if invariants is not None else Declaration(FREE_BODY, "the free body")
+    cols = "".join(f" {QUANTITIES[k].column:>10}" for k in decl.quantities())
+    return f"{'integrator':<24} {'steps':>9} {'wall [s]':>9} {'steps/s':>11}{cols} {'|RtR-I|':>10}"
+
+
+_LEGEND = {"spatial_momentum": ("dL", "spatial angular momentum R Pi"),
+           "spatial_momentum_e3": ("dL3", "vertical spatial momentum e3 . R Pi"),
+           "casimir": ("|Pi|", "Casimir"), "energy": ("E", "total energy"),
+           "jacobi": ("C", "Jacobi integral E - n e3 . R Pi (the energy in the frame turning with the orbit)")}
+
+
+def table_legend(invariants=None) -> str:
+    """What the columns of :func:`table_header` are, how the LGVI conserves each, what is left out."""
+    from .invariants import FREE_BODY, KIND_TEXT, QUANTITIES, Declaration
+
+    decl = invariants if invariants is not None else Declaration(FREE_BODY, "the free body")
+    keys = decl.quantities()
+    import textwrap
+
+    lines = textwrap.wrap("; ".join(f"{_LEGEND[k][0]}: {_LEGEND[k][1]}" for k in keys) + ("; " if keys else "")
+                          + "|RtR-I|: distance from SO(3). All are the largest changes over the run.",
+                          width=110, initial_indent="  ", subsequent_indent="  ")
+    kinds = [f"{', '.join(_LEGEND[k][0] for k in keys if decl.kind(k) == kind)} {KIND_TEXT[kind]}"
+             for kind in KIND_TEXT if any(decl.kind(k) == kind for k in keys)]
+    if kinds:
+        lines.append(f"  Invariants of {decl.system}; the LGVI keeps " + " and ".join(kinds) + ".")
+    if decl.not_invariants():
+        lines += textwrap.wrap(f"Not invariants of {decl.system}, so not shown: "
+                               + ", ".join(QUANTITIES[k].name for k in decl.not_invariants()) + ".",
+                               width=110, initial_indent="  ", subsequent_indent="  ")
+    return "\n".join(lines)
+
+
+TABLE_HEADER = table_header()
+TABLE_LEGEND = table_legend()
 
 
 def _plot_module():
@@ -175,6 +218,22 @@ def _fmt_drift(x: float | None) -> str:
     return "n/a (zero scale)" if x is None else f"{x:.3e}"
 
 
+def _conservation_lines(traj, drifts: dict[str, Any]) -> list[str]:
+    """The conservation block of ``summary.txt``: each declared invariant with its kind and
+    largest change, then the usual quantities this system does not conserve, marked so."""
+    from .invariants import KIND_TEXT, QUANTITIES, declared
+
+    decl = declared(traj)
+    lines = [f"conservation (largest change over the run; {decl.note()}):"]
+    for k in decl.quantities():
+        q = QUANTITIES[k]
+        change = (f"abs {drifts[q.abs_key]:.3e}   " if q.abs_key else "") + f"rel {_fmt_drift(drifts[q.rel_key])}"
+        lines.append(f"  {q.name:<34} {change}   {KIND_TEXT[decl.kind(k)]}")
+    lines += [f"  {QUANTITIES[k].name:<34} not an invariant here" for k in decl.not_invariants()]
+    lines.append(f"  {'|R^T R - I|':<34} max {drifts['orthogonality_max']:.3e}")
+    return lines
+
+
 def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], *, status: str = "complete",
                   message: str = "", kernel_load: float | None = None) -> tuple[Path, Path]:
     """``summary.json`` and ``summary.txt``: drifts, wall time, rate, scenario text, versions.
@@ -184,6 +243,7 @@ def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], 
     """
     import lgvi
 
+    from .invariants import declared
     from .outputs import conservation_drifts
 
     drifts = conservation_drifts(traj)
@@ -215,9 +275,11 @@ def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], 
         "iterations_max": int(its.max()) if its.size else None,
         "residual_max": float(np.max(traj.residual)) if np.size(traj.residual) else None,
         "drifts": drifts,
+        "invariants": declared(traj).labels(),
         "files": [p.name for p in files],
         "scenario": scenario.text,
     }
+    data["error_estimate"] = traj.meta.get("error_estimate")  # lgvi.accuracy, when the scenario asks for it
     js = outdir / "summary.json"
     js.write_text(json.dumps(data, indent=2) + "\n")
     rate = "n/a" if data["steps_per_s"] is None else f"{data['steps_per_s']:.4g}"
@@ -233,25 +295,53 @@ def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], 
         + ("" if kernel_load is None else f"; kernel load/compile before it {kernel_load:.3g} s"),
         f"solver:        mean {data['iterations_mean'] if data['iterations_mean'] is None else round(data['iterations_mean'], 3)}"
         f" iterations/step, max {data['iterations_max']}, max residual {data['residual_max']}",
-        "conservation (largest change over the run):",
-        f"  energy (total)          abs {drifts['energy_abs']:.3e}   rel {_fmt_drift(drifts['energy_rel'])}",
-        f"  |Pi| (Casimir)          rel {_fmt_drift(drifts['casimir_rel'])}",
-        f"  spatial momentum R Pi   rel {_fmt_drift(drifts['spatial_momentum_rel'])}",
-        f"  vertical e3 . R Pi      rel {_fmt_drift(drifts['spatial_momentum_e3_rel'])}",
-        f"  |R^T R - I|             max {drifts['orthogonality_max']:.3e}",
+        *_conservation_lines(traj, drifts),
         f"files:         {', '.join(data['files'])}",
         "",
         "scenario:",
         *("  " + line for line in scenario.text.rstrip("\n").splitlines()),
         "",
     ]
+    at = next((i for i, line in enumerate(lines) if line.startswith("files:")), len(lines))
+    lines[at:at] = _accuracy_lines(traj)
     txt = outdir / "summary.txt"
     txt.write_text("\n".join(lines))
     return txt, js
 
 
+def _accuracy_lines(traj) -> list[str]:
+    """The summary's lines on the estimated error of the run (:mod:`lgvi.accuracy`)."""
+    est = traj.error_estimate
+    if est is None:
+        return ["accuracy:      not estimated (error_estimate = true under [integrator] estimates the final "
+                "attitude error from a second run at h/2)"]
+    lines = [f"accuracy:      {est.describe()}; the run at h/2 took {est.wall_time_s:.3g} s more"]
+    if est.exceeds:
+        lines.append(f"WARNING:       the estimated final attitude error exceeds error_warn = {est.warn:g} rad: "
+                     f"{est.advice(toml=True)}")
+    return lines
+
+
 def _default_outdir(scenario) -> Path:
-    return Path.cwd() / f"{scenario.name}_output"
+    """``./SLUG_output``: the scenario name made a safe file name, so no name read from a file
+    (``../x``, ``/abs``, control characters) puts the results outside the current folder."""
+    from ._untrusted import safe_name
+
+    return Path.cwd() / f"{safe_name(scenario.name)}_output"
+
+
+def _check_outdir(outdir: Path) -> None:
+    """Refuse an output folder holding a symbolic link that points outside it (a folder from
+    elsewhere must not redirect where the results are written)."""
+    from ._untrusted import inside
+
+    for folder in (outdir, outdir / "stream"):
+        if not folder.is_dir():
+            continue
+        for p in [folder, *folder.iterdir()]:
+            if p.is_symlink() and p != outdir and not inside(outdir, p):
+                raise UsageError(f"{p} is a symbolic link to {os.path.realpath(p)}, outside the output folder "
+                                 f"{outdir}; remove it or choose another folder with -o")
 
 
 def _write_results(traj, scenario, outdir: Path, formats: tuple[str, ...], plots: bool, wall: float, *,
@@ -275,7 +365,7 @@ def _warm(scenario, baselines: tuple[str, ...] = ()) -> float:
 
     t0 = time.perf_counter()
     if scenario.steps:
-        short = replace(scenario, steps=scenario.save_every)
+        short = replace(scenario, steps=scenario.save_every, error_estimate=False)
         try:
             short.run()
             if "rk4" in baselines:
@@ -286,12 +376,13 @@ def _warm(scenario, baselines: tuple[str, ...] = ()) -> float:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from .errors import ConvergenceError, SimulationInterrupted, TorqueError
+    from .errors import AccuracyWarning, ConvergenceError, SimulationInterrupted, TorqueError
 
     scenario = _load(args.scenario)
     formats = _parse_formats(args.format, scenario.formats)
     plots = scenario.plots and not args.no_plots
     outdir = Path(args.output) if args.output else _default_outdir(scenario)
+    _check_outdir(outdir)
     if "netcdf" in formats:  # fail before a long run, not after it
         try:
             import xarray  # noqa: F401
@@ -302,13 +393,16 @@ def cmd_run(args: argparse.Namespace) -> int:
     loud = scenario.steps >= ANNOUNCE_STEPS
     if loud:
         print(f"lgvi run: {scenario.name}: {scenario.steps} steps of h = {scenario.h:g} s "
-              f"({scenario.method}) ...", file=sys.stderr, flush=True)
+              f"({scenario.method})" + (f", then {2 * scenario.steps} steps of h/2 for the error estimate"
+                                        if scenario.error_estimate else "") + " ...", file=sys.stderr, flush=True)
     t0 = time.perf_counter()
     stream = outdir / "stream"
     if args.resume and not (stream / "manifest.json").exists():
         raise UsageError(f"--resume: no interrupted run to resume in {stream}")
     try:
-        traj = scenario.run_stream(stream, resume=args.resume, progress=True)
+        with warnings.catch_warnings():  # reported as one line below and in summary.txt
+            warnings.simplefilter("ignore", AccuracyWarning)
+            traj = scenario.run_stream(stream, resume=args.resume, progress=True)
     except SimulationInterrupted as exc:
         wall = time.perf_counter() - t0
         part = exc.trajectory
@@ -330,6 +424,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             msg += f" (the part computed is written to {outdir})"
         raise RunFailure(msg) from None
     wall = time.perf_counter() - t0
+    if traj.error_estimate is not None:  # the run's own time; the estimate's is reported with it
+        wall -= traj.error_estimate.wall_time_s
     if loud:
         rate = traj.steps / wall if wall > 0 else float("inf")
         print(f"lgvi run: {scenario.name}: done in {wall:.3g} s ({rate:.3g} steps/s)", file=sys.stderr, flush=True)
@@ -339,6 +435,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     print(f"{scenario.name}: {traj.steps} steps in {wall:.3g} s; wrote {len(files)} files to {outdir}")
     for p in files:
         print(f"  {p.name}")
+    est = traj.error_estimate
+    if est is not None:
+        print(f"  {est.describe()}")
+        if est.exceeds:
+            _err(f"warning: the estimated final attitude error {est.attitude:.3g} rad exceeds error_warn = "
+                 f"{est.warn:g} rad; {est.advice(toml=True)} (see summary.txt)")
     return 0
 
 
@@ -369,6 +471,9 @@ def _baseline(name: str, scenario, rtol: float):
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from .invariants import Declaration, declaration_of
     from .outputs import conservation_drifts
 
     scenario = _load(args.scenario)
@@ -382,7 +487,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
           f"{scenario.steps} steps, torque {' + '.join(s['type'] for s in scenario.torque_spec) or 'none'}")
     print("  steps column: steps taken (fixed-step methods) or right-hand-side evaluations (solve_ivp)")
     print()
-    print(TABLE_HEADER)
+    # the problem's invariants, for every run (the baselines' trajectories carry no declaration)
+    decl = Declaration(declaration_of(scenario.torque),
+                       "the free body" if scenario.torque is None else repr(scenario.torque))
+    print(table_header(decl))
     done: list[tuple[str, str, Any]] = []  # (key, label, trajectory)
     rows: list[dict[str, Any]] = []
     failed = []
@@ -390,8 +498,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     for key, base in runs:
         t0 = time.perf_counter()
         try:
-            if base is None:
-                traj = scenario.run()
+            if base is None:  # without the error estimate's second run, so that wall times compare
+                traj = replace(scenario, error_estimate=False).run()
                 label, count = f"lgvi {scenario.method} h={scenario.h:g}", scenario.steps
             else:
                 traj, label, count = _baseline(base, scenario, args.rtol)
@@ -401,12 +509,14 @@ def cmd_compare(args: argparse.Namespace) -> int:
             rows.append({"name": key, "status": "failed", "message": f"{type(exc).__name__}: {exc}"})
             continue
         wall = time.perf_counter() - t0
-        print(drift_table_row(label, traj, count, wall))
+        if "invariants" not in traj.meta:
+            traj = replace(traj, meta=dict(traj.meta, invariants=decl.entries))
+        print(drift_table_row(label, traj, count, wall, decl))
         done.append((key, label, traj))
         rows.append({"name": key, "label": label, "status": "ok", "steps_or_nfev": count, "wall_time_s": wall,
-                     "drifts": conservation_drifts(traj)})
+                     "drifts": conservation_drifts(traj, decl)})
     print()
-    print(TABLE_LEGEND)
+    print(table_legend(decl))
     if args.output:
         out = Path(args.output)
         out.mkdir(parents=True, exist_ok=True)
@@ -415,7 +525,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
             traj.save(out / f"{key}.npz")
             written.append(out / f"{key}.npz")
         (out / "compare.json").write_text(json.dumps({"scenario_name": scenario.name, "rtol": args.rtol,
-                                                      "runs": rows, "scenario": scenario.text}, indent=2) + "\n")
+                                                      "invariants": decl.labels(), "runs": rows,
+                                                      "scenario": scenario.text}, indent=2) + "\n")
         written.append(out / "compare.json")
         if not args.no_plots and done:
             plot = _plot_module()
@@ -457,6 +568,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
+    from .invariants import KIND_TEXT, QUANTITIES, declared
     from .outputs import conservation_drifts
 
     traj = _read(args.trajectory)
@@ -480,12 +592,16 @@ def cmd_info(args: argparse.Namespace) -> int:
     for k in sorted(meta):
         print(f"    {k:<16} {meta[k]}")
     if len(traj.t):
-        d = conservation_drifts(traj)
-        print("  conservation (largest change over the run)")
-        print(f"    energy abs {d['energy_abs']:.3e}, rel {_fmt_drift(d['energy_rel'])}")
-        print(f"    |Pi| rel {_fmt_drift(d['casimir_rel'])}; R Pi rel {_fmt_drift(d['spatial_momentum_rel'])}; "
-              f"e3 . R Pi rel {_fmt_drift(d['spatial_momentum_e3_rel'])}")
+        decl = declared(traj)
+        d = conservation_drifts(traj, decl)
+        print(f"  conservation (largest change over the run; {decl.note()})")
+        for k in decl.quantities():
+            q = QUANTITIES[k]
+            print(f"    {q.name.split(' (')[0]} " + (f"abs {d[q.abs_key]:.3e}, " if q.abs_key else "")
+                  + f"rel {_fmt_drift(d[q.rel_key])} ({KIND_TEXT[decl.kind(k)]})")
         print(f"    |R^T R - I| max {d['orthogonality_max']:.3e}")
+        if decl.not_invariants():
+            print(f"    not invariants here: {', '.join(QUANTITIES[k].name for k in decl.not_invariants())}")
     if scenario_text:
         print("  scenario")
         for line in scenario_text.rstrip("\n").splitlines():
@@ -556,7 +672,7 @@ def build_parser() -> argparse.ArgumentParser:
                          "(python -c 'import lgvi.scenario; help(lgvi.scenario)').")
     run.add_argument("scenario", metavar="SCENARIO.toml", help="scenario file")
     run.add_argument("-o", "--output", default=None, metavar="DIR",
-                     help="output folder (default ./NAME_output, NAME the scenario name)")
+                     help="output folder (default ./NAME_output, NAME the scenario name as a safe file name)")
     run.add_argument("--no-plots", action="store_true", help="do not write figures")
     run.add_argument("--resume", action="store_true",
                      help="continue an interrupted or killed run from its last complete chunk in DIR/stream "

@@ -54,4 +54,14 @@ class TorqueError(RuntimeError):
         self.trajectory = trajectory
 
 
-__all__ = ["ConvergenceError", "SimulationInterrupted", "TorqueError"]
+class AccuracyWarning(UserWarning):
+    """The estimated error of a run (``simulate(..., error_estimate=True)``) exceeds its threshold
+    ``error_warn``; the message gives the estimate and what to change."""
+
+
+class AttitudeWarning(UserWarning):
+    """An attitude matrix slightly off SO(3) (``1e-9 < ||R^T R - I||_F <= 1e-6``, e.g. a rotation
+    written with 7 significant digits) was replaced by its nearest rotation."""
+
+
+__all__ = ["AccuracyWarning", "AttitudeWarning", "ConvergenceError", "SimulationInterrupted", "TorqueError"]

@@ -34,6 +34,7 @@ from ._version import __version__
 from .body import RigidBody
 from .errors import ConvergenceError, SimulationInterrupted, TorqueError
 from .implicit import METHODS, failure_message, largest_step, solver_options
+from .invariants import declaration_of, forcing_used
 from .torques import TorqueModel
 from .trajectory import Trajectory
 
@@ -222,7 +223,7 @@ def step(body: Any, R: Any, Pi: Any, *, h: float, u: Any = None, method: str = "
     Pin = Pi.copy()
     its, res, st = lgvi_step(code, body.Jd, h, Rn, Pin, G, uu[0], uu[1], uu[2], tol, max_iter, alpha, _NO_HIST)
     if st != OK:
-        raise ConvergenceError(failure_message(st, res, its, abs(h) * float(np.linalg.norm(Pi)), tol),
+        raise ConvergenceError(failure_message(st, res, its, abs(h) * float(np.linalg.norm(Pi)), tol, code, alpha),
                                residual=float(res), iterations=int(its))
     F = so3.cayley(G[0]) if code == METHODS["cayley"] else so3.exp(G[0])
     return StepResult(R=Rn, Pi=Pin, F=F, iterations=int(its), residual=float(res))
@@ -231,7 +232,8 @@ def step(body: Any, R: Any, Pi: Any, *, h: float, u: Any = None, method: str = "
 def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: float, steps: int,
              torque: Any = None, method: str = "newton", tol: float = 1e-14, max_iter: int = 50,
              alpha: float = 1.0, save_every: int = 1, t0: float = 0.0, forcing: str = "paper",
-             order: int = 2, composition: str | None = None, progress: Any = False) -> Trajectory:
+             order: int = 2, composition: str | None = None, progress: Any = False,
+             error_estimate: Any = False, error_warn: float | None = 0.01) -> Trajectory:
     r"""Simulate the attitude of a rigid body with the Lie group variational integrator.
 
     Each step solves ``hat(h Pi_k) = F_k Jd - Jd F_k^T`` for ``F_k`` in SO(3), then sets
@@ -243,7 +245,8 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     body : RigidBody or array_like
         The body, or its inertia: ``(3,)`` principal moments or ``(3, 3)`` matrix.
     R0 : (3, 3) array_like or scipy.spatial.transform.Rotation
-        Initial attitude (body to inertial), a rotation to 1e-9.
+        Initial attitude (body to inertial), a rotation to 1e-9 (to 1e-6: replaced by the
+        nearest rotation, with an ``AttitudeWarning``).
     Pi0 : (3,) array_like, optional
         Initial body angular momentum. Give this or ``omega0``.
     omega0 : (3,) array_like, optional
@@ -291,13 +294,20 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     progress : bool or callable
         ``True`` draws a progress bar on stderr between compiled chunks; a callable is called as
         ``progress(steps_done, steps)``; ``False`` (default) is silent.
+    error_estimate : {False, True, "richardson"}
+        ``True`` (or ``"richardson"``) runs the problem again at ``h/2`` (twice the steps, about
+        3x the wall time in all) and stores the Richardson estimate of the global error in
+        :attr:`Trajectory.error_estimate` (see :mod:`lgvi.accuracy`). Not for torque arrays.
+    error_warn : float or None
+        With ``error_estimate``: emit :class:`lgvi.AccuracyWarning` when the estimated final
+        attitude error exceeds this many radians (default 0.01); ``None`` never warns.
 
     Returns
     -------
     Trajectory
         ``M = steps // save_every + 1`` samples; ``iterations`` (summed over substeps) and
         ``residual`` (largest over substeps) for every step; ``potential`` for torque models
-        with a conservative part.
+        with a conservative part; ``error_estimate`` when asked for.
 
     Raises
     ------
@@ -349,6 +359,9 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     >>> bool(np.abs(traj.energy - traj.energy[0]).max() < 1e-2 * traj.energy[0])
     True
     """
+    from .accuracy import check_options
+
+    estimate, warn = check_options(error_estimate, error_warn, torque)
     run = _Run(body, R0, Pi0, omega0=omega0, h=h, steps=steps, torque=torque, method=method, tol=tol,
                max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0, forcing=forcing, order=order,
                composition=composition)
@@ -379,7 +392,15 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
             if stop.requested:
                 raise SimulationInterrupted(f"simulation interrupted after {run.k} of {steps} steps; "
                                             "the computed part is in .trajectory", trajectory=partial(run.k))
-    return run.trajectory(run.times(0, M), R_out, Pi_out, it_out, res_out)
+    traj = run.trajectory(run.times(0, M), R_out, Pi_out, it_out, res_out)
+    if estimate:  # a shadow run of this very function at h/2 (lgvi.accuracy)
+        from .accuracy import with_estimate
+
+        traj = with_estimate(traj, dict(body=run.body, R0=R0, Pi0=Pi0, omega0=omega0, h=run.h, steps=steps,
+                                        torque=torque, method=method, tol=tol, max_iter=max_iter, alpha=alpha,
+                                        save_every=save_every, t0=t0, forcing=forcing, order=order,
+                                        composition=composition, progress=progress), warn=warn, stacklevel=2)
+    return traj
 
 
 def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None,
@@ -666,6 +687,9 @@ class _Run:
             self.meta["composition"] = comp.name
         if self.model is not None:
             self.meta["torque_model"] = repr(self.model)
+        self.meta["forcing"] = forcing_used(kind, forcing, self.model)
+        if kind != "none":  # the free body's are implied by torque "none" (lgvi.invariants.declared)
+            self.meta["invariants"] = declaration_of(self.model or torque)
         self.has_potential = self.model is not None and any(m.conservative for m in self.model.terms)
         # the paper's scheme (and the free body at order 2) keeps the original kernels, bit for bit
         self.legacy = comp.order == 2 and (kind == "none" or (kind in ("array", "callable") and not sym))
@@ -710,7 +734,7 @@ class _Run:
             # the bisection finds the edge of what converges in max_iter; stay 10 % inside it
             hint = (f" At this state steps up to about h = {0.9 * h_ok:.4g} solve (the largest found is "
                     f"{h_ok:.4g})." if h_ok != 0.0 else " No step size solves at this state.")
-        msg = (f"step {k} (t = {t_fail:g}) failed: " + failure_message(status, residual, iterations, hnorm, self.tol)
+        msg = (f"step {k} (t = {t_fail:g}) failed: " + failure_message(status, residual, iterations, hnorm, self.tol, self.code, self.alpha)
                + hint + f" The run up to step {k} is in .trajectory." + where)
         err = ConvergenceError(msg, residual=residual, iterations=iterations, step=k, time=t_fail,
                                trajectory=trajectory)

@@ -16,7 +16,8 @@ Schema
 ------
 A complete example (every key shown; comments say which keys are alternatives)::
 
-    name = "dzhanibekov"                 # optional; default: the file name without .toml
+    name = "dzhanibekov"                 # optional; default: the file name without .toml; at most 100
+                                         # characters, no '/', '\\', ':', control characters, leading '.'
     description = "T-handle flip"        # optional
 
     [body]                               # exactly one of: inertia, matrix, shape
@@ -33,11 +34,12 @@ A complete example (every key shown; comments say which keys are alternatives)::
 
     [initial]                            # attitude R0 (body to inertial): at most one of
     euler = { sequence = "ZYX", angles = [10.0, 5.0, 0.0], unit = "deg" }
-    # matrix = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]   # orthogonal to 1e-9, det +1
+    # matrix = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]   # a rotation: orthogonal, det +1 (see Rules)
     # quat_xyzw = [0.0, 0.0, 0.0, 1.0]   # scalar last (as scipy)
     # quat_wxyz = [1.0, 0.0, 0.0, 0.0]   # scalar first
     # rotvec = [0.0, 0.0, 0.1]           # rotation vector [rad]
     omega = [0.001, 1.0, 0.001]          # body angular velocity [rad/s] ...
+    # omega = { values = [0.06, 57.3, 0.06], unit = "deg/s" }   # ... with a unit: "rad/s" or "deg/s"
     # Pi = [0.001, 2.0, 0.003]           # ... or body angular momentum [kg m^2/s]: exactly one
 
     [integrator]
@@ -50,6 +52,9 @@ A complete example (every key shown; comments say which keys are alternatives)::
     forcing = "paper"                    # "paper" or "symmetric" (default: the library's)
     order = 2                            # 2, 4 or 6 (default: the library's)
     save_every = 10                      # keep every 10th state; must divide the steps
+    error_estimate = true                # also run at h/2 and report the estimated final
+                                         # attitude error (lgvi.accuracy; default false)
+    error_warn = 0.01                    # warn above this estimate [rad] (default 0.01)
 
     [[torque]]                           # any number of models; their moments add up
     type = "uniform_gravity"             # heavy top / 3D pendulum about a fixed pivot
@@ -92,10 +97,19 @@ Rules
 - The attitude defaults to the identity when no form is given. Euler angles use scipy's
   convention: an uppercase ``sequence`` (``"ZYX"``) is intrinsic, lowercase (``"zyx"``)
   extrinsic; ``unit`` is required. A quaternion is normalised if its norm is within ``1e-3`` of
-  1 (rounded decimals) and rejected otherwise.
+  1 (rounded decimals) and rejected otherwise. A ``matrix`` orthogonal to ``1e-9``
+  (``||R^T R - I||_F``, det +1) is used as written; one orthogonal to ``1e-6`` only (a rotation
+  rounded to 7 digits) is replaced by its nearest rotation with an
+  :class:`lgvi.errors.AttitudeWarning`; beyond that it is an error.
+- ``omega`` is in rad/s as an array; as a table ``{ values = [...], unit = "..." }`` the
+  ``unit`` (required there) is ``"rad/s"`` or ``"deg/s"``. ``Pi`` is in the body's units.
 - ``duration / h`` must be a non-negative integer to a relative ``1e-9``.
 - ``forcing`` and ``order`` are passed to :func:`lgvi.simulate` only when given, so the
   library's defaults (and its rules, e.g. potentials always use the symmetric scheme) apply.
+- ``error_estimate = true`` (or ``"richardson"``) runs the scenario a second time at ``h/2``
+  (about 3x the time in all) and stores the Richardson estimate of the global error with the
+  result (``Trajectory.error_estimate``, ``summary.txt``); ``error_warn`` (a positive number of
+  radians) is the estimate above which a warning is given, and needs ``error_estimate = true``.
 - Torque models are built from :mod:`lgvi.torques` (``UniformGravity``, ``GravityGradient``,
   ``Constant``, ``LinearDamping``, ``AttitudePD``) and summed with ``+``.
 """
@@ -115,6 +129,7 @@ from typing import Any
 
 import numpy as np
 
+from ._untrusted import name_problem
 from ._version import __version__
 
 __all__ = ["Scenario", "ScenarioError", "load_scenario", "to_toml"]
@@ -123,6 +138,7 @@ FORMATS = ("npz", "csv", "netcdf")
 METHODS = ("newton", "paper", "cayley")
 FORCINGS = ("paper", "symmetric")
 ORDERS = (2, 4, 6)
+ERROR_ESTIMATES = (True, False, "richardson")
 QUAT_NORM_TOL = 1e-3
 DURATION_RTOL = 1e-9
 
@@ -321,7 +337,7 @@ def _attitude(c: _Checker, tbl: dict[str, Any], key: str) -> np.ndarray:
     """R from whichever attitude form ``tbl`` holds (identity if none); ``tbl`` already key-checked."""
     from scipy.spatial.transform import Rotation
 
-    from ._validation import as_rotation
+    from ._validation import nearest_rotation, warn_repaired
 
     given = [k for k in _ATTITUDE_KEYS if k in tbl]
     if len(given) > 1:
@@ -333,10 +349,16 @@ def _attitude(c: _Checker, tbl: dict[str, Any], key: str) -> np.ndarray:
     value = tbl[form]
     if form == "matrix":
         R = c.matrix(value, path)
+        fix = (f"Write {path} with orthonormal rows and determinant +1 to at least 7 significant digits, "
+               "or give the attitude as rotvec, quat_xyzw, quat_wxyz or euler instead.")
         try:
-            return as_rotation(R, path)
+            R, err = nearest_rotation(R, path, fix)
         except ValueError as exc:
             raise c.error(path, f"expected a rotation matrix: {exc}") from None
+        if err is not None:
+            warn_repaired(f"{c.source}: {path} is {err:.2g} away from a rotation; write it with more digits "
+                          "to silence this", R)
+        return R
     if form in ("quat_xyzw", "quat_wxyz"):
         q = c.vector(value, path, 4)
         n = float(np.linalg.norm(q))
@@ -365,6 +387,19 @@ def _attitude(c: _Checker, tbl: dict[str, Any], key: str) -> np.ndarray:
     angles = c.vector(eul["angles"], f"{path}.angles")
     unit = c.string(eul["unit"], f"{path}.unit", ("deg", "rad"))
     return Rotation.from_euler(seq, angles, degrees=(unit == "deg")).as_matrix()
+
+
+def _omega(c: _Checker, value: Any, key: str) -> np.ndarray:
+    """Body angular velocity in rad/s: an array (rad/s) or ``{ values = [...], unit = "rad/s" | "deg/s" }``."""
+    if not isinstance(value, dict):
+        return c.vector(value, key)
+    tbl = c.table(value, key, ("values", "unit"))
+    for k, what in (("values", "an array of 3 numbers"), ("unit", '"rad/s" or "deg/s"')):
+        if k not in tbl:
+            raise c.expected(f"{key}.{k}", what)
+    values = c.vector(tbl["values"], f"{key}.values")
+    unit = c.string(tbl["unit"], f"{key}.unit", ("rad/s", "deg/s"))
+    return np.radians(values) if unit == "deg/s" else values
 
 
 def _torque(c: _Checker, entries: Any) -> tuple[Any, tuple[dict[str, Any], ...]]:
@@ -454,6 +489,10 @@ class Scenario:
     method : str
     tol, alpha : float
     max_iter, save_every : int
+    error_estimate : bool
+        Run a shadow at ``h/2`` and attach the error estimate (:mod:`lgvi.accuracy`).
+    error_warn : float
+        Threshold of the estimated final attitude error for a warning [rad].
     formats : tuple of str
         Output formats, ``"npz"`` first when present.
     plots : bool
@@ -479,6 +518,8 @@ class Scenario:
     max_iter: int = 50
     alpha: float = 1.0
     save_every: int = 1
+    error_estimate: bool = False
+    error_warn: float = 0.01
     formats: tuple[str, ...] = ("npz",)
     plots: bool = True
     source: str = "<dict>"
@@ -524,6 +565,8 @@ class Scenario:
                 raise c.error(req, f"missing; expected a [{req}] table")
         default_name = Path(source).stem if not source.startswith("<") else "scenario"
         name = c.string(d.get("name", default_name), "name")
+        if "name" in d and (problem := name_problem(name)):
+            raise c.error("name", problem)
         description = c.string(d.get("description", ""), "description")
 
         body = _body(c, d["body"])
@@ -535,14 +578,15 @@ class Scenario:
             raise c.error("initial", f"expected exactly one of initial.omega [rad/s] or initial.Pi [kg m^2/s]; "
                           f"got {got}")
         with np.errstate(over="ignore", invalid="ignore"):
-            Pi0 = (body.J @ c.vector(init["omega"], "initial.omega")) if "omega" in init else \
+            Pi0 = (body.J @ _omega(c, init["omega"], "initial.omega")) if "omega" in init else \
                 c.vector(init["Pi"], "initial.Pi")
         if not np.all(np.isfinite(Pi0)):
             raise c.error("initial.omega", f"expected an angular velocity whose momentum J omega is finite, "
                           f"got J omega = {Pi0.tolist()}")
 
         integ = c.table(d["integrator"], "integrator", ("h", "steps", "duration", "method", "tol", "max_iter",
-                                                        "alpha", "forcing", "order", "save_every"))
+                                                        "alpha", "forcing", "order", "save_every",
+                                                        "error_estimate", "error_warn"))
         if "h" not in integ:
             raise c.expected("integrator.h", "a non-zero number (the step size in seconds)")
         h = c.number(integ["h"], "integrator.h", nonzero=True)
@@ -580,6 +624,17 @@ class Scenario:
             raise c.error("integrator.save_every", f"expected a divisor of the number of steps ({steps}) so the "
                           f"final state is saved; got {save_every}")
 
+        error_estimate = integ.get("error_estimate", False)
+        if not isinstance(error_estimate, (bool, str)) or error_estimate not in ERROR_ESTIMATES:
+            raise c.expected("integrator.error_estimate", 'true, false or "richardson"', error_estimate)
+        error_estimate = bool(error_estimate)
+        error_warn = 0.01
+        if "error_warn" in integ:
+            error_warn = c.number(integ["error_warn"], "integrator.error_warn", positive=True)
+            if not error_estimate:
+                raise c.error("integrator.error_warn", "only used with the error estimate; add "
+                              "error_estimate = true to [integrator], or remove error_warn")
+
         torque, spec = _torque(c, d["torque"]) if "torque" in d else (None, ())
 
         out = c.table(d.get("output", {}), "output", ("formats", "plots"))
@@ -595,7 +650,8 @@ class Scenario:
 
         return cls(name=name, description=description, body=body, R0=R0, Pi0=Pi0, h=h, steps=steps, torque=torque,
                    torque_spec=spec, forcing=forcing, order=order, method=method, tol=tol, max_iter=max_iter,
-                   alpha=alpha, save_every=save_every, formats=formats, plots=plots, source=source,
+                   alpha=alpha, save_every=save_every, error_estimate=error_estimate, error_warn=error_warn,
+                   formats=formats, plots=plots, source=source,
                    text=to_toml(d) if text is None else text)
 
     def simulate_kwargs(self) -> dict[str, Any]:
@@ -629,8 +685,9 @@ class Scenario:
         """
         from .integrator import simulate
 
+        est = dict(error_estimate=True, error_warn=self.error_warn) if self.error_estimate else {}
         try:
-            traj = simulate(self.body, self.R0, self.Pi0, progress=progress, **self.simulate_kwargs())
+            traj = simulate(self.body, self.R0, self.Pi0, progress=progress, **self.simulate_kwargs(), **est)
         except (KeyboardInterrupt, RuntimeError) as exc:
             part = getattr(exc, "trajectory", None)
             if part is not None:
@@ -645,7 +702,8 @@ class Scenario:
         Returns
         -------
         Trajectory
-            As :meth:`run`.
+            As :meth:`run`; with ``error_estimate`` the shadow run at ``h/2`` is made in memory
+            after the stream is complete.
         """
         from .integrator import simulate_stream
         from .streaming import read_stream
@@ -654,12 +712,18 @@ class Scenario:
             simulate_stream(folder, self.body, self.R0, self.Pi0, progress=progress, resume=resume,
                             chunk_steps=chunk_steps, meta={"scenario_name": self.name},
                             **self.simulate_kwargs())
+            traj = read_stream(folder)
+            if self.error_estimate:
+                from .accuracy import with_estimate
+
+                traj = with_estimate(traj, dict(body=self.body, R0=self.R0, Pi0=self.Pi0, progress=progress,
+                                                **self.simulate_kwargs()), warn=self.error_warn, stacklevel=2)
         except (KeyboardInterrupt, RuntimeError) as exc:
             part = getattr(exc, "trajectory", None)
             if part is not None:
                 exc.trajectory = self.attach(part)
             raise
-        return self.attach(read_stream(folder))
+        return self.attach(traj)
 
     def attach(self, traj):
         """A copy of ``traj`` whose ``meta`` also holds this scenario's text, name and source."""

@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from ._untrusted import check_npz
 from ._version import __version__
 
 FORMAT = "lgvi.trajectory/1"
@@ -62,6 +63,11 @@ class Trajectory:
     meta : dict
         Method, tolerance, package version and any run metadata (JSON-serialisable).
 
+    error_estimate : lgvi.accuracy.ErrorEstimate or None
+        The estimated global error of the run (``simulate(..., error_estimate=True)``), read
+        from ``meta["error_estimate"]`` so that it is saved and loaded with the trajectory;
+        ``None`` when the run was made without it.
+
     Derived (computed on first access): ``omega`` (M,3), ``energy`` (M,),
     ``kinetic_energy`` (M,), ``spatial_momentum`` (M,3), ``quaternion`` (M,4) scalar-last and
     sign-continuous, ``rotation`` (a scipy ``Rotation``), ``orthogonality_error`` (M,).
@@ -87,6 +93,14 @@ class Trajectory:
         span = f"t=[{self.t[0]:.6g}, {self.t[-1]:.6g}]" if len(self.t) else "empty"
         return (f"Trajectory(samples={len(self.t)}, steps={len(self.iterations)}, h={self.h:g}, {span}, "
                 f"method={self.meta.get('method', '?')!r})")
+
+    @property
+    def error_estimate(self):
+        """The run's :class:`lgvi.accuracy.ErrorEstimate` (from ``meta["error_estimate"]``) or ``None``."""
+        from .accuracy import ErrorEstimate
+
+        d = self.meta.get("error_estimate")
+        return None if d is None else ErrorEstimate.from_dict(d)
 
     @property
     def steps(self) -> int:
@@ -187,6 +201,7 @@ def _read(path: str) -> tuple[dict[str, Any], dict[str, np.ndarray], np.ndarray 
     if head[:2] != b"PK":  # an .npz is a zip archive; anything else (a PNG, an .npy, text) is refused here
         what = "an empty file" if not head else f"a file starting with {head!r}"
         raise ValueError(f"{path} is not an lgvi trajectory: an .npz (zip) archive was expected, got {what}")
+    check_npz(path)  # no object arrays, no declared size beyond the file's bytes: refused before allocating
     with np.load(path, allow_pickle=False) as data:
         if "__lgvi__" not in data.files:
             raise ValueError(f"{path} is not an lgvi trajectory (no '__lgvi__' header)")
