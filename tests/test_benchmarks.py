@@ -69,3 +69,15 @@ def test_floor_quick():
     # one solver update per step with the warm start, and the Cayley step needs no more operations than Newton's
     assert rows["cayley"][1] == rows["newton"][1] == "1"
     assert 0 < int(rows["cayley"][3]) <= int(rows["newton"][3])
+
+
+@pytest.mark.slow
+def test_roundoff_quick():
+    """The round-off script prints the reference check, the floor of orders 8-12, the drift, the speed."""
+    proc = _run("roundoff.py", "--quick")
+    _check(proc, "lgvi.exact vs DOP853", "floor: final attitude error", "drift over", "energy", "|Pi|", "R Pi",
+           "steps/s", "loop cayley, HLW order 10", "simulate_modified, HLW order 10")
+    assert "Traceback" not in proc.stderr
+    rows = [line.split() for line in proc.stdout.splitlines() if line.strip().startswith("after ")]
+    assert [int(r[1]) for r in rows[:3]] == [8, 10, 12]
+    assert all(float(x) < 1e-11 for r in rows[:3] for x in r[2:5])   # round-off, not truncation

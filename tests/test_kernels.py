@@ -18,7 +18,7 @@ NO_HIST = np.zeros(0)
 
 
 def _start(body, code, h, Pi0):
-    G = np.zeros((4, 3))
+    G = np.zeros((5, 3))
     G[0] = np.linalg.solve(body.J, h * Pi0) * (0.5 if code == METHOD_CAYLEY else 1.0)
     G[3, 0] = 1.0
     return G

@@ -120,10 +120,11 @@ DEFAULT_COMPOSITION = {4: "suzuki4", 6: "kahan-li6"}
 
 
 def _solver_state(code: int, body: RigidBody, h: float, Pi: np.ndarray) -> np.ndarray:
-    """Solver history ``G`` (4,3) of the stepping kernels, cold-started from the linearisation."""
+    """Solver history ``G`` (5,3) of the stepping kernels (row 4: the low part of ``Pi``, zero), cold-started
+    from the linearisation."""
     from ._kernels.solvers import initial_guess
 
-    G = np.zeros((4, 3))
+    G = np.zeros((5, 3))
     # the kernel's Python source: the same IEEE operations (so the same bits as the compiled
     # ensemble path), without loading one more compiled function on a run's first call
     getattr(initial_guess, "py_func", initial_guess)(code, body.J, h * Pi, G[0])
@@ -752,7 +753,9 @@ class _Run:
         self.k = int(st["k"])
         self.R[:] = np.asarray(st["R"], dtype=np.float64)
         self.Pi[:] = np.asarray(st["Pi"], dtype=np.float64)
-        self.G[:] = np.asarray(st["G"], dtype=np.float64)
+        G = np.asarray(st["G"], dtype=np.float64)
+        self.G[:] = 0.0
+        self.G[..., :G.shape[-2], :] = G        # a state saved with 4 rows: no low part of Pi yet
         if "S" in st:
             self.S[:] = np.asarray(st["S"], dtype=np.float64)
         self.M_cb = np.asarray(st["M_cb"], dtype=np.float64) if "M_cb" in st else None

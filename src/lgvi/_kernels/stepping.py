@@ -9,8 +9,12 @@ One step with body-frame moment ``u_k`` (the paper's equation):
 The state is carried in arrays updated in place, so the Python layer can run a long simulation
 as a sequence of chunks that continue exactly where the previous one stopped:
 
-``R`` (3,3), ``Pi`` (3,), and the solver history ``G`` (4,3): rows 0-2 hold the coordinates of
-the last three solutions (row 0 the newest) and ``G[3, 0]`` how many of them are valid. The next
+``R`` (3,3), ``Pi`` (3,), and the solver history ``G`` (5,3): rows 0-2 hold the coordinates of
+the last three solutions (row 0 the newest), ``G[3, 0]`` how many of them are valid, and row 4
+the low part of ``Pi``: the momentum update of a step without moment is summed with
+compensation (:func:`momentum_step`), ``Pi + G[4]`` carrying the rounding error of the last
+addition to the next step, so the momentum (and with it ``|Pi|``, the energy and the phase) does
+not random-walk by an ulp per step. The next
 solve starts from the quadratic extrapolation ``3 G0 - 3 G1 + G2`` (linear with two, ``G0`` with
 fewer): the coordinates of ``F_k`` vary smoothly with ``k``, so the guess is O(h^3) off and one
 Newton update usually reaches 1e-14. The guess only changes the iteration count, never the
@@ -18,7 +22,7 @@ converged result beyond the tolerance.
 
 The second half of this module (:func:`run_chunk_forced`) adds torque models given as data
 (:mod:`.torque_kernels`), the symmetric forcing of Lee, Leok and McClamroch and symmetric
-compositions of it; there ``G`` is a stack (m,4,3) with one history per substep.
+compositions of it; there ``G`` is a stack (m,5,3) with one history per substep.
 """
 
 from __future__ import annotations
@@ -63,14 +67,14 @@ def push(G, g0, g1, g2):
 
 @jit(inline="always")
 def predict_at(G, j):
-    """:func:`predict` for history ``G[j]`` of a stack ``G`` (m,4,3), without making a view."""
+    """:func:`predict` for history ``G[j]`` of a stack ``G`` (m,5,3), without making a view."""
     return extrapolate(G[j, 3, 0], G[j, 0, 0], G[j, 0, 1], G[j, 0, 2], G[j, 1, 0], G[j, 1, 1], G[j, 1, 2],
                        G[j, 2, 0], G[j, 2, 1], G[j, 2, 2])
 
 
 @jit(inline="always")
 def push_at(G, j, g0, g1, g2):
-    """:func:`push` for history ``G[j]`` of a stack ``G`` (m,4,3)."""
+    """:func:`push` for history ``G[j]`` of a stack ``G`` (m,5,3)."""
     for i in range(2, 0, -1):
         G[j, i, 0] = G[j, i - 1, 0]
         G[j, i, 1] = G[j, i - 1, 1]
@@ -105,6 +109,30 @@ def momentum(b0, b1, b2, E00, E01, E02, E10, E11, E12, E20, E21, E22, hu0, hu1, 
 
 
 @jit(inline="always")
+def momentum_c(b0, b1, b2, l0, l1, l2, E00, E01, E02, E10, E11, E12, E20, E21, E22, hu0, hu1, hu2):
+    """:func:`momentum` with compensated summation: ``Pi + l`` (``l`` the low part carried between
+    steps) maps to ``m + n``, ``m`` the rounded momentum and ``n`` its rounding error (Fast2Sum)."""
+    d0 = ((E00 * b0 + E10 * b1 + E20 * b2) + hu0) + l0
+    d1 = ((E01 * b0 + E11 * b1 + E21 * b2) + hu1) + l1
+    d2 = ((E02 * b0 + E12 * b1 + E22 * b2) + hu2) + l2
+    m0 = b0 + d0
+    m1 = b1 + d1
+    m2 = b2 + d2
+    return m0, m1, m2, (b0 - m0) + d0, (b1 - m1) + d1, (b2 - m2) + d2
+
+
+@jit(inline="always")
+def momentum_step(b0, b1, b2, l0, l1, l2, E00, E01, E02, E10, E11, E12, E20, E21, E22, hu0, hu1, hu2):
+    """The momentum update of a step: :func:`momentum_c` (compensated) when the step's moment is
+    zero, else :func:`momentum` with a zero low part, the sum of the forced kernels (so a moment
+    given as an array and as a model keep identical bits). Returns ``(m0, m1, m2, n0, n1, n2)``."""
+    if hu0 == 0.0 and hu1 == 0.0 and hu2 == 0.0:
+        return momentum_c(b0, b1, b2, l0, l1, l2, E00, E01, E02, E10, E11, E12, E20, E21, E22, hu0, hu1, hu2)
+    m0, m1, m2 = momentum(b0, b1, b2, E00, E01, E02, E10, E11, E12, E20, E21, E22, hu0, hu1, hu2)
+    return m0, m1, m2, 0.0, 0.0, 0.0
+
+
+@jit(inline="always")
 def store(R_out, Pi_out, j, R, Pi):
     """Write the state ``(R, Pi)`` as sample ``j`` of the output buffers."""
     for a in range(3):
@@ -129,10 +157,14 @@ def lgvi_step(method, Jd, h, R, Pi, G, u0, u1, u2, tol, max_iter, alpha, hist):
     if st != OK:
         return its, rn, st
     # Pi <- (I + E)^T Pi + h u, checked before anything is written (a huge moment can overflow it)
-    c0, c1, c2 = momentum(Pi[0], Pi[1], Pi[2], E00, E01, E02, E10, E11, E12, E20, E21, E22, h * u0, h * u1, h * u2)
+    c0, c1, c2, n0, n1, n2 = momentum_step(Pi[0], Pi[1], Pi[2], G[4, 0], G[4, 1], G[4, 2], E00, E01, E02, E10, E11,
+                                           E12, E20, E21, E22, h * u0, h * u1, h * u2)
     if not (math.isfinite(c0) and math.isfinite(c1) and math.isfinite(c2)):
         return its, rn, OVERFLOW
     push(G, g0, g1, g2)
+    G[4, 0] = n0
+    G[4, 1] = n1
+    G[4, 2] = n2
     rotate(R, E00, E01, E02, E10, E11, E12, E20, E21, E22)      # R <- R (I + E)
     Pi[0] = c0
     Pi[1] = c1
@@ -173,6 +205,7 @@ def free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_eve
     b0, b1, b2 = G[1, 0], G[1, 1], G[1, 2]
     c0, c1, c2 = G[2, 0], G[2, 1], G[2, 2]
     ng = G[3, 0]
+    l0, l1, l2 = G[4, 0], G[4, 1], G[4, 2]
     u0 = 0.0
     u1 = 0.0
     u2 = 0.0
@@ -199,7 +232,8 @@ def free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_eve
             status = st
             kend = k
             break
-        m0, m1, m2 = momentum(P0, P1, P2, E00, E01, E02, E10, E11, E12, E20, E21, E22, h * u0, h * u1, h * u2)
+        m0, m1, m2, n0, n1, n2 = momentum_step(P0, P1, P2, l0, l1, l2, E00, E01, E02, E10, E11, E12, E20, E21, E22,
+                                               h * u0, h * u1, h * u2)
         if not (math.isfinite(m0) and math.isfinite(m1) and math.isfinite(m2)):
             status = OVERFLOW
             kend = k
@@ -215,6 +249,7 @@ def free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_eve
         r10, r11, r12 = rotated_row(r10, r11, r12, E00, E01, E02, E10, E11, E12, E20, E21, E22)
         r20, r21, r22 = rotated_row(r20, r21, r22, E00, E01, E02, E10, E11, E12, E20, E21, E22)
         P0, P1, P2 = m0, m1, m2
+        l0, l1, l2 = n0, n1, n2
         countdown -= 1
         if countdown == 0:
             countdown = save_every
@@ -231,6 +266,7 @@ def free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_eve
     G[1, 0], G[1, 1], G[1, 2] = b0, b1, b2
     G[2, 0], G[2, 1], G[2, 2] = c0, c1, c2
     G[3, 0] = ng
+    G[4, 0], G[4, 1], G[4, 2] = l0, l1, l2
     return status, kend, it_sum, rmax, its, rn
 
 
@@ -443,7 +479,7 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
     ``gam[i] h`` (``s = 1``, ``gam = [1]``: the plain second-order scheme). Substep ``i`` of step
     ``k`` ends at ``t0 + (k + cum[i + 1]) h`` (``cum[0] = 0``, ``cum[s] = 1``). ``A`` (s,3,3)
     holds ``(I + gam[i] h/2 D J^-1)^-1`` (used only with symmetric forcing and ``D != 0``).
-    ``G`` (m,4,3) holds solver histories and substep ``i`` uses ``G[gidx[i]]``; the integrator
+    ``G`` (m,5,3) holds solver histories and substep ``i`` uses ``G[gidx[i]]``; the integrator
     keeps one history per substep (``gidx = 0 .. s-1``), so each warm start extrapolates
     solutions of the same substep, equally spaced by ``h`` (a history shared by substeps of
     different sizes, or by equal substeps at unequal spacing, extrapolates badly). ``U`` (steps+1, 3) or empty: explicit
