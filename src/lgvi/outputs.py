@@ -3,14 +3,18 @@
 =========  ==========================  ===============================================================
 format     writer / reader             what is kept
 =========  ==========================  ===============================================================
-npz        ``Trajectory.save`` /       everything, bit for bit: arrays, per-step ``iterations`` and
-           :func:`lgvi.load`           ``residual``, ``meta`` (scenario text, version) in the header
+npz        ``Trajectory.save`` /       everything, bit for bit: arrays, the solver's record
+           :func:`lgvi.load`           ``iterations`` and ``residual``, ``meta`` (scenario text,
+                                       version, the solver's totals) in the header
 csv        :func:`write_csv` /         one row per saved state, ``%.17g`` (floats round-trip exactly);
            :func:`read_csv`            the sidecar ``NAME.meta.json`` holds the inertia, ``h``, the
-                                       column units, ``meta`` with the scenario text and version. The
-                                       per-step ``iterations`` and ``residual`` are **not** kept: a
-                                       trajectory read from CSV has empty ones (``meta["steps"]``
-                                       still says how many steps were taken).
+                                       column units, ``meta`` with the scenario text, version and the
+                                       solver's totals. A record per saved interval (the default,
+                                       ``solver_record="interval"``) is kept in the columns
+                                       ``solver_iterations`` and ``solver_residual`` (row ``j``: the
+                                       interval ending at sample ``j``; ``nan`` on the first row); a
+                                       per-step record (``solver_record="full"``) is **not** kept: a
+                                       trajectory read from CSV then has empty ones.
 netcdf     :func:`write_netcdf` /      everything (as npz), via xarray; ``meta`` as the JSON attribute
            :func:`read_netcdf`         ``lgvi_meta``, the scenario text also as attribute ``scenario``.
                                        Needs the optional extra: ``pip install 'lgvi[io]'``.
@@ -21,7 +25,8 @@ matrix, body to inertial); ``qx qy qz qw`` (the unit quaternion, **scalar last**
 Hamilton convention, sign-continuous in time); ``Pi1 Pi2 Pi3`` (body angular momentum);
 ``omega1 omega2 omega3`` (body angular velocity); ``energy`` (total: kinetic plus potential);
 ``potential`` (only when the run had a potential). The first line is the header; there are no
-comment lines, so any CSV reader takes the file as it is.
+comment lines, so any CSV reader takes the file as it is. Every output is sized by the saved
+states unless the run kept its per-step solver record (``solver_record="full"``).
 """
 
 from __future__ import annotations
@@ -55,7 +60,10 @@ CSV_COLUMNS: tuple[str, ...] = (
     ("t",) + tuple(f"R{i}{j}" for i in range(1, 4) for j in range(1, 4)) + ("qx", "qy", "qz", "qw")
     + ("Pi1", "Pi2", "Pi3", "omega1", "omega2", "omega3", "energy")
 )
-UNITS = {"t": "s", "R": "1", "q": "1", "Pi": "kg m^2/s", "omega": "rad/s", "energy": "J", "potential": "J"}
+UNITS = {"t": "s", "R": "1", "q": "1", "Pi": "kg m^2/s", "omega": "rad/s", "energy": "J", "potential": "J",
+         "solver_iterations": "1", "solver_residual": "kg m^2"}
+#: Optional CSV columns of a record per saved interval (row ``j``: the interval ending at sample ``j``).
+CSV_RECORD_COLUMNS = ("solver_iterations", "solver_residual")
 EXTENSIONS = {"npz": ".npz", "csv": ".csv", "netcdf": ".nc"}
 IO_HINT = "pip install 'lgvi[io]'"
 
@@ -77,7 +85,15 @@ def _meta(traj: Trajectory) -> dict[str, Any]:
     return meta
 
 
+def _interval_record(traj: Trajectory) -> bool:
+    """Whether the solver's record of ``traj`` is one entry per saved interval (``(M - 1,)``)."""
+    return ((traj.meta or {}).get("solver_record") == "interval" and len(traj.t) > 0
+            and len(traj.iterations) == len(traj.t) - 1 == len(traj.residual))
+
+
 def _unit(column: str) -> str:
+    if column in UNITS:
+        return UNITS[column]
     for prefix in ("omega", "Pi", "R", "q"):
         if column.startswith(prefix):
             return UNITS[prefix]
@@ -108,8 +124,9 @@ def write_csv(traj: Trajectory, path: str | os.PathLike) -> Path:
     Notes
     -----
     Columns (see the module docstring): ``t, R11..R33, qx, qy, qz, qw`` (scalar last),
-    ``Pi1..3, omega1..3, energy`` and ``potential`` when present. Values are written with 17
-    significant digits, so ``t``, ``R`` and ``Pi`` read back exactly.
+    ``Pi1..3, omega1..3, energy``, ``potential`` when present, and ``solver_iterations``,
+    ``solver_residual`` for a solver record per saved interval. Values are written with 17
+    significant digits, so ``t``, ``R``, ``Pi`` and the record read back exactly.
     """
     path = Path(path)
     M = len(traj.t)
@@ -118,6 +135,13 @@ def write_csv(traj: Trajectory, path: str | os.PathLike) -> Path:
     if traj.potential is not None:
         cols.append(np.asarray(traj.potential)[:, None])
         names.append("potential")
+    interval = _interval_record(traj)
+    if interval:
+        for name, rec in zip(CSV_RECORD_COLUMNS, (traj.iterations, traj.residual)):
+            col = np.full((M, 1), np.nan)
+            col[1:, 0] = rec
+            cols.append(col)
+            names.append(name)
     data = np.hstack(cols)
     with open(path, "w", newline="") as fh:
         np.savetxt(fh, data, delimiter=",", fmt="%.17g", header=",".join(names), comments="")
@@ -129,7 +153,8 @@ def write_csv(traj: Trajectory, path: str | os.PathLike) -> Path:
         "units": {n: _unit(n) for n in names},
         "quaternion": "qx, qy, qz, qw: scalar last (as scipy), Hamilton product, rotates body to inertial",
         "attitude": "Rij: row i, column j of R, which maps body vectors to inertial ones",
-        "not_kept": "per-step solver iterations and residuals (use the npz or netCDF output for those)",
+        "not_kept": ("nothing" if interval else
+                     "per-step solver iterations and residuals (use the npz or netCDF output for those)"),
         "h": traj.h,
         "inertia": traj.inertia,
         "samples": M,
@@ -153,8 +178,9 @@ def read_csv(path: str | os.PathLike, *, inertia: Any = None) -> Trajectory:
     Returns
     -------
     Trajectory
-        ``t``, ``R``, ``Pi`` (exact) and ``potential``; ``iterations`` and ``residual`` are empty
-        (CSV does not keep them); ``meta["steps"]`` holds the number of steps of the run.
+        ``t``, ``R``, ``Pi`` (exact) and ``potential``; ``iterations`` and ``residual`` from the
+        columns of a record per saved interval, else empty (CSV does not keep per-step records);
+        ``meta["steps"]`` holds the number of steps of the run.
 
     Raises
     ------
@@ -200,8 +226,14 @@ def read_csv(path: str | os.PathLike, *, inertia: Any = None) -> Trajectory:
     R = np.stack([col[f"R{i}{j}"] for i in range(1, 4) for j in range(1, 4)], axis=-1).reshape(-1, 3, 3)
     Pi = np.stack([col["Pi1"], col["Pi2"], col["Pi3"]], axis=-1)
     meta["read_from"] = "csv"
+    its, res = np.zeros(0, dtype=np.int32), np.zeros(0)
+    if all(c in col for c in CSV_RECORD_COLUMNS) and len(col["t"]):
+        it_f = col["solver_iterations"][1:]
+        if not np.all(np.isfinite(it_f) & (it_f == np.round(it_f))):
+            raise ValueError(f"{path}: column solver_iterations must hold whole numbers after the first row")
+        its, res = it_f.astype(np.int32), col["solver_residual"][1:].copy()
     fields = dict(t=col["t"].copy(), R=np.ascontiguousarray(R), Pi=np.ascontiguousarray(Pi), inertia=J,
-                  iterations=np.zeros(0, dtype=np.int32), residual=np.zeros(0))
+                  iterations=its, residual=res)
     potential = col["potential"].copy() if "potential" in col else None
     try:
         _check_arrays(fields, potential)
@@ -223,7 +255,8 @@ def _xarray():
 def write_netcdf(traj: Trajectory, path: str | os.PathLike) -> Path:
     """Write the whole trajectory to a netCDF file through xarray (optional extra ``lgvi[io]``).
 
-    Dimensions ``time`` (M), ``step`` (steps), ``row``/``col``/``axis`` (3) and ``component`` (4,
+    Dimensions ``time`` (M), ``interval`` (M - 1, a solver record per saved interval) or
+    ``step`` (steps, a per-step record), ``row``/``col``/``axis`` (3) and ``component`` (4,
     coordinate ``x y z w``: scalar last). Variables ``R``, ``Pi``, ``omega``, ``quaternion``,
     ``energy`` (and ``potential``), ``inertia``, ``iterations``, ``residual``, with units.
     Attributes: ``lgvi_format``, ``lgvi_version``, ``h``, ``lgvi_meta`` (JSON of ``meta``) and
@@ -237,6 +270,9 @@ def write_netcdf(traj: Trajectory, path: str | os.PathLike) -> Path:
     xr = _xarray()
     path = Path(path)
     meta = _meta(traj)
+    interval = _interval_record(traj)
+    rec_dim = "interval" if interval else "step"
+    rec_what = "largest over the steps of each saved interval" if interval else "of each step"
     data_vars: dict[str, Any] = {
         "R": (("time", "row", "col"), np.asarray(traj.R),
               {"long_name": "attitude matrix, maps body vectors to inertial ones", "units": "1"}),
@@ -246,10 +282,10 @@ def write_netcdf(traj: Trajectory, path: str | os.PathLike) -> Path:
                        {"long_name": "unit quaternion, scalar last (x, y, z, w), Hamilton", "units": "1"}),
         "energy": (("time",), traj.energy, {"long_name": "total energy (kinetic + potential)", "units": "J"}),
         "inertia": (("row", "col"), np.asarray(traj.inertia), {"long_name": "inertia matrix J", "units": "kg m2"}),
-        "iterations": (("step",), np.asarray(traj.iterations, dtype=np.int32),
-                       {"long_name": "solver iterations of each step"}),
-        "residual": (("step",), np.asarray(traj.residual, dtype=np.float64),
-                     {"long_name": "final residual of each step's implicit solve"}),
+        "iterations": ((rec_dim,), np.asarray(traj.iterations, dtype=np.int32),
+                       {"long_name": f"solver iterations, {rec_what}"}),
+        "residual": ((rec_dim,), np.asarray(traj.residual, dtype=np.float64),
+                     {"long_name": f"final residual of the implicit solves, {rec_what}"}),
     }
     if traj.potential is not None:
         data_vars["potential"] = (("time",), np.asarray(traj.potential), {"long_name": "potential energy",

@@ -62,6 +62,9 @@ ERROR_FLOOR: float = 1e-17
 #: Default number of points per drawn curve (longer series are thinned, see the module notes).
 MAX_POINTS: int = 10_000
 
+#: Vertices per piece in which Agg draws a long line when a figure is saved (``agg.path.chunksize``).
+AGG_CHUNK: int = 1000
+
 #: Names of the PNG files written by :func:`save_figures` (before the prefix).
 FIGURE_NAMES: tuple[str, ...] = ("attitude", "rates", "conservation", "iterations", "polhode")
 
@@ -821,8 +824,13 @@ def _save(fig: Figure, path: Path) -> Path:
     _mpl()
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
+    import matplotlib
+
     FigureCanvasAgg(fig)  # render with Agg whatever the session's backend
-    fig.savefig(path, dpi=DPI, format="png")
+    # Agg rasterises a line in pieces of this many vertices: a dense curve of MAX_POINTS points
+    # drawn in one piece holds tens of MB of coverage cells at once (measured), in pieces a few
+    with matplotlib.rc_context({"agg.path.chunksize": AGG_CHUNK}):
+        fig.savefig(path, dpi=DPI, format="png")
     return path
 
 
