@@ -462,6 +462,7 @@ def cmd_info(args: argparse.Namespace) -> int:
     traj = _read(args.trajectory)
     meta = dict(traj.meta)
     scenario_text = meta.pop("scenario", None)
+    meta.pop("solver_summary", None)  # printed on the solver lines
     print(f"{args.trajectory}: {traj!r}")
     print(f"  samples     {len(traj.t)}  (R {tuple(traj.R.shape)}, Pi {tuple(traj.Pi.shape)})")
     steps = traj.steps if len(traj.iterations) or "steps" not in meta else meta["steps"]
@@ -476,6 +477,9 @@ def cmd_info(args: argparse.Namespace) -> int:
         print(f"  solver      mean {solver['iterations_mean'] or 0.0:.3f} iterations/step, "
               f"max {solver['iterations_max']}, max residual {solver['residual_max']:.3e} "
               f"(record: {solver['record']})")
+        hist = solver["histogram"]
+        print("  histogram   steps by solver updates: " + ", ".join(
+            f"{i}{'+' if i == len(hist) - 1 else ''}: {int(c)}" for i, c in enumerate(hist) if c))
     if traj.potential is not None:
         print("  potential   yes (energy = kinetic + potential)")
     print("  metadata")
