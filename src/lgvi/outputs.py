@@ -9,12 +9,10 @@ npz        ``Trajectory.save`` /       everything, bit for bit: arrays, the solv
 csv        :func:`write_csv` /         one row per saved state, ``%.17g`` (floats round-trip exactly);
            :func:`read_csv`            the sidecar ``NAME.meta.json`` holds the inertia, ``h``, the
                                        column units, ``meta`` with the scenario text, version and the
-                                       solver's totals. A record per saved interval (the default,
-                                       ``solver_record="interval"``) is kept in the columns
-                                       ``solver_iterations`` and ``solver_residual`` (row ``j``: the
-                                       interval ending at sample ``j``; ``nan`` on the first row); a
-                                       per-step record (``solver_record="full"``) is **not** kept: a
-                                       trajectory read from CSV then has empty ones.
+                                       solver's totals (``meta["solver_summary"]``: steps, iterations,
+                                       histogram). The solver's record ``iterations`` and ``residual``
+                                       is **not** kept: a trajectory read from CSV has empty ones
+                                       (``meta["steps"]`` still says how many steps were taken).
 netcdf     :func:`write_netcdf` /      everything (as npz), via xarray; ``meta`` as the JSON attribute
            :func:`read_netcdf`         ``lgvi_meta``, the scenario text also as attribute ``scenario``.
                                        Needs the optional extra: ``pip install 'lgvi[io]'``.
@@ -60,10 +58,7 @@ CSV_COLUMNS: tuple[str, ...] = (
     ("t",) + tuple(f"R{i}{j}" for i in range(1, 4) for j in range(1, 4)) + ("qx", "qy", "qz", "qw")
     + ("Pi1", "Pi2", "Pi3", "omega1", "omega2", "omega3", "energy")
 )
-UNITS = {"t": "s", "R": "1", "q": "1", "Pi": "kg m^2/s", "omega": "rad/s", "energy": "J", "potential": "J",
-         "solver_iterations": "1", "solver_residual": "kg m^2"}
-#: Optional CSV columns of a record per saved interval (row ``j``: the interval ending at sample ``j``).
-CSV_RECORD_COLUMNS = ("solver_iterations", "solver_residual")
+UNITS = {"t": "s", "R": "1", "q": "1", "Pi": "kg m^2/s", "omega": "rad/s", "energy": "J", "potential": "J"}
 EXTENSIONS = {"npz": ".npz", "csv": ".csv", "netcdf": ".nc"}
 IO_HINT = "pip install 'lgvi[io]'"
 
@@ -92,8 +87,6 @@ def _interval_record(traj: Trajectory) -> bool:
 
 
 def _unit(column: str) -> str:
-    if column in UNITS:
-        return UNITS[column]
     for prefix in ("omega", "Pi", "R", "q"):
         if column.startswith(prefix):
             return UNITS[prefix]
@@ -124,9 +117,8 @@ def write_csv(traj: Trajectory, path: str | os.PathLike) -> Path:
     Notes
     -----
     Columns (see the module docstring): ``t, R11..R33, qx, qy, qz, qw`` (scalar last),
-    ``Pi1..3, omega1..3, energy``, ``potential`` when present, and ``solver_iterations``,
-    ``solver_residual`` for a solver record per saved interval. Values are written with 17
-    significant digits, so ``t``, ``R``, ``Pi`` and the record read back exactly.
+    ``Pi1..3, omega1..3, energy`` and ``potential`` when present. Values are written with 17
+    significant digits, so ``t``, ``R`` and ``Pi`` read back exactly.
     """
     path = Path(path)
     M = len(traj.t)
@@ -135,13 +127,6 @@ def write_csv(traj: Trajectory, path: str | os.PathLike) -> Path:
     if traj.potential is not None:
         cols.append(np.asarray(traj.potential)[:, None])
         names.append("potential")
-    interval = _interval_record(traj)
-    if interval:
-        for name, rec in zip(CSV_RECORD_COLUMNS, (traj.iterations, traj.residual)):
-            col = np.full((M, 1), np.nan)
-            col[1:, 0] = rec
-            cols.append(col)
-            names.append(name)
     data = np.hstack(cols)
     with open(path, "w", newline="") as fh:
         np.savetxt(fh, data, delimiter=",", fmt="%.17g", header=",".join(names), comments="")
@@ -153,8 +138,8 @@ def write_csv(traj: Trajectory, path: str | os.PathLike) -> Path:
         "units": {n: _unit(n) for n in names},
         "quaternion": "qx, qy, qz, qw: scalar last (as scipy), Hamilton product, rotates body to inertial",
         "attitude": "Rij: row i, column j of R, which maps body vectors to inertial ones",
-        "not_kept": ("nothing" if interval else
-                     "per-step solver iterations and residuals (use the npz or netCDF output for those)"),
+        "not_kept": "the solver's record of iterations and residuals (use the npz or netCDF output for those; "
+                    "meta holds its totals)",
         "h": traj.h,
         "inertia": traj.inertia,
         "samples": M,
@@ -178,9 +163,9 @@ def read_csv(path: str | os.PathLike, *, inertia: Any = None) -> Trajectory:
     Returns
     -------
     Trajectory
-        ``t``, ``R``, ``Pi`` (exact) and ``potential``; ``iterations`` and ``residual`` from the
-        columns of a record per saved interval, else empty (CSV does not keep per-step records);
-        ``meta["steps"]`` holds the number of steps of the run.
+        ``t``, ``R``, ``Pi`` (exact) and ``potential``; ``iterations`` and ``residual`` are empty
+        (CSV does not keep them); ``meta["steps"]`` holds the number of steps of the run and
+        ``meta["solver_summary"]`` the solver's totals (:attr:`Trajectory.solver_summary`).
 
     Raises
     ------
@@ -226,14 +211,8 @@ def read_csv(path: str | os.PathLike, *, inertia: Any = None) -> Trajectory:
     R = np.stack([col[f"R{i}{j}"] for i in range(1, 4) for j in range(1, 4)], axis=-1).reshape(-1, 3, 3)
     Pi = np.stack([col["Pi1"], col["Pi2"], col["Pi3"]], axis=-1)
     meta["read_from"] = "csv"
-    its, res = np.zeros(0, dtype=np.int32), np.zeros(0)
-    if all(c in col for c in CSV_RECORD_COLUMNS) and len(col["t"]):
-        it_f = col["solver_iterations"][1:]
-        if not np.all(np.isfinite(it_f) & (it_f == np.round(it_f))):
-            raise ValueError(f"{path}: column solver_iterations must hold whole numbers after the first row")
-        its, res = it_f.astype(np.int32), col["solver_residual"][1:].copy()
     fields = dict(t=col["t"].copy(), R=np.ascontiguousarray(R), Pi=np.ascontiguousarray(Pi), inertia=J,
-                  iterations=its, residual=res)
+                  iterations=np.zeros(0, dtype=np.int32), residual=np.zeros(0))
     potential = col["potential"].copy() if "potential" in col else None
     try:
         _check_arrays(fields, potential)
