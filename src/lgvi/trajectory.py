@@ -128,9 +128,10 @@ class Trajectory:
     @property
     def steps(self) -> int:
         """Number of steps taken (``solver_summary["steps"]``; the record's length for results
-        without a summary)."""
+        without a summary, or whose record has more entries than saved intervals: per step)."""
         summary = (self.meta or {}).get("solver_summary")
-        if isinstance(summary, dict) and isinstance(summary.get("steps"), int):
+        if (isinstance(summary, dict) and isinstance(summary.get("steps"), int)
+                and len(self.iterations) <= max(len(self.t) - 1, 0)):
             return int(summary["steps"])
         return int(len(self.iterations))
 
@@ -142,11 +143,11 @@ class Trajectory:
         ``iterations_mean``, ``iterations_max``; ``residual_max`` (largest final residual);
         ``histogram`` ((:data:`HIST_BINS`,) int64 ndarray: entry ``i`` counts the steps with
         ``i`` updates, the last entry those with more); ``record`` (``"interval"`` or
-        ``"full"``). Results saved before lgvi kept these totals have per-step records, from
-        which they are computed.
+        ``"full"``). Results saved before lgvi kept these totals, and per-step records of
+        ``save_every > 1``, give them from the record itself.
         """
         stored = (self.meta or {}).get("solver_summary")
-        if isinstance(stored, dict):
+        if isinstance(stored, dict) and len(self.iterations) <= max(len(self.t) - 1, 0):
             out = summary_dict(stored["histogram"], stored["iterations_total"], stored["residual_max"],
                                stored.get("iterations_max"))
             record = str((self.meta or {}).get("solver_record", "full"))
