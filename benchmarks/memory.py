@@ -3,7 +3,7 @@
 Usage::
 
     python benchmarks/memory.py            # 1e7 and 1e8 free-body steps, save_every = 1000
-    python benchmarks/memory.py --quick    # 1e5 and 1e6 steps, save_every = 10 (for CI)
+    python benchmarks/memory.py --quick    # 1e5 and 1e6 steps, save_every = 10, no figures (for CI)
     python benchmarks/memory.py --full-record   # also the 1e7 run with --solver-record full
 
 Each command runs in a fresh interpreter under a small wrapper process whose only child it is, so
@@ -76,16 +76,17 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        # load (or compile) the kernels once, so no measured run pays for a compilation
-        warm = tmp / "warm.toml"
-        warm.write_text(SCENARIO.format(steps=save_every, save_every=save_every))
-        peak(lgvi_cmd + ["run", str(warm), "-o", str(tmp / "warm")])
+        if not args.quick:  # load (or compile) the kernels once, so no measured run pays for a compilation
+            warm = tmp / "warm.toml"
+            warm.write_text(SCENARIO.format(steps=save_every, save_every=save_every))
+            peak(lgvi_cmd + ["run", str(warm), "-o", str(tmp / "warm")])
         runs = [(n, "interval") for n in sizes] + ([(sizes[0], "full")] if args.full_record else [])
         for steps, record in runs:
             scen = tmp / f"s{steps}.toml"
             scen.write_text(SCENARIO.format(steps=steps, save_every=save_every))
             out = tmp / f"out{steps}-{record}"
-            mb, wall = peak(lgvi_cmd + ["run", str(scen), "-o", str(out), "--solver-record", record])
+            mb, wall = peak(lgvi_cmd + ["run", str(scen), "-o", str(out), "--solver-record", record]
+                            + (["--no-plots"] if args.quick else []))
             npz = (out / "trajectory.npz").stat().st_size / 2**20
             rows.append((f"lgvi run ({record} record)", steps, steps // save_every + 1, mb, wall, npz))
             if record == "interval" and (steps == sizes[-1] or not args.quick):

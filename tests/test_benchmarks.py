@@ -69,3 +69,13 @@ def test_floor_quick():
     # one solver update per step with the warm start, and the Cayley step needs no more operations than Newton's
     assert rows["cayley"][1] == rows["newton"][1] == "1"
     assert 0 < int(rows["cayley"][3]) <= int(rows["newton"][3])
+
+
+@pytest.mark.slow
+def test_memory_quick():
+    """lgvi run, each size in a fresh process: the script prints its peak-memory table and the verdict line."""
+    proc = _run("memory.py", "--quick")
+    _check(proc, "peak resident memory", "peak MB", "lgvi run (interval record)", "lgvi info", "goal <= 300 MB")
+    assert "Traceback" not in proc.stderr
+    rows = [line.split() for line in proc.stdout.splitlines() if line.startswith("lgvi run (interval")]
+    assert [int(r[3]) for r in rows] == [100_000, 1_000_000] and all(float(r[6]) > 0 for r in rows)
