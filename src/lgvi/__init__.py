@@ -5,8 +5,9 @@ Public names (everything else is private):
 - :class:`RigidBody`, :func:`inertia_to_jd`, :func:`jd_to_inertia`
 - :func:`simulate`, :func:`step`, :class:`Trajectory`, :func:`load`
 - :func:`solve_implicit`, :class:`ImplicitSolution`
-- :class:`ConvergenceError`, :class:`TorqueError`, :class:`SimulationInterrupted`
-- modules :mod:`lgvi.so3`, :mod:`lgvi.torques`, :mod:`lgvi.reference`, :mod:`lgvi.baselines`, :mod:`lgvi.exact`
+- :class:`ConvergenceError`, :class:`TorqueError`, :class:`SimulationInterrupted`, :class:`AccuracyWarning`
+- modules :mod:`lgvi.so3`, :mod:`lgvi.torques`, :mod:`lgvi.reference`, :mod:`lgvi.baselines`, :mod:`lgvi.exact`,
+  :mod:`lgvi.accuracy` (the error estimate of ``simulate(..., error_estimate=True)``)
 
 Importing lgvi compiles nothing: kernels are compiled (or loaded from Numba's cache) on first use.
 Numba itself is imported here (about 0.3 s) so that the first simulation does not pay for it.
@@ -22,6 +23,7 @@ from .body import jd_to_inertia as jd_to_inertia
 from .ensemble import EnsembleTrajectory as EnsembleTrajectory
 from .ensemble import load_ensemble as load_ensemble
 from .ensemble import simulate_ensemble as simulate_ensemble
+from .errors import AccuracyWarning as AccuracyWarning
 from .errors import ConvergenceError as ConvergenceError
 from .errors import SimulationInterrupted as SimulationInterrupted
 from .errors import TorqueError as TorqueError
@@ -36,6 +38,7 @@ from .trajectory import Trajectory as Trajectory
 from .trajectory import load as load
 
 __all__ = [
+    "AccuracyWarning",
     "ConvergenceError",
     "EnsembleTrajectory",
     "ImplicitSolution",

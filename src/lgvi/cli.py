@@ -31,6 +31,7 @@ import platform
 import shutil
 import sys
 import time
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -218,6 +219,7 @@ def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], 
         "files": [p.name for p in files],
         "scenario": scenario.text,
     }
+    data["error_estimate"] = traj.meta.get("error_estimate")  # lgvi.accuracy, when the scenario asks for it
     js = outdir / "summary.json"
     js.write_text(json.dumps(data, indent=2) + "\n")
     rate = "n/a" if data["steps_per_s"] is None else f"{data['steps_per_s']:.4g}"
@@ -245,9 +247,24 @@ def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], 
         *("  " + line for line in scenario.text.rstrip("\n").splitlines()),
         "",
     ]
+    at = next((i for i, line in enumerate(lines) if line.startswith("files:")), len(lines))
+    lines[at:at] = _accuracy_lines(traj)
     txt = outdir / "summary.txt"
     txt.write_text("\n".join(lines))
     return txt, js
+
+
+def _accuracy_lines(traj) -> list[str]:
+    """The summary's lines on the estimated error of the run (:mod:`lgvi.accuracy`)."""
+    est = traj.error_estimate
+    if est is None:
+        return ["accuracy:      not estimated (error_estimate = true under [integrator] estimates the final "
+                "attitude error from a second run at h/2)"]
+    lines = [f"accuracy:      {est.describe()}; the run at h/2 took {est.wall_time_s:.3g} s more"]
+    if est.exceeds:
+        lines.append(f"WARNING:       the estimated final attitude error exceeds error_warn = {est.warn:g} rad: "
+                     f"{est.advice(toml=True)}")
+    return lines
 
 
 def _default_outdir(scenario) -> Path:
@@ -275,7 +292,7 @@ def _warm(scenario, baselines: tuple[str, ...] = ()) -> float:
 
     t0 = time.perf_counter()
     if scenario.steps:
-        short = replace(scenario, steps=scenario.save_every)
+        short = replace(scenario, steps=scenario.save_every, error_estimate=False)
         try:
             short.run()
             if "rk4" in baselines:
@@ -286,7 +303,7 @@ def _warm(scenario, baselines: tuple[str, ...] = ()) -> float:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from .errors import ConvergenceError, SimulationInterrupted, TorqueError
+    from .errors import AccuracyWarning, ConvergenceError, SimulationInterrupted, TorqueError
 
     scenario = _load(args.scenario)
     formats = _parse_formats(args.format, scenario.formats)
@@ -302,13 +319,17 @@ def cmd_run(args: argparse.Namespace) -> int:
     loud = scenario.steps >= ANNOUNCE_STEPS
     if loud:
         print(f"lgvi run: {scenario.name}: {scenario.steps} steps of h = {scenario.h:g} s "
-              f"({scenario.method}) ...", file=sys.stderr, flush=True)
+              f"({scenario.method})" + (f", then {2 * scenario.steps} steps of h/2 for the error estimate"
+                                        if scenario.error_estimate else "") + " ...", file=sys.stderr, flush=True)
     t0 = time.perf_counter()
     stream = outdir / "stream"
     if args.resume and not (stream / "manifest.json").exists():
         raise UsageError(f"--resume: no interrupted run to resume in {stream}")
     try:
-        traj = scenario.run_stream(stream, resume=args.resume, progress=True, solver_record=args.solver_record)
+        with warnings.catch_warnings():  # reported as one line below and in summary.txt
+            warnings.simplefilter("ignore", AccuracyWarning)
+            traj = scenario.run_stream(stream, resume=args.resume, progress=True,
+                                       solver_record=args.solver_record)
     except SimulationInterrupted as exc:
         wall = time.perf_counter() - t0
         part = exc.trajectory
@@ -330,6 +351,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             msg += f" (the part computed is written to {outdir})"
         raise RunFailure(msg) from None
     wall = time.perf_counter() - t0
+    if traj.error_estimate is not None:  # the run's own time; the estimate's is reported with it
+        wall -= traj.error_estimate.wall_time_s
     if loud:
         rate = traj.steps / wall if wall > 0 else float("inf")
         print(f"lgvi run: {scenario.name}: done in {wall:.3g} s ({rate:.3g} steps/s)", file=sys.stderr, flush=True)
@@ -339,6 +362,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     print(f"{scenario.name}: {traj.steps} steps in {wall:.3g} s; wrote {len(files)} files to {outdir}")
     for p in files:
         print(f"  {p.name}")
+    est = traj.error_estimate
+    if est is not None:
+        print(f"  {est.describe()}")
+        if est.exceeds:
+            _err(f"warning: the estimated final attitude error {est.attitude:.3g} rad exceeds error_warn = "
+                 f"{est.warn:g} rad; {est.advice(toml=True)} (see summary.txt)")
     return 0
 
 
@@ -369,6 +398,8 @@ def _baseline(name: str, scenario, rtol: float):
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
     from .outputs import conservation_drifts
 
     scenario = _load(args.scenario)
@@ -390,8 +421,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     for key, base in runs:
         t0 = time.perf_counter()
         try:
-            if base is None:
-                traj = scenario.run()
+            if base is None:  # without the error estimate's second run, so that wall times compare
+                traj = replace(scenario, error_estimate=False).run()
                 label, count = f"lgvi {scenario.method} h={scenario.h:g}", scenario.steps
             else:
                 traj, label, count = _baseline(base, scenario, args.rtol)

@@ -54,4 +54,9 @@ class TorqueError(RuntimeError):
         self.trajectory = trajectory
 
 
-__all__ = ["ConvergenceError", "SimulationInterrupted", "TorqueError"]
+class AccuracyWarning(UserWarning):
+    """The estimated error of a run (``simulate(..., error_estimate=True)``) exceeds its threshold
+    ``error_warn``; the message gives the estimate and what to change."""
+
+
+__all__ = ["AccuracyWarning", "ConvergenceError", "SimulationInterrupted", "TorqueError"]

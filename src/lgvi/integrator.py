@@ -233,6 +233,7 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
              torque: Any = None, method: str = "newton", tol: float = 1e-14, max_iter: int = 50,
              alpha: float = 1.0, save_every: int = 1, t0: float = 0.0, forcing: str = "paper",
              order: int = 2, composition: str | None = None, progress: Any = False,
+             error_estimate: Any = False, error_warn: float | None = 0.01,
              solver_record: str = "interval") -> Trajectory:
     r"""Simulate the attitude of a rigid body with the Lie group variational integrator.
 
@@ -293,6 +294,13 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     progress : bool or callable
         ``True`` draws a progress bar on stderr between compiled chunks; a callable is called as
         ``progress(steps_done, steps)``; ``False`` (default) is silent.
+    error_estimate : {False, True, "richardson"}
+        ``True`` (or ``"richardson"``) runs the problem again at ``h/2`` (twice the steps, about
+        3x the wall time in all) and stores the Richardson estimate of the global error in
+        :attr:`Trajectory.error_estimate` (see :mod:`lgvi.accuracy`). Not for torque arrays.
+    error_warn : float or None
+        With ``error_estimate``: emit :class:`lgvi.AccuracyWarning` when the estimated final
+        attitude error exceeds this many radians (default 0.01); ``None`` never warns.
     solver_record : {"interval", "full"}
         Resolution of the solver's record in ``iterations`` and ``residual``: ``"interval"``
         (default) the largest of each over the steps between two saved states, shape
@@ -305,7 +313,7 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     Trajectory
         ``M = steps // save_every + 1`` samples; ``iterations`` (summed over substeps) and
         ``residual`` (largest over substeps) per saved interval or per step (``solver_record``);
-        ``potential`` for torque models with a conservative part.
+        ``potential`` for torque models with a conservative part; ``error_estimate`` when asked for.
 
     Raises
     ------
@@ -357,6 +365,9 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     >>> bool(np.abs(traj.energy - traj.energy[0]).max() < 1e-2 * traj.energy[0])
     True
     """
+    from .accuracy import check_options
+
+    estimate, warn = check_options(error_estimate, error_warn, torque)
     run = _Run(body, R0, Pi0, omega0=omega0, h=h, steps=steps, torque=torque, method=method, tol=tol,
                max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0, forcing=forcing, order=order,
                composition=composition, solver_record=solver_record)
@@ -389,7 +400,15 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
             if stop.requested:
                 raise SimulationInterrupted(f"simulation interrupted after {run.k} of {steps} steps; "
                                             "the computed part is in .trajectory", trajectory=partial(run.k))
-    return run.trajectory(run.times(0, M), R_out, Pi_out, it_out, res_out)
+    traj = run.trajectory(run.times(0, M), R_out, Pi_out, it_out, res_out)
+    if estimate:  # a shadow run of this very function at h/2 (lgvi.accuracy)
+        from .accuracy import with_estimate
+
+        traj = with_estimate(traj, dict(body=run.body, R0=R0, Pi0=Pi0, omega0=omega0, h=run.h, steps=steps,
+                                        torque=torque, method=method, tol=tol, max_iter=max_iter, alpha=alpha,
+                                        save_every=save_every, t0=t0, forcing=forcing, order=order,
+                                        composition=composition, progress=progress), warn=warn, stacklevel=2)
+    return traj
 
 
 def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None,

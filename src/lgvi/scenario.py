@@ -50,6 +50,9 @@ A complete example (every key shown; comments say which keys are alternatives)::
     forcing = "paper"                    # "paper" or "symmetric" (default: the library's)
     order = 2                            # 2, 4 or 6 (default: the library's)
     save_every = 10                      # keep every 10th state; must divide the steps
+    error_estimate = true                # also run at h/2 and report the estimated final
+                                         # attitude error (lgvi.accuracy; default false)
+    error_warn = 0.01                    # warn above this estimate [rad] (default 0.01)
 
     [[torque]]                           # any number of models; their moments add up
     type = "uniform_gravity"             # heavy top / 3D pendulum about a fixed pivot
@@ -96,6 +99,10 @@ Rules
 - ``duration / h`` must be a non-negative integer to a relative ``1e-9``.
 - ``forcing`` and ``order`` are passed to :func:`lgvi.simulate` only when given, so the
   library's defaults (and its rules, e.g. potentials always use the symmetric scheme) apply.
+- ``error_estimate = true`` (or ``"richardson"``) runs the scenario a second time at ``h/2``
+  (about 3x the time in all) and stores the Richardson estimate of the global error with the
+  result (``Trajectory.error_estimate``, ``summary.txt``); ``error_warn`` (a positive number of
+  radians) is the estimate above which a warning is given, and needs ``error_estimate = true``.
 - Torque models are built from :mod:`lgvi.torques` (``UniformGravity``, ``GravityGradient``,
   ``Constant``, ``LinearDamping``, ``AttitudePD``) and summed with ``+``.
 """
@@ -123,6 +130,7 @@ FORMATS = ("npz", "csv", "netcdf")
 METHODS = ("newton", "paper", "cayley")
 FORCINGS = ("paper", "symmetric")
 ORDERS = (2, 4, 6)
+ERROR_ESTIMATES = (True, False, "richardson")
 QUAT_NORM_TOL = 1e-3
 DURATION_RTOL = 1e-9
 
@@ -454,6 +462,10 @@ class Scenario:
     method : str
     tol, alpha : float
     max_iter, save_every : int
+    error_estimate : bool
+        Run a shadow at ``h/2`` and attach the error estimate (:mod:`lgvi.accuracy`).
+    error_warn : float
+        Threshold of the estimated final attitude error for a warning [rad].
     formats : tuple of str
         Output formats, ``"npz"`` first when present.
     plots : bool
@@ -479,6 +491,8 @@ class Scenario:
     max_iter: int = 50
     alpha: float = 1.0
     save_every: int = 1
+    error_estimate: bool = False
+    error_warn: float = 0.01
     formats: tuple[str, ...] = ("npz",)
     plots: bool = True
     source: str = "<dict>"
@@ -542,7 +556,8 @@ class Scenario:
                           f"got J omega = {Pi0.tolist()}")
 
         integ = c.table(d["integrator"], "integrator", ("h", "steps", "duration", "method", "tol", "max_iter",
-                                                        "alpha", "forcing", "order", "save_every"))
+                                                        "alpha", "forcing", "order", "save_every",
+                                                        "error_estimate", "error_warn"))
         if "h" not in integ:
             raise c.expected("integrator.h", "a non-zero number (the step size in seconds)")
         h = c.number(integ["h"], "integrator.h", nonzero=True)
@@ -580,6 +595,17 @@ class Scenario:
             raise c.error("integrator.save_every", f"expected a divisor of the number of steps ({steps}) so the "
                           f"final state is saved; got {save_every}")
 
+        error_estimate = integ.get("error_estimate", False)
+        if not isinstance(error_estimate, (bool, str)) or error_estimate not in ERROR_ESTIMATES:
+            raise c.expected("integrator.error_estimate", 'true, false or "richardson"', error_estimate)
+        error_estimate = bool(error_estimate)
+        error_warn = 0.01
+        if "error_warn" in integ:
+            error_warn = c.number(integ["error_warn"], "integrator.error_warn", positive=True)
+            if not error_estimate:
+                raise c.error("integrator.error_warn", "only used with the error estimate; add "
+                              "error_estimate = true to [integrator], or remove error_warn")
+
         torque, spec = _torque(c, d["torque"]) if "torque" in d else (None, ())
 
         out = c.table(d.get("output", {}), "output", ("formats", "plots"))
@@ -595,7 +621,8 @@ class Scenario:
 
         return cls(name=name, description=description, body=body, R0=R0, Pi0=Pi0, h=h, steps=steps, torque=torque,
                    torque_spec=spec, forcing=forcing, order=order, method=method, tol=tol, max_iter=max_iter,
-                   alpha=alpha, save_every=save_every, formats=formats, plots=plots, source=source,
+                   alpha=alpha, save_every=save_every, error_estimate=error_estimate, error_warn=error_warn,
+                   formats=formats, plots=plots, source=source,
                    text=to_toml(d) if text is None else text)
 
     def simulate_kwargs(self) -> dict[str, Any]:
@@ -629,8 +656,9 @@ class Scenario:
         """
         from .integrator import simulate
 
+        est = dict(error_estimate=True, error_warn=self.error_warn) if self.error_estimate else {}
         try:
-            traj = simulate(self.body, self.R0, self.Pi0, progress=progress, **self.simulate_kwargs())
+            traj = simulate(self.body, self.R0, self.Pi0, progress=progress, **self.simulate_kwargs(), **est)
         except (KeyboardInterrupt, RuntimeError) as exc:
             part = getattr(exc, "trajectory", None)
             if part is not None:
@@ -647,7 +675,8 @@ class Scenario:
         Returns
         -------
         Trajectory
-            As :meth:`run`.
+            As :meth:`run`; with ``error_estimate`` the shadow run at ``h/2`` is made in memory
+            after the stream is complete.
         """
         from .integrator import simulate_stream
         from .streaming import read_stream
@@ -656,12 +685,18 @@ class Scenario:
             simulate_stream(folder, self.body, self.R0, self.Pi0, progress=progress, resume=resume,
                             chunk_steps=chunk_steps, meta={"scenario_name": self.name},
                             solver_record=solver_record, **self.simulate_kwargs())
+            traj = read_stream(folder)
+            if self.error_estimate:
+                from .accuracy import with_estimate
+
+                traj = with_estimate(traj, dict(body=self.body, R0=self.R0, Pi0=self.Pi0, progress=progress,
+                                                **self.simulate_kwargs()), warn=self.error_warn, stacklevel=2)
         except (KeyboardInterrupt, RuntimeError) as exc:
             part = getattr(exc, "trajectory", None)
             if part is not None:
                 exc.trajectory = self.attach(part)
             raise
-        return self.attach(read_stream(folder))
+        return self.attach(traj)
 
     def attach(self, traj):
         """A copy of ``traj`` whose ``meta`` also holds this scenario's text, name and source."""

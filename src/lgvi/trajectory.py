@@ -98,6 +98,11 @@ class Trajectory:
     meta : dict
         Method, tolerance, package version and any run metadata (JSON-serialisable).
 
+    error_estimate : lgvi.accuracy.ErrorEstimate or None
+        The estimated global error of the run (``simulate(..., error_estimate=True)``), read
+        from ``meta["error_estimate"]`` so that it is saved and loaded with the trajectory;
+        ``None`` when the run was made without it.
+
     Derived (computed on first access): ``steps``, ``solver_summary`` (run totals and
     histogram of the solver's iterations), ``omega`` (M,3), ``energy`` (M,),
     ``kinetic_energy`` (M,), ``spatial_momentum`` (M,3), ``quaternion`` (M,4) scalar-last and
@@ -124,6 +129,14 @@ class Trajectory:
         span = f"t=[{self.t[0]:.6g}, {self.t[-1]:.6g}]" if len(self.t) else "empty"
         return (f"Trajectory(samples={len(self.t)}, steps={self.steps}, h={self.h:g}, {span}, "
                 f"method={self.meta.get('method', '?')!r})")
+
+    @property
+    def error_estimate(self):
+        """The run's :class:`lgvi.accuracy.ErrorEstimate` (from ``meta["error_estimate"]``) or ``None``."""
+        from .accuracy import ErrorEstimate
+
+        d = self.meta.get("error_estimate")
+        return None if d is None else ErrorEstimate.from_dict(d)
 
     @property
     def steps(self) -> int:
