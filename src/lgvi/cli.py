@@ -27,6 +27,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import os
 import platform
 import shutil
 import sys
@@ -268,7 +269,25 @@ def _accuracy_lines(traj) -> list[str]:
 
 
 def _default_outdir(scenario) -> Path:
-    return Path.cwd() / f"{scenario.name}_output"
+    """``./SLUG_output``: the scenario name made a safe file name, so no name read from a file
+    (``../x``, ``/abs``, control characters) puts the results outside the current folder."""
+    from ._untrusted import safe_name
+
+    return Path.cwd() / f"{safe_name(scenario.name)}_output"
+
+
+def _check_outdir(outdir: Path) -> None:
+    """Refuse an output folder holding a symbolic link that points outside it (a folder from
+    elsewhere must not redirect where the results are written)."""
+    from ._untrusted import inside
+
+    for folder in (outdir, outdir / "stream"):
+        if not folder.is_dir():
+            continue
+        for p in [folder, *folder.iterdir()]:
+            if p.is_symlink() and p != outdir and not inside(outdir, p):
+                raise UsageError(f"{p} is a symbolic link to {os.path.realpath(p)}, outside the output folder "
+                                 f"{outdir}; remove it or choose another folder with -o")
 
 
 def _write_results(traj, scenario, outdir: Path, formats: tuple[str, ...], plots: bool, wall: float, *,
@@ -309,6 +328,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     formats = _parse_formats(args.format, scenario.formats)
     plots = scenario.plots and not args.no_plots
     outdir = Path(args.output) if args.output else _default_outdir(scenario)
+    _check_outdir(outdir)
     if "netcdf" in formats:  # fail before a long run, not after it
         try:
             import xarray  # noqa: F401
@@ -593,7 +613,7 @@ def build_parser() -> argparse.ArgumentParser:
                          "(python -c 'import lgvi.scenario; help(lgvi.scenario)').")
     run.add_argument("scenario", metavar="SCENARIO.toml", help="scenario file")
     run.add_argument("-o", "--output", default=None, metavar="DIR",
-                     help="output folder (default ./NAME_output, NAME the scenario name)")
+                     help="output folder (default ./NAME_output, NAME the scenario name as a safe file name)")
     run.add_argument("--no-plots", action="store_true", help="do not write figures")
     run.add_argument("--resume", action="store_true",
                      help="continue an interrupted or killed run from its last complete chunk in DIR/stream "

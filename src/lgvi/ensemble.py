@@ -23,6 +23,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ._kernels.codes import METHOD_CAYLEY, OK
+from ._untrusted import check_npz, inside
 from ._validation import ROTATION_TOL, as_float_array, as_int, choice, is_scipy_rotation
 from ._version import __version__
 from .body import RigidBody
@@ -155,6 +156,7 @@ def _load_one(path: str) -> EnsembleTrajectory:
             head = fh.read(2)
         if head != b"PK":
             raise ValueError("not an .npz (zip) archive")
+        check_npz(path)
         with np.load(path, allow_pickle=False) as data:
             if "__lgvi__" not in data.files:
                 raise ValueError("no '__lgvi__' header")
@@ -217,6 +219,12 @@ def load_ensemble(path: str | os.PathLike | Sequence[str | os.PathLike]) -> Ense
     if not folder.is_dir():
         return _load_one(str(folder))
     files = sorted(folder.glob("ensemble-*.npz"))
+    for p in files:
+        if not inside(folder, p):
+            raise ValueError(f"{p} is a symbolic link to {os.path.realpath(p)}, outside the folder {folder}; "
+                             "it is not followed")
+        if not p.is_file():  # a FIFO or a device would block or never end
+            raise ValueError(f"{p} is not a regular file")
     if not files:
         raise ValueError(f"{folder} holds no ensemble blocks (ensemble-XXXXX.npz)")
     parts = [_load_one(str(p)) for p in files]

@@ -16,7 +16,8 @@ Schema
 ------
 A complete example (every key shown; comments say which keys are alternatives)::
 
-    name = "dzhanibekov"                 # optional; default: the file name without .toml
+    name = "dzhanibekov"                 # optional; default: the file name without .toml; at most 100
+                                         # characters, no '/', '\\', ':', control characters, leading '.'
     description = "T-handle flip"        # optional
 
     [body]                               # exactly one of: inertia, matrix, shape
@@ -122,6 +123,7 @@ from typing import Any
 
 import numpy as np
 
+from ._untrusted import name_problem
 from ._version import __version__
 
 __all__ = ["Scenario", "ScenarioError", "load_scenario", "to_toml"]
@@ -538,6 +540,8 @@ class Scenario:
                 raise c.error(req, f"missing; expected a [{req}] table")
         default_name = Path(source).stem if not source.startswith("<") else "scenario"
         name = c.string(d.get("name", default_name), "name")
+        if "name" in d and (problem := name_problem(name)):
+            raise c.error("name", problem)
         description = c.string(d.get("description", ""), "description")
 
         body = _body(c, d["body"])

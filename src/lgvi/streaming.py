@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from ._untrusted import check_npz, inside
 from ._version import __version__
 from .trajectory import Trajectory, _check_arrays, merge_summaries, summary_dict
 
@@ -34,7 +35,12 @@ MANIFEST = "manifest.json"
 
 def _fsync_write(path: Path, write) -> None:
     tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "wb") as fh:
+    try:  # a leftover (or planted) temporary file, or a symbolic link there, is replaced, never followed
+        os.unlink(tmp)
+    except FileNotFoundError:
+        pass
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
+    with open(fd, "wb") as fh:
         write(fh)
         fh.flush()
         os.fsync(fh.fileno())
@@ -63,6 +69,7 @@ class StreamWriter:
                 raise FileExistsError(f"{self.folder} already holds an lgvi stream; pass resume=True to continue it "
                                       "or choose another folder")
             self.manifest = read_manifest(self.folder)
+            _check_resume_state(self.manifest, manifest)
         else:
             self.manifest = {"format": STREAM_FORMAT, "lgvi_version": __version__, "meta": meta, "chunks": [],
                              "state": None, "complete": False}
@@ -108,9 +115,36 @@ class StreamWriter:
         self._write_manifest()
 
 
+def _check_resume_state(manifest: dict[str, Any], path: Path) -> None:
+    """The resume state of a manifest read from disk: ``k`` steps done must be the steps of the
+    listed chunks and within the run (a hostile ``k`` would index the run's arrays out of range)."""
+    chunks, state, meta = manifest.get("chunks"), manifest.get("state"), manifest.get("meta")
+    if not isinstance(chunks, list) or not isinstance(meta, dict):
+        raise ValueError(f"{path} is damaged: 'chunks' must be a list and 'meta' an object")
+    counts = [c.get("steps") if isinstance(c, dict) else None for c in chunks]
+    if not all(isinstance(n, int) and not isinstance(n, bool) and n >= 0 for n in counts):
+        raise ValueError(f"{path} is damaged: every chunk must give its 'steps' as an integer >= 0")
+    if state is None and not chunks:
+        return
+    k = state.get("k") if isinstance(state, dict) else None
+    total = meta.get("steps")
+    if not isinstance(k, int) or isinstance(k, bool) or k != sum(counts) or not isinstance(total, int) \
+            or not 0 <= k <= total:
+        raise ValueError(f"{path} is damaged: the resume state must have k = the steps of the listed chunks "
+                         f"({sum(counts)}), within the run's {total!r} steps; got state {str(state)[:80]}")
+    M_cb = state.get("M_cb")
+    if M_cb is not None and np.shape(M_cb) != (3,):
+        raise ValueError(f"{path} is damaged: state M_cb must hold 3 numbers, got {str(M_cb)[:80]}")
+
+
 def read_manifest(folder: str | os.PathLike) -> dict[str, Any]:
     """The manifest of a stream folder; ``ValueError`` if missing or not an lgvi stream."""
     path = Path(folder) / MANIFEST
+    if path.is_symlink() and not inside(folder, path):
+        raise ValueError(f"{path} is a symbolic link to {os.path.realpath(path)}, outside the stream folder; "
+                         "it is not followed")
+    if path.exists() and not path.is_file():
+        raise ValueError(f"{path} is not a regular file")
     try:
         manifest = json.loads(path.read_text())
     except FileNotFoundError as exc:
@@ -157,7 +191,13 @@ def read_stream(folder: str | os.PathLike) -> Trajectory:
         if not isinstance(name, str) or not name or Path(name).name != name or name.startswith("."):
             raise ValueError(f"{mpath} is damaged: chunk {i} must name a file in the stream folder, got {entry!r}")
         path = Path(folder) / name
+        if not inside(folder, path):
+            raise ValueError(f"{mpath}: chunk {i} ({name}) is a symbolic link to {os.path.realpath(path)}, outside "
+                             "the stream folder; it is not followed")
+        if path.exists() and not path.is_file():  # a FIFO or a device would block or never end
+            raise ValueError(f"{mpath}: chunk {i} ({name}) is not a regular file")
         try:
+            check_npz(path)
             with np.load(path, allow_pickle=False) as data:
                 missing = [k for k in _CHUNK_FIELDS if k not in data.files]
                 if missing:

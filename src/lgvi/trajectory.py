@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from ._untrusted import check_npz
 from ._version import __version__
 
 FORMAT = "lgvi.trajectory/1"
@@ -270,6 +271,7 @@ def _read(path: str) -> tuple[dict[str, Any], dict[str, np.ndarray], np.ndarray 
     if head[:2] != b"PK":  # an .npz is a zip archive; anything else (a PNG, an .npy, text) is refused here
         what = "an empty file" if not head else f"a file starting with {head!r}"
         raise ValueError(f"{path} is not an lgvi trajectory: an .npz (zip) archive was expected, got {what}")
+    check_npz(path)  # no object arrays, no declared size beyond the file's bytes: refused before allocating
     with np.load(path, allow_pickle=False) as data:
         if "__lgvi__" not in data.files:
             raise ValueError(f"{path} is not an lgvi trajectory (no '__lgvi__' header)")
