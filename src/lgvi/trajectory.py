@@ -161,11 +161,15 @@ class Trajectory:
         ``save_every > 1``, give them from the record itself.
         """
         stored = (self.meta or {}).get("solver_summary")
+        out = None
         if isinstance(stored, dict) and len(self.iterations) <= max(len(self.t) - 1, 0):
-            out = summary_dict(stored["histogram"], stored["iterations_total"], stored["residual_max"],
-                               stored.get("iterations_max"))
-            record = str((self.meta or {}).get("solver_record", "full"))
-        else:
+            try:
+                out = summary_dict(stored["histogram"], stored["iterations_total"], stored["residual_max"],
+                                   stored.get("iterations_max"))
+                record = str((self.meta or {}).get("solver_record", "full"))
+            except (KeyError, TypeError, ValueError, OverflowError):  # a damaged header: use the record
+                out = None
+        if out is None:
             its = np.asarray(self.iterations, dtype=np.int64)
             counts = np.bincount(np.clip(its, 0, HIST_BINS - 1), minlength=HIST_BINS)
             res = np.asarray(self.residual, dtype=np.float64)
