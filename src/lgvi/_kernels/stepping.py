@@ -189,6 +189,7 @@ def free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_eve
     imax = 0                 # largest iterations and residual of the saved interval in progress
     rimax = 0.0
     nbins = counts.shape[0]
+    ones = 0                 # steps of one update (the usual count), added to the histogram at the end
     for k in range(k0, k0 + n):
         if has_u:
             u0 = U[k, 0]
@@ -213,11 +214,14 @@ def free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_eve
             break
         if rn > rmax:
             rmax = rn
-        if its > imax:
-            imax = its
-        if rn > rimax:
-            rimax = rn
-        if nbins > 0:
+        if records == 2:
+            if its > imax:
+                imax = its
+            if rn > rimax:
+                rimax = rn
+        if its == 1:
+            ones += 1
+        elif nbins > 0:
             counts[min(its, nbins - 1)] += 1
         c0, c1, c2 = b0, b1, b2
         b0, b1, b2 = a0, a1, a2
@@ -249,6 +253,8 @@ def free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_eve
     G[1, 0], G[1, 1], G[1, 2] = b0, b1, b2
     G[2, 0], G[2, 1], G[2, 2] = c0, c1, c2
     G[3, 0] = ng
+    if nbins > 1:
+        counts[1] += ones
     return status, kend, it_sum, rmax, its, rn
 
 
