@@ -78,4 +78,4 @@ def test_memory_quick():
     _check(proc, "peak resident memory", "peak MB", "lgvi run (interval record)", "lgvi info", "goal <= 300 MB")
     assert "Traceback" not in proc.stderr
     rows = [line.split() for line in proc.stdout.splitlines() if line.startswith("lgvi run (interval")]
-    assert [int(r[3]) for r in rows] == [100_000, 1_000_000] and all(float(r[6]) > 0 for r in rows)
+    assert [int(r[4]) for r in rows] == [100_000, 1_000_000] and all(float(r[6]) > 0 for r in rows)
