@@ -17,7 +17,9 @@ excluded):
   per-step cost); the pure-NumPy reference (:func:`lgvi.reference.simulate`, the paper's
   iteration); Basilisk RK4 and RKF78 with a task step of 0.01 s (one integrator step per task
   step; RKF78 at a loose 1e-8 never subdivides it) when ``bsk`` is installed;
-* 3D pendulum (``lgvi.torques.UniformGravity``, Lee's parameters), ``h = 0.001``: lgvi orders
+* 3D pendulum, inverted start (``lgvi.torques.UniformGravity``, Lee's body and rates but the
+  centre of mass 0.3 m above the pivot, ``com = +0.3 e3``, ``E0 = 7.91 J``; Lee's own start
+  hangs, ``com = -0.3 e3`` here), ``h = 0.001``: lgvi orders
   2, 4, 6, the compiled RK4 baseline and Basilisk RK4 (gravity moment through the
   ``MtbEffector``, see ``basilisk_peer.py``).
 
@@ -49,7 +51,7 @@ OMEGA0 = np.array([0.3, 1.0, 0.2])
 H = 0.01
 J_PEND = np.array([0.13, 0.28, 0.17])
 OMEGA_PEND = 4.14 * np.ones(3)
-COM = np.array([0.0, 0.0, 0.3])
+COM = np.array([0.0, 0.0, 0.3])     # inverted start (lgvi e3 up); Lee's hanging start is -0.3 e3
 H_PEND = 0.001
 
 
@@ -169,7 +171,7 @@ def pendulum(quick: bool, repeat: int) -> Table:
     n_comp = 4_000 if quick else 100_000
     n_bsk = 2_000 if quick else 50_000
     body = lgvi.RigidBody(J_PEND)
-    tab = Table(f"3D pendulum (UniformGravity, m = 1, com = 0.3 e3, g = 9.81), h = {H_PEND:g}, final state saved; "
+    tab = Table(f"3D pendulum, inverted start (UniformGravity, m = 1, com = +0.3 e3, g = 9.81), h = {H_PEND:g}, final state saved; "
                 f"median of {repeat}")
     try:
         from lgvi.torques import UniformGravity

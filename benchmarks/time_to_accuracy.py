@@ -8,9 +8,12 @@ Usage::
 
 Problems
     free      tumbling free body, J = diag(1, 2, 3), omega0 = (0.3, 1, 0.2), R0 = I, T = 1000 s
-    pendulum  Lee's 3D pendulum, J = diag(0.13, 0.28, 0.17) about the pivot, centre of mass
-              0.3 e3 from the pivot (body frame), m = 1, g = 9.81, Omega0 = 4.14 (1, 1, 1),
-              R0 = I, T = 10 s (chaotic: longer horizons measure nothing)
+    pendulum  3D pendulum, inverted start: Lee's body and rates, J = diag(0.13, 0.28, 0.17)
+              about the pivot, m = 1, g = 9.81, Omega0 = 4.14 (1, 1, 1), R0 = I, T = 10 s
+              (chaotic: longer horizons measure nothing), but the centre of mass 0.3 m *above*
+              the pivot (com = +0.3 e3, lgvi's e3 up; E0 = 7.91 J), as when the published
+              figures were measured. Lee, Leok and McClamroch's own start hangs (com = -0.3 e3
+              here, E0 = 2.03 J: examples/pendulum3d.py).
 
 Error: ``|log(R_ref^T R(T))|`` in rad at the final time; a Runge-Kutta attitude (unnormalised
 quaternion, ``|q|^2`` times a rotation) is rescaled to the rotation of ``q / |q|`` first.
@@ -99,7 +102,7 @@ def problems(quick: bool) -> dict[str, Problem]:
         "free": Problem("free", "free body", np.array([1.0, 2.0, 3.0]), np.array([0.3, 1.0, 0.2]),
                         T=20.0 if quick else 1000.0, gravity=None, h_start=0.05,
                         bsk_rkf78_dt=(1.0,) if quick else (0.25, 1.0, 2.5)),
-        "pendulum": Problem("pendulum", "3D pendulum", np.array([0.13, 0.28, 0.17]), 4.14 * np.ones(3),
+        "pendulum": Problem("pendulum", "3D pendulum, inverted start", np.array([0.13, 0.28, 0.17]), 4.14 * np.ones(3),
                             T=2.0 if quick else 10.0, gravity=(1.0, np.array([0.0, 0.0, 0.3]), 9.81),
                             h_start=0.02, bsk_rkf78_dt=(0.04,) if quick else (0.01, 0.04, 0.1)),
     }
@@ -532,7 +535,7 @@ def main(argv: list[str] | None = None) -> int:
                                  f"{o.status} {o.setting} err={o.error:.2e} wall={o.wall:.3g} ({o.runs} settings)\n")
                 sys.stderr.flush()
 
-    header = (f"{'problem':<12} {'target':>7} {'solver':<34} {'h or tol':<30} {'error rad':>9} "
+    header = (f"{'problem':<27} {'target':>7} {'solver':<34} {'h or tol':<30} {'error rad':>9} "
               f"{'wall s':>15} {'ext. peer/this':>14} {'rk4/this':>9}")
     print()
     print(header)
@@ -559,10 +562,10 @@ def main(argv: list[str] | None = None) -> int:
                       and o.estimate < best_ext.wall]
             for o in group:
                 err = f"{o.error:.1e}" if math.isfinite(o.error) else ""
-                print(f"{p.label:<12} {target:>7.0e} {o.name:<34} {o.setting:<30} {err:>9} "
+                print(f"{p.label:<27} {target:>7.0e} {o.name:<34} {o.setting:<30} {err:>9} "
                       f"{_wall_text(o, cap):>15} {ratio(best_ext, o):>14} {ratio(rk4, o):>9}")
                 if o.status != "ok" and o.note:
-                    print(f"{'':<12} {'':>7}   -> {o.note}")
+                    print(f"{'':<27} {'':>7}   -> {o.note}")
             mine = [o for o in group if not o.peer and o.status == "ok"]
             best_mine = min(mine, key=lambda o: o.wall) if mine else None
             head = f"{p.label}, {target:.0e} rad: "

@@ -105,11 +105,8 @@ def main(argv: list[str] | None = None) -> int:
         from lgvi import plot
 
         out = Path(args.out)
+        # the conservation figure shows this problem's invariant, the Jacobi integral (lgvi.invariants)
         files = plot.save_figures(traj, out, prefix="gravity_gradient_")
-        # redraw the conservation figure with the invariant of this problem, the Jacobi integral
-        plot.conservation(traj, extra={r"Jacobi integral $E - n\,e_3 \cdot R\Pi$ (relative)":
-                                       np.abs(C - C[0]) / abs(C[0])},
-                          invariants=()).savefig(out / "gravity_gradient_conservation.png")
         files.append(out / "gravity_gradient_pitch.png")
         pitch_figure(traj).savefig(files[-1], dpi=100)
         print("  figures: " + ", ".join(str(f) for f in files))

@@ -87,10 +87,8 @@ def main(argv: list[str] | None = None) -> int:
         from lgvi import plot
 
         out = Path(args.out)
+        # the conservation figure shows this problem's invariants, energy and e3 . R Pi (lgvi.invariants)
         files = plot.save_figures(traj, out, prefix="heavy_top_")
-        # redraw the conservation figure with the invariant of this problem, e3 . R Pi
-        plot.conservation(traj, extra={r"vertical momentum $|e_3 \cdot (R\Pi - R_0\Pi_0)| / |e_3 \cdot R_0\Pi_0|$":
-                                       np.abs(Lz - Lz[0]) / abs(Lz[0])}).savefig(out / "heavy_top_conservation.png")
         files.append(out / "heavy_top_axis.png")
         axis_figure(traj).savefig(files[-1], dpi=100)
         print("  figures: " + ", ".join(str(f) for f in files))

@@ -7,13 +7,17 @@ classical RK4 at the same step, and SciPy's adaptive RK45, let both drift.
 
 Usage::
 
-    python examples/kepler.py [--steps 20000] [--h 0.05] [--eccentricity 0.5] [--plot out.png]
+    python examples/kepler.py [--steps 20000] [--quick] [--h 0.05] [--eccentricity 0.5] [--out DIR] [--no-plots]
+
+The figure of the errors goes to ``DIR/kepler_errors.png`` (default ``output/kepler``);
+``--plot FILE.png`` names the file instead.
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -24,10 +28,15 @@ from lgvi import discrete
 def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=20_000, help="number of steps (default 20000)")
+    parser.add_argument("--quick", action="store_true", help="short run (2000 steps)")
     parser.add_argument("--h", type=float, default=0.05, help="step size (default 0.05)")
     parser.add_argument("--eccentricity", type=float, default=0.5, help="orbit eccentricity (default 0.5)")
-    parser.add_argument("--plot", metavar="PNG", help="save a figure of the errors (needs matplotlib)")
+    parser.add_argument("--out", default="output/kepler", help="folder for the figure")
+    parser.add_argument("--no-plots", action="store_true", help="skip the figure")
+    parser.add_argument("--plot", metavar="PNG", help="file for the figure (instead of OUT/kepler_errors.png)")
     args = parser.parse_args(argv)
+    if args.quick:
+        args.steps = 2000
 
     mu = 1.0
     q0, p0 = discrete.kepler_initial_state(args.eccentricity, mu)
@@ -69,7 +78,7 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
                        "seconds": seconds}
         print(f"{name:40s} {dL.max():14.2e} {np.abs(dE).max():10.2e} {drift:10.2e} {seconds:9.3f}")
 
-    if args.plot:
+    if not args.no_plots:
         try:
             import matplotlib
             matplotlib.use("Agg")
@@ -89,8 +98,11 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
         axes[2].set(title="angular momentum |L - L0| / |L0|", xlabel="t")
         axes[2].legend(fontsize=8)
         fig.tight_layout()
-        fig.savefig(args.plot, dpi=120)
-        print(f"figure saved to {args.plot}")
+        path = Path(args.plot) if args.plot else Path(args.out) / "kepler_errors.png"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(path, dpi=120)
+        plt.close(fig)
+        print(f"  figures: {path}")
     return table
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import inspect
 import json
+import warnings
 import zipfile
 
 import numpy as np
@@ -334,6 +335,33 @@ def sim(body, **overrides):
     kwargs.update(overrides)
     R0 = kwargs.pop("R0")
     return lgvi.simulate(body, R0, **kwargs)
+
+
+def test_initial_matrix_slightly_off_so3_is_replaced_by_its_nearest_rotation():
+    """1e-9 < ||R^T R - I||_F <= 1e-6 (a rotation with 7 digits): the run starts from
+    ``so3.project(R0)`` with an AttitudeWarning; a rotation to round-off is used bit for bit,
+    silently; beyond 1e-6 the error says what to do."""
+    R = so3.exp([0.3, -0.2, 0.1])
+    rounded = np.round(R, 7)
+    assert 1e-9 < so3.orthogonality_error(rounded) <= 1e-6
+    kw = dict(Pi0=[0.3, 2.0, 0.6], h=0.01, steps=20)
+    with pytest.warns(lgvi.errors.AttitudeWarning, match=r"R0 is [0-9.e-]+ away from a rotation .*accepted up to "
+                      r"1e-06.*using the nearest rotation"):
+        traj = lgvi.simulate([1.0, 2.0, 3.0], rounded, **kw)
+    assert np.array_equal(traj.R, lgvi.simulate([1.0, 2.0, 3.0], so3.project(rounded), **kw).R)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert np.array_equal(lgvi.simulate([1.0, 2.0, 3.0], R, **kw).R[0], R)
+        assert np.array_equal(lgvi.simulate([1.0, 2.0, 3.0], R + 1e-12, **kw).R[0], R + 1e-12)
+    with pytest.raises(ValueError, match=r"R0 must be a rotation matrix \(orthogonal to 1e-06, determinant \+1\); "
+                       r"got orthogonality error \|R\^T R - I\| = 2e-05 > 1e-06\. Use lgvi\.so3\.project\(R0\)"):
+        lgvi.simulate([1.0, 2.0, 3.0], R @ np.diag([1.0, 1.0, 1.0 + 1e-5]), **kw)
+    # ensembles alike, per attitude
+    from lgvi.ensemble import _rotations
+
+    with pytest.warns(lgvi.errors.AttitudeWarning, match=r"R0\[1\] is [0-9.e-]+ away .*\(1 of 2 attitudes\)"):
+        both = _rotations(np.stack([R, rounded]))
+    assert np.array_equal(both[0], R) and np.array_equal(both[1], so3.project(rounded))
 
 
 @pytest.mark.parametrize(

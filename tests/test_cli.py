@@ -363,3 +363,76 @@ def test_warmup(capsys):
     for method in ("newton", "paper", "cayley"):
         assert f"simulate method={method}" in out
     assert "kernels ready in" in out
+
+
+# ------------------------------------------------------------------------------------ invariants
+GRAVITY_GRADIENT = """\
+name = "gg"
+
+[body]
+inertia = [100.0, 120.0, 80.0]
+
+[initial]
+euler = { sequence = "ZYX", angles = [85.0, 0.0, -90.0], unit = "deg" }
+omega = [0.002, -0.001, 0.001]
+
+[integrator]
+h = 10.0
+duration = 2000.0
+
+[[torque]]
+type = "gravity_gradient"
+mu = 3.986004418e14
+radius = 6778.0e3
+"""
+
+
+@pytest.fixture
+def gg_file(tmp_path) -> Path:
+    p = tmp_path / "gg.toml"
+    p.write_text(GRAVITY_GRADIENT)
+    return p
+
+
+def test_summary_shows_the_invariants_of_the_problem(capsys, tmp_path, gg_file):
+    """Under the gravity gradient the summary reports the Jacobi integral (bounded) and labels
+    the energy and the momenta as not invariants; the free body's lists its four as exact."""
+    code, _, err = run(capsys, "run", gg_file, "-o", tmp_path / "o", "--no-plots")
+    assert code == 0, err
+    text = (tmp_path / "o" / "summary.txt").read_text()
+    assert "Jacobi integral" in text and "bounded" in text
+    for name in ("energy (total)", "|Pi| (Casimir)", "spatial momentum R Pi", "vertical e3 . R Pi"):
+        (line,) = [ln for ln in text.splitlines() if ln.strip().startswith(name)]
+        assert "not an invariant" in line, line
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summary["forcing"] == "symmetric"             # potentials always take the symmetric step
+    assert summary["invariants"]["jacobi"] == "bounded"
+    assert summary["invariants"]["energy"] == "not an invariant"
+    d = summary["drifts"]
+    assert set(d) == {"jacobi_abs", "jacobi_rel", "orthogonality_max"} and d["jacobi_rel"] < 1e-4
+
+
+def test_summary_of_a_free_body_lists_its_exact_invariants(capsys, tmp_path, scenario_file):
+    code, _, err = run(capsys, "run", scenario_file, "-o", tmp_path / "o", "--no-plots")
+    assert code == 0, err
+    text = (tmp_path / "o" / "summary.txt").read_text()
+    assert "not an invariant" not in text and "Jacobi" not in text
+    (line,) = [ln for ln in text.splitlines() if ln.strip().startswith("energy (total)")]
+    assert "exact" in line
+
+
+def test_compare_and_info_show_the_invariants_of_the_problem(capsys, tmp_path, gg_file):
+    code, out, err = run(capsys, "compare", gg_file, "--with", "rk4", "-o", tmp_path / "c", "--no-plots")
+    assert code == 0, err
+    header = next(ln for ln in out.splitlines() if ln.startswith("integrator"))
+    assert "dC/C" in header and "dE/E" not in header and "d|Pi|/|Pi|" not in header
+    assert "Jacobi integral" in out and "Not invariants of GravityGradient" in out
+    report = json.loads((tmp_path / "c" / "compare.json").read_text())
+    assert report["invariants"]["jacobi"] == "bounded" and report["invariants"]["energy"] == "not an invariant"
+    for r in report["runs"]:
+        assert set(r["drifts"]) == {"jacobi_abs", "jacobi_rel", "orthogonality_max"}, r["name"]
+    assert lgvi.load(tmp_path / "c" / "rk4.npz").meta["invariants"]["jacobi"]["kind"] == "bounded"
+    code, out, err = run(capsys, "info", tmp_path / "c" / "lgvi.npz")
+    assert code == 0, err
+    assert "forcing          symmetric" in out and "Jacobi integral" in out
+    assert "not invariants here: spatial momentum R Pi, vertical e3 . R Pi, |Pi| (Casimir), energy (total)" in out

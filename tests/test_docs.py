@@ -1,5 +1,7 @@
 """Every ```python block of README.md and docs/*.md runs; relative links in the docs resolve.
 
+Nothing in the repository refers to a file outside it: a clone standing alone passes.
+
 The blocks of one file run in order in one namespace (a page reads as one session), in a fresh
 temporary folder, with matplotlib on the Agg backend and nothing shown.
 """
@@ -8,6 +10,7 @@ from __future__ import annotations
 
 import os
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -54,13 +57,59 @@ def test_code_blocks_run(page, tmp_path):
     assert proc.returncode == 0, f"a code block of {page.name} failed:\n{proc.stderr[-4000:]}"
 
 
-@pytest.mark.parametrize("page", [p for p in PAGES if p.parent.name == "docs"], ids=lambda p: p.name)
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.name)
 def test_relative_links_resolve(page):
     text = page.read_text(encoding="utf-8")
     for target in LINK.findall(text):
         if "://" in target or target.startswith("mailto:"):
             continue
-        assert (page.parent / target).exists(), f"{page.name} links to {target}, which does not exist"
+        path = (page.parent / target).resolve()
+        assert path.is_relative_to(ROOT), f"{page.name} links to {target}, outside the repository"
+        assert path.exists(), f"{page.name} links to {target}, which does not exist"
+
+
+#: a relative path climbing out of its folder (``../x``); each is resolved from the file's folder
+UP_PATH = re.compile(r"(?<![\w.])((?:\.\./)+[\w.\-/]*)")
+#: places outside any clone: a development machine's folders, the paper beside the repository
+OUTSIDE = re.compile(r"(?<![\w.])/(?:work|home|Users)/|\bshared/paper\b")
+#: files whose ``../`` paths are hostile *inputs* by design, used inside temporary folders only
+#: (the untrusted-file tests: a scenario name or manifest entry that tries to climb out)
+HOSTILE_INPUTS = {"tests/test_hostile.py"}
+
+
+def tracked_text_files() -> list[Path]:
+    """The repository's text files: ``git ls-files`` in a clone, else every file but build output."""
+    if (ROOT / ".git").exists() and shutil.which("git"):
+        proc = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=True)
+        files = [ROOT / name for name in proc.stdout.decode().split("\0") if name]
+    else:  # an unpacked source tree
+        skip = {".git", ".venv", "__pycache__", ".pytest_cache", ".hypothesis", "build", "dist", "lgvi-demo"}
+        files = [p for p in ROOT.rglob("*") if p.is_file() and not skip & set(p.relative_to(ROOT).parts)
+                 and not p.name.endswith(".egg-info")]
+    out = []
+    for path in files:
+        data = path.read_bytes() if path.is_file() else b"\0"
+        if b"\0" not in data[:8192]:
+            out.append(path)
+    return out
+
+
+def test_nothing_refers_outside_the_repository():
+    """No tracked file (source, test, doc, example, benchmark, Makefile, CI) names a path outside the
+    repository: a relative path climbing above the root, or a folder of a development machine."""
+    files = tracked_text_files()
+    assert any(p.name == "Makefile" for p in files) and any(p.suffix == ".py" for p in files)
+    found = []
+    for path in files:
+        for n, line in enumerate(path.read_text(encoding="utf-8", errors="replace").splitlines(), 1):
+            where = f"{path.relative_to(ROOT)}:{n}"
+            for target in UP_PATH.findall(line):
+                if str(path.relative_to(ROOT)) in HOSTILE_INPUTS:
+                    break
+                if not (path.parent / target).resolve().is_relative_to(ROOT):
+                    found.append(f"{where}: {target}")
+            found += [f"{where}: {m.group(0)}" for m in OUTSIDE.finditer(line)]
+    assert not found, "paths outside the repository:\n" + "\n".join(found)
 
 
 def test_make_figures_script(tmp_path):

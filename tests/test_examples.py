@@ -52,6 +52,25 @@ def test_pendulum3d(tmp_path):
     dE, dLz, orth = (float(x) for x in lgvi_row.split()[-3:])
     assert dE < 1e-2 and dLz < 1e-12 and orth < 1e-12
     assert (tmp_path / "figs" / "comparison.png").exists()
+    assert number(r"E0 = ([0-9.]+) J \(hanging start\)", out) == 2.027   # Lee: 2.03 J
+
+
+@needs_torques
+def test_pendulum3d_script_starts_hanging_like_lee():
+    """The script's setup is Lee's hanging pendulum: centre of mass below the pivot along gravity at
+    R0 = I, and E0 = 2.03 J (Lee's figure, to the digits given)."""
+    spec = importlib.util.spec_from_file_location("pendulum3d_example", EXAMPLES / "pendulum3d.py")
+    ex = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(ex)
+    import numpy as np
+
+    import lgvi
+
+    body = lgvi.RigidBody(ex.J)
+    com_inertial = np.eye(3) @ ex.GRAVITY.com                     # R0 = I
+    assert com_inertial @ np.array([0.0, 0.0, -1.0]) == 0.3       # below the pivot along gravity (-e3)
+    traj = lgvi.simulate(body, np.eye(3), omega0=ex.OMEGA0, h=ex.H, steps=1, torque=ex.GRAVITY)
+    assert round(float(traj.energy[0]), 2) == 2.03
 
 
 @needs_torques
@@ -71,9 +90,19 @@ def test_gravity_gradient(tmp_path):
 
 
 def test_kepler(tmp_path):
-    out = run_example("kepler.py", "--steps", "2000", cwd=tmp_path)
+    out = run_example("kepler.py", "--steps", "2000", "--no-plots", cwd=tmp_path)
     row = next(line for line in out.splitlines() if line.startswith("Stormer-Verlet"))
     assert float(row.split()[-4]) < 1e-12  # angular momentum kept to round-off
+    assert not (tmp_path / "output").exists()
+
+
+def test_kepler_takes_the_common_options(tmp_path):
+    """``--quick`` and ``--out DIR``, as every example script (the README documents them)."""
+    out = run_example("kepler.py", "--quick", "--out", str(tmp_path / "figs"), cwd=tmp_path)
+    assert "2000 steps" in out
+    png = tmp_path / "figs" / "kepler_errors.png"
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert str(png) in out
 
 
 def test_every_script_is_tested():

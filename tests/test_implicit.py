@@ -258,6 +258,24 @@ def test_unsolvable_hpi_raises(method, diag_body):
     assert err.step is None and err.trajectory is None
 
 
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("alpha", [1.0, 0.5])
+def test_failure_hint_suggests_only_what_changes_something(method, alpha, diag_body):
+    """The ConvergenceError hint never suggests the run's own solver or damping: ``method='newton'``
+    only to a run on another solver, ``alpha < 1`` only to an undamped run; ``simulate`` alike."""
+    with pytest.raises(lgvi.ConvergenceError) as info:
+        lgvi.solve_implicit(diag_body.Jd, np.array([0.0, 0.0, 10.0]), method=method, alpha=alpha)
+    hint = str(info.value).split("Try ", 1)[1]
+    assert "smaller step h" in hint
+    assert ("method='newton'" in hint) == (method != "newton")
+    assert ("alpha < 1" in hint) == (alpha == 1.0)
+    with pytest.raises(lgvi.ConvergenceError) as info:
+        lgvi.simulate(diag_body, np.eye(3), [0.0, 0.0, 1000.0], h=0.01, steps=3, method=method, alpha=alpha)
+    hint = str(info.value).split("Try ", 1)[1]
+    assert ("method='newton'" in hint) == (method != "newton")
+    assert ("alpha < 1" in hint) == (alpha == 1.0)
+
+
 @pytest.mark.parametrize("method", ["newton", "paper", "cayley"])
 def test_unsolvable_hpi_never_returns(method, diag_body):
     """Any hPi with |hPi| > sqrt(2) |Jd|_F has no solution (see above); the solver must raise, never

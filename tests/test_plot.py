@@ -67,7 +67,7 @@ def test_attitude_unwraps(traj):
     fig = plot.attitude(traj, kind="euler")
     for line in fig.axes[0].get_lines():
         y = line.get_ydata()
-        assert np.max(np.abs(np.diff(y))) < np.pi  # no 2 pi jumps left
+        assert np.nanmax(np.abs(np.diff(y))) < np.pi  # no 2 pi jumps left (NaN: breaks at gimbal lock)
 
 
 def test_attitude_rejects_bad_kind(traj):
@@ -215,7 +215,8 @@ def test_forced_run_figures(tmp_path):
                        torque=torques.UniformGravity(1.0, [0.0, 0.0, 0.3]))
     fig = plot.conservation(tr)
     styles = [line.get_linestyle() for line in fig.axes[0].get_lines()]
-    assert styles == ["-", "--", "--", "-"]  # |Pi| and R Pi are not invariants under gravity
+    # energy, |Pi| and R Pi (not invariants under gravity), e3 . R Pi (exact), |R^T R - I|
+    assert styles == ["-", "--", "--", "-", "-"]
     assert len(plot.save_figures(tr, tmp_path)) == len(plot.FIGURE_NAMES)
 
 
@@ -249,3 +250,80 @@ def test_thinning_keeps_extremes():
     assert np.all(np.diff(tt) > 0)
     tt, yy = plot._thin_max(t, np.abs(y), 1000)
     assert yy.max() == 7.0 and tt[-1] == t[-1]
+
+
+# ------------------------------------------------------------------------------------ misleading figures
+def y_spin(save_every: int) -> lgvi.Trajectory:
+    """The demo: a spin about body y (the intermediate axis, slightly off, so it flips now and
+    then), 1000 s at 1 rad/s: ZYX Euler angles pass near gimbal lock twice per turn."""
+    return lgvi.simulate(lgvi.RigidBody([1.0, 2.0, 3.0]), np.eye(3), omega0=[1e-3, 1.0, 1e-3], h=0.01,
+                         steps=100_000, save_every=save_every)
+
+
+def test_euler_angles_are_not_unwrapped_across_gimbal_lock():
+    """Unwrapping across the jumps at gimbal lock made the angle about Z climb in a staircase to
+    about 190 rad over 160 turns. Broken there instead, it stays within one turn; angle 3 still
+    winds between two passages near the lock (a genuine turn about X'', up to 16 rad measured),
+    but never over the whole run."""
+    fig = plot.attitude(y_spin(10), kind="euler")
+    peaks = [np.nanmax(np.abs(np.asarray(line.get_ydata(), dtype=float))) for line in fig.axes[0].get_lines()]
+    assert peaks[0] <= 2 * np.pi and max(peaks) < 6 * np.pi, peaks
+    text = " ".join(t.get_text() for t in fig.axes[0].texts)
+    assert "too sparse" not in text  # 0.1 rad between samples is fine
+
+
+def test_sparse_samples_are_said_on_both_attitude_panels(tmp_path):
+    """200 steps of 0.01 s between samples turn the body by 2 rad (over a quarter turn)."""
+    sparse = y_spin(200)
+    assert "too sparse" in (plot.sampling_note(sparse) or "")
+    fig = plot._attitude_panels(sparse)
+    for ax in fig.axes[:2]:
+        assert any("too sparse" in t.get_text() for t in ax.texts), ax.get_title()
+
+
+def test_polhode_draws_the_branch_the_run_follows(traj):
+    """One dashed analytic curve, the one along the run's path (the other branch of the same
+    energy is the mirror image, far from it); the separatrix is drawn after (above) the path."""
+    fig = plot.polhode(traj)
+    (ax,) = fig.axes
+    dashed = [ln for ln in ax.get_lines() if ln.get_linestyle() == "--"]
+    assert len(dashed) == 1
+    curve = np.column_stack(dashed[0].get_data_3d())
+    Pi = np.asarray(traj.Pi)[::10]
+    gap = np.linalg.norm(Pi[:, None, :] - curve[None, :, :], axis=2).min(axis=1)
+    assert gap.max() < 0.06 * np.linalg.norm(Pi[0])
+    lines = ax.get_lines()
+    path = next(i for i, ln in enumerate(lines) if "path" in ln.get_label())
+    sep = next(i for i, ln in enumerate(lines) if "separatrix" in ln.get_label())
+    assert ax.computed_zorder is False and sep > path
+
+
+def test_forced_run_has_no_free_body_polhodes():
+    torques = pytest.importorskip("lgvi.torques", reason="lgvi.torques not available")
+    tr = lgvi.simulate(lgvi.RigidBody([0.13, 0.28, 0.17]), np.eye(3), omega0=[4.14, 4.14, 4.14], h=0.01, steps=200,
+                       torque=torques.UniformGravity(1.0, [0.0, 0.0, 0.3]))
+    (ax,) = plot.polhode(tr).axes
+    labels = [ln.get_label() for ln in ax.get_lines()]
+    assert not any("polhode" in s or "separatrix" in s for s in labels), labels
+    assert not [ln for ln in ax.get_lines() if ln.get_linestyle() == "--"]
+    assert "not drawn" in ax.get_title()
+
+
+def test_gravity_gradient_figures_show_the_jacobi_integral():
+    torques = pytest.importorskip("lgvi.torques", reason="lgvi.torques not available")
+    from lgvi.baselines import rk4
+
+    gg = torques.GravityGradient(mu=1.0, radius=1.0)
+    kw = dict(omega0=[0.4, 1.3, -0.6], h=0.02, steps=2000, torque=gg, save_every=10)
+    tr = lgvi.simulate(lgvi.RigidBody([2.0, 3.0, 1.5]), np.eye(3), **kw)
+    (ax,) = plot.conservation(tr).axes
+    labels = {ln.get_label(): ln.get_linestyle() for ln in ax.get_lines()}
+    (jacobi,) = [k for k in labels if k.startswith("Jacobi integral")]
+    assert "bounded" in jacobi and labels[jacobi] == "-"
+    (energy,) = [k for k in labels if "energy" in k]
+    assert "not an invariant" in energy and labels[energy] == "--"
+    rk = rk4(lgvi.RigidBody([2.0, 3.0, 1.5]), np.eye(3), **kw)
+    fig = plot.comparison({"lgvi": tr, "RK4": rk})
+    titles = [ax.get_title() for ax in fig.axes if ax.get_visible()]
+    assert len(titles) == 2 and "Jacobi" in titles[0] and "SO(3)" in titles[1]
+    assert "not shown" in fig.get_suptitle() and "energy" in fig.get_suptitle()

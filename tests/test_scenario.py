@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import tomllib
+import warnings
 from dataclasses import replace
 from pathlib import Path
 
@@ -132,6 +133,51 @@ def test_pi_instead_of_omega():
     assert np.array_equal(Scenario.from_dict(d).Pi0, [0.5, 0.25, 1.0])
 
 
+def test_omega_takes_a_unit_like_the_euler_angles():
+    """``omega = { values = [...], unit = "deg/s" }`` (or "rad/s"); a bare array stays rad/s."""
+    d = base_dict()
+    plain = Scenario.from_dict(d)
+    d["initial"]["omega"] = {"values": [0.1, 1.0, 0.2], "unit": "rad/s"}
+    assert np.array_equal(Scenario.from_dict(d).Pi0, plain.Pi0)
+    d["initial"]["omega"] = {"values": np.degrees([0.1, 1.0, 0.2]).tolist(), "unit": "deg/s"}
+    np.testing.assert_allclose(Scenario.from_dict(d).Pi0, plain.Pi0, rtol=1e-15)
+    d["initial"]["omega"] = {"values": [0.0, 90.0, 0.0], "unit": "deg/s"}
+    np.testing.assert_allclose(Scenario.from_dict(d).Pi0, [0.0, 2.0 * np.pi / 4.0 * 2.0, 0.0], rtol=1e-15)
+    # the documented spelling runs from a file, and survives the round trip through to_toml
+    text = edit(BASE, "omega = [0.1, 1.0, 0.2]", 'omega = { values = [0.0, 90.0, 0.0], unit = "deg/s" }')
+    assert np.array_equal(Scenario.from_dict(tomllib.loads(to_toml(tomllib.loads(text)))).Pi0,
+                          Scenario.from_dict(d).Pi0)
+
+
+def test_matrix_slightly_off_so3_is_replaced_by_the_nearest_rotation_with_a_warning(tmp_path):
+    """A rotation written with 7 digits (||R^T R - I||_F ~ 1e-7) is accepted: R0 is its nearest
+    rotation, and a warning names the file and the key. A rotation to round-off stays as written."""
+    R = Rotation.from_euler("ZYX", [30.0, 20.0, -10.0], degrees=True).as_matrix()
+    rounded = np.round(R, 7)
+    assert 1e-9 < lgvi.so3.orthogonality_error(rounded) < 1e-6
+    path = write(tmp_path, edit(BASE, "omega =", f"matrix = {rounded.tolist()}\nomega ="), "seven.toml")
+    with pytest.warns(lgvi.errors.AttitudeWarning, match=rf"{path}: initial\.matrix is [0-9.e-]+ away from a "
+                      r"rotation.*using the nearest rotation"):
+        sc = load_scenario(path)
+    assert np.array_equal(sc.R0, lgvi.so3.project(rounded))
+    assert lgvi.so3.orthogonality_error(sc.R0) < 1e-15 and np.max(np.abs(sc.R0 - R)) < 1e-7
+    d = base_dict()
+    d["initial"]["matrix"] = R.tolist()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert np.array_equal(Scenario.from_dict(d).R0, R)        # as written, bit for bit
+
+
+def test_matrix_errors_say_what_to_write_in_the_file(tmp_path):
+    """A scenario error speaks TOML: what to write in the file, never a Python call."""
+    path = write(tmp_path, edit(BASE, "omega =", "matrix = [[1, 0, 0], [0, 1, 0.001], [0, 0, 1]]\nomega ="))
+    with pytest.raises(ScenarioError, match=r"initial\.matrix: expected a rotation matrix: .*orthogonal to 1e-06.*"
+                       r"Write initial\.matrix with orthonormal rows and determinant \+1 .* or give the attitude "
+                       r"as rotvec, quat_xyzw, quat_wxyz or euler instead\.") as info:
+        load_scenario(path)
+    assert "lgvi." not in str(info.value) and "(" not in str(info.value).split("Write", 1)[1]
+
+
 @pytest.mark.parametrize("h, duration, steps", [(0.01, 1.0, 100), (0.1, 0.3, 3), (-0.01, -0.5, 50),
                                                 (0.001, 20.0, 20000), (0.01, 0.0, 0)])
 def test_duration_gives_steps(h, duration, steps):
@@ -214,12 +260,23 @@ def test_example_loads_and_runs_short(path):
 
 @needs_torques
 def test_pendulum3d_example_is_lees_pendulum():
+    """Lee, Leok and McClamroch's start hangs: their e3 points along gravity and rho = 0.3 e3, so
+    here (e3 up) com = -0.3 e3, the centre of mass is below the pivot and E0 = 2.03 J (the inverted
+    start, com = +0.3 e3, has 7.91 J)."""
     sc = load_scenario(EXAMPLES / "pendulum3d.toml")
     assert np.array_equal(sc.body.J, np.diag([0.13, 0.28, 0.17]))
     np.testing.assert_allclose(sc.body.J_inv @ sc.Pi0, [4.14, 4.14, 4.14], rtol=1e-15)
     assert sc.h == 0.01 and np.array_equal(sc.R0, np.eye(3))
     term = sc.torque.terms[0]
-    assert term.mass == 1.0 and np.array_equal(term.com, [0.0, 0.0, 0.3])
+    assert term.mass == 1.0 and term.g == 9.81 and np.array_equal(term.com, [0.0, 0.0, -0.3])
+    gravity = np.array([0.0, 0.0, -1.0])                          # lgvi: gravity acts along -e3
+    assert (sc.R0 @ term.com) @ gravity == pytest.approx(0.3)     # 0.3 m below the pivot, along gravity
+    E0 = 0.5 * sc.Pi0 @ sc.body.J_inv @ sc.Pi0 + float(sc.torque.potential(0.0, sc.R0, sc.body))
+    assert round(E0, 2) == 2.03                                   # Lee's figure, to the digits given
+    # Lee's moment m g hat(rho) R^T e3_Lee (e3_Lee = down = -e3 here, rho = 0.3 e3) is ours, number for number
+    R = lgvi.so3.exp([0.4, -0.7, 1.1])
+    lee = 9.81 * lgvi.so3.hat([0.0, 0.0, 0.3]) @ R.T @ np.array([0.0, 0.0, 1.0])
+    np.testing.assert_allclose(sc.torque.moment(0.0, R, sc.Pi0, sc.body), lee, rtol=1e-15, atol=1e-15)
 
 
 @needs_torques
@@ -251,6 +308,12 @@ BAD = {
     "neither omega nor Pi": (edit(BASE, "omega = [0.1, 1.0, 0.2]", ""), "initial", "exactly one of initial.omega"),
     "omega too short": (edit(BASE, "omega = [0.1, 1.0, 0.2]", "omega = [0.1, 1.0]"), "initial.omega",
                         "array of 3 numbers"),
+    "omega unit unknown": (edit(BASE, "omega = [0.1, 1.0, 0.2]", 'omega = { values = [0.1, 1.0, 0.2], unit = "rpm" }'),
+                           "initial.omega.unit", "'rad/s', 'deg/s'"),
+    "omega table without unit": (edit(BASE, "omega = [0.1, 1.0, 0.2]", "omega = { values = [0.1, 1.0, 0.2] }"),
+                                 "initial.omega.unit", "missing"),
+    "omega table unknown key": (edit(BASE, "omega = [0.1, 1.0, 0.2]", 'omega = { value = [0.1, 1.0, 0.2], '
+                                     'unit = "deg/s" }'), "initial.omega.value", "did you mean 'values'"),
     "omega entry not a number": (edit(BASE, "omega = [0.1, 1.0, 0.2]", 'omega = [0.1, "x", 0.2]'),
                                  "initial.omega[1]", "expected a number"),
     "duration not a multiple of h": (edit(BASE, "steps = 40\nsave_every = 4", "duration = 1.005"),

@@ -240,6 +240,39 @@ def test_log_tolerates_roundoff_off_so3():
     np.testing.assert_allclose(so3.exp(so3.log(Rp)), R, atol=1e-11)
 
 
+
+@pytest.mark.parametrize("M,values", [
+    (np.ones((3, 3)), r"\|\|R\^T R - I\|\|_F = 8\.12, det R = 0"),   # returned zeros, silently
+    (np.zeros((3, 3)), r"\|\|R\^T R - I\|\|_F = 1\.73, det R = 0"),
+    (-np.eye(3), r"\|\|R\^T R - I\|\|_F = 0, det R = -1"),            # orthogonal, a reflection
+    (2.0 * np.eye(3), r"\|\|R\^T R - I\|\|_F = 5\.2, det R = 8"),
+])
+def test_log_refuses_non_rotations(M, values):
+    """A matrix that is not a rotation has no rotation vector: log names the rule and the values."""
+    with pytest.raises(ValueError, match=r"log: R is not a rotation matrix \(the rule: \|\|R\^T R - I\|\|_F <= "
+                       r"tol = 1e-06 and det R > 0\); got " + values + r"\. lgvi\.so3\.project\(R\)"):
+        so3.log(M)
+
+
+def test_log_names_the_first_bad_matrix_of_a_stack_and_honours_tol():
+    R = random_rotations(30, seed=7).reshape(6, 5, 3, 3)
+    R[2, 3] = np.ones((3, 3))
+    R[4, 0] = -R[4, 0]
+    with pytest.raises(ValueError, match=r"log: R\[2, 3\] is not a rotation.*\(2 of 30 matrices fail\)"):
+        so3.log(R)
+    # the documented bound, 1e-6 on ||R^T R - I||_F: inside it log answers, beyond it log refuses
+    # (unless a looser tol is passed); NaN propagates as NaN
+    Q = random_rotations(1, seed=8)[0]
+    near, far = Q @ (np.eye(3) + np.diag([2e-7, 0.0, 0.0])), Q @ (np.eye(3) + np.diag([2e-6, 0.0, 0.0]))
+    assert so3.orthogonality_error(near) < 1e-6 < so3.orthogonality_error(far)
+    np.testing.assert_allclose(so3.exp(so3.log(near)), Q, atol=1e-6)
+    with pytest.raises(ValueError, match=r"got \|\|R\^T R - I\|\|_F = 4e-06"):
+        so3.log(far)
+    np.testing.assert_allclose(so3.exp(so3.log(far, tol=1e-5)), Q, atol=1e-5)
+    assert np.all(np.isnan(so3.log(np.full((2, 3, 3), np.nan))))
+    with pytest.raises(ValueError, match="tol must be a finite non-negative number"):
+        so3.log(Q, tol=-1.0)
+
 # --------------------------------------------------------------------------------------------
 # Series coefficients near their thresholds, checked in exact arithmetic
 # --------------------------------------------------------------------------------------------

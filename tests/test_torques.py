@@ -225,8 +225,10 @@ def test_conventions_at_simple_states():
 PENDULUM_J = (0.13, 0.28, 0.17)
 
 
-def test_3d_pendulum_energy_bounded_and_vertical_momentum_conserved():
-    """Lee, Leok and McClamroch's 3D pendulum (g = 9.81), 1e5 steps of h = 0.01.
+def test_3d_pendulum_inverted_energy_bounded_and_vertical_momentum_conserved():
+    """3D pendulum, inverted start: Lee, Leok and McClamroch's body and rates (g = 9.81) with the
+    centre of mass 0.3 m *above* the pivot (com = +0.3 e3, e3 up; E0 = 7.91 J; Lee's own start
+    hangs, see test_scenario.py), 1e5 steps of h = 0.01.
 
     The LGVI's energy error oscillates (O(h^2), here ~1e-2 of 7.9) without drift: a secular
     drift would make the last tenth's maximum clearly larger than the first tenth's, while
@@ -250,7 +252,7 @@ def test_3d_pendulum_energy_bounded_and_vertical_momentum_conserved():
 
 
 def test_rk45_drifts_on_the_3d_pendulum():
-    """The contrast: RK45 at rtol = 1e-6 (a 100 s stretch of the same run; the full 1000 s takes
+    """The contrast: RK45 at rtol = 1e-6 (a 100 s stretch of the same run, inverted start; the full 1000 s takes
     a minute in Python) loses energy steadily, so its last tenth is far worse than its first
     (a linear drift gives a factor ~10; 4 asserted) while the LGVI's stays put (test above)."""
     from scipy.integrate import solve_ivp
@@ -372,3 +374,122 @@ def test_pd_slew_converges_to_target(forcing):
     assert np.linalg.norm(traj.omega[-1]) < 1e-8
     assert traj.potential is None
     assert traj.meta["torque_model"] == repr(pd)
+
+
+# ------------------------------------------------------------------------------------ invariants
+# Each system declares its invariants (lgvi.invariants): "exact" ones must hold to round-off in a
+# run, "bounded" ones must not drift, and the usual quantities it leaves out must really change
+# (else "not an invariant" would be a false label).
+def _gg_tumble():
+    return GravityGradient(mu=1.0, radius=1.0)  # n = 1: one orbit per 2 pi
+
+
+INVARIANT_CASES = {
+    # name: (inertia, omega0, h, steps, torque, order)
+    "free body": ([1.0, 2.0, 3.0], [0.3, 1.0, 0.2], 0.05, 20_000, None, 2),
+    "free body, order 4": ([1.0, 2.0, 3.0], [0.3, 1.0, 0.2], 0.05, 5_000, None, 4),
+    "heavy top": (PENDULUM_J, [4.14, 4.14, 4.14], 0.01, 20_000, UniformGravity(1.0, [0.0, 0.0, 0.3]), 2),
+    "gravity gradient": ([2.0, 3.0, 1.5], [0.4, 1.3, -0.6], 0.02, 20_000, _gg_tumble(), 2),
+    "gravity gradient + uniform gravity": ([2.0, 3.0, 1.5], [0.4, 1.3, -0.6], 0.02, 20_000,
+                                           _gg_tumble() + UniformGravity(1.0, [0.1, 0.0, 0.2], g=1.0), 2),
+}
+
+
+@pytest.mark.parametrize("name", list(INVARIANT_CASES))
+def test_declared_invariants_hold_in_a_run(name):
+    """Exact invariants to round-off (1e-12 relative over 2e4 steps; ~1e-14 measured); bounded
+    ones without drift (the last third's largest error within 2x the first third's: a drift
+    linear in time gives 3x, while the bounded error of these chaotic motions fluctuates by up to
+    1.7x measured) and small; the left-out usual quantities change by > 1e-6."""
+    from lgvi.invariants import QUANTITIES, USUAL, declared, error_series
+
+    J, omega0, h, steps, torque, order = INVARIANT_CASES[name]
+    traj = lgvi.simulate(lgvi.RigidBody(J), so3.exp([0.3, -0.2, 0.5]), omega0=omega0, h=h, steps=steps,
+                         torque=torque, order=order, save_every=10)
+    decl = declared(traj)
+    expected = (torque.invariants() if torque is not None else
+                {k: {"kind": "exact"} for k in ("spatial_momentum", "spatial_momentum_e3", "casimir", "energy")})
+    assert decl.entries == expected and traj.meta.get("invariants", expected) == expected
+    assert decl.quantities(), f"{name}: a conservative system declares something"
+    largest = 0.0
+    for key in decl.quantities():
+        params = {k: v for k, v in decl.entries[key].items() if k != "kind"}
+        err, rel = error_series(traj, key, params)
+        assert rel
+        largest = max(largest, float(err.max()))
+        if decl.kind(key) == "exact":
+            assert err.max() < 1e-12, f"{name}: {key} changed by {err.max():.3e}"
+        else:
+            third = len(err) // 3
+            first, last = err[:third].max(), err[-third:].max()
+            assert err.max() < 1e-2 and last < 2.0 * first, f"{name}: {key} drifts ({first:.3e} -> {last:.3e})"
+    for key in USUAL:
+        if key not in decl.entries:
+            err, _ = error_series(traj, key)
+            assert err.max() > 1e-6 and err.max() > 10 * largest, f"{name}: {key} looks conserved"
+    assert set(QUANTITIES) >= set(decl.entries)
+
+
+def test_gravity_gradient_conserves_the_jacobi_integral_not_the_energy():
+    """C = E - n e3 . R Pi (the energy in the frame turning with the orbit) is conserved by the
+    flow: its error falls as h^2 (bounded, second order), while the energy's change does not
+    depend on h (the orbit does work on the attitude)."""
+    from lgvi.invariants import error_series
+
+    gg = _gg_tumble()
+    errs = {}
+    for h in (0.04, 0.02):
+        traj = lgvi.simulate(lgvi.RigidBody([2.0, 3.0, 1.5]), so3.exp([0.3, -0.2, 0.5]), omega0=[0.4, 1.3, -0.6],
+                             h=h, steps=int(round(40.0 / h)), torque=gg, save_every=5)
+        errs[h] = (error_series(traj, "jacobi", {"n": gg.mean_motion})[0].max(), error_series(traj, "energy")[0].max())
+    (c1, e1), (c2, e2) = errs[0.04], errs[0.02]
+    assert 3.0 < c1 / c2 < 5.0                  # second order: 4
+    assert e2 > 0.9 * e1 and e2 > 1e3 * c2      # the energy changes for real
+
+
+@pytest.mark.parametrize("model", [Constant([0.0, 0.05, 0.1]), LinearDamping(0.2),
+                                   AttitudePD(1.5, 0.4, so3.exp([0.4, -1.1, 0.7])),
+                                   UniformGravity(1.0, [0.0, 0.0, 0.3]) + LinearDamping(0.05)],
+                         ids=["constant", "damping", "pd", "gravity+damping"])
+def test_models_that_conserve_nothing_declare_nothing(model):
+    from lgvi.invariants import USUAL, error_series
+    from lgvi.outputs import conservation_drifts
+
+    assert model.invariants() == {}
+    traj = lgvi.simulate(lgvi.RigidBody(PENDULUM_J), np.eye(3), omega0=[0.5, 1.0, -0.3], h=0.01, steps=2000,
+                         torque=model, save_every=10)
+    assert traj.meta["invariants"] == {}
+    assert set(conservation_drifts(traj)) == {"orthogonality_max"}
+    for key in USUAL:  # each really changes
+        assert error_series(traj, key)[0].max() > 1e-6, key
+
+
+def test_sums_keep_what_every_member_conserves():
+    ug = UniformGravity(1.0, [0.0, 0.0, 0.3])
+    gg = GravityGradient(mu=1.0, radius=1.0)
+    assert (ug + UniformGravity(2.0, [0.1, 0.0, 0.0])).invariants() == ug.invariants()
+    assert (ug + gg).invariants() == gg.invariants() == {"jacobi": {"kind": "bounded", "n": 1.0}}
+    assert (gg + GravityGradient(mu=4.0, radius=1.0)).invariants() == {}   # two orbit rates
+    assert (gg + LinearDamping(0.1)).invariants() == {}
+    assert (ug + Constant([0.0, 0.0, 1.0])).invariants() == {}
+
+
+def test_meta_names_the_forcing_scheme_used(tmp_path):
+    """Potentials always take the symmetric step: meta["forcing"] says so whatever was asked."""
+    from lgvi.streaming import read_stream
+
+    body = lgvi.RigidBody(PENDULUM_J)
+    gg = GravityGradient(mu=1.0, radius=1.0)
+    kw = dict(omega0=[0.5, 1.0, -0.3], h=0.01, steps=20)
+    assert lgvi.simulate(body, np.eye(3), torque=gg, **kw).meta["forcing"] == "symmetric"
+    mixed = lgvi.simulate(body, np.eye(3), torque=gg + LinearDamping(0.1), **kw)
+    assert mixed.meta["forcing"] == "symmetric (potential), paper (other moments)"
+    assert lgvi.simulate(body, np.eye(3), torque=gg + LinearDamping(0.1), forcing="symmetric",
+                         **kw).meta["forcing"] == "symmetric"
+    assert lgvi.simulate(body, np.eye(3), torque=LinearDamping(0.1), **kw).meta["forcing"] == "paper"
+    lgvi.simulate_stream(tmp_path / "s", body, np.eye(3), torque=gg, **kw)
+    streamed = read_stream(tmp_path / "s")
+    assert streamed.meta["forcing"] == "symmetric" and streamed.meta["invariants"] == gg.invariants()
+    ens = lgvi.simulate_ensemble(body, np.stack([np.eye(3)] * 2), torque=gg,
+                                 **dict(kw, omega0=np.array([kw["omega0"]] * 2)))
+    assert ens.meta["forcing"] == "symmetric" and ens.meta["invariants"] == gg.invariants()

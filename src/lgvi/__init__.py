@@ -5,7 +5,8 @@ Public names (everything else is private):
 - :class:`RigidBody`, :func:`inertia_to_jd`, :func:`jd_to_inertia`
 - :func:`simulate`, :func:`step`, :class:`Trajectory`, :func:`load`
 - :func:`solve_implicit`, :class:`ImplicitSolution`
-- :class:`ConvergenceError`, :class:`TorqueError`, :class:`SimulationInterrupted`, :class:`AccuracyWarning`
+- :class:`ConvergenceError`, :class:`TorqueError`, :class:`SimulationInterrupted`, :class:`AccuracyWarning`,
+  :class:`AttitudeWarning`
 - modules :mod:`lgvi.so3`, :mod:`lgvi.torques`, :mod:`lgvi.reference`, :mod:`lgvi.baselines`, :mod:`lgvi.exact`,
   :mod:`lgvi.accuracy` (the error estimate of ``simulate(..., error_estimate=True)``)
 
@@ -24,6 +25,7 @@ from .ensemble import EnsembleTrajectory as EnsembleTrajectory
 from .ensemble import load_ensemble as load_ensemble
 from .ensemble import simulate_ensemble as simulate_ensemble
 from .errors import AccuracyWarning as AccuracyWarning
+from .errors import AttitudeWarning as AttitudeWarning
 from .errors import ConvergenceError as ConvergenceError
 from .errors import SimulationInterrupted as SimulationInterrupted
 from .errors import TorqueError as TorqueError
@@ -39,6 +41,7 @@ from .trajectory import load as load
 
 __all__ = [
     "AccuracyWarning",
+    "AttitudeWarning",
     "ConvergenceError",
     "EnsembleTrajectory",
     "ImplicitSolution",

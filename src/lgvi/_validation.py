@@ -9,7 +9,14 @@ from typing import Any
 
 import numpy as np
 
+#: An attitude matrix orthogonal to this (``||R^T R - I||_F``, det +1) is used exactly as given.
 ROTATION_TOL = 1e-9
+#: One orthogonal to this but not to ROTATION_TOL is replaced by its nearest rotation, with a
+#: warning; beyond it, refused. 1e-6 admits a rotation written with 7 significant digits (a
+#: printout, a table: rounding each entry by 5e-8 gives ||R^T R - I||_F up to about 3e-7); a
+#: matrix further off is not a rounded rotation but a mistake (a wrong sign or digit) that a
+#: silent projection would hide. The replacement moves the attitude by about the defect (rad).
+REPAIR_TOL = 1e-6
 
 
 def _short(value: Any) -> str:
@@ -72,19 +79,47 @@ def is_scipy_rotation(value: Any) -> bool:
 
 
 def as_rotation(value: Any, name: str = "R0", tol: float = ROTATION_TOL) -> np.ndarray:
-    """A (3,3) rotation matrix (or a scipy ``Rotation``), orthogonal to ``tol`` with det +1."""
+    """A (3,3) rotation matrix (or a scipy ``Rotation``), orthogonal to ``tol`` with det +1.
+
+    A matrix orthogonal to :data:`REPAIR_TOL` but not to ``tol`` is replaced by its nearest
+    rotation (:func:`lgvi.so3.project`) with an :class:`lgvi.errors.AttitudeWarning`.
+    """
     if is_scipy_rotation(value):
         if not value.single:
             raise ValueError(f"{name} must be a single rotation, got a stack of {len(value)}")
         return value.as_matrix().astype(np.float64)
     R = as_float_array(value, name, (3, 3))
+    R, err = nearest_rotation(R, name, f"Use lgvi.so3.project({name}) for the nearest rotation.", tol)
+    if err is not None:
+        warn_repaired(f"{name} is {err:.2g} away from a rotation", R)
+    return R
+
+
+def nearest_rotation(R: np.ndarray, name: str, fix: str, tol: float = ROTATION_TOL) -> tuple[np.ndarray, float | None]:
+    """``(R, None)`` for a rotation to ``tol``; ``(nearest rotation, its defect)`` within
+    :data:`REPAIR_TOL`; else ValueError ending in ``fix`` (what the user should change)."""
     err = float(np.linalg.norm(R.T @ R - np.eye(3)))
     det = float(np.linalg.det(R))
-    if err > tol or det <= 0.0:
-        rule = "determinant -1 (a reflection)" if det < 0 else f"orthogonality error |R^T R - I| = {err:.3g} > {tol:g}"
-        raise ValueError(f"{name} must be a rotation matrix (orthogonal to {tol:g}, determinant +1); "
-                         f"got {rule}. Use lgvi.so3.project({name}) for the nearest rotation.")
-    return R
+    if err <= tol and det > 0.0:
+        return R, None
+    if err <= REPAIR_TOL and det > 0.0:
+        from .so3 import project
+
+        return project(R), err
+    rule = ("determinant -1 (a reflection)" if det < 0 and err <= REPAIR_TOL
+            else f"orthogonality error |R^T R - I| = {err:.3g} > {REPAIR_TOL:g}")
+    raise ValueError(f"{name} must be a rotation matrix (orthogonal to {REPAIR_TOL:g}, determinant +1); "
+                     f"got {rule}. {fix}")
+
+
+def warn_repaired(what: str, R: np.ndarray, stacklevel: int = 4) -> None:
+    """Warn that an attitude was replaced by its nearest rotation ``R``."""
+    import warnings
+
+    from .errors import AttitudeWarning
+
+    warnings.warn(f"{what} (||R^T R - I||_F, accepted up to {REPAIR_TOL:g}, used as is up to {ROTATION_TOL:g}); "
+                  f"using the nearest rotation instead: {_short(R)}", AttitudeWarning, stacklevel=stacklevel)
 
 
 def choice(value: Any, name: str, options: dict[str, int] | tuple[str, ...]) -> str:

@@ -216,7 +216,8 @@ def rk4(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: float, st
     body : RigidBody or array_like
         The body, or its inertia (``(3,)`` principal moments or ``(3, 3)``).
     R0 : (3, 3) array_like or scipy.spatial.transform.Rotation
-        Initial attitude (body to inertial), a rotation to 1e-9.
+        Initial attitude (body to inertial), a rotation to 1e-9 (to 1e-6: replaced by the
+        nearest rotation, with an ``AttitudeWarning``).
     Pi0, omega0 : (3,) array_like
         Initial body angular momentum or angular velocity (one of them).
     h : float

@@ -60,24 +60,65 @@ def _err(msg: str) -> None:
     print("lgvi: " + " ".join(str(msg).split("\n")), file=sys.stderr)
 
 
-def drift_table_row(name: str, traj, steps: int, wall: float) -> str:
+def drift_table_row(name: str, traj, steps: int, wall: float, invariants=None) -> str:
+    """One row of the table: the relative drift of each quantity the system conserves.
+
+    ``invariants`` (an :class:`lgvi.invariants.Declaration`) chooses the columns, as in
+    :func:`table_header`; default the trajectory's own declaration.
+    """
+    from .invariants import QUANTITIES, declared
     from .outputs import conservation_drifts
 
-    d = conservation_drifts(traj)
+    decl = invariants if invariants is not None else declared(traj)
+    d = conservation_drifts(traj, decl)
 
     def f(x: float | None) -> str:
         return f"{x:>10.2e}" if x is not None else f"{'-':>10}"
 
     rate = f"{steps / wall:>11.3e}" if wall > 0 else f"{'-':>11}"
-    return (f"{name:<24} {steps:>9d} {wall:>9.3f} {rate} {f(d['spatial_momentum_rel'])} "
-            f"{f(d['spatial_momentum_e3_rel'])} {f(d['casimir_rel'])} {f(d['energy_rel'])} {f(d['orthogonality_max'])}")
+    cols = " ".join(f(d[QUANTITIES[k].rel_key]) for k in decl.quantities())
+    return f"{name:<24} {steps:>9d} {wall:>9.3f} {rate} {cols + ' ' if cols else ''}{f(d['orthogonality_max'])}"
 
 
-TABLE_HEADER = (f"{'integrator':<24} {'steps':>9} {'wall [s]':>9} {'steps/s':>11} {'max dL/L':>10} "
-                f"{'dL3/L':>10} {'d|Pi|/|Pi|':>10} {'dE/E':>10} {'|RtR-I|':>10}")
-TABLE_LEGEND = ("  dL: spatial angular momentum R Pi; dL3: its vertical component e3 . R Pi (conserved under "
-                "uniform gravity);\n  |Pi|: Casimir; E: total energy; |RtR-I|: distance from SO(3). "
-                "All are the largest changes over the run.")
+def table_header(invariants=None) -> str:
+    """Header of the conservation table: one column per declared invariant (default: the free body's)."""
+    from .invariants import FREE_BODY, QUANTITIES, Declaration
+
+    decl = invariants if invariants is not None else Declaration(FREE_BODY, "the free body")
+    cols = "".join(f" {QUANTITIES[k].column:>10}" for k in decl.quantities())
+    return f"{'integrator':<24} {'steps':>9} {'wall [s]':>9} {'steps/s':>11}{cols} {'|RtR-I|':>10}"
+
+
+_LEGEND = {"spatial_momentum": ("dL", "spatial angular momentum R Pi"),
+           "spatial_momentum_e3": ("dL3", "vertical spatial momentum e3 . R Pi"),
+           "casimir": ("|Pi|", "Casimir"), "energy": ("E", "total energy"),
+           "jacobi": ("C", "Jacobi integral E - n e3 . R Pi (the energy in the frame turning with the orbit)")}
+
+
+def table_legend(invariants=None) -> str:
+    """What the columns of :func:`table_header` are, how the LGVI conserves each, what is left out."""
+    from .invariants import FREE_BODY, KIND_TEXT, QUANTITIES, Declaration
+
+    decl = invariants if invariants is not None else Declaration(FREE_BODY, "the free body")
+    keys = decl.quantities()
+    import textwrap
+
+    lines = textwrap.wrap("; ".join(f"{_LEGEND[k][0]}: {_LEGEND[k][1]}" for k in keys) + ("; " if keys else "")
+                          + "|RtR-I|: distance from SO(3). All are the largest changes over the run.",
+                          width=110, initial_indent="  ", subsequent_indent="  ")
+    kinds = [f"{', '.join(_LEGEND[k][0] for k in keys if decl.kind(k) == kind)} {KIND_TEXT[kind]}"
+             for kind in KIND_TEXT if any(decl.kind(k) == kind for k in keys)]
+    if kinds:
+        lines.append(f"  Invariants of {decl.system}; the LGVI keeps " + " and ".join(kinds) + ".")
+    if decl.not_invariants():
+        lines += textwrap.wrap(f"Not invariants of {decl.system}, so not shown: "
+                               + ", ".join(QUANTITIES[k].name for k in decl.not_invariants()) + ".",
+                               width=110, initial_indent="  ", subsequent_indent="  ")
+    return "\n".join(lines)
+
+
+TABLE_HEADER = table_header()
+TABLE_LEGEND = table_legend()
 
 
 def _plot_module():
@@ -177,6 +218,22 @@ def _fmt_drift(x: float | None) -> str:
     return "n/a (zero scale)" if x is None else f"{x:.3e}"
 
 
+def _conservation_lines(traj, drifts: dict[str, Any]) -> list[str]:
+    """The conservation block of ``summary.txt``: each declared invariant with its kind and
+    largest change, then the usual quantities this system does not conserve, marked so."""
+    from .invariants import KIND_TEXT, QUANTITIES, declared
+
+    decl = declared(traj)
+    lines = [f"conservation (largest change over the run; {decl.note()}):"]
+    for k in decl.quantities():
+        q = QUANTITIES[k]
+        change = (f"abs {drifts[q.abs_key]:.3e}   " if q.abs_key else "") + f"rel {_fmt_drift(drifts[q.rel_key])}"
+        lines.append(f"  {q.name:<34} {change}   {KIND_TEXT[decl.kind(k)]}")
+    lines += [f"  {QUANTITIES[k].name:<34} not an invariant here" for k in decl.not_invariants()]
+    lines.append(f"  {'|R^T R - I|':<34} max {drifts['orthogonality_max']:.3e}")
+    return lines
+
+
 def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], *, status: str = "complete",
                   message: str = "", kernel_load: float | None = None) -> tuple[Path, Path]:
     """``summary.json`` and ``summary.txt``: drifts, wall time, rate, scenario text, versions.
@@ -186,6 +243,7 @@ def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], 
     """
     import lgvi
 
+    from .invariants import declared
     from .outputs import conservation_drifts
 
     drifts = conservation_drifts(traj)
@@ -217,6 +275,7 @@ def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], 
         "iterations_max": solver["iterations_max"] if solver["steps"] else None,
         "residual_max": solver["residual_max"] if solver["steps"] else None,
         "drifts": drifts,
+        "invariants": declared(traj).labels(),
         "files": [p.name for p in files],
         "scenario": scenario.text,
     }
@@ -236,12 +295,7 @@ def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], 
         + ("" if kernel_load is None else f"; kernel load/compile before it {kernel_load:.3g} s"),
         f"solver:        mean {data['iterations_mean'] if data['iterations_mean'] is None else round(data['iterations_mean'], 3)}"
         f" iterations/step, max {data['iterations_max']}, max residual {data['residual_max']}",
-        "conservation (largest change over the run):",
-        f"  energy (total)          abs {drifts['energy_abs']:.3e}   rel {_fmt_drift(drifts['energy_rel'])}",
-        f"  |Pi| (Casimir)          rel {_fmt_drift(drifts['casimir_rel'])}",
-        f"  spatial momentum R Pi   rel {_fmt_drift(drifts['spatial_momentum_rel'])}",
-        f"  vertical e3 . R Pi      rel {_fmt_drift(drifts['spatial_momentum_e3_rel'])}",
-        f"  |R^T R - I|             max {drifts['orthogonality_max']:.3e}",
+        *_conservation_lines(traj, drifts),
         f"files:         {', '.join(data['files'])}",
         "",
         "scenario:",
@@ -420,6 +474,7 @@ def _baseline(name: str, scenario, rtol: float):
 def cmd_compare(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
+    from .invariants import Declaration, declaration_of
     from .outputs import conservation_drifts
 
     scenario = _load(args.scenario)
@@ -433,7 +488,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
           f"{scenario.steps} steps, torque {' + '.join(s['type'] for s in scenario.torque_spec) or 'none'}")
     print("  steps column: steps taken (fixed-step methods) or right-hand-side evaluations (solve_ivp)")
     print()
-    print(TABLE_HEADER)
+    # the problem's invariants, for every run (the baselines' trajectories carry no declaration)
+    decl = Declaration(declaration_of(scenario.torque),
+                       "the free body" if scenario.torque is None else repr(scenario.torque))
+    print(table_header(decl))
     done: list[tuple[str, str, Any]] = []  # (key, label, trajectory)
     rows: list[dict[str, Any]] = []
     failed = []
@@ -452,12 +510,14 @@ def cmd_compare(args: argparse.Namespace) -> int:
             rows.append({"name": key, "status": "failed", "message": f"{type(exc).__name__}: {exc}"})
             continue
         wall = time.perf_counter() - t0
-        print(drift_table_row(label, traj, count, wall))
+        if "invariants" not in traj.meta:
+            traj = replace(traj, meta=dict(traj.meta, invariants=decl.entries))
+        print(drift_table_row(label, traj, count, wall, decl))
         done.append((key, label, traj))
         rows.append({"name": key, "label": label, "status": "ok", "steps_or_nfev": count, "wall_time_s": wall,
-                     "drifts": conservation_drifts(traj)})
+                     "drifts": conservation_drifts(traj, decl)})
     print()
-    print(TABLE_LEGEND)
+    print(table_legend(decl))
     if args.output:
         out = Path(args.output)
         out.mkdir(parents=True, exist_ok=True)
@@ -466,7 +526,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
             traj.save(out / f"{key}.npz")
             written.append(out / f"{key}.npz")
         (out / "compare.json").write_text(json.dumps({"scenario_name": scenario.name, "rtol": args.rtol,
-                                                      "runs": rows, "scenario": scenario.text}, indent=2) + "\n")
+                                                      "invariants": decl.labels(), "runs": rows,
+                                                      "scenario": scenario.text}, indent=2) + "\n")
         written.append(out / "compare.json")
         if not args.no_plots and done:
             plot = _plot_module()
@@ -508,6 +569,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
+    from .invariants import KIND_TEXT, QUANTITIES, declared
     from .outputs import conservation_drifts
 
     traj = _read(args.trajectory)
@@ -537,12 +599,16 @@ def cmd_info(args: argparse.Namespace) -> int:
     for k in sorted(meta):
         print(f"    {k:<16} {meta[k]}")
     if len(traj.t):
-        d = conservation_drifts(traj)
-        print("  conservation (largest change over the run)")
-        print(f"    energy abs {d['energy_abs']:.3e}, rel {_fmt_drift(d['energy_rel'])}")
-        print(f"    |Pi| rel {_fmt_drift(d['casimir_rel'])}; R Pi rel {_fmt_drift(d['spatial_momentum_rel'])}; "
-              f"e3 . R Pi rel {_fmt_drift(d['spatial_momentum_e3_rel'])}")
+        decl = declared(traj)
+        d = conservation_drifts(traj, decl)
+        print(f"  conservation (largest change over the run; {decl.note()})")
+        for k in decl.quantities():
+            q = QUANTITIES[k]
+            print(f"    {q.name.split(' (')[0]} " + (f"abs {d[q.abs_key]:.3e}, " if q.abs_key else "")
+                  + f"rel {_fmt_drift(d[q.rel_key])} ({KIND_TEXT[decl.kind(k)]})")
         print(f"    |R^T R - I| max {d['orthogonality_max']:.3e}")
+        if decl.not_invariants():
+            print(f"    not invariants here: {', '.join(QUANTITIES[k].name for k in decl.not_invariants())}")
     if scenario_text:
         print("  scenario")
         for line in scenario_text.rstrip("\n").splitlines():

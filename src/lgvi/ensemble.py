@@ -24,11 +24,13 @@ import numpy as np
 
 from ._kernels.codes import METHOD_CAYLEY, OK
 from ._untrusted import check_npz, inside
-from ._validation import ROTATION_TOL, as_float_array, as_int, choice, is_scipy_rotation
+from ._validation import REPAIR_TOL, ROTATION_TOL, as_float_array, as_int, choice, is_scipy_rotation, warn_repaired
 from ._version import __version__
 from .body import RigidBody
 from .errors import ConvergenceError, SimulationInterrupted
 from .implicit import failure_message
+from .invariants import declaration_of, forcing_used
+from .so3 import project
 from .torques import TorqueModel
 from .trajectory import ARRAY_FIELDS, Trajectory, freeze_arrays
 
@@ -289,15 +291,21 @@ def _rotations(R0: Any) -> np.ndarray:
         raise ValueError("R0 must hold at least one attitude, got shape (0, 3, 3)")
     err = np.linalg.norm(np.einsum("bki,bkj->bij", R, R) - np.eye(3), axis=(1, 2))
     det = np.linalg.det(R)
-    bad = np.flatnonzero((err > ROTATION_TOL) | (det <= 0))
+    bad = np.flatnonzero((err > REPAIR_TOL) | (det <= 0))
     if bad.size:
         b = int(bad[0])
-        rule = ("determinant -1 (a reflection)" if det[b] < 0
-                else f"orthogonality error |R^T R - I| = {err[b]:.3g} > {ROTATION_TOL:g}")
-        raise ValueError(f"R0[{b}] must be a rotation matrix (orthogonal to {ROTATION_TOL:g}, determinant +1); "
+        rule = ("determinant -1 (a reflection)" if det[b] < 0 and err[b] <= REPAIR_TOL
+                else f"orthogonality error |R^T R - I| = {err[b]:.3g} > {REPAIR_TOL:g}")
+        raise ValueError(f"R0[{b}] must be a rotation matrix (orthogonal to {REPAIR_TOL:g}, determinant +1); "
                          f"got {rule} ({bad.size} of {len(R)} attitudes are not rotations). "
                          "Use lgvi.so3.project(R0) for the nearest rotations.")
-    return np.array(R, dtype=np.float64, order="C", copy=True)
+    R = np.array(R, dtype=np.float64, order="C", copy=True)
+    off = np.flatnonzero(err > ROTATION_TOL)
+    if off.size:  # rotations to REPAIR_TOL only (e.g. 7 digits): their nearest rotations, with a warning
+        R[off] = project(R[off])
+        warn_repaired(f"R0[{int(off[0])}] is {err[off[0]]:.2g} away from a rotation ({off.size} of {len(R)} "
+                      f"attitudes)", R[off[0]])
+    return R
 
 
 def _bodies(bodies: Any, B: int) -> tuple[list[RigidBody], np.ndarray]:
@@ -408,6 +416,9 @@ class _Setup:
             self.meta["composition"] = comp.name
         if self.model is not None:
             self.meta["torque_model"] = repr(self.model)
+        self.meta["forcing"] = forcing_used(kind, forcing, self.model)
+        if self.model is not None:  # the free body's are implied by torque "none"
+            self.meta["invariants"] = declaration_of(self.model)
 
     def __len__(self) -> int:
         return len(self.ib)
@@ -468,7 +479,8 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
         principal moments or ``(B, 3, 3)`` matrices. A ``(3, 3)`` array is always one inertia
         matrix (for three bodies' principal moments pass three ``RigidBody``).
     R0 : (B, 3, 3) array_like or scipy Rotation stack
-        Initial attitudes, rotations to 1e-9 (the error names the first bad index).
+        Initial attitudes, rotations to 1e-9 (to 1e-6: replaced by the nearest rotations, with
+        an ``AttitudeWarning``; the error names the first bad index).
     Pi0, omega0 : (B, 3) array_like
         Initial body angular momenta or angular velocities (give one of the two).
     h, steps, method, tol, max_iter, alpha, save_every, t0, forcing, order, composition
@@ -666,7 +678,7 @@ def _run_local(s: _Setup, progress: Any = False, first_body: int = 0) -> Ensembl
         body = first_body + b
         more = f" ({failed.size} of {B} bodies failed)" if failed.size > 1 else ""
         msg = (f"body {body} failed at step {kf} (t = {t_fail:g}){more}: "
-               + failure_message(int(status[b]), float(fail_res[b]), int(fail_its[b]), hnorm, s.tol)
+               + failure_message(int(status[b]), float(fail_res[b]), int(fail_its[b]), hnorm, s.tol, s.code, s.alpha)
                + f" The ensemble up to step {kf} (all bodies) is in .trajectory.")
         err = ConvergenceError(msg, residual=float(fail_res[b]), iterations=int(fail_its[b]), step=kf, time=t_fail,
                                trajectory=result(kf // se + 1, True))

@@ -59,4 +59,9 @@ class AccuracyWarning(UserWarning):
     ``error_warn``; the message gives the estimate and what to change."""
 
 
-__all__ = ["AccuracyWarning", "ConvergenceError", "SimulationInterrupted", "TorqueError"]
+class AttitudeWarning(UserWarning):
+    """An attitude matrix slightly off SO(3) (``1e-9 < ||R^T R - I||_F <= 1e-6``, e.g. a rotation
+    written with 7 significant digits) was replaced by its nearest rotation."""
+
+
+__all__ = ["AccuracyWarning", "AttitudeWarning", "ConvergenceError", "SimulationInterrupted", "TorqueError"]

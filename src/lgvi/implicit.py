@@ -82,8 +82,14 @@ def solver_options(method: str, tol: Any, max_iter: Any, alpha: Any, *,
     return METHODS[method], tol, max_iter, alpha
 
 
-def failure_message(status: int, residual: float, iterations: int, hnorm: float, tol: float) -> str:
-    """The text of a :class:`ConvergenceError` for a kernel status code."""
+def failure_message(status: int, residual: float, iterations: int, hnorm: float, tol: float,
+                    method: int | None = None, alpha: float = 1.0) -> str:
+    """The text of a :class:`ConvergenceError` for a kernel status code.
+
+    ``method`` (a code of :data:`METHODS`) and ``alpha`` are the run's solver options: the hint
+    suggests only what would change something (``method='newton'`` to a run that uses another
+    solver, ``alpha < 1`` to an undamped one, more iterations only when they ran out).
+    """
     if status == OVERFLOW:
         return (f"the momentum Pi after the step is not finite (the implicit equation was solved, residual "
                 f"{residual:.3e}, but the torque term h u overflowed, or the moment at the new state is "
@@ -91,10 +97,18 @@ def failure_message(status: int, residual: float, iterations: int, hnorm: float,
     what = {NOT_CONVERGED: f"did not reach the tolerance in {iterations} iterations",
             NOT_FINITE: f"produced a non-finite iterate or residual after {iterations} iterations",
             SINGULAR: f"hit a singular Newton matrix after {iterations} iterations"}[status]
+    tries = ["a smaller step h"]
+    if status == NOT_CONVERGED:
+        tries.append(f"more iterations (max_iter > {iterations})")
+    if alpha == 1.0:
+        tries.append("a damped update alpha < 1")
+    if method != METHOD_NEWTON:
+        tries.append("method='newton'" if method is None else
+                     f"method='newton' (this run uses {next(k for k, v in METHODS.items() if v == method)!r})")
+    hint = f"{', '.join(tries[:-1])} or {tries[-1]}" if len(tries) > 1 else tries[0]
     return (f"the implicit equation hat(h Pi) = F Jd - Jd F^T {what}: residual {residual:.3e} "
             f"(relative {residual / hnorm if hnorm else float('inf'):.3e}, tolerance {tol:g}) at |h Pi| = {hnorm:.3g}. "
-            "Try a smaller step h, more iterations (max_iter), a damped update alpha < 1, "
-            "or method='newton'.")
+            f"Try {hint}.")
 
 
 def largest_step(Jd: np.ndarray, Pi: np.ndarray, h: float, method: str = "newton", *, tol: float = 1e-14,
@@ -208,7 +222,7 @@ def solve_implicit(Jd, hPi, *, method: str = "newton", tol: float = 1e-14, max_i
     if status == 0 and not (np.isfinite(res) and np.all(np.isfinite(E)) and np.all(np.isfinite(g))):
         status = NOT_FINITE  # never hand out a non-finite F (the stopping rule overflows for |hPi| > 1e154)
     if status != 0:
-        raise ConvergenceError(failure_message(status, res, its, float(np.linalg.norm(hPi)), tol),
+        raise ConvergenceError(failure_message(status, res, its, float(np.linalg.norm(hPi)), tol, code, alpha),
                                residual=float(res), iterations=int(its))
     return ImplicitSolution(F=np.eye(3) + E, iterations=int(its), residual=float(res), converged=True,
                             history=hist[: its + 1].copy(), coordinates=g)

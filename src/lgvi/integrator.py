@@ -34,6 +34,7 @@ from ._version import __version__
 from .body import RigidBody
 from .errors import ConvergenceError, SimulationInterrupted, TorqueError
 from .implicit import METHODS, failure_message, largest_step, solver_options
+from .invariants import declaration_of, forcing_used
 from .torques import TorqueModel
 from .trajectory import HIST_BINS, Trajectory, merge_summaries, summary_dict
 
@@ -223,7 +224,7 @@ def step(body: Any, R: Any, Pi: Any, *, h: float, u: Any = None, method: str = "
     Pin = Pi.copy()
     its, res, st = lgvi_step(code, body.Jd, h, Rn, Pin, G, uu[0], uu[1], uu[2], tol, max_iter, alpha, _NO_HIST)
     if st != OK:
-        raise ConvergenceError(failure_message(st, res, its, abs(h) * float(np.linalg.norm(Pi)), tol),
+        raise ConvergenceError(failure_message(st, res, its, abs(h) * float(np.linalg.norm(Pi)), tol, code, alpha),
                                residual=float(res), iterations=int(its))
     F = so3.cayley(G[0]) if code == METHODS["cayley"] else so3.exp(G[0])
     return StepResult(R=Rn, Pi=Pin, F=F, iterations=int(its), residual=float(res))
@@ -246,7 +247,8 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     body : RigidBody or array_like
         The body, or its inertia: ``(3,)`` principal moments or ``(3, 3)`` matrix.
     R0 : (3, 3) array_like or scipy.spatial.transform.Rotation
-        Initial attitude (body to inertial), a rotation to 1e-9.
+        Initial attitude (body to inertial), a rotation to 1e-9 (to 1e-6: replaced by the
+        nearest rotation, with an ``AttitudeWarning``).
     Pi0 : (3,) array_like, optional
         Initial body angular momentum. Give this or ``omega0``.
     omega0 : (3,) array_like, optional
@@ -712,6 +714,9 @@ class _Run:
             self.meta["composition"] = comp.name
         if self.model is not None:
             self.meta["torque_model"] = repr(self.model)
+        self.meta["forcing"] = forcing_used(kind, forcing, self.model)
+        if kind != "none":  # the free body's are implied by torque "none" (lgvi.invariants.declared)
+            self.meta["invariants"] = declaration_of(self.model or torque)
         self.has_potential = self.model is not None and any(m.conservative for m in self.model.terms)
         # the paper's scheme (and the free body at order 2) keeps the original kernels, bit for bit
         self.legacy = comp.order == 2 and (kind == "none" or (kind in ("array", "callable") and not sym))
@@ -787,7 +792,7 @@ class _Run:
             # the bisection finds the edge of what converges in max_iter; stay 10 % inside it
             hint = (f" At this state steps up to about h = {0.9 * h_ok:.4g} solve (the largest found is "
                     f"{h_ok:.4g})." if h_ok != 0.0 else " No step size solves at this state.")
-        msg = (f"step {k} (t = {t_fail:g}) failed: " + failure_message(status, residual, iterations, hnorm, self.tol)
+        msg = (f"step {k} (t = {t_fail:g}) failed: " + failure_message(status, residual, iterations, hnorm, self.tol, self.code, self.alpha)
                + hint + f" The run up to step {k} is in .trajectory." + where)
         err = ConvergenceError(msg, residual=residual, iterations=iterations, step=k, time=t_fail,
                                trajectory=trajectory)

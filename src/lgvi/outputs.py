@@ -30,7 +30,6 @@ states unless the run kept its per-step solver record (``solver_record="full"``)
 from __future__ import annotations
 
 import json
-import math
 import os
 from pathlib import Path
 from typing import Any, Iterable
@@ -364,32 +363,33 @@ def write_trajectory(traj: Trajectory, outdir: str | os.PathLike, formats: Itera
 
 
 # ------------------------------------------------------------------------------------ diagnostics
-def _rel(num: float, den: float) -> float | None:
-    return num / den if den > 0 and math.isfinite(num / den) else None
+def conservation_drifts(traj: Trajectory, invariants: Any = None) -> dict[str, float | None]:
+    """Largest changes over the run of the quantities the run's system conserves.
 
+    Which quantities: the system's declaration of invariants (:func:`lgvi.invariants.declared`,
+    from ``meta["invariants"]``; a free body conserves all of the ones below, uniform gravity the
+    energy and ``e3 . R Pi``, the gravity gradient the Jacobi integral, damping and control
+    nothing). Quantities that are not invariants are left out.
 
-def conservation_drifts(traj: Trajectory) -> dict[str, float | None]:
-    """Largest changes over the run of the quantities the free body conserves.
+    Parameters
+    ----------
+    traj : Trajectory
+    invariants : lgvi.invariants.Declaration, optional
+        Use this declaration instead of the trajectory's own (e.g. the problem's, for a baseline).
 
     Returns
     -------
     dict
-        ``energy_abs`` = max |E - E0| (total energy), ``energy_rel`` = that / |E0|;
-        ``casimir_rel`` = max ||Pi| - |Pi0|| / |Pi0|; ``spatial_momentum_rel`` =
+        Of the declared quantities: ``energy_abs`` = max |E - E0| (total energy), ``energy_rel`` =
+        that / |E0|; ``casimir_rel`` = max ||Pi| - |Pi0|| / |Pi0|; ``spatial_momentum_rel`` =
         max |R Pi - R0 Pi0| / |R0 Pi0|; ``spatial_momentum_e3_rel`` the same for the vertical
-        component ``e3 . R Pi`` (conserved under uniform gravity); ``orthogonality_max`` =
-        max |R^T R - I|_F. A relative value is ``None`` where its scale is zero.
+        component ``e3 . R Pi``; ``jacobi_abs`` = max |C - C0| (``C = E - n e3 . R Pi``),
+        ``jacobi_rel`` = that / |C0|. Always ``orthogonality_max`` = max |R^T R - I|_F. A
+        relative value is ``None`` where its scale is zero.
     """
-    E = np.asarray(traj.energy)
-    nPi = np.linalg.norm(traj.Pi, axis=1)
-    L = traj.spatial_momentum
-    nL0 = float(np.linalg.norm(L[0]))
-    dE = float(np.max(np.abs(E - E[0])))
-    return {
-        "energy_abs": dE,
-        "energy_rel": _rel(dE, abs(float(E[0]))),
-        "casimir_rel": _rel(float(np.max(np.abs(nPi - nPi[0]))), float(nPi[0])),
-        "spatial_momentum_rel": _rel(float(np.max(np.linalg.norm(L - L[0], axis=1))), nL0),
-        "spatial_momentum_e3_rel": _rel(float(np.max(np.abs(L[:, 2] - L[0, 2]))), nL0),
-        "orthogonality_max": float(np.max(traj.orthogonality_error)),
-    }
+    from .invariants import declared, drifts
+
+    decl = invariants if invariants is not None else declared(traj)
+    out = drifts(traj, decl)
+    out["orthogonality_max"] = float(np.max(traj.orthogonality_error))
+    return out

@@ -126,12 +126,6 @@ def _label(traj: Trajectory) -> str:
     return f"lgvi {method}, h={h:g} s" if np.isfinite(h) else f"lgvi {method}"
 
 
-def _forced(traj: Trajectory) -> bool:
-    meta = getattr(traj, "meta", {}) or {}
-    torque = meta.get("torque", "none")
-    return torque not in (None, "none", "")
-
-
 def has_solver_record(traj: Trajectory) -> bool:
     """Whether ``traj`` carries the per-step record of LGVI solves that :func:`iterations` draws.
 
@@ -192,41 +186,57 @@ def _floor(err: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(err), np.maximum(err, ERROR_FLOOR), np.nan)
 
 
-def _relative(values: np.ndarray, ref: float) -> tuple[np.ndarray, bool]:
-    """``|values - ref| / |ref|``, or the absolute error when ``ref`` is zero."""
-    scale = abs(float(ref))
-    if scale > 0:
-        return np.abs(values - ref) / scale, True
-    return np.abs(values - ref), False
-
-
-def _conservation_series(traj: Trajectory) -> dict[str, tuple[np.ndarray, str]]:
-    """The four diagnostics of :func:`conservation`: name -> (error per sample, legend label)."""
-    E = np.asarray(traj.energy, dtype=np.float64)
-    dE, rel = _relative(E, E[0])
-    nPi = np.linalg.norm(traj.Pi, axis=1)
-    dPi, relPi = _relative(nPi, nPi[0])
-    L = np.asarray(traj.spatial_momentum, dtype=np.float64)
-    nL0 = float(np.linalg.norm(L[0]))
-    dL = np.linalg.norm(L - L[0], axis=1) / (nL0 if nL0 > 0 else 1.0)
-    relL = nL0 > 0
-    orth = np.asarray(traj.orthogonality_error, dtype=np.float64)
-    energy_name = "total energy" if getattr(traj, "potential", None) is not None else "kinetic energy"
-    return {
-        "energy": (dE, f"{energy_name} $|E - E_0|/|E_0|$" if rel else f"{energy_name} $|E - E_0|$ (J)"),
-        "casimir": (dPi, r"$\,||\Pi| - |\Pi_0||/|\Pi_0|$" if relPi else r"$||\Pi| - |\Pi_0||$ (kg m$^2$/s)"),
-        "momentum": (dL, r"spatial momentum $|R\Pi - R_0\Pi_0|/|R_0\Pi_0|$" if relL
-                     else r"spatial momentum $|R\Pi - R_0\Pi_0|$ (kg m$^2$/s)"),
-        "orthogonality": (orth, r"orthogonality $\|R^T R - I\|_F$"),
-    }
-
-
+#: Error series drawn by :func:`conservation` and :func:`comparison`, in this order (the first three
+#: always in :func:`conservation`, marked when they are not invariants; the others when declared).
+_SERIES_ORDER = ("energy", "casimir", "spatial_momentum", "spatial_momentum_e3", "jacobi")
+_SERIES_COLORS = {"energy": "tab:red", "casimir": "tab:green", "spatial_momentum": "tab:blue",
+                  "spatial_momentum_e3": "tab:purple", "jacobi": "tab:orange", "orthogonality": "tab:gray"}
+_SERIES_LABELS = {
+    "energy": ("energy", "$|E - E_0|/|E_0|$", "$|E - E_0|$ (J)"),
+    "casimir": ("", r"$\,||\Pi| - |\Pi_0||/|\Pi_0|$", r"$||\Pi| - |\Pi_0||$ (kg m$^2$/s)"),
+    "spatial_momentum": ("spatial momentum", r"$|R\Pi - R_0\Pi_0|/|R_0\Pi_0|$",
+                         r"$|R\Pi - R_0\Pi_0|$ (kg m$^2$/s)"),
+    "spatial_momentum_e3": ("vertical momentum", r"$|e_3\cdot(R\Pi - R_0\Pi_0)|/|R_0\Pi_0|$",
+                            r"$|e_3\cdot(R\Pi - R_0\Pi_0)|$ (kg m$^2$/s)"),
+    "jacobi": ("Jacobi integral", r"$|C - C_0|/|C_0|$, $C = E - n\,e_3\cdot R\Pi$",
+               r"$|C - C_0|$ (J), $C = E - n\,e_3\cdot R\Pi$"),
+}
 _CONSERVATION_TITLES = {
     "energy": "energy error (relative)",
     "casimir": r"$|\Pi|$ error (relative)",
-    "momentum": "spatial momentum error (relative)",
+    "spatial_momentum": "spatial momentum error (relative)",
+    "spatial_momentum_e3": r"vertical momentum $e_3\cdot R\Pi$ error (relative to $|R_0\Pi_0|$)",
+    "jacobi": r"Jacobi integral $C = E - n\,e_3\cdot R\Pi$ error (relative)",
     "orthogonality": r"distance from SO(3): $\|R^T R - I\|_F$",
 }
+_LEGACY_NAMES = {"momentum": "spatial_momentum"}
+
+
+def _declaration(trajs: Sequence[Trajectory]):
+    """The invariants of the problem: those of the first trajectory that records (or implies) them."""
+    from .invariants import declared
+
+    decls = [declared(tr) for tr in trajs]
+    return next((d for d in decls if d.recorded), decls[0])
+
+
+def _shown(keys: Sequence[str]) -> list[str]:
+    """Declared quantities worth a curve of their own: ``e3 . R Pi`` only without ``R Pi``."""
+    return [k for k in _SERIES_ORDER if k in keys and not (k == "spatial_momentum_e3" and "spatial_momentum" in keys)]
+
+
+def _error(traj: Trajectory, key: str, decl: Any) -> tuple[np.ndarray, str]:
+    """Error series of one quantity (``"orthogonality"`` too) and its legend label."""
+    from .invariants import error_series
+
+    if key == "orthogonality":
+        return np.asarray(traj.orthogonality_error, dtype=np.float64), r"orthogonality $\|R^T R - I\|_F$"
+    entry = decl.entries.get(key, {})
+    err, rel = error_series(traj, key, {k: v for k, v in entry.items() if k != "kind"})
+    name, rel_text, abs_text = _SERIES_LABELS[key]
+    if key == "energy":
+        name = "total energy" if getattr(traj, "potential", None) is not None else "kinetic energy"
+    return err, (f"{name} " if name else "") + (rel_text if rel else abs_text)
 
 
 def _style_log(ax: Axes) -> None:
@@ -242,6 +252,89 @@ def _style_log(ax: Axes) -> None:
 #: quaternion view zooms in on the start of the run.
 QUAT_CYCLES = 40
 
+#: Largest rotation between consecutive samples (rad) that the attitude curves resolve: beyond a
+#: quarter turn they alias, and :func:`attitude` says so on the figure.
+SPARSE_TURN = np.pi / 2
+
+#: Half-width of the band around an Euler singularity (gimbal lock) that is shaded and not
+#: unwrapped across (rad).
+GIMBAL_BAND = np.radians(5.0)
+
+
+def _unwrap_euler(raw: np.ndarray, near: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Euler angles with whole turns of angles 1 and 3 removed, never across a singularity.
+
+    A step between consecutive samples is a *break* when either sample lies in the band ``near``
+    the singularity, or when angle 1 or 3 changes by more than a quarter turn beyond whole turns
+    (a jump of the representation, or samples too sparse to follow the motion). Each run of
+    samples between breaks starts from the principal value and is unwrapped within itself, so
+    the angles stay bounded by the turns of one run (an unwrap across the jumps of a spin through
+    gimbal lock climbs a staircase, one half turn per passage). Angle 2 is never unwrapped.
+
+    Returns ``(angles (M, 3), breaks (M-1,) bool)``.
+    """
+    ang = np.array(raw, dtype=np.float64)
+    if len(ang) < 2:
+        return ang, np.zeros(0, dtype=bool)
+    d = np.diff(ang[:, [0, 2]], axis=0)
+    turns = np.round(d / (2.0 * np.pi))
+    jump = np.abs(d - 2.0 * np.pi * turns).max(axis=1) > np.pi / 2
+    breaks = jump | near[:-1] | near[1:]
+    turns[breaks] = 0.0
+    # whole turns counted from the start of each run between breaks: every run starts from the
+    # principal value, so turns that only make up for the jumps at the breaks never add up
+    count = np.vstack([np.zeros((1, 2)), np.cumsum(turns, axis=0)])
+    run = np.concatenate([[0], np.cumsum(breaks)])
+    first = np.flatnonzero(np.diff(run, prepend=-1))
+    ang[:, [0, 2]] -= 2.0 * np.pi * (count - count[first][run])
+    return ang, breaks
+
+
+def _thin_segments(t: np.ndarray, y: np.ndarray, breaks: np.ndarray, skip: np.ndarray,
+                   max_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_thin_minmax` of each run of samples between breaks, joined by NaN gaps (so no line
+    is drawn across a break); runs whose samples are all in ``skip`` are left out."""
+    n = len(t)
+    cut = np.flatnonzero(breaks) + 1
+    starts = np.concatenate([[0], cut])
+    ends = np.concatenate([cut, [n]])
+    parts_t, parts_y = [], []
+    for a, b in zip(starts, ends):
+        if skip[a:b].all():
+            continue
+        tt, yy = _thin_minmax(t[a:b], y[a:b], max(4, int(max_points * (b - a) / n)))
+        parts_t += [tt, tt[-1:]]
+        parts_y += [yy, [np.nan]]
+    if not parts_t:
+        return t[:0], y[:0]
+    return np.concatenate(parts_t[:-1]), np.concatenate(parts_y[:-1])
+
+
+def sampling_note(traj: Trajectory) -> str | None:
+    """A warning when the saved samples are too sparse for the motion, else ``None``.
+
+    Sparse means: somewhere the body turns by more than a quarter turn (:data:`SPARSE_TURN`)
+    between consecutive samples (``|omega| dt``, with the larger rate of the two samples); then
+    every attitude curve (Euler angles and quaternion alike) aliases.
+    """
+    t = np.asarray(traj.t, dtype=np.float64)
+    if len(t) < 2:
+        return None
+    w = np.linalg.norm(np.asarray(traj.omega, dtype=np.float64), axis=1)
+    turn = np.maximum(w[:-1], w[1:]) * np.abs(np.diff(t))
+    worst = float(np.max(turn))
+    if not worst > SPARSE_TURN:
+        return None
+    return (f"samples too sparse for the motion: up to {np.degrees(worst):.0f} deg of rotation between saved\n"
+            f"samples (over a quarter turn), so these curves alias; save more often (smaller save_every)")
+
+
+def _note(ax: Axes, text: str | None) -> None:
+    if text:
+        ax.text(0.5, 0.97, text, transform=ax.transAxes, ha="center", va="top", fontsize="x-small",
+                color="darkred", bbox=dict(boxstyle="round", facecolor="white", edgecolor="darkred", alpha=0.9),
+                zorder=10)
+
 
 def attitude(traj: Trajectory, kind: str = "euler", sequence: str = "ZYX", ax: Axes | None = None, *,
              degrees: bool = False, scalar_first: bool = False, max_points: int = MAX_POINTS) -> Figure:
@@ -252,7 +345,8 @@ def attitude(traj: Trajectory, kind: str = "euler", sequence: str = "ZYX", ax: A
     traj : Trajectory
     kind : {"euler", "quaternion"}
         Euler angles of ``R`` (body to inertial) in ``sequence``, unwrapped over time so that
-        full turns show as ramps instead of jumps; or the sign-continuous unit quaternion.
+        full turns show as ramps instead of jumps (but never across a singularity, see the
+        notes); or the sign-continuous unit quaternion.
     sequence : str
         Euler sequence as in :meth:`scipy.spatial.transform.Rotation.as_euler`: upper case is
         intrinsic (``"ZYX"``: yaw, pitch, roll), lower case extrinsic.
@@ -273,7 +367,11 @@ def attitude(traj: Trajectory, kind: str = "euler", sequence: str = "ZYX", ax: A
     -----
     Euler angles are singular where the middle angle reaches +-90 deg (``"ZYX"``, ``"XYZ"``, ...)
     or 0/180 deg (``"ZXZ"``, ...): there the first and third angles jump however they are
-    unwrapped. The quaternion view has no such singularity.
+    unwrapped. Samples within 5 deg of it are shaded and left out, and the curves of angles 1 and
+    3 are broken (not unwrapped) there and wherever they jump by more than a quarter turn, so
+    they stay bounded. The quaternion view has no such singularity. When the samples are further
+    apart than a quarter turn of the body, both views say so on the figure
+    (:func:`sampling_note`).
     """
     _check_traj(traj, "attitude")
     if kind not in ("euler", "quaternion"):
@@ -285,26 +383,28 @@ def attitude(traj: Trajectory, kind: str = "euler", sequence: str = "ZYX", ax: A
             raise ValueError(f"attitude: sequence must be 3 axis letters such as 'ZYX' or 'zxz', got {sequence!r}")
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # scipy's "Gimbal lock detected"
-            ang = np.unwrap(traj.rotation.as_euler(sequence), axis=0)
+            raw = traj.rotation.as_euler(sequence)
         unit = "deg" if degrees else "rad"
-        if degrees:
-            ang = np.degrees(ang)
         intrinsic = sequence.isupper()
         primes = ("", "'", "''") if intrinsic else ("", "", "")
         # shade where the middle angle is within 5 deg of the singularity (gimbal lock)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)
-            mid = traj.rotation.as_euler(sequence)[:, 1]
+        mid = raw[:, 1]
         if sequence[0].lower() == sequence[2].lower():  # proper Euler: singular at 0 and pi
             dist = np.minimum(np.abs(mid), np.abs(np.pi - np.abs(mid)))
         else:  # Tait-Bryan: singular at +-pi/2
             dist = np.abs(np.pi / 2 - np.abs(mid))
-        near = dist < np.radians(5.0)
+        near = dist < GIMBAL_BAND
+        ang, breaks = _unwrap_euler(raw, near)
+        if degrees:
+            ang = np.degrees(ang)
         if near.any():
             ax.fill_between(t, 0, 1, where=near, transform=ax.get_xaxis_transform(), color="0.85",
                             step="mid", label="near gimbal lock (angles 1, 3 ill-defined)")
         for i in range(3):
-            tt, yy = _thin_minmax(t, ang[:, i], max_points)
+            if i == 1:
+                tt, yy = _thin_minmax(t, ang[:, i], max_points)
+            else:  # broken at the singularity and at jumps, never unwrapped across them
+                tt, yy = _thin_segments(t, ang[:, i], breaks, near, max_points)
             ax.plot(tt, yy, color=_COMPONENT_COLORS[i], lw=1.2,
                     label=f"angle {i + 1}: about {sequence[i].upper()}{primes[i]}")
         ax.set_ylabel(f"Euler angle ({unit})")
@@ -328,6 +428,7 @@ def attitude(traj: Trajectory, kind: str = "euler", sequence: str = "ZYX", ax: A
         order = "scalar-first (w, x, y, z)" if scalar_first else "scalar-last (x, y, z, w)"
         shown = "" if window == slice(None) else f"; first {t[window][-1] - t[0]:.4g} s of {t[-1] - t[0]:.4g} s"
         ax.set_title(f"Attitude: unit quaternion, {order}, sign-continuous{shown}")
+    _note(ax, sampling_note(traj))
     ax.set_xlabel(_UNITS["t"])
     ax.grid(True, alpha=0.3)
     ax.legend(loc="upper right", fontsize="small", framealpha=0.85)
@@ -370,9 +471,12 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     """Conservation diagnostics on a logarithmic axis against time.
 
     Draws the relative error of the energy (kinetic plus potential, if the run has one), of the
-    Casimir ``|Pi|`` and of the spatial momentum ``R Pi``, and the distance ``|R^T R - I|_F`` of
-    the attitude from SO(3). Zeros are drawn at :data:`ERROR_FLOOR`; long runs show each bin's
-    maximum. Quantities that are not invariants of the run are drawn dashed and say so.
+    Casimir ``|Pi|`` and of the spatial momentum ``R Pi``, of every other invariant the run's
+    system declares (``e3 . R Pi`` under uniform gravity, the Jacobi integral under the gravity
+    gradient; see :mod:`lgvi.invariants`), and the distance ``|R^T R - I|_F`` of the attitude from
+    SO(3). Zeros are drawn at :data:`ERROR_FLOOR`; long runs show each bin's maximum. Each
+    invariant's legend says how the LGVI keeps it (exact or bounded); quantities that are not
+    invariants of the run are drawn dashed and say so.
 
     Parameters
     ----------
@@ -381,10 +485,10 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     extra : mapping of label -> (M,) array_like, optional
         More error series to draw (one value per sample), e.g. the vertical momentum error
         ``|e3 . (R Pi - R_0 Pi_0)| / |e3 . R_0 Pi_0|`` of a heavy top.
-    invariants : sequence of {"energy", "casimir", "momentum"}, optional
-        Which of the three are invariants of this run. Default: all three for a free body, the
-        energy alone for a forced run (right for a fixed potential; pass ``()`` for a
-        dissipative or time-dependent torque).
+    invariants : sequence of {"energy", "casimir", "momentum", ...}, optional
+        Which quantities to draw as invariants (keys of :data:`lgvi.invariants.QUANTITIES`;
+        ``"momentum"`` is ``"spatial_momentum"``). Default: the run's declaration
+        (``meta["invariants"]``, see :func:`lgvi.invariants.declared`).
     max_points : int
         Most points per curve.
 
@@ -403,17 +507,28 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     _check_traj(traj, "conservation")
     fig, ax = _axes(ax)
     t = np.asarray(traj.t)
+    from .invariants import KIND_TEXT, QUANTITIES
+
+    decl = _declaration([traj])
     if invariants is None:
-        invariants = ("energy",) if _forced(traj) else ("energy", "casimir", "momentum")
-    unknown = set(invariants) - {"energy", "casimir", "momentum"}
-    if unknown:
-        raise ValueError(f"conservation: invariants must be among 'energy', 'casimir', 'momentum'; "
-                         f"got {sorted(unknown)}")
-    for i, (key, (err, label)) in enumerate(_conservation_series(traj).items()):
-        dashed = key != "orthogonality" and key not in invariants
+        solid = decl.quantities()
+    else:
+        solid = [_LEGACY_NAMES.get(k, k) for k in invariants]
+        unknown = sorted(k for k in solid if k not in QUANTITIES or (k == "jacobi" and k not in decl.entries))
+        if unknown:
+            raise ValueError(f"conservation: invariants must be among 'energy', 'casimir', 'momentum', "
+                             f"'spatial_momentum_e3' (and 'jacobi' when the run declares it); got {unknown}")
+    keys = ["energy", "casimir", "spatial_momentum"] + [k for k in _shown(solid) if k in _SERIES_ORDER[3:]]
+    for key in keys + ["orthogonality"]:
+        err, label = _error(traj, key, decl)
+        dashed = key != "orthogonality" and key not in solid
+        kind = decl.kind(key)
+        if dashed:
+            label += " (not an invariant here)"
+        elif kind is not None and invariants is None:
+            label += f": {KIND_TEXT[kind]}"
         tt, yy = _thin_max(t, _floor(err), max_points)
-        ax.plot(tt, yy, color=_COMPONENT_COLORS[i], lw=1.2, ls="--" if dashed else "-",
-                label=label + (" (not an invariant here)" if dashed else ""))
+        ax.plot(tt, yy, color=_SERIES_COLORS[key], lw=1.2, ls="--" if dashed else "-", label=label)
     for j, (label, err) in enumerate((extra or {}).items()):
         err = np.asarray(err, dtype=np.float64)
         if err.shape != t.shape:
@@ -424,7 +539,7 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     _style_log(ax)
     ax.set_xlabel(_UNITS["t"])
     ax.set_ylabel("error (relative, 1)")
-    ax.set_title(f"Conservation: {_label(traj)}")
+    ax.set_title(f"Conservation: {_label(traj)}\n({decl.note(short=True)})", fontsize="medium")
     ax.legend(loc="best", fontsize="small", framealpha=0.85)
     return fig
 
@@ -599,14 +714,43 @@ def _principal_axes(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[s
     return moments, V, names, colors
 
 
+def _polhodes_apply(traj: Trajectory) -> bool:
+    """Free-body polhodes describe the run: its system conserves ``|Pi|`` and the energy."""
+    decl = _declaration([traj])
+    return decl.kind("casimir") is not None and decl.kind("energy") is not None
+
+
+def _visited_branch(moments: np.ndarray, radius: float, energy: float, p0: np.ndarray) -> list[np.ndarray]:
+    """The branch of the polhode of ``energy`` through ``p0`` (principal coordinates): one curve.
+
+    Below the separatrix the branches circle the major axis 3 on either side (the sign of
+    ``p0[2]`` chooses); above it they circle the minor axis 1 (the sign of ``p0[0]``); on it, the
+    great circle whose plane ``p0`` is nearer.
+    """
+    curves = polhode_curves(moments, radius, [energy])
+    if len(curves) < 2:
+        return curves
+    I1, I2, I3 = (float(m) for m in moments)
+    two_e, sep = 2.0 * float(energy), float(radius) ** 2 / I2
+    if np.isclose(two_e, sep, rtol=1e-12, atol=0.0) and I1 < I2 < I3:
+        normals = [np.cross(c[0], c[len(c) // 4]) for c in curves[:2]]  # planes of the great circles
+        off = [abs(float(nv @ p0)) / float(np.linalg.norm(nv)) for nv in normals]
+        return [curves[int(np.argmin(off))]]
+    side = p0[2] if two_e < sep else p0[0]
+    return [curves[0] if side >= 0 else curves[1]]
+
+
 def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_points: int = MAX_POINTS) -> Figure:
     """The body angular momentum path on the momentum sphere, with analytic polhodes.
 
     Draws (in body axes, kg m^2/s): a wireframe of the sphere ``|Pi| = |Pi_0|``; ``levels``
     analytic polhodes (intersections of the sphere with energy ellipsoids
-    ``Pi . J^-1 Pi = 2E``) on each side of the separatrix, and the separatrix itself; the
-    polhode of the run's initial energy (dashed), the path ``Pi_k`` of the run, its start, and the
-    principal axes. For the free body the path lies on its dashed polhode.
+    ``Pi . J^-1 Pi = 2E``) on each side of the separatrix, the path ``Pi_k`` of the run, its
+    start, and the principal axes; over the path the separatrix and, dashed, the branch of the
+    polhode of the run's initial energy that the run follows (the other branch of that energy is
+    not drawn). For the free body the path lies on its dashed polhode. For a forced run (a
+    system that does not conserve ``|Pi|`` and the energy, see :mod:`lgvi.invariants`) no
+    polhode is drawn: free-body polhodes do not apply.
 
     Parameters
     ----------
@@ -630,6 +774,7 @@ def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_po
         if getattr(ax, "name", "") != "3d":
             raise ValueError("polhode: ax must be a 3D Axes (add_subplot(projection='3d'))")
         fig = ax.get_figure()
+    ax.computed_zorder = False  # draw in the order below, not by depth (keeps the curves on top)
     J = np.asarray(traj.inertia, dtype=np.float64)
     moments, V, names, colors = _principal_axes(J)
     Pi = np.asarray(traj.Pi, dtype=np.float64)
@@ -646,8 +791,11 @@ def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_po
         a = V[:, i] * 1.25 * scale
         ax.plot(*np.column_stack([-a, a]), color=colors[i], lw=1.2, alpha=0.9,
                 label=f"{names[i]}, J = {moments[i]:.3g} kg m$^2$")
-    # reference polhodes
-    if L > 0 and moments[0] < moments[2]:
+    # reference polhodes: free-body curves, drawn only for a free body
+    free = _polhodes_apply(traj)
+    separatrix: list[np.ndarray] = []
+    own: list[np.ndarray] = []
+    if free and L > 0 and moments[0] < moments[2]:
         I1, I2, I3 = moments
         e_min, e_mid, e_max = L * L / (2 * I3), L * L / (2 * I2), L * L / (2 * I1)
         fr = (np.arange(1, levels + 1) / (levels + 1)) ** 1.5
@@ -659,14 +807,10 @@ def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_po
                     label="polhodes (other energies)" if first else None)
             first = False
         if I1 < I2 < I3:
-            for j, curve in enumerate(polhode_curves(moments, L, [e_mid])):
-                ax.plot(*(curve @ V.T).T, color="tab:orange", lw=1.0, alpha=0.9,
-                        label="separatrix $E = |\\Pi|^2/(2J_2)$" if j == 0 else None)
+            separatrix = polhode_curves(moments, L, [e_mid])
         E0 = 0.5 * float(Pi[0] @ np.linalg.solve(J, Pi[0]))
         E0 = min(max(E0, e_min), e_max)
-        for j, curve in enumerate(polhode_curves(moments, L, [E0])):
-            ax.plot(*(curve @ V.T).T, color="black", lw=1.0, ls="--",
-                    label=f"analytic polhode, $E_0$ = {E0:.4g} J" if j == 0 else None)
+        own = _visited_branch(moments, L, E0, V.T @ Pi[0])
     step = max(1, int(np.ceil(len(Pi) / max_points)))
     path = np.vstack([Pi[::step], Pi[-1:]])
     chords = np.linalg.norm(np.diff(path, axis=0), axis=1)
@@ -675,7 +819,15 @@ def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_po
         # them would draw chords across the sphere, so show the points themselves
         ax.scatter(*path.T, color="tab:purple", s=3, depthshade=False, label=r"samples $\Pi_k$ of the run")
     else:
-        ax.plot(*path.T, color="tab:purple", lw=2.0, label=r"path $\Pi_k$ of the run")
+        ax.plot(*path.T, color="tab:purple", lw=3.5, alpha=0.55, label=r"path $\Pi_k$ of the run")
+    # on top of the path (drawing order, see computed_zorder above): the separatrix, then the run's
+    # own analytic branch, dashed, so that both stay visible where they run along the path
+    for j, curve in enumerate(separatrix):
+        ax.plot(*(curve @ V.T).T, color="tab:orange", lw=1.5, alpha=0.95,
+                label="separatrix $E = |\\Pi|^2/(2J_2)$" if j == 0 else None)
+    for curve in own:
+        ax.plot(*(curve @ V.T).T, color="black", lw=1.0, ls="--",
+                label=f"analytic polhode of the run ($E_0$ = {E0:.4g} J)")
     ax.scatter(*Pi[0], color="tab:purple", edgecolor="black", s=40, depthshade=False, label=r"start $\Pi_0$")
     lim = 1.3 * scale
     ax.set_xlim(-lim, lim)
@@ -687,8 +839,9 @@ def polhode(traj: Trajectory, ax: Axes | None = None, *, levels: int = 4, max_po
     ax.set_zlabel(r"$\Pi_3$ (kg m$^2$/s)")
     if L > 0:
         title = f"Polhode: body momentum on the sphere $|\\Pi|$ = $|\\Pi_0|$ = {L:.4g} kg m$^2$/s"
-        if _forced(traj):
-            title += "\n(forced run: the path may leave the sphere; curves are free-body polhodes)"
+        if not free:
+            title += ("\n(forced run: free-body polhodes do not apply and are not drawn; the path may "
+                      "leave the sphere)")
         ax.set_title(title)
     else:
         ax.set_title("Body momentum path (no momentum sphere: $\\Pi_0$ = 0)")
@@ -916,15 +1069,22 @@ def comparison(trajs: Mapping[str, Trajectory], axes: Sequence[Axes] | None = No
 
     Notes
     -----
-    When every trajectory is forced (``meta["torque"]`` other than ``"none"``) the ``|Pi|``
-    and spatial momentum panels are marked as not invariants.
+    The panels are the invariants of the problem (the declaration of the first trajectory that
+    records one, see :func:`lgvi.invariants.declared`): for the free body the energy, ``|Pi|``
+    and ``R Pi``; under uniform gravity the energy and ``e3 . R Pi``; under the gravity gradient
+    the Jacobi integral; then ``|R^T R - I|``. The quantities that are not invariants are left
+    out, and the figure's title says which.
     """
     if not isinstance(trajs, Mapping) or not trajs:
         raise ValueError("comparison: trajs must be a non-empty mapping of label -> Trajectory")
     for label, tr in trajs.items():
         _check_traj(tr, f"comparison[{label!r}]")
     extra = dict(extra or {})
-    n_panels = 4 + len(extra)
+    from .invariants import KIND_TEXT, QUANTITIES
+
+    decl = _declaration(list(trajs.values()))
+    keys = _shown(decl.quantities()) + ["orthogonality"]
+    n_panels = len(keys) + len(extra)
     if axes is None:
         ncols = 2 if n_panels <= 4 else 3
         nrows = -(-n_panels // ncols)
@@ -937,17 +1097,16 @@ def comparison(trajs: Mapping[str, Trajectory], axes: Sequence[Axes] | None = No
     else:
         axs = list(np.ravel(np.asarray(axes, dtype=object)))
         if len(axs) != n_panels:
-            raise ValueError(f"comparison: axes must be {n_panels} Axes (4 + one per extra), got {len(axs)}")
+            raise ValueError(f"comparison: axes must be {n_panels} Axes ({len(keys)} for the invariants of "
+                             f"{decl.system} and |R^T R - I|, + one per extra), got {len(axs)}")
         fig = axs[0].get_figure()
     from matplotlib import colormaps
 
     cmap = colormaps["tab10"]
-    titles = dict(_CONSERVATION_TITLES)
-    if all(_forced(tr) for tr in trajs.values()):
-        for key in ("casimir", "momentum"):
-            titles[key] += "\n(not an invariant under this torque)"
+    titles = {k: _CONSERVATION_TITLES[k] + (f"\n{KIND_TEXT[decl.kind(k)]} for the LGVI" if decl.kind(k) else "")
+              for k in keys}
     for j, (label, tr) in enumerate(trajs.items()):
-        series = {key: err for key, (err, _) in _conservation_series(tr).items()}
+        series = {key: _error(tr, key, decl)[0] for key in keys}
         for name, fn in extra.items():
             series[name] = np.asarray(fn(tr), dtype=np.float64)
         for ax, key in zip(axs, list(titles) + list(extra)):
@@ -960,7 +1119,9 @@ def comparison(trajs: Mapping[str, Trajectory], axes: Sequence[Axes] | None = No
         ax.set_xlabel(_UNITS["t"])
         ax.tick_params(labelbottom=True)
     axs[0].legend(loc="best", fontsize="small", framealpha=0.85)
-    fig.suptitle("Conservation compared (zeros drawn at 1e-17)")
+    missing = [QUANTITIES[k].name for k in decl.not_invariants()]
+    fig.suptitle(f"Conservation compared ({decl.note(short=True)}; zeros drawn at 1e-17)"
+                 + (f"\nnot invariants here, not shown: {', '.join(missing)}" if missing else ""), fontsize="medium")
     return fig
 
 
@@ -1001,6 +1162,7 @@ __all__ = [
     "polhode",
     "polhode_curves",
     "rates",
+    "sampling_note",
     "save_comparison",
     "save_figures",
 ]

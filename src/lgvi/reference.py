@@ -1,6 +1,7 @@
 """The paper's equations in plain NumPy, one line per equation: the oracle for the kernels.
 
-Read beside ``paper/000_c3d5fe240a8d5f28.txt``. Nothing here is fast; everything is literal.
+Read beside the paper (N. Potu Surya Prakash, "A Computational Approach for Variational
+Integration of Attitude Dynamics on SO(3)", UC Berkeley). Nothing here is fast; everything is literal.
 The compiled kernels (:mod:`lgvi._kernels`) are tested against these functions.
 """
 

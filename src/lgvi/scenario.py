@@ -34,11 +34,12 @@ A complete example (every key shown; comments say which keys are alternatives)::
 
     [initial]                            # attitude R0 (body to inertial): at most one of
     euler = { sequence = "ZYX", angles = [10.0, 5.0, 0.0], unit = "deg" }
-    # matrix = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]   # orthogonal to 1e-9, det +1
+    # matrix = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]   # a rotation: orthogonal, det +1 (see Rules)
     # quat_xyzw = [0.0, 0.0, 0.0, 1.0]   # scalar last (as scipy)
     # quat_wxyz = [1.0, 0.0, 0.0, 0.0]   # scalar first
     # rotvec = [0.0, 0.0, 0.1]           # rotation vector [rad]
     omega = [0.001, 1.0, 0.001]          # body angular velocity [rad/s] ...
+    # omega = { values = [0.06, 57.3, 0.06], unit = "deg/s" }   # ... with a unit: "rad/s" or "deg/s"
     # Pi = [0.001, 2.0, 0.003]           # ... or body angular momentum [kg m^2/s]: exactly one
 
     [integrator]
@@ -96,7 +97,12 @@ Rules
 - The attitude defaults to the identity when no form is given. Euler angles use scipy's
   convention: an uppercase ``sequence`` (``"ZYX"``) is intrinsic, lowercase (``"zyx"``)
   extrinsic; ``unit`` is required. A quaternion is normalised if its norm is within ``1e-3`` of
-  1 (rounded decimals) and rejected otherwise.
+  1 (rounded decimals) and rejected otherwise. A ``matrix`` orthogonal to ``1e-9``
+  (``||R^T R - I||_F``, det +1) is used as written; one orthogonal to ``1e-6`` only (a rotation
+  rounded to 7 digits) is replaced by its nearest rotation with an
+  :class:`lgvi.errors.AttitudeWarning`; beyond that it is an error.
+- ``omega`` is in rad/s as an array; as a table ``{ values = [...], unit = "..." }`` the
+  ``unit`` (required there) is ``"rad/s"`` or ``"deg/s"``. ``Pi`` is in the body's units.
 - ``duration / h`` must be a non-negative integer to a relative ``1e-9``.
 - ``forcing`` and ``order`` are passed to :func:`lgvi.simulate` only when given, so the
   library's defaults (and its rules, e.g. potentials always use the symmetric scheme) apply.
@@ -331,7 +337,7 @@ def _attitude(c: _Checker, tbl: dict[str, Any], key: str) -> np.ndarray:
     """R from whichever attitude form ``tbl`` holds (identity if none); ``tbl`` already key-checked."""
     from scipy.spatial.transform import Rotation
 
-    from ._validation import as_rotation
+    from ._validation import nearest_rotation, warn_repaired
 
     given = [k for k in _ATTITUDE_KEYS if k in tbl]
     if len(given) > 1:
@@ -343,10 +349,16 @@ def _attitude(c: _Checker, tbl: dict[str, Any], key: str) -> np.ndarray:
     value = tbl[form]
     if form == "matrix":
         R = c.matrix(value, path)
+        fix = (f"Write {path} with orthonormal rows and determinant +1 to at least 7 significant digits, "
+               "or give the attitude as rotvec, quat_xyzw, quat_wxyz or euler instead.")
         try:
-            return as_rotation(R, path)
+            R, err = nearest_rotation(R, path, fix)
         except ValueError as exc:
             raise c.error(path, f"expected a rotation matrix: {exc}") from None
+        if err is not None:
+            warn_repaired(f"{c.source}: {path} is {err:.2g} away from a rotation; write it with more digits "
+                          "to silence this", R)
+        return R
     if form in ("quat_xyzw", "quat_wxyz"):
         q = c.vector(value, path, 4)
         n = float(np.linalg.norm(q))
@@ -375,6 +387,19 @@ def _attitude(c: _Checker, tbl: dict[str, Any], key: str) -> np.ndarray:
     angles = c.vector(eul["angles"], f"{path}.angles")
     unit = c.string(eul["unit"], f"{path}.unit", ("deg", "rad"))
     return Rotation.from_euler(seq, angles, degrees=(unit == "deg")).as_matrix()
+
+
+def _omega(c: _Checker, value: Any, key: str) -> np.ndarray:
+    """Body angular velocity in rad/s: an array (rad/s) or ``{ values = [...], unit = "rad/s" | "deg/s" }``."""
+    if not isinstance(value, dict):
+        return c.vector(value, key)
+    tbl = c.table(value, key, ("values", "unit"))
+    for k, what in (("values", "an array of 3 numbers"), ("unit", '"rad/s" or "deg/s"')):
+        if k not in tbl:
+            raise c.expected(f"{key}.{k}", what)
+    values = c.vector(tbl["values"], f"{key}.values")
+    unit = c.string(tbl["unit"], f"{key}.unit", ("rad/s", "deg/s"))
+    return np.radians(values) if unit == "deg/s" else values
 
 
 def _torque(c: _Checker, entries: Any) -> tuple[Any, tuple[dict[str, Any], ...]]:
@@ -553,7 +578,7 @@ class Scenario:
             raise c.error("initial", f"expected exactly one of initial.omega [rad/s] or initial.Pi [kg m^2/s]; "
                           f"got {got}")
         with np.errstate(over="ignore", invalid="ignore"):
-            Pi0 = (body.J @ c.vector(init["omega"], "initial.omega")) if "omega" in init else \
+            Pi0 = (body.J @ _omega(c, init["omega"], "initial.omega")) if "omega" in init else \
                 c.vector(init["Pi"], "initial.Pi")
         if not np.all(np.isfinite(Pi0)):
             raise c.error("initial.omega", f"expected an angular velocity whose momentum J omega is finite, "

@@ -225,6 +225,52 @@ def _quat_from_matrix(R: FloatArray) -> FloatArray:
     return q / n[..., None]
 
 
+def _rotation_defects(R: Any) -> tuple[Any, Any]:
+    """``(||R^T R - I||_F^2, det R)`` from the nine entries (floats for one matrix, else arrays)."""
+    if isinstance(R, np.ndarray):
+        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = (
+            (R[..., i, 0], R[..., i, 1], R[..., i, 2]) for i in range(3))
+    else:
+        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = R
+    g00 = r00 * r00 + r10 * r10 + r20 * r20 - 1.0
+    g11 = r01 * r01 + r11 * r11 + r21 * r21 - 1.0
+    g22 = r02 * r02 + r12 * r12 + r22 * r22 - 1.0
+    g01 = r00 * r01 + r10 * r11 + r20 * r21
+    g02 = r00 * r02 + r10 * r12 + r20 * r22
+    g12 = r01 * r02 + r11 * r12 + r21 * r22
+    err2 = g00 * g00 + g11 * g11 + g22 * g22 + 2.0 * (g01 * g01 + g02 * g02 + g12 * g12)
+    det = r00 * (r11 * r22 - r12 * r21) + r01 * (r12 * r20 - r10 * r22) + r02 * (r10 * r21 - r11 * r20)
+    return err2, det
+
+
+def _check_rotations(R: FloatArray, tol: float, func: str) -> None:
+    """Raise ValueError naming the first finite matrix of ``R`` that is not a rotation to ``tol``.
+
+    Non-finite matrices pass (their results are NaN). One matrix is checked in Python floats,
+    a stack with array arithmetic on its nine entries (no temporaries of shape (..., 3, 3)).
+    """
+    tol = float(tol)
+    if not (tol >= 0.0 and math.isfinite(tol)):
+        raise ValueError(f"tol must be a finite non-negative number, got {tol!r}")
+    if R.ndim == 2:
+        err2, det = _rotation_defects(R.tolist())
+        if not (err2 > tol * tol or det <= 0.0):  # passes NaN
+            return
+        err2, det = np.asarray(err2), np.asarray(det)
+    else:
+        err2, det = _rotation_defects(R)
+        if not np.any((err2 > tol * tol) | (det <= 0.0)):
+            return
+    bad = (err2 > tol * tol) | (det <= 0.0)
+    i = tuple(int(k) for k in np.argwhere(bad)[0]) if bad.ndim else ()
+    where = f"R[{', '.join(map(str, i))}]" if i else "R"
+    raise ValueError(
+        f"{func}: {where} is not a rotation matrix (the rule: ||R^T R - I||_F <= tol = {tol:g} and "
+        f"det R > 0); got ||R^T R - I||_F = {math.sqrt(err2[i]):.3g}, det R = {det[i]:.3g}"
+        + (f" ({int(np.count_nonzero(bad))} of {bad.size} matrices fail)" if bad.ndim else "")
+        + ". lgvi.so3.project(R) gives the nearest rotation.")
+
+
 # --------------------------------------------------------------------------------------------
 # hat / vee
 # --------------------------------------------------------------------------------------------
@@ -351,20 +397,37 @@ def exp(w: ArrayLike) -> FloatArray:
     return exp_minus_identity(w) + np.eye(3)
 
 
-def log(R: ArrayLike) -> FloatArray:
+#: Default bound of :func:`log` on ``||R^T R - I||_F``: matrices further from SO(3) are refused.
+LOG_TOL = 1e-6
+
+
+def log(R: ArrayLike, *, tol: float = LOG_TOL) -> FloatArray:
     """Logarithm map from rotation matrices to rotation vectors with angle in ``[0, pi]``.
 
     Parameters
     ----------
     R : array_like, shape (..., 3, 3)
         Rotation matrices. Slightly non-orthogonal input (round-off) is tolerated: the result is
-        the rotation vector of the nearest unit quaternion found by Shepperd's method.
+        the rotation vector of the nearest unit quaternion found by Shepperd's method. Non-finite
+        matrices give NaN.
+    tol : float, optional
+        Bound on the orthogonality error ``||R^T R - I||_F`` (default ``1e-6``, :data:`LOG_TOL`):
+        a finite matrix beyond it, or with ``det R <= 0`` (a reflection), is not a rotation and
+        has no rotation vector. Within it the result is that of a rotation at most about ``tol``
+        away from ``R``. Use :func:`project` first for the nearest rotation of a matrix that
+        drifted further (e.g. the attitude of an explicit Runge-Kutta run).
 
     Returns
     -------
     ndarray, shape (..., 3)
         Rotation vectors ``w`` with ``exp(w) == R`` and ``|w| <= pi``. For a rotation by exactly
         ``pi`` either of the two equivalent vectors ``+-pi n`` may be returned.
+
+    Raises
+    ------
+    ValueError
+        If a finite matrix of ``R`` is not a rotation (see ``tol``); the message gives its index,
+        orthogonality error and determinant.
 
     Notes
     -----
@@ -388,6 +451,7 @@ def log(R: ArrayLike) -> FloatArray:
     array([3.14159265, 0.        , 0.        ])
     """
     R = _mat3(R, "R")
+    _check_rotations(R, tol, "log")
     q = _quat_from_matrix(R)
     v = q[..., :3]
     s = q[..., 3]

@@ -9,6 +9,11 @@ baselines, plots and tests.
 Models add up: ``UniformGravity(1.0, [0, 0, 0.3]) + LinearDamping(0.01)`` is a
 :class:`TorqueSum`, itself a model.
 
+Each model declares the quantities its runs conserve, :meth:`TorqueModel.invariants` (the kinds
+and the rules are in :mod:`lgvi.invariants`): uniform gravity the total energy (bounded) and
+``e3 . R Pi`` (exact), the gravity gradient the Jacobi integral ``E - n e3 . R Pi`` (bounded), the
+others nothing; a sum keeps what all its members conserve.
+
 ================================  ============  ==================  ==============
 model                             conservative  depends on momentum time-dependent
 ================================  ============  ==================  ==============
@@ -144,6 +149,18 @@ class TorqueModel:
     #: The moment depends explicitly on time.
     time_dependent: bool = False
 
+    def invariants(self) -> dict[str, dict[str, Any]]:
+        """The quantities the LGVI conserves under this moment (see :mod:`lgvi.invariants`).
+
+        Returns
+        -------
+        dict
+            Quantity key (of :data:`lgvi.invariants.QUANTITIES`) -> ``{"kind": "exact" or
+            "bounded", **parameters}``; quantities not listed are not invariants. Empty here:
+            a model conserves nothing unless it says so.
+        """
+        return {}
+
     # -- kernel encoding ------------------------------------------------------------------
     def _terms(self) -> list[tuple[int, np.ndarray]]:  # pragma: no cover - abstract
         raise NotImplementedError
@@ -237,6 +254,9 @@ class UniformGravity(TorqueModel):
     ``U(R) = mass g e3 . (R com)`` and ``M = mass g (R^T e3) x com``. About the vertical the
     moment has no component (``e3 . R M = 0``), so the LGVI conserves ``e3 . R Pi`` to round-off.
 
+    Lee, Leok and McClamroch take ``e3`` along gravity (down): their ``rho`` is ``-com`` here,
+    and their 3D pendulum (``rho = 0.3 e3``, hanging at ``R = I``) is ``com = [0, 0, -0.3]``.
+
     Examples
     --------
     >>> import numpy as np
@@ -268,6 +288,10 @@ class UniformGravity(TorqueModel):
     def _terms(self):
         return [(GRAVITY, self.mass * self.g * self.com)]
 
+    def invariants(self):
+        """Total energy (bounded) and ``e3 . R Pi``, the momentum about the gravity axis (exact)."""
+        return {"spatial_momentum_e3": {"kind": "exact"}, "energy": {"kind": "bounded"}}
+
     def moment(self, t, R, Pi, body):
         R, _ = _state(R)
         s = R[..., 2, :]                                   # R^T e3
@@ -294,6 +318,9 @@ class GravityGradient(TorqueModel):
 
     Notes
     -----
+    The energy changes (the orbit does work on the attitude); the Jacobi integral
+    ``C = E - n e3 . R Pi`` is conserved (see :mod:`lgvi.invariants`).
+
     With ``c = -R^T r_hat(t)`` the nadir direction in the body frame,
 
     ``M = 3 mu / r^3  c x (J c)``,   ``U = 3/2 mu / r^3  c . J c``.
@@ -340,6 +367,11 @@ class GravityGradient(TorqueModel):
     def _terms(self):
         k = self.mu / self.radius ** 3
         return [(GRAVITY_GRADIENT, np.array([3.0 * k, np.sqrt(k)]))]
+
+    def invariants(self):
+        """The Jacobi integral ``E - n e3 . R Pi`` (bounded), the energy in the frame that turns
+        with the orbit; neither the energy nor any momentum is conserved."""
+        return {"jacobi": {"kind": "bounded", "n": self.mean_motion}}
 
     def nadir(self, t: Any, R: Any) -> np.ndarray:
         """Nadir direction ``c = -R^T r_hat(t)`` in the body frame, shape ``(..., 3)``."""
@@ -518,6 +550,12 @@ class TorqueSum(TorqueModel):
     @property
     def time_dependent(self) -> bool:  # type: ignore[override]
         return any(m.time_dependent for m in self._models)
+
+    def invariants(self):
+        """What every term conserves, with the weaker kind (:func:`lgvi.invariants.combine`)."""
+        from .invariants import combine
+
+        return combine([m.invariants() for m in self._models])
 
     def __repr__(self) -> str:
         return "TorqueSum(" + ", ".join(repr(m) for m in self._models) + ")"
