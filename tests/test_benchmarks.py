@@ -81,3 +81,13 @@ def test_roundoff_quick():
     rows = [line.split() for line in proc.stdout.splitlines() if line.strip().startswith("after ")]
     assert [int(r[1]) for r in rows[:3]] == [8, 10, 12]
     assert all(float(x) < 1e-11 for r in rows[:3] for x in r[2:5])   # round-off, not truncation
+
+
+@pytest.mark.slow
+def test_memory_quick():
+    """lgvi run, each size in a fresh process: the script prints its peak-memory table and the verdict line."""
+    proc = _run("memory.py", "--quick")
+    _check(proc, "peak resident memory", "peak MB", "lgvi run (interval record)", "lgvi info", "goal <= 300 MB")
+    assert "Traceback" not in proc.stderr
+    rows = [line.split() for line in proc.stdout.splitlines() if line.startswith("lgvi run (interval")]
+    assert [int(r[4]) for r in rows] == [100_000, 1_000_000] and all(float(r[6]) > 0 for r in rows)

@@ -70,7 +70,8 @@ def advance_free(b, method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, sa
     :func:`.stepping.run_chunk`, without per-step records)."""
     st, k, it_sum, rmax, it, rn = free_steps(method, Jd[ib[b]], h, R[b], Pi[b], G[b, 0], hist[:0, None], k0, n,
                                              tol, max_iter, alpha, save_every, save_every - k0 % save_every,
-                                             k0 // save_every + 1, R_out[b], Pi_out[b], False, hist, hist, hist)
+                                             k0 // save_every + 1, R_out[b], Pi_out[b], 0, hist, hist, hist,
+                                             fail_its[:0])
     its[b] += it_sum
     if rmax > res[b]:
         res[b] = rmax
