@@ -76,9 +76,10 @@ def physical_memory() -> int:
         return 1 << 62
 
 
-def check_memory(steps: int, save_every: int) -> None:
-    """Refuse a run whose in-memory result cannot fit: 96 bytes a sample, 12 bytes a step."""
-    need = 96 * (steps // save_every + 1) + 12 * steps
+def check_memory(steps: int, save_every: int, full: bool = True) -> None:
+    """Refuse a run whose in-memory result cannot fit: 96 bytes a sample, 12 bytes a record entry
+    (a step, or with ``full=False`` a saved interval)."""
+    need = 96 * (steps // save_every + 1) + 12 * (steps if full else steps // save_every)
     have = physical_memory()
     if need > have:
         raise ValueError(f"steps={steps} with save_every={save_every} needs {need / 2**30:.3g} GiB for the "
@@ -170,7 +171,8 @@ class Sink(Protocol):
 
     def buffers(self, k0: int, n: int) -> list[np.ndarray]:
         """State buffers (one per field of ``run.system.state``, ``n // save_every`` samples) and
-        record buffers (one per field of ``run.system.records``, ``n`` steps) for steps ``k0 ..``."""
+        record buffers (one per field of ``run.system.records``, ``n // record_every(run)``
+        entries) for steps ``k0 ..``."""
 
     def partial(self, k_done: int | None = None) -> Any:
         """The result up to step ``k_done`` (``None``: what is kept), marked partial."""
@@ -188,6 +190,12 @@ class Sink(Protocol):
         """The run is complete: its result."""
 
 
+def record_every(run: Any) -> int:
+    """Steps per entry of a run's per-step records: 1 (every step) or ``save_every`` (the largest
+    over each saved interval, ``solver_record="interval"``)."""
+    return 1 if getattr(run, "full", True) else run.save_every
+
+
 class MemorySink:
     """The whole result in memory, allocated from the system's state layout (:func:`lgvi.simulate`)."""
 
@@ -202,21 +210,23 @@ class MemorySink:
         self.state = [f.empty(M) for f in run.system.state]
         for buf, f in zip(self.state, run.system.state):
             buf[0] = getattr(run, f.name)
-        self.records = [f.zeros(run.steps) for f in run.system.records]
+        self.per = per = record_every(run)
+        self.records = [f.zeros(run.steps // per) for f in run.system.records]
 
     def buffers(self, k0: int, n: int) -> list[np.ndarray]:
         j0 = k0 // self.se + 1
         m = n // self.se
-        return [b[j0:j0 + m] for b in self.state] + [r[k0:k0 + n] for r in self.records]
+        per = self.per
+        return [b[j0:j0 + m] for b in self.state] + [r[k0 // per:(k0 + n) // per] for r in self.records]
 
     def partial(self, k_done: int | None = None) -> Any:
         m = k_done // self.se + 1
+        r = k_done // self.per
         return self.run.trajectory(self.run.times(0, m), *(b[:m].copy() for b in self.state),
-                                   *(r[:k_done].copy() for r in self.records), partial=True)
+                                   *(a[:r].copy() for a in self.records), partial=True)
 
     def failed(self, k0: int, k: int) -> tuple[float, int]:
-        its, res = self.records
-        return float(res[k]), int(its[k])
+        return self.run.last_res, self.run.last_its
 
     def commit(self, k0: int, n: int) -> None:
         pass
@@ -259,4 +269,4 @@ def drive(run: Any, sink: Sink, progress: Any = False) -> Any:
 
 
 __all__ = ["Interrupts", "MemorySink", "Progress", "Sink", "check_memory", "drive", "initial_momentum",
-           "physical_memory", "run_solver_options", "sample_times", "time_grid"]
+           "physical_memory", "record_every", "run_solver_options", "sample_times", "time_grid"]

@@ -617,7 +617,7 @@ class _LocalRun:
         self.J_inv = np.ascontiguousarray(np.stack([b.J_inv for b in s.bodies]))
         stages = 1 if s.legacy else len(s.gam)
         hs = np.array([h]) if s.legacy else s.gam * h
-        self.G = np.zeros((B, stages, 4, 3))
+        self.G = np.zeros((B, stages, 5, 3))
         ek.init_histories(s.code, self.J, s.ib, hs, self.Pi, self.G)
         if not s.legacy:
             self.A = np.ascontiguousarray(np.stack([momentum_matrices(b, s.codes, s.params, s.gam * h, s.sym)

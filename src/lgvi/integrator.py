@@ -35,7 +35,7 @@ from .registry import (COMPOSITIONS, DEFAULT_COMPOSITION, FORCINGS, SOLVER_METHO
                        check_composable, composition_for, torque_kind)
 from .systems.rigid_body import RIGID_BODY, momentum_matrices
 from .torques import TorqueModel
-from .trajectory import Trajectory
+from .trajectory import HIST_BINS, Trajectory, summary_dict
 
 #: Steps per compiled call; between chunks Ctrl-C is honoured and progress reported.
 CHUNK_STEPS = 1 << 18
@@ -50,13 +50,16 @@ TorqueCallable = Callable[[float, np.ndarray, np.ndarray], Any]
 _NO_HIST = np.zeros(0)
 _NO_CODES = np.zeros((0, 2), dtype=np.int64)
 
+#: Resolutions of the solver's record (``solver_record=``): largest per saved interval, or every step.
+SOLVER_RECORDS = ("interval", "full")
 
 
 def _solver_state(code: int, body: RigidBody, h: float, Pi: np.ndarray) -> np.ndarray:
-    """Solver history ``G`` (4,3) of the stepping kernels, cold-started from the linearisation."""
+    """Solver history ``G`` (5,3) of the stepping kernels (row 4: the low part of ``Pi``, zero), cold-started
+    from the linearisation."""
     from ._kernels.solvers import initial_guess
 
-    G = np.zeros((4, 3))
+    G = np.zeros((5, 3))
     # the kernel's Python source: the same IEEE operations (so the same bits as the compiled
     # ensemble path), without loading one more compiled function on a run's first call
     getattr(initial_guess, "py_func", initial_guess)(code, body.J, h * Pi, G[0])
@@ -154,7 +157,8 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
              torque: Any = None, method: str = "newton", tol: float = 1e-14, max_iter: int = 50,
              alpha: float = 1.0, save_every: int = 1, t0: float = 0.0, forcing: str = "paper",
              order: int = 2, composition: str | None = None, progress: Any = False,
-             error_estimate: Any = False, error_warn: float | None = 0.01) -> Trajectory:
+             error_estimate: Any = False, error_warn: float | None = 0.01,
+             solver_record: str = "interval") -> Trajectory:
     r"""Simulate the attitude of a rigid body with the Lie group variational integrator.
 
     Each step solves ``hat(h Pi_k) = F_k Jd - Jd F_k^T`` for ``F_k`` in SO(3), then sets
@@ -222,13 +226,19 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     error_warn : float or None
         With ``error_estimate``: emit :class:`lgvi.AccuracyWarning` when the estimated final
         attitude error exceeds this many radians (default 0.01); ``None`` never warns.
+    solver_record : {"interval", "full"}
+        Resolution of the solver's record in ``iterations`` and ``residual``: ``"interval"``
+        (default) the largest of each over the steps between two saved states, shape
+        ``(M - 1,)``, so the result is sized by the saved states; ``"full"`` every step, shape
+        ``(steps,)``. With ``save_every=1`` both are the per-step record. Run totals and a
+        histogram of the iterations are kept either way (:attr:`Trajectory.solver_summary`).
 
     Returns
     -------
     Trajectory
         ``M = steps // save_every + 1`` samples; ``iterations`` (summed over substeps) and
-        ``residual`` (largest over substeps) for every step; ``potential`` for torque models
-        with a conservative part; ``error_estimate`` when asked for.
+        ``residual`` (largest over substeps) per saved interval or per step (``solver_record``);
+        ``potential`` for torque models with a conservative part; ``error_estimate`` when asked for.
 
     Raises
     ------
@@ -285,7 +295,7 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     estimate, warn = check_options(error_estimate, error_warn, torque)
     run = _Run(body, R0, Pi0, omega0=omega0, h=h, steps=steps, torque=torque, method=method, tol=tol,
                max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0, forcing=forcing, order=order,
-               composition=composition)
+               composition=composition, solver_record=solver_record)
     steps, save_every = run.steps, run.save_every
     traj = drive(run, MemorySink(run), progress)  # lgvi.driver: chunks, progress, Ctrl-C, failures
     if estimate:  # a shadow run of this very function at h/2 (lgvi.accuracy)
@@ -313,14 +323,23 @@ class Run:
 
     def __init__(self, body: Any, R0: Any, Pi0: Any, *, omega0: Any, h: Any, steps: Any, torque: Any,
                  method: str, tol: Any, max_iter: Any, alpha: Any, save_every: Any, t0: Any, forcing: Any,
-                 order: Any, composition: Any) -> None:
+                 order: Any, composition: Any, solver_record: Any = "interval") -> None:
         self.body = body = as_body(body)
         self.code, self.tol, self.max_iter, self.alpha = _options(method, tol, max_iter, alpha)
         self.R = as_rotation(R0, "R0").copy()
         self.Pi = _initial_momentum(body, Pi0, omega0)
         self.h, self.t0, self.steps, self.save_every = time_grid(h, t0, steps, save_every)
         h, steps, save_every = self.h, self.steps, self.save_every
-        _check_memory(steps, save_every)
+        choice(solver_record, "solver_record", SOLVER_RECORDS)
+        self.full = solver_record == "full"
+        _check_memory(steps, save_every, self.full)
+        # run totals of the solver (steps taken), the histogram filled by the kernels
+        self.counts = np.zeros(HIST_BINS, dtype=np.int64)
+        self.it_total = 0
+        self.res_max = 0.0
+        self.last_its = 0      # iterations and residual of the last step tried (the failed one)
+        self.last_res = 0.0
+        self.new_chunk()
         choice(forcing, "forcing", FORCINGS)
         self.comp = comp = _composition(order, composition)
         self.sym = sym = forcing == "symmetric"
@@ -340,7 +359,7 @@ class Run:
         self.meta: dict[str, Any] = {"method": method, "tol": self.tol, "max_iter": self.max_iter,
                                      "alpha": self.alpha, "save_every": save_every, "torque": kind,
                                      "forcing": forcing, "lgvi_version": __version__, "t0": self.t0,
-                                     "order": comp.order}
+                                     "order": comp.order, "solver_record": solver_record}
         if comp.order != 2:
             self.meta["composition"] = comp.name
         if self.model is not None:
@@ -375,10 +394,41 @@ class Run:
     def potential(self, t: np.ndarray, R_saved: np.ndarray) -> np.ndarray | None:
         return self.model.potential(t, R_saved, self.body) if self.has_potential else None
 
-    def trajectory(self, t, R_out, Pi_out, it_out, res_out, partial: bool = False) -> Trajectory:
-        meta = dict(self.meta, partial=True) if partial else self.meta
+    def trajectory(self, t, R_out, Pi_out, it_out, res_out, partial: bool = False,
+                   summary: dict[str, Any] | None = None) -> Trajectory:
+        meta = dict(self.meta, partial=True) if partial else dict(self.meta)
+        if summary is None:
+            summary = self.summary()
+        meta["solver_summary"] = dict(summary, iterations_max=max(summary["iterations_max"],
+                                                                  int(it_out.max()) if len(it_out) else 0))
         return Trajectory(t=t, R=R_out, Pi=Pi_out, inertia=self.body.J.copy(), iterations=it_out,
                           residual=res_out, h=self.h, potential=self.potential(t, R_out), meta=meta)
+
+    # ------------------------------------------------------------------ solver totals
+    def summary(self) -> dict[str, Any]:
+        """Totals of the solver over the steps taken so far (see :attr:`Trajectory.solver_summary`)."""
+        return summary_dict(self.counts, self.it_total, self.res_max)
+
+    def new_chunk(self) -> None:
+        """Start the totals of a new chunk (:meth:`chunk_summary`)."""
+        self._mark = (self.counts.copy(), self.it_total)
+
+    def chunk_summary(self) -> dict[str, Any]:
+        """Totals of the steps taken since :meth:`new_chunk` (the largest residual: of the run so far)."""
+        counts0, it0 = self._mark
+        return summary_dict(self.counts - counts0, self.it_total - it0, self.res_max)
+
+    def count_step(self, its: int, rn: float) -> None:
+        """Add one step taken to the totals (the Python loops of torque callables)."""
+        self.counts[min(int(its), HIST_BINS - 1)] += 1
+        self.it_total += int(its)
+        self.res_max = max(self.res_max, float(rn))
+
+    def tally(self, status: int, it_sum: int, rmax: float, its: int, rn: float) -> None:
+        """Add a kernel call's totals (``it_sum`` counts the failed step's iterations too)."""
+        self.last_its, self.last_res = int(its), float(rn)
+        self.it_total += int(it_sum) - (int(its) if status != OK else 0)
+        self.res_max = max(self.res_max, float(rmax))
 
     def failure(self, status: int, residual: float, iterations: int, trajectory: Any,
                 where: str = "") -> ConvergenceError:
@@ -411,14 +461,20 @@ class Run:
         self.k = int(st["k"])
         self.R[:] = np.asarray(st["R"], dtype=np.float64)
         self.Pi[:] = np.asarray(st["Pi"], dtype=np.float64)
-        self.G[:] = np.asarray(st["G"], dtype=np.float64)
+        G = np.asarray(st["G"], dtype=np.float64)
+        self.G[:] = 0.0
+        self.G[..., :G.shape[-2], :] = G        # a state saved with 4 rows: no low part of Pi yet
         if "S" in st:
             self.S[:] = np.asarray(st["S"], dtype=np.float64)
         self.M_cb = np.asarray(st["M_cb"], dtype=np.float64) if "M_cb" in st else None
 
     # ------------------------------------------------------------------ stepping
     def advance(self, n: int, R_out, Pi_out, it_out, res_out, partial) -> int:
-        """Run steps ``k .. k+n-1`` into the chunk buffers; returns the status (``k`` is updated)."""
+        """Run steps ``k .. k+n-1`` into the chunk buffers; returns the status (``k`` is updated).
+
+        ``it_out``, ``res_out`` hold ``n`` entries (a record per step) or ``n // save_every``
+        (per saved interval); the histogram and totals of the solver are updated either way.
+        """
         from ._kernels.stepping import METHOD_CAYLEY, run_chunk, run_chunk_cayley, run_chunk_forced
 
         body = self.body
@@ -427,15 +483,17 @@ class Run:
             status, self.k = runner(self, n, R_out, Pi_out, it_out, res_out, partial)
         elif self.legacy:
             kernel = run_chunk_cayley if self.code == METHOD_CAYLEY else run_chunk
-            status, self.k = kernel(self.code, body.Jd, self.h, self.R, self.Pi, self.G, self.U, self.k, n, self.tol,
-                                    self.max_iter, self.alpha, self.save_every, R_out, Pi_out, it_out, res_out,
-                                    _NO_HIST)
+            status, self.k, *tot = kernel(self.code, body.Jd, self.h, self.R, self.Pi, self.G, self.U, self.k, n,
+                                          self.tol, self.max_iter, self.alpha, self.save_every, R_out, Pi_out,
+                                          it_out, res_out, _NO_HIST, self.counts)
+            self.tally(status, *tot)
         else:
-            status, self.k = run_chunk_forced(self.code, body.Jd, body.J, body.J_inv, self.h, self.t0, self.gam,
-                                              self.cum, self.A, self.R, self.Pi, self.G, self.gidx, self.S,
-                                              self.codes, self.params, self.U, int(self.sym), self.k, n, self.tol,
-                                              self.max_iter, self.alpha, self.save_every, R_out, Pi_out, it_out,
-                                              res_out, _NO_HIST)
+            status, self.k, *tot = run_chunk_forced(self.code, body.Jd, body.J, body.J_inv, self.h, self.t0,
+                                                    self.gam, self.cum, self.A, self.R, self.Pi, self.G, self.gidx,
+                                                    self.S, self.codes, self.params, self.U, int(self.sym), self.k, n,
+                                                    self.tol, self.max_iter, self.alpha, self.save_every, R_out,
+                                                    Pi_out, it_out, res_out, _NO_HIST, self.counts)
+            self.tally(status, *tot)
         return int(status)
 
 
@@ -479,6 +537,8 @@ def _run_callable_symmetric(run: _Run, n: int, R_out, Pi_out, it_out, res_out, p
     k0 = run.k
     countdown = run.save_every
     j = 0
+    per_step = len(it_out) == n
+    imax, rimax = 0, 0.0
     for k in range(k0, k0 + n):
         R_start = R.copy()
         Pi_start = Pi.copy()
@@ -496,8 +556,10 @@ def _run_callable_symmetric(run: _Run, n: int, R_out, Pi_out, it_out, res_out, p
             its_sum += its
             rmax = max(rmax, rn)
             if st != OK:
-                it_out[k - k0] = its_sum
-                res_out[k - k0] = rn
+                if per_step:
+                    it_out[k - k0] = its_sum
+                    res_out[k - k0] = rn
+                run.last_its, run.last_res = int(its_sum), float(rn)
                 R[:] = R_start
                 Pi[:] = Pi_start
                 run.M_cb = M_start
@@ -526,13 +588,19 @@ def _run_callable_symmetric(run: _Run, n: int, R_out, Pi_out, it_out, res_out, p
                     trajectory=partial(k))
             run.M_cb = M
             Pi[:] = P
-        it_out[k - k0] = its_sum
-        res_out[k - k0] = rmax
+        if per_step:
+            it_out[k - k0] = its_sum
+            res_out[k - k0] = rmax
+        run.count_step(its_sum, rmax)
+        imax, rimax = max(imax, its_sum), max(rimax, rmax)
         countdown -= 1
         if countdown == 0:
             countdown = run.save_every
             R_out[j] = R
             Pi_out[j] = Pi
+            if not per_step:
+                it_out[j], res_out[j] = imax, rimax
+            imax, rimax = 0, 0.0
             j += 1
     return OK, k0 + n
 
@@ -547,18 +615,27 @@ def _run_callable(run: _Run, n: int, R_out, Pi_out, it_out, res_out, partial) ->
     k0 = run.k
     countdown = run.save_every
     j = 0
+    per_step = len(it_out) == n
+    imax, rimax = 0, 0.0
     for k in range(k0, k0 + n):
         u = _call_torque(func, t0 + k * h, R, Pi, k, partial)
         its, res, st = lgvi_step(code, Jd, h, R, Pi, G, u[0], u[1], u[2], tol, max_iter, alpha, _NO_HIST)
-        it_out[k - k0] = its
-        res_out[k - k0] = res
+        if per_step:
+            it_out[k - k0] = its
+            res_out[k - k0] = res
         if st != OK:
+            run.last_its, run.last_res = int(its), float(res)
             return st, k
+        run.count_step(its, res)
+        imax, rimax = max(imax, its), max(rimax, res)
         countdown -= 1
         if countdown == 0:
             countdown = run.save_every
             R_out[j] = R
             Pi_out[j] = Pi
+            if not per_step:
+                it_out[j], res_out[j] = imax, rimax
+            imax, rimax = 0, 0.0
             j += 1
     return OK, k0 + n
 

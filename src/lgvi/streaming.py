@@ -4,7 +4,8 @@ A stream is a folder::
 
     run/
       manifest.json          # format, metadata, the list of complete chunks, the resume state
-      chunk-000000.npz       # t, R, Pi, iterations, residual of the samples/steps of that chunk
+      chunk-000000.npz       # t, R, Pi, the solver's record (per saved interval, or per step with
+                             # solver_record="full") and totals of the samples/steps of that chunk
       chunk-000001.npz
       ...
 
@@ -27,8 +28,8 @@ import numpy as np
 from ._untrusted import check_npz, inside
 from ._validation import as_int
 from ._version import __version__
-from .driver import drive
-from .trajectory import Trajectory, check_arrays as _check_arrays
+from .driver import drive, record_every
+from .trajectory import Trajectory, check_arrays as _check_arrays, merge_summaries, summary_dict
 
 STREAM_FORMAT = "lgvi.stream/1"
 MANIFEST = "manifest.json"
@@ -86,15 +87,25 @@ class StreamWriter:
         _fsync_write(self.folder / MANIFEST, lambda fh: fh.write(text))
 
     def append(self, *, t: np.ndarray, R: np.ndarray, Pi: np.ndarray, iterations: np.ndarray,
-               residual: np.ndarray, state: dict[str, Any], potential: np.ndarray | None = None) -> Path:
-        """Write one chunk (samples ``t, R, Pi``; per-step ``iterations, residual``) and the state after it."""
+               residual: np.ndarray, state: dict[str, Any], potential: np.ndarray | None = None,
+               summary: dict[str, Any] | None = None) -> Path:
+        """Write one chunk (samples ``t, R, Pi``; the solver's record ``iterations, residual``) and
+        the state after it. ``summary`` (as :func:`lgvi.trajectory.summary_dict`): the solver's
+        totals over the chunk's steps, stored as the arrays ``iteration_counts`` (histogram),
+        ``iterations_total``, ``residual_max`` and ``iterations_max``."""
         index = len(self.manifest["chunks"])
         name = f"chunk-{index:06d}.npz"
         arrays = dict(t=t, R=R, Pi=Pi, iterations=iterations, residual=residual)
         if potential is not None:
             arrays["potential"] = potential
+        if summary is not None:
+            arrays.update(iteration_counts=np.asarray(summary["histogram"], dtype=np.int64),
+                          iterations_total=np.int64(summary["iterations_total"]),
+                          residual_max=np.float64(summary["residual_max"]),
+                          iterations_max=np.int64(summary["iterations_max"]))
         _fsync_write(self.folder / name, lambda fh: np.savez(fh, **arrays))
-        self.manifest["chunks"].append({"file": name, "samples": int(len(t)), "steps": int(len(iterations))})
+        steps = int(np.sum(summary["histogram"])) if summary is not None else int(len(iterations))
+        self.manifest["chunks"].append({"file": name, "samples": int(len(t)), "steps": steps})
         self.manifest["state"] = {key: (np.asarray(val).tolist() if isinstance(val, np.ndarray) else val)
                                   for key, val in state.items()}
         self._write_manifest()
@@ -148,6 +159,7 @@ def read_manifest(folder: str | os.PathLike) -> dict[str, Any]:
 
 
 _CHUNK_FIELDS = ("t", "R", "Pi", "iterations", "residual")
+_SUMMARY_FIELDS = ("iteration_counts", "iterations_total", "residual_max", "iterations_max")
 
 
 def read_stream(folder: str | os.PathLike) -> Trajectory:
@@ -175,6 +187,7 @@ def read_stream(folder: str | os.PathLike) -> Trajectory:
         raise ValueError(f"{mpath} is damaged: meta needs the inertia (3, 3) and h ({type(exc).__name__}: "
                          f"{exc})") from exc
     parts: dict[str, list[np.ndarray]] = {k: [] for k in _CHUNK_FIELDS + ("potential",)}
+    summaries: list[dict[str, Any] | None] = []
     for i, entry in enumerate(chunks):
         name = entry.get("file") if isinstance(entry, dict) else None
         if not isinstance(name, str) or not name or Path(name).name != name or name.startswith("."):
@@ -194,11 +207,23 @@ def read_stream(folder: str | os.PathLike) -> Trajectory:
                 for key in parts:
                     if key in data.files:
                         parts[key].append(data[key])
+                if all(k in data.files for k in _SUMMARY_FIELDS):
+                    summaries.append(summary_dict(data["iteration_counts"], int(data["iterations_total"]),
+                                                  float(data["residual_max"]), int(data["iterations_max"])))
+                else:  # a stream written before lgvi kept the solver's totals: per-step records
+                    summaries.append(None)
         except MemoryError:
             raise
         except Exception as exc:  # OSError, EOFError, zipfile.BadZipFile, numpy's ValueErrors, ...
             raise ValueError(f"cannot read stream chunk {path}: {type(exc).__name__}: {exc}") from exc
     meta = dict(meta, complete=manifest.get("complete", False))
+    if summaries and all(x is not None for x in summaries):
+        total = summaries[0]
+        for x in summaries[1:]:
+            total = merge_summaries(total, x)
+        meta["solver_summary"] = total
+    else:
+        meta.pop("solver_summary", None)
     if not parts["t"]:
         raise ValueError(f"{folder} holds no complete chunk yet")
     if parts["potential"] and len(parts["potential"]) != len(parts["t"]):
@@ -208,6 +233,10 @@ def read_stream(folder: str | os.PathLike) -> Trajectory:
         _check_arrays(dict(inertia=inertia, **{k: cat[k] for k in _CHUNK_FIELDS}), cat.get("potential"))
     except ValueError as exc:
         raise ValueError(f"the chunks of the stream {folder} do not fit together: {exc}") from exc
+    if "solver_summary" in meta and len(cat["iterations"]):
+        summary = meta["solver_summary"]
+        meta["solver_summary"] = dict(summary, iterations_max=max(int(summary["iterations_max"]),
+                                                                  int(cat["iterations"].max())))
     return Trajectory(t=cat["t"], R=cat["R"], Pi=cat["Pi"], inertia=inertia,
                       iterations=cat["iterations"], residual=cat["residual"], h=h,
                       potential=cat.get("potential"), meta=meta)
@@ -223,7 +252,7 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
                     max_iter: int = 50, alpha: float = 1.0, save_every: int = 1, t0: float = 0.0,
                     forcing: str = "paper", order: int = 2, composition: str | None = None,
                     progress: Any = False, resume: bool = False, chunk_steps: int | None = None,
-                    meta: dict[str, Any] | None = None) -> Path:
+                    meta: dict[str, Any] | None = None, solver_record: str = "interval") -> Path:
     """Run :func:`simulate` straight to a crash-safe stream folder, in bounded memory.
 
     The run goes in chunks of ``chunk_steps`` steps (a multiple of ``save_every``); each chunk's
@@ -238,8 +267,9 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
     folder : path
         The stream folder (created; must not hold a stream unless ``resume=True``).
     body, R0, Pi0, omega0, h, steps, torque, method, tol, max_iter, alpha, save_every, t0, forcing,
-    order, composition, progress
-        As in :func:`simulate` (a callable torque works too). With ``resume=True`` they must be
+    order, composition, progress, solver_record
+        As in :func:`simulate` (a callable torque works too); with the default
+        ``solver_record="interval"`` the chunk files are sized by the saved states. With ``resume=True`` they must be
         the same as in the interrupted run (checked against the stream's metadata).
     resume : bool
         Continue the stream in ``folder`` (a complete stream is left as it is).
@@ -261,14 +291,14 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
     >>> _ = lgvi.simulate_stream(folder, [1., 2., 3.], np.eye(3), omega0=[0.3, 1., 0.2], h=0.01,
     ...                          steps=1000, save_every=10, chunk_steps=200)
     >>> traj = read_stream(folder)
-    >>> traj.R.shape, traj.iterations.shape
-    ((101, 3, 3), (1000,))
+    >>> traj.R.shape, traj.iterations.shape, traj.steps
+    ((101, 3, 3), (100,), 1000)
     """
     from .integrator import Run
 
     run = Run(body, R0, Pi0, omega0=omega0, h=h, steps=steps, torque=torque, method=method, tol=tol,
               max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0, forcing=forcing, order=order,
-              composition=composition)
+              composition=composition, solver_record=solver_record)
     if chunk_steps is not None:
         run.chunk = max(1, as_int(chunk_steps, "chunk_steps", minimum=1) // run.save_every) * run.save_every
     stream_meta = dict(run.meta, **(meta or {}), h=run.h, steps=run.steps, inertia=run.body.J.tolist())
@@ -301,7 +331,8 @@ class StreamSink:
         self.interrupted = f"every complete chunk is in {folder} (resume=True continues it)"
         se = self.se = run.save_every
         self.state = [f.empty(run.chunk // se) for f in run.system.state]
-        self.records = [f.zeros(run.chunk) for f in run.system.records]
+        self.per = record_every(run)
+        self.records = [f.zeros(run.chunk // self.per) for f in run.system.records]
         self.chunk_start: dict[str, Any] = {}
         if run.k == 0 and not writer.manifest["chunks"] and run.steps == 0:
             self._append(run.times(0, 1), [getattr(run, f.name)[None].copy() for f in run.system.state],
@@ -311,21 +342,25 @@ class StreamSink:
         run = self.run
         fields = {f.name: a for f, a in zip(run.system.state, state)}
         fields.update({f.name: a for f, a in zip(run.system.records, records)})
-        self.writer.append(t=t, **fields, state=run.state(), potential=run.potential(t, fields["R"]))
+        self.writer.append(t=t, **fields, state=run.state(), potential=run.potential(t, fields["R"]),
+                           summary=run.chunk_summary())
 
     def buffers(self, k0: int, n: int) -> list[np.ndarray]:
         run = self.run
         self.chunk_start = dict(k0=k0, **{f.name: getattr(run, f.name).copy() for f in run.system.state})
+        run.new_chunk()
         m = n // self.se
-        return [b[:m] for b in self.state] + [r[:n] for r in self.records]
+        return [b[:m] for b in self.state] + [r[:n // self.per] for r in self.records]
 
     def partial(self, k_done: int | None = None) -> Trajectory:
         """The complete chunks on disk plus the steps of the current chunk up to ``k_done``."""
         run, se, start = self.run, self.se, self.chunk_start
         names = [f.name for f in run.system.state] + [f.name for f in run.system.records]
+        summary = run.chunk_summary()
         try:
             done = read_stream(self.folder)
             parts = [(done.t, *(getattr(done, name) for name in names))]
+            summary = merge_summaries(done.solver_summary, summary)
         except ValueError:  # no complete chunk yet
             parts = [(run.times(0, 1), *(start[f.name][None] for f in run.system.state),
                       *(f.zeros(0) for f in run.system.records))]
@@ -333,15 +368,14 @@ class StreamSink:
         if k_done is not None and k_done > k0:
             m = (k_done - k0) // se
             j0 = k0 // se + 1
-            parts.append((run.times(j0, j0 + m), *(b[:m] for b in self.state),
-                          *(r[:k_done - k0] for r in self.records)))
+            r = (k_done - k0) // self.per
+            parts.append((run.times(j0, j0 + m), *(b[:m] for b in self.state), *(a[:r] for a in self.records)))
         t, *arrays = (np.concatenate(a) for a in zip(*parts))
-        return run.trajectory(t, *arrays, partial=True)
+        return run.trajectory(t, *arrays, partial=True, summary=summary)
 
     def failed(self, k0: int, k: int) -> tuple[float, int]:
         self.writer.close(complete=False)
-        its, res = self.records
-        return float(res[k - k0]), int(its[k - k0])
+        return self.run.last_res, self.run.last_its
 
     def commit(self, k0: int, n: int) -> None:
         run, se = self.run, self.se
@@ -352,7 +386,7 @@ class StreamSink:
         if k0 == 0:
             t = np.concatenate([run.times(0, 1), t])
             state = [np.concatenate([self.chunk_start[f.name][None], b]) for f, b in zip(run.system.state, state)]
-        self._append(t, state, [r[:n] for r in self.records])
+        self._append(t, state, [r[:n // self.per] for r in self.records])
 
     def interrupt(self, k: int) -> Trajectory:
         self.writer.close(complete=False)
@@ -365,7 +399,8 @@ class StreamSink:
 
 def _check_resume(old: dict[str, Any], new: dict[str, Any], folder: Path) -> None:
     keys = ("method", "tol", "max_iter", "alpha", "save_every", "forcing", "order", "composition", "torque",
-            "torque_model", "t0", "h", "steps", "inertia")
+            "torque_model", "t0", "h", "steps", "inertia", "solver_record")
+    old = dict(old, solver_record=old.get("solver_record", "full"))  # streams written before the option
     diff = [k for k in keys if old.get(k) != new.get(k)]
     if diff:
         k = diff[0]
