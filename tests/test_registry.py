@@ -87,3 +87,23 @@ def test_a_scenario_chooses_a_composition():
     with pytest.raises(ValueError, match="composition"):
         scenario.Scenario.from_dict({**d, "integrator": {"h": 0.01, "steps": 10, "composition": "rk4"}})
 
+
+
+def test_the_driver_runs_a_registered_system_as_simulate_does():
+    """The seam: a system's run, driven into a memory sink sized by its layout, is lgvi.simulate."""
+    from lgvi.driver import MemorySink, drive
+    from lgvi.systems import SYSTEMS
+
+    system = SYSTEMS["rigid_body"]
+    assert [f.name for f in system.state] == ["R", "Pi"] and system.scenario_section == "body"
+    assert set(system.kernels()) >= {"run_chunk", "run_chunk_forced"}
+    kw = dict(omega0=None, h=0.01, steps=60, torque=torques.UniformGravity(1.0, [0.0, 0.0, 0.3]), method="cayley",
+              tol=1e-14, max_iter=50, alpha=1.0, save_every=3, t0=0.0, forcing="paper", order=4, composition=None)
+    run = system.run([1.0, 2.0, 3.0], np.eye(3), [0.1, 1.0, 0.2], **kw, solver_record="full")
+    traj = drive(run, MemorySink(run))
+    ref = lgvi.simulate([1.0, 2.0, 3.0], np.eye(3), [0.1, 1.0, 0.2], solver_record="full",
+                        **{k: v for k, v in kw.items() if k != "omega0"})
+    for name in ("t", "R", "Pi", "iterations", "residual", "potential"):
+        assert np.array_equal(getattr(traj, name), getattr(ref, name)), name
+    assert system.invariants(kw["torque"]) == ref.meta["invariants"]
+    assert system.invariants(None)["casimir"]["kind"] == "exact"

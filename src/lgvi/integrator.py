@@ -33,6 +33,7 @@ from .implicit import METHODS, failure_message, largest_step
 from .invariants import declaration_of, forcing_used
 from .registry import (COMPOSITIONS, DEFAULT_COMPOSITION, FORCINGS, SOLVER_METHODS, Composition,  # noqa: F401
                        check_composable, composition_for, torque_kind)
+from .systems import provide_run
 from .systems.rigid_body import RIGID_BODY, momentum_matrices
 from .torques import TorqueModel
 from .trajectory import HIST_BINS, Trajectory, summary_dict
@@ -498,6 +499,7 @@ class Run:
 
 
 
+provide_run(RIGID_BODY, Run)
 _Run = Run  # its name before the system seam (lgvi.systems.rigid_body)
 _composition = composition_for
 _check_order = check_composable

@@ -57,8 +57,10 @@ class System:
         The fields of its result object (e.g. :class:`lgvi.Trajectory`).
     scenario_section : str
         The scenario table that describes the system (``[body]`` for a rigid body).
-    run_factory : callable
-        Builds the validated run object the driver runs (imported lazily): it has ``k``,
+    run_factory : callable or None
+        Builds the validated run object the driver runs; ``None`` when the module that defines it
+        provides it on import (:func:`provide_run`), so that the system does not import its
+        runner (the rigid body's is :class:`lgvi.integrator.Run`). The run object has ``k``,
         ``steps``, ``save_every``, ``chunk``, ``advance(n, *state_buffers, *record_buffers, partial)``,
         ``failure(...)``, ``state()``, ``load_state()``, ``trajectory(...)``, ``times(j0, j1)``.
     invariants : callable
@@ -73,16 +75,22 @@ class System:
     kernels: Callable[[], dict[str, Any]]
     results: tuple[str, ...]
     scenario_section: str
-    run_factory: Callable[..., Any]
+    run_factory: Callable[..., Any] | None
     invariants: Callable[[Any], dict[str, dict[str, Any]]]
 
     def run(self, *args: Any, **kwargs: Any) -> Any:
         """A validated run of this system (see ``run_factory``)."""
-        return self.run_factory(*args, **kwargs)
+        factory = self.run_factory or RUNS.get(self.name)
+        if factory is None:
+            raise LookupError(f"no run is provided for the system {self.name!r}: import the module that "
+                              "defines it (import lgvi does for the built-in systems)")
+        return factory(*args, **kwargs)
 
 
 #: The registry of systems by name.
 SYSTEMS: dict[str, System] = {}
+#: Run factories provided on import by the modules that define them (:func:`provide_run`).
+RUNS: dict[str, Callable[..., Any]] = {}
 
 
 def register(system: System) -> System:
@@ -93,6 +101,11 @@ def register(system: System) -> System:
     return system
 
 
+def provide_run(system: System, factory: Callable[..., Any]) -> None:
+    """Attach the run factory of ``system`` (called by the module that defines the run object)."""
+    RUNS[system.name] = factory
+
+
 from . import rigid_body as rigid_body  # noqa: E402  (registers the rigid body)
 
-__all__ = ["Field", "SYSTEMS", "System", "register"]
+__all__ = ["Field", "RUNS", "SYSTEMS", "System", "provide_run", "register"]

@@ -1,7 +1,7 @@
 """The rigid body, ``(R, Pi)`` on ``T*SO(3)``: today's system (:func:`lgvi.simulate`).
 
 Its run object is :class:`lgvi.integrator.Run` (validation once, the kernel choice, the state
-carried across chunks); its kernels live in :mod:`lgvi._kernels.stepping`; its invariants are the
+carried across chunks; the integrator provides it with :func:`lgvi.systems.provide_run`); its kernels live in :mod:`lgvi._kernels.stepping`; its invariants are the
 free body's or the torque model's (:func:`lgvi.invariants.declaration_of`).
 """
 
@@ -50,13 +50,6 @@ def _kernels() -> dict[str, Any]:
             "run_forced_parallel": ensemble_kernels.run_forced_parallel}
 
 
-def _run(*args: Any, **kwargs: Any) -> Any:
-    """:class:`lgvi.integrator.Run` (imported when a run is made: the integrator imports this module)."""
-    from ..integrator import Run
-
-    return Run(*args, **kwargs)
-
-
 RIGID_BODY = register(System(
     name="rigid_body",
     doc="one rigid body: attitude R (3, 3) and body angular momentum Pi (3,)",
@@ -67,7 +60,7 @@ RIGID_BODY = register(System(
     kernels=_kernels,
     results=("t", "R", "Pi", "inertia", "iterations", "residual", "h", "potential", "meta"),
     scenario_section="body",
-    run_factory=_run,
+    run_factory=None,  # lgvi.integrator provides Run (provide_run)
     invariants=_invariants,
 ))
 
