@@ -24,7 +24,7 @@ LAYERS: dict[str, int] = {
     # 0: the compiled layer and its helpers (no lgvi Python objects)
     "_jit": 0, "_kernels": 0,
     # 1: foundations
-    "_version": 1, "errors": 1, "_validation": 1, "_untrusted": 1, "so3": 1, "body": 1,
+    "_version": 1, "errors": 1, "_validation": 1, "_untrusted": 1, "_files": 1, "so3": 1, "body": 1,
     # 2: models, registries, invariants, implicit solver, results
     "registry": 2, "torques": 2, "invariants": 2, "implicit": 2, "accuracy": 2, "trajectory": 2,
     "discrete": 2, "reference": 2, "exact": 2,
