@@ -284,9 +284,9 @@ def test_slew_example_reaches_its_target():
     sc = load_scenario(EXAMPLES / "slew_pd.toml")
     traj = sc.run()
     Rd = Rotation.from_euler("ZYX", [60.0, 30.0, -20.0], degrees=True)
-    err = (Rd.inv() * Rotation.from_matrix(traj.R[-1])).magnitude()
+    err = (Rd.inv() * traj.rotation[-1]).magnitude()
     assert err < 1e-6
-    assert (Rd.inv() * Rotation.from_matrix(traj.R[0])).magnitude() > 1.0
+    assert (Rd.inv() * traj.rotation[0]).magnitude() > 1.0
 
 
 # ------------------------------------------------------------------------------------ errors
