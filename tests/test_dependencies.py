@@ -121,3 +121,17 @@ def test_baselines_hand_scipy_writable_arrays(strict_scipy):
     R = lgvi.so3.exp(np.array([[0.1, 0.2, 0.3], [0.4, -0.1, 0.2]]))
     R.flags.writeable = False
     assert np.allclose(lgvi.so3.quat_to_matrix(baselines._quat_of(R)), R, rtol=0, atol=1e-12)
+
+
+def test_kernel_cache_key_is_installed_on_this_numba():
+    """lgvi keys its kernels' Numba cache by a hash of all kernel sources (see lgvi._jit) through
+    Numba's locator classes, whose names differ between versions (underscored up to 0.61): if they
+    were not found, the fallback (Numba's per-file stamp) would silently keep stale inlined code."""
+    from lgvi import _jit
+    from lgvi._kernels import stepping
+
+    if not _jit.CACHE:
+        pytest.skip("LGVI_NUMBA_CACHE=0: no cache, no key")
+    locator = stepping.run_chunk._cache._impl.locator
+    assert type(locator).__name__.startswith("Lgvi"), type(locator)
+    assert locator.get_source_stamp() == ("lgvi-kernels", _jit._kernel_sources_hash())
