@@ -22,6 +22,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ._files import write_atomic, write_failure
 from ._kernels.codes import METHOD_CAYLEY, OK
 from ._untrusted import check_npz, inside
 from ._validation import REPAIR_TOL, ROTATION_TOL, as_float_array, as_int, choice, is_scipy_rotation, warn_repaired
@@ -142,14 +143,20 @@ class EnsembleTrajectory:
         return np.einsum("bmij,bmj->bmi", self.R, self.Pi)
 
     def save(self, path: str | os.PathLike) -> None:
-        """Write to ``path`` (``.npz``, uncompressed); :func:`load_ensemble` reads it back exactly."""
+        """Write to ``path`` (``.npz``, uncompressed) atomically; :func:`load_ensemble` reads it back exactly.
+
+        Raises ``OSError`` naming the file and its folder if the write fails (a full disk).
+        """
         arrays = dict(t=self.t, R=self.R, Pi=self.Pi, inertia=self.inertia, iterations=self.iterations,
                       residual=self.residual, h=np.float64(self.h))
         if self.potential is not None:
             arrays["potential"] = self.potential
         header = json.dumps({"format": ENSEMBLE_FORMAT, "meta": self.meta})
-        with open(os.fspath(path), "wb") as fh:
-            np.savez(fh, __lgvi__=np.array(header), **arrays)
+        try:  # atomic: a reader, or a retried Dask task, never sees a half-written file
+            write_atomic(os.fspath(path), lambda fh: np.savez(fh, __lgvi__=np.array(header), **arrays))
+        except OSError as exc:
+            raise write_failure(exc, os.fspath(path), "the ensemble", "The file was left as it was (files are "
+                                "replaced only once complete); blocks written before are intact.") from exc
 
 
 def _load_one(path: str) -> EnsembleTrajectory:

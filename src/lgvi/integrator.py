@@ -457,11 +457,12 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
         run.chunk = max(1, as_int(chunk_steps, "chunk_steps", minimum=1) // run.save_every) * run.save_every
     stream_meta = dict(run.meta, **(meta or {}), h=run.h, steps=run.steps, inertia=run.body.J.tolist())
     folder = Path(folder)
-    writer = StreamWriter(folder, stream_meta, resume=resume)
+    writer = StreamWriter(folder, stream_meta, resume=resume,
+                          check=lambda manifest: _check_resume(manifest["meta"], stream_meta, folder))
     if resume and writer.state is not None:
-        _check_resume(writer.manifest["meta"], stream_meta, folder)
         run.load_state(writer.state)
         if writer.manifest.get("complete") and run.k == run.steps:
+            writer.release()
             return folder
     steps, se = run.steps, run.save_every
     R_buf = np.empty((run.chunk // se, 3, 3))
@@ -491,7 +492,7 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
         writer.append(t=run.times(0, 1), R=run.R[None].copy(), Pi=run.Pi[None].copy(),
                       iterations=np.zeros(0, dtype=np.int32), residual=np.zeros(0), state=run.state(),
                       potential=run.potential(run.times(0, 1), run.R[None]))
-    with _Interrupts() as stop, _Progress(progress, steps, start=run.k) as bar:
+    with writer, _Interrupts() as stop, _Progress(progress, steps, start=run.k) as bar:
         while run.k < steps:
             k0 = run.k
             first = k0 == 0
@@ -518,7 +519,7 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
                 raise SimulationInterrupted(f"simulation interrupted after {run.k} of {steps} steps; every "
                                             f"complete chunk is in {folder} (resume=True continues it)",
                                             trajectory=partial())
-    writer.close(complete=True)
+        writer.close(complete=True)
     return folder
 
 
