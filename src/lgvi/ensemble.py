@@ -13,8 +13,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import sys
-import time as _time
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -515,7 +513,7 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
         workers, which must see ``out_dir`` (a shared file system). The folder must not hold
         ensemble blocks already.
     progress : bool or callable
-        ``True`` draws a progress bar on stderr, a callable is called as ``progress(done, total)``
+        ``True`` draws a ``tqdm`` progress bar, a callable is called as ``progress(done, total)``
         (steps of the whole ensemble in process; bodies of finished blocks with ``client`` or
         ``out_dir``).
 
@@ -714,25 +712,18 @@ def _prepare_dir(out_dir: str | os.PathLike) -> Path:
 
 
 class _BlockProgress:
-    """Progress over blocks: ``True`` draws a bar of bodies done, a callable gets ``(done, total)``."""
+    """Progress over blocks: ``True`` draws a ``tqdm`` bar of bodies done, a callable gets ``(done, total)``."""
 
     def __init__(self, progress: Any, total: int) -> None:
-        self.progress, self.total, self.done, self.t0 = progress, total, 0, _time.perf_counter()
+        from .integrator import _Progress
+
+        self.bar, self.done = _Progress(progress, total, unit="body"), 0
 
     def add(self, n: int) -> None:
         self.done += n
-        if self.progress is False:
-            return
-        if callable(self.progress) and not isinstance(self.progress, bool):
-            self.progress(self.done, self.total)
-            return
-        frac = self.done / self.total
-        rate = self.done / max(_time.perf_counter() - self.t0, 1e-9)
-        sys.stderr.write(f"\r[{'#' * int(30 * frac):<30}] {100 * frac:5.1f}% {self.done}/{self.total} bodies, "
-                         f"{rate:.3g} bodies/s ")
-        if self.done >= self.total:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
+        self.bar.update(self.done)
+        if self.done >= self.bar.steps:
+            self.bar.__exit__(None, None, None)
 
 
 def _block_meta(ens: EnsembleTrajectory, i: int, start: int, total: int) -> EnsembleTrajectory:

@@ -13,6 +13,13 @@ then is the manifest (also written by rename) updated to list it. A rename is at
 crash at any point the folder holds a consistent manifest that lists only complete chunks;
 :func:`read_stream` returns exactly those, and the manifest's ``state`` lets a run resume from the
 end of the last listed chunk (see :func:`lgvi.simulate`'s ``stream=`` and ``resume=``).
+
+A write that fails (a full disk) raises an ``OSError`` naming the file and the folder; the chunks
+listed before stay readable and ``resume=True`` continues once there is room. One folder has one
+writer at a time: :class:`StreamWriter` holds an exclusive lock (the file ``.lgvi.lock`` with its
+process id, locked with ``flock``), so a second writer, in this or another process, gets
+``FolderLocked`` (a ``BlockingIOError``) instead of interleaving chunks; the lock of a writer that
+crashed is released by the operating system and taken over with a ``StaleLockWarning``.
 """
 
 from __future__ import annotations
