@@ -143,6 +143,43 @@ def test_full_disk_during_out_dir_ensemble_names_the_folder(tmp_path, monkeypatc
         lgvi.load_ensemble(out)
 
 
+CLI_SCENARIO = """\
+name = "spin"
+
+[body]
+inertia = [1.0, 2.0, 3.0]
+
+[initial]
+omega = [0.01, 1.0, 0.01]
+
+[integrator]
+h = 0.01
+steps = 20
+
+[output]
+plots = false
+"""
+
+
+def test_full_disk_in_lgvi_run_is_one_line_and_resume_finishes(tmp_path, monkeypatch, capsys):
+    from lgvi import cli, integrator
+
+    (tmp_path / "s.toml").write_text(CLI_SCENARIO)
+    out = tmp_path / "o"
+    monkeypatch.setattr(integrator, "CHUNK_STEPS", 5)  # four chunks
+    no_space_after(monkeypatch, 3, "chunk")
+    code = cli.main(["run", str(tmp_path / "s.toml"), "-o", str(out)])
+    err = capsys.readouterr().err
+    assert code == 1 and "Traceback" not in err, err
+    assert "disk is full" in err and str(out / "stream") in err and "2 complete chunk(s)" in err, err
+    assert read_stream(out / "stream").steps == 10
+    monkeypatch.setattr(streaming, "_fsync_write", streaming.write_atomic)
+    assert cli.main(["run", str(tmp_path / "s.toml"), "-o", str(out), "--resume"]) == 0, capsys.readouterr().err
+    clean = lgvi.simulate([1.0, 2.0, 3.0], np.eye(3), omega0=[0.01, 1.0, 0.01], h=0.01, steps=20)
+    got = lgvi.load(out / "trajectory.npz")
+    assert np.array_equal(got.R, clean.R) and np.array_equal(got.Pi, clean.Pi)
+
+
 # ------------------------------------------------------------------------------------------------
 # Two writers
 # ------------------------------------------------------------------------------------------------

@@ -62,9 +62,7 @@ def write_failure(exc: OSError, path: str | os.PathLike, what: str, kept: str) -
     reason = exc.strerror or str(exc)
     if exc.errno in NO_SPACE:
         reason = f"the disk is full ({reason})"
-    err = OSError(exc.errno, f"cannot write {what} {path.name} in the folder {path.parent}: {reason}. {kept}")
-    err.filename = str(path)
-    return err
+    return OSError(exc.errno, f"cannot write {what} {path.name} in the folder {path.parent}: {reason}. {kept}")
 
 
 class FolderLocked(BlockingIOError):

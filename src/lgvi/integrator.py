@@ -612,7 +612,7 @@ class _Progress:
         if progress is True and steps:
             from tqdm.auto import tqdm
 
-            self.bar = tqdm(total=steps, initial=start, unit=unit, unit_scale=True, dynamic_ncols=True)
+            self.bar = tqdm(total=steps, initial=start, unit=unit, unit_scale=steps >= 100_000, dynamic_ncols=True)
 
     def __enter__(self) -> "_Progress":
         return self

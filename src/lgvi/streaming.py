@@ -109,7 +109,7 @@ class StreamWriter:
         except OSError as exc:
             self.release()
             kept = (f"The {listed} complete chunk(s) listed in {MANIFEST} are intact and readable "
-                    "(lgvi.streaming.read_stream); make room and continue the run with resume=True."
+                    "(lgvi.streaming.read_stream); make room and continue the run with resume=True (lgvi run --resume)."
                     if listed else "No chunk was complete yet.")
             raise write_failure(exc, self.folder / name, what, kept) from exc
 
