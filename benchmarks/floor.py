@@ -264,7 +264,7 @@ def count_child(method: str, lat: dict[str, float], steps: int) -> dict:
     body = lgvi.RigidBody(J)
     Pi0 = body.J @ np.array(OMEGA0)
     code = METHODS[method]
-    G0 = np.zeros((4, 3))
+    G0 = np.zeros((5, 3))
     G0[0] = np.linalg.solve(body.J, H * Pi0) * (0.5 if code == 2 else 1.0)
     G0[3, 0] = 1.0
     R = np.array([[Tracked(v) for v in row] for row in np.eye(3)], dtype=object)
@@ -279,7 +279,8 @@ def count_child(method: str, lat: dict[str, float], steps: int) -> dict:
     for k in range(steps):
         before = dict(Tracked.counts)
         st, _, _, _, _, _ = stepping.free_steps(code, body.Jd, H, R, Pi, G, np.zeros((0, 3)), k, 1, TOL, 50, 1.0,
-                                                1, 1, 0, R_out, Pi_out, True, it_out, res_out, empty)
+                                                1, 1, 0, R_out, Pi_out, 1, it_out, res_out, empty,
+                                                np.zeros(0, np.int64))
         assert st == 0, st
         per_step.append({op: Tracked.counts[op] - before[op] for op in OPS} | {"iterations": int(it_out[0])})
         ready.append(max(x.t for x in list(Pi) + list(R.ravel())))
@@ -306,12 +307,12 @@ def measured(method: str, steps: int, repeat: int) -> tuple[float, float]:
     for _ in range(repeat + 1):
         R = np.eye(3)
         Pi = Pi0.copy()
-        G = np.zeros((4, 3))
+        G = np.zeros((5, 3))
         G[0] = np.linalg.solve(body.J, H * Pi0) * (0.5 if code == 2 else 1.0)
         G[3, 0] = 1.0
         t0 = time.perf_counter()
-        st, _ = kernel(code, body.Jd, H, R, Pi, G, np.zeros((0, 3)), 0, steps, TOL, 50, 1.0, 1, R_out, Pi_out,
-                       it, res, np.zeros(0))
+        st, *_ = kernel(code, body.Jd, H, R, Pi, G, np.zeros((0, 3)), 0, steps, TOL, 50, 1.0, 1, R_out, Pi_out,
+                        it, res, np.zeros(0), np.zeros(64, np.int64))
         times.append(time.perf_counter() - t0)
         assert st == 0
     sim = []
@@ -329,9 +330,10 @@ from lgvi._kernels.stepping import run_chunk, run_chunk_cayley
 code, N = int(sys.argv[1]), int(sys.argv[2])
 body = lgvi.RigidBody({J}); Pi0 = body.J @ np.array({OMEGA0})
 out = [np.ones((N, 3, 3)), np.ones((N, 3)), np.ones(N, np.int32), np.ones(N)]
-G = np.zeros((4, 3)); G[0] = np.linalg.solve(body.J, {H} * Pi0) * (0.5 if code == 2 else 1.0); G[3, 0] = 1.0
+G = np.zeros((5, 3)); G[0] = np.linalg.solve(body.J, {H} * Pi0) * (0.5 if code == 2 else 1.0); G[3, 0] = 1.0
 kernel = run_chunk_cayley if code == 2 else run_chunk
-kernel(code, body.Jd, {H}, np.eye(3), Pi0.copy(), G, np.zeros((0, 3)), 0, N, {TOL}, 50, 1.0, 1, *out, np.zeros(0))
+kernel(code, body.Jd, {H}, np.eye(3), Pi0.copy(), G, np.zeros((0, 3)), 0, N, {TOL}, 50, 1.0, 1, *out, np.zeros(0),
+       np.zeros(64, np.int64))
 """.format(J=J, OMEGA0=OMEGA0, H=H, TOL=TOL)
 
 

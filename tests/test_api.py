@@ -140,6 +140,8 @@ def run12(full_body):
 def test_trajectory_shapes(run12):
     full, sub = run12
     for traj, M in ((full, 13), (sub, 5)):  # M = steps // save_every + 1
+        # the solver's record: per step with save_every = 1, per saved interval (M - 1,) by default
+        n_rec = 12 if traj is full else M - 1
         assert traj.t.shape == (M,)
         assert traj.R.shape == (M, 3, 3)
         assert traj.Pi.shape == (M, 3)
@@ -148,8 +150,9 @@ def test_trajectory_shapes(run12):
         assert traj.spatial_momentum.shape == (M, 3)
         assert traj.quaternion.shape == (M, 4)
         assert isinstance(traj.rotation, Rotation) and len(traj.rotation) == M
-        assert traj.iterations.shape == (12,) and np.issubdtype(traj.iterations.dtype, np.integer)
-        assert traj.residual.shape == (12,) and traj.residual.dtype == np.float64
+        assert traj.iterations.shape == (n_rec,) and np.issubdtype(traj.iterations.dtype, np.integer)
+        assert traj.residual.shape == (n_rec,) and traj.residual.dtype == np.float64
+        assert traj.steps == 12 and traj.meta["solver_record"] == "interval"
         for name in ("t", "R", "Pi"):
             assert getattr(traj, name).dtype == np.float64
         assert len(traj) == M
@@ -179,8 +182,13 @@ def test_save_every_keeps_every_nth_state(run12):
     assert np.array_equal(sub.R, full.R[::3])
     assert np.array_equal(sub.Pi, full.Pi[::3])
     assert np.array_equal(sub.t, full.t[::3])
-    assert np.array_equal(sub.iterations, full.iterations)
-    assert np.array_equal(sub.residual, full.residual)
+    # the record per saved interval: the largest of the 3 steps of each; the totals of every step
+    assert np.array_equal(sub.iterations, full.iterations.reshape(4, 3).max(axis=1))
+    assert np.array_equal(sub.residual, full.residual.reshape(4, 3).max(axis=1))
+    for key in ("steps", "iterations_total", "iterations_max", "residual_max"):
+        assert sub.solver_summary[key] == full.solver_summary[key]
+    assert np.array_equal(sub.solver_summary["histogram"], full.solver_summary["histogram"])
+    assert full.solver_summary["iterations_total"] == full.iterations.sum()
 
 
 def test_save_load_round_trip(run12, tmp_path):

@@ -69,3 +69,25 @@ def test_floor_quick():
     # one solver update per step with the warm start, and the Cayley step needs no more operations than Newton's
     assert rows["cayley"][1] == rows["newton"][1] == "1"
     assert 0 < int(rows["cayley"][3]) <= int(rows["newton"][3])
+
+
+@pytest.mark.slow
+def test_roundoff_quick():
+    """The round-off script prints the reference check, the floor of orders 8-12, the drift, the speed."""
+    proc = _run("roundoff.py", "--quick")
+    _check(proc, "lgvi.exact vs DOP853", "floor: final attitude error", "drift over", "energy", "|Pi|", "R Pi",
+           "steps/s", "loop cayley, HLW order 10", "simulate_modified, HLW order 10")
+    assert "Traceback" not in proc.stderr
+    rows = [line.split() for line in proc.stdout.splitlines() if line.strip().startswith("after ")]
+    assert [int(r[1]) for r in rows[:3]] == [8, 10, 12]
+    assert all(float(x) < 1e-11 for r in rows[:3] for x in r[2:5])   # round-off, not truncation
+
+
+@pytest.mark.slow
+def test_memory_quick():
+    """lgvi run, each size in a fresh process: the script prints its peak-memory table and the verdict line."""
+    proc = _run("memory.py", "--quick")
+    _check(proc, "peak resident memory", "peak MB", "lgvi run (interval record)", "lgvi info", "goal <= 300 MB")
+    assert "Traceback" not in proc.stderr
+    rows = [line.split() for line in proc.stdout.splitlines() if line.startswith("lgvi run (interval")]
+    assert [int(r[4]) for r in rows] == [100_000, 1_000_000] and all(float(r[6]) > 0 for r in rows)

@@ -226,7 +226,7 @@ def test_run_interrupted_writes_the_part_computed(capsys, tmp_path, scenario_fil
     part = lgvi.Trajectory(t=full.t[:5], R=full.R[:5], Pi=full.Pi[:5], inertia=full.inertia,
                            iterations=full.iterations[:20], residual=full.residual[:20], h=full.h, meta=full.meta)
 
-    def interrupted(self, folder, *, resume=False, progress=False, chunk_steps=None):
+    def interrupted(self, folder, *, resume=False, progress=False, chunk_steps=None, solver_record="interval"):
         raise SimulationInterrupted("simulation interrupted after 20 of 200 steps", trajectory=part)
 
     monkeypatch.setattr(Scenario, "run_stream", interrupted)

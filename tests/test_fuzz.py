@@ -296,8 +296,8 @@ _NC_FUZZ = textwrap.dedent("""\
                 b[rng.randrange(len(b))] ^= 1 << rng.randrange(8)
         else:
             b[j:j + 8] = bytes(rng.randrange(256) for _ in range(8))
-        q = os.path.join(d, "m.nc")
-        open(q, "wb").write(b)
+        q = os.path.join(d, f"m{i}.nc")  # a new file each time: HDF5 keeps a file whose close failed open
+        open(q, "wb").write(b)             # and would serve a rewrite of the same inode from it
         try:
             read_netcdf(q)
             r = "read"

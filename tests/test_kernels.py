@@ -18,7 +18,7 @@ NO_HIST = np.zeros(0)
 
 
 def _start(body, code, h, Pi0):
-    G = np.zeros((4, 3))
+    G = np.zeros((5, 3))
     G[0] = np.linalg.solve(body.J, h * Pi0) * (0.5 if code == METHOD_CAYLEY else 1.0)
     G[3, 0] = 1.0
     return G
@@ -38,18 +38,22 @@ def _by_single_steps(body, code, h, R0, Pi0, U, n):
     return np.array(Rs), np.array(Ps), np.array(its), np.array(res), G
 
 
-def _by_chunks(kernel, body, code, h, R0, Pi0, U, n, chunk, save_every):
+def _by_chunks(kernel, body, code, h, R0, Pi0, U, n, chunk, save_every, per_interval=False, counts=None):
+    """Run in chunks; the record per step, or with ``per_interval`` per saved interval."""
     R, Pi, G = R0.copy(), Pi0.copy(), _start(body, code, h, Pi0)
     R_out = np.full((n // save_every, 3, 3), np.nan)
     Pi_out = np.full((n // save_every, 3), np.nan)
-    its = np.full(n, -1, np.int32)
-    res = np.full(n, np.nan)
+    per = save_every if per_interval else 1
+    its = np.full(n // per, -1, np.int32)
+    res = np.full(n // per, np.nan)
+    counts = np.zeros(0, np.int64) if counts is None else counts
     for k0 in range(0, n, chunk):
         m = min(chunk, n - k0)
         j0 = k0 // save_every
-        st, k = kernel(code, body.Jd, h, R, Pi, G, U, k0, m, 1e-14, 50, 1.0, save_every,
-                       R_out[j0:j0 + m // save_every], Pi_out[j0:j0 + m // save_every], its[k0:k0 + m],
-                       res[k0:k0 + m], NO_HIST)
+        r0, r1 = k0 // per, (k0 + m) // per
+        st, k, *_ = kernel(code, body.Jd, h, R, Pi, G, U, k0, m, 1e-14, 50, 1.0, save_every,
+                           R_out[j0:j0 + m // save_every], Pi_out[j0:j0 + m // save_every], its[r0:r1],
+                           res[r0:r1], NO_HIST, counts)
         assert (st, k) == (OK, k0 + m)
     return R_out, Pi_out, its, res, G, R, Pi
 
@@ -73,6 +77,15 @@ def test_chunk_loop_is_the_single_step_bit_for_bit(code, torque, full_body, R0):
             np.testing.assert_array_equal(G_c, G)          # the warm-start history carries over exactly
             np.testing.assert_array_equal(R_end, Rs[-1])
             np.testing.assert_array_equal(Pi_end, Ps[-1])
+            # the record per saved interval: the largest of each interval, and the histogram of every step
+            counts = np.zeros(4, np.int64)
+            R_i, Pi_i, it_i, res_i, G_i, _, _ = _by_chunks(kernel, full_body, code, h, R0, Pi0, U, n, chunk,
+                                                           save_every, per_interval=True, counts=counts)
+            np.testing.assert_array_equal(R_i, R_out)
+            np.testing.assert_array_equal(G_i, G)
+            np.testing.assert_array_equal(it_i, its.reshape(-1, save_every).max(axis=1))
+            np.testing.assert_array_equal(res_i, res.reshape(-1, save_every).max(axis=1))
+            np.testing.assert_array_equal(counts, np.bincount(np.minimum(its, 3), minlength=4))
 
 
 @pytest.mark.parametrize("kernel", [run_chunk, run_chunk_cayley], ids=["run_chunk", "run_chunk_cayley"])
@@ -87,9 +100,9 @@ def test_chunk_loop_failure_keeps_the_state_before_the_step(kernel, diag_body):
     Pi_out = np.zeros((n, 3))
     its = np.zeros(n, np.int32)
     res = np.zeros(n)
-    st, k = kernel(METHOD_CAYLEY, diag_body.Jd, h, R, Pi, G, U, 0, n, 1e-14, 50, 1.0, 1, R_out, Pi_out, its, res,
-                   NO_HIST)
-    assert (st, k) == (OVERFLOW, 6)
+    st, k, _, _, it_fail, _ = kernel(METHOD_CAYLEY, diag_body.Jd, h, R, Pi, G, U, 0, n, 1e-14, 50, 1.0, 1, R_out,
+                                     Pi_out, its, res, NO_HIST, np.zeros(0, np.int64))
+    assert (st, k) == (OVERFLOW, 6) and it_fail == its[6]
     np.testing.assert_array_equal(R, R_out[5])
     np.testing.assert_array_equal(Pi, Pi_out[5])
     assert np.isfinite(Pi).all() and G[3, 0] == 3.0

@@ -33,16 +33,26 @@ def same(a: lgvi.Trajectory, b: lgvi.Trajectory) -> bool:
                for f in ("t", "R", "Pi", "iterations", "residual", "potential"))
 
 
+def same_totals(a: lgvi.Trajectory, b: lgvi.Trajectory) -> bool:
+    """The solver's run totals (steps, iterations, largest residual, histogram) agree exactly."""
+    sa, sb = a.solver_summary, b.solver_summary
+    return all(np.array_equal(sa[k], sb[k]) for k in ("steps", "iterations_total", "iterations_max",
+                                                        "residual_max", "histogram"))
+
+
 @pytest.mark.parametrize("kw", [
     dict(PENDULUM, steps=3000),
     dict(omega0=[0.3, 1.0, 0.2], h=0.01, steps=3000, save_every=3, method="cayley"),
     dict(omega0=[1.0, 2.0, 3.0], h=0.01, steps=1200, save_every=4, forcing="symmetric", order=4,
          torque=lambda t, R, Pi: 0.01 * np.array([np.cos(t), 0.0, 0.0]) - 0.01 * Pi),
-], ids=["pendulum", "free-cayley", "callable-order4"])
+    dict(PENDULUM, steps=3000, solver_record="full"),
+], ids=["pendulum", "free-cayley", "callable-order4", "pendulum-full-record"])
 def test_stream_equals_simulate_and_resumes_exactly(tmp_path, kw):
     ref = lgvi.simulate(BODY, np.eye(3), **kw)
+    per = 1 if kw.get("solver_record") == "full" else kw["save_every"]   # steps per record entry
+    assert ref.iterations.shape == (kw["steps"] // per,) and ref.steps == kw["steps"]
     lgvi.simulate_stream(tmp_path / "full", BODY, np.eye(3), chunk_steps=480, **kw)
-    assert same(read_stream(tmp_path / "full"), ref)
+    assert same(read_stream(tmp_path / "full"), ref) and same_totals(read_stream(tmp_path / "full"), ref)
 
     stop_at = 2 * 480
 
@@ -55,11 +65,11 @@ def test_stream_equals_simulate_and_resumes_exactly(tmp_path, kw):
     part = read_stream(tmp_path / "cut")
     assert part.steps == stop_at and not part.meta["complete"]
     assert same(part, lgvi.Trajectory(t=ref.t[:len(part.t)], R=ref.R[:len(part.t)], Pi=ref.Pi[:len(part.t)],
-                                      inertia=ref.inertia, iterations=ref.iterations[:stop_at],
-                                      residual=ref.residual[:stop_at], h=ref.h,
+                                      inertia=ref.inertia, iterations=ref.iterations[:stop_at // per],
+                                      residual=ref.residual[:stop_at // per], h=ref.h,
                                       potential=None if ref.potential is None else ref.potential[:len(part.t)]))
     lgvi.simulate_stream(tmp_path / "cut", BODY, np.eye(3), chunk_steps=480, resume=True, **kw)
-    assert same(read_stream(tmp_path / "cut"), ref)
+    assert same(read_stream(tmp_path / "cut"), ref) and same_totals(read_stream(tmp_path / "cut"), ref)
 
 
 def test_resume_refuses_a_different_run(tmp_path):

@@ -39,7 +39,7 @@ from ._kernels import rk4_kernels as _rk
 from ._validation import as_float, as_float_array, as_int, as_rotation
 from ._version import __version__
 from .errors import SimulationInterrupted, TorqueError
-from .trajectory import Trajectory
+from .trajectory import Trajectory, summary_dict
 
 #: RK4 steps per compiled call; between chunks Ctrl-C is honoured.
 CHUNK_STEPS = 1 << 18
@@ -240,7 +240,8 @@ def rk4(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: float, st
     -------
     Trajectory
         ``M = steps // save_every + 1`` samples; ``R`` is ``R(q)`` from the homogeneous formula
-        (``|q|^2`` times a rotation); ``iterations`` and ``residual`` are zeros (explicit method);
+        (``|q|^2`` times a rotation); ``iterations`` and ``residual`` are zeros (explicit method),
+        one per saved interval, shape ``(M - 1,)``, as lgvi's default record;
         ``potential`` is filled for a conservative model (see the module notes);
         ``meta["method"] == "rk4"``, ``meta["torque_path"]`` is ``"compiled"`` or ``"python"``.
 
@@ -287,9 +288,12 @@ def rk4(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: float, st
     def make(m: int, k_done: int, extra: dict | None = None) -> Trajectory:
         t = t0 + h * save_every * np.arange(m)
         R = homogeneous_matrix(q_out[:m])
+        # no implicit solves: a record of zeros per saved interval, sized by the samples as lgvi's
+        solver = summary_dict(np.array([k_done]), 0, 0.0)
         return Trajectory(t=t, R=R, Pi=Pi_out[:m].copy(), inertia=body.J.copy(),
-                          iterations=np.zeros(k_done, dtype=np.int32), residual=np.zeros(k_done), h=h,
-                          potential=tq.potential(t, R, body), meta=dict(meta, **(extra or {})))
+                          iterations=np.zeros(m - 1, dtype=np.int32), residual=np.zeros(m - 1), h=h,
+                          potential=tq.potential(t, R, body),
+                          meta=dict(meta, solver_record="interval", solver_summary=solver, **(extra or {})))
 
     k = 0
     try:

@@ -248,7 +248,7 @@ def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], 
 
     drifts = conservation_drifts(traj)
     steps_done = int(traj.steps)
-    its = np.asarray(traj.iterations)
+    solver = traj.solver_summary  # totals over every step, whatever the record's resolution
     data: dict[str, Any] = {
         "status": status,
         "message": message,
@@ -271,9 +271,9 @@ def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], 
         "wall_time_s": wall,
         "steps_per_s": steps_done / wall if wall > 0 else None,
         "kernel_load_s": kernel_load,
-        "iterations_mean": float(its.mean()) if its.size else None,
-        "iterations_max": int(its.max()) if its.size else None,
-        "residual_max": float(np.max(traj.residual)) if np.size(traj.residual) else None,
+        "iterations_mean": solver["iterations_mean"] if solver["steps"] else None,
+        "iterations_max": solver["iterations_max"] if solver["steps"] else None,
+        "residual_max": solver["residual_max"] if solver["steps"] else None,
         "drifts": drifts,
         "invariants": declared(traj).labels(),
         "files": [p.name for p in files],
@@ -402,7 +402,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         with warnings.catch_warnings():  # reported as one line below and in summary.txt
             warnings.simplefilter("ignore", AccuracyWarning)
-            traj = scenario.run_stream(stream, resume=args.resume, progress=True)
+            traj = scenario.run_stream(stream, resume=args.resume, progress=True,
+                                       solver_record=args.solver_record)
     except SimulationInterrupted as exc:
         wall = time.perf_counter() - t0
         part = exc.trajectory
@@ -574,6 +575,7 @@ def cmd_info(args: argparse.Namespace) -> int:
     traj = _read(args.trajectory)
     meta = dict(traj.meta)
     scenario_text = meta.pop("scenario", None)
+    meta.pop("solver_summary", None)  # printed on the solver lines
     print(f"{args.trajectory}: {traj!r}")
     print(f"  samples     {len(traj.t)}  (R {tuple(traj.R.shape)}, Pi {tuple(traj.Pi.shape)})")
     steps = traj.steps if len(traj.iterations) or "steps" not in meta else meta["steps"]
@@ -584,8 +586,13 @@ def cmd_info(args: argparse.Namespace) -> int:
     J = np.asarray(traj.inertia)
     print(f"  inertia     {np.array2string(np.diag(J) if np.count_nonzero(J - np.diag(np.diag(J))) == 0 else J, precision=6)}")
     if len(traj.iterations) and len(traj.residual):
-        print(f"  solver      mean {np.mean(traj.iterations):.3f} iterations/step, max {int(np.max(traj.iterations))}, "
-              f"max residual {np.max(traj.residual):.3e}")
+        solver = traj.solver_summary
+        print(f"  solver      mean {solver['iterations_mean'] or 0.0:.3f} iterations/step, "
+              f"max {solver['iterations_max']}, max residual {solver['residual_max']:.3e} "
+              f"(record: {solver['record']})")
+        hist = solver["histogram"]
+        print("  histogram   steps by solver updates: " + ", ".join(
+            f"{i}{'+' if i == len(hist) - 1 else ''}: {int(c)}" for i, c in enumerate(hist) if c))
     if traj.potential is not None:
         print("  potential   yes (energy = kinetic + potential)")
     print("  metadata")
@@ -679,6 +686,9 @@ def build_parser() -> argparse.ArgumentParser:
                           "(the result equals an uninterrupted run bit for bit)")
     run.add_argument("--keep-stream", action="store_true",
                      help="keep the chunk files of DIR/stream after a successful run")
+    run.add_argument("--solver-record", default="interval", choices=("interval", "full"),
+                     help="resolution of the solver's iterations/residual record: the largest per saved "
+                     "interval (default; outputs sized by the saved states) or every step")
     run.add_argument("--format", default=None, metavar="FORMATS",
                      help="comma-separated output formats among npz, csv, netcdf (default: the scenario's "
                      "[output] formats, else npz)")

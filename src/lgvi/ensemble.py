@@ -621,7 +621,7 @@ def _run_local(s: _Setup, progress: Any = False, first_body: int = 0) -> Ensembl
     J_inv = np.ascontiguousarray(np.stack([b.J_inv for b in s.bodies]))
     stages = 1 if s.legacy else len(s.gam)
     hs = np.array([h]) if s.legacy else s.gam * h
-    G = np.zeros((B, stages, 4, 3))
+    G = np.zeros((B, stages, 5, 3))
     ek.init_histories(s.code, J, s.ib, hs, Pi, G)
     if not s.legacy:
         A = np.ascontiguousarray(np.stack([_momentum_matrices(b, s.codes, s.params, s.gam * h, s.sym)

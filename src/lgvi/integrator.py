@@ -34,7 +34,7 @@ from .errors import ConvergenceError, SimulationInterrupted, TorqueError
 from .implicit import METHODS, failure_message, largest_step, solver_options
 from .invariants import declaration_of, forcing_used
 from .torques import TorqueModel
-from .trajectory import Trajectory
+from .trajectory import HIST_BINS, Trajectory, merge_summaries, summary_dict
 
 #: Steps per compiled call; between chunks Ctrl-C is honoured and progress reported.
 CHUNK_STEPS = 1 << 18
@@ -50,6 +50,8 @@ _NO_HIST = np.zeros(0)
 _NO_CODES = np.zeros((0, 2), dtype=np.int64)
 
 FORCINGS = ("paper", "symmetric")
+#: Resolutions of the solver's record (``solver_record=``): largest per saved interval, or every step.
+SOLVER_RECORDS = ("interval", "full")
 
 
 @dataclass(frozen=True)
@@ -118,10 +120,11 @@ DEFAULT_COMPOSITION = {4: "suzuki4", 6: "kahan-li6"}
 
 
 def _solver_state(code: int, body: RigidBody, h: float, Pi: np.ndarray) -> np.ndarray:
-    """Solver history ``G`` (4,3) of the stepping kernels, cold-started from the linearisation."""
+    """Solver history ``G`` (5,3) of the stepping kernels (row 4: the low part of ``Pi``, zero), cold-started
+    from the linearisation."""
     from ._kernels.solvers import initial_guess
 
-    G = np.zeros((4, 3))
+    G = np.zeros((5, 3))
     # the kernel's Python source: the same IEEE operations (so the same bits as the compiled
     # ensemble path), without loading one more compiled function on a run's first call
     getattr(initial_guess, "py_func", initial_guess)(code, body.J, h * Pi, G[0])
@@ -230,7 +233,8 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
              torque: Any = None, method: str = "newton", tol: float = 1e-14, max_iter: int = 50,
              alpha: float = 1.0, save_every: int = 1, t0: float = 0.0, forcing: str = "paper",
              order: int = 2, composition: str | None = None, progress: Any = False,
-             error_estimate: Any = False, error_warn: float | None = 0.01) -> Trajectory:
+             error_estimate: Any = False, error_warn: float | None = 0.01,
+             solver_record: str = "interval") -> Trajectory:
     r"""Simulate the attitude of a rigid body with the Lie group variational integrator.
 
     Each step solves ``hat(h Pi_k) = F_k Jd - Jd F_k^T`` for ``F_k`` in SO(3), then sets
@@ -298,13 +302,19 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     error_warn : float or None
         With ``error_estimate``: emit :class:`lgvi.AccuracyWarning` when the estimated final
         attitude error exceeds this many radians (default 0.01); ``None`` never warns.
+    solver_record : {"interval", "full"}
+        Resolution of the solver's record in ``iterations`` and ``residual``: ``"interval"``
+        (default) the largest of each over the steps between two saved states, shape
+        ``(M - 1,)``, so the result is sized by the saved states; ``"full"`` every step, shape
+        ``(steps,)``. With ``save_every=1`` both are the per-step record. Run totals and a
+        histogram of the iterations are kept either way (:attr:`Trajectory.solver_summary`).
 
     Returns
     -------
     Trajectory
         ``M = steps // save_every + 1`` samples; ``iterations`` (summed over substeps) and
-        ``residual`` (largest over substeps) for every step; ``potential`` for torque models
-        with a conservative part; ``error_estimate`` when asked for.
+        ``residual`` (largest over substeps) per saved interval or per step (``solver_record``);
+        ``potential`` for torque models with a conservative part; ``error_estimate`` when asked for.
 
     Raises
     ------
@@ -361,20 +371,22 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     estimate, warn = check_options(error_estimate, error_warn, torque)
     run = _Run(body, R0, Pi0, omega0=omega0, h=h, steps=steps, torque=torque, method=method, tol=tol,
                max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0, forcing=forcing, order=order,
-               composition=composition)
+               composition=composition, solver_record=solver_record)
     steps, save_every = run.steps, run.save_every
     M = steps // save_every + 1
     R_out = np.empty((M, 3, 3))
     Pi_out = np.empty((M, 3))
     R_out[0] = run.R
     Pi_out[0] = run.Pi
-    it_out = np.zeros(steps, dtype=np.int32)
-    res_out = np.zeros(steps)
+    per = 1 if run.full else save_every   # steps per entry of the solver's record
+    it_out = np.zeros(steps // per, dtype=np.int32)
+    res_out = np.zeros(steps // per)
 
     def partial(k_done: int) -> Trajectory:
         m = k_done // save_every + 1
-        return run.trajectory(run.times(0, m), R_out[:m].copy(), Pi_out[:m].copy(), it_out[:k_done].copy(),
-                              res_out[:k_done].copy(), partial=True)
+        r = k_done if run.full else m - 1
+        return run.trajectory(run.times(0, m), R_out[:m].copy(), Pi_out[:m].copy(), it_out[:r].copy(),
+                              res_out[:r].copy(), partial=True)
 
     with _Interrupts() as stop, _Progress(progress, steps) as bar:
         while run.k < steps:
@@ -382,9 +394,9 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
             n = min(run.chunk, steps - k0)
             j0 = k0 // save_every + 1
             status = run.advance(n, R_out[j0:j0 + n // save_every], Pi_out[j0:j0 + n // save_every],
-                                 it_out[k0:k0 + n], res_out[k0:k0 + n], partial)
+                                 it_out[k0 // per:(k0 + n) // per], res_out[k0 // per:(k0 + n) // per], partial)
             if status != OK:
-                raise run.failure(status, float(res_out[run.k]), int(it_out[run.k]), partial(run.k))
+                raise run.failure(status, run.last_res, run.last_its, partial(run.k))
             bar.update(run.k)
             if stop.requested:
                 raise SimulationInterrupted(f"simulation interrupted after {run.k} of {steps} steps; "
@@ -405,7 +417,7 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
                     max_iter: int = 50, alpha: float = 1.0, save_every: int = 1, t0: float = 0.0,
                     forcing: str = "paper", order: int = 2, composition: str | None = None,
                     progress: Any = False, resume: bool = False, chunk_steps: int | None = None,
-                    meta: dict[str, Any] | None = None) -> Path:
+                    meta: dict[str, Any] | None = None, solver_record: str = "interval") -> Path:
     """Run :func:`simulate` straight to a crash-safe stream folder, in bounded memory.
 
     The run goes in chunks of ``chunk_steps`` steps (a multiple of ``save_every``); each chunk's
@@ -420,8 +432,9 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
     folder : path
         The stream folder (created; must not hold a stream unless ``resume=True``).
     body, R0, Pi0, omega0, h, steps, torque, method, tol, max_iter, alpha, save_every, t0, forcing,
-    order, composition, progress
-        As in :func:`simulate` (a callable torque works too). With ``resume=True`` they must be
+    order, composition, progress, solver_record
+        As in :func:`simulate` (a callable torque works too); with the default
+        ``solver_record="interval"`` the chunk files are sized by the saved states. With ``resume=True`` they must be
         the same as in the interrupted run (checked against the stream's metadata).
     resume : bool
         Continue the stream in ``folder`` (a complete stream is left as it is).
@@ -443,14 +456,14 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
     >>> _ = lgvi.simulate_stream(folder, [1., 2., 3.], np.eye(3), omega0=[0.3, 1., 0.2], h=0.01,
     ...                          steps=1000, save_every=10, chunk_steps=200)
     >>> traj = read_stream(folder)
-    >>> traj.R.shape, traj.iterations.shape
-    ((101, 3, 3), (1000,))
+    >>> traj.R.shape, traj.iterations.shape, traj.steps
+    ((101, 3, 3), (100,), 1000)
     """
     from .streaming import StreamWriter, read_stream
 
     run = _Run(body, R0, Pi0, omega0=omega0, h=h, steps=steps, torque=torque, method=method, tol=tol,
                max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0, forcing=forcing, order=order,
-               composition=composition)
+               composition=composition, solver_record=solver_record)
     if chunk_steps is not None:
         run.chunk = max(1, as_int(chunk_steps, "chunk_steps", minimum=1) // run.save_every) * run.save_every
     stream_meta = dict(run.meta, **(meta or {}), h=run.h, steps=run.steps, inertia=run.body.J.tolist())
@@ -463,18 +476,21 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
             writer.release()
             return folder
     steps, se = run.steps, run.save_every
+    per = 1 if run.full else se   # steps per entry of the solver's record
     R_buf = np.empty((run.chunk // se, 3, 3))
     Pi_buf = np.empty((run.chunk // se, 3))
-    it_buf = np.zeros(run.chunk, dtype=np.int32)
-    res_buf = np.zeros(run.chunk)
+    it_buf = np.zeros(run.chunk // per, dtype=np.int32)
+    res_buf = np.zeros(run.chunk // per)
 
     chunk_start: dict[str, Any] = {}
 
     def partial(k_done: int | None = None) -> Trajectory:
         """The complete chunks on disk plus the steps of the current chunk up to ``k_done``."""
+        summary = run.chunk_summary()
         try:
             done = read_stream(folder)
             parts = [(done.t, done.R, done.Pi, done.iterations, done.residual)]
+            summary = merge_summaries(done.solver_summary, summary)
         except ValueError:  # no complete chunk yet
             parts = [(run.times(0, 1), chunk_start["R"][None], chunk_start["Pi"][None], np.zeros(0, np.int32),
                       np.zeros(0))]
@@ -482,25 +498,27 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
         if k_done is not None and k_done > k0:
             m = (k_done - k0) // se
             j0 = k0 // se + 1
-            parts.append((run.times(j0, j0 + m), R_buf[:m], Pi_buf[:m], it_buf[:k_done - k0], res_buf[:k_done - k0]))
+            r = k_done - k0 if run.full else m
+            parts.append((run.times(j0, j0 + m), R_buf[:m], Pi_buf[:m], it_buf[:r], res_buf[:r]))
         t, R_, Pi_, it, res = (np.concatenate(a) for a in zip(*parts))
-        return run.trajectory(t, R_, Pi_, it, res, partial=True)
+        return run.trajectory(t, R_, Pi_, it, res, partial=True, summary=summary)
 
     if run.k == 0 and not writer.manifest["chunks"] and steps == 0:
         writer.append(t=run.times(0, 1), R=run.R[None].copy(), Pi=run.Pi[None].copy(),
                       iterations=np.zeros(0, dtype=np.int32), residual=np.zeros(0), state=run.state(),
-                      potential=run.potential(run.times(0, 1), run.R[None]))
+                      potential=run.potential(run.times(0, 1), run.R[None]), summary=run.chunk_summary())
     with writer, _Interrupts() as stop, _Progress(progress, steps, start=run.k) as bar:
         while run.k < steps:
             k0 = run.k
             first = k0 == 0
             chunk_start.update(k0=k0, R=run.R.copy(), Pi=run.Pi.copy())
+            run.new_chunk()
             n = min(run.chunk, steps - k0)
             m = n // se
-            status = run.advance(n, R_buf[:m], Pi_buf[:m], it_buf[:n], res_buf[:n], partial)
+            status = run.advance(n, R_buf[:m], Pi_buf[:m], it_buf[:n // per], res_buf[:n // per], partial)
             if status != OK:
                 writer.close(complete=False)
-                raise run.failure(status, float(res_buf[run.k - k0]), int(it_buf[run.k - k0]), partial(run.k),
+                raise run.failure(status, run.last_res, run.last_its, partial(run.k),
                                   where=f" Complete chunks are in {folder}.")
             j0 = k0 // se + 1
             t = run.times(j0, j0 + m)
@@ -509,8 +527,8 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
                 t = np.concatenate([run.times(0, 1), t])
                 R_c = np.concatenate([chunk_start["R"][None], R_c])
                 Pi_c = np.concatenate([chunk_start["Pi"][None], Pi_c])
-            writer.append(t=t, R=R_c, Pi=Pi_c, iterations=it_buf[:n], residual=res_buf[:n], state=run.state(),
-                          potential=run.potential(t, R_c))
+            writer.append(t=t, R=R_c, Pi=Pi_c, iterations=it_buf[:n // per], residual=res_buf[:n // per],
+                          state=run.state(), potential=run.potential(t, R_c), summary=run.chunk_summary())
             bar.update(run.k)
             if stop.requested:
                 writer.close(complete=False)
@@ -523,7 +541,8 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
 
 def _check_resume(old: dict[str, Any], new: dict[str, Any], folder: Path) -> None:
     keys = ("method", "tol", "max_iter", "alpha", "save_every", "forcing", "order", "composition", "torque",
-            "torque_model", "t0", "h", "steps", "inertia")
+            "torque_model", "t0", "h", "steps", "inertia", "solver_record")
+    old = dict(old, solver_record=old.get("solver_record", "full"))  # streams written before the option
     diff = [k for k in keys if old.get(k) != new.get(k)]
     if diff:
         k = diff[0]
@@ -559,9 +578,10 @@ def _physical_memory() -> int:
         return 1 << 62
 
 
-def _check_memory(steps: int, save_every: int) -> None:
-    """Refuse a run whose in-memory result cannot fit: 96 bytes a sample, 12 bytes a step."""
-    need = 96 * (steps // save_every + 1) + 12 * steps
+def _check_memory(steps: int, save_every: int, full: bool = True) -> None:
+    """Refuse a run whose in-memory result cannot fit: 96 bytes a sample, 12 bytes a record entry
+    (a step, or with ``full=False`` a saved interval)."""
+    need = 96 * (steps // save_every + 1) + 12 * (steps if full else steps // save_every)
     have = _physical_memory()
     if need > have:
         raise ValueError(f"steps={steps} with save_every={save_every} needs {need / 2**30:.3g} GiB for the "
@@ -641,14 +661,23 @@ class _Run:
 
     def __init__(self, body: Any, R0: Any, Pi0: Any, *, omega0: Any, h: Any, steps: Any, torque: Any,
                  method: str, tol: Any, max_iter: Any, alpha: Any, save_every: Any, t0: Any, forcing: Any,
-                 order: Any, composition: Any) -> None:
+                 order: Any, composition: Any, solver_record: Any = "interval") -> None:
         self.body = body = as_body(body)
         self.code, self.tol, self.max_iter, self.alpha = _options(method, tol, max_iter, alpha)
         self.R = as_rotation(R0, "R0").copy()
         self.Pi = _initial_momentum(body, Pi0, omega0)
         self.h, self.t0, self.steps, self.save_every = time_grid(h, t0, steps, save_every)
         h, steps, save_every = self.h, self.steps, self.save_every
-        _check_memory(steps, save_every)
+        choice(solver_record, "solver_record", SOLVER_RECORDS)
+        self.full = solver_record == "full"
+        _check_memory(steps, save_every, self.full)
+        # run totals of the solver (steps taken), the histogram filled by the kernels
+        self.counts = np.zeros(HIST_BINS, dtype=np.int64)
+        self.it_total = 0
+        self.res_max = 0.0
+        self.last_its = 0      # iterations and residual of the last step tried (the failed one)
+        self.last_res = 0.0
+        self.new_chunk()
         choice(forcing, "forcing", FORCINGS)
         self.comp = comp = _composition(order, composition)
         self.sym = sym = forcing == "symmetric"
@@ -670,7 +699,7 @@ class _Run:
         self.meta: dict[str, Any] = {"method": method, "tol": self.tol, "max_iter": self.max_iter,
                                      "alpha": self.alpha, "save_every": save_every, "torque": kind,
                                      "forcing": forcing, "lgvi_version": __version__, "t0": self.t0,
-                                     "order": comp.order}
+                                     "order": comp.order, "solver_record": solver_record}
         if comp.order != 2:
             self.meta["composition"] = comp.name
         if self.model is not None:
@@ -705,10 +734,41 @@ class _Run:
     def potential(self, t: np.ndarray, R_saved: np.ndarray) -> np.ndarray | None:
         return self.model.potential(t, R_saved, self.body) if self.has_potential else None
 
-    def trajectory(self, t, R_out, Pi_out, it_out, res_out, partial: bool = False) -> Trajectory:
-        meta = dict(self.meta, partial=True) if partial else self.meta
+    def trajectory(self, t, R_out, Pi_out, it_out, res_out, partial: bool = False,
+                   summary: dict[str, Any] | None = None) -> Trajectory:
+        meta = dict(self.meta, partial=True) if partial else dict(self.meta)
+        if summary is None:
+            summary = self.summary()
+        meta["solver_summary"] = dict(summary, iterations_max=max(summary["iterations_max"],
+                                                                  int(it_out.max()) if len(it_out) else 0))
         return Trajectory(t=t, R=R_out, Pi=Pi_out, inertia=self.body.J.copy(), iterations=it_out,
                           residual=res_out, h=self.h, potential=self.potential(t, R_out), meta=meta)
+
+    # ------------------------------------------------------------------ solver totals
+    def summary(self) -> dict[str, Any]:
+        """Totals of the solver over the steps taken so far (see :attr:`Trajectory.solver_summary`)."""
+        return summary_dict(self.counts, self.it_total, self.res_max)
+
+    def new_chunk(self) -> None:
+        """Start the totals of a new chunk (:meth:`chunk_summary`)."""
+        self._mark = (self.counts.copy(), self.it_total)
+
+    def chunk_summary(self) -> dict[str, Any]:
+        """Totals of the steps taken since :meth:`new_chunk` (the largest residual: of the run so far)."""
+        counts0, it0 = self._mark
+        return summary_dict(self.counts - counts0, self.it_total - it0, self.res_max)
+
+    def count_step(self, its: int, rn: float) -> None:
+        """Add one step taken to the totals (the Python loops of torque callables)."""
+        self.counts[min(int(its), HIST_BINS - 1)] += 1
+        self.it_total += int(its)
+        self.res_max = max(self.res_max, float(rn))
+
+    def tally(self, status: int, it_sum: int, rmax: float, its: int, rn: float) -> None:
+        """Add a kernel call's totals (``it_sum`` counts the failed step's iterations too)."""
+        self.last_its, self.last_res = int(its), float(rn)
+        self.it_total += int(it_sum) - (int(its) if status != OK else 0)
+        self.res_max = max(self.res_max, float(rmax))
 
     def failure(self, status: int, residual: float, iterations: int, trajectory: Any,
                 where: str = "") -> ConvergenceError:
@@ -741,14 +801,20 @@ class _Run:
         self.k = int(st["k"])
         self.R[:] = np.asarray(st["R"], dtype=np.float64)
         self.Pi[:] = np.asarray(st["Pi"], dtype=np.float64)
-        self.G[:] = np.asarray(st["G"], dtype=np.float64)
+        G = np.asarray(st["G"], dtype=np.float64)
+        self.G[:] = 0.0
+        self.G[..., :G.shape[-2], :] = G        # a state saved with 4 rows: no low part of Pi yet
         if "S" in st:
             self.S[:] = np.asarray(st["S"], dtype=np.float64)
         self.M_cb = np.asarray(st["M_cb"], dtype=np.float64) if "M_cb" in st else None
 
     # ------------------------------------------------------------------ stepping
     def advance(self, n: int, R_out, Pi_out, it_out, res_out, partial) -> int:
-        """Run steps ``k .. k+n-1`` into the chunk buffers; returns the status (``k`` is updated)."""
+        """Run steps ``k .. k+n-1`` into the chunk buffers; returns the status (``k`` is updated).
+
+        ``it_out``, ``res_out`` hold ``n`` entries (a record per step) or ``n // save_every``
+        (per saved interval); the histogram and totals of the solver are updated either way.
+        """
         from ._kernels.stepping import METHOD_CAYLEY, run_chunk, run_chunk_cayley, run_chunk_forced
 
         body = self.body
@@ -757,15 +823,17 @@ class _Run:
             status, self.k = runner(self, n, R_out, Pi_out, it_out, res_out, partial)
         elif self.legacy:
             kernel = run_chunk_cayley if self.code == METHOD_CAYLEY else run_chunk
-            status, self.k = kernel(self.code, body.Jd, self.h, self.R, self.Pi, self.G, self.U, self.k, n, self.tol,
-                                    self.max_iter, self.alpha, self.save_every, R_out, Pi_out, it_out, res_out,
-                                    _NO_HIST)
+            status, self.k, *tot = kernel(self.code, body.Jd, self.h, self.R, self.Pi, self.G, self.U, self.k, n,
+                                          self.tol, self.max_iter, self.alpha, self.save_every, R_out, Pi_out,
+                                          it_out, res_out, _NO_HIST, self.counts)
+            self.tally(status, *tot)
         else:
-            status, self.k = run_chunk_forced(self.code, body.Jd, body.J, body.J_inv, self.h, self.t0, self.gam,
-                                              self.cum, self.A, self.R, self.Pi, self.G, self.gidx, self.S,
-                                              self.codes, self.params, self.U, int(self.sym), self.k, n, self.tol,
-                                              self.max_iter, self.alpha, self.save_every, R_out, Pi_out, it_out,
-                                              res_out, _NO_HIST)
+            status, self.k, *tot = run_chunk_forced(self.code, body.Jd, body.J, body.J_inv, self.h, self.t0,
+                                                    self.gam, self.cum, self.A, self.R, self.Pi, self.G, self.gidx,
+                                                    self.S, self.codes, self.params, self.U, int(self.sym), self.k, n,
+                                                    self.tol, self.max_iter, self.alpha, self.save_every, R_out,
+                                                    Pi_out, it_out, res_out, _NO_HIST, self.counts)
+            self.tally(status, *tot)
         return int(status)
 
 
@@ -865,6 +933,8 @@ def _run_callable_symmetric(run: _Run, n: int, R_out, Pi_out, it_out, res_out, p
     k0 = run.k
     countdown = run.save_every
     j = 0
+    per_step = len(it_out) == n
+    imax, rimax = 0, 0.0
     for k in range(k0, k0 + n):
         R_start = R.copy()
         Pi_start = Pi.copy()
@@ -882,8 +952,10 @@ def _run_callable_symmetric(run: _Run, n: int, R_out, Pi_out, it_out, res_out, p
             its_sum += its
             rmax = max(rmax, rn)
             if st != OK:
-                it_out[k - k0] = its_sum
-                res_out[k - k0] = rn
+                if per_step:
+                    it_out[k - k0] = its_sum
+                    res_out[k - k0] = rn
+                run.last_its, run.last_res = int(its_sum), float(rn)
                 R[:] = R_start
                 Pi[:] = Pi_start
                 run.M_cb = M_start
@@ -912,13 +984,19 @@ def _run_callable_symmetric(run: _Run, n: int, R_out, Pi_out, it_out, res_out, p
                     trajectory=partial(k))
             run.M_cb = M
             Pi[:] = P
-        it_out[k - k0] = its_sum
-        res_out[k - k0] = rmax
+        if per_step:
+            it_out[k - k0] = its_sum
+            res_out[k - k0] = rmax
+        run.count_step(its_sum, rmax)
+        imax, rimax = max(imax, its_sum), max(rimax, rmax)
         countdown -= 1
         if countdown == 0:
             countdown = run.save_every
             R_out[j] = R
             Pi_out[j] = Pi
+            if not per_step:
+                it_out[j], res_out[j] = imax, rimax
+            imax, rimax = 0, 0.0
             j += 1
     return OK, k0 + n
 
@@ -933,18 +1011,27 @@ def _run_callable(run: _Run, n: int, R_out, Pi_out, it_out, res_out, partial) ->
     k0 = run.k
     countdown = run.save_every
     j = 0
+    per_step = len(it_out) == n
+    imax, rimax = 0, 0.0
     for k in range(k0, k0 + n):
         u = _call_torque(func, t0 + k * h, R, Pi, k, partial)
         its, res, st = lgvi_step(code, Jd, h, R, Pi, G, u[0], u[1], u[2], tol, max_iter, alpha, _NO_HIST)
-        it_out[k - k0] = its
-        res_out[k - k0] = res
+        if per_step:
+            it_out[k - k0] = its
+            res_out[k - k0] = res
         if st != OK:
+            run.last_its, run.last_res = int(its), float(res)
             return st, k
+        run.count_step(its, res)
+        imax, rimax = max(imax, its), max(rimax, res)
         countdown -= 1
         if countdown == 0:
             countdown = run.save_every
             R_out[j] = R
             Pi_out[j] = Pi
+            if not per_step:
+                it_out[j], res_out[j] = imax, rimax
+            imax, rimax = 0, 0.0
             j += 1
     return OK, k0 + n
 

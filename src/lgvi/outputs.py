@@ -3,14 +3,16 @@
 =========  ==========================  ===============================================================
 format     writer / reader             what is kept
 =========  ==========================  ===============================================================
-npz        ``Trajectory.save`` /       everything, bit for bit: arrays, per-step ``iterations`` and
-           :func:`lgvi.load`           ``residual``, ``meta`` (scenario text, version) in the header
+npz        ``Trajectory.save`` /       everything, bit for bit: arrays, the solver's record
+           :func:`lgvi.load`           ``iterations`` and ``residual``, ``meta`` (scenario text,
+                                       version, the solver's totals) in the header
 csv        :func:`write_csv` /         one row per saved state, ``%.17g`` (floats round-trip exactly);
            :func:`read_csv`            the sidecar ``NAME.meta.json`` holds the inertia, ``h``, the
-                                       column units, ``meta`` with the scenario text and version. The
-                                       per-step ``iterations`` and ``residual`` are **not** kept: a
-                                       trajectory read from CSV has empty ones (``meta["steps"]``
-                                       still says how many steps were taken).
+                                       column units, ``meta`` with the scenario text, version and the
+                                       solver's totals (``meta["solver_summary"]``: steps, iterations,
+                                       histogram). The solver's record ``iterations`` and ``residual``
+                                       is **not** kept: a trajectory read from CSV has empty ones
+                                       (``meta["steps"]`` still says how many steps were taken).
 netcdf     :func:`write_netcdf` /      everything (as npz), via xarray; ``meta`` as the JSON attribute
            :func:`read_netcdf`         ``lgvi_meta``, the scenario text also as attribute ``scenario``.
                                        Needs the optional extra: ``pip install 'lgvi[io]'``.
@@ -21,7 +23,8 @@ matrix, body to inertial); ``qx qy qz qw`` (the unit quaternion, **scalar last**
 Hamilton convention, sign-continuous in time); ``Pi1 Pi2 Pi3`` (body angular momentum);
 ``omega1 omega2 omega3`` (body angular velocity); ``energy`` (total: kinetic plus potential);
 ``potential`` (only when the run had a potential). The first line is the header; there are no
-comment lines, so any CSV reader takes the file as it is.
+comment lines, so any CSV reader takes the file as it is. Every output is sized by the saved
+states unless the run kept its per-step solver record (``solver_record="full"``).
 """
 
 from __future__ import annotations
@@ -76,6 +79,12 @@ def _meta(traj: Trajectory) -> dict[str, Any]:
     return meta
 
 
+def _interval_record(traj: Trajectory) -> bool:
+    """Whether the solver's record of ``traj`` is one entry per saved interval (``(M - 1,)``)."""
+    return ((traj.meta or {}).get("solver_record") == "interval" and len(traj.t) > 0
+            and len(traj.iterations) == len(traj.t) - 1 == len(traj.residual))
+
+
 def _unit(column: str) -> str:
     for prefix in ("omega", "Pi", "R", "q"):
         if column.startswith(prefix):
@@ -128,7 +137,8 @@ def write_csv(traj: Trajectory, path: str | os.PathLike) -> Path:
         "units": {n: _unit(n) for n in names},
         "quaternion": "qx, qy, qz, qw: scalar last (as scipy), Hamilton product, rotates body to inertial",
         "attitude": "Rij: row i, column j of R, which maps body vectors to inertial ones",
-        "not_kept": "per-step solver iterations and residuals (use the npz or netCDF output for those)",
+        "not_kept": "the solver's record of iterations and residuals (use the npz or netCDF output for those; "
+                    "meta holds its totals)",
         "h": traj.h,
         "inertia": traj.inertia,
         "samples": M,
@@ -153,7 +163,8 @@ def read_csv(path: str | os.PathLike, *, inertia: Any = None) -> Trajectory:
     -------
     Trajectory
         ``t``, ``R``, ``Pi`` (exact) and ``potential``; ``iterations`` and ``residual`` are empty
-        (CSV does not keep them); ``meta["steps"]`` holds the number of steps of the run.
+        (CSV does not keep them); ``meta["steps"]`` holds the number of steps of the run and
+        ``meta["solver_summary"]`` the solver's totals (:attr:`Trajectory.solver_summary`).
 
     Raises
     ------
@@ -222,7 +233,8 @@ def _xarray():
 def write_netcdf(traj: Trajectory, path: str | os.PathLike) -> Path:
     """Write the whole trajectory to a netCDF file through xarray (optional extra ``lgvi[io]``).
 
-    Dimensions ``time`` (M), ``step`` (steps), ``row``/``col``/``axis`` (3) and ``component`` (4,
+    Dimensions ``time`` (M), ``interval`` (M - 1, a solver record per saved interval) or
+    ``step`` (steps, a per-step record), ``row``/``col``/``axis`` (3) and ``component`` (4,
     coordinate ``x y z w``: scalar last). Variables ``R``, ``Pi``, ``omega``, ``quaternion``,
     ``energy`` (and ``potential``), ``inertia``, ``iterations``, ``residual``, with units.
     Attributes: ``lgvi_format``, ``lgvi_version``, ``h``, ``lgvi_meta`` (JSON of ``meta``) and
@@ -236,6 +248,9 @@ def write_netcdf(traj: Trajectory, path: str | os.PathLike) -> Path:
     xr = _xarray()
     path = Path(path)
     meta = _meta(traj)
+    interval = _interval_record(traj)
+    rec_dim = "interval" if interval else "step"
+    rec_what = "largest over the steps of each saved interval" if interval else "of each step"
     data_vars: dict[str, Any] = {
         "R": (("time", "row", "col"), np.asarray(traj.R),
               {"long_name": "attitude matrix, maps body vectors to inertial ones", "units": "1"}),
@@ -245,10 +260,10 @@ def write_netcdf(traj: Trajectory, path: str | os.PathLike) -> Path:
                        {"long_name": "unit quaternion, scalar last (x, y, z, w), Hamilton", "units": "1"}),
         "energy": (("time",), traj.energy, {"long_name": "total energy (kinetic + potential)", "units": "J"}),
         "inertia": (("row", "col"), np.asarray(traj.inertia), {"long_name": "inertia matrix J", "units": "kg m2"}),
-        "iterations": (("step",), np.asarray(traj.iterations, dtype=np.int32),
-                       {"long_name": "solver iterations of each step"}),
-        "residual": (("step",), np.asarray(traj.residual, dtype=np.float64),
-                     {"long_name": "final residual of each step's implicit solve"}),
+        "iterations": ((rec_dim,), np.asarray(traj.iterations, dtype=np.int32),
+                       {"long_name": f"solver iterations, {rec_what}"}),
+        "residual": ((rec_dim,), np.asarray(traj.residual, dtype=np.float64),
+                     {"long_name": f"final residual of the implicit solves, {rec_what}"}),
     }
     if traj.potential is not None:
         data_vars["potential"] = (("time",), np.asarray(traj.potential), {"long_name": "potential energy",

@@ -62,6 +62,9 @@ ERROR_FLOOR: float = 1e-17
 #: Default number of points per drawn curve (longer series are thinned, see the module notes).
 MAX_POINTS: int = 10_000
 
+#: Vertices per piece in which Agg draws a long line when a figure is saved (``agg.path.chunksize``).
+AGG_CHUNK: int = 1000
+
 #: Names of the PNG files written by :func:`save_figures` (before the prefix).
 FIGURE_NAMES: tuple[str, ...] = ("attitude", "rates", "conservation", "iterations", "polhode")
 
@@ -544,8 +547,11 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
 def iterations(traj: Trajectory, axes: Sequence[Axes] | None = None, *, max_points: int = MAX_POINTS) -> Figure:
     """Solver updates per step (top) and the final residual of each step's solve (bottom).
 
-    Step ``k`` (from ``t_k`` to ``t_k + h``) is drawn at ``t_k``. Long runs are binned: the top
-    panel then shows the mean per bin with the bin's range shaded, the bottom the bin's maximum.
+    Step ``k`` (from ``t_k`` to ``t_k + h``) is drawn at ``t_k``. A record per saved interval
+    (``solver_record="interval"`` with ``save_every > 1``) draws the largest of each interval
+    from sample ``t_i`` to ``t_{i+1}``, and the title gives the mean over every step. Long
+    records are binned: the top panel then shows the mean per bin with the bin's range shaded,
+    the bottom the bin's maximum.
 
     Parameters
     ----------
@@ -567,38 +573,44 @@ def iterations(traj: Trajectory, axes: Sequence[Axes] | None = None, *, max_poin
                          f"(method {traj.meta.get('method', '?')!r}); only lgvi.simulate runs have one")
     fig, (ax_i, ax_r) = _axes_list(axes, 2, "iterations")
     h = float(traj.h)
-    tk = float(traj.t[0]) + h * np.arange(len(its))
     n = len(its)
+    meta = traj.meta or {}
+    # a record per saved interval of more than one step: entry i spans samples i .. i+1
+    per_interval = meta.get("solver_record") == "interval" and n == len(traj.t) - 1 and traj.steps != n
+    tk = np.asarray(traj.t[:-1], dtype=np.float64) if per_interval else float(traj.t[0]) + h * np.arange(n)
+    what = "largest per saved interval" if per_interval else "updates in step $k$"
     nb = _bins(n, max_points)
     if nb == 0:
-        ax_i.step(tk, its, where="post", color="tab:blue", lw=1.2, label="updates in step $k$")
+        ax_i.step(tk, its, where="post", color="tab:blue", lw=1.2, label=what)
     else:
         edges = np.linspace(0, n, nb + 1).astype(np.int64)
         start = edges[:-1]
         mean = np.add.reduceat(its, start) / np.diff(edges)
         lo = np.minimum.reduceat(its, start)
         hi = np.maximum.reduceat(its, start)
+        unit = "intervals" if per_interval else "steps"
         ax_i.fill_between(tk[start], lo, hi, step="post", color="tab:blue", alpha=0.25,
-                          label=f"range over bins of {n // nb} steps")
-        ax_i.step(tk[start], mean, where="post", color="tab:blue", lw=1.2, label="mean per bin")
+                          label=f"range over bins of {n // nb} {unit}")
+        ax_i.step(tk[start], mean, where="post", color="tab:blue", lw=1.2,
+                  label="mean per bin" + (" of the interval maxima" if per_interval else ""))
     top = max(1.0, float(its.max()) if n else 1.0)
     ax_i.set_ylim(-0.05 * top, top * 1.15 + 0.5)
     ax_i.yaxis.get_major_locator().set_params(integer=True)
     ax_i.set_ylabel("solver updates (1)")
     ax_i.grid(True, alpha=0.3)
-    meta = traj.meta or {}
+    mean_all = traj.solver_summary["iterations_mean"] if per_interval else (its.mean() if n else 0)
     ax_i.set_title(f"Implicit solves: method {meta.get('method', '?')!r}, tol {meta.get('tol', '?')}, "
-                   f"mean {its.mean() if n else 0:.2f} updates/step")
+                   f"mean {mean_all or 0:.2f} updates/step")
     ax_i.legend(loc="upper right", fontsize="small", framealpha=0.85)
     # residuals are absolute (units of h Pi), often far below 1e-17, and often exactly zero:
     # exact zeros are left out (gaps) and counted in the legend
     positive = np.isfinite(res) & (res > 0)
     rfloor = float(res[positive].min()) if positive.any() else ERROR_FLOOR
     tt, rr = _thin_max(tk, np.where(positive, res, np.nan), max_points)
-    label = r"$|\mathrm{vee}(F J_d - J_d F^T) - h\Pi_k|$"
+    label = r"$|\mathrm{vee}(F J_d - J_d F^T) - h\Pi_k|$" + (", largest per interval" if per_interval else "")
     zeros = int(np.count_nonzero(res == 0))
     if zeros:
-        label += f"; {zeros / len(res):.0%} of steps exactly 0 (gaps)"
+        label += f"; {zeros / len(res):.0%} of {'intervals' if per_interval else 'steps'} exactly 0 (gaps)"
     ax_r.plot(tt, rr, color="tab:purple", lw=0.8, label=label)
     ax_r.set_yscale("log")
     ax_r.grid(True, which="major", alpha=0.3)
@@ -610,7 +622,7 @@ def iterations(traj: Trajectory, axes: Sequence[Axes] | None = None, *, max_poin
         top = max(top, level)
     ax_r.set_ylim(rfloor / 3, top * 1e3)
     ax_r.set_ylabel(r"residual (kg m$^2$)")
-    ax_r.set_xlabel(r"time $t_k$ of the step (s)")
+    ax_r.set_xlabel(r"time $t_i$ of the interval's start (s)" if per_interval else r"time $t_k$ of the step (s)")
     ax_r.legend(loc="upper right", fontsize="small", framealpha=0.85)
     return fig
 
@@ -974,8 +986,13 @@ def _save(fig: Figure, path: Path) -> Path:
     _mpl()
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
+    import matplotlib
+
     FigureCanvasAgg(fig)  # render with Agg whatever the session's backend
-    fig.savefig(path, dpi=DPI, format="png")
+    # Agg rasterises a line in pieces of this many vertices: a dense curve of MAX_POINTS points
+    # drawn in one piece holds tens of MB of coverage cells at once (measured), in pieces a few
+    with matplotlib.rc_context({"agg.path.chunksize": AGG_CHUNK}):
+        fig.savefig(path, dpi=DPI, format="png")
     return path
 
 

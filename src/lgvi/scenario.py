@@ -695,9 +695,11 @@ class Scenario:
             raise
         return self.attach(traj)
 
-    def run_stream(self, folder, *, resume: bool = False, progress: bool = False, chunk_steps: int | None = None):
+    def run_stream(self, folder, *, resume: bool = False, progress: bool = False, chunk_steps: int | None = None,
+                   solver_record: str = "interval"):
         """Simulate the scenario into a crash-safe stream folder (:func:`lgvi.simulate_stream`) and
-        read it back; ``resume=True`` continues an interrupted or killed run bit for bit.
+        read it back; ``resume=True`` continues an interrupted or killed run bit for bit;
+        ``solver_record`` as in :func:`lgvi.simulate`.
 
         Returns
         -------
@@ -711,7 +713,7 @@ class Scenario:
         try:
             simulate_stream(folder, self.body, self.R0, self.Pi0, progress=progress, resume=resume,
                             chunk_steps=chunk_steps, meta={"scenario_name": self.name},
-                            **self.simulate_kwargs())
+                            solver_record=solver_record, **self.simulate_kwargs())
             traj = read_stream(folder)
             if self.error_estimate:
                 from .accuracy import with_estimate

@@ -4,7 +4,8 @@ A stream is a folder::
 
     run/
       manifest.json          # format, metadata, the list of complete chunks, the resume state
-      chunk-000000.npz       # t, R, Pi, iterations, residual of the samples/steps of that chunk
+      chunk-000000.npz       # t, R, Pi, the solver's record (per saved interval, or per step with
+                             # solver_record="full") and totals of the samples/steps of that chunk
       chunk-000001.npz
       ...
 
@@ -34,7 +35,7 @@ import numpy as np
 from ._files import FolderLock, write_atomic, write_failure
 from ._untrusted import check_npz, inside
 from ._version import __version__
-from .trajectory import Trajectory, _check_arrays
+from .trajectory import Trajectory, _check_arrays, merge_summaries, summary_dict
 
 STREAM_FORMAT = "lgvi.stream/1"
 MANIFEST = "manifest.json"
@@ -119,8 +120,12 @@ class StreamWriter:
                     len(self.manifest["chunks"]) if listed is None else listed)
 
     def append(self, *, t: np.ndarray, R: np.ndarray, Pi: np.ndarray, iterations: np.ndarray,
-               residual: np.ndarray, state: dict[str, Any], potential: np.ndarray | None = None) -> Path:
-        """Write one chunk (samples ``t, R, Pi``; per-step ``iterations, residual``) and the state after it."""
+               residual: np.ndarray, state: dict[str, Any], potential: np.ndarray | None = None,
+               summary: dict[str, Any] | None = None) -> Path:
+        """Write one chunk (samples ``t, R, Pi``; the solver's record ``iterations, residual``) and
+        the state after it. ``summary`` (as :func:`lgvi.trajectory.summary_dict`): the solver's
+        totals over the chunk's steps, stored as the arrays ``iteration_counts`` (histogram),
+        ``iterations_total``, ``residual_max`` and ``iterations_max``."""
         if not self.lock.held:
             raise ValueError(f"this writer of the stream {self.folder} is closed; open a new one (resume=True)")
         index = len(self.manifest["chunks"])
@@ -128,9 +133,15 @@ class StreamWriter:
         arrays = dict(t=t, R=R, Pi=Pi, iterations=iterations, residual=residual)
         if potential is not None:
             arrays["potential"] = potential
+        if summary is not None:
+            arrays.update(iteration_counts=np.asarray(summary["histogram"], dtype=np.int64),
+                          iterations_total=np.int64(summary["iterations_total"]),
+                          residual_max=np.float64(summary["residual_max"]),
+                          iterations_max=np.int64(summary["iterations_max"]))
         self._write(name, lambda fh: np.savez(fh, **arrays), "the stream chunk", index)
+        steps = int(np.sum(summary["histogram"])) if summary is not None else int(len(iterations))
         before = dict(self.manifest, chunks=list(self.manifest["chunks"]))
-        self.manifest["chunks"].append({"file": name, "samples": int(len(t)), "steps": int(len(iterations))})
+        self.manifest["chunks"].append({"file": name, "samples": int(len(t)), "steps": steps})
         self.manifest["state"] = {key: (np.asarray(val).tolist() if isinstance(val, np.ndarray) else val)
                                   for key, val in state.items()}
         try:
@@ -200,6 +211,7 @@ def read_manifest(folder: str | os.PathLike) -> dict[str, Any]:
 
 
 _CHUNK_FIELDS = ("t", "R", "Pi", "iterations", "residual")
+_SUMMARY_FIELDS = ("iteration_counts", "iterations_total", "residual_max", "iterations_max")
 
 
 def read_stream(folder: str | os.PathLike) -> Trajectory:
@@ -227,6 +239,7 @@ def read_stream(folder: str | os.PathLike) -> Trajectory:
         raise ValueError(f"{mpath} is damaged: meta needs the inertia (3, 3) and h ({type(exc).__name__}: "
                          f"{exc})") from exc
     parts: dict[str, list[np.ndarray]] = {k: [] for k in _CHUNK_FIELDS + ("potential",)}
+    summaries: list[dict[str, Any] | None] = []
     for i, entry in enumerate(chunks):
         name = entry.get("file") if isinstance(entry, dict) else None
         if not isinstance(name, str) or not name or Path(name).name != name or name.startswith("."):
@@ -246,11 +259,23 @@ def read_stream(folder: str | os.PathLike) -> Trajectory:
                 for key in parts:
                     if key in data.files:
                         parts[key].append(data[key])
+                if all(k in data.files for k in _SUMMARY_FIELDS):
+                    summaries.append(summary_dict(data["iteration_counts"], int(data["iterations_total"]),
+                                                  float(data["residual_max"]), int(data["iterations_max"])))
+                else:  # a stream written before lgvi kept the solver's totals: per-step records
+                    summaries.append(None)
         except MemoryError:
             raise
         except Exception as exc:  # OSError, EOFError, zipfile.BadZipFile, numpy's ValueErrors, ...
             raise ValueError(f"cannot read stream chunk {path}: {type(exc).__name__}: {exc}") from exc
     meta = dict(meta, complete=manifest.get("complete", False))
+    if summaries and all(x is not None for x in summaries):
+        total = summaries[0]
+        for x in summaries[1:]:
+            total = merge_summaries(total, x)
+        meta["solver_summary"] = total
+    else:
+        meta.pop("solver_summary", None)
     if not parts["t"]:
         raise ValueError(f"{folder} holds no complete chunk yet")
     if parts["potential"] and len(parts["potential"]) != len(parts["t"]):
@@ -260,6 +285,10 @@ def read_stream(folder: str | os.PathLike) -> Trajectory:
         _check_arrays(dict(inertia=inertia, **{k: cat[k] for k in _CHUNK_FIELDS}), cat.get("potential"))
     except ValueError as exc:
         raise ValueError(f"the chunks of the stream {folder} do not fit together: {exc}") from exc
+    if "solver_summary" in meta and len(cat["iterations"]):
+        summary = meta["solver_summary"]
+        meta["solver_summary"] = dict(summary, iterations_max=max(int(summary["iterations_max"]),
+                                                                  int(cat["iterations"].max())))
     return Trajectory(t=cat["t"], R=cat["R"], Pi=cat["Pi"], inertia=inertia,
                       iterations=cat["iterations"], residual=cat["residual"], h=h,
                       potential=cat.get("potential"), meta=meta)

@@ -18,6 +18,35 @@ FORMAT = "lgvi.trajectory/1"
 #: The array fields of a result (``potential`` may be ``None``).
 ARRAY_FIELDS = ("t", "R", "Pi", "inertia", "iterations", "residual", "potential")
 
+#: Bins of the solver's iteration histogram: bin ``i`` counts the steps with ``i`` solver
+#: updates, the last bin those with ``HIST_BINS - 1`` or more.
+HIST_BINS = 64
+
+
+def summary_dict(counts: Any, iterations_total: int, residual_max: float,
+                 iterations_max: int | None = None) -> dict[str, Any]:
+    """The solver's run totals as stored in ``meta["solver_summary"]`` (JSON-serialisable).
+
+    ``counts`` is the iteration histogram (see :data:`HIST_BINS`); the number of steps is its sum
+    and, unless given, the largest iteration count its last non-empty bin.
+    """
+    counts = np.asarray(counts, dtype=np.int64)
+    nz = np.flatnonzero(counts)
+    top = int(nz[-1]) if len(nz) else 0
+    return {"steps": int(counts.sum()), "iterations_total": int(iterations_total),
+            "iterations_max": top if iterations_max is None else max(int(iterations_max), top),
+            "residual_max": float(residual_max), "histogram": [int(c) for c in counts]}
+
+
+def merge_summaries(a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any]:
+    """The totals of two consecutive parts of a run (as :func:`summary_dict`)."""
+    ha, hb = np.asarray(a["histogram"], dtype=np.int64), np.asarray(b["histogram"], dtype=np.int64)
+    n = max(len(ha), len(hb))
+    hist = np.pad(ha, (0, n - len(ha))) + np.pad(hb, (0, n - len(hb)))
+    return summary_dict(hist, int(a["iterations_total"]) + int(b["iterations_total"]),
+                        max(float(a["residual_max"]), float(b["residual_max"])),
+                        max(int(a["iterations_max"]), int(b["iterations_max"])))
+
 
 def freeze_arrays(obj: Any, names: tuple[str, ...]) -> None:
     """Turn the named fields of a frozen dataclass into read-only arrays (``None`` stays)."""
@@ -52,10 +81,17 @@ class Trajectory:
         Body angular momentum ``J Omega``.
     inertia : (3, 3) ndarray
         Standard inertia ``J`` of the body.
-    iterations : (steps,) ndarray of int
-        Solver updates used by each step.
-    residual : (steps,) ndarray of float
-        Final residual ``|vee(F Jd - Jd F^T) - h Pi|`` of each step's solve.
+    iterations : (M - 1,) or (steps,) ndarray of int
+        The solver's record of iterations, at the resolution the run asked for
+        (``solver_record``, ``meta["solver_record"]``): with ``"interval"`` (the default), entry
+        ``i`` is the largest number of solver updates of the ``save_every`` steps from sample
+        ``i`` to sample ``i + 1``, shape ``(M - 1,)``; with ``"full"`` (and for files written
+        before lgvi recorded by interval), the updates of every step, shape ``(steps,)``. With
+        ``save_every = 1`` the two are the same array. Totals over every step are in
+        :attr:`solver_summary`.
+    residual : (M - 1,) or (steps,) ndarray of float
+        Final residual ``|vee(F Jd - Jd F^T) - h Pi|`` of the solves, as ``iterations``: the
+        largest of each saved interval, or of every step.
     potential : (M,) ndarray or None
         Potential energy at each sample, for conservative torque models; ``energy`` adds it.
     h : float
@@ -68,7 +104,8 @@ class Trajectory:
         from ``meta["error_estimate"]`` so that it is saved and loaded with the trajectory;
         ``None`` when the run was made without it.
 
-    Derived (computed on first access): ``omega`` (M,3), ``energy`` (M,),
+    Derived (computed on first access): ``steps``, ``solver_summary`` (run totals and
+    histogram of the solver's iterations), ``omega`` (M,3), ``energy`` (M,),
     ``kinetic_energy`` (M,), ``spatial_momentum`` (M,3), ``quaternion`` (M,4) scalar-last and
     sign-continuous, ``rotation`` (a scipy ``Rotation``), ``orthogonality_error`` (M,).
     """
@@ -91,7 +128,7 @@ class Trajectory:
 
     def __repr__(self) -> str:
         span = f"t=[{self.t[0]:.6g}, {self.t[-1]:.6g}]" if len(self.t) else "empty"
-        return (f"Trajectory(samples={len(self.t)}, steps={len(self.iterations)}, h={self.h:g}, {span}, "
+        return (f"Trajectory(samples={len(self.t)}, steps={self.steps}, h={self.h:g}, {span}, "
                 f"method={self.meta.get('method', '?')!r})")
 
     @property
@@ -104,8 +141,45 @@ class Trajectory:
 
     @property
     def steps(self) -> int:
-        """Number of steps taken."""
+        """Number of steps taken (``solver_summary["steps"]``; the record's length for results
+        without a summary, or whose record has more entries than saved intervals: per step)."""
+        summary = (self.meta or {}).get("solver_summary")
+        if (isinstance(summary, dict) and isinstance(summary.get("steps"), int)
+                and len(self.iterations) <= max(len(self.t) - 1, 0)):
+            return int(summary["steps"])
         return int(len(self.iterations))
+
+    @cached_property
+    def solver_summary(self) -> dict[str, Any]:
+        """Totals of the solver over every step taken, whatever the record's resolution.
+
+        A dict: ``steps``; ``iterations_total`` (solver updates summed over the steps),
+        ``iterations_mean``, ``iterations_max``; ``residual_max`` (largest final residual);
+        ``histogram`` ((:data:`HIST_BINS`,) int64 ndarray: entry ``i`` counts the steps with
+        ``i`` updates, the last entry those with more); ``record`` (``"interval"`` or
+        ``"full"``). Results saved before lgvi kept these totals, and per-step records of
+        ``save_every > 1``, give them from the record itself.
+        """
+        stored = (self.meta or {}).get("solver_summary")
+        out = None
+        if isinstance(stored, dict) and len(self.iterations) <= max(len(self.t) - 1, 0):
+            try:
+                out = summary_dict(stored["histogram"], stored["iterations_total"], stored["residual_max"],
+                                   stored.get("iterations_max"))
+                record = str((self.meta or {}).get("solver_record", "full"))
+            except (KeyError, TypeError, ValueError, OverflowError):  # a damaged header: use the record
+                out = None
+        if out is None:
+            its = np.asarray(self.iterations, dtype=np.int64)
+            counts = np.bincount(np.clip(its, 0, HIST_BINS - 1), minlength=HIST_BINS)
+            res = np.asarray(self.residual, dtype=np.float64)
+            out = summary_dict(counts, int(its.sum()), float(res.max()) if res.size else 0.0,
+                               int(its.max()) if its.size else 0)
+            record = "full"
+        out["histogram"] = np.asarray(out["histogram"], dtype=np.int64)
+        out["iterations_mean"] = out["iterations_total"] / out["steps"] if out["steps"] else None
+        out["record"] = record
+        return out
 
     @cached_property
     def omega(self) -> np.ndarray:
@@ -246,4 +320,4 @@ def load(path: str | os.PathLike) -> Trajectory:
     return Trajectory(h=h, potential=potential, meta=header.get("meta", {}), **fields)
 
 
-__all__ = ["Trajectory", "load"]
+__all__ = ["HIST_BINS", "Trajectory", "load"]

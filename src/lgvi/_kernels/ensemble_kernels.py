@@ -13,7 +13,7 @@ notes before :data:`LANES`).
 Layout (``B`` bodies, ``s`` substeps per step, ``nb`` distinct bodies)::
 
     R (B,3,3), Pi (B,3)         state, in place
-    G (B,s,4,3)                 solver histories, one per body and substep (see .stepping)
+    G (B,s,5,3)                 solver histories, one per body and substep (see .stepping)
     S (B,7)                     moment caches of the forced scheme (see .stepping)
     ib (B,) int64               body b has inertia number ib[b]
     Jd, J, J_inv (nb,3,3)       per distinct inertia
@@ -42,7 +42,7 @@ import numpy as np
 
 from .._jit import jit, jit_parallel
 from .codes import OK
-from .solvers import initial_guess
+from .solvers import CHEBYSHEV_MIN, initial_guess
 from .stepping import forced_stage, free_steps, init_moments, lgvi_step, store
 from .torque_kernels import momentum_diag
 
@@ -51,7 +51,7 @@ from .torque_kernels import momentum_diag
 def init_histories(method, J, ib, hs, Pi, G):
     """Cold-start the solver histories: ``G[b, i, 0]`` from the linearisation ``J w = hs[i] Pi[b]``.
 
-    ``G`` (B,s,4,3) must be zero on entry (no valid history). The same values as
+    ``G`` (B,s,5,3) must be zero on entry (no valid history). The same values as
     ``integrator._solver_state(method, body, hs[i], Pi[b])``.
     """
     hPi = np.empty(3)
@@ -70,7 +70,8 @@ def advance_free(b, method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, sa
     :func:`.stepping.run_chunk`, without per-step records)."""
     st, k, it_sum, rmax, it, rn = free_steps(method, Jd[ib[b]], h, R[b], Pi[b], G[b, 0], hist[:0, None], k0, n,
                                              tol, max_iter, alpha, save_every, save_every - k0 % save_every,
-                                             k0 // save_every + 1, R_out[b], Pi_out[b], False, hist, hist, hist)
+                                             k0 // save_every + 1, R_out[b], Pi_out[b], 0, hist, hist, hist,
+                                             fail_its[:0])
     its[b] += it_sum
     if rmax > res[b]:
         res[b] = rmax
@@ -190,10 +191,11 @@ def run_forced_serial(method, Jd, J, J_inv, ib, h, t0, gam, cum, A, R, Pi, G, S,
 # every access of a lane loop sits at a constant offset from the group's start, so LLVM proves the
 # fields do not overlap and vectorises the loop over lanes, which has no branches (AVX2: four
 # doubles per instruction). Every lane evaluates the same IEEE operations, in the same order, as
-# the scalar path (lgvi_step -> solve_scalar with eager=True: predict, one Cayley Newton update,
-# the residual check, R <- R (I + E), Pi <- (I + E)^T Pi); without fast-math LLVM neither
-# reassociates nor fuses a * b + c, so a lane's result is bit for bit the scalar one. A lane that
-# the one update does not settle (its check fails: more iterations needed, a singular or
+# the scalar path (lgvi_step -> solve_scalar with eager=True: predict, one Cayley Newton update
+# with its third-order correction, the residual check, R <- R (I + E), Pi <- (I + E)^T Pi compensated);
+# without fast-math LLVM neither reassociates nor fuses a * b + c, so a lane's result is bit for
+# bit the scalar one. A lane that the one update does not settle (its residual above the round-off
+# floor: more iterations needed, or a singular or
 # non-finite Newton matrix) is left untouched by the vector step and redone by the scalar
 # lgvi_step from the same state, which then decides exactly as simulate does. The expressions
 # below must stay those of solvers.solve_scalar and stepping.lgvi_step; tests/test_ensemble.py
@@ -210,7 +212,8 @@ X_ALIVE = 28   # 1.0 while the body runs
 X_RMAX = 29    # largest residual so far
 X_OK = 30      # 1.0 when the last vector step settled this lane
 X_ITS = 31     # solver updates so far (a float counts exactly to 2^53)
-NF = 32
+X_L = 32       # low part of Pi (3), G[4, :] (compensated momentum update, stepping.momentum_c)
+NF = 35
 EPS = 2.220446049250313e-16
 
 
@@ -233,6 +236,9 @@ def lockstep_cayley(X, h, tol, alpha):
         b0 = X[X_PI * LANES + l]
         b1 = X[(X_PI + 1) * LANES + l]
         b2 = X[(X_PI + 2) * LANES + l]
+        l0 = X[X_L * LANES + l]
+        l1 = X[(X_L + 1) * LANES + l]
+        l2 = X[(X_L + 2) * LANES + l]
         p0 = h * b0
         p1 = h * b1
         p2 = h * b2
@@ -293,6 +299,14 @@ def lockstep_cayley(X, h, tol, alpha):
         s0 = (c00 * q0 + c10 * q1 + c20 * q2) * inv
         s1 = (c01 * q0 + c11 * q1 + c21 * q2) * inv
         s2 = (c02 * q0 + c12 * q1 + c22 * q2) * inv
+        cheb = s0 * s0 + s1 * s1 + s2 * s2 > CHEBYSHEV_MIN
+        ps = (p0 * s0 + p1 * s1 + p2 * s2) * inv
+        ch0 = s0 - ps * (c00 * s0 + c10 * s1 + c20 * s2)
+        ch1 = s1 - ps * (c01 * s0 + c11 * s1 + c21 * s2)
+        ch2 = s2 - ps * (c02 * s0 + c12 * s1 + c22 * s2)
+        s0 = ch0 if cheb else s0
+        s1 = ch1 if cheb else s1
+        s2 = ch2 if cheb else s2
         g0 += alpha * s0
         g1 += alpha * s1
         g2 += alpha * s2
@@ -326,11 +340,13 @@ def lockstep_cayley(X, h, tol, alpha):
         r1 = (x02 - x20) - p1
         r2 = (x10 - x01) - p2
         rn2 = r0 * r0 + r1 * r1 + r2 * r2
-        thr = tol * hn + 8.0 * EPS * (jdn * enorm + hn)
+        floor = 8.0 * EPS * (jdn * enorm + hn)
+        thr = tol * hn + floor
         alive = X[X_ALIVE * LANES + l] != 0.0
         # settled only where every test of the scalar solver passes (a finite Newton matrix, iterate,
-        # residual and threshold, and the tolerance); anything else goes to the scalar step
-        ok = ((rn2 <= thr * thr) & (rn2 < math.inf) & (thr < math.inf) & (t2 < math.inf) & (det != 0.0)
+        # residual and threshold, and the residual at the round-off floor: within tol but above it,
+        # the scalar solver polishes once more); anything else goes to the scalar step
+        ok = ((rn2 <= floor * floor) & (rn2 < math.inf) & (thr < math.inf) & (t2 < math.inf) & (det != 0.0)
               & (abs(det) < math.inf) & alive)
         bad += 1 if (alive and not ok) else 0
         # stepping.push
@@ -355,13 +371,19 @@ def lockstep_cayley(X, h, tol, alpha):
             X[(X_R + 3 * i) * LANES + l] = y0 if ok else a0
             X[(X_R + 3 * i + 1) * LANES + l] = y1 if ok else a1
             X[(X_R + 3 * i + 2) * LANES + l] = y2 if ok else a2
-        # Pi <- (I + E)^T Pi + h u
-        z0 = b0 + (E00 * b0 + E10 * b1 + E20 * b2) + h * u0
-        z1 = b1 + (E01 * b0 + E11 * b1 + E21 * b2) + h * u0
-        z2 = b2 + (E02 * b0 + E12 * b1 + E22 * b2) + h * u0
+        # Pi <- (I + E)^T Pi + h u, compensated (stepping.momentum_c)
+        v0 = ((E00 * b0 + E10 * b1 + E20 * b2) + h * u0) + l0
+        v1 = ((E01 * b0 + E11 * b1 + E21 * b2) + h * u0) + l1
+        v2 = ((E02 * b0 + E12 * b1 + E22 * b2) + h * u0) + l2
+        z0 = b0 + v0
+        z1 = b1 + v1
+        z2 = b2 + v2
         X[X_PI * LANES + l] = z0 if ok else b0
         X[(X_PI + 1) * LANES + l] = z1 if ok else b1
         X[(X_PI + 2) * LANES + l] = z2 if ok else b2
+        X[X_L * LANES + l] = ((b0 - z0) + v0) if ok else l0
+        X[(X_L + 1) * LANES + l] = ((b1 - z1) + v1) if ok else l1
+        X[(X_L + 2) * LANES + l] = ((b2 - z2) + v2) if ok else l2
         rn = math.sqrt(rn2)
         rmax = X[X_RMAX * LANES + l]
         X[X_RMAX * LANES + l] = rn if (ok & (rn > rmax)) else rmax
@@ -385,6 +407,8 @@ def pack_groups(R, Pi, G, Jd, ib, status, its, res, X):
                     X[gi, (X_R + 3 * i + c) * LANES + l] = R[src, i, c]
                     X[gi, (X_G + 3 * i + c) * LANES + l] = G[src, 0, i, c]
             X[gi, X_N * LANES + l] = G[src, 0, 3, 0]
+            for i in range(3):
+                X[gi, (X_L + i) * LANES + l] = G[src, 0, 4, i]
             q = ib[src]
             X[gi, X_D * LANES + l] = Jd[q, 0, 0]
             X[gi, (X_D + 1) * LANES + l] = Jd[q, 0, 1]
@@ -413,7 +437,7 @@ def advance_group(gi, X, Jd, ib, method, h, k0, n, tol, max_iter, alpha, save_ev
         return
     Rs = np.empty((3, 3))
     Ps = np.empty(3)
-    Gs = np.zeros((4, 3))
+    Gs = np.zeros((5, 3))
     j = k0 // save_every + 1
     countdown = save_every - k0 % save_every
     for k in range(k0, k0 + n):
@@ -429,6 +453,8 @@ def advance_group(gi, X, Jd, ib, method, h, k0, n, tol, max_iter, alpha, save_ev
                         Rs[i, c] = Xg[(X_R + 3 * i + c) * LANES + l]
                         Gs[i, c] = Xg[(X_G + 3 * i + c) * LANES + l]
                 Gs[3, 0] = Xg[X_N * LANES + l]
+                for i in range(3):
+                    Gs[4, i] = Xg[(X_L + i) * LANES + l]
                 it, rn, st = lgvi_step(method, Jd[ib[b]], h, Rs, Ps, Gs, 0.0, 0.0, 0.0, tol, max_iter, alpha, hist)
                 Xg[X_ITS * LANES + l] += it
                 if st != OK:
@@ -447,6 +473,8 @@ def advance_group(gi, X, Jd, ib, method, h, k0, n, tol, max_iter, alpha, save_ev
                         Xg[(X_R + 3 * i + c) * LANES + l] = Rs[i, c]
                         Xg[(X_G + 3 * i + c) * LANES + l] = Gs[i, c]
                 Xg[X_N * LANES + l] = Gs[3, 0]
+                for i in range(3):
+                    Xg[(X_L + i) * LANES + l] = Gs[4, i]
             if alive == 0:
                 break
         countdown -= 1

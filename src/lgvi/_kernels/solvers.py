@@ -18,10 +18,17 @@ Methods (integer codes, shared with :mod:`lgvi.implicit`):
 ``METHOD_CAYLEY`` (2)  ``g = f``, ``F = (I + hat f)(I - hat f)^-1``; Newton on Lee's equivalent
                        form ``G(f) = hPi + hPi x f + (hPi . f) f - 2 J f = 0`` with
                        ``DG = hat(hPi) + (hPi . f) I + f hPi^T - 2 J``. No trigonometry.
+                       ``G`` is quadratic, ``G(f + s) = G(f) + DG s + (hPi . s) s`` exactly, so
+                       each update also removes the quadratic term with the same ``DG``:
+                       ``s <- s - (hPi . s) DG^-1 s`` (Chebyshev's method, third order). From
+                       the stepping loops' warm start one update lands at round-off.
 
 Stopping rule (all methods): with ``r = vee(E Jd - Jd E^T) - hPi`` the residual of the paper's
 ``f``, stop when ``|r| <= tol |hPi| + 8 eps (|Jd| |E| + |hPi|)``: ``tol`` is relative to the
 size of the right-hand side, and the second term is the round-off floor of evaluating ``r``.
+Cayley only: an iterate within ``tol`` but above that floor gets one more update (at most one),
+so the accepted solution is at round-off whatever ``tol`` (a solve stopped at ``1e-14`` relative
+leaves an error that accumulates over long runs into the phase; see docs/performance.md).
 
 Status codes: ``OK`` (0), ``NOT_CONVERGED`` (1, ``max_iter`` updates did not reach the
 tolerance), ``NOT_FINITE`` (2, the iterate or the residual became NaN/inf), ``SINGULAR`` (3, the
@@ -43,6 +50,8 @@ EPS = 2.220446049250313e-16
 #: rounding there: the first dropped terms are below 3e-18 relative at t = 0.1.
 SERIES_ANGLE = 0.1
 # Horner coefficients (multiplications only: a division by a constant is not turned into one)
+#: Cayley updates ``s`` with ``|s|^2`` at most this skip the quadratic correction (see solve_scalar).
+CHEBYSHEV_MIN = 2.0 ** -56
 _A1, _A2, _A3, _A4 = -1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362880.0          # sin t / t
 _B1, _B2, _B3, _B4 = -1.0 / 24.0, 1.0 / 720.0, -1.0 / 40320.0, 1.0 / 3628800.0       # (1 - cos t) / t^2
 _E0, _E1, _E2, _E3 = 1.0 / 12.0, 1.0 / 720.0, 1.0 / 30240.0, 1.0 / 1209600.0       # (1 - t/2 cot t/2) / t^2
@@ -94,6 +103,7 @@ def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, t
     E00 = E01 = E02 = E10 = E11 = E12 = E20 = E21 = E22 = 0.0
     r0 = r1 = r2 = 0.0
     rn2 = math.inf  # no residual evaluated yet (eager first update)
+    polish = False
     while True:
         if skip_check:
             skip_check = False
@@ -133,12 +143,17 @@ def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, t
             rn2 = r0 * r0 + r1 * r1 + r2 * r2
             if it < nhist:
                 hist[it] = math.sqrt(rn2)
-            thr = tol * hn + 8.0 * EPS * (jdn * enorm + hn)
+            floor = 8.0 * EPS * (jdn * enorm + hn)
+            thr = tol * hn + floor
             if not math.isfinite(rn2) or not math.isfinite(thr):
                 # also |hPi| beyond ~1e154, where the squares overflow: no meaningful solve exists
                 return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), NOT_FINITE
             if rn2 <= thr * thr:
-                return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), OK
+                # Cayley: within tol but above the round-off floor, one more (third-order) update
+                # takes the iterate to round-off; it is rare (the warm-started update lands there)
+                if method != METHOD_CAYLEY or rn2 <= floor * floor or polish or it >= max_iter:
+                    return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), OK
+                polish = True
             if it >= max_iter:
                 return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), NOT_CONVERGED
         if method == METHOD_CAYLEY:
@@ -203,6 +218,13 @@ def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, t
         s0 = (c00 * q0 + c10 * q1 + c20 * q2) * inv
         s1 = (c01 * q0 + c11 * q1 + c21 * q2) * inv
         s2 = (c02 * q0 + c12 * q1 + c22 * q2) * inv
+        if method == METHOD_CAYLEY and s0 * s0 + s1 * s1 + s2 * s2 > CHEBYSHEV_MIN:
+            # G is quadratic: G(f + s) = G(f) + DG s + (hPi . s) s exactly. Removing the last term
+            # with the same DG (Chebyshev's method) makes the update third order; skipped when that
+            # term is below a sixteenth of an ulp of hPi (|s|^2 <= 2^-56), as for small steps
+            ps = (p0 * s0 + p1 * s1 + p2 * s2) * inv
+            s0, s1, s2 = (s0 - ps * (c00 * s0 + c10 * s1 + c20 * s2), s1 - ps * (c01 * s0 + c11 * s1 + c21 * s2),
+                          s2 - ps * (c02 * s0 + c12 * s1 + c22 * s2))
         if method == METHOD_NEWTON:
             # left update d = s  ->  coordinates move by Jl(w)^-1 d = d - w x d / 2 + e w x (w x d)
             if t2 < SERIES_ANGLE * SERIES_ANGLE:

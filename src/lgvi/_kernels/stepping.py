@@ -9,8 +9,12 @@ One step with body-frame moment ``u_k`` (the paper's equation):
 The state is carried in arrays updated in place, so the Python layer can run a long simulation
 as a sequence of chunks that continue exactly where the previous one stopped:
 
-``R`` (3,3), ``Pi`` (3,), and the solver history ``G`` (4,3): rows 0-2 hold the coordinates of
-the last three solutions (row 0 the newest) and ``G[3, 0]`` how many of them are valid. The next
+``R`` (3,3), ``Pi`` (3,), and the solver history ``G`` (5,3): rows 0-2 hold the coordinates of
+the last three solutions (row 0 the newest), ``G[3, 0]`` how many of them are valid, and row 4
+the low part of ``Pi``: the momentum update of a step without moment is summed with
+compensation (:func:`momentum_step`), ``Pi + G[4]`` carrying the rounding error of the last
+addition to the next step, so the momentum (and with it ``|Pi|``, the energy and the phase) does
+not random-walk by an ulp per step. The next
 solve starts from the quadratic extrapolation ``3 G0 - 3 G1 + G2`` (linear with two, ``G0`` with
 fewer): the coordinates of ``F_k`` vary smoothly with ``k``, so the guess is O(h^3) off and one
 Newton update usually reaches 1e-14. The guess only changes the iteration count, never the
@@ -18,7 +22,7 @@ converged result beyond the tolerance.
 
 The second half of this module (:func:`run_chunk_forced`) adds torque models given as data
 (:mod:`.torque_kernels`), the symmetric forcing of Lee, Leok and McClamroch and symmetric
-compositions of it; there ``G`` is a stack (m,4,3) with one history per substep.
+compositions of it; there ``G`` is a stack (m,5,3) with one history per substep.
 """
 
 from __future__ import annotations
@@ -63,14 +67,14 @@ def push(G, g0, g1, g2):
 
 @jit(inline="always")
 def predict_at(G, j):
-    """:func:`predict` for history ``G[j]`` of a stack ``G`` (m,4,3), without making a view."""
+    """:func:`predict` for history ``G[j]`` of a stack ``G`` (m,5,3), without making a view."""
     return extrapolate(G[j, 3, 0], G[j, 0, 0], G[j, 0, 1], G[j, 0, 2], G[j, 1, 0], G[j, 1, 1], G[j, 1, 2],
                        G[j, 2, 0], G[j, 2, 1], G[j, 2, 2])
 
 
 @jit(inline="always")
 def push_at(G, j, g0, g1, g2):
-    """:func:`push` for history ``G[j]`` of a stack ``G`` (m,4,3)."""
+    """:func:`push` for history ``G[j]`` of a stack ``G`` (m,5,3)."""
     for i in range(2, 0, -1):
         G[j, i, 0] = G[j, i - 1, 0]
         G[j, i, 1] = G[j, i - 1, 1]
@@ -105,6 +109,30 @@ def momentum(b0, b1, b2, E00, E01, E02, E10, E11, E12, E20, E21, E22, hu0, hu1, 
 
 
 @jit(inline="always")
+def momentum_c(b0, b1, b2, l0, l1, l2, E00, E01, E02, E10, E11, E12, E20, E21, E22, hu0, hu1, hu2):
+    """:func:`momentum` with compensated summation: ``Pi + l`` (``l`` the low part carried between
+    steps) maps to ``m + n``, ``m`` the rounded momentum and ``n`` its rounding error (Fast2Sum)."""
+    d0 = ((E00 * b0 + E10 * b1 + E20 * b2) + hu0) + l0
+    d1 = ((E01 * b0 + E11 * b1 + E21 * b2) + hu1) + l1
+    d2 = ((E02 * b0 + E12 * b1 + E22 * b2) + hu2) + l2
+    m0 = b0 + d0
+    m1 = b1 + d1
+    m2 = b2 + d2
+    return m0, m1, m2, (b0 - m0) + d0, (b1 - m1) + d1, (b2 - m2) + d2
+
+
+@jit(inline="always")
+def momentum_step(b0, b1, b2, l0, l1, l2, E00, E01, E02, E10, E11, E12, E20, E21, E22, hu0, hu1, hu2):
+    """The momentum update of a step: :func:`momentum_c` (compensated) when the step's moment is
+    zero, else :func:`momentum` with a zero low part, the sum of the forced kernels (so a moment
+    given as an array and as a model keep identical bits). Returns ``(m0, m1, m2, n0, n1, n2)``."""
+    if hu0 == 0.0 and hu1 == 0.0 and hu2 == 0.0:
+        return momentum_c(b0, b1, b2, l0, l1, l2, E00, E01, E02, E10, E11, E12, E20, E21, E22, hu0, hu1, hu2)
+    m0, m1, m2 = momentum(b0, b1, b2, E00, E01, E02, E10, E11, E12, E20, E21, E22, hu0, hu1, hu2)
+    return m0, m1, m2, 0.0, 0.0, 0.0
+
+
+@jit(inline="always")
 def store(R_out, Pi_out, j, R, Pi):
     """Write the state ``(R, Pi)`` as sample ``j`` of the output buffers."""
     for a in range(3):
@@ -129,10 +157,14 @@ def lgvi_step(method, Jd, h, R, Pi, G, u0, u1, u2, tol, max_iter, alpha, hist):
     if st != OK:
         return its, rn, st
     # Pi <- (I + E)^T Pi + h u, checked before anything is written (a huge moment can overflow it)
-    c0, c1, c2 = momentum(Pi[0], Pi[1], Pi[2], E00, E01, E02, E10, E11, E12, E20, E21, E22, h * u0, h * u1, h * u2)
+    c0, c1, c2, n0, n1, n2 = momentum_step(Pi[0], Pi[1], Pi[2], G[4, 0], G[4, 1], G[4, 2], E00, E01, E02, E10, E11,
+                                           E12, E20, E21, E22, h * u0, h * u1, h * u2)
     if not (math.isfinite(c0) and math.isfinite(c1) and math.isfinite(c2)):
         return its, rn, OVERFLOW
     push(G, g0, g1, g2)
+    G[4, 0] = n0
+    G[4, 1] = n1
+    G[4, 2] = n2
     rotate(R, E00, E01, E02, E10, E11, E12, E20, E21, E22)      # R <- R (I + E)
     Pi[0] = c0
     Pi[1] = c1
@@ -142,7 +174,7 @@ def lgvi_step(method, Jd, h, R, Pi, G, u0, u1, u2, tol, max_iter, alpha, hist):
 
 @jit(inline="always")
 def free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_every, countdown, j, R_out, Pi_out,
-               records, it_out, res_out, hist):
+               records, it_out, res_out, hist, counts):
     """Steps ``k0 .. k0+n-1`` of :func:`lgvi_step` in a loop: the body of :func:`run_chunk` and of
     the ensemble's per-body loop.
 
@@ -152,8 +184,12 @@ def free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_eve
     so a caller compiled without reference counting (``_nrt=False``) runs pure arithmetic per step.
 
     The first sample is stored after ``countdown`` steps at ``R_out[j]``, then every
-    ``save_every`` steps. With ``records`` the solver's iterations and final residual of step
-    ``k`` go to ``it_out[k - k0]``, ``res_out[k - k0]``. Returns ``(status, k, its, rmax, it,
+    ``save_every`` steps. The solver's record: ``records == 1`` (per step) writes the iterations
+    and final residual of step ``k`` to ``it_out[k - k0]``, ``res_out[k - k0]`` (the failed step's
+    too); ``records == 2`` (per saved interval) writes the largest iterations and residual of the
+    steps taken since the previous sample to ``it_out[j]``, ``res_out[j]`` with the sample ``j``;
+    ``records == 0`` writes neither. A non-empty int64 ``counts`` (B,) is a histogram: every step
+    taken adds 1 to ``counts[min(iterations, B - 1)]``. Returns ``(status, k, its, rmax, it,
     rn)``: ``OK`` and ``k = k0 + n``, or the status and index of the failed step (the state is
     the one before it); ``its`` the iterations summed over the steps tried, ``rmax`` the largest
     final residual of the steps taken, ``it``, ``rn`` those of the last step tried.
@@ -173,6 +209,7 @@ def free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_eve
     b0, b1, b2 = G[1, 0], G[1, 1], G[1, 2]
     c0, c1, c2 = G[2, 0], G[2, 1], G[2, 2]
     ng = G[3, 0]
+    l0, l1, l2 = G[4, 0], G[4, 1], G[4, 2]
     u0 = 0.0
     u1 = 0.0
     u2 = 0.0
@@ -182,6 +219,10 @@ def free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_eve
     rmax = 0.0
     its = 0
     rn = 0.0
+    imax = 0                 # largest iterations and residual of the saved interval in progress
+    rimax = 0.0
+    nbins = counts.shape[0]
+    ones = 0                 # steps of one update (the usual count), added to the histogram at the end
     for k in range(k0, k0 + n):
         if has_u:
             u0 = U[k, 0]
@@ -192,20 +233,30 @@ def free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_eve
          st) = solve_scalar(method, d00, d01, d02, d11, d12, d22, h * P0, h * P1, h * P2, q0, q1, q2,
                             tol, max_iter, alpha, hist, True)
         it_sum += its
-        if records:
+        if records == 1:
             it_out[k - k0] = its
             res_out[k - k0] = rn
         if st != OK:
             status = st
             kend = k
             break
-        m0, m1, m2 = momentum(P0, P1, P2, E00, E01, E02, E10, E11, E12, E20, E21, E22, h * u0, h * u1, h * u2)
+        m0, m1, m2, n0, n1, n2 = momentum_step(P0, P1, P2, l0, l1, l2, E00, E01, E02, E10, E11, E12, E20, E21, E22,
+                                               h * u0, h * u1, h * u2)
         if not (math.isfinite(m0) and math.isfinite(m1) and math.isfinite(m2)):
             status = OVERFLOW
             kend = k
             break
         if rn > rmax:
             rmax = rn
+        if records == 2:
+            if its > imax:
+                imax = its
+            if rn > rimax:
+                rimax = rn
+        if its == 1:
+            ones += 1
+        elif nbins > 0:
+            counts[min(its, nbins - 1)] += 1
         c0, c1, c2 = b0, b1, b2
         b0, b1, b2 = a0, a1, a2
         a0, a1, a2 = g0, g1, g2
@@ -215,6 +266,7 @@ def free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_eve
         r10, r11, r12 = rotated_row(r10, r11, r12, E00, E01, E02, E10, E11, E12, E20, E21, E22)
         r20, r21, r22 = rotated_row(r20, r21, r22, E00, E01, E02, E10, E11, E12, E20, E21, E22)
         P0, P1, P2 = m0, m1, m2
+        l0, l1, l2 = n0, n1, n2
         countdown -= 1
         if countdown == 0:
             countdown = save_every
@@ -222,6 +274,11 @@ def free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_eve
             R_out[j, 1, 0], R_out[j, 1, 1], R_out[j, 1, 2] = r10, r11, r12
             R_out[j, 2, 0], R_out[j, 2, 1], R_out[j, 2, 2] = r20, r21, r22
             Pi_out[j, 0], Pi_out[j, 1], Pi_out[j, 2] = P0, P1, P2
+            if records == 2:
+                it_out[j] = imax
+                res_out[j] = rimax
+            imax = 0
+            rimax = 0.0
             j += 1
     R[0, 0], R[0, 1], R[0, 2] = r00, r01, r02
     R[1, 0], R[1, 1], R[1, 2] = r10, r11, r12
@@ -231,35 +288,44 @@ def free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_eve
     G[1, 0], G[1, 1], G[1, 2] = b0, b1, b2
     G[2, 0], G[2, 1], G[2, 2] = c0, c1, c2
     G[3, 0] = ng
+    G[4, 0], G[4, 1], G[4, 2] = l0, l1, l2
+    if nbins > 1:
+        counts[1] += ones
     return status, kend, it_sum, rmax, its, rn
 
 
 @jit(_nrt=False)
 def run_chunk(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_every,
-              R_out, Pi_out, it_out, res_out, hist):
+              R_out, Pi_out, it_out, res_out, hist, counts):
     """Advance ``n`` steps ``k0 .. k0+n-1`` with moments ``U`` (``U.shape[0] == 0``: free body).
 
     Output buffers are relative to the chunk, whose start ``k0`` must be a multiple of
     ``save_every``: the sample after step ``k`` with ``(k + 1 - k0) % save_every == 0`` goes to
     ``R_out[(k + 1 - k0) // save_every - 1]`` (the caller passes a view starting at sample
-    ``k0 // save_every + 1``), and ``it_out[k - k0]``, ``res_out[k - k0]`` record the solver's
-    iterations and final residual of every step. ``hist`` is an empty float64 array.
+    ``k0 // save_every + 1``). The solver's record goes to ``it_out``, ``res_out`` at the
+    resolution their length gives: ``n`` entries, the iterations and final residual of every
+    step (``it_out[k - k0]``); ``n // save_every`` entries, the largest of each over the steps
+    of each saved interval (``it_out[j]`` with sample ``R_out[j]``; with ``save_every = 1`` the
+    same numbers). ``counts`` (B,) int64 gains the histogram of the iterations of the steps
+    taken (see :func:`free_steps`). ``hist`` is an empty float64 array.
 
-    Returns ``(status, k)``: ``OK`` and ``k = k0 + n`` on success; otherwise the solver status of
-    the failed step ``k``, with ``R, Pi`` the state before that step.
+    Returns ``(status, k, it_sum, rmax, its, rn)``: ``OK`` and ``k = k0 + n`` on success;
+    otherwise the solver status of the failed step ``k``, with ``R, Pi`` the state before that
+    step; ``it_sum`` the iterations summed over the steps tried, ``rmax`` the largest residual of
+    the steps taken, ``its``, ``rn`` those of the last step tried (the failed one on failure).
 
     Compiled without Numba's reference counting: the loop (:func:`free_steps`) is inlined and
     allocates nothing, so no step pays for reference-count updates of array arguments (atomic
     operations, about a third of a step's time when the step was a call of its own).
     """
-    status, kend, _, _, _, _ = free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_every,
-                                          save_every, 0, R_out, Pi_out, True, it_out, res_out, hist)
-    return status, kend
+    records = 1 if it_out.shape[0] == n else 2
+    return free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_every, save_every, 0,
+                      R_out, Pi_out, records, it_out, res_out, hist, counts)
 
 
 @jit(_nrt=False)
 def run_chunk_cayley(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_every,
-                     R_out, Pi_out, it_out, res_out, hist):
+                     R_out, Pi_out, it_out, res_out, hist, counts):
     """:func:`run_chunk` compiled for ``method == METHOD_CAYLEY`` only (the argument is ignored).
 
     With the method a constant, LLVM drops the other solvers' branches from the loop: fewer
@@ -267,9 +333,9 @@ def run_chunk_cayley(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, sa
     kernel rather than a branch in :func:`run_chunk`, because each inlined copy of the loop costs
     seconds of compilation and a kernel compiles only when first used.
     """
-    status, kend, _, _, _, _ = free_steps(METHOD_CAYLEY, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha,
-                                          save_every, save_every, 0, R_out, Pi_out, True, it_out, res_out, hist)
-    return status, kend
+    records = 1 if it_out.shape[0] == n else 2
+    return free_steps(METHOD_CAYLEY, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_every, save_every, 0,
+                      R_out, Pi_out, records, it_out, res_out, hist, counts)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -436,23 +502,23 @@ def init_moments(codes, params, J, J_inv, t, R, Pi, S, v0, v1, v2):
 
 @jit(_nrt=False)
 def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S, codes, params, U, sym,
-                     k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out, it_out, res_out, hist):
+                     k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out, it_out, res_out, hist, counts):
     """Advance ``n`` steps ``k0 .. k0+n-1`` of a forced and/or composed scheme (see notes above).
 
     Each step of size ``h`` is the composition of ``s = gam.shape[0]`` substeps of sizes
     ``gam[i] h`` (``s = 1``, ``gam = [1]``: the plain second-order scheme). Substep ``i`` of step
     ``k`` ends at ``t0 + (k + cum[i + 1]) h`` (``cum[0] = 0``, ``cum[s] = 1``). ``A`` (s,3,3)
     holds ``(I + gam[i] h/2 D J^-1)^-1`` (used only with symmetric forcing and ``D != 0``).
-    ``G`` (m,4,3) holds solver histories and substep ``i`` uses ``G[gidx[i]]``; the integrator
+    ``G`` (m,5,3) holds solver histories and substep ``i`` uses ``G[gidx[i]]``; the integrator
     keeps one history per substep (``gidx = 0 .. s-1``), so each warm start extrapolates
     solutions of the same substep, equally spaced by ``h`` (a history shared by substeps of
     different sizes, or by equal substeps at unequal spacing, extrapolates badly). ``U`` (steps+1, 3) or empty: explicit
-    moments at the grid points (symmetric forcing, ``s = 1``). Output buffers are relative to the
-    chunk as in :func:`run_chunk`; ``it_out[k - k0]`` records the solver updates summed over the
-    substeps and ``res_out[k - k0]`` the largest final residual.
+    moments at the grid points (symmetric forcing, ``s = 1``). Output buffers, ``counts`` and the
+    record's resolution are as in :func:`run_chunk`; a step's iterations are the solver updates
+    summed over its substeps, its residual the largest final residual of its substeps.
 
-    Returns ``(status, k)`` as :func:`run_chunk`; after a failure ``R``, ``Pi`` and ``S`` are the
-    state at the start of step ``k``.
+    Returns ``(status, k, it_sum, rmax, its, rn)`` as :func:`run_chunk`; after a failure ``R``,
+    ``Pi`` and ``S`` are the state at the start of step ``k``.
     """
     s = gam.shape[0]
     has_u = U.shape[0] > 0
@@ -474,6 +540,14 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
     Mt = (S[0], S[1], S[2], S[3], S[4], S[5])
     status = OK
     kend = k0 + n
+    per_step = it_out.shape[0] == n
+    nbins = counts.shape[0]
+    it_total = 0
+    rmax_all = 0.0
+    its_sum = 0
+    rlast = 0.0
+    imax = 0                 # largest iterations and residual of the saved interval in progress
+    rimax = 0.0
     for k in range(k0, k0 + n):
         if has_u:
             v0 = U[k + 1, 0]
@@ -496,12 +570,26 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
             if st != OK:
                 status = st
                 break
-        it_out[k - k0] = its_sum
+        it_total += its_sum
+        if per_step:
+            it_out[k - k0] = its_sum
         if status != OK:
-            res_out[k - k0] = rn
+            if per_step:
+                res_out[k - k0] = rn
+            rlast = rn
             kend = k
             break
-        res_out[k - k0] = rmax
+        if per_step:
+            res_out[k - k0] = rmax
+        rlast = rmax
+        if rmax > rmax_all:
+            rmax_all = rmax
+        if its_sum > imax:
+            imax = its_sum
+        if rmax > rimax:
+            rimax = rmax
+        if nbins > 0:
+            counts[min(its_sum, nbins - 1)] += 1
         Rt, Pt, Mt = Rx, Px, Mx
         countdown -= 1
         if countdown == 0:
@@ -509,11 +597,16 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
             (R_out[jout, 0, 0], R_out[jout, 0, 1], R_out[jout, 0, 2], R_out[jout, 1, 0], R_out[jout, 1, 1],
              R_out[jout, 1, 2], R_out[jout, 2, 0], R_out[jout, 2, 1], R_out[jout, 2, 2]) = Rt
             Pi_out[jout, 0], Pi_out[jout, 1], Pi_out[jout, 2] = Pt
+            if not per_step:
+                it_out[jout] = imax
+                res_out[jout] = rimax
+            imax = 0
+            rimax = 0.0
             jout += 1
     R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2] = Rt
     Pi[0], Pi[1], Pi[2] = Pt
     S[0], S[1], S[2], S[3], S[4], S[5] = Mt
-    return status, kend
+    return status, kend, it_total, rmax_all, its_sum, rlast
 
 
 @jit
