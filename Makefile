@@ -1,9 +1,17 @@
 # Quick start: `make demo` runs the default scenario, `make test` runs the test suite.
 # Each target creates .venv and installs the package (editable) on first use.
+# `make test` also runs FLOORS_TESTS in .venv-floors: the lowest versions pyproject.toml declares,
+# pinned in requirements/floors.txt (`make test-floors` alone, `make test-newest` without it).
 PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+FLOORS := .venv-floors
+FLOORS_STAMP := $(FLOORS)/.installed
+# The core at the floors: simulate and its results, so3, outputs, scenarios, the command line, and
+# the netCDF reader on corrupted files (netCDF4 < 1.7.1 crashes there).
+FLOORS_TESTS := tests/test_dependencies.py tests/test_api.py tests/test_so3.py tests/test_outputs.py tests/test_libraries.py \
+                tests/test_scenario.py tests/test_cli.py tests/test_fuzz.py::test_read_netcdf_mutated_bytes_in_a_subprocess
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -11,14 +19,34 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e ".[test,plot]"
 	touch $(STAMP)
 
-.PHONY: install demo test bench
+# Rebuilt from scratch whenever the floors change (an install would not downgrade a package otherwise).
+# uv (from PyPI, into this venv) installs in seconds where pip's resolver takes minutes; wheels only
+# (--only-binary): a floor without a wheel for this Python fails here rather than compiling.
+$(FLOORS_STAMP): pyproject.toml requirements/floors.txt
+	rm -rf $(FLOORS)
+	$(PY) -m venv $(FLOORS)
+	$(FLOORS)/bin/python -m pip install --quiet uv
+	$(FLOORS)/bin/python -m uv pip install --quiet --python $(FLOORS)/bin/python --only-binary :all: --no-binary lgvi \
+	    -c requirements/floors.txt -e ".[test,plot]"
+	touch $(FLOORS_STAMP)
+
+.PHONY: install demo test test-newest test-floors bench
 install: $(STAMP)
 
 demo: $(STAMP)
 	$(BIN)/python -m lgvi demo -o lgvi-demo
 
-test: $(STAMP)
+test: test-newest test-floors
+
+test-newest: $(STAMP)
 	$(BIN)/python -m pytest -q
+
+# Its own Numba cache: kernels cached by another Numba version would be recompiled (and the
+# shared cache overwritten) on every switch between the two environments. Old releases under newer
+# transitive dependencies warn about deprecations (matplotlib 3.7 under pyparsing 3.3): not shown.
+test-floors: $(FLOORS_STAMP)
+	LGVI_FLOORS=1 NUMBA_CACHE_DIR=$(CURDIR)/$(FLOORS)/numba-cache $(FLOORS)/bin/python -m pytest -q -p no:cacheprovider \
+	    -W "ignore::DeprecationWarning" $(FLOORS_TESTS)
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py

@@ -160,13 +160,16 @@ def _kernel_runner(pkg, J, Pi0, h, code, steps):
     Pi0 = np.asarray(Pi0, dtype=float)
     out = (np.ones((steps, 3, 3)), np.ones((steps, 3)), np.ones(steps, np.int32), np.ones(steps))
     kernel = st.run_chunk_cayley if code == 2 else st.run_chunk
+    # revisions after the per-interval solver record (issue 17) take the iteration histogram too
+    params = kernel.py_func.__code__.co_varnames[:kernel.py_func.__code__.co_argcount]
+    extra = (np.zeros(64, np.int64),) if "counts" in params else ()
 
     def run():
         G = np.zeros((5, 3))              # rows 0-3 the solver history, row 4 (newer) Pi's low part
         G[0] = np.linalg.solve(body.J, h * Pi0) * (0.5 if code == 2 else 1.0)
         G[3, 0] = 1.0
-        status, _ = kernel(code, body.Jd, h, np.eye(3), Pi0.copy(), G, np.zeros((0, 3)), 0, steps, 1e-14, 50, 1.0,
-                           1, *out, np.zeros(0))
+        status = kernel(code, body.Jd, h, np.eye(3), Pi0.copy(), G, np.zeros((0, 3)), 0, steps, 1e-14, 50, 1.0,
+                        1, *out, np.zeros(0), *extra)[0]
         assert status == 0
         return float(out[2].mean())
 

@@ -219,7 +219,7 @@ def test_quaternion_convention_and_continuity(diag_body):
     quaternion (w >= 0) flips sign: the trajectory's must not."""
     traj = lgvi.simulate(diag_body, np.eye(3), omega0=[0.1, 0.2, 2.0], h=0.05, steps=200)
     q = traj.quaternion
-    q_scipy = Rotation.from_matrix(traj.R).as_quat()  # scalar-last
+    q_scipy = Rotation.from_matrix(np.array(traj.R)).as_quat()  # scalar-last (SciPy < 1.16 wants writable)
     assert np.any(np.einsum("ij,ij->i", q_scipy[1:], q_scipy[:-1]) < 0)  # scipy's does flip
     same = np.all(np.isclose(q, q_scipy, rtol=0, atol=1e-14), axis=1)
     opposite = np.all(np.isclose(q, -q_scipy, rtol=0, atol=1e-14), axis=1)

@@ -52,7 +52,9 @@ def _install_cache_key() -> None:
         from numba.core import caching
 
         stamp = ("lgvi-kernels", _kernel_sources_hash())
-        bases = [caching.UserProvidedCacheLocator, caching.InTreeCacheLocator, caching.UserWideCacheLocator]
+        # public names in recent Numba; underscored (private) in 0.59 to 0.61
+        bases = [getattr(caching, name, None) or getattr(caching, "_" + name)
+                 for name in ("UserProvidedCacheLocator", "InTreeCacheLocator", "UserWideCacheLocator")]
     except Exception:  # pragma: no cover - a Numba without these internals
         return
 

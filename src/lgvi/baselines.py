@@ -84,7 +84,7 @@ def homogeneous_matrix(q: np.ndarray) -> np.ndarray:
 def _quat_of(R: np.ndarray) -> np.ndarray:
     from scipy.spatial.transform import Rotation
 
-    return Rotation.from_matrix(R).as_quat()
+    return Rotation.from_matrix(np.array(R)).as_quat()  # writable: SciPy < 1.16 rejects read-only R
 
 
 # ------------------------------------------------------------------------------------------------

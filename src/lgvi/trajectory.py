@@ -218,7 +218,8 @@ class Trajectory:
         """(M, 4) sign-continuous unit quaternions; ``scalar_first`` as in scipy."""
         from scipy.spatial.transform import Rotation
 
-        q = _continuous(Rotation.from_matrix(self.R).as_quat()) if len(self.R) else np.zeros((0, 4))
+        # a writable copy: SciPy < 1.16 rejects read-only arrays (and self.R is read-only)
+        q = _continuous(Rotation.from_matrix(np.array(self.R)).as_quat()) if len(self.R) else np.zeros((0, 4))
         return q[:, [3, 0, 1, 2]] if scalar_first else q
 
     @property
@@ -226,7 +227,7 @@ class Trajectory:
         """The attitudes as a scipy ``Rotation`` (a stack of ``M``)."""
         from scipy.spatial.transform import Rotation
 
-        return Rotation.from_matrix(self.R)
+        return Rotation.from_matrix(np.array(self.R))  # writable copy, as in quaternions()
 
     # ---------------------------------------------------------------- persistence
     def save(self, path: str | os.PathLike) -> None:
