@@ -18,9 +18,7 @@ from __future__ import annotations
 
 import os
 import signal
-import sys
 import threading
-import time as _time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -295,8 +293,8 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
         Name in :data:`COMPOSITIONS` (``"suzuki4"``, ``"yoshida4"``, ``"kahan-li6"``,
         ``"yoshida6"``); its order must equal ``order``. Default :data:`DEFAULT_COMPOSITION`.
     progress : bool or callable
-        ``True`` draws a progress bar on stderr between compiled chunks; a callable is called as
-        ``progress(steps_done, steps)``; ``False`` (default) is silent.
+        ``True`` draws a ``tqdm`` progress bar (stderr; a widget in Jupyter) between compiled chunks;
+        a callable is called as ``progress(steps_done, steps)``; ``False`` (default) is silent.
     error_estimate : {False, True, "richardson"}
         ``True`` (or ``"richardson"``) runs the problem again at ``h/2`` (twice the steps, about
         3x the wall time in all) and stores the Richardson estimate of the global error in
@@ -470,11 +468,12 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
         run.chunk = max(1, as_int(chunk_steps, "chunk_steps", minimum=1) // run.save_every) * run.save_every
     stream_meta = dict(run.meta, **(meta or {}), h=run.h, steps=run.steps, inertia=run.body.J.tolist())
     folder = Path(folder)
-    writer = StreamWriter(folder, stream_meta, resume=resume)
+    writer = StreamWriter(folder, stream_meta, resume=resume,
+                          check=lambda manifest: _check_resume(manifest["meta"], stream_meta, folder))
     if resume and writer.state is not None:
-        _check_resume(writer.manifest["meta"], stream_meta, folder)
         run.load_state(writer.state)
         if writer.manifest.get("complete") and run.k == run.steps:
+            writer.release()
             return folder
     steps, se = run.steps, run.save_every
     per = 1 if run.full else se   # steps per entry of the solver's record
@@ -508,7 +507,7 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
         writer.append(t=run.times(0, 1), R=run.R[None].copy(), Pi=run.Pi[None].copy(),
                       iterations=np.zeros(0, dtype=np.int32), residual=np.zeros(0), state=run.state(),
                       potential=run.potential(run.times(0, 1), run.R[None]), summary=run.chunk_summary())
-    with _Interrupts() as stop, _Progress(progress, steps, start=run.k) as bar:
+    with writer, _Interrupts() as stop, _Progress(progress, steps, start=run.k) as bar:
         while run.k < steps:
             k0 = run.k
             first = k0 == 0
@@ -536,7 +535,7 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
                 raise SimulationInterrupted(f"simulation interrupted after {run.k} of {steps} steps; every "
                                             f"complete chunk is in {folder} (resume=True continues it)",
                                             trajectory=partial())
-    writer.close(complete=True)
+        writer.close(complete=True)
     return folder
 
 
@@ -620,17 +619,20 @@ class _Interrupts:
 
 
 class _Progress:
-    """A progress report between chunks: ``progress=True`` draws a bar on stderr, a callable is
-    called as ``progress(steps_done, steps)``, ``False`` is silent."""
+    """A progress report between chunks: ``progress=True`` draws a ``tqdm`` bar (``tqdm.auto``: a
+    widget in Jupyter, text on stderr elsewhere), a callable is called as
+    ``progress(steps_done, steps)``, ``False`` is silent. Updated between compiled chunks only."""
 
-    def __init__(self, progress: Any, steps: int, start: int = 0) -> None:
+    def __init__(self, progress: Any, steps: int, start: int = 0, unit: str = "step") -> None:
         if not (isinstance(progress, bool) or callable(progress)):
             raise TypeError(f"progress must be True, False or a callable progress(done, total), got {progress!r}")
         self.progress = progress
         self.steps = steps
-        self.start = start
-        self.t0 = _time.perf_counter()
-        self.last = 0.0
+        self.bar = None
+        if progress is True and steps:
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(total=steps, initial=start, unit=unit, unit_scale=steps >= 100_000, dynamic_ncols=True)
 
     def __enter__(self) -> "_Progress":
         return self
@@ -640,25 +642,12 @@ class _Progress:
             return
         if callable(self.progress) and not isinstance(self.progress, bool):
             self.progress(k, self.steps)
-            return
-        now = _time.perf_counter()
-        if not final and now - self.last < 0.2:
-            return
-        self.last = now
-        frac = k / self.steps if self.steps else 1.0
-        rate = (k - self.start) / max(now - self.t0, 1e-9)
-        eta = (self.steps - k) / rate if rate > 0 else float("inf")
-        bar = "#" * int(30 * frac)
-        sys.stderr.write(f"\r[{bar:<30}] {100 * frac:5.1f}% {k}/{self.steps} steps, {rate:.3g} steps/s, "
-                         f"ETA {eta:.0f} s ")
-        sys.stderr.flush()
+        elif self.bar is not None:
+            self.bar.update(k - self.bar.n)
 
     def __exit__(self, *exc: Any) -> None:
-        if self.progress is True and self.steps:
-            if exc[0] is None:
-                self.update(self.steps, final=True)
-            sys.stderr.write("\n")
-            sys.stderr.flush()
+        if self.bar is not None:
+            self.bar.close()
 
 
 class _Run:
