@@ -755,6 +755,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         _err("interrupted")
         return 130
+    except OSError as exc:  # a full disk, another run writing the same stream: the message names the folder
+        _err(f"failed: {exc}")
+        return 1
     except RuntimeError as exc:  # ConvergenceError, TorqueError and other run failures
         _err(f"failed: {type(exc).__name__}: {exc}")
         return 1

@@ -19,9 +19,7 @@ from __future__ import annotations
 
 import os
 import signal
-import sys
 import threading
-import time as _time
 from typing import Any, Protocol
 
 import numpy as np
@@ -117,17 +115,20 @@ class Interrupts:
 
 
 class Progress:
-    """A progress report between chunks: ``progress=True`` draws a bar on stderr, a callable is
-    called as ``progress(steps_done, steps)``, ``False`` is silent."""
+    """A progress report between chunks: ``progress=True`` draws a ``tqdm`` bar (``tqdm.auto``: a
+    widget in Jupyter, text on stderr elsewhere), a callable is called as
+    ``progress(steps_done, steps)``, ``False`` is silent. Updated between compiled chunks only."""
 
-    def __init__(self, progress: Any, steps: int, start: int = 0) -> None:
+    def __init__(self, progress: Any, steps: int, start: int = 0, unit: str = "step") -> None:
         if not (isinstance(progress, bool) or callable(progress)):
             raise TypeError(f"progress must be True, False or a callable progress(done, total), got {progress!r}")
         self.progress = progress
         self.steps = steps
-        self.start = start
-        self.t0 = _time.perf_counter()
-        self.last = 0.0
+        self.bar = None
+        if progress is True and steps:
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(total=steps, initial=start, unit=unit, unit_scale=steps >= 100_000, dynamic_ncols=True)
 
     def __enter__(self) -> "Progress":
         return self
@@ -137,25 +138,12 @@ class Progress:
             return
         if callable(self.progress) and not isinstance(self.progress, bool):
             self.progress(k, self.steps)
-            return
-        now = _time.perf_counter()
-        if not final and now - self.last < 0.2:
-            return
-        self.last = now
-        frac = k / self.steps if self.steps else 1.0
-        rate = (k - self.start) / max(now - self.t0, 1e-9)
-        eta = (self.steps - k) / rate if rate > 0 else float("inf")
-        bar = "#" * int(30 * frac)
-        sys.stderr.write(f"\r[{bar:<30}] {100 * frac:5.1f}% {k}/{self.steps} steps, {rate:.3g} steps/s, "
-                         f"ETA {eta:.0f} s ")
-        sys.stderr.flush()
+        elif self.bar is not None:
+            self.bar.update(k - self.bar.n)
 
     def __exit__(self, *exc: Any) -> None:
-        if self.progress is True and self.steps:
-            if exc[0] is None:
-                self.update(self.steps, final=True)
-            sys.stderr.write("\n")
-            sys.stderr.flush()
+        if self.bar is not None:
+            self.bar.close()
 
 
 # ------------------------------------------------------------------------------------------------

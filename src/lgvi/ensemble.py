@@ -13,8 +13,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import sys
-import time as _time
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -22,6 +20,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ._files import write_atomic, write_failure
 from ._kernels.codes import METHOD_CAYLEY, OK
 from ._untrusted import check_npz, inside
 from ._validation import REPAIR_TOL, ROTATION_TOL, as_float_array, as_int, choice, is_scipy_rotation, warn_repaired
@@ -142,14 +141,20 @@ class EnsembleTrajectory:
         return np.einsum("bmij,bmj->bmi", self.R, self.Pi)
 
     def save(self, path: str | os.PathLike) -> None:
-        """Write to ``path`` (``.npz``, uncompressed); :func:`load_ensemble` reads it back exactly."""
+        """Write to ``path`` (``.npz``, uncompressed) atomically; :func:`load_ensemble` reads it back exactly.
+
+        Raises ``OSError`` naming the file and its folder if the write fails (a full disk).
+        """
         arrays = dict(t=self.t, R=self.R, Pi=self.Pi, inertia=self.inertia, iterations=self.iterations,
                       residual=self.residual, h=np.float64(self.h))
         if self.potential is not None:
             arrays["potential"] = self.potential
         header = json.dumps({"format": ENSEMBLE_FORMAT, "meta": self.meta})
-        with open(os.fspath(path), "wb") as fh:
-            np.savez(fh, __lgvi__=np.array(header), **arrays)
+        try:  # atomic: a reader, or a retried Dask task, never sees a half-written file
+            write_atomic(os.fspath(path), lambda fh: np.savez(fh, __lgvi__=np.array(header), **arrays))
+        except OSError as exc:
+            raise write_failure(exc, os.fspath(path), "the ensemble", "The file was left as it was (files are "
+                                "replaced only once complete); blocks written before are intact.") from exc
 
 
 def _load_one(path: str) -> EnsembleTrajectory:
@@ -507,7 +512,7 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
         workers, which must see ``out_dir`` (a shared file system). The folder must not hold
         ensemble blocks already.
     progress : bool or callable
-        ``True`` draws a progress bar on stderr, a callable is called as ``progress(done, total)``
+        ``True`` draws a ``tqdm`` progress bar, a callable is called as ``progress(done, total)``
         (steps of the whole ensemble in process; bodies of finished blocks with ``client`` or
         ``out_dir``).
 
@@ -758,25 +763,18 @@ def _prepare_dir(out_dir: str | os.PathLike) -> Path:
 
 
 class _BlockProgress:
-    """Progress over blocks: ``True`` draws a bar of bodies done, a callable gets ``(done, total)``."""
+    """Progress over blocks: ``True`` draws a ``tqdm`` bar of bodies done, a callable gets ``(done, total)``."""
 
     def __init__(self, progress: Any, total: int) -> None:
-        self.progress, self.total, self.done, self.t0 = progress, total, 0, _time.perf_counter()
+        from .driver import Progress as _Progress
+
+        self.bar, self.done = _Progress(progress, total, unit="body"), 0
 
     def add(self, n: int) -> None:
         self.done += n
-        if self.progress is False:
-            return
-        if callable(self.progress) and not isinstance(self.progress, bool):
-            self.progress(self.done, self.total)
-            return
-        frac = self.done / self.total
-        rate = self.done / max(_time.perf_counter() - self.t0, 1e-9)
-        sys.stderr.write(f"\r[{'#' * int(30 * frac):<30}] {100 * frac:5.1f}% {self.done}/{self.total} bodies, "
-                         f"{rate:.3g} bodies/s ")
-        if self.done >= self.total:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
+        self.bar.update(self.done)
+        if self.done >= self.bar.steps:
+            self.bar.__exit__(None, None, None)
 
 
 def _block_meta(ens: EnsembleTrajectory, i: int, start: int, total: int) -> EnsembleTrajectory:

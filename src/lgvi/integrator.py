@@ -218,8 +218,8 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
         Name in :data:`COMPOSITIONS` (``"suzuki4"``, ``"yoshida4"``, ``"kahan-li6"``,
         ``"yoshida6"``); its order must equal ``order``. Default :data:`DEFAULT_COMPOSITION`.
     progress : bool or callable
-        ``True`` draws a progress bar on stderr between compiled chunks; a callable is called as
-        ``progress(steps_done, steps)``; ``False`` (default) is silent.
+        ``True`` draws a ``tqdm`` progress bar (stderr; a widget in Jupyter) between compiled chunks;
+        a callable is called as ``progress(steps_done, steps)``; ``False`` (default) is silent.
     error_estimate : {False, True, "richardson"}
         ``True`` (or ``"richardson"``) runs the problem again at ``h/2`` (twice the steps, about
         3x the wall time in all) and stores the Richardson estimate of the global error in
@@ -425,6 +425,13 @@ class Run:
         self.it_total += int(its)
         self.res_max = max(self.res_max, float(rn))
 
+    def count_steps(self, its: np.ndarray, res: np.ndarray) -> None:
+        """Add the steps taken, their iterations ``its`` and residuals ``res``, to the totals."""
+        if len(its):
+            self.counts += np.bincount(np.minimum(its, HIST_BINS - 1), minlength=HIST_BINS)
+            self.it_total += int(its.sum())
+            self.res_max = max(self.res_max, float(res.max()))
+
     def tally(self, status: int, it_sum: int, rmax: float, its: int, rn: float) -> None:
         """Add a kernel call's totals (``it_sum`` counts the failed step's iterations too)."""
         self.last_its, self.last_res = int(its), float(rn)
@@ -609,7 +616,9 @@ def _run_callable_symmetric(run: _Run, n: int, R_out, Pi_out, it_out, res_out, p
 
 def _run_callable(run: _Run, n: int, R_out, Pi_out, it_out, res_out, partial) -> tuple[int, int]:
     """Per-step loop for a Python torque callable (paper forcing): Python calls the torque and one
-    compiled step, steps ``run.k .. run.k + n - 1``."""
+    compiled step, steps ``run.k .. run.k + n - 1``. Each step's iterations and residual go to a
+    buffer; the run's totals are added once per chunk (also when the torque raises or Ctrl-C
+    stops the loop), not per step."""
     from ._kernels.stepping import lgvi_step
 
     func, code, h, R, Pi, G, t0 = run.func, run.code, run.h, run.R, run.Pi, run.G, run.t0
@@ -618,28 +627,42 @@ def _run_callable(run: _Run, n: int, R_out, Pi_out, it_out, res_out, partial) ->
     countdown = run.save_every
     j = 0
     per_step = len(it_out) == n
-    imax, rimax = 0, 0.0
-    for k in range(k0, k0 + n):
-        u = _call_torque(func, t0 + k * h, R, Pi, k, partial)
-        its, res, st = lgvi_step(code, Jd, h, R, Pi, G, u[0], u[1], u[2], tol, max_iter, alpha, _NO_HIST)
-        if per_step:
-            it_out[k - k0] = its
-            res_out[k - k0] = res
-        if st != OK:
-            run.last_its, run.last_res = int(its), float(res)
-            return st, k
-        run.count_step(its, res)
-        imax, rimax = max(imax, its), max(rimax, res)
-        countdown -= 1
-        if countdown == 0:
-            countdown = run.save_every
-            R_out[j] = R
-            Pi_out[j] = Pi
-            if not per_step:
-                it_out[j], res_out[j] = imax, rimax
-            imax, rimax = 0, 0.0
-            j += 1
-    return OK, k0 + n
+    its_buf = it_out if per_step else np.empty(n, np.int32)
+    res_buf = res_out if per_step else np.empty(n)
+    start = done = counted = 0
+
+    def flush() -> None:  # add the steps not yet counted to the run's totals
+        nonlocal counted
+        run.count_steps(its_buf[counted:done], res_buf[counted:done])
+        counted = done
+
+    def partial_counted(k: int):  # a partial trajectory reads the totals: count first
+        flush()
+        return partial(k)
+
+    try:
+        for k in range(k0, k0 + n):
+            i = k - k0
+            u = _call_torque(func, t0 + k * h, R, Pi, k, partial_counted)
+            its, res, st = lgvi_step(code, Jd, h, R, Pi, G, u[0], u[1], u[2], tol, max_iter, alpha, _NO_HIST)
+            its_buf[i] = its
+            res_buf[i] = res
+            if st != OK:
+                run.last_its, run.last_res = int(its), float(res)
+                return st, k
+            done = i + 1
+            countdown -= 1
+            if countdown == 0:
+                countdown = run.save_every
+                R_out[j] = R
+                Pi_out[j] = Pi
+                if not per_step:
+                    it_out[j], res_out[j] = its_buf[start:done].max(), res_buf[start:done].max()
+                start = done
+                j += 1
+        return OK, k0 + n
+    finally:
+        flush()
 
 
 __all__ = ["COMPOSITIONS", "Composition", "DEFAULT_COMPOSITION", "Run", "StepResult", "simulate",

@@ -777,49 +777,26 @@ def load_scenario(path: str | os.PathLike) -> Scenario:
 
 
 # ------------------------------------------------------------------------------------ TOML out
-def _toml_value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (int, np.integer)):
-        return str(int(v))
-    if isinstance(v, (float, np.floating)):
-        x = float(v)
-        if math.isnan(x):
-            return "nan"
-        if math.isinf(x):
-            return "inf" if x > 0 else "-inf"
-        return repr(x)
-    if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\t", "\\t") + '"'
+def _plain(v: Any) -> Any:
+    """``v`` with numpy scalars and arrays and tuples turned into the Python values TOML writes."""
     if isinstance(v, np.ndarray):
         v = v.tolist()
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
     if isinstance(v, dict):
-        return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(x)}" for k, x in v.items()) + " }"
-    raise TypeError(f"cannot write {type(v).__name__} as TOML")
-
-
-def _toml_key(k: str) -> str:
-    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else _toml_value(k)
+        return {k: _plain(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_plain(x) for x in v]
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
 
 
 def to_toml(d: dict[str, Any]) -> str:
     """Render a scenario dict as TOML text that :func:`tomllib.loads` reads back to the same dict.
 
-    Top-level tables become ``[table]`` sections and lists of tables ``[[table]]`` sections;
-    nested tables inside them are written inline.
+    Written by ``tomli_w`` (top-level tables become ``[table]`` sections, lists of tables
+    ``[[table]]`` sections); numpy arrays and scalars are written as lists and numbers. A value
+    TOML cannot hold (``None``, an object) raises ``TypeError``.
     """
-    lines: list[str] = []
-    sections: list[str] = []
-    for k, v in d.items():
-        if isinstance(v, dict):
-            sections.append(f"\n[{_toml_key(k)}]")
-            sections.extend(f"{_toml_key(kk)} = {_toml_value(vv)}" for kk, vv in v.items())
-        elif isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
-            for x in v:
-                sections.append(f"\n[[{_toml_key(k)}]]")
-                sections.extend(f"{_toml_key(kk)} = {_toml_value(vv)}" for kk, vv in x.items())
-        else:
-            lines.append(f"{_toml_key(k)} = {_toml_value(v)}")
-    return "\n".join(lines + sections).lstrip("\n") + "\n"
+    import tomli_w
+
+    return tomli_w.dumps(_plain(d))

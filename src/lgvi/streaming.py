@@ -14,6 +14,13 @@ then is the manifest (also written by rename) updated to list it. A rename is at
 crash at any point the folder holds a consistent manifest that lists only complete chunks;
 :func:`read_stream` returns exactly those, and the manifest's ``state`` lets a run resume from the
 end of the last listed chunk (see :func:`lgvi.simulate`'s ``stream=`` and ``resume=``).
+
+A write that fails (a full disk) raises an ``OSError`` naming the file and the folder; the chunks
+listed before stay readable and ``resume=True`` continues once there is room. One folder has one
+writer at a time: :class:`StreamWriter` holds an exclusive lock (the file ``.lgvi.lock`` with its
+process id, locked with ``flock``), so a second writer, in this or another process, gets
+``FolderLocked`` (a ``BlockingIOError``) instead of interleaving chunks; the lock of a writer that
+crashed is released by the operating system and taken over with a ``StaleLockWarning``.
 """
 
 from __future__ import annotations
@@ -25,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from ._files import FolderLock, write_atomic, write_failure
 from ._untrusted import check_npz, inside
 from ._validation import as_int
 from ._version import __version__
@@ -36,17 +44,9 @@ MANIFEST = "manifest.json"
 
 
 def _fsync_write(path: Path, write) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    try:  # a leftover (or planted) temporary file, or a symbolic link there, is replaced, never followed
-        os.unlink(tmp)
-    except FileNotFoundError:
-        pass
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
-    with open(fd, "wb") as fh:
-        write(fh)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
+    """Write ``path`` atomically (a unique hidden temporary name, flushed, renamed into place): a
+    leftover or planted temporary file, or a symbolic link, is never written through."""
+    write_atomic(path, write)
 
 
 class StreamWriter:
@@ -60,31 +60,66 @@ class StreamWriter:
         Run metadata (JSON-serialisable); stored in the manifest.
     resume : bool
         Continue an existing stream instead of refusing to overwrite it.
+    check : callable, optional
+        Called as ``check(manifest)`` on an existing stream's manifest before it is continued
+        (e.g. to compare the run's options); its error is raised with the lock released.
+
+    Raises
+    ------
+    lgvi._files.FolderLocked
+        (a ``BlockingIOError``) Another writer, in this or another process, holds the folder:
+        one stream folder has one writer at a time. The lock is dropped by :meth:`close`,
+        :meth:`release`, the end of a ``with`` block, or the end of the writer's process (a
+        crashed writer's lock is taken over with a ``StaleLockWarning``).
+    OSError
+        A write failed (a full disk: ``errno.ENOSPC``); the message names the file and the
+        folder. The chunks listed before stay readable and the stream can be resumed; the
+        writer is released.
     """
 
-    def __init__(self, folder: str | os.PathLike, meta: dict[str, Any], *, resume: bool = False):
+    def __init__(self, folder: str | os.PathLike, meta: dict[str, Any], *, resume: bool = False,
+                 check: Any = None):
         self.folder = Path(folder)
         self.folder.mkdir(parents=True, exist_ok=True)
-        manifest = self.folder / MANIFEST
-        if manifest.exists():
-            if not resume:
-                raise FileExistsError(f"{self.folder} already holds an lgvi stream; pass resume=True to continue it "
-                                      "or choose another folder")
-            self.manifest = read_manifest(self.folder)
-            _check_resume_state(self.manifest, manifest)
-        else:
-            self.manifest = {"format": STREAM_FORMAT, "lgvi_version": __version__, "meta": meta, "chunks": [],
-                             "state": None, "complete": False}
-            self._write_manifest()
+        self.lock = FolderLock(self.folder, "stream folder").acquire()
+        try:
+            manifest = self.folder / MANIFEST
+            if manifest.exists():
+                if not resume:
+                    raise FileExistsError(f"{self.folder} already holds an lgvi stream; pass resume=True to continue "
+                                          "it or choose another folder")
+                self.manifest = read_manifest(self.folder)
+                _check_resume_state(self.manifest, manifest)
+                if check is not None and self.manifest.get("state") is not None:
+                    check(self.manifest)
+            else:
+                self.manifest = {"format": STREAM_FORMAT, "lgvi_version": __version__, "meta": meta, "chunks": [],
+                                 "state": None, "complete": False}
+                self._write_manifest()
+        except BaseException:
+            self.release()
+            raise
 
     @property
     def state(self) -> dict[str, Any] | None:
         """The state after the last complete chunk (``k`` steps done, ``R``, ``Pi``, solver history ``G``)."""
         return self.manifest["state"]
 
-    def _write_manifest(self) -> None:
+    def _write(self, name: str, write, what: str, listed: int) -> None:
+        """Write ``name`` atomically; on failure release the writer and raise an error naming the folder."""
+        try:
+            _fsync_write(self.folder / name, write)
+        except OSError as exc:
+            self.release()
+            kept = (f"The {listed} complete chunk(s) listed in {MANIFEST} are intact and readable "
+                    "(lgvi.streaming.read_stream); make room and continue the run with resume=True (lgvi run --resume)."
+                    if listed else "No chunk was complete yet.")
+            raise write_failure(exc, self.folder / name, what, kept) from exc
+
+    def _write_manifest(self, listed: int | None = None) -> None:
         text = json.dumps(self.manifest, indent=1).encode()
-        _fsync_write(self.folder / MANIFEST, lambda fh: fh.write(text))
+        self._write(MANIFEST, lambda fh: fh.write(text), "the stream manifest",
+                    len(self.manifest["chunks"]) if listed is None else listed)
 
     def append(self, *, t: np.ndarray, R: np.ndarray, Pi: np.ndarray, iterations: np.ndarray,
                residual: np.ndarray, state: dict[str, Any], potential: np.ndarray | None = None,
@@ -93,6 +128,8 @@ class StreamWriter:
         the state after it. ``summary`` (as :func:`lgvi.trajectory.summary_dict`): the solver's
         totals over the chunk's steps, stored as the arrays ``iteration_counts`` (histogram),
         ``iterations_total``, ``residual_max`` and ``iterations_max``."""
+        if not self.lock.held:
+            raise ValueError(f"this writer of the stream {self.folder} is closed; open a new one (resume=True)")
         index = len(self.manifest["chunks"])
         name = f"chunk-{index:06d}.npz"
         arrays = dict(t=t, R=R, Pi=Pi, iterations=iterations, residual=residual)
@@ -103,18 +140,35 @@ class StreamWriter:
                           iterations_total=np.int64(summary["iterations_total"]),
                           residual_max=np.float64(summary["residual_max"]),
                           iterations_max=np.int64(summary["iterations_max"]))
-        _fsync_write(self.folder / name, lambda fh: np.savez(fh, **arrays))
+        self._write(name, lambda fh: np.savez(fh, **arrays), "the stream chunk", index)
         steps = int(np.sum(summary["histogram"])) if summary is not None else int(len(iterations))
+        before = dict(self.manifest, chunks=list(self.manifest["chunks"]))
         self.manifest["chunks"].append({"file": name, "samples": int(len(t)), "steps": steps})
         self.manifest["state"] = {key: (np.asarray(val).tolist() if isinstance(val, np.ndarray) else val)
                                   for key, val in state.items()}
-        self._write_manifest()
+        try:
+            self._write_manifest(listed=index)
+        except OSError:
+            self.manifest = before  # the manifest on disk still lists the chunks before this one
+            raise
         return self.folder / name
 
     def close(self, complete: bool = True) -> None:
-        """Mark the stream complete (or not, for an interrupted run)."""
-        self.manifest["complete"] = bool(complete)
-        self._write_manifest()
+        """Mark the stream complete (or not, for an interrupted run) and release the folder."""
+        if self.lock.held:
+            self.manifest["complete"] = bool(complete)
+            self._write_manifest()
+        self.release()
+
+    def release(self) -> None:
+        """Release the folder's lock without changing the stream (another writer may then continue it)."""
+        self.lock.release()
+
+    def __enter__(self) -> "StreamWriter":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.release()
 
 
 def _check_resume_state(manifest: dict[str, Any], path: Path) -> None:
@@ -303,14 +357,16 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
         run.chunk = max(1, as_int(chunk_steps, "chunk_steps", minimum=1) // run.save_every) * run.save_every
     stream_meta = dict(run.meta, **(meta or {}), h=run.h, steps=run.steps, inertia=run.body.J.tolist())
     folder = Path(folder)
-    writer = StreamWriter(folder, stream_meta, resume=resume)
+    writer = StreamWriter(folder, stream_meta, resume=resume,
+                          check=lambda manifest: _check_resume(manifest["meta"], stream_meta, folder))
     if resume and writer.state is not None:
-        _check_resume(writer.manifest["meta"], stream_meta, folder)
         run.load_state(writer.state)
         if writer.manifest.get("complete") and run.k == run.steps:
+            writer.release()
             return folder
     sink = StreamSink(run, writer, folder)
-    drive(run, sink, progress)  # lgvi.driver: chunks, progress, Ctrl-C, failures
+    with writer:
+        drive(run, sink, progress)  # lgvi.driver: chunks, progress, Ctrl-C, failures
     return folder
 
 

@@ -231,7 +231,7 @@ class Trajectory:
 
     # ---------------------------------------------------------------- persistence
     def save(self, path: str | os.PathLike) -> None:
-        """Write to ``path`` (``.npz``, uncompressed); :func:`lgvi.load` reads it back exactly."""
+        """Write to ``path`` (``.npz``, uncompressed, atomically); :func:`lgvi.load` reads it back exactly."""
         meta = dict(self.meta)
         meta.setdefault("lgvi_version", __version__)
         arrays = dict(t=self.t, R=self.R, Pi=self.Pi, inertia=self.inertia, iterations=self.iterations,
@@ -239,8 +239,9 @@ class Trajectory:
         if self.potential is not None:
             arrays["potential"] = self.potential
         header = json.dumps({"format": FORMAT, "meta": meta})
-        with open(os.fspath(path), "wb") as fh:
-            np.savez(fh, __lgvi__=np.array(header), **arrays)
+        from ._files import write_atomic  # a half-written file is never left under ``path``
+
+        write_atomic(os.fspath(path), lambda fh: np.savez(fh, __lgvi__=np.array(header), **arrays))
 
 
 _FIELDS = ("t", "R", "Pi", "inertia", "iterations", "residual")
