@@ -296,8 +296,6 @@ def read_stream(folder: str | os.PathLike) -> Trajectory:
                       potential=cat.get("potential"), meta=meta)
 
 
-
-
 # ------------------------------------------------------------------------------------------------
 # simulate_stream: the driver with a stream sink
 # ------------------------------------------------------------------------------------------------
