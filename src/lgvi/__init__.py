@@ -33,9 +33,9 @@ from .implicit import ImplicitSolution as ImplicitSolution
 from .implicit import solve_implicit as solve_implicit
 from .integrator import StepResult as StepResult
 from .integrator import simulate as simulate
-from .integrator import simulate_stream as simulate_stream
 from .integrator import step as step
 from .modified import simulate_modified as simulate_modified
+from .streaming import simulate_stream as simulate_stream
 from .trajectory import Trajectory as Trajectory
 from .trajectory import load as load
 

@@ -39,6 +39,8 @@ from ._kernels import rk4_kernels as _rk
 from ._validation import as_float, as_float_array, as_int, as_rotation
 from ._version import __version__
 from .errors import SimulationInterrupted, TorqueError
+from .driver import time_grid
+from .registry import torque_kind
 from .trajectory import Trajectory, summary_dict
 
 #: RK4 steps per compiled call; between chunks Ctrl-C is honoured.
@@ -91,11 +93,7 @@ def _quat_of(R: np.ndarray) -> np.ndarray:
 # torques: None, a callable, or a model; built-in models run compiled from their encoding
 # ------------------------------------------------------------------------------------------------
 def _builtin_model(torque: Any) -> bool:
-    try:
-        from .torques import TorqueModel
-    except ImportError:  # pragma: no cover - torques is part of the package
-        return False
-    return isinstance(torque, TorqueModel)
+    return torque_kind(torque) == "model"
 
 
 @dataclasses.dataclass
@@ -138,10 +136,11 @@ _FREE = dict(codes=np.zeros((0, 2), dtype=np.int64), params=np.zeros(0), D=np.ze
 
 
 def _resolve_torque(torque: Any, body) -> _Torque:
-    if torque is None:
+    kind = torque_kind(torque)  # lgvi.registry: the one classification of torque=
+    if kind == "none":
         return _Torque("none", **_FREE)
-    if hasattr(torque, "moment"):
-        if _builtin_model(torque):
+    if kind == "model" or hasattr(torque, "moment"):  # a built-in model, or any object with moment()
+        if kind == "model":
             try:
                 codes, params = torque.encode()
             except NotImplementedError:       # a user subclass without a kernel encoding
@@ -155,7 +154,7 @@ def _resolve_torque(torque: Any, body) -> _Torque:
                 return _Torque("model", codes=codes, params=params, D=D, model=torque)
         moment = torque.moment
         return _Torque("model", func=lambda t, R, Pi: moment(t, R, Pi, body), model=torque)
-    if callable(torque):
+    if kind == "callable":
         return _Torque("callable", func=torque)
     raise TypeError(f"torque must be None, a callable torque(t, R, Pi) -> (3,), or a torque model with a "
                     f"moment(t, R, Pi, body) method; got {type(torque).__name__}. (The Runge-Kutta baselines need "
@@ -196,7 +195,8 @@ def _python_rhs(tq: _Torque, body) -> Callable[[float, np.ndarray], np.ndarray]:
 
 
 def _initial_state(body: Any, R0: Any, Pi0: Any, omega0: Any):
-    from .integrator import _initial_momentum, as_body
+    from .driver import initial_momentum as _initial_momentum
+    from .integrator import as_body
 
     body = as_body(body)
     R0 = as_rotation(R0, "R0")
@@ -264,13 +264,7 @@ def rk4(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: float, st
     True
     """
     body, R0, Pi = _initial_state(body, R0, Pi0, omega0)
-    h = as_float(h, "h", nonzero=True)
-    t0 = as_float(t0, "t0")
-    steps = as_int(steps, "steps", minimum=0)
-    save_every = as_int(save_every, "save_every", minimum=1)
-    if steps % save_every != 0:
-        raise ValueError(f"save_every must divide steps so that the final state is saved; got "
-                         f"steps={steps}, save_every={save_every} (steps % save_every = {steps % save_every})")
+    h, t0, steps, save_every = time_grid(h, t0, steps, save_every)  # lgvi.driver: the shared checks
     if not isinstance(normalize, (bool, np.bool_)):
         raise TypeError(f"normalize must be True or False, got {normalize!r}")
     normalize = bool(normalize)

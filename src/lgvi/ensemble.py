@@ -30,7 +30,7 @@ from .errors import ConvergenceError, SimulationInterrupted
 from .implicit import failure_message
 from .invariants import declaration_of, forcing_used
 from .so3 import project
-from .torques import TorqueModel
+from .registry import torque_kind
 from .trajectory import ARRAY_FIELDS, Trajectory, freeze_arrays
 
 #: Body-substeps per compiled call (about 0.1-0.5 s); Ctrl-C and progress are handled between calls.
@@ -376,7 +376,8 @@ class _Setup:
     def __init__(self, bodies: Any, R0: Any, Pi0: Any, omega0: Any, *, h: Any, steps: Any, torque: Any,
                  method: str, tol: Any, max_iter: Any, alpha: Any, save_every: Any, t0: Any, forcing: Any,
                  order: Any, composition: Any, threads: Any) -> None:
-        from .integrator import FORCINGS, _check_order, _composition, _options, time_grid
+        from .driver import run_solver_options as _options, time_grid
+        from .registry import FORCINGS, check_composable as _check_order, composition_for as _composition
 
         self.code, self.tol, self.max_iter, self.alpha = _options(method, tol, max_iter, alpha)
         self.R = _rotations(R0)
@@ -388,16 +389,14 @@ class _Setup:
         choice(forcing, "forcing", FORCINGS)
         self.comp = comp = _composition(order, composition)
         self.sym = forcing == "symmetric"
-        if torque is None:
-            self.model, kind = None, "none"
-        elif isinstance(torque, TorqueModel):
-            self.model, kind = torque, "model"
-        elif callable(torque):
+        kind = torque_kind(torque)  # lgvi.registry: the one classification of torque=
+        self.model = torque if kind == "model" else None
+        if kind == "callable":
             raise TypeError("simulate_ensemble takes torque=None or a torque model of lgvi.torques (one model, the "
                             f"same for every body), got the callable {torque!r}: a Python function cannot run "
                             "inside the compiled parallel kernel. Write the moment as a model (or a sum of "
                             "models), or call lgvi.simulate per body.")
-        else:
+        elif kind == "array":
             raise TypeError("simulate_ensemble takes torque=None or a torque model of lgvi.torques (one model, the "
                             f"same for every body), got {type(torque).__name__}: torque arrays are not supported "
                             "for ensembles; call lgvi.simulate per body for tabulated moments.")
@@ -443,7 +442,7 @@ class _Setup:
 
     def times(self, m: int) -> np.ndarray:
         """Times of the first ``m`` samples (the same floating-point values as :func:`lgvi.simulate`)."""
-        from .integrator import sample_times
+        from .driver import sample_times
 
         return sample_times(self.t0, self.h * self.save_every, 0, m)
 
@@ -603,93 +602,145 @@ class _Threads:
             numba.set_num_threads(self.old)
 
 
-def _run_local(s: _Setup, progress: Any = False, first_body: int = 0) -> EnsembleTrajectory:
-    """Run the whole ensemble ``s`` in this process (``first_body``: global index of body 0, for messages)."""
-    from ._kernels import ensemble_kernels as ek
-    from .integrator import _Interrupts, _momentum_matrices, _Progress
+class _LocalRun:
+    """The bodies of an ensemble advancing together in this process: a run of :func:`lgvi.driver.drive`
+    (``advance`` calls the compiled ensemble kernels; the kernels write at the global sample index)."""
 
-    B, steps, se, h = len(s), s.steps, s.save_every, s.h
-    M = steps // se + 1
-    R_out = np.empty((B, M, 3, 3))
-    Pi_out = np.empty((B, M, 3))
-    R_out[:, 0] = s.R
-    Pi_out[:, 0] = s.Pi
-    R = s.R.copy()
-    Pi = s.Pi.copy()
-    Jd = np.ascontiguousarray(np.stack([b.Jd for b in s.bodies]))
-    J = np.ascontiguousarray(np.stack([b.J for b in s.bodies]))
-    J_inv = np.ascontiguousarray(np.stack([b.J_inv for b in s.bodies]))
-    stages = 1 if s.legacy else len(s.gam)
-    hs = np.array([h]) if s.legacy else s.gam * h
-    G = np.zeros((B, stages, 5, 3))
-    ek.init_histories(s.code, J, s.ib, hs, Pi, G)
-    if not s.legacy:
-        A = np.ascontiguousarray(np.stack([_momentum_matrices(b, s.codes, s.params, s.gam * h, s.sym)
-                                           for b in s.bodies]))
-        S = np.zeros((B, 7))
-    its = np.zeros(B, dtype=np.int64)
-    res = np.zeros(B)
-    status = np.zeros(B, dtype=np.int64)
-    fail_step = np.full(B, -1, dtype=np.int64)
-    fail_res = np.zeros(B)
-    fail_its = np.zeros(B, dtype=np.int64)
-    chunk = max(1, CHUNK_BODY_STEPS // (B * stages))
-    # the free body with Cayley runs LANES bodies in lockstep (SIMD), the same values bit for bit
-    lockstep = s.legacy and s.code == METHOD_CAYLEY
-    if lockstep:
-        X = np.zeros(((B + ek.LANES - 1) // ek.LANES, ek.NF * ek.LANES))
-        ek.pack_groups(R, Pi, G, Jd, s.ib, status, its, res, X)
+    label = "ensemble"
 
-    def result(m: int, partial: bool = False) -> EnsembleTrajectory:
-        t = s.times(m)
-        Rm = R_out[:, :m].copy() if partial else R_out
-        Pim = Pi_out[:, :m].copy() if partial else Pi_out
-        meta = dict(s.meta, partial=True) if partial else s.meta
-        return EnsembleTrajectory(t=t, R=Rm, Pi=Pim, inertia=s.inertia(), iterations=its.copy(), residual=res.copy(),
-                                  h=h, potential=s.potential(t, Rm), meta=meta)
+    def __init__(self, s: _Setup, parallel: bool, first_body: int) -> None:
+        from ._kernels import ensemble_kernels as ek
+        from .systems.rigid_body import momentum_matrices
 
-    k = 0
-    with _Interrupts() as stop, _Progress(progress, steps) as bar, _Threads(s.threads) as parallel:
-        while k < steps:
-            n = min(chunk, steps - k)
-            if lockstep:
-                run = ek.run_lockstep_parallel if parallel else ek.run_lockstep_serial
-                run(X, Jd, s.ib, s.code, h, k, n, s.tol, s.max_iter, s.alpha, se, R_out, Pi_out, its, res, status,
-                    fail_step, fail_res, fail_its, _NO_HIST)
-            elif s.legacy:
-                run = ek.run_free_parallel if parallel else ek.run_free_serial
-                run(s.code, Jd, s.ib, h, R, Pi, G, k, n, s.tol, s.max_iter, s.alpha, se, R_out, Pi_out, its, res,
-                    status, fail_step, fail_res, fail_its, _NO_HIST)
-            else:
-                run = ek.run_forced_parallel if parallel else ek.run_forced_serial
-                run(s.code, Jd, J, J_inv, s.ib, h, s.t0, s.gam, s.cum, A, R, Pi, G, S, s.codes, s.params,
-                    int(s.sym), k, n, s.tol, s.max_iter, s.alpha, se, R_out, Pi_out, its, res, status, fail_step,
-                    fail_res, fail_its, _NO_HIST)
-            if np.any(status != OK):
-                break
-            k += n
-            bar.update(k)
-            if stop.requested:
-                raise SimulationInterrupted(f"ensemble interrupted after {k} of {steps} steps; the computed part "
-                                            "(all bodies) is in .trajectory", trajectory=result(k // se + 1, True))
-    failed = np.flatnonzero(status != OK)
-    if failed.size:
-        if lockstep:
-            ek.unpack_groups(X, R, Pi)
-        b = int(failed[np.argmin(fail_step[failed])])
-        kf = int(fail_step[b])
+        self.s, self.parallel, self.first_body = s, parallel, first_body
+        B, h = len(s), s.h
+        self.k, self.steps, self.save_every = 0, s.steps, s.save_every
+        self.R = s.R.copy()
+        self.Pi = s.Pi.copy()
+        self.Jd = np.ascontiguousarray(np.stack([b.Jd for b in s.bodies]))
+        self.J = np.ascontiguousarray(np.stack([b.J for b in s.bodies]))
+        self.J_inv = np.ascontiguousarray(np.stack([b.J_inv for b in s.bodies]))
+        stages = 1 if s.legacy else len(s.gam)
+        hs = np.array([h]) if s.legacy else s.gam * h
+        self.G = np.zeros((B, stages, 5, 3))
+        ek.init_histories(s.code, self.J, s.ib, hs, self.Pi, self.G)
+        if not s.legacy:
+            self.A = np.ascontiguousarray(np.stack([momentum_matrices(b, s.codes, s.params, s.gam * h, s.sym)
+                                                    for b in s.bodies]))
+            self.S = np.zeros((B, 7))
+        self.its = np.zeros(B, dtype=np.int64)
+        self.res = np.zeros(B)
+        self.status = np.zeros(B, dtype=np.int64)
+        self.fail_step = np.full(B, -1, dtype=np.int64)
+        self.fail_res = np.zeros(B)
+        self.fail_its = np.zeros(B, dtype=np.int64)
+        self.chunk = max(1, CHUNK_BODY_STEPS // (B * stages))
+        # the free body with Cayley runs LANES bodies in lockstep (SIMD), the same values bit for bit
+        self.lockstep = s.legacy and s.code == METHOD_CAYLEY
+        if self.lockstep:
+            self.X = np.zeros(((B + ek.LANES - 1) // ek.LANES, ek.NF * ek.LANES))
+            ek.pack_groups(self.R, self.Pi, self.G, self.Jd, s.ib, self.status, self.its, self.res, self.X)
+
+    def advance(self, n: int, R_out: np.ndarray, Pi_out: np.ndarray, partial: Any) -> int:
+        """Steps ``k .. k + n - 1`` of every body; on a failure ``k`` is the first failed step."""
+        from ._kernels import ensemble_kernels as ek
+
+        s, k, se, h, parallel = self.s, self.k, self.save_every, self.s.h, self.parallel
+        if self.lockstep:
+            run = ek.run_lockstep_parallel if parallel else ek.run_lockstep_serial
+            run(self.X, self.Jd, s.ib, s.code, h, k, n, s.tol, s.max_iter, s.alpha, se, R_out, Pi_out, self.its,
+                self.res, self.status, self.fail_step, self.fail_res, self.fail_its, _NO_HIST)
+        elif s.legacy:
+            run = ek.run_free_parallel if parallel else ek.run_free_serial
+            run(s.code, self.Jd, s.ib, h, self.R, self.Pi, self.G, k, n, s.tol, s.max_iter, s.alpha, se, R_out,
+                Pi_out, self.its, self.res, self.status, self.fail_step, self.fail_res, self.fail_its, _NO_HIST)
+        else:
+            run = ek.run_forced_parallel if parallel else ek.run_forced_serial
+            run(s.code, self.Jd, self.J, self.J_inv, s.ib, h, s.t0, s.gam, s.cum, self.A, self.R, self.Pi, self.G,
+                self.S, s.codes, s.params, int(s.sym), k, n, s.tol, s.max_iter, s.alpha, se, R_out, Pi_out,
+                self.its, self.res, self.status, self.fail_step, self.fail_res, self.fail_its, _NO_HIST)
+        failed = np.flatnonzero(self.status != OK)
+        if failed.size:
+            b = int(failed[np.argmin(self.fail_step[failed])])
+            self.k = int(self.fail_step[b])
+            return int(self.status[b])
+        self.k = k + n
+        return OK
+
+    def failure(self, status: int, residual: float, iterations: int, trajectory: Any,
+                where: str = "") -> ConvergenceError:
+        """The error of the first failed body (the records are per body, kept here)."""
+        from ._kernels import ensemble_kernels as ek
+
+        s, h, B = self.s, self.s.h, len(self.s)
+        if self.lockstep:
+            ek.unpack_groups(self.X, self.R, self.Pi)
+        failed = np.flatnonzero(self.status != OK)
+        b = int(failed[np.argmin(self.fail_step[failed])])
+        kf = int(self.fail_step[b])
         t_fail = s.t0 + kf * h
-        hnorm = abs(h) * float(np.linalg.norm(Pi[b]))
-        body = first_body + b
+        hnorm = abs(h) * float(np.linalg.norm(self.Pi[b]))
+        body = self.first_body + b
         more = f" ({failed.size} of {B} bodies failed)" if failed.size > 1 else ""
         msg = (f"body {body} failed at step {kf} (t = {t_fail:g}){more}: "
-               + failure_message(int(status[b]), float(fail_res[b]), int(fail_its[b]), hnorm, s.tol, s.code, s.alpha)
-               + f" The ensemble up to step {kf} (all bodies) is in .trajectory.")
-        err = ConvergenceError(msg, residual=float(fail_res[b]), iterations=int(fail_its[b]), step=kf, time=t_fail,
-                               trajectory=result(kf // se + 1, True))
+               + failure_message(int(self.status[b]), float(self.fail_res[b]), int(self.fail_its[b]), hnorm, s.tol,
+                                 s.code, s.alpha)
+               + f" The ensemble up to step {kf} (all bodies) is in .trajectory." + where)
+        err = ConvergenceError(msg, residual=float(self.fail_res[b]), iterations=int(self.fail_its[b]), step=kf,
+                               time=t_fail, trajectory=trajectory)
         err.body = body  # type: ignore[attr-defined]
-        raise err
-    return result(M)
+        return err
+
+
+class _LocalSink:
+    """The ensemble's samples in memory, ``(B, M, ...)`` (a sink of :func:`lgvi.driver.drive`)."""
+
+    where = ""
+    interrupted = "the computed part (all bodies) is in .trajectory"
+
+    def __init__(self, run: _LocalRun) -> None:
+        s = run.s
+        self.run, self.M = run, s.steps // s.save_every + 1
+        self.R_out = np.empty((len(s), self.M, 3, 3))
+        self.Pi_out = np.empty((len(s), self.M, 3))
+        self.R_out[:, 0] = s.R
+        self.Pi_out[:, 0] = s.Pi
+
+    def buffers(self, k0: int, n: int) -> list[np.ndarray]:
+        return [self.R_out, self.Pi_out]
+
+    def result(self, m: int, partial: bool = False) -> EnsembleTrajectory:
+        s, run = self.run.s, self.run
+        t = s.times(m)
+        Rm = self.R_out[:, :m].copy() if partial else self.R_out
+        Pim = self.Pi_out[:, :m].copy() if partial else self.Pi_out
+        meta = dict(s.meta, partial=True) if partial else s.meta
+        return EnsembleTrajectory(t=t, R=Rm, Pi=Pim, inertia=s.inertia(), iterations=run.its.copy(),
+                                  residual=run.res.copy(), h=s.h, potential=s.potential(t, Rm), meta=meta)
+
+    def partial(self, k_done: int | None = None) -> EnsembleTrajectory:
+        return self.result(k_done // self.run.save_every + 1, True)
+
+    def failed(self, k0: int, k: int) -> tuple[float, int]:
+        return 0.0, 0  # the run's failure reads its per-body records
+
+    def commit(self, k0: int, n: int) -> None:
+        pass
+
+    def interrupt(self, k: int) -> EnsembleTrajectory:
+        return self.partial(k)
+
+    def finish(self) -> EnsembleTrajectory:
+        return self.result(self.M)
+
+
+def _run_local(s: _Setup, progress: Any = False, first_body: int = 0) -> EnsembleTrajectory:
+    """Run the whole ensemble ``s`` in this process (``first_body``: global index of body 0, for messages)."""
+    from .driver import drive
+
+    with _Threads(s.threads) as parallel:
+        run = _LocalRun(s, parallel, first_body)
+        return drive(run, _LocalSink(run), progress)  # lgvi.driver: chunks, progress, Ctrl-C, failures
 
 
 def _blocks(s: _Setup, block_size: int | None, workers: int) -> list[tuple[int, int]]:
@@ -715,7 +766,7 @@ class _BlockProgress:
     """Progress over blocks: ``True`` draws a ``tqdm`` bar of bodies done, a callable gets ``(done, total)``."""
 
     def __init__(self, progress: Any, total: int) -> None:
-        from .integrator import _Progress
+        from .driver import Progress as _Progress
 
         self.bar, self.done = _Progress(progress, total, unit="body"), 0
 

@@ -7,12 +7,14 @@ from typing import Any
 
 import numpy as np
 
-from ._kernels.codes import METHOD_CAYLEY, METHOD_NEWTON, METHOD_PAPER, NOT_CONVERGED, NOT_FINITE, OVERFLOW, SINGULAR
+from ._kernels.codes import METHOD_NEWTON, NOT_CONVERGED, NOT_FINITE, OVERFLOW, SINGULAR
 from ._validation import as_float, as_float_array, as_int, choice
 from .errors import ConvergenceError
+from .registry import SOLVER_METHODS
 
-#: Registry of solver names (as accepted by ``method=``) to kernel codes.
-METHODS: dict[str, int] = {"paper": METHOD_PAPER, "newton": METHOD_NEWTON, "cayley": METHOD_CAYLEY}
+#: Solver names (as accepted by ``method=``) to kernel codes, derived from
+#: :data:`lgvi.registry.SOLVER_METHODS` (the registry of the solver methods).
+METHODS: dict[str, int] = {m.name: m.code for m in SOLVER_METHODS.values()}
 
 
 @dataclass(frozen=True)

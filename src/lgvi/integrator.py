@@ -16,25 +16,27 @@ Schemes (see :func:`simulate`):
 
 from __future__ import annotations
 
-import os
-import signal
-import threading
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 
 from . import so3
 from ._kernels.codes import OK
-from ._validation import as_float, as_float_array, as_int, as_rotation, choice
+from ._validation import as_float, as_float_array, as_rotation, choice
 from ._version import __version__
 from .body import RigidBody
-from .errors import ConvergenceError, SimulationInterrupted, TorqueError
-from .implicit import METHODS, failure_message, largest_step, solver_options
+from .driver import (MemorySink, check_memory as _check_memory, drive,  # noqa: F401
+                     initial_momentum as _initial_momentum, run_solver_options, sample_times, time_grid)
+from .errors import ConvergenceError, TorqueError
+from .implicit import METHODS, failure_message, largest_step
 from .invariants import declaration_of, forcing_used
+from .registry import (COMPOSITIONS, DEFAULT_COMPOSITION, FORCINGS, SOLVER_METHODS, Composition,  # noqa: F401
+                       check_composable, composition_for, torque_kind)
+from .systems import provide_run
+from .systems.rigid_body import RIGID_BODY, momentum_matrices
 from .torques import TorqueModel
-from .trajectory import HIST_BINS, Trajectory, merge_summaries, summary_dict
+from .trajectory import HIST_BINS, Trajectory, summary_dict
 
 #: Steps per compiled call; between chunks Ctrl-C is honoured and progress reported.
 CHUNK_STEPS = 1 << 18
@@ -49,74 +51,8 @@ TorqueCallable = Callable[[float, np.ndarray, np.ndarray], Any]
 _NO_HIST = np.zeros(0)
 _NO_CODES = np.zeros((0, 2), dtype=np.int64)
 
-FORCINGS = ("paper", "symmetric")
 #: Resolutions of the solver's record (``solver_record=``): largest per saved interval, or every step.
 SOLVER_RECORDS = ("interval", "full")
-
-
-@dataclass(frozen=True)
-class Composition:
-    """A symmetric composition ``Phi_{g_s h} o ... o Phi_{g_1 h}`` of the symmetric step.
-
-    Composing a symmetric method of order 2 with coefficients ``g`` that are symmetric
-    (``g_i = g_{s+1-i}``), sum to 1 and satisfy the order conditions gives a symmetric method of
-    the stated order (Hairer, Lubich and Wanner, *Geometric Numerical Integration*, 2nd ed.,
-    Section V.3).
-    """
-
-    name: str
-    order: int
-    coefficients: tuple[float, ...]
-    source: str
-
-    @property
-    def stages(self) -> int:
-        return len(self.coefficients)
-
-    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
-        """``gam`` (s,), the substep fractions, and ``cum`` (s+1,), the fraction of the step at the
-        end of each substep (``cum[0] = 0``, ``cum[s] = 1`` exactly), as the kernels take them."""
-        gam = np.array(self.coefficients)
-        cum = np.concatenate([[0.0], np.cumsum(gam)])
-        cum[-1] = 1.0
-        return gam, cum
-
-
-def _symmetric(half: list[float]) -> tuple[float, ...]:
-    """``half + [middle] + reversed(half)`` with the middle fixing the sum to 1."""
-    middle = 1.0 - 2.0 * sum(half)
-    return tuple(half) + (middle,) + tuple(reversed(half))
-
-
-def _triple_jump(base: tuple[float, ...], p: int) -> tuple[float, ...]:
-    """Yoshida's triple jump raising a symmetric method of order ``p`` to ``p + 2``."""
-    g1 = 1.0 / (2.0 - 2.0 ** (1.0 / (p + 1)))
-    g0 = 1.0 - 2.0 * g1                         # = -2^(1/(p+1)) / (2 - 2^(1/(p+1)))
-    return tuple(g1 * c for c in base) + tuple(g0 * c for c in base) + tuple(g1 * c for c in base)
-
-
-_SUZUKI = 1.0 / (4.0 - 4.0 ** (1.0 / 3.0))
-
-#: Registry of compositions by name (``simulate(..., composition=name)``).
-COMPOSITIONS: dict[str, Composition] = {
-    c.name: c for c in (
-        Composition("yoshida4", 4, _triple_jump((1.0,), 2),
-                    "Yoshida (1990), Phys. Lett. A 150, 262: triple jump, "
-                    "g1 = g3 = 1/(2 - 2^(1/3)), g2 = 1 - 2 g1"),
-        Composition("suzuki4", 4, _symmetric([_SUZUKI, _SUZUKI]),
-                    "Suzuki (1990), Phys. Lett. A 146, 319: fractal 5-stage, "
-                    "g1 = g2 = g4 = g5 = 1/(4 - 4^(1/3)), g3 = 1 - 4 g1"),
-        Composition("yoshida6", 6, _triple_jump(_triple_jump((1.0,), 2), 4),
-                    "Yoshida (1990): triple jump of the triple jump, 9 stages"),
-        Composition("kahan-li6", 6, _symmetric([0.39216144400731413927925056, 0.33259913678935943859974864,
-                                                 -0.70624617255763935980996482, 0.08221359629355080023149045]),
-                    "Kahan and Li (1997), Math. Comp. 66, 1089, scheme s9odr6a, as printed in "
-                    "Hairer, Lubich and Wanner, Geometric Numerical Integration, Sect. V.3.2"),
-    )
-}
-
-#: Composition used by ``order=4`` and ``order=6`` unless ``composition=`` names another.
-DEFAULT_COMPOSITION = {4: "suzuki4", 6: "kahan-li6"}
 
 
 def _solver_state(code: int, body: RigidBody, h: float, Pi: np.ndarray) -> np.ndarray:
@@ -146,18 +82,7 @@ def as_body(body: Any) -> RigidBody:
     return body if isinstance(body, RigidBody) else RigidBody(body)
 
 
-def _options(method: str, tol: Any, max_iter: Any, alpha: Any) -> tuple[int, float, int, float]:
-    return solver_options(method, tol, max_iter, alpha, min_iter=1)
-
-
-def _initial_momentum(body: RigidBody, Pi0: Any, omega0: Any) -> np.ndarray:
-    if Pi0 is None and omega0 is None:
-        raise ValueError("give the initial body angular momentum Pi0 (3,) or the angular velocity omega0 (3,)")
-    if Pi0 is not None and omega0 is not None:
-        raise ValueError("give either Pi0 or omega0, not both")
-    if Pi0 is not None:
-        return as_float_array(Pi0, "Pi0", (3,)).copy()
-    return body.J @ as_float_array(omega0, "omega0", (3,))
+_options = run_solver_options
 
 
 def _check_torque_value(u: Any, k: int, t: float) -> np.ndarray:
@@ -225,7 +150,7 @@ def step(body: Any, R: Any, Pi: Any, *, h: float, u: Any = None, method: str = "
     if st != OK:
         raise ConvergenceError(failure_message(st, res, its, abs(h) * float(np.linalg.norm(Pi)), tol, code, alpha),
                                residual=float(res), iterations=int(its))
-    F = so3.cayley(G[0]) if code == METHODS["cayley"] else so3.exp(G[0])
+    F = so3.cayley(G[0]) if SOLVER_METHODS[method].coordinates == "cayley" else so3.exp(G[0])
     return StepResult(R=Rn, Pi=Pin, F=F, iterations=int(its), residual=float(res))
 
 
@@ -373,35 +298,7 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
                max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0, forcing=forcing, order=order,
                composition=composition, solver_record=solver_record)
     steps, save_every = run.steps, run.save_every
-    M = steps // save_every + 1
-    R_out = np.empty((M, 3, 3))
-    Pi_out = np.empty((M, 3))
-    R_out[0] = run.R
-    Pi_out[0] = run.Pi
-    per = 1 if run.full else save_every   # steps per entry of the solver's record
-    it_out = np.zeros(steps // per, dtype=np.int32)
-    res_out = np.zeros(steps // per)
-
-    def partial(k_done: int) -> Trajectory:
-        m = k_done // save_every + 1
-        r = k_done if run.full else m - 1
-        return run.trajectory(run.times(0, m), R_out[:m].copy(), Pi_out[:m].copy(), it_out[:r].copy(),
-                              res_out[:r].copy(), partial=True)
-
-    with _Interrupts() as stop, _Progress(progress, steps) as bar:
-        while run.k < steps:
-            k0 = run.k
-            n = min(run.chunk, steps - k0)
-            j0 = k0 // save_every + 1
-            status = run.advance(n, R_out[j0:j0 + n // save_every], Pi_out[j0:j0 + n // save_every],
-                                 it_out[k0 // per:(k0 + n) // per], res_out[k0 // per:(k0 + n) // per], partial)
-            if status != OK:
-                raise run.failure(status, run.last_res, run.last_its, partial(run.k))
-            bar.update(run.k)
-            if stop.requested:
-                raise SimulationInterrupted(f"simulation interrupted after {run.k} of {steps} steps; "
-                                            "the computed part is in .trajectory", trajectory=partial(run.k))
-    traj = run.trajectory(run.times(0, M), R_out, Pi_out, it_out, res_out)
+    traj = drive(run, MemorySink(run), progress)  # lgvi.driver: chunks, progress, Ctrl-C, failures
     if estimate:  # a shadow run of this very function at h/2 (lgvi.accuracy)
         from .accuracy import with_estimate
 
@@ -412,252 +309,18 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     return traj
 
 
-def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None,
-                    h: float, steps: int, torque: Any = None, method: str = "newton", tol: float = 1e-14,
-                    max_iter: int = 50, alpha: float = 1.0, save_every: int = 1, t0: float = 0.0,
-                    forcing: str = "paper", order: int = 2, composition: str | None = None,
-                    progress: Any = False, resume: bool = False, chunk_steps: int | None = None,
-                    meta: dict[str, Any] | None = None, solver_record: str = "interval") -> Path:
-    """Run :func:`simulate` straight to a crash-safe stream folder, in bounded memory.
-
-    The run goes in chunks of ``chunk_steps`` steps (a multiple of ``save_every``); each chunk's
-    samples and per-step solver records are written to ``folder`` as soon as it is done (see
-    :mod:`lgvi.streaming`), so memory stays bounded whatever ``steps`` is, an interrupted or
-    killed run keeps every complete chunk, and ``resume=True`` continues a stream from its last
-    complete chunk with the exact state (attitude, momentum, solver history), giving bit for bit
-    the result of an uninterrupted run.
-
-    Parameters
-    ----------
-    folder : path
-        The stream folder (created; must not hold a stream unless ``resume=True``).
-    body, R0, Pi0, omega0, h, steps, torque, method, tol, max_iter, alpha, save_every, t0, forcing,
-    order, composition, progress, solver_record
-        As in :func:`simulate` (a callable torque works too); with the default
-        ``solver_record="interval"`` the chunk files are sized by the saved states. With ``resume=True`` they must be
-        the same as in the interrupted run (checked against the stream's metadata).
-    resume : bool
-        Continue the stream in ``folder`` (a complete stream is left as it is).
-    chunk_steps : int, optional
-        Steps per chunk (default: about 2^18, rounded to a multiple of ``save_every``).
-    meta : dict, optional
-        Extra JSON-serialisable metadata stored with the stream (e.g. the scenario text).
-
-    Returns
-    -------
-    pathlib.Path
-        The folder; read it with :func:`lgvi.streaming.read_stream`.
-
-    Examples
-    --------
-    >>> import numpy as np, lgvi, tempfile, pathlib
-    >>> from lgvi.streaming import read_stream
-    >>> folder = pathlib.Path(tempfile.mkdtemp()) / "run"
-    >>> _ = lgvi.simulate_stream(folder, [1., 2., 3.], np.eye(3), omega0=[0.3, 1., 0.2], h=0.01,
-    ...                          steps=1000, save_every=10, chunk_steps=200)
-    >>> traj = read_stream(folder)
-    >>> traj.R.shape, traj.iterations.shape, traj.steps
-    ((101, 3, 3), (100,), 1000)
-    """
-    from .streaming import StreamWriter, read_stream
-
-    run = _Run(body, R0, Pi0, omega0=omega0, h=h, steps=steps, torque=torque, method=method, tol=tol,
-               max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0, forcing=forcing, order=order,
-               composition=composition, solver_record=solver_record)
-    if chunk_steps is not None:
-        run.chunk = max(1, as_int(chunk_steps, "chunk_steps", minimum=1) // run.save_every) * run.save_every
-    stream_meta = dict(run.meta, **(meta or {}), h=run.h, steps=run.steps, inertia=run.body.J.tolist())
-    folder = Path(folder)
-    writer = StreamWriter(folder, stream_meta, resume=resume,
-                          check=lambda manifest: _check_resume(manifest["meta"], stream_meta, folder))
-    if resume and writer.state is not None:
-        run.load_state(writer.state)
-        if writer.manifest.get("complete") and run.k == run.steps:
-            writer.release()
-            return folder
-    steps, se = run.steps, run.save_every
-    per = 1 if run.full else se   # steps per entry of the solver's record
-    R_buf = np.empty((run.chunk // se, 3, 3))
-    Pi_buf = np.empty((run.chunk // se, 3))
-    it_buf = np.zeros(run.chunk // per, dtype=np.int32)
-    res_buf = np.zeros(run.chunk // per)
-
-    chunk_start: dict[str, Any] = {}
-
-    def partial(k_done: int | None = None) -> Trajectory:
-        """The complete chunks on disk plus the steps of the current chunk up to ``k_done``."""
-        summary = run.chunk_summary()
-        try:
-            done = read_stream(folder)
-            parts = [(done.t, done.R, done.Pi, done.iterations, done.residual)]
-            summary = merge_summaries(done.solver_summary, summary)
-        except ValueError:  # no complete chunk yet
-            parts = [(run.times(0, 1), chunk_start["R"][None], chunk_start["Pi"][None], np.zeros(0, np.int32),
-                      np.zeros(0))]
-        k0 = chunk_start["k0"]
-        if k_done is not None and k_done > k0:
-            m = (k_done - k0) // se
-            j0 = k0 // se + 1
-            r = k_done - k0 if run.full else m
-            parts.append((run.times(j0, j0 + m), R_buf[:m], Pi_buf[:m], it_buf[:r], res_buf[:r]))
-        t, R_, Pi_, it, res = (np.concatenate(a) for a in zip(*parts))
-        return run.trajectory(t, R_, Pi_, it, res, partial=True, summary=summary)
-
-    if run.k == 0 and not writer.manifest["chunks"] and steps == 0:
-        writer.append(t=run.times(0, 1), R=run.R[None].copy(), Pi=run.Pi[None].copy(),
-                      iterations=np.zeros(0, dtype=np.int32), residual=np.zeros(0), state=run.state(),
-                      potential=run.potential(run.times(0, 1), run.R[None]), summary=run.chunk_summary())
-    with writer, _Interrupts() as stop, _Progress(progress, steps, start=run.k) as bar:
-        while run.k < steps:
-            k0 = run.k
-            first = k0 == 0
-            chunk_start.update(k0=k0, R=run.R.copy(), Pi=run.Pi.copy())
-            run.new_chunk()
-            n = min(run.chunk, steps - k0)
-            m = n // se
-            status = run.advance(n, R_buf[:m], Pi_buf[:m], it_buf[:n // per], res_buf[:n // per], partial)
-            if status != OK:
-                writer.close(complete=False)
-                raise run.failure(status, run.last_res, run.last_its, partial(run.k),
-                                  where=f" Complete chunks are in {folder}.")
-            j0 = k0 // se + 1
-            t = run.times(j0, j0 + m)
-            R_c, Pi_c = R_buf[:m], Pi_buf[:m]
-            if first:
-                t = np.concatenate([run.times(0, 1), t])
-                R_c = np.concatenate([chunk_start["R"][None], R_c])
-                Pi_c = np.concatenate([chunk_start["Pi"][None], Pi_c])
-            writer.append(t=t, R=R_c, Pi=Pi_c, iterations=it_buf[:n // per], residual=res_buf[:n // per],
-                          state=run.state(), potential=run.potential(t, R_c), summary=run.chunk_summary())
-            bar.update(run.k)
-            if stop.requested:
-                writer.close(complete=False)
-                raise SimulationInterrupted(f"simulation interrupted after {run.k} of {steps} steps; every "
-                                            f"complete chunk is in {folder} (resume=True continues it)",
-                                            trajectory=partial())
-        writer.close(complete=True)
-    return folder
-
-
-def _check_resume(old: dict[str, Any], new: dict[str, Any], folder: Path) -> None:
-    keys = ("method", "tol", "max_iter", "alpha", "save_every", "forcing", "order", "composition", "torque",
-            "torque_model", "t0", "h", "steps", "inertia", "solver_record")
-    old = dict(old, solver_record=old.get("solver_record", "full"))  # streams written before the option
-    diff = [k for k in keys if old.get(k) != new.get(k)]
-    if diff:
-        k = diff[0]
-        raise ValueError(f"resume: the stream in {folder} was started with {k}={old.get(k)!r}, now {k}="
-                         f"{new.get(k)!r}; a stream resumes only the same run (differences: {', '.join(diff)})")
-
-
-def time_grid(h: Any, t0: Any, steps: Any, save_every: Any) -> tuple[float, float, int, int]:
-    """Validated ``(h, t0, steps, save_every)`` of a run: ``h != 0``, ``steps >= 0``,
-    ``save_every >= 1`` dividing ``steps`` (so that the final state is saved)."""
-    h = as_float(h, "h", nonzero=True)
-    t0 = as_float(t0, "t0")
-    steps = as_int(steps, "steps", minimum=0)
-    save_every = as_int(save_every, "save_every", minimum=1)
-    if steps % save_every != 0:
-        raise ValueError(f"save_every must divide steps so that the final state is saved; got "
-                         f"steps={steps}, save_every={save_every} (steps % save_every = {steps % save_every})")
-    return h, t0, steps, save_every
-
-
-def sample_times(t0: float, dt: float, j0: int, j1: int) -> np.ndarray:
-    """``t0 + dt * j`` for ``j = j0 .. j1-1``, in place in one array (no temporaries to fault in)."""
-    t = np.arange(j0, j1, dtype=np.float64)
-    t *= dt
-    t += t0
-    return t
-
-
-def _physical_memory() -> int:
-    try:
-        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
-    except (ValueError, OSError, AttributeError):  # pragma: no cover - not POSIX
-        return 1 << 62
-
-
-def _check_memory(steps: int, save_every: int, full: bool = True) -> None:
-    """Refuse a run whose in-memory result cannot fit: 96 bytes a sample, 12 bytes a record entry
-    (a step, or with ``full=False`` a saved interval)."""
-    need = 96 * (steps // save_every + 1) + 12 * (steps if full else steps // save_every)
-    have = _physical_memory()
-    if need > have:
-        raise ValueError(f"steps={steps} with save_every={save_every} needs {need / 2**30:.3g} GiB for the "
-                         f"result, more than this machine's {have / 2**30:.3g} GiB: save sparsely (a larger "
-                         "save_every) or run it to disk with lgvi.simulate_stream")
-
-
-class _Interrupts:
-    """Turn Ctrl-C during a run into a request honoured between chunks (a second Ctrl-C aborts at once).
-
-    Outside the main thread signals cannot be caught; a ``KeyboardInterrupt`` there still ends the
-    run the usual way.
-    """
-
-    def __init__(self) -> None:
-        self.requested = False
-        self._old: Any = None
-
-    def _handler(self, signum, frame) -> None:
-        if self.requested:
-            raise KeyboardInterrupt
-        self.requested = True
-
-    def __enter__(self) -> "_Interrupts":
-        if threading.current_thread() is threading.main_thread():
-            try:
-                self._old = signal.signal(signal.SIGINT, self._handler)
-            except (ValueError, OSError):  # pragma: no cover - embedded interpreters
-                self._old = None
-        return self
-
-    def __exit__(self, *exc: Any) -> None:
-        if self._old is not None:
-            signal.signal(signal.SIGINT, self._old)
-
-
-class _Progress:
-    """A progress report between chunks: ``progress=True`` draws a ``tqdm`` bar (``tqdm.auto``: a
-    widget in Jupyter, text on stderr elsewhere), a callable is called as
-    ``progress(steps_done, steps)``, ``False`` is silent. Updated between compiled chunks only."""
-
-    def __init__(self, progress: Any, steps: int, start: int = 0, unit: str = "step") -> None:
-        if not (isinstance(progress, bool) or callable(progress)):
-            raise TypeError(f"progress must be True, False or a callable progress(done, total), got {progress!r}")
-        self.progress = progress
-        self.steps = steps
-        self.bar = None
-        if progress is True and steps:
-            from tqdm.auto import tqdm
-
-            self.bar = tqdm(total=steps, initial=start, unit=unit, unit_scale=steps >= 100_000, dynamic_ncols=True)
-
-    def __enter__(self) -> "_Progress":
-        return self
-
-    def update(self, k: int, final: bool = False) -> None:
-        if self.progress is False:
-            return
-        if callable(self.progress) and not isinstance(self.progress, bool):
-            self.progress(k, self.steps)
-        elif self.bar is not None:
-            self.bar.update(k - self.bar.n)
-
-    def __exit__(self, *exc: Any) -> None:
-        if self.bar is not None:
-            self.bar.close()
-
-
-class _Run:
-    """One validated simulation: the inputs, the kernel choice and the state carried across chunks.
+class Run:
+    """One validated simulation of a rigid body (:data:`lgvi.systems.rigid_body.RIGID_BODY`): the
+    inputs, the kernel choice and the state carried across chunks, run by :func:`lgvi.driver.drive`.
 
     ``advance(n, ...)`` runs the next ``n`` steps (``n`` a multiple of ``save_every``) in place;
     ``k`` counts the steps done (after a failure: the index of the failed step). ``state()`` and
     ``load_state()`` carry everything the kernels keep between steps, so a run continued from a
     saved state is bit for bit the uninterrupted run.
     """
+
+    #: The system this run steps (its state layout sizes the driver's buffers).
+    system = RIGID_BODY
 
     def __init__(self, body: Any, R0: Any, Pi0: Any, *, omega0: Any, h: Any, steps: Any, torque: Any,
                  method: str, tol: Any, max_iter: Any, alpha: Any, save_every: Any, t0: Any, forcing: Any,
@@ -684,14 +347,12 @@ class _Run:
         self.U = np.zeros((0, 3))
         self.func = None
         self.model = None
-        if torque is None:
-            kind = "none"
-        elif isinstance(torque, TorqueModel):
-            self.model, kind = torque, "model"
-        elif callable(torque):
-            self.func, kind = torque, "callable"
-        else:
-            kind = "array"
+        kind = torque_kind(torque)  # lgvi.registry: the one classification of torque=
+        if kind == "model":
+            self.model = torque
+        elif kind == "callable":
+            self.func = torque
+        elif kind == "array":
             shape = (steps + 1, 3) if sym else (steps, 3)
             self.U = np.ascontiguousarray(as_float_array(torque, "torque", shape))
         self.kind = kind
@@ -845,66 +506,11 @@ class _Run:
 
 
 
-def _composition(order: Any, composition: Any) -> Composition:
-    if isinstance(order, (bool, np.bool_)) or not isinstance(order, (int, np.integer)) or order not in (2, 4, 6):
-        raise ValueError(f"order must be 2, 4 or 6, got {order!r}")
-    order = int(order)
-    if composition is None:
-        if order == 2:
-            return _SECOND_ORDER
-        return COMPOSITIONS[DEFAULT_COMPOSITION[order]]
-    choice(composition, "composition", tuple(COMPOSITIONS))
-    comp = COMPOSITIONS[composition]
-    if comp.order != order:
-        raise ValueError(f"composition {composition!r} is of order {comp.order}, but order={order}; "
-                         f"pass order={comp.order} with it")
-    return comp
-
-
-_SECOND_ORDER = Composition("none", 2, (1.0,), "the symmetric LGVI step itself")
-
-
-def _check_order(comp: Composition, kind: str, forcing: str, model: TorqueModel | None) -> None:
-    """Reject compositions whose base step is not symmetric (they would not raise the order)."""
-    if comp.order == 2:
-        return
-    why = (f"order={comp.order} composes the symmetric step, and composition raises the order only of "
-           f"a symmetric method")
-    if kind == "array":
-        raise ValueError(f"{why}; a torque array holds moments at the grid times only, but the substeps of "
-                         f"order={comp.order} need them at intermediate times (some substeps even step "
-                         "backwards). Pass a callable torque(t, R, Pi) or a torque model instead.")
-    if forcing == "paper":
-        if kind == "callable":
-            raise ValueError(f"{why}; the paper's update Pi_(k+1) = F^T Pi_k + h u_k is first order and "
-                             "not symmetric. Pass forcing='symmetric' to compose the callable torque.")
-        if model is not None and not all(m.conservative for m in model.terms):
-            bad = ", ".join(repr(m) for m in model.terms if not m.conservative)
-            raise ValueError(f"{why}; the non-conservative part of the torque model ({bad}) uses the "
-                             "paper's first-order update Pi_(k+1) = F^T Pi_k + h u_k, which is not symmetric. "
-                             "Pass forcing='symmetric'.")
-
-
-def _momentum_matrices(body: RigidBody, codes: np.ndarray, params: np.ndarray, hs: np.ndarray,
-                       sym: bool) -> np.ndarray:
-    """``(I + hs/2 D J^-1)^-1`` per substep: the symmetric momentum equation of damped models."""
-    from ._kernels.torque_kernels import momentum_diag
-
-    D = np.array(momentum_diag(codes, params))
-    A = np.tile(np.eye(3), (len(hs), 1, 1))
-    if not sym or not np.any(D):
-        return A
-    for i, hi in enumerate(hs):
-        Mi = np.eye(3) + 0.5 * hi * (D[:, None] * body.J_inv)
-        # D J^-1 has real eigenvalues >= 0; a backward (sub)step can make Mi singular
-        lam = np.linalg.eigvals(Mi).real.min()
-        if not lam > 1e-6:
-            raise ValueError(f"the step h={hi:g} (substep {i}) is too large a backward step for "
-                             f"the damping of the torque model: I + h/2 D J^-1 is (nearly) singular "
-                             f"(smallest eigenvalue {lam:.3g}) in the symmetric momentum equation; "
-                             "reduce |h|")
-        A[i] = np.linalg.inv(Mi)
-    return A
+provide_run(RIGID_BODY, Run)
+_Run = Run  # its name before the system seam (lgvi.systems.rigid_body)
+_composition = composition_for
+_check_order = check_composable
+_momentum_matrices = momentum_matrices
 
 
 def _call_torque(func, t, R, Pi, k, partial):
@@ -1059,5 +665,5 @@ def _run_callable(run: _Run, n: int, R_out, Pi_out, it_out, res_out, partial) ->
         flush()
 
 
-__all__ = ["COMPOSITIONS", "Composition", "DEFAULT_COMPOSITION", "StepResult", "simulate", "simulate_stream",
+__all__ = ["COMPOSITIONS", "Composition", "DEFAULT_COMPOSITION", "Run", "StepResult", "simulate",
            "step"]

@@ -37,7 +37,7 @@ from typing import Any, Iterable
 import numpy as np
 
 from ._version import __version__
-from .trajectory import Trajectory, _check_arrays, load
+from .trajectory import Trajectory, check_arrays as _check_arrays, load
 
 __all__ = [
     "CSV_COLUMNS",

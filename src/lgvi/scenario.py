@@ -51,6 +51,7 @@ A complete example (every key shown; comments say which keys are alternatives)::
     alpha = 1.0                          # step length of the "paper" iteration, in (0, 1]
     forcing = "paper"                    # "paper" or "symmetric" (default: the library's)
     order = 2                            # 2, 4 or 6 (default: the library's)
+    # composition = "suzuki4"          # a composition of lgvi.registry.COMPOSITIONS (sets the order)
     save_every = 10                      # keep every 10th state; must divide the steps
     error_estimate = true                # also run at h/2 and report the estimated final
                                          # attitude error (lgvi.accuracy; default false)
@@ -131,27 +132,27 @@ import numpy as np
 
 from ._untrusted import name_problem
 from ._version import __version__
+from .registry import COMPOSITIONS, FORCINGS, ORDERS, method_names
+from .torques import TORQUE_MODELS
 
 __all__ = ["Scenario", "ScenarioError", "load_scenario", "to_toml"]
 
 FORMATS = ("npz", "csv", "netcdf")
-METHODS = ("newton", "paper", "cayley")
-FORCINGS = ("paper", "symmetric")
-ORDERS = (2, 4, 6)
+METHODS = method_names()            # from lgvi.registry, the default first
+COMPOSITION_NAMES = tuple(COMPOSITIONS)
 ERROR_ESTIMATES = (True, False, "richardson")
 QUAT_NORM_TOL = 1e-3
 DURATION_RTOL = 1e-9
 
 _TOP_KEYS = ("name", "description", "body", "initial", "integrator", "torque", "output")
 _ATTITUDE_KEYS = ("matrix", "quat_xyzw", "quat_wxyz", "euler", "rotvec")
-_TORQUE_PARAMS: dict[str, dict[str, tuple[str, bool]]] = {
-    # type: {key: (kind, required)}; kinds: number, vector, gain (number | 3 numbers), attitude
-    "uniform_gravity": {"mass": ("number", True), "com": ("vector", True), "g": ("number", False)},
-    "gravity_gradient": {"mu": ("number", True), "radius": ("number", True)},
-    "constant": {"u": ("vector", True)},
-    "damping": {"c": ("gain", True)},
-    "pd": {"kp": ("gain", True), "kd": ("gain", True), "target": ("attitude", False)},
-}
+#: type: {key: (kind, required)}, read from the registered torque models (lgvi.torques); kinds:
+#: number, positive (number > 0), vector, gain (number | 3 numbers), attitude
+def _torque_params() -> dict[str, dict[str, tuple[str, bool]]]:
+    return {k: dict(cls.scenario_params) for k, cls in TORQUE_MODELS.items()}
+
+
+_TORQUE_PARAMS = _torque_params()
 
 
 class ScenarioError(ValueError):
@@ -408,27 +409,28 @@ def _torque(c: _Checker, entries: Any) -> tuple[Any, tuple[dict[str, Any], ...]]
                       "for each torque model")
     if not isinstance(entries, list):
         raise c.expected("torque", "an array of tables ([[torque]] sections)", entries)
+    torque_params = _torque_params()  # read now: a model registered after import is a valid type too
     specs = []
     for i, entry in enumerate(entries):
         key = f"torque[{i}]"
         if not isinstance(entry, dict):
             raise c.expected(key, "a table", entry)
         if "type" not in entry:
-            raise c.expected(f"{key}.type", "one of " + ", ".join(f'"{t}"' for t in _TORQUE_PARAMS))
-        kind = c.string(entry["type"], f"{key}.type", tuple(_TORQUE_PARAMS))
-        params = _TORQUE_PARAMS[kind]
+            raise c.expected(f"{key}.type", "one of " + ", ".join(f'"{t}"' for t in torque_params))
+        kind = c.string(entry["type"], f"{key}.type", tuple(torque_params))
+        params = torque_params[kind]
         c.table(entry, key, ("type",) + tuple(params))
         spec: dict[str, Any] = {"type": kind}
         for name, (what, required) in params.items():
             path = f"{key}.{name}"
             if name not in entry:
                 if required:
-                    raise c.expected(path, {"number": "a number", "vector": "an array of 3 numbers",
+                    raise c.expected(path, {"number": "a number", "positive": "a number", "vector": "an array of 3 numbers",
                                             "gain": "a number or an array of 3 numbers"}[what])
                 continue
             v = entry[name]
-            if what == "number":
-                spec[name] = c.number(v, path, positive=name in ("mass", "mu", "radius", "g"))
+            if what in ("number", "positive"):
+                spec[name] = c.number(v, path, positive=what == "positive")
             elif what == "vector":
                 spec[name] = c.vector(v, path)
             elif what == "gain":
@@ -438,26 +440,11 @@ def _torque(c: _Checker, entries: Any) -> tuple[Any, tuple[dict[str, Any], ...]]
         specs.append(spec)
     if not specs:
         return None, ()
-    try:
-        from . import torques
-    except ImportError as exc:
-        raise c.error("torque", f"torque models need the module lgvi.torques, which this installation of lgvi "
-                      f"({__version__}) cannot import ({exc})") from None
     models = []
     for i, spec in enumerate(specs):
         kind = spec["type"]
         try:
-            if kind == "uniform_gravity":
-                kw = {"g": spec["g"]} if "g" in spec else {}
-                model = torques.UniformGravity(spec["mass"], spec["com"], **kw)
-            elif kind == "gravity_gradient":
-                model = torques.GravityGradient(spec["mu"], spec["radius"])
-            elif kind == "constant":
-                model = torques.Constant(spec["u"])
-            elif kind == "damping":
-                model = torques.LinearDamping(spec["c"])
-            else:
-                model = torques.AttitudePD(spec["kp"], spec["kd"], spec.get("target", np.eye(3)))
+            model = TORQUE_MODELS[kind].from_scenario(spec)
         except (ValueError, TypeError) as exc:
             raise c.error(f"torque[{i}]", f"invalid {kind} model: {exc}") from None
         models.append(model)
@@ -524,6 +511,7 @@ class Scenario:
     plots: bool = True
     source: str = "<dict>"
     text: str = field(default="", repr=False)
+    composition: str | None = None
 
     @property
     def duration(self) -> float:
@@ -586,7 +574,7 @@ class Scenario:
 
         integ = c.table(d["integrator"], "integrator", ("h", "steps", "duration", "method", "tol", "max_iter",
                                                         "alpha", "forcing", "order", "save_every",
-                                                        "error_estimate", "error_warn"))
+                                                        "error_estimate", "error_warn", "composition"))
         if "h" not in integ:
             raise c.expected("integrator.h", "a non-zero number (the step size in seconds)")
         h = c.number(integ["h"], "integrator.h", nonzero=True)
@@ -618,7 +606,16 @@ class Scenario:
         if "order" in integ:
             order = integ["order"]
             if isinstance(order, bool) or order not in ORDERS or not isinstance(order, int):
-                raise c.expected("integrator.order", "one of 2, 4, 6", order)
+                raise c.expected("integrator.order", "one of " + ", ".join(str(o) for o in ORDERS), order)
+        composition = None
+        if "composition" in integ:
+            composition = c.string(integ["composition"], "integrator.composition", COMPOSITION_NAMES)
+            comp_order = COMPOSITIONS[composition].order
+            if order is None:
+                order = comp_order
+            elif order != comp_order:
+                raise c.error("integrator.composition", f"composition {composition!r} is of order {comp_order}, "
+                              f"but integrator.order = {order}; remove order or set it to {comp_order}")
         save_every = c.integer(integ.get("save_every", 1), "integrator.save_every", minimum=1)
         if steps % save_every:
             raise c.error("integrator.save_every", f"expected a divisor of the number of steps ({steps}) so the "
@@ -651,7 +648,7 @@ class Scenario:
         return cls(name=name, description=description, body=body, R0=R0, Pi0=Pi0, h=h, steps=steps, torque=torque,
                    torque_spec=spec, forcing=forcing, order=order, method=method, tol=tol, max_iter=max_iter,
                    alpha=alpha, save_every=save_every, error_estimate=error_estimate, error_warn=error_warn,
-                   formats=formats, plots=plots, source=source,
+                   formats=formats, plots=plots, source=source, composition=composition,
                    text=to_toml(d) if text is None else text)
 
     def simulate_kwargs(self) -> dict[str, Any]:
@@ -662,6 +659,8 @@ class Scenario:
             kw["forcing"] = self.forcing
         if self.order is not None:
             kw["order"] = self.order
+        if self.composition is not None:
+            kw["composition"] = self.composition
         return kw
 
     def run(self, progress: bool = False):
@@ -707,8 +706,7 @@ class Scenario:
             As :meth:`run`; with ``error_estimate`` the shadow run at ``h/2`` is made in memory
             after the stream is complete.
         """
-        from .integrator import simulate_stream
-        from .streaming import read_stream
+        from .streaming import read_stream, simulate_stream
 
         try:
             simulate_stream(folder, self.body, self.R0, self.Pi0, progress=progress, resume=resume,

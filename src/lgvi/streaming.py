@@ -34,8 +34,10 @@ import numpy as np
 
 from ._files import FolderLock, write_atomic, write_failure
 from ._untrusted import check_npz, inside
+from ._validation import as_int
 from ._version import __version__
-from .trajectory import Trajectory, _check_arrays, merge_summaries, summary_dict
+from .driver import drive, record_every
+from .trajectory import Trajectory, check_arrays as _check_arrays, merge_summaries, summary_dict
 
 STREAM_FORMAT = "lgvi.stream/1"
 MANIFEST = "manifest.json"
@@ -294,4 +296,170 @@ def read_stream(folder: str | os.PathLike) -> Trajectory:
                       potential=cat.get("potential"), meta=meta)
 
 
-__all__ = ["StreamWriter", "read_manifest", "read_stream"]
+# ------------------------------------------------------------------------------------------------
+# simulate_stream: the driver with a stream sink
+# ------------------------------------------------------------------------------------------------
+def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None,
+                    h: float, steps: int, torque: Any = None, method: str = "newton", tol: float = 1e-14,
+                    max_iter: int = 50, alpha: float = 1.0, save_every: int = 1, t0: float = 0.0,
+                    forcing: str = "paper", order: int = 2, composition: str | None = None,
+                    progress: Any = False, resume: bool = False, chunk_steps: int | None = None,
+                    meta: dict[str, Any] | None = None, solver_record: str = "interval") -> Path:
+    """Run :func:`simulate` straight to a crash-safe stream folder, in bounded memory.
+
+    The run goes in chunks of ``chunk_steps`` steps (a multiple of ``save_every``); each chunk's
+    samples and per-step solver records are written to ``folder`` as soon as it is done (see
+    :mod:`lgvi.streaming`), so memory stays bounded whatever ``steps`` is, an interrupted or
+    killed run keeps every complete chunk, and ``resume=True`` continues a stream from its last
+    complete chunk with the exact state (attitude, momentum, solver history), giving bit for bit
+    the result of an uninterrupted run.
+
+    Parameters
+    ----------
+    folder : path
+        The stream folder (created; must not hold a stream unless ``resume=True``).
+    body, R0, Pi0, omega0, h, steps, torque, method, tol, max_iter, alpha, save_every, t0, forcing,
+    order, composition, progress, solver_record
+        As in :func:`simulate` (a callable torque works too); with the default
+        ``solver_record="interval"`` the chunk files are sized by the saved states. With ``resume=True`` they must be
+        the same as in the interrupted run (checked against the stream's metadata).
+    resume : bool
+        Continue the stream in ``folder`` (a complete stream is left as it is).
+    chunk_steps : int, optional
+        Steps per chunk (default: about 2^18, rounded to a multiple of ``save_every``).
+    meta : dict, optional
+        Extra JSON-serialisable metadata stored with the stream (e.g. the scenario text).
+
+    Returns
+    -------
+    pathlib.Path
+        The folder; read it with :func:`lgvi.streaming.read_stream`.
+
+    Examples
+    --------
+    >>> import numpy as np, lgvi, tempfile, pathlib
+    >>> from lgvi.streaming import read_stream
+    >>> folder = pathlib.Path(tempfile.mkdtemp()) / "run"
+    >>> _ = lgvi.simulate_stream(folder, [1., 2., 3.], np.eye(3), omega0=[0.3, 1., 0.2], h=0.01,
+    ...                          steps=1000, save_every=10, chunk_steps=200)
+    >>> traj = read_stream(folder)
+    >>> traj.R.shape, traj.iterations.shape, traj.steps
+    ((101, 3, 3), (100,), 1000)
+    """
+    from .integrator import Run
+
+    run = Run(body, R0, Pi0, omega0=omega0, h=h, steps=steps, torque=torque, method=method, tol=tol,
+              max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0, forcing=forcing, order=order,
+              composition=composition, solver_record=solver_record)
+    if chunk_steps is not None:
+        run.chunk = max(1, as_int(chunk_steps, "chunk_steps", minimum=1) // run.save_every) * run.save_every
+    stream_meta = dict(run.meta, **(meta or {}), h=run.h, steps=run.steps, inertia=run.body.J.tolist())
+    folder = Path(folder)
+    writer = StreamWriter(folder, stream_meta, resume=resume,
+                          check=lambda manifest: _check_resume(manifest["meta"], stream_meta, folder))
+    if resume and writer.state is not None:
+        run.load_state(writer.state)
+        if writer.manifest.get("complete") and run.k == run.steps:
+            writer.release()
+            return folder
+    sink = StreamSink(run, writer, folder)
+    with writer:
+        drive(run, sink, progress)  # lgvi.driver: chunks, progress, Ctrl-C, failures
+    return folder
+
+
+class StreamSink:
+    """A sink of :func:`lgvi.driver.drive` that writes every chunk to a stream folder as soon as it is
+    done (bounded memory: one chunk's buffers), for any system whose run has ``state()``.
+
+    The samples of each chunk, its records, the exact state at its end (for ``resume``) and the
+    potential go to :class:`StreamWriter`; a partial result is the complete chunks on disk plus the
+    current chunk's steps.
+    """
+
+    def __init__(self, run: Any, writer: StreamWriter, folder: Path) -> None:
+        self.run = run
+        self.writer = writer
+        self.folder = folder
+        self.where = f" Complete chunks are in {folder}."
+        self.interrupted = f"every complete chunk is in {folder} (resume=True continues it)"
+        se = self.se = run.save_every
+        self.state = [f.empty(run.chunk // se) for f in run.system.state]
+        self.per = record_every(run)
+        self.records = [f.zeros(run.chunk // self.per) for f in run.system.records]
+        self.chunk_start: dict[str, Any] = {}
+        if run.k == 0 and not writer.manifest["chunks"] and run.steps == 0:
+            self._append(run.times(0, 1), [getattr(run, f.name)[None].copy() for f in run.system.state],
+                         [f.zeros(0) for f in run.system.records])
+
+    def _append(self, t: np.ndarray, state: list[np.ndarray], records: list[np.ndarray]) -> None:
+        run = self.run
+        fields = {f.name: a for f, a in zip(run.system.state, state)}
+        fields.update({f.name: a for f, a in zip(run.system.records, records)})
+        self.writer.append(t=t, **fields, state=run.state(), potential=run.potential(t, fields["R"]),
+                           summary=run.chunk_summary())
+
+    def buffers(self, k0: int, n: int) -> list[np.ndarray]:
+        run = self.run
+        self.chunk_start = dict(k0=k0, **{f.name: getattr(run, f.name).copy() for f in run.system.state})
+        run.new_chunk()
+        m = n // self.se
+        return [b[:m] for b in self.state] + [r[:n // self.per] for r in self.records]
+
+    def partial(self, k_done: int | None = None) -> Trajectory:
+        """The complete chunks on disk plus the steps of the current chunk up to ``k_done``."""
+        run, se, start = self.run, self.se, self.chunk_start
+        names = [f.name for f in run.system.state] + [f.name for f in run.system.records]
+        summary = run.chunk_summary()
+        try:
+            done = read_stream(self.folder)
+            parts = [(done.t, *(getattr(done, name) for name in names))]
+            summary = merge_summaries(done.solver_summary, summary)
+        except ValueError:  # no complete chunk yet
+            parts = [(run.times(0, 1), *(start[f.name][None] for f in run.system.state),
+                      *(f.zeros(0) for f in run.system.records))]
+        k0 = start["k0"]
+        if k_done is not None and k_done > k0:
+            m = (k_done - k0) // se
+            j0 = k0 // se + 1
+            r = (k_done - k0) // self.per
+            parts.append((run.times(j0, j0 + m), *(b[:m] for b in self.state), *(a[:r] for a in self.records)))
+        t, *arrays = (np.concatenate(a) for a in zip(*parts))
+        return run.trajectory(t, *arrays, partial=True, summary=summary)
+
+    def failed(self, k0: int, k: int) -> tuple[float, int]:
+        self.writer.close(complete=False)
+        return self.run.last_res, self.run.last_its
+
+    def commit(self, k0: int, n: int) -> None:
+        run, se = self.run, self.se
+        m = n // se
+        j0 = k0 // se + 1
+        t = run.times(j0, j0 + m)
+        state = [b[:m] for b in self.state]
+        if k0 == 0:
+            t = np.concatenate([run.times(0, 1), t])
+            state = [np.concatenate([self.chunk_start[f.name][None], b]) for f, b in zip(run.system.state, state)]
+        self._append(t, state, [r[:n // self.per] for r in self.records])
+
+    def interrupt(self, k: int) -> Trajectory:
+        self.writer.close(complete=False)
+        return self.partial()
+
+    def finish(self) -> Path:
+        self.writer.close(complete=True)
+        return self.folder
+
+
+def _check_resume(old: dict[str, Any], new: dict[str, Any], folder: Path) -> None:
+    keys = ("method", "tol", "max_iter", "alpha", "save_every", "forcing", "order", "composition", "torque",
+            "torque_model", "t0", "h", "steps", "inertia", "solver_record")
+    old = dict(old, solver_record=old.get("solver_record", "full"))  # streams written before the option
+    diff = [k for k in keys if old.get(k) != new.get(k)]
+    if diff:
+        k = diff[0]
+        raise ValueError(f"resume: the stream in {folder} was started with {k}={old.get(k)!r}, now {k}="
+                         f"{new.get(k)!r}; a stream resumes only the same run (differences: {', '.join(diff)})")
+
+
+__all__ = ["StreamSink", "StreamWriter", "read_manifest", "read_stream", "simulate_stream"]

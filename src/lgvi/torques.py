@@ -66,6 +66,7 @@ __all__ = [
     "Constant",
     "GravityGradient",
     "LinearDamping",
+    "TORQUE_MODELS",
     "TorqueModel",
     "TorqueSum",
     "UniformGravity",
@@ -78,6 +79,9 @@ CONSTANT = 3
 DAMPING = 4
 ATTITUDE_PD = 5
 PARAM_COUNT = {GRAVITY: 3, GRAVITY_GRADIENT: 2, CONSTANT: 3, DAMPING: 3, ATTITUDE_PD: 15}
+
+#: The registry of torque models: scenario key -> class (filled by each class that sets ``key``).
+TORQUE_MODELS: dict[str, type["TorqueModel"]] = {}
 
 E3 = np.array([0.0, 0.0, 1.0])
 
@@ -148,6 +152,33 @@ class TorqueModel:
     depends_on_momentum: bool = False
     #: The moment depends explicitly on time.
     time_dependent: bool = False
+
+    # -- registration (lgvi.registry): a model with a ``key`` is registered when it is defined ----
+    #: Scenario key (``[[torque]] type = key``) and registry name; ``None``: not registered.
+    key: str | None = None
+    #: Kernel kind code of its term (a branch of :mod:`lgvi._kernels.torque_kernels`).
+    code: int | None = None
+    #: Scenario parameters: name -> ``(kind, required)``; kinds ``"number"``, ``"positive"``,
+    #: ``"vector"`` (3 numbers), ``"gain"`` (a number or 3), ``"attitude"`` (a rotation).
+    scenario_params: dict[str, tuple[str, bool]] = {}
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        key = cls.__dict__.get("key")
+        if key is not None:
+            if key in TORQUE_MODELS and TORQUE_MODELS[key].__qualname__ != cls.__qualname__:
+                raise ValueError(f"torque model key {key!r} is taken by {TORQUE_MODELS[key].__name__}")
+            TORQUE_MODELS[key] = cls
+
+    @classmethod
+    def from_scenario(cls, spec: dict[str, Any]) -> "TorqueModel":
+        """The model of a checked ``[[torque]]`` table (``spec`` holds its parameters by name)."""
+        return cls(**{k: v for k, v in spec.items() if k != "type"})
+
+    @classmethod
+    def summary(cls) -> str:
+        """First line of the class docstring (help texts and docs)."""
+        return (cls.__doc__ or "").strip().splitlines()[0] if cls.__doc__ else cls.__name__
 
     def invariants(self) -> dict[str, dict[str, Any]]:
         """The quantities the LGVI conserves under this moment (see :mod:`lgvi.invariants`).
@@ -267,6 +298,9 @@ class UniformGravity(TorqueModel):
     >>> float(m.potential(0.0, np.eye(3), [1.0, 1.0, 1.0]))
     2.943
     """
+    key = "uniform_gravity"
+    code = GRAVITY
+    scenario_params = {"mass": ("positive", True), "com": ("vector", True), "g": ("positive", False)}
 
     conservative = True
 
@@ -343,6 +377,9 @@ class GravityGradient(TorqueModel):
     >>> GravityGradient(mu=3.986e14, radius=7.0e6)
     GravityGradient(mu=3.986e+14, radius=7000000)
     """
+    key = "gravity_gradient"
+    code = GRAVITY_GRADIENT
+    scenario_params = {"mu": ("positive", True), "radius": ("positive", True)}
 
     conservative = True
     time_dependent = True
@@ -405,6 +442,9 @@ class Constant(TorqueModel):
     >>> Constant([0.0, 0.0, 1e-3])
     Constant(u=[0, 0, 0.001])
     """
+    key = "constant"
+    code = CONSTANT
+    scenario_params = {"u": ("vector", True)}
 
     def __init__(self, u: Any):
         self.u = _readonly(as_float_array(u, "u", (3,)))
@@ -436,6 +476,9 @@ class LinearDamping(TorqueModel):
     >>> LinearDamping(0.1), LinearDamping([0.1, 0.2, 0.3])
     (LinearDamping(c=0.1), LinearDamping(c=[0.1, 0.2, 0.3]))
     """
+    key = "damping"
+    code = DAMPING
+    scenario_params = {"c": ("gain", True)}
 
     depends_on_momentum = True
 
@@ -479,6 +522,13 @@ class AttitudePD(TorqueModel):
     >>> AttitudePD(kp=2.0, kd=1.5)
     AttitudePD(kp=2, kd=1.5)
     """
+    key = "pd"
+    code = ATTITUDE_PD
+    scenario_params = {"kp": ("gain", True), "kd": ("gain", True), "target": ("attitude", False)}
+
+    @classmethod
+    def from_scenario(cls, spec: dict[str, Any]) -> "TorqueModel":
+        return cls(spec["kp"], spec["kd"], spec.get("target", np.eye(3)))
 
     depends_on_momentum = True
 

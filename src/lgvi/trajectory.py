@@ -321,4 +321,7 @@ def load(path: str | os.PathLike) -> Trajectory:
     return Trajectory(h=h, potential=potential, meta=header.get("meta", {}), **fields)
 
 
+#: Public name of the array checks (readers of stored results call it: lgvi.outputs, lgvi.streaming).
+check_arrays = _check_arrays
+
 __all__ = ["HIST_BINS", "Trajectory", "load"]

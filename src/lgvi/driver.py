@@ -1,0 +1,260 @@
+"""One driver for every run: validation shared by the entry points, chunks, progress, Ctrl-C,
+partial results and failures, in one place (see ``docs/architecture.md``).
+
+:func:`drive` runs any system's run object (:mod:`lgvi.systems`) in compiled chunks into a *sink*:
+:class:`MemorySink` keeps the whole result in memory (:func:`lgvi.simulate`);
+:class:`lgvi.streaming.StreamSink` writes each chunk to a crash-safe stream folder
+(:func:`lgvi.simulate_stream`). The core never imports the stream file format: the sink is handed
+in from above. :func:`lgvi.simulate_ensemble` uses the same validation, progress and interrupt
+handling for its chunks over bodies.
+
+A run object has ``k`` (steps done), ``steps``, ``save_every``, ``chunk`` (steps per compiled
+call), ``system`` (its :class:`lgvi.systems.System`), ``advance(n, *state_buffers,
+*record_buffers, partial)`` returning a status code, ``failure(status, residual, iterations,
+trajectory, where="")`` returning the exception to raise, ``trajectory(t, *state, *records,
+partial=False)``, ``times(j0, j1)``, ``state()`` and ``load_state()``.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+from typing import Any, Protocol
+
+import numpy as np
+
+from ._kernels.codes import OK
+from ._validation import as_float, as_float_array, as_int
+from .errors import SimulationInterrupted
+from .implicit import solver_options
+
+
+def run_solver_options(method: str, tol: Any, max_iter: Any, alpha: Any) -> tuple[int, float, int, float]:
+    """Validated ``(code, tol, max_iter, alpha)`` of a run's solver (at least one iteration a step)."""
+    return solver_options(method, tol, max_iter, alpha, min_iter=1)
+
+
+def initial_momentum(body: Any, Pi0: Any, omega0: Any) -> np.ndarray:
+    """Validated initial body momentum ``Pi0`` (3,), given as ``Pi0`` or as ``omega0`` (``J omega0``)."""
+    if Pi0 is None and omega0 is None:
+        raise ValueError("give the initial body angular momentum Pi0 (3,) or the angular velocity omega0 (3,)")
+    if Pi0 is not None and omega0 is not None:
+        raise ValueError("give either Pi0 or omega0, not both")
+    if Pi0 is not None:
+        return as_float_array(Pi0, "Pi0", (3,)).copy()
+    return body.J @ as_float_array(omega0, "omega0", (3,))
+
+
+def time_grid(h: Any, t0: Any, steps: Any, save_every: Any) -> tuple[float, float, int, int]:
+    """Validated ``(h, t0, steps, save_every)`` of a run: ``h != 0``, ``steps >= 0``,
+    ``save_every >= 1`` dividing ``steps`` (so that the final state is saved)."""
+    h = as_float(h, "h", nonzero=True)
+    t0 = as_float(t0, "t0")
+    steps = as_int(steps, "steps", minimum=0)
+    save_every = as_int(save_every, "save_every", minimum=1)
+    if steps % save_every != 0:
+        raise ValueError(f"save_every must divide steps so that the final state is saved; got "
+                         f"steps={steps}, save_every={save_every} (steps % save_every = {steps % save_every})")
+    return h, t0, steps, save_every
+
+
+def sample_times(t0: float, dt: float, j0: int, j1: int) -> np.ndarray:
+    """``t0 + dt * j`` for ``j = j0 .. j1-1``, in place in one array (no temporaries to fault in)."""
+    t = np.arange(j0, j1, dtype=np.float64)
+    t *= dt
+    t += t0
+    return t
+
+
+def physical_memory() -> int:
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - not POSIX
+        return 1 << 62
+
+
+def check_memory(steps: int, save_every: int, full: bool = True) -> None:
+    """Refuse a run whose in-memory result cannot fit: 96 bytes a sample, 12 bytes a record entry
+    (a step, or with ``full=False`` a saved interval)."""
+    need = 96 * (steps // save_every + 1) + 12 * (steps if full else steps // save_every)
+    have = physical_memory()
+    if need > have:
+        raise ValueError(f"steps={steps} with save_every={save_every} needs {need / 2**30:.3g} GiB for the "
+                         f"result, more than this machine's {have / 2**30:.3g} GiB: save sparsely (a larger "
+                         "save_every) or run it to disk with lgvi.simulate_stream")
+
+
+class Interrupts:
+    """Turn Ctrl-C during a run into a request honoured between chunks (a second Ctrl-C aborts at once).
+
+    Outside the main thread signals cannot be caught; a ``KeyboardInterrupt`` there still ends the
+    run the usual way.
+    """
+
+    def __init__(self) -> None:
+        self.requested = False
+        self._old: Any = None
+
+    def _handler(self, signum, frame) -> None:
+        if self.requested:
+            raise KeyboardInterrupt
+        self.requested = True
+
+    def __enter__(self) -> "Interrupts":
+        if threading.current_thread() is threading.main_thread():
+            try:
+                self._old = signal.signal(signal.SIGINT, self._handler)
+            except (ValueError, OSError):  # pragma: no cover - embedded interpreters
+                self._old = None
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        if self._old is not None:
+            signal.signal(signal.SIGINT, self._old)
+
+
+class Progress:
+    """A progress report between chunks: ``progress=True`` draws a ``tqdm`` bar (``tqdm.auto``: a
+    widget in Jupyter, text on stderr elsewhere), a callable is called as
+    ``progress(steps_done, steps)``, ``False`` is silent. Updated between compiled chunks only."""
+
+    def __init__(self, progress: Any, steps: int, start: int = 0, unit: str = "step") -> None:
+        if not (isinstance(progress, bool) or callable(progress)):
+            raise TypeError(f"progress must be True, False or a callable progress(done, total), got {progress!r}")
+        self.progress = progress
+        self.steps = steps
+        self.bar = None
+        if progress is True and steps:
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(total=steps, initial=start, unit=unit, unit_scale=steps >= 100_000, dynamic_ncols=True)
+
+    def __enter__(self) -> "Progress":
+        return self
+
+    def update(self, k: int, final: bool = False) -> None:
+        if self.progress is False:
+            return
+        if callable(self.progress) and not isinstance(self.progress, bool):
+            self.progress(k, self.steps)
+        elif self.bar is not None:
+            self.bar.update(k - self.bar.n)
+
+    def __exit__(self, *exc: Any) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+# ------------------------------------------------------------------------------------------------
+# sinks and the chunk driver
+# ------------------------------------------------------------------------------------------------
+class Sink(Protocol):
+    """Where a driven run's chunks go (see :class:`MemorySink`, :class:`lgvi.streaming.StreamSink`)."""
+
+    #: Appended to failure messages (e.g. where the complete chunks are).
+    where: str
+    #: The end of the message of :class:`lgvi.SimulationInterrupted`.
+    interrupted: str
+
+    def buffers(self, k0: int, n: int) -> list[np.ndarray]:
+        """State buffers (one per field of ``run.system.state``, ``n // save_every`` samples) and
+        record buffers (one per field of ``run.system.records``, ``n // record_every(run)``
+        entries) for steps ``k0 ..``."""
+
+    def partial(self, k_done: int | None = None) -> Any:
+        """The result up to step ``k_done`` (``None``: what is kept), marked partial."""
+
+    def failed(self, k0: int, k: int) -> tuple[float, int]:
+        """The run failed at step ``k`` of the chunk from ``k0``: ``(residual, iterations)`` of that step."""
+
+    def commit(self, k0: int, n: int) -> None:
+        """Steps ``k0 .. k0 + n - 1`` are done and in the buffers."""
+
+    def interrupt(self, k: int) -> Any:
+        """Ctrl-C after step ``k``: the partial result to hand to the exception."""
+
+    def finish(self) -> Any:
+        """The run is complete: its result."""
+
+
+def record_every(run: Any) -> int:
+    """Steps per entry of a run's per-step records: 1 (every step) or ``save_every`` (the largest
+    over each saved interval, ``solver_record="interval"``)."""
+    return 1 if getattr(run, "full", True) else run.save_every
+
+
+class MemorySink:
+    """The whole result in memory, allocated from the system's state layout (:func:`lgvi.simulate`)."""
+
+    where = ""
+    interrupted = "the computed part is in .trajectory"
+
+    def __init__(self, run: Any) -> None:
+        self.run = run
+        self.se = se = run.save_every
+        M = run.steps // se + 1
+        self.M = M
+        self.state = [f.empty(M) for f in run.system.state]
+        for buf, f in zip(self.state, run.system.state):
+            buf[0] = getattr(run, f.name)
+        self.per = per = record_every(run)
+        self.records = [f.zeros(run.steps // per) for f in run.system.records]
+
+    def buffers(self, k0: int, n: int) -> list[np.ndarray]:
+        j0 = k0 // self.se + 1
+        m = n // self.se
+        per = self.per
+        return [b[j0:j0 + m] for b in self.state] + [r[k0 // per:(k0 + n) // per] for r in self.records]
+
+    def partial(self, k_done: int | None = None) -> Any:
+        m = k_done // self.se + 1
+        r = k_done // self.per
+        return self.run.trajectory(self.run.times(0, m), *(b[:m].copy() for b in self.state),
+                                   *(a[:r].copy() for a in self.records), partial=True)
+
+    def failed(self, k0: int, k: int) -> tuple[float, int]:
+        return self.run.last_res, self.run.last_its
+
+    def commit(self, k0: int, n: int) -> None:
+        pass
+
+    def interrupt(self, k: int) -> Any:
+        return self.partial(k)
+
+    def finish(self) -> Any:
+        return self.run.trajectory(self.run.times(0, self.M), *self.state, *self.records)
+
+
+def drive(run: Any, sink: Sink, progress: Any = False) -> Any:
+    """Run ``run`` from step ``run.k`` to its end in chunks of ``run.chunk`` steps into ``sink``.
+
+    Between chunks: progress is reported (``progress`` as in :func:`lgvi.simulate`) and a Ctrl-C
+    is honoured (:class:`lgvi.SimulationInterrupted` with the partial result in ``.trajectory``);
+    a failed step raises the run's error (``run.failure``) with the run up to that step. A run may
+    name itself in the messages (``run.label``, default ``"simulation"``).
+
+    Returns
+    -------
+    Whatever ``sink.finish()`` returns (the result).
+    """
+    steps = run.steps
+    with Interrupts() as stop, Progress(progress, steps, start=run.k) as bar:
+        while run.k < steps:
+            k0 = run.k
+            n = min(run.chunk, steps - k0)
+            status = run.advance(n, *sink.buffers(k0, n), sink.partial)
+            if status != OK:
+                residual, iterations = sink.failed(k0, run.k)
+                raise run.failure(status, residual, iterations, sink.partial(run.k), where=sink.where)
+            sink.commit(k0, n)
+            bar.update(run.k)
+            if stop.requested:
+                raise SimulationInterrupted(f"{getattr(run, 'label', 'simulation')} interrupted after {run.k} of "
+                                            f"{steps} steps; "
+                                            f"{sink.interrupted}", trajectory=sink.interrupt(run.k))
+    return sink.finish()
+
+
+__all__ = ["Interrupts", "MemorySink", "Progress", "Sink", "check_memory", "drive", "initial_momentum",
+           "physical_memory", "record_every", "run_solver_options", "sample_times", "time_grid"]

@@ -1,0 +1,111 @@
+"""The system seam: what the driver runs (see ``docs/architecture.md``).
+
+A *system* is a subpackage of :mod:`lgvi.systems` that registers one :class:`System`: its state
+layout (the fields saved per sample), its per-step records, its compiled step kernels, its
+invariants (read from :mod:`lgvi.invariants`), its result fields and its scenario section. The
+driver (:mod:`lgvi.driver`) allocates the result buffers from the layout and runs the system's
+run object in compiled chunks, so progress, Ctrl-C, partial results, failures and streaming are
+the same for every system.
+
+Today's system is the rigid body (:mod:`lgvi.systems.rigid_body`); a gyrostat, a body in orbit or
+two bodies are each a new subpackage plus a :func:`register` call.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Field:
+    """One array of a system's state or record: ``shape`` per sample (or per step) and dtype."""
+
+    name: str
+    shape: tuple[int, ...]
+    dtype: Any = np.float64
+    doc: str = ""
+
+    def empty(self, n: int) -> np.ndarray:
+        """``(n, *shape)`` uninitialised (state) buffer."""
+        return np.empty((n,) + self.shape, dtype=self.dtype)
+
+    def zeros(self, n: int) -> np.ndarray:
+        """``(n, *shape)`` zeroed (record) buffer."""
+        return np.zeros((n,) + self.shape, dtype=self.dtype)
+
+
+@dataclass(frozen=True)
+class System:
+    """A dynamical system the driver can run.
+
+    Attributes
+    ----------
+    name : str
+        Registry key (``SYSTEMS[name]``); also ``meta["system"]`` of its results.
+    doc : str
+        One line for help texts and docs.
+    state : tuple of Field
+        The state saved at every sample, in the order the run's ``advance`` takes its buffers.
+    records : tuple of Field
+        The per-step records of the solver (after the state buffers in ``advance``).
+    kernels : callable
+        ``kernels() -> dict``: its compiled step kernels by name (imports them on first call).
+    results : tuple of str
+        The fields of its result object (e.g. :class:`lgvi.Trajectory`).
+    scenario_section : str
+        The scenario table that describes the system (``[body]`` for a rigid body).
+    run_factory : callable or None
+        Builds the validated run object the driver runs; ``None`` when the module that defines it
+        provides it on import (:func:`provide_run`), so that the system does not import its
+        runner (the rigid body's is :class:`lgvi.integrator.Run`). The run object has ``k``,
+        ``steps``, ``save_every``, ``chunk``, ``advance(n, *state_buffers, *record_buffers, partial)``,
+        ``failure(...)``, ``state()``, ``load_state()``, ``trajectory(...)``, ``times(j0, j1)``.
+    invariants : callable
+        ``invariants(torque) -> dict``: the declaration (:mod:`lgvi.invariants`) of a run of this
+        system under ``torque``.
+    """
+
+    name: str
+    doc: str
+    state: tuple[Field, ...]
+    records: tuple[Field, ...]
+    kernels: Callable[[], dict[str, Any]]
+    results: tuple[str, ...]
+    scenario_section: str
+    run_factory: Callable[..., Any] | None
+    invariants: Callable[[Any], dict[str, dict[str, Any]]]
+
+    def run(self, *args: Any, **kwargs: Any) -> Any:
+        """A validated run of this system (see ``run_factory``)."""
+        factory = self.run_factory or RUNS.get(self.name)
+        if factory is None:
+            raise LookupError(f"no run is provided for the system {self.name!r}: import the module that "
+                              "defines it (import lgvi does for the built-in systems)")
+        return factory(*args, **kwargs)
+
+
+#: The registry of systems by name.
+SYSTEMS: dict[str, System] = {}
+#: Run factories provided on import by the modules that define them (:func:`provide_run`).
+RUNS: dict[str, Callable[..., Any]] = {}
+
+
+def register(system: System) -> System:
+    """Add ``system`` to :data:`SYSTEMS` (its name must be new)."""
+    if system.name in SYSTEMS and SYSTEMS[system.name] is not system:
+        raise ValueError(f"a system named {system.name!r} is registered already")
+    SYSTEMS[system.name] = system
+    return system
+
+
+def provide_run(system: System, factory: Callable[..., Any]) -> None:
+    """Attach the run factory of ``system`` (called by the module that defines the run object)."""
+    RUNS[system.name] = factory
+
+
+from . import rigid_body as rigid_body  # noqa: E402  (registers the rigid body)
+
+__all__ = ["Field", "RUNS", "SYSTEMS", "System", "provide_run", "register"]
