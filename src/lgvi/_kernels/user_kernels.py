@@ -164,15 +164,18 @@ def init_user_moments(moment, up, Rs, Ps, cons, codes, params, J, J_inv, t, R, P
 
 @jit(cache=False)
 def run_chunk_user(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S,
-                   codes, params, sym, k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out, it_out, res_out, hist,
-                   counts):
-    """:func:`.stepping.run_chunk_forced` (no torque array) with the user's moment; same outputs."""
+                   codes, params, sym, k0, n, tol, max_iter, alpha, save_every, countdown, R_out, Pi_out, it_out,
+                   res_out, hist, counts):
+    """:func:`.stepping.run_chunk_forced` (no torque array) with the user's moment; same outputs.
+
+    The first sample is stored after ``countdown`` steps (``save_every`` when ``k0`` is a multiple
+    of it) at ``R_out[0]``, then every ``save_every`` steps.
+    """
     s = gam.shape[0]
     D0, D1, D2 = momentum_diag(codes, params)
     has_D = D0 != 0.0 or D1 != 0.0 or D2 != 0.0
     if S[6] == 0.0:
         init_user_moments(moment, up, Rs, Ps, cons, codes, params, J, J_inv, t0 + k0 * h, R, Pi, S)
-    countdown = save_every
     jout = 0
     Rt = (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2])
     Pt = (Pi[0], Pi[1], Pi[2])
