@@ -100,6 +100,10 @@ def _compile(func: Callable, options: dict[str, Any]) -> Callable:
 def _decorator(extra: dict[str, Any]) -> Callable:
     def jit(func: Callable | None = None, **kwargs: Any) -> Callable:
         options = {**_OPTIONS, **extra, **kwargs}
+        if options.pop("cache", True) is False:      # a kernel that takes a user's function
+            if func is None:
+                return lambda f: numba.njit(cache=False, **options)(f)
+            return numba.njit(cache=False, **options)(func)
         if func is None:
             return lambda f: _compile(f, options)
         return _compile(func, options)

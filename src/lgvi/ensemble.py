@@ -401,6 +401,10 @@ class _Setup:
                             f"same for every body), got {type(torque).__name__}: torque arrays are not supported "
                             "for ensembles; call lgvi.simulate per body for tabulated moments.")
         _check_order(comp, kind, forcing, self.model)
+        user = getattr(self.model, "params", None)      # lgvi.torques.Compiled: one row per body or one for all
+        if getattr(self.model, "moment_func", None) is not None and user.ndim == 2 and user.shape[0] != B:
+            raise ValueError(f"Compiled: params of shape {user.shape} must have one row per body ({B} bodies) "
+                             "or shape (P,) for all")
         if threads is not None:
             threads = as_int(threads, "threads", minimum=1)
         self.threads = threads
@@ -438,6 +442,7 @@ class _Setup:
         sub.Pi = self.Pi[start:stop].copy()
         sub.threads = threads
         sub.meta = dict(self.meta, bodies=stop - start)
+        sub.body0 = getattr(self, "body0", 0) + start    # index of its first body in the whole ensemble
         return sub
 
     def times(self, m: int) -> np.ndarray:
@@ -453,6 +458,10 @@ class _Setup:
         if not self.has_potential:
             return None
         U = np.empty(R_out.shape[:2])
+        if getattr(self.model, "moment_func", None) is not None:   # lgvi.torques.Compiled: per-body params
+            for b in range(len(U)):
+                U[b] = self.model.potential(t, R_out[b], None, b=getattr(self, "body0", 0) + b)
+            return U
         for q, body in enumerate(self.bodies):
             idx = np.flatnonzero(self.ib == q)
             U[idx] = self.model.potential(t, R_out[idx], body)
@@ -641,6 +650,31 @@ class _LocalRun:
             self.X = np.zeros(((B + ek.LANES - 1) // ek.LANES, ek.NF * ek.LANES))
             ek.pack_groups(self.R, self.Pi, self.G, self.Jd, s.ib, self.status, self.its, self.res, self.X)
 
+    def _advance_user(self, n: int, R_out: np.ndarray, Pi_out: np.ndarray) -> None:
+        """Steps ``k .. k + n - 1`` of a user's compiled model, body after body (one compiled call each,
+        with the body's parameter row), the same loop and values as :func:`lgvi.simulate`."""
+        from ._kernels.user_kernels import run_chunk_user
+
+        s, k, se = self.s, self.k, self.save_every
+        m = s.model
+        gidx = np.arange(self.G.shape[1], dtype=np.int64)
+        Rs, Ps, it_buf, res_buf = np.zeros((3, 3)), np.zeros(3), np.zeros(n, np.int32), np.zeros(n)
+        j0 = k // se + 1
+        counts = np.zeros(0, dtype=np.int64)
+        for b in range(len(s)):
+            if self.status[b] != OK:
+                continue
+            q = s.ib[b]
+            st, kend, it_total, rmax, its, rn = run_chunk_user(
+                m.moment_func, m.row(getattr(s, "body0", 0) + b), Rs, Ps, m.conservative, m.depends_on_momentum,
+                s.code, self.Jd[q], self.J[q], self.J_inv[q], s.h, s.t0, s.gam, s.cum, self.A[q], self.R[b],
+                self.Pi[b], self.G[b], gidx, self.S[b], s.codes, s.params, int(s.sym), k, n, s.tol, s.max_iter,
+                s.alpha, se, se - k % se, R_out[b, j0:], Pi_out[b, j0:], it_buf, res_buf, _NO_HIST, counts)
+            self.its[b] += it_total
+            self.res[b] = max(self.res[b], rmax)
+            if st != OK:
+                self.status[b], self.fail_step[b], self.fail_res[b], self.fail_its[b] = st, kend, rn, its
+
     def advance(self, n: int, R_out: np.ndarray, Pi_out: np.ndarray, partial: Any) -> int:
         """Steps ``k .. k + n - 1`` of every body; on a failure ``k`` is the first failed step."""
         from ._kernels import ensemble_kernels as ek
@@ -654,6 +688,8 @@ class _LocalRun:
             run = ek.run_free_parallel if parallel else ek.run_free_serial
             run(s.code, self.Jd, s.ib, h, self.R, self.Pi, self.G, k, n, s.tol, s.max_iter, s.alpha, se, R_out,
                 Pi_out, self.its, self.res, self.status, self.fail_step, self.fail_res, self.fail_its, _NO_HIST)
+        elif getattr(s.model, "moment_func", None) is not None:    # lgvi.torques.Compiled
+            self._advance_user(n, R_out, Pi_out)
         else:
             run = ek.run_forced_parallel if parallel else ek.run_forced_serial
             run(s.code, self.Jd, self.J, self.J_inv, s.ib, h, s.t0, s.gam, s.cum, self.A, self.R, self.Pi, self.G,

@@ -350,6 +350,8 @@ class Run:
         kind = torque_kind(torque)  # lgvi.registry: the one classification of torque=
         if kind == "model":
             self.model = torque
+            if getattr(torque, "moment_func", None) is not None:
+                torque.row()                  # lgvi.torques.Compiled: params (P,) for one body
         elif kind == "callable":
             self.func = torque
         elif kind == "array":
@@ -494,6 +496,19 @@ class Run:
             status, self.k, *tot = kernel(self.code, body.Jd, self.h, self.R, self.Pi, self.G, self.U, self.k, n,
                                           self.tol, self.max_iter, self.alpha, self.save_every, R_out, Pi_out,
                                           it_out, res_out, _NO_HIST, self.counts)
+            self.tally(status, *tot)
+        elif getattr(self.model, "moment_func", None) is not None:   # lgvi.torques.Compiled
+            from ._kernels.user_kernels import run_chunk_user
+
+            m = self.model
+            status, self.k, *tot = run_chunk_user(m.moment_func, m.row(), np.zeros((3, 3)), np.zeros(3),
+                                                  m.conservative, m.depends_on_momentum, self.code, body.Jd, body.J,
+                                                  body.J_inv, self.h, self.t0, self.gam, self.cum, self.A, self.R,
+                                                  self.Pi, self.G, self.gidx, self.S, self.codes, self.params,
+                                                  int(self.sym), self.k, n, self.tol, self.max_iter, self.alpha,
+                                                  self.save_every, self.save_every, R_out, Pi_out, it_out,
+                                                  res_out, _NO_HIST,
+                                                  self.counts)
             self.tally(status, *tot)
         else:
             status, self.k, *tot = run_chunk_forced(self.code, body.Jd, body.J, body.J_inv, self.h, self.t0,

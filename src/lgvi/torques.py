@@ -63,6 +63,7 @@ from ._validation import as_float, as_float_array, as_rotation
 
 __all__ = [
     "AttitudePD",
+    "Compiled",
     "Constant",
     "GravityGradient",
     "LinearDamping",
@@ -193,8 +194,12 @@ class TorqueModel:
         return {}
 
     # -- kernel encoding ------------------------------------------------------------------
-    def _terms(self) -> list[tuple[int, np.ndarray]]:  # pragma: no cover - abstract
-        raise NotImplementedError
+    def _terms(self) -> list[tuple[int, np.ndarray]]:
+        raise NotImplementedError(
+            f"{type(self).__name__} subclasses TorqueModel but does not implement _terms(), its kernel "
+            "encoding (a list of (kind code, parameters) with a branch in lgvi._kernels.torque_kernels; "
+            "see docs/architecture.md), nor moment(t, R, Pi, body). For a moment written in Python "
+            "compiled with numba.njit, use lgvi.torques.Compiled(moment, potential=..., params=...) instead")
 
     @property
     def terms(self) -> tuple["TorqueModel", ...]:
@@ -236,7 +241,10 @@ class TorqueModel:
         -------
         (..., 3) ndarray
         """
-        raise NotImplementedError  # pragma: no cover - abstract
+        raise NotImplementedError(
+            f"{type(self).__name__} subclasses TorqueModel but does not implement moment(t, R, Pi, body), "
+            "the NumPy evaluation of its moment (and _terms(), its kernel encoding; see "
+            "docs/architecture.md). For a moment compiled with numba.njit, use lgvi.torques.Compiled")
 
     def potential(self, t: Any, R: Any, body: Any) -> np.ndarray | None:
         """Potential energy ``U(t, R)`` (shape ``R.shape[:-2]``), or ``None`` if not conservative."""
@@ -630,3 +638,159 @@ class TorqueSum(TorqueModel):
                 v = m.potential(t, R, body)
                 total = v if total is None else total + v
         return total
+
+
+def _is_dispatcher(f: Any) -> bool:
+    try:
+        from numba.core.registry import CPUDispatcher
+    except Exception:  # pragma: no cover
+        return False
+    return isinstance(f, CPUDispatcher)
+
+
+class Compiled(TorqueModel):
+    r"""A moment the user writes and compiles with ``numba.njit``; it runs inside the compiled loops.
+
+    Parameters
+    ----------
+    moment : numba.njit function
+        ``moment(t, R, Pi, params)`` -> the body-frame moment, a tuple of 3 floats or a (3,)
+        array; ``t`` float, ``R`` (3, 3), ``Pi`` (3,), ``params`` (P,) float64 arrays.
+    potential : numba.njit function, optional
+        ``potential(t, R, params)`` -> float, with ``moment = -dU`` (see the module notes). With
+        it the model is conservative: the variational (symmetric) LGVI is used for it and
+        :attr:`lgvi.Trajectory.energy` includes it. ``moment`` must then not depend on ``Pi``.
+    params : array_like, optional
+        (P,) parameters passed to the functions (default empty); for
+        :func:`lgvi.simulate_ensemble` also (B, P), one row per body.
+    momentum_dependent : bool
+        ``moment`` depends on ``Pi`` (with ``forcing="symmetric"`` its momentum equation is then
+        solved by fixed-point iteration to ``tol``).
+
+    Notes
+    -----
+    The loop is specialised for the user's functions and compiled in memory (once per process
+    and function; Numba cannot cache it on disk). A trial call at ``R = I``, ``Pi = 0``,
+    ``t = 0`` checks that the functions compile and return finite values of the right shape.
+    No invariants are declared. A non-finite moment during a run stops it with
+    :class:`lgvi.ConvergenceError` holding the partial trajectory.
+
+    Examples
+    --------
+    >>> import numba, numpy as np
+    >>> from lgvi.torques import Compiled
+    >>> @numba.njit
+    ... def spring(t, R, Pi, p):
+    ...     return (-p[0] * R[2, 1], p[0] * R[2, 0], 0.0)
+    >>> Compiled(spring, params=[2.0]).moment(0.0, np.eye(3), np.zeros(3), None)
+    array([-0.,  0.,  0.])
+    """
+
+    def __init__(self, moment: Any, *, potential: Any = None, params: Any = None,
+                 momentum_dependent: bool = False):
+        for name, f in (("moment", moment), ("potential", potential)):
+            if f is not None and not _is_dispatcher(f):
+                raise TypeError(f"Compiled: {name} must be a function compiled with @numba.njit "
+                                f"(decorate it: @numba.njit def {name}(...)), got {type(f).__name__} {f!r}")
+        if not isinstance(momentum_dependent, (bool, np.bool_)):
+            raise TypeError(f"momentum_dependent must be True or False, got {momentum_dependent!r}")
+        if potential is not None and momentum_dependent:
+            raise ValueError("Compiled: a model with a potential is conservative, its moment cannot depend on Pi "
+                             "(momentum_dependent=True); write the Pi-dependent part as a second model")
+        p = np.zeros(0) if params is None else np.array(params, dtype=np.float64)
+        if p.ndim not in (1, 2):
+            raise ValueError(f"Compiled: params must have shape (P,) or (B, P) (one row per body of an "
+                             f"ensemble), got shape {p.shape}")
+        if not np.all(np.isfinite(p)):
+            raise ValueError(f"Compiled: params must be finite, got {p}")
+        self.moment_func = moment
+        self.potential_func = potential
+        self.params = _readonly(p)
+        self.depends_on_momentum = bool(momentum_dependent)
+        self.conservative = potential is not None
+        self.time_dependent = True          # the user's functions receive t: assume they use it
+        for row in (self.params if p.ndim == 2 else self.params[None]):
+            self._trial(np.ascontiguousarray(row))
+
+    def _trial(self, row: np.ndarray) -> None:
+        name = getattr(self.moment_func, "__name__", "moment")
+        try:
+            m = np.asarray(self.moment_func(0.0, np.eye(3), np.zeros(3), row), dtype=np.float64)
+        except Exception as exc:
+            raise TypeError(f"Compiled: the trial call {name}(0.0, R=I, Pi=zeros(3), params) failed: "
+                            f"{type(exc).__name__}: {exc}") from exc
+        if m.shape != (3,) or not np.all(np.isfinite(m)):
+            raise ValueError(f"Compiled: {name}(t, R, Pi, params) must return 3 finite numbers (a tuple or a (3,) "
+                             f"array), got {m!r} (shape {m.shape}) at t=0, R=I, Pi=0")
+        if self.potential_func is not None:
+            pname = getattr(self.potential_func, "__name__", "potential")
+            try:
+                u = np.asarray(self.potential_func(0.0, np.eye(3), row), dtype=np.float64)
+            except Exception as exc:
+                raise TypeError(f"Compiled: the trial call {pname}(0.0, R=I, params) failed: "
+                                f"{type(exc).__name__}: {exc}") from exc
+            if u.shape != () or not np.isfinite(u):
+                raise ValueError(f"Compiled: {pname}(t, R, params) must return a finite float, got {u!r}")
+
+    def __repr__(self) -> str:
+        text = f"Compiled({getattr(self.moment_func, '__name__', '?')}"
+        if self.potential_func is not None:
+            text += f", potential={getattr(self.potential_func, '__name__', '?')}"
+        if self.params.size:
+            text += f", params shape {self.params.shape}"
+        if self.depends_on_momentum:
+            text += ", momentum_dependent=True"
+        return text + ")"
+
+    def __add__(self, other: Any) -> Any:
+        raise TypeError("a Compiled torque model cannot be added to other models: write the sum in the "
+                        "compiled moment (and potential)")
+
+    __radd__ = __add__  # type: ignore[assignment]
+
+    def __eq__(self, other: object) -> bool:
+        return self is other
+
+    def __hash__(self) -> int:
+        return id(self)
+
+    def _terms(self):
+        return []
+
+    def encode(self) -> tuple[np.ndarray, np.ndarray]:
+        return np.zeros((0, 2), dtype=np.int64), np.zeros(0)
+
+    def row(self, b: int | None = None) -> np.ndarray:
+        """The (P,) parameters (of body ``b`` when ``params`` is (B, P))."""
+        if self.params.ndim == 1:
+            return np.ascontiguousarray(self.params)
+        if b is None:
+            if self.params.shape[0] == 1:
+                return np.ascontiguousarray(self.params[0])
+            raise ValueError(f"Compiled: params of shape {self.params.shape} (one row per body) are for "
+                             "simulate_ensemble; simulate takes params of shape (P,)")
+        return np.ascontiguousarray(self.params[b])
+
+    def moment(self, t, R, Pi, body, b: int | None = None):
+        R, Pi = _state(R, Pi)
+        p = self.row(b)
+        lead = R.shape[:-2]
+        t = np.broadcast_to(_time(t), lead)
+        Pi = np.broadcast_to(Pi, lead + (3,))
+        out = np.empty(lead + (3,))
+        for i in np.ndindex(*lead):
+            out[i] = np.asarray(self.moment_func(float(t[i]), np.ascontiguousarray(R[i]),
+                                                 np.ascontiguousarray(Pi[i]), p), dtype=np.float64)
+        return out
+
+    def potential(self, t, R, body, b: int | None = None):
+        if self.potential_func is None:
+            return None
+        R, _ = _state(R)
+        p = self.row(b)
+        lead = R.shape[:-2]
+        t = np.broadcast_to(_time(t), lead)
+        out = np.empty(lead)
+        for i in np.ndindex(*lead):
+            out[i] = float(self.potential_func(float(t[i]), np.ascontiguousarray(R[i]), p))
+        return out

@@ -1,0 +1,247 @@
+"""Stepping loop for a torque model the user compiles (:class:`lgvi.torques.Compiled`).
+
+:func:`run_chunk_user` is :func:`.stepping.run_chunk_forced` with one more moment: the user's
+``moment(t, R, Pi, params)``, a ``numba.njit`` function passed as an argument, so Numba
+specialises the loop for it. It is compiled without the on-disk cache (a user's function is not
+importable by a later process) and with reference counting on (the user's function may return a
+new array; a loop without reference counting would leak it).
+
+The user's moment goes into the conservative part ``P`` when the model has a potential, into
+``N`` otherwise. A moment that depends on ``Pi`` (``mdep``) with symmetric forcing makes the
+momentum equation ``Pi = b + hs/2 (P + N(Pi))`` implicit; it is solved by fixed-point
+iteration (``NOT_CONVERGED`` when it does not converge in ``max_iter`` evaluations).
+The user's function receives ``R`` and ``Pi`` in the scratch arrays ``Rs`` (3,3), ``Ps`` (3,).
+"""
+
+from __future__ import annotations
+
+import math
+
+from .._jit import jit
+from .codes import NOT_CONVERGED, OK, OVERFLOW
+from .solvers import EPS
+from .stepping import finite_moments, push_at, rotated_row, solve_warm
+from .torque_kernels import model_moments, model_moments_s, momentum_diag
+
+
+@jit(inline="always")
+def user_moment(moment, up, Rs, Ps, t, Rt, p0, p1, p2):
+    """The user's moment at ``(t, R, Pi)`` as three numbers (a returned tuple or array)."""
+    Rs[0, 0], Rs[0, 1], Rs[0, 2], Rs[1, 0], Rs[1, 1], Rs[1, 2], Rs[2, 0], Rs[2, 1], Rs[2, 2] = Rt
+    Ps[0] = p0
+    Ps[1] = p1
+    Ps[2] = p2
+    m = moment(t, Rs, Ps, up)
+    return float(m[0]), float(m[1]), float(m[2])
+
+
+@jit(inline="always")
+def user_stage_s(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, hs, t1, Rt, Pt, Mt, G, j, codes, params,
+                 D0, D1, D2, has_D, A, i_A, sym, tol, max_iter, alpha, hist):
+    """:func:`.stepping.forced_stage_s` with the user's moment added (see the module notes)."""
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = Rt
+    pi0, pi1, pi2 = Pt
+    P0, P1, P2, N0, N1, N2 = Mt
+    hh = 0.5 * hs
+    if sym:
+        m0 = pi0 + hh * (P0 + N0)
+        m1 = pi1 + hh * (P1 + N1)
+        m2 = pi2 + hh * (P2 + N2)
+    else:
+        m0 = pi0 + hh * P0
+        m1 = pi1 + hh * P1
+        m2 = pi2 + hh * P2
+    (g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its, rn,
+     st) = solve_warm(method, Jd, J_inv, hs * m0, hs * m1, hs * m2, G, j, tol, max_iter, alpha, hist)
+    if st != OK:
+        return its, rn, st, Rt, Pt, Mt
+    r00, r01, r02 = rotated_row(r00, r01, r02, E00, E01, E02, E10, E11, E12, E20, E21, E22)
+    r10, r11, r12 = rotated_row(r10, r11, r12, E00, E01, E02, E10, E11, E12, E20, E21, E22)
+    r20, r21, r22 = rotated_row(r20, r21, r22, E00, E01, E02, E10, E11, E12, E20, E21, E22)
+    R1 = (r00, r01, r02, r10, r11, r12, r20, r21, r22)
+    b0 = m0 + (E00 * m0 + E10 * m1 + E20 * m2)
+    b1 = m1 + (E01 * m0 + E11 * m1 + E21 * m2)
+    b2 = m2 + (E02 * m0 + E12 * m1 + E22 * m2)
+    P0, P1, P2, Q0, Q1, Q2 = model_moments_s(codes, params, J, t1, r00, r01, r02, r10, r11, r12, r20, r21, r22)
+    u0 = 0.0
+    u1 = 0.0
+    u2 = 0.0
+    if cons:
+        u0, u1, u2 = user_moment(moment, up, Rs, Ps, t1, R1, b0, b1, b2)
+        P0 += u0
+        P1 += u1
+        P2 += u2
+    elif not mdep:
+        u0, u1, u2 = user_moment(moment, up, Rs, Ps, t1, R1, b0, b1, b2)
+        Q0 += u0
+        Q1 += u1
+        Q2 += u2
+    if sym:
+        b0 += hh * (P0 + Q0)
+        b1 += hh * (P1 + Q1)
+        b2 += hh * (P2 + Q2)
+        if has_D:
+            c0 = A[i_A, 0, 0] * b0 + A[i_A, 0, 1] * b1 + A[i_A, 0, 2] * b2
+            c1 = A[i_A, 1, 0] * b0 + A[i_A, 1, 1] * b1 + A[i_A, 1, 2] * b2
+            c2 = A[i_A, 2, 0] * b0 + A[i_A, 2, 1] * b1 + A[i_A, 2, 2] * b2
+            b0 = c0
+            b1 = c1
+            b2 = c2
+        if mdep and not cons:
+            # Pi = b + hs/2 N_user(Pi): fixed-point iteration (converged when the change is at the
+            # tolerance or at round-off of the terms)
+            a0 = b0
+            a1 = b1
+            a2 = b2
+            x0 = b0
+            x1 = b1
+            x2 = b2
+            done = False
+            for it in range(max_iter + 1):
+                u0, u1, u2 = user_moment(moment, up, Rs, Ps, t1, R1, x0, x1, x2)
+                y0 = a0 + hh * u0
+                y1 = a1 + hh * u1
+                y2 = a2 + hh * u2
+                ch = math.sqrt((y0 - x0) ** 2 + (y1 - x1) ** 2 + (y2 - x2) ** 2)
+                ny = math.sqrt(y0 * y0 + y1 * y1 + y2 * y2)
+                na = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+                nu = abs(hh) * math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+                x0 = y0
+                x1 = y1
+                x2 = y2
+                if not (ch <= tol * ny + 4.0 * EPS * (na + nu)):
+                    continue
+                done = True
+                break
+            if not done:
+                return its, ch, NOT_CONVERGED, Rt, Pt, Mt
+            # the accepted momentum is the last point where N was evaluated
+            u0, u1, u2 = user_moment(moment, up, Rs, Ps, t1, R1, x0, x1, x2)
+            b0 = x0
+            b1 = x1
+            b2 = x2
+    else:
+        b0 += hh * P0 + hs * N0
+        b1 += hh * P1 + hs * N1
+        b2 += hh * P2 + hs * N2
+        if mdep and not cons:
+            u0, u1, u2 = user_moment(moment, up, Rs, Ps, t1, R1, b0, b1, b2)
+    if mdep and not cons:
+        Q0 += u0
+        Q1 += u1
+        Q2 += u2
+    if has_D:
+        Q0 -= D0 * (J_inv[0, 0] * b0 + J_inv[0, 1] * b1 + J_inv[0, 2] * b2)
+        Q1 -= D1 * (J_inv[1, 0] * b0 + J_inv[1, 1] * b1 + J_inv[1, 2] * b2)
+        Q2 -= D2 * (J_inv[2, 0] * b0 + J_inv[2, 1] * b1 + J_inv[2, 2] * b2)
+    push_at(G, j, g0, g1, g2)
+    return its, rn, st, R1, (b0, b1, b2), (P0, P1, P2, Q0, Q1, Q2)
+
+
+@jit(cache=False)
+def init_user_moments(moment, up, Rs, Ps, cons, codes, params, J, J_inv, t, R, Pi, S):
+    """Fill the moment cache ``S`` at ``(t, R, Pi)`` (built-in terms plus the user's moment)."""
+    Rt = (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2])
+    P0, P1, P2, Q0, Q1, Q2 = model_moments(codes, params, J, t, R)
+    D0, D1, D2 = momentum_diag(codes, params)
+    u0, u1, u2 = user_moment(moment, up, Rs, Ps, t, Rt, Pi[0], Pi[1], Pi[2])
+    if cons:
+        P0 += u0
+        P1 += u1
+        P2 += u2
+    else:
+        Q0 += u0
+        Q1 += u1
+        Q2 += u2
+    S[0] = P0
+    S[1] = P1
+    S[2] = P2
+    S[3] = Q0 - D0 * (J_inv[0, 0] * Pi[0] + J_inv[0, 1] * Pi[1] + J_inv[0, 2] * Pi[2])
+    S[4] = Q1 - D1 * (J_inv[1, 0] * Pi[0] + J_inv[1, 1] * Pi[1] + J_inv[1, 2] * Pi[2])
+    S[5] = Q2 - D2 * (J_inv[2, 0] * Pi[0] + J_inv[2, 1] * Pi[1] + J_inv[2, 2] * Pi[2])
+    S[6] = 1.0
+
+
+@jit(cache=False)
+def run_chunk_user(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S,
+                   codes, params, sym, k0, n, tol, max_iter, alpha, save_every, countdown, R_out, Pi_out, it_out,
+                   res_out, hist, counts):
+    """:func:`.stepping.run_chunk_forced` (no torque array) with the user's moment; same outputs.
+
+    The first sample is stored after ``countdown`` steps (``save_every`` when ``k0`` is a multiple
+    of it) at ``R_out[0]``, then every ``save_every`` steps.
+    """
+    s = gam.shape[0]
+    D0, D1, D2 = momentum_diag(codes, params)
+    has_D = D0 != 0.0 or D1 != 0.0 or D2 != 0.0
+    if S[6] == 0.0:
+        init_user_moments(moment, up, Rs, Ps, cons, codes, params, J, J_inv, t0 + k0 * h, R, Pi, S)
+    jout = 0
+    Rt = (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2])
+    Pt = (Pi[0], Pi[1], Pi[2])
+    Mt = (S[0], S[1], S[2], S[3], S[4], S[5])
+    status = OK
+    kend = k0 + n
+    per_step = it_out.shape[0] == n
+    nbins = counts.shape[0]
+    it_total = 0
+    rmax_all = 0.0
+    its_sum = 0
+    rlast = 0.0
+    rn = 0.0
+    imax = 0
+    rimax = 0.0
+    for k in range(k0, k0 + n):
+        its_sum = 0
+        rmax = 0.0
+        Rx, Px, Mx = Rt, Pt, Mt
+        for i in range(s):
+            t1 = t0 + (k + cum[i + 1]) * h
+            its, rn, st, Rx, Px, Mx = user_stage_s(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, gam[i] * h,
+                                                   t1, Rx, Px, Mx, G, gidx[i], codes, params, D0, D1, D2, has_D, A,
+                                                   i, sym, tol, max_iter, alpha, hist)
+            its_sum += its
+            if rn > rmax:
+                rmax = rn
+            if st == OK and not finite_moments(Px, Mx):
+                st = OVERFLOW
+            if st != OK:
+                status = st
+                break
+        it_total += its_sum
+        if per_step:
+            it_out[k - k0] = its_sum
+        if status != OK:
+            if per_step:
+                res_out[k - k0] = rn
+            rlast = rn
+            kend = k
+            break
+        if per_step:
+            res_out[k - k0] = rmax
+        rlast = rmax
+        if rmax > rmax_all:
+            rmax_all = rmax
+        if its_sum > imax:
+            imax = its_sum
+        if rmax > rimax:
+            rimax = rmax
+        if nbins > 0:
+            counts[min(its_sum, nbins - 1)] += 1
+        Rt, Pt, Mt = Rx, Px, Mx
+        countdown -= 1
+        if countdown == 0:
+            countdown = save_every
+            (R_out[jout, 0, 0], R_out[jout, 0, 1], R_out[jout, 0, 2], R_out[jout, 1, 0], R_out[jout, 1, 1],
+             R_out[jout, 1, 2], R_out[jout, 2, 0], R_out[jout, 2, 1], R_out[jout, 2, 2]) = Rt
+            Pi_out[jout, 0], Pi_out[jout, 1], Pi_out[jout, 2] = Pt
+            if not per_step:
+                it_out[jout] = imax
+                res_out[jout] = rimax
+            imax = 0
+            rimax = 0.0
+            jout += 1
+    R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2] = Rt
+    Pi[0], Pi[1], Pi[2] = Pt
+    S[0], S[1], S[2], S[3], S[4], S[5] = Mt
+    return status, kend, it_total, rmax_all, its_sum, rlast
