@@ -421,12 +421,6 @@ class Run:
         counts0, it0 = self._mark
         return summary_dict(self.counts - counts0, self.it_total - it0, self.res_max)
 
-    def count_step(self, its: int, rn: float) -> None:
-        """Add one step taken to the totals (the Python loops of torque callables)."""
-        self.counts[min(int(its), HIST_BINS - 1)] += 1
-        self.it_total += int(its)
-        self.res_max = max(self.res_max, float(rn))
-
     def count_steps(self, its: np.ndarray, res: np.ndarray) -> None:
         """Add the steps taken, their iterations ``its`` and residuals ``res``, to the totals."""
         if len(its):
@@ -559,125 +553,128 @@ def _run_callable_symmetric(run: _Run, n: int, R_out, Pi_out, it_out, res_out, p
     Jd = body.Jd
     s = len(gam)
     k0 = run.k
-    countdown = run.save_every
-    j = 0
-    per_step = len(it_out) == n
-    imax, rimax = 0, 0.0
-    for k in range(k0, k0 + n):
-        R_start = R.copy()
-        Pi_start = Pi.copy()
-        M_start = run.M_cb
-        its_sum = 0
-        rmax = 0.0
-        for i in range(s):
-            hs = gam[i] * h
-            t1 = t0 + (k + cum[i + 1]) * h
-            if run.M_cb is None:
-                run.M_cb = _call_torque(func, t0 + (k + cum[i]) * h, R, Pi, k, partial)
-            M = run.M_cb
-            its, rn, st = shifted_step(code, Jd, body.J_inv, hs, R, Pi, G, i, M[0], M[1], M[2], tol, max_iter,
-                                       alpha, _NO_HIST)
-            its_sum += its
-            rmax = max(rmax, rn)
-            if st != OK:
-                if per_step:
-                    it_out[k - k0] = its_sum
-                    res_out[k - k0] = rn
-                run.last_its, run.last_res = int(its_sum), float(rn)
-                R[:] = R_start
-                Pi[:] = Pi_start
-                run.M_cb = M_start
-                return st, k
-            a = Pi.copy()
-            P = a + (0.5 * hs) * M
-            for _ in range(max_iter + 1):
-                M = _call_torque(func, t1, R, P, k, partial)
-                P_next = a + (0.5 * hs) * M
-                change = float(np.linalg.norm(P_next - P))
-                if change <= tol * float(np.linalg.norm(P_next)) + 4.0 * EPS * (
-                        float(np.linalg.norm(a)) + float(np.linalg.norm(0.5 * hs * M))):
-                    break
-                P = P_next
-            else:
-                R[:] = R_start
-                Pi[:] = Pi_start
-                run.M_cb = M_start
-                t = t0 + k * h
-                raise ConvergenceError(
-                    f"step {k} (t = {t:g}): the momentum equation Pi_(k+1) = F^T (Pi_k + h/2 M_k) + h/2 "
-                    f"M(t_(k+1), R_(k+1), Pi_(k+1)) of the symmetric forcing did not converge by fixed-point "
-                    f"iteration in max_iter={max_iter} evaluations (last change {change:.3g}); the torque "
-                    f"callable depends too strongly on Pi for this step: reduce |h|. The run up to step "
-                    f"{k} is in .trajectory.", residual=change, iterations=max_iter, step=k, time=t,
-                    trajectory=partial(k))
-            run.M_cb = M
-            Pi[:] = P
-        if per_step:
-            it_out[k - k0] = its_sum
-            res_out[k - k0] = rmax
-        run.count_step(its_sum, rmax)
-        imax, rimax = max(imax, its_sum), max(rimax, rmax)
-        countdown -= 1
-        if countdown == 0:
-            countdown = run.save_every
-            R_out[j] = R
-            Pi_out[j] = Pi
-            if not per_step:
-                it_out[j], res_out[j] = imax, rimax
-            imax, rimax = 0, 0.0
-            j += 1
-    return OK, k0 + n
+    rec = _CallableRecord(run, n, R_out, Pi_out, it_out, res_out, partial)
+    partial = rec.partial
+    try:
+        for k in range(k0, k0 + n):
+            R_start = R.copy()
+            Pi_start = Pi.copy()
+            M_start = run.M_cb
+            its_sum = 0
+            rmax = 0.0
+            for i in range(s):
+                hs = gam[i] * h
+                t1 = t0 + (k + cum[i + 1]) * h
+                if run.M_cb is None:
+                    run.M_cb = _call_torque(func, t0 + (k + cum[i]) * h, R, Pi, k, partial)
+                M = run.M_cb
+                its, rn, st = shifted_step(code, Jd, body.J_inv, hs, R, Pi, G, i, M[0], M[1], M[2], tol, max_iter,
+                                           alpha, _NO_HIST)
+                its_sum += its
+                rmax = max(rmax, rn)
+                if st != OK:
+                    rec.failed(k - k0, its_sum, rn)
+                    R[:] = R_start
+                    Pi[:] = Pi_start
+                    run.M_cb = M_start
+                    return st, k
+                a = Pi.copy()
+                P = a + (0.5 * hs) * M
+                for _ in range(max_iter + 1):
+                    M = _call_torque(func, t1, R, P, k, partial)
+                    P_next = a + (0.5 * hs) * M
+                    change = float(np.linalg.norm(P_next - P))
+                    if change <= tol * float(np.linalg.norm(P_next)) + 4.0 * EPS * (
+                            float(np.linalg.norm(a)) + float(np.linalg.norm(0.5 * hs * M))):
+                        break
+                    P = P_next
+                else:
+                    R[:] = R_start
+                    Pi[:] = Pi_start
+                    run.M_cb = M_start
+                    t = t0 + k * h
+                    raise ConvergenceError(
+                        f"step {k} (t = {t:g}): the momentum equation Pi_(k+1) = F^T (Pi_k + h/2 M_k) + h/2 "
+                        f"M(t_(k+1), R_(k+1), Pi_(k+1)) of the symmetric forcing did not converge by fixed-point "
+                        f"iteration in max_iter={max_iter} evaluations (last change {change:.3g}); the torque "
+                        f"callable depends too strongly on Pi for this step: reduce |h|. The run up to step "
+                        f"{k} is in .trajectory.", residual=change, iterations=max_iter, step=k, time=t,
+                        trajectory=partial(k))
+                run.M_cb = M
+                Pi[:] = P
+            rec.step(k - k0, its_sum, rmax, R, Pi)
+        return OK, k0 + n
+    finally:
+        rec.flush()
 
 
 def _run_callable(run: _Run, n: int, R_out, Pi_out, it_out, res_out, partial) -> tuple[int, int]:
     """Per-step loop for a Python torque callable (paper forcing): Python calls the torque and one
-    compiled step, steps ``run.k .. run.k + n - 1``. Each step's iterations and residual go to a
-    buffer; the run's totals are added once per chunk (also when the torque raises or Ctrl-C
-    stops the loop), not per step."""
+    compiled step, steps ``run.k .. run.k + n - 1``."""
     from ._kernels.stepping import lgvi_step
 
     func, code, h, R, Pi, G, t0 = run.func, run.code, run.h, run.R, run.Pi, run.G, run.t0
     Jd, tol, max_iter, alpha = run.body.Jd, run.tol, run.max_iter, run.alpha
     k0 = run.k
-    countdown = run.save_every
-    j = 0
-    per_step = len(it_out) == n
-    its_buf = it_out if per_step else np.empty(n, np.int32)
-    res_buf = res_out if per_step else np.empty(n)
-    start = done = counted = 0
-
-    def flush() -> None:  # add the steps not yet counted to the run's totals
-        nonlocal counted
-        run.count_steps(its_buf[counted:done], res_buf[counted:done])
-        counted = done
-
-    def partial_counted(k: int):  # a partial trajectory reads the totals: count first
-        flush()
-        return partial(k)
-
+    rec = _CallableRecord(run, n, R_out, Pi_out, it_out, res_out, partial)
     try:
         for k in range(k0, k0 + n):
-            i = k - k0
-            u = _call_torque(func, t0 + k * h, R, Pi, k, partial_counted)
+            u = _call_torque(func, t0 + k * h, R, Pi, k, rec.partial)
             its, res, st = lgvi_step(code, Jd, h, R, Pi, G, u[0], u[1], u[2], tol, max_iter, alpha, _NO_HIST)
-            its_buf[i] = its
-            res_buf[i] = res
             if st != OK:
-                run.last_its, run.last_res = int(its), float(res)
+                rec.failed(k - k0, its, res)
                 return st, k
-            done = i + 1
-            countdown -= 1
-            if countdown == 0:
-                countdown = run.save_every
-                R_out[j] = R
-                Pi_out[j] = Pi
-                if not per_step:
-                    it_out[j], res_out[j] = its_buf[start:done].max(), res_buf[start:done].max()
-                start = done
-                j += 1
+            rec.step(k - k0, its, res, R, Pi)
         return OK, k0 + n
     finally:
-        flush()
+        rec.flush()
+
+
+class _CallableRecord:
+    """The solver record of a Python-callable loop's chunk. Each step's iterations and residual go
+    to a buffer (the caller's per-step record, or a scratch one); a saved sample takes its
+    interval's largest; the run's totals are added once per chunk, and before a partial trajectory
+    is built (:meth:`partial`), never per step."""
+
+    def __init__(self, run: _Run, n: int, R_out, Pi_out, it_out, res_out, partial) -> None:
+        self.run, self.R_out, self.Pi_out, self.it_out, self.res_out = run, R_out, Pi_out, it_out, res_out
+        self.per_step = per_step = len(it_out) == n
+        self.its = it_out if per_step else np.empty(n, np.int32)
+        self.res = res_out if per_step else np.empty(n)
+        self.done = self.counted = self.start = self.j = 0
+        self.countdown = run.save_every
+        self._partial = partial
+
+    def failed(self, i: int, its: int, res: float) -> None:
+        """Step ``i`` of the chunk failed: kept in a per-step record, not counted."""
+        self.its[i], self.res[i] = its, res
+        self.run.last_its, self.run.last_res = int(its), float(res)
+
+    def step(self, i: int, its: int, res: float, R, Pi) -> None:
+        """Step ``i`` of the chunk is done, the state is now ``(R, Pi)``."""
+        self.its[i], self.res[i] = its, res
+        self.done = i + 1
+        self.countdown -= 1
+        if self.countdown == 0:
+            self.countdown = self.run.save_every
+            j = self.j
+            self.R_out[j] = R
+            self.Pi_out[j] = Pi
+            if not self.per_step:
+                self.it_out[j] = self.its[self.start:self.done].max()
+                self.res_out[j] = self.res[self.start:self.done].max()
+            self.start = self.done
+            self.j = j + 1
+
+    def flush(self) -> None:
+        """Add the steps not yet counted to the run's totals."""
+        self.run.count_steps(self.its[self.counted:self.done], self.res[self.counted:self.done])
+        self.counted = self.done
+
+    def partial(self, k: int):
+        """The run's partial trajectory up to step ``k`` (it reads the totals: count first)."""
+        self.flush()
+        return self._partial(k)
 
 
 __all__ = ["COMPOSITIONS", "Composition", "DEFAULT_COMPOSITION", "Run", "StepResult", "simulate",
