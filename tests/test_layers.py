@@ -29,7 +29,7 @@ LAYERS: dict[str, int] = {
     "registry": 2, "torques": 2, "invariants": 2, "implicit": 2, "accuracy": 2, "trajectory": 2,
     "discrete": 2, "reference": 2, "exact": 2,
     # 3: systems and the driver (the core)
-    "driver": 3, "systems": 3, "integrator": 3, "ensemble": 3, "modified": 3,
+    "driver": 3, "systems": 3, "integrator": 3, "ensemble": 3, "modified": 3, "optimal": 3,
     # 4: input/output, verification baselines
     "streaming": 4, "outputs": 4, "scenario": 4, "baselines": 4,
     # 5: plots; 6: the command line and the package's front door

@@ -7,7 +7,7 @@ Public names (everything else is private):
 - :func:`solve_implicit`, :class:`ImplicitSolution`
 - :class:`ConvergenceError`, :class:`TorqueError`, :class:`SimulationInterrupted`, :class:`AccuracyWarning`,
   :class:`AttitudeWarning`
-- modules :mod:`lgvi.so3`, :mod:`lgvi.torques`, :mod:`lgvi.reference`, :mod:`lgvi.baselines`, :mod:`lgvi.exact`,
+- modules :mod:`lgvi.optimal` (optimal control and adjoint gradients), :mod:`lgvi.so3`, :mod:`lgvi.torques`, :mod:`lgvi.reference`, :mod:`lgvi.baselines`, :mod:`lgvi.exact`,
   :mod:`lgvi.accuracy` (the error estimate of ``simulate(..., error_estimate=True)``)
 
 Importing lgvi compiles nothing: kernels are compiled (or loaded from Numba's cache) on first use.
@@ -15,6 +15,7 @@ Numba itself is imported here (about 0.3 s) so that the first simulation does no
 """
 
 from . import _jit  # noqa: F401  (imports Numba now; compiles nothing)
+from . import optimal as optimal
 from . import so3 as so3
 from . import torques as torques
 from ._version import __version__ as __version__
@@ -55,6 +56,7 @@ __all__ = [
     "jd_to_inertia",
     "load",
     "load_ensemble",
+    "optimal",
     "simulate",
     "simulate_ensemble",
     "simulate_modified",
