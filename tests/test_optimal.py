@@ -201,3 +201,48 @@ def test_failure_raises_with_the_best_iterate():
     assert err.best is not None and err.best.u.shape == (12, 3)
     assert "attitude" in str(err) or "rate" in str(err) or "did not converge" in str(err)
     assert set(err.violation) >= {"attitude", "rate"}
+
+
+# ------------------------------------------------------------------------------- identification
+def _synthetic(sigma, seed, M=101, every=2, h=0.05):
+    from lgvi.optimal import identify_inertia
+
+    Q = so3.exp([0.3, -0.4, 0.5])
+    J_true = Q @ np.diag([1.0, 1.7, 2.4]) @ Q.T
+    N = (M - 1) * every
+    t = h * np.arange(N)
+    U = np.stack([0.5 * np.sin(t), 0.4 * np.cos(0.7 * t), 0.3 * np.sin(1.3 * t + 1.0)], axis=1)
+    w0 = np.array([0.8, -0.5, 0.9])
+    run = rollout(J_true, so3.exp([0.2, 0.1, 0.3]), J_true @ w0, h, U)
+    idx = np.arange(M) * every
+    rng = np.random.default_rng(seed)
+    R_meas = run.R[idx] @ so3.exp(sigma * rng.normal(size=(M, 3)))
+    omega_meas = run.omega[idx] + sigma * rng.normal(size=(M, 3))
+    fit = identify_inertia(np.diag([1.2, 1.5, 2.2]), h=h, R0=R_meas[0], omega0=omega_meas[0], R_meas=R_meas,
+                           omega_meas=omega_meas, sigma_R=sigma, sigma_omega=sigma, every=every, u=U)
+    return fit, J_true
+
+
+def test_identify_inertia_recovers_J_within_the_noise():
+    from lgvi.optimal.identify import ENTRIES
+
+    for sigma in (1e-3, 1e-4):
+        fit, J_true = _synthetic(sigma, seed=0)
+        d = np.array([(fit.inertia - J_true)[i, j] for i, j in ENTRIES])
+        z = d / np.array([fit.standard_error[i, j] for i, j in ENTRIES])
+        assert np.abs(z).max() < 4.0, z                                  # error / predicted standard error
+        assert d @ np.linalg.solve(fit.covariance, d) < 27.9            # chi^2(6) at 0.9999
+        assert 0.2 * sigma < fit.standard_error.max() < 2.0 * sigma     # the uncertainty follows the noise
+        assert 0.7 < 2 * fit.cost / fit.residuals < 1.3                 # whitened residuals of unit variance
+        assert np.all(np.linalg.eigvalsh(fit.inertia) > 0)
+
+
+def test_identify_inertia_refuses_an_unobservable_scale():
+    from lgvi.optimal import identify_inertia
+
+    with pytest.raises(ValueError, match="scale of J is unobservable"):
+        identify_inertia([1.0, 2.0, 2.5], h=0.1, R0=np.eye(3), omega0=[0.1, 0.2, 0.3],
+                         omega_meas=np.zeros((5, 3)), sigma_omega=1e-3)
+    with pytest.raises(ValueError, match="sigma_R"):
+        identify_inertia([1.0, 2.0, 2.5], h=0.1, R0=np.eye(3), omega0=[0.1, 0.2, 0.3],
+                         R_meas=np.stack([np.eye(3)] * 5), u=np.ones((4, 3)))

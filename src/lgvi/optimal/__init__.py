@@ -19,3 +19,6 @@ __all__ = ["AttitudeError", "Effort", "Gradient", "RateError", "Rollout", "Termi
 from .transfer import InfeasibleTransferError, TransferError, TransferResult, reachable_angle, transfer
 
 __all__ += ["InfeasibleTransferError", "TransferError", "TransferResult", "reachable_angle", "transfer"]
+from .identify import InertiaFit, identify_inertia
+
+__all__ += ["InertiaFit", "identify_inertia"]
