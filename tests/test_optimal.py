@@ -94,6 +94,12 @@ def test_reverse_pass_takes_many_seeds_at_once():
         one = reverse(run, dR[s:s + 1], dP[s:s + 1], du[s:s + 1])
         np.testing.assert_array_equal(one[0][0], lam[s])
         np.testing.assert_array_equal(one[1][0], gu[s])
+    # terminal-only partials, (S, 1, 3), are the full arrays with zeros before step N
+    full = [np.zeros_like(dR), np.zeros_like(dP)]
+    full[0][:, -1], full[1][:, -1] = dR[:, -1], dP[:, -1]
+    a, b = reverse(run, full[0], full[1], du), reverse(run, dR[:, -1:], dP[:, -1:], du)
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x, y)
 
 
 def test_rollout_agrees_with_simulate():

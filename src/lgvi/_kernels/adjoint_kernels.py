@@ -156,6 +156,9 @@ def forward_run(Jd, J, J_inv, h, t0, R, Pi, F, P, U, sym, codes, params, tol, ma
     q0 = 0.0
     q1 = 0.0
     q2 = 0.0
+    z0 = 0.0
+    z1 = 0.0
+    z2 = 0.0
     for k in range(N):
         hh = 0.5 * h
         m0 = Pi[k, 0] + hh * (P[k, 0] + aa * U[k, 0])
@@ -164,13 +167,18 @@ def forward_run(Jd, J, J_inv, h, t0, R, Pi, F, P, U, sym, codes, params, tol, ma
         p0 = h * m0
         p1 = h * m1
         p2 = h * m2
-        # guess: the linearisation J w = h m, then linear extrapolation of the last two solutions
+        # guess: the linearisation J w = h m, then the extrapolation of the last solutions
+        # (quadratic from the fourth step: O(h^3) off, one Newton update usually lands at round-off)
         if k == 0:
             w0, w1, w2 = matvec(J_inv, p0, p1, p2)
         elif k == 1:
             w0, w1, w2 = g0, g1, g2
-        else:
+        elif k == 2:
             w0, w1, w2 = 2.0 * g0 - q0, 2.0 * g1 - q1, 2.0 * g2 - q2
+        else:
+            w0 = 3.0 * (g0 - q0) + z0
+            w1 = 3.0 * (g1 - q1) + z1
+            w2 = 3.0 * (g2 - q2) + z2
         (n0, n1, n2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, rn,
          st) = solve_scalar(METHOD_NEWTON, d00, d01, d02, d11, d12, d22, p0, p1, p2, w0, w1, w2, tol, max_iter,
                             1.0, hist)
@@ -178,6 +186,7 @@ def forward_run(Jd, J, J_inv, h, t0, R, Pi, F, P, U, sym, codes, params, tol, ma
         res[k] = rn
         if st != OK:
             return st, k
+        z0, z1, z2 = q0, q1, q2
         q0, q1, q2 = g0, g1, g2
         g0, g1, g2 = n0, n1, n2
         F[k, 0, 0] = 1.0 + E00
@@ -222,7 +231,8 @@ def adjoint_run(Jd, h, t0, J, R, Pi, F, P, U, sym, codes, params, dR, dP, du, la
 
     ``dR`` (S,N+1,3), ``dP`` (S,N+1,3): the partial derivatives of each function with respect to
     ``zeta_k`` (left-trivialised, ``R_k -> R_k exp(hat zeta_k)``) and ``Pi_k`` at every step;
-    ``du`` (S,Nu,3) its partials in the controls. Out: ``lam`` (S,6) the gradients in
+    ``du`` (S,Nu,3) its partials in the controls. ``dR`` and ``dP`` of shape (S,1,3) hold the
+    partials at step ``N`` only (a terminal cost: no (S,N+1,3) arrays to fill and read). Out: ``lam`` (S,6) the gradients in
     ``(zeta_0, Pi_0)``; ``gu`` (S,Nu,3) in the controls; ``gJ`` (S,3,3) in the inertia
     (symmetric, ``dC = <gJ, dJ>`` for symmetric ``dJ``); ``gh`` (S,) in the step size (the grid
     ``t_k = t0 + k h`` moving with it).
@@ -232,13 +242,15 @@ def adjoint_run(Jd, h, t0, J, R, Pi, F, P, U, sym, codes, params, dR, dP, du, la
     aa = 1.0 if sym else 0.0
     hh = 0.5 * h
     tr = Jd[0, 0] + Jd[1, 1] + Jd[2, 2]
+    running = dR.shape[1] > 1
+    last = dR.shape[1] - 1
     for s in range(S):
-        lam[s, 0] = dR[s, N, 0]
-        lam[s, 1] = dR[s, N, 1]
-        lam[s, 2] = dR[s, N, 2]
-        lam[s, 3] = dP[s, N, 0]
-        lam[s, 4] = dP[s, N, 1]
-        lam[s, 5] = dP[s, N, 2]
+        lam[s, 0] = dR[s, last, 0]
+        lam[s, 1] = dR[s, last, 1]
+        lam[s, 2] = dR[s, last, 2]
+        lam[s, 3] = dP[s, last, 0]
+        lam[s, 4] = dP[s, last, 1]
+        lam[s, 5] = dP[s, last, 2]
         gh[s] = 0.0
         for i in range(3):
             for j in range(3):
@@ -342,21 +354,24 @@ def adjoint_run(Jd, h, t0, J, R, Pi, F, P, U, sym, codes, params, dR, dP, du, la
             w2 = (C20 * c0 + C21 * c1 + C22 * c2) * inv
             # d(h m) = h dm + m dh
             gh[s] += w0 * m0 + w1 * m1 + w2 * m2
-            # inertia through Jd: <(W F - F^T W)/2, dJd>, dJd = tr(dJ)/2 I - dJ
-            tg = 0.0
-            for p in range(3):
-                for q in range(3):
-                    # (W F)_pq = (w x F[:, q])_p, (F^T W)_pq = -(w x F[:, p])_q
-                    wf0, wf1, wf2 = cross(w0, w1, w2, F[k, 0, q], F[k, 1, q], F[k, 2, q])
-                    wfq = (wf0, wf1, wf2)
-                    fw0, fw1, fw2 = cross(w0, w1, w2, F[k, 0, p], F[k, 1, p], F[k, 2, p])
-                    fwp = (fw0, fw1, fw2)
-                    gpq = 0.5 * (wfq[p] + fwp[q])
-                    gJ[s, p, q] -= gpq
-                    if p == q:
-                        tg += gpq
-            for p in range(3):
-                gJ[s, p, p] += 0.5 * tg
+            # inertia through Jd: <(W F - F^T W)/2, dJd> with (F^T W) = -(W F)^T, so the gradient
+            # in Jd is sym(W F) (columns w x F[:, q]); then dJd = tr(dJ)/2 I - dJ
+            a00, a10, a20 = cross(w0, w1, w2, F[k, 0, 0], F[k, 1, 0], F[k, 2, 0])
+            a01, a11, a21 = cross(w0, w1, w2, F[k, 0, 1], F[k, 1, 1], F[k, 2, 1])
+            a02, a12, a22 = cross(w0, w1, w2, F[k, 0, 2], F[k, 1, 2], F[k, 2, 2])
+            tg = 0.5 * (a00 + a11 + a22)
+            gJ[s, 0, 0] += tg - a00
+            gJ[s, 1, 1] += tg - a11
+            gJ[s, 2, 2] += tg - a22
+            o01 = 0.5 * (a01 + a10)
+            o02 = 0.5 * (a02 + a20)
+            o12 = 0.5 * (a12 + a21)
+            gJ[s, 0, 1] -= o01
+            gJ[s, 1, 0] -= o01
+            gJ[s, 0, 2] -= o02
+            gJ[s, 2, 0] -= o02
+            gJ[s, 1, 2] -= o12
+            gJ[s, 2, 1] -= o12
             # lam_P = F lam_P+ + h w;  lam_M = h/2 lam_P
             n0 = F[k, 0, 0] * lP0 + F[k, 0, 1] * lP1 + F[k, 0, 2] * lP2 + h * w0
             n1 = F[k, 1, 0] * lP0 + F[k, 1, 1] * lP1 + F[k, 1, 2] * lP2 + h * w1
@@ -375,9 +390,16 @@ def adjoint_run(Jd, h, t0, J, R, Pi, F, P, U, sym, codes, params, dR, dP, du, la
             r2 = F[k, 2, 0] * lR0 + F[k, 2, 1] * lR1 + F[k, 2, 2] * lR2
             e0, e1, e2, et = potential_adjoint(codes, params, J, tk, R, k, lM0, lM1, lM2, gJ, s, k * 1.0)
             gh[s] += et
-            lam[s, 0] = r0 + e0 + dR[s, k, 0]
-            lam[s, 1] = r1 + e1 + dR[s, k, 1]
-            lam[s, 2] = r2 + e2 + dR[s, k, 2]
-            lam[s, 3] = n0 + dP[s, k, 0]
-            lam[s, 4] = n1 + dP[s, k, 1]
-            lam[s, 5] = n2 + dP[s, k, 2]
+            lam[s, 0] = r0 + e0
+            lam[s, 1] = r1 + e1
+            lam[s, 2] = r2 + e2
+            lam[s, 3] = n0
+            lam[s, 4] = n1
+            lam[s, 5] = n2
+            if running:
+                lam[s, 0] += dR[s, k, 0]
+                lam[s, 1] += dR[s, k, 1]
+                lam[s, 2] += dR[s, k, 2]
+                lam[s, 3] += dP[s, k, 0]
+                lam[s, 4] += dP[s, k, 1]
+                lam[s, 5] += dP[s, k, 2]

@@ -187,9 +187,12 @@ class CostTerm:
     """A term of a cost: its value and partial derivatives on a :class:`Rollout`.
 
     ``partials(run, dR, dP, du)`` adds the partial derivatives with respect to ``zeta_k``,
-    ``Pi_k`` (arrays (N+1, 3)) and the controls (like ``u``) and returns ``(value, dJ, dh)``:
+    ``Pi_k`` (arrays (N+1, 3); (1, 3), the final step only, unless the class sets
+    ``running_state = True``) and the controls (like ``u``) and returns ``(value, dJ, dh)``:
     the value, the direct partial in the inertia (3, 3) symmetric, and in ``h``.
     """
+
+    running_state = False
 
     def partials(self, run: Rollout, dR: np.ndarray, dP: np.ndarray, du: np.ndarray):  # pragma: no cover
         raise NotImplementedError
@@ -211,7 +214,7 @@ class Effort(CostTerm):
 
     def partials(self, run, dR, dP, du):
         w = self.weight * _weights(run)
-        sq = np.einsum("ki,ki->k", run.u, run.u)
+        sq = (run.u * run.u).sum(axis=1)
         du += (2.0 * run.h * w)[:, None] * run.u
         return run.h * float(w @ sq), np.zeros((3, 3)), float(w @ sq)
 
@@ -311,7 +314,8 @@ class Gradient:
 
 
 def reverse(run: Rollout, dR: np.ndarray, dP: np.ndarray, du: np.ndarray):
-    """The reverse pass for ``S`` seeds: ``dR``, ``dP`` (S, N+1, 3), ``du`` (S, Nu, 3).
+    """The reverse pass for ``S`` seeds: ``dR``, ``dP`` (S, N+1, 3) or (S, 1, 3) (partials at
+    the final step only), ``du`` (S, Nu, 3).
 
     Returns ``(lam (S, 6), gu (S, Nu, 3), gJ (S, 3, 3), gh (S,))``.
     """
@@ -329,9 +333,9 @@ def reverse(run: Rollout, dR: np.ndarray, dP: np.ndarray, du: np.ndarray):
 def cost_gradient(run: Rollout, cost: Any) -> Gradient:
     """Value and gradient of ``cost`` on an existing :class:`Rollout`."""
     terms = as_cost(cost)
-    N = run.steps
-    dR = np.zeros((1, N + 1, 3))
-    dP = np.zeros((1, N + 1, 3))
+    rows = run.steps + 1 if any(t.running_state for t in terms) else 1
+    dR = np.zeros((1, rows, 3))
+    dP = np.zeros((1, rows, 3))
     du = np.zeros((1,) + run.u.shape)
     value = 0.0
     gJ_direct = np.zeros((3, 3))

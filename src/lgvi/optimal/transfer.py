@@ -213,8 +213,8 @@ def transfer(body: Any, R0: Any, Rf: Any, T: Any, N: Any, *, omega0: Any = 0, om
         e = so3.log(Rf.T @ run.R[-1])
         c = np.concatenate([e, body.J_inv @ run.Pi[-1] - wf])
         # seeds: the six constraints (the energy cost's gradient is explicit)
-        dR = np.zeros((6, N + 1, 3))
-        dP = np.zeros((6, N + 1, 3))
+        dR = np.zeros((6, 1, 3))                     # terminal partials only
+        dP = np.zeros((6, 1, 3))
         dR[:3, -1] = so3.right_jacobian_inv(e)       # row i: d e_i / d zeta_N
         dP[3:, -1] = body.J_inv                       # row i: d omega_i / d Pi_N (J^-1 symmetric)
         lam, gu, gJ, gh = reverse(run, dR, dP, np.zeros((6, nu, 3)))
