@@ -252,3 +252,34 @@ def test_identify_inertia_refuses_an_unobservable_scale():
     with pytest.raises(ValueError, match="sigma_R"):
         identify_inertia([1.0, 2.0, 2.5], h=0.1, R0=np.eye(3), omega0=[0.1, 0.2, 0.3],
                          R_meas=np.stack([np.eye(3)] * 5), u=np.ones((4, 3)))
+
+
+def test_symmetric_forcing_and_trust_constr_transfers():
+    Rf = so3.exp(2.0 * AXIS)
+    slsqp = transfer(SPHERE, np.eye(3), Rf, 1.0, 10)
+    tc = transfer(SPHERE, np.eye(3), Rf, 1.0, 10, method="trust-constr")
+    assert abs(tc.cost - slsqp.cost) < 1e-6 * slsqp.cost
+    sym = transfer(SPHERE, np.eye(3), Rf, 1.0, 10, forcing="symmetric")
+    assert sym.u.shape == (11, 3) and sym.violation["attitude"] < 1e-8 and sym.violation["rate"] < 1e-8
+    sym20 = transfer(SPHERE, np.eye(3), Rf, 1.0, 20, forcing="symmetric")
+    ratio = (48.0 - sym.cost) / (48.0 - sym20.cost)               # 46.1157, 47.5172: O(h^2) to 48
+    assert abs(ratio - 4.0) < 0.3, ratio
+
+
+def test_cost_terms_validate_their_arguments():
+    with pytest.raises(ValueError, match="Effort.weight must be >= 0"):
+        Effort(-1.0)
+    with pytest.raises(ValueError, match="AttitudeError.kind must be one of"):
+        AttitudeError(np.eye(3), kind="angle")
+    with pytest.raises(ValueError, match="RateError.target must have shape"):
+        RateError([1.0, 2.0])
+    with pytest.raises(TypeError, match="Terminal.value must be callable"):
+        Terminal(1.0, lambda R, Pi: (R, Pi))
+    with pytest.raises(TypeError, match="cost must be a cost term"):
+        cost_gradient(rollout(J_FULL, np.eye(3), np.zeros(3), 0.1, np.zeros((3, 3))), "energy")
+    with pytest.raises(ValueError, match="forcing must be one of"):
+        rollout(J_FULL, np.eye(3), np.zeros(3), 0.1, np.zeros((3, 3)), forcing="euler")
+    with pytest.raises(ValueError, match="h must be non-zero"):
+        rollout(J_FULL, np.eye(3), np.zeros(3), 0.0, np.zeros((3, 3)))
+    with pytest.raises(ValueError, match="torque must be built from the conservative models"):
+        rollout(J_FULL, np.eye(3), np.zeros(3), 0.1, np.zeros((3, 3)), torque=lgvi.torques.Constant([1.0, 0, 0]))

@@ -163,6 +163,8 @@ def rollout(body: Any, R0: Any, Pi0: Any, h: Any, u: Any, *, forcing: str = "pap
         raise ValueError(f"u must hold at least {'2 rows (N+1 with the symmetric forcing)' if sym else '1 row'}, "
                          f"got shape {u.shape}")
     codes, params = potential_encoding(torque)
+    tol = as_float(tol, "tol", positive=True)
+    max_iter = as_int(max_iter, "max_iter", minimum=1)
     R = np.empty((N + 1, 3, 3))
     Pi = np.empty((N + 1, 3))
     F = np.empty((N, 3, 3))
@@ -198,6 +200,12 @@ class CostTerm:
         raise NotImplementedError
 
 
+def _check_weight(term: Any) -> None:
+    w = as_float(term.weight, f"{type(term).__name__}.weight")
+    if w < 0.0:
+        raise ValueError(f"{type(term).__name__}.weight must be >= 0, got {w}")
+
+
 def _weights(run: Rollout) -> np.ndarray:
     """Quadrature weights of the controls: 1 each (paper), trapezoidal (symmetric)."""
     w = np.ones(run.u.shape[0])
@@ -211,6 +219,9 @@ class Effort(CostTerm):
     """Control effort ``weight * h * sum_k |u_k|^2`` (trapezoidal weights with symmetric forcing)."""
 
     weight: float = 1.0
+
+    def __post_init__(self):
+        _check_weight(self)
 
     def partials(self, run, dR, dP, du):
         w = self.weight * _weights(run)
@@ -227,6 +238,11 @@ class AttitudeError(CostTerm):
     target: Any
     weight: float = 1.0
     kind: str = "geodesic"
+
+    def __post_init__(self):
+        _check_weight(self)
+        as_rotation(self.target, "AttitudeError.target")
+        choice(self.kind, "AttitudeError.kind", ("geodesic", "chordal"))
 
     def partials(self, run, dR, dP, du):
         Rf = as_rotation(self.target, "target")
@@ -246,6 +262,10 @@ class RateError(CostTerm):
     target: Any = (0.0, 0.0, 0.0)
     weight: float = 1.0
 
+    def __post_init__(self):
+        _check_weight(self)
+        as_float_array(self.target, "RateError.target", (3,))
+
     def partials(self, run, dR, dP, du):
         Jinv = run.body.J_inv
         om = Jinv @ run.Pi[-1]
@@ -263,6 +283,11 @@ class Terminal(CostTerm):
 
     value: Callable[[np.ndarray, np.ndarray], float]
     derivative: Callable[[np.ndarray, np.ndarray], tuple[Any, Any]]
+
+    def __post_init__(self):
+        for name in ("value", "derivative"):
+            if not callable(getattr(self, name)):
+                raise TypeError(f"Terminal.{name} must be callable, got {getattr(self, name)!r}")
 
     def partials(self, run, dR, dP, du):
         v = as_float(self.value(run.R[-1].copy(), run.Pi[-1].copy()), "Terminal.value(R, Pi)")
