@@ -74,7 +74,7 @@ def slew_figure(eig, u_eig, opt):
     axes[1, 0].set_ylabel("angle to target (deg)")
     axes[2, 0].set_ylabel(r"body rate $\omega$")
     axes[0, 1].legend(loc="center left", ncols=3, fontsize=8)
-    axes[2, 1].legend(loc="lower left", ncols=3, fontsize=8)
+    axes[2, 1].legend(loc="upper left", ncols=3, fontsize=8)
     fig.suptitle(r"180 deg rest-to-rest slew of a sphere, $|u_i| \leq u_{max}$: eigenaxis vs time-optimal")
     return fig
 
@@ -96,6 +96,11 @@ def main(argv: list[str] | None = None) -> int:
     print(f"time-optimal ({N} steps): T = {opt.T:.4f} ({100 * (1 - opt.T / eig.t[-1]):.1f}% faster), "
           f"switches per axis {switches(opt.u)}, {100 * saturated:.0f}% of the torques on a bound, "
           f"violation {max(opt.violation.values()):.1e}, {opt.stats['iterations']} SLSQP iterations")
+    h = opt.T / N
+    for i in range(3):
+        s = np.sign(opt.u[:, i])
+        at = [f"{h * (k + 1):.2f}" for k in np.nonzero(s[1:] * s[:-1] < 0)[0]]
+        print(f"  u{i + 1}: starts at {opt.u[0, i]:+.0f}, switches near t = {', '.join(at)}")
     theta = 2.0
     axis = np.array([1.0, 2.0, 2.0]) / 3.0
     energy = transfer(SPHERE, np.eye(3), so3.exp(theta * axis), 1.0, N)

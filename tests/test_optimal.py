@@ -116,7 +116,7 @@ SPHERE = lgvi.RigidBody([1.0, 1.0, 1.0])
 
 def test_minimum_energy_sphere_is_the_discrete_eigenaxis_optimum():
     costs = {}
-    for N, expected in ((20, 47.871081), (40, 47.968157)):
+    for N, expected in ((20, 47.871081), (40, 47.968157), (80, 47.992063)):
         res = transfer(SPHERE, np.eye(3), so3.exp(2.0 * AXIS), 1.0, N)
         costs[N] = res.cost
         assert abs(res.cost - expected) < 2e-6, (N, res.cost)
@@ -125,8 +125,9 @@ def test_minimum_energy_sphere_is_the_discrete_eigenaxis_optimum():
         assert res.violation["attitude"] < 1e-8 and res.violation["rate"] < 1e-8
         assert res.u.shape == (N, 3) and res.T == 1.0 and len(res.trajectory.t) == N + 1
     # O(h^2) towards the continuous optimum 12 j^2 theta^2 / T^3 = 48
-    ratio = (48.0 - costs[20]) / (48.0 - costs[40])
-    assert abs(ratio - 4.0) < 0.1, ratio
+    for coarse, fine in ((20, 40), (40, 80)):
+        ratio = (48.0 - costs[coarse]) / (48.0 - costs[fine])
+        assert abs(ratio - 4.0) < 0.1, ratio
 
 
 def test_minimum_time_half_turn_is_bang_bang_and_beats_the_eigenaxis():
@@ -190,6 +191,8 @@ def test_infeasible_and_bad_requests_are_refused():
         transfer(SPHERE, np.eye(3), np.eye(3), 1.0, 10, cost="fuel")
     with pytest.raises(ValueError, match="max_torque must be positive"):
         transfer(SPHERE, np.eye(3), np.eye(3), 1.0, 10, max_torque=[1.0, 0.0, 1.0])
+    with pytest.raises(ValueError, match="omega0 must be 0 or a vector"):
+        transfer(SPHERE, np.eye(3), np.eye(3), 1.0, 10, omega0=0.5)
     with pytest.raises(ValueError, match="omegaf must have shape"):
         transfer(SPHERE, np.eye(3), np.eye(3), 1.0, 10, omegaf=[1.0, 2.0])
     with pytest.raises(ValueError, match="Rf"):

@@ -88,6 +88,15 @@ def reachable_angle(inertia_min: float, p0: float, pf: float, a: float, T: float
     return area / inertia_min
 
 
+def _rate(value: Any, name: str) -> np.ndarray:
+    """A body rate: 0 (at rest) or a (3,) vector."""
+    if np.ndim(value) == 0:
+        if as_float(value, name) != 0.0:
+            raise ValueError(f"{name} must be 0 or a vector of shape (3,), got {value!r}")
+        return np.zeros(3)
+    return as_float_array(value, name, (3,))
+
+
 def _eigenaxis_guess(body, R0, Rf, w0, wf, T, N, sym):
     """Controls of a cubic Hermite rotation vector from ``0`` to ``log(R0^T Rf)`` (rates at the ends)."""
     phi = so3.log(R0.T @ Rf)
@@ -153,8 +162,8 @@ def transfer(body: Any, R0: Any, Rf: Any, T: Any, N: Any, *, omega0: Any = 0, om
     Rf = as_rotation(Rf, "Rf")
     T = as_float(T, "T", positive=True)
     N = as_int(N, "N", minimum=2)
-    w0 = np.zeros(3) + as_float_array(omega0, "omega0") if np.ndim(omega0) == 0 else as_float_array(omega0, "omega0", (3,))
-    wf = np.zeros(3) + as_float_array(omegaf, "omegaf") if np.ndim(omegaf) == 0 else as_float_array(omegaf, "omegaf", (3,))
+    w0 = _rate(omega0, "omega0")
+    wf = _rate(omegaf, "omegaf")
     cost = choice(cost, "cost", COSTS)
     method = choice(method, "method", METHODS)
     forcing = choice(forcing, "forcing", ("paper", "symmetric"))
