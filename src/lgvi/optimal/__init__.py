@@ -16,7 +16,7 @@ from .adjoint import (AttitudeError, Effort, Gradient, RateError, Rollout, Termi
 
 __all__ = ["AttitudeError", "Effort", "Gradient", "RateError", "Rollout", "Terminal", "cost_gradient", "gradient",
            "rollout"]
-from .transfer import InfeasibleTransferError, TransferError, TransferResult, reachable_angle, transfer
+from .transfers import InfeasibleTransferError, TransferError, TransferResult, reachable_angle, transfer
 
 __all__ += ["InfeasibleTransferError", "TransferError", "TransferResult", "reachable_angle", "transfer"]
 from .identify import InertiaFit, identify_inertia
