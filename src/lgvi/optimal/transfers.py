@@ -35,7 +35,8 @@ class TransferResult:
     u : (N, 3) ndarray (N+1 rows with ``forcing="symmetric"``)
         Body-frame controls ``u_k`` at ``t_k = k h``.
     cost : float
-        ``sum_k h |u_k|^2`` for ``"energy"``, the final time for ``"time"``.
+        ``sum_k h |u_k|^2`` for ``"energy"`` (trapezoidal weights ``1/2`` at both ends with
+        ``forcing="symmetric"``), the final time for ``"time"``.
     T : float
         Final time; ``h = T / N``.
     trajectory : lgvi.Trajectory
@@ -56,7 +57,8 @@ class TransferResult:
 
     @property
     def h(self) -> float:
-        return self.T / (self.u.shape[0] - (1 if self.trajectory.meta.get("forcing") == "symmetric" else 0))
+        """Step size ``T / N``."""
+        return self.trajectory.h
 
 
 class TransferError(RuntimeError):
