@@ -303,3 +303,24 @@ def test_cost_terms_validate_their_arguments():
         rollout(J_FULL, np.eye(3), np.zeros(3), 0.0, np.zeros((3, 3)))
     with pytest.raises(ValueError, match="torque must be built from the conservative models"):
         rollout(J_FULL, np.eye(3), np.zeros(3), 0.1, np.zeros((3, 3)), torque=lgvi.torques.Constant([1.0, 0, 0]))
+
+
+def test_indirect_method_solves_the_discrete_necessary_conditions():
+    # shooting on the initial multipliers reproduces the direct optimum (an independent solver of
+    # the same discrete problem): sphere, asymmetric body with a torque bound, gravity gradient
+    res = transfer(SPHERE, np.eye(3), so3.exp(2.0 * AXIS), 1.0, 20, method="indirect")
+    assert abs(res.cost - 47.871081) < 2e-6
+    assert np.abs(res.u - np.outer(res.u @ AXIS, AXIS)).max() < 1e-9
+    body = lgvi.RigidBody([1.0, 2.0, 2.5])
+    cases = [dict(R0=np.eye(3), Rf=so3.exp([0.8, -0.5, 1.2]), T=3.0, N=20, omega0=[0.1, 0.0, -0.1],
+                  omegaf=[0.0, 0.05, 0.0], max_torque=1.5),
+             dict(R0=np.eye(3), Rf=so3.exp([0.0, 0.0, 1.0]), T=2.0, N=16, torque=GravityGradient(mu=0.5, radius=1.0))]
+    for kw in cases:
+        R0, Rf, T, N = kw.pop("R0"), kw.pop("Rf"), kw.pop("T"), kw.pop("N")
+        indirect = transfer(body, R0, Rf, T, N, method="indirect", **kw)
+        direct = transfer(body, R0, Rf, T, N, **kw)
+        assert indirect.violation["attitude"] < 1e-12 and indirect.violation["rate"] < 1e-12
+        assert abs(indirect.cost - direct.cost) < 1e-9 * direct.cost
+        assert np.abs(indirect.u - direct.u).max() < 1e-4 * np.abs(direct.u).max()
+    with pytest.raises(ValueError, match="method='indirect' solves cost='energy'"):
+        transfer(SPHERE, np.eye(3), np.eye(3), 1.0, 10, method="indirect", forcing="symmetric")

@@ -403,3 +403,153 @@ def adjoint_run(Jd, h, t0, J, R, Pi, F, P, U, sym, codes, params, dR, dP, du, la
                 lam[s, 3] += dP[s, k, 0]
                 lam[s, 4] += dP[s, k, 1]
                 lam[s, 5] += dP[s, k, 2]
+
+
+@jit(_nrt=False)
+def shoot_run(Jd, J, J_inv, h, t0, lam0, umax, R, Pi, F, P, U, codes, params, tol, max_iter, its, res, hist, gJ):
+    """The discrete necessary conditions of the minimum-effort problem, integrated forwards.
+
+    The paper's forcing: from ``(R_0, Pi_0)`` in ``R``, ``Pi`` and the multipliers ``lam0`` (6,)
+    (``lam_R``, ``lam_P`` at step 0), each step solves ``F_k``, carries the multipliers forwards by
+    inverting the adjoint recursion of :func:`adjoint_run` (one 3x3 solve), and takes the control
+    that minimises ``h |u|^2 + h lam_P,k+1 . u`` over the box ``|u_i| <= umax_i``:
+    ``u_k = clip(-lam_P,k+1 / 2)``. Fills ``R``, ``Pi``, ``F``, ``P``, ``U`` (N,3); ``gJ`` (1,3,3)
+    is scratch. Returns ``(status, k)`` as :func:`forward_run`.
+    """
+    N = F.shape[0]
+    d00 = Jd[0, 0]
+    d01 = Jd[0, 1]
+    d02 = Jd[0, 2]
+    d11 = Jd[1, 1]
+    d12 = Jd[1, 2]
+    d22 = Jd[2, 2]
+    hh = 0.5 * h
+    lR0 = lam0[0]
+    lR1 = lam0[1]
+    lR2 = lam0[2]
+    lP0 = lam0[3]
+    lP1 = lam0[4]
+    lP2 = lam0[5]
+    P[0, 0], P[0, 1], P[0, 2] = potential_moment(codes, params, J, t0, R, 0)
+    for k in range(N):
+        m0 = Pi[k, 0] + hh * P[k, 0]
+        m1 = Pi[k, 1] + hh * P[k, 1]
+        m2 = Pi[k, 2] + hh * P[k, 2]
+        w0, w1, w2 = matvec(J_inv, h * m0, h * m1, h * m2)
+        (n0, n1, n2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, rn,
+         st) = solve_scalar(METHOD_NEWTON, d00, d01, d02, d11, d12, d22, h * m0, h * m1, h * m2, w0, w1, w2, tol,
+                            max_iter, 1.0, hist)
+        its[k] = it
+        res[k] = rn
+        if st != OK:
+            return st, k
+        F[k, 0, 0] = 1.0 + E00
+        F[k, 0, 1] = E01
+        F[k, 0, 2] = E02
+        F[k, 1, 0] = E10
+        F[k, 1, 1] = 1.0 + E11
+        F[k, 1, 2] = E12
+        F[k, 2, 0] = E20
+        F[k, 2, 1] = E21
+        F[k, 2, 2] = 1.0 + E22
+        for i in range(3):
+            a0 = R[k, i, 0]
+            a1 = R[k, i, 1]
+            a2 = R[k, i, 2]
+            R[k + 1, i, 0] = a0 + (a0 * E00 + a1 * E10 + a2 * E20)
+            R[k + 1, i, 1] = a1 + (a0 * E01 + a1 * E11 + a2 * E21)
+            R[k + 1, i, 2] = a2 + (a0 * E02 + a1 * E12 + a2 * E22)
+        P[k + 1, 0], P[k + 1, 1], P[k + 1, 2] = potential_moment(codes, params, J, t0 + (k + 1) * h, R, k + 1)
+        # lam_R+' = F^T (lam_R - G_k^T (h/2 lam_P))
+        e0, e1, e2, et = potential_adjoint(codes, params, J, t0 + k * h, R, k, hh * lP0, hh * lP1, hh * lP2, gJ, 0,
+                                           0.0)
+        x0 = lR0 - e0
+        x1 = lR1 - e1
+        x2 = lR2 - e2
+        q0 = F[k, 0, 0] * x0 + F[k, 1, 0] * x1 + F[k, 2, 0] * x2
+        q1 = F[k, 0, 1] * x0 + F[k, 1, 1] * x1 + F[k, 2, 1] * x2
+        q2 = F[k, 0, 2] * x0 + F[k, 1, 2] * x1 + F[k, 2, 2] * x2
+        # K = (tr(F Jd) I - F Jd) F and C = cofactors (K^-T = C / det)
+        A00 = F[k, 0, 0] * Jd[0, 0] + F[k, 0, 1] * Jd[1, 0] + F[k, 0, 2] * Jd[2, 0]
+        A01 = F[k, 0, 0] * Jd[0, 1] + F[k, 0, 1] * Jd[1, 1] + F[k, 0, 2] * Jd[2, 1]
+        A02 = F[k, 0, 0] * Jd[0, 2] + F[k, 0, 1] * Jd[1, 2] + F[k, 0, 2] * Jd[2, 2]
+        A10 = F[k, 1, 0] * Jd[0, 0] + F[k, 1, 1] * Jd[1, 0] + F[k, 1, 2] * Jd[2, 0]
+        A11 = F[k, 1, 0] * Jd[0, 1] + F[k, 1, 1] * Jd[1, 1] + F[k, 1, 2] * Jd[2, 1]
+        A12 = F[k, 1, 0] * Jd[0, 2] + F[k, 1, 1] * Jd[1, 2] + F[k, 1, 2] * Jd[2, 2]
+        A20 = F[k, 2, 0] * Jd[0, 0] + F[k, 2, 1] * Jd[1, 0] + F[k, 2, 2] * Jd[2, 0]
+        A21 = F[k, 2, 0] * Jd[0, 1] + F[k, 2, 1] * Jd[1, 1] + F[k, 2, 2] * Jd[2, 1]
+        A22 = F[k, 2, 0] * Jd[0, 2] + F[k, 2, 1] * Jd[1, 2] + F[k, 2, 2] * Jd[2, 2]
+        ta = A00 + A11 + A22
+        K00 = (ta - A00) * F[k, 0, 0] - A01 * F[k, 1, 0] - A02 * F[k, 2, 0]
+        K01 = (ta - A00) * F[k, 0, 1] - A01 * F[k, 1, 1] - A02 * F[k, 2, 1]
+        K02 = (ta - A00) * F[k, 0, 2] - A01 * F[k, 1, 2] - A02 * F[k, 2, 2]
+        K10 = -A10 * F[k, 0, 0] + (ta - A11) * F[k, 1, 0] - A12 * F[k, 2, 0]
+        K11 = -A10 * F[k, 0, 1] + (ta - A11) * F[k, 1, 1] - A12 * F[k, 2, 1]
+        K12 = -A10 * F[k, 0, 2] + (ta - A11) * F[k, 1, 2] - A12 * F[k, 2, 2]
+        K20 = -A20 * F[k, 0, 0] - A21 * F[k, 1, 0] + (ta - A22) * F[k, 2, 0]
+        K21 = -A20 * F[k, 0, 1] - A21 * F[k, 1, 1] + (ta - A22) * F[k, 2, 1]
+        K22 = -A20 * F[k, 0, 2] - A21 * F[k, 1, 2] + (ta - A22) * F[k, 2, 2]
+        C00 = K11 * K22 - K12 * K21
+        C01 = K12 * K20 - K10 * K22
+        C02 = K10 * K21 - K11 * K20
+        C10 = K02 * K21 - K01 * K22
+        C11 = K00 * K22 - K02 * K20
+        C12 = K01 * K20 - K00 * K21
+        C20 = K01 * K12 - K02 * K11
+        C21 = K02 * K10 - K00 * K12
+        C22 = K00 * K11 - K01 * K10
+        c = h / (K00 * C00 + K01 * C01 + K02 * C02)          # h K^-T = c C
+        # (F - h K^-T hat(v)) lam_P+ = lam_P - h K^-T lam_R+',  v = F^T m
+        v0 = F[k, 0, 0] * m0 + F[k, 1, 0] * m1 + F[k, 2, 0] * m2
+        v1 = F[k, 0, 1] * m0 + F[k, 1, 1] * m1 + F[k, 2, 1] * m2
+        v2 = F[k, 0, 2] * m0 + F[k, 1, 2] * m1 + F[k, 2, 2] * m2
+        # columns of hat(v): hat(v) e_j = v x e_j
+        H00, H10, H20 = 0.0, v2, -v1
+        H01, H11, H21 = -v2, 0.0, v0
+        H02, H12, H22 = v1, -v0, 0.0
+        M00 = F[k, 0, 0] - c * (C00 * H00 + C01 * H10 + C02 * H20)
+        M01 = F[k, 0, 1] - c * (C00 * H01 + C01 * H11 + C02 * H21)
+        M02 = F[k, 0, 2] - c * (C00 * H02 + C01 * H12 + C02 * H22)
+        M10 = F[k, 1, 0] - c * (C10 * H00 + C11 * H10 + C12 * H20)
+        M11 = F[k, 1, 1] - c * (C10 * H01 + C11 * H11 + C12 * H21)
+        M12 = F[k, 1, 2] - c * (C10 * H02 + C11 * H12 + C12 * H22)
+        M20 = F[k, 2, 0] - c * (C20 * H00 + C21 * H10 + C22 * H20)
+        M21 = F[k, 2, 1] - c * (C20 * H01 + C21 * H11 + C22 * H21)
+        M22 = F[k, 2, 2] - c * (C20 * H02 + C21 * H12 + C22 * H22)
+        b0 = lP0 - c * (C00 * q0 + C01 * q1 + C02 * q2)
+        b1 = lP1 - c * (C10 * q0 + C11 * q1 + C12 * q2)
+        b2 = lP2 - c * (C20 * q0 + C21 * q1 + C22 * q2)
+        D00 = M11 * M22 - M12 * M21
+        D01 = M12 * M20 - M10 * M22
+        D02 = M10 * M21 - M11 * M20
+        D10 = M02 * M21 - M01 * M22
+        D11 = M00 * M22 - M02 * M20
+        D12 = M01 * M20 - M00 * M21
+        D20 = M01 * M12 - M02 * M11
+        D21 = M02 * M10 - M00 * M12
+        D22 = M00 * M11 - M01 * M10
+        det = M00 * D00 + M01 * D01 + M02 * D02
+        if det == 0.0 or not math.isfinite(det):
+            return NOT_FINITE, k
+        lP0 = (D00 * b0 + D10 * b1 + D20 * b2) / det
+        lP1 = (D01 * b0 + D11 * b1 + D21 * b2) / det
+        lP2 = (D02 * b0 + D12 * b1 + D22 * b2) / det
+        # lam_R+ = lam_R+' - G_{k+1}^T (h/2 lam_P+)
+        e0, e1, e2, et = potential_adjoint(codes, params, J, t0 + (k + 1) * h, R, k + 1, hh * lP0, hh * lP1, hh * lP2,
+                                           gJ, 0, 0.0)
+        lR0 = q0 - e0
+        lR1 = q1 - e1
+        lR2 = q2 - e2
+        # the control minimising h |u|^2 + h lam_P+ . u in the box
+        U[k, 0] = min(max(-0.5 * lP0, -umax[0]), umax[0])
+        U[k, 1] = min(max(-0.5 * lP1, -umax[1]), umax[1])
+        U[k, 2] = min(max(-0.5 * lP2, -umax[2]), umax[2])
+        b0 = v0 + hh * P[k + 1, 0] + h * U[k, 0]
+        b1 = v1 + hh * P[k + 1, 1] + h * U[k, 1]
+        b2 = v2 + hh * P[k + 1, 2] + h * U[k, 2]
+        if not (math.isfinite(b0) and math.isfinite(b1) and math.isfinite(b2)):
+            return NOT_FINITE, k
+        Pi[k + 1, 0] = b0
+        Pi[k + 1, 1] = b1
+        Pi[k + 1, 2] = b2
+    return OK, N
