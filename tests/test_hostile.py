@@ -50,10 +50,11 @@ import numpy as np
 import pytest
 
 import lgvi
-from lgvi import cli, streaming
+from lgvi import cli
+from lgvi.io import streaming
 from lgvi.ensemble import load_ensemble
-from lgvi.outputs import read_csv, write_csv
-from lgvi.scenario import ScenarioError, load_scenario
+from lgvi.io.outputs import read_csv, write_csv
+from lgvi.io.scenario import ScenarioError, load_scenario
 
 SRC = Path(lgvi.__file__).resolve().parent
 
