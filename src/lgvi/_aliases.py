@@ -11,7 +11,6 @@ does not import scipy or matplotlib through here).
 from __future__ import annotations
 
 import importlib
-import importlib.abc
 import importlib.machinery
 import sys
 from types import ModuleType
@@ -27,7 +26,7 @@ MOVED: dict[str, str] = {
 }
 
 
-class AliasFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+class AliasFinder:  # a MetaPathFinder and a Loader (importlib.abc, slow to import, is not needed)
     """Finds an old name of :data:`MOVED` and loads it as the already imported real module.
 
     ``create_module`` returns the real module; the import system then sets its ``__spec__`` to
