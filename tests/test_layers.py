@@ -235,6 +235,40 @@ def test_a_patch_through_an_old_name_is_seen_by_the_real_module(monkeypatch):
     assert lgvi.verification.exact.free_body == "patched too"
 
 
+def _missing_modules(src: Path = SRC) -> list[str]:
+    """``from .x import y`` (or ``import lgvi.x``) whose module ``x`` does not exist; e.g. an edit of
+    the old ``cli.py`` merged into ``cli/__init__.py`` with ``from .registry import ...``, which now
+    means ``lgvi.cli.registry`` and fails only when the function runs."""
+    mods = _modules(src)
+    bad = []
+    for mod, path in mods.items():
+        package = mod.split(".") if path.name == "__init__.py" and mod != "__init__" else mod.split(".")[:-1]
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = []
+            if isinstance(node, ast.ImportFrom) and node.module and node.level:
+                names = [".".join(package[:len(package) - (node.level - 1)] + node.module.split("."))]
+            elif isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("lgvi."):
+                names = [node.module[5:]]
+            elif isinstance(node, ast.Import):
+                names = [a.name[5:] for a in node.names if a.name.startswith("lgvi.")]
+            bad += [f"{mod}: {name}" for name in names if name not in mods and f"lgvi.{name}" not in MOVED]
+    return bad
+
+
+def test_every_imported_module_exists():
+    bad = _missing_modules()
+    assert not bad, f"imports of modules that do not exist (a relative import after a move?): {bad}"
+
+
+def test_the_missing_module_check_sees_one(tmp_path):
+    src = tmp_path / "lgvi"
+    (src / "cli").mkdir(parents=True)
+    (src / "registry.py").write_text("")
+    (src / "cli" / "__init__.py").write_text("def f():\n    from .registry import X\n    from ..registry import Y\n"
+                                             "    from ..exact import free_body\n    import lgvi.nowhere\n")
+    assert _missing_modules(src) == ["cli: cli.registry", "cli: nowhere"]
+
+
 def test_no_module_imports_another_modules_private_names():
     """``from .x import _name`` across modules is refused: shared helpers have public names."""
     bad = []
