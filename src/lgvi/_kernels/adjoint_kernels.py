@@ -232,10 +232,10 @@ def adjoint_run(Jd, h, t0, J, R, Pi, F, P, U, sym, codes, params, dR, dP, du, la
     ``dR`` (S,N+1,3), ``dP`` (S,N+1,3): the partial derivatives of each function with respect to
     ``zeta_k`` (left-trivialised, ``R_k -> R_k exp(hat zeta_k)``) and ``Pi_k`` at every step;
     ``du`` (S,Nu,3) its partials in the controls. ``dR`` and ``dP`` of shape (S,1,3) hold the
-    partials at step ``N`` only (a terminal cost: no (S,N+1,3) arrays to fill and read). Out: ``lam`` (S,6) the gradients in
-    ``(zeta_0, Pi_0)``; ``gu`` (S,Nu,3) in the controls; ``gJ`` (S,3,3) in the inertia
-    (symmetric, ``dC = <gJ, dJ>`` for symmetric ``dJ``); ``gh`` (S,) in the step size (the grid
-    ``t_k = t0 + k h`` moving with it).
+    partials at step ``N`` only (a terminal cost: no (S,N+1,3) arrays to fill and read).
+    Out: ``lam`` (S,6) the gradients in ``(zeta_0, Pi_0)``; ``gu`` (S,Nu,3) in the controls;
+    ``gJ`` (S,3,3) in the inertia (symmetric, ``dC = <gJ, dJ>`` for symmetric ``dJ``); ``gh`` (S,)
+    in the step size (the grid ``t_k = t0 + k h`` moving with it).
     """
     N = F.shape[0]
     S = lam.shape[0]
