@@ -73,8 +73,8 @@ def slew_figure(eig, u_eig, opt):
     axes[0, 0].set_ylabel("torque $u$ ($u_{max}$)")
     axes[1, 0].set_ylabel("angle to target (deg)")
     axes[2, 0].set_ylabel(r"body rate $\omega$")
-    axes[0, 1].legend(loc="center left", ncols=3, fontsize=8)
-    axes[2, 1].legend(loc="upper left", ncols=3, fontsize=8)
+    axes[0, 0].legend(loc="lower left", ncols=3, fontsize=8)       # same colours in both columns
+    axes[2, 0].legend(loc="lower right", ncols=3, fontsize=8)
     fig.suptitle(r"180 deg rest-to-rest slew of a sphere, $|u_i| \leq u_{max}$: eigenaxis vs time-optimal")
     return fig
 
