@@ -30,7 +30,7 @@ $(FLOORS_STAMP): pyproject.toml requirements/floors.txt
 	    -c requirements/floors.txt -e ".[test,plot]"
 	touch $(FLOORS_STAMP)
 
-.PHONY: install demo test test-newest test-floors bench
+.PHONY: install demo test test-newest test-floors bench browser docs
 install: $(STAMP)
 
 demo: $(STAMP)
@@ -38,8 +38,23 @@ demo: $(STAMP)
 
 test: test-newest test-floors
 
-test-newest: $(STAMP)
+test-newest: $(STAMP) browser
 	$(BIN)/python -m pytest -q
+
+# Headless Chromium and its driver for tests/test_view_browser.py: Debian's chromium and
+# chromium-driver, installed once when missing (root with apt-get; `apt-get update` only when the
+# install fails on stale package lists). Not root: a note, and the browser test skips (fails in CI).
+browser:
+	@if command -v chromium >/dev/null 2>&1 && command -v chromedriver >/dev/null 2>&1; then :; \
+	elif [ "$$(id -u)" != 0 ] || ! command -v apt-get >/dev/null 2>&1; then \
+	    echo "make browser: chromium or chromedriver missing and not root with apt-get; the browser test" \
+	         "will skip (as root: apt-get install chromium chromium-driver)"; \
+	else \
+	    echo "make browser: installing Debian's chromium and chromium-driver (apt-get)"; \
+	    export DEBIAN_FRONTEND=noninteractive; \
+	    apt-get install -y -qq chromium chromium-driver >/dev/null 2>&1 \
+	    || { apt-get update -qq && apt-get install -y -qq chromium chromium-driver >/dev/null; }; \
+	fi
 
 # Its own Numba cache: kernels cached by another Numba version would be recompiled (and the
 # shared cache overwritten) on every switch between the two environments. Old releases under newer

@@ -33,7 +33,7 @@ LAYERS: dict[str, int] = {
     # 4: input/output, verification baselines
     "streaming": 4, "outputs": 4, "scenario": 4, "baselines": 4,
     # 5: plots; 6: the command line and the package's front door
-    "plot": 5, "cli": 6, "__main__": 6, "__init__": 6,
+    "plot": 5, "view": 5, "cli": 6, "__main__": 6, "__init__": 6,
 }
 CORE = {"driver", "systems", "integrator", "ensemble", "modified", "registry", "torques", "invariants",
         "implicit", "trajectory", "body", "so3"}

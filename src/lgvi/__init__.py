@@ -38,6 +38,7 @@ from .modified import simulate_modified as simulate_modified
 from .streaming import simulate_stream as simulate_stream
 from .trajectory import Trajectory as Trajectory
 from .trajectory import load as load
+from . import view as _view  # noqa: F401  (Jupyter's display of a Trajectory; plotly imported when used)
 
 __all__ = [
     "AccuracyWarning",
