@@ -63,5 +63,11 @@ test-floors: $(FLOORS_STAMP)
 	LGVI_FLOORS=1 NUMBA_CACHE_DIR=$(CURDIR)/$(FLOORS)/numba-cache $(FLOORS)/bin/python -m pytest -q -p no:cacheprovider \
 	    -W "ignore::DeprecationWarning" $(FLOORS_TESTS)
 
+# The documentation site (Sphinx; the `docs` extra, inside `test`) in docs/_build/html, warnings as
+# errors. The gallery runs every example (--quick); LGVI_DOCS_EXAMPLES=none (or a list) runs fewer.
+docs: $(STAMP)
+	$(BIN)/python -m sphinx -b html -W --keep-going -q docs docs/_build/html
+	@echo "make docs: open docs/_build/html/index.html"
+
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
