@@ -9,9 +9,10 @@ STAMP := $(VENV)/.installed
 FLOORS := .venv-floors
 FLOORS_STAMP := $(FLOORS)/.installed
 # The core at the floors: simulate and its results, so3, outputs, scenarios, the command line, and
-# the netCDF reader on corrupted files (netCDF4 < 1.7.1 crashes there).
+# the netCDF reader on corrupted files (netCDF4 < 1.7.1 crashes there), the interactive page (plotly).
 FLOORS_TESTS := tests/test_dependencies.py tests/test_api.py tests/test_so3.py tests/test_outputs.py tests/test_libraries.py \
-                tests/test_scenario.py tests/test_cli.py tests/test_fuzz.py::test_read_netcdf_mutated_bytes_in_a_subprocess
+                tests/test_scenario.py tests/test_cli.py tests/test_fuzz.py::test_read_netcdf_mutated_bytes_in_a_subprocess \
+                tests/test_view.py
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)

@@ -96,6 +96,13 @@ def _run(script: Path, out: Path) -> str:
     return buf.getvalue()
 
 
+def _standard(name: str, fig: Path) -> int:
+    """Sort key: the example's own figures first, then lgvi.plot's standard set (conservation first)."""
+    stem = fig.stem.removeprefix(f"{name}_")
+    standard = ("conservation", "polhode", "rates", "attitude", "iterations")
+    return 1 + standard.index(stem) if stem in standard else 0
+
+
 def _docstring(script: Path) -> tuple[str, str]:
     """The example's title (first docstring line) and the rest of its docstring."""
     import ast
@@ -121,7 +128,7 @@ def _write_gallery(app) -> None:
             out = GALLERY / "figures" / name
             t0 = time.perf_counter()
             printed = _run(script, out)
-            figs = sorted(out.glob("*.png"))
+            figs = sorted(out.glob("*.png"), key=lambda f: (_standard(name, f), f.name))
             print(f"lgvi gallery: {name} ran in {time.perf_counter() - t0:.1f} s, {len(figs)} figures")
         # the docstring as the script shows it (plain text, not markup)
         lines = [f"# {title}", "", "```text", rest, "```", "",
