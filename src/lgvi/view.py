@@ -315,7 +315,10 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
                                  hovertemplate=f"{_html.escape(q.name)}: %{{y:.3g}}"
                                  f"{'' if relative else ' (absolute)'}<br>t = %{{x:.4g}} s<extra></extra>"),
                       row=row, col=2)
-    fig.update_yaxes(type="log", exponentformat="power", row=row, col=2)
+    if keys:
+        fig.update_yaxes(type="log", exponentformat="power", row=row, col=2)
+    else:  # nothing to draw: the panel keeps only its note
+        fig.update_yaxes(visible=False, row=row, col=2)
     if wheel_speed is not None:
         for i in range(wheel_speed.shape[1]):
             tt, yy = _envelope(t, wheel_speed[:, i], max_points)
