@@ -6,8 +6,8 @@ command                                            what it does
 ``lgvi`` or ``lgvi demo [-o DIR]``                 the default scenario (Dzhanibekov effect), LGVI against RK45;
                                                    with ``-o`` also the trajectory and figures
 ``lgvi run SCENARIO.toml [-o DIR]``                runs a scenario file (:mod:`lgvi.scenario`); writes the
-``[--no-plots] [--format npz,csv,netcdf]``         trajectory, ``summary.txt``/``summary.json``, the scenario and
-                                                   the figures
+``[--no-plots] [--format npz,csv,netcdf]``         trajectory, ``summary.txt``/``summary.json``, the scenario,
+                                                   the figures and ``report.html``
 ``lgvi compare SCENARIO.toml --with rk4,rk45``     the same problem through the baselines (``rk4``, ``rk45``,
 ``[-o DIR]``                                       ``dop853``): a table of conservation errors and wall times,
                                                    and with ``-o`` overlaid figures
@@ -707,7 +707,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser("run", help="run a scenario file (TOML)",
                          description="Run a scenario file and write the trajectory, summary.txt, summary.json, "
-                         "scenario.toml and figures. The file format is documented in lgvi.scenario "
+                         "scenario.toml, figures and report.html (the interactive page). The file format is documented in lgvi.scenario "
                          "(python -c 'import lgvi.scenario; help(lgvi.scenario)').")
     run.add_argument("scenario", metavar="SCENARIO.toml", help="scenario file")
     run.add_argument("-o", "--output", default=None, metavar="DIR",
