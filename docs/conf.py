@@ -150,7 +150,7 @@ def _write_gallery(app) -> None:
     index = ["# Gallery of the examples", "",
              "Each example of `examples/` on its own page: what it shows, the figures it makes (made when "
              "these pages were built), what it prints and its code.", "",
-             "```{toctree}", ":maxdepth: 1", ""] + [n for n, _, _ in entries] + ["```", ""]
+             "```{toctree}", ":maxdepth: 1", ":hidden:", ""] + [n for n, _, _ in entries] + ["```", ""]
     for name, title, thumb in entries:  # a paragraph each (headings would repeat the toctree)
         index += [f"**[{title}]({name}.md)**", ""]
         if thumb:
