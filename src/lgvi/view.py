@@ -432,16 +432,18 @@ def summary_rows(traj: Any, extra: Mapping[str, Any] | None = None) -> list[tupl
     return rows
 
 
+# every rule under .lgvi-view: the inline view in a notebook must not restyle the notebook
 _CSS = """
-body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; margin: 1.2em 2em; color: #222; }
-h1 { font-size: 1.35em; margin: 0 0 0.3em 0; }
-h2 { font-size: 1.1em; margin: 1.2em 0 0.4em 0; }
-.lgvi-note { color: #8b0000; border: 1px solid #8b0000; border-radius: 4px; padding: 0.3em 0.6em;
-             display: inline-block; margin: 0.3em 0; font-size: 0.9em; }
-table.lgvi-summary { border-collapse: collapse; font-size: 0.9em; }
-table.lgvi-summary td { padding: 0.15em 0.9em 0.15em 0; vertical-align: top; }
-table.lgvi-summary td:first-child { color: #555; white-space: pre; }
-pre { background: #f5f5f5; padding: 0.6em; font-size: 0.85em; overflow-x: auto; }
+.lgvi-view { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; color: #222; }
+.lgvi-view h1 { font-size: 1.35em; margin: 0 0 0.3em 0; }
+.lgvi-view h2 { font-size: 1.1em; margin: 1.2em 0 0.4em 0; }
+.lgvi-view .lgvi-note { color: #8b0000; border: 1px solid #8b0000; border-radius: 4px; padding: 0.3em 0.6em;
+                        display: inline-block; margin: 0.3em 0; font-size: 0.9em; }
+.lgvi-view table.lgvi-summary { border-collapse: collapse; font-size: 0.9em; margin: 0; }
+.lgvi-view table.lgvi-summary td { padding: 0.15em 0.9em 0.15em 0; vertical-align: top; text-align: left;
+                                   background: none; border: none; }
+.lgvi-view table.lgvi-summary td:first-child { color: #555; white-space: pre; }
+.lgvi-view pre { background: #f5f5f5; padding: 0.6em; font-size: 0.85em; overflow-x: auto; text-align: left; }
 """
 
 
@@ -527,7 +529,8 @@ def html(traj: Any, *, title: str | None = None, summary: Mapping[str, Any] | No
     if not full_html:
         return f"<div class=\"lgvi-view\"><style>{_CSS}</style>\n{body}</div>\n"
     return ("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
-            f"<title>{_html.escape(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n{body}</body>\n</html>\n")
+            f"<title>{_html.escape(title)}</title>\n<style>body {{ margin: 1.2em 2em; }}{_CSS}</style>\n</head>\n"
+            f"<body>\n<div class=\"lgvi-view\">\n{body}</div>\n</body>\n</html>\n")
 
 
 def write_html(traj: Any, path: str | os.PathLike, **kwargs: Any) -> Path:
