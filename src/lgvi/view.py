@@ -239,7 +239,7 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
     half = _box_half_sides(moments)
     verts = (_CORNERS * half) @ V.T                       # box corners, body frame
     axes = (V * 1.6 * half.max() * 1.35).T                # rows: principal axes, body frame
-    L = np.einsum("mij,mj->mi", R, np.asarray(traj.Pi, dtype=np.float64))
+    L = np.asarray(traj.spatial_momentum, dtype=np.float64)     # a system may add to R Pi (wheels)
     Lmax = float(np.max(np.linalg.norm(L, axis=1))) or 1.0
     wheel_axes = _wheel_axes(traj, wheel_speed.shape[1]) if wheel_speed is not None else None
     wheel_geom = []
