@@ -27,7 +27,8 @@ SRC = Path(lgvi.__file__).parent
 
 #: The folders of the package (subpackages) above the core, and the kernels; the top-level modules
 #: and every other folder (``systems/``, a folder of models) are the core.
-AREAS = {"_kernels": "kernels", "io": "io", "verification": "verification", "plot": "plot", "cli": "cli"}
+AREAS = {"_kernels": "kernels", "io": "io", "verification": "verification", "plot": "plot", "cli": "cli",
+         "view": "plot"}  # lgvi.view (the interactive page) is a plot module at the top level for now
 #: The package's front door: re-exports, ``python -m lgvi``, the old names of moved modules.
 FRONT = {"__init__", "__main__", "_aliases"}
 #: Areas that an area never imports.

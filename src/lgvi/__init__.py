@@ -48,6 +48,7 @@ from .io import streaming as streaming  # the old name lgvi.streaming (imported 
 from .io.streaming import simulate_stream as simulate_stream
 from .trajectory import Trajectory as Trajectory
 from .trajectory import load as load
+from . import view as _view  # noqa: F401  (Jupyter's display of a Trajectory; plotly imported when used)
 
 _sys.modules.setdefault("lgvi.streaming", streaming)
 
