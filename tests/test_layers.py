@@ -29,13 +29,13 @@ LAYERS: dict[str, int] = {
     "registry": 2, "torques": 2, "invariants": 2, "implicit": 2, "accuracy": 2, "trajectory": 2,
     "discrete": 2, "reference": 2, "exact": 2,
     # 3: systems and the driver (the core)
-    "driver": 3, "systems": 3, "integrator": 3, "ensemble": 3, "modified": 3,
+    "driver": 3, "systems": 3, "integrator": 3, "ensemble": 3, "modified": 3, "splitting": 3,
     # 4: input/output, verification baselines
     "streaming": 4, "outputs": 4, "scenario": 4, "baselines": 4,
     # 5: plots; 6: the command line and the package's front door
     "plot": 5, "cli": 6, "__main__": 6, "__init__": 6,
 }
-CORE = {"driver", "systems", "integrator", "ensemble", "modified", "registry", "torques", "invariants",
+CORE = {"driver", "systems", "integrator", "ensemble", "modified", "splitting", "registry", "torques", "invariants",
         "implicit", "trajectory", "body", "so3"}
 IO_CLI_PLOT = {"streaming", "outputs", "scenario", "cli", "plot", "__main__"}
 
