@@ -256,3 +256,20 @@ def test_bad_input(kwargs, match):
     kw.update(kwargs)
     with pytest.raises(ValueError, match=match):
         lgvi.simulate(TOP, np.eye(3), **kw)
+
+
+def test_scenario_chooses_the_splitting():
+    from lgvi.scenario import Scenario
+
+    d = {"body": {"inertia": [0.13, 0.28, 0.17]}, "initial": {"omega": [4.14, 4.14, 4.14]},
+         "integrator": {"h": 0.01, "steps": 50, "scheme": "splitting", "composition": "aba84"},
+         "torque": [{"type": "uniform_gravity", "mass": 1.0, "com": [0.0, 0.0, -0.3]}]}
+    sc = Scenario.from_dict(d)
+    assert sc.order == 4 and sc.simulate_kwargs()["scheme"] == "splitting"
+    tr = sc.run()
+    direct = lgvi.simulate(TOP, np.eye(3), omega0=4.14 * np.ones(3), h=0.01, steps=50, torque=HANGING,
+                           scheme="splitting", order=4, composition="aba84")
+    assert tr.meta["composition"] == "aba84" and np.array_equal(tr.R, direct.R)
+    d["integrator"]["composition"] = "suzuki4"          # an LGVI composition is not a splitting
+    with pytest.raises(ValueError, match="composition"):
+        Scenario.from_dict(d)

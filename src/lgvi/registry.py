@@ -249,7 +249,7 @@ _BAB64_WEIGHTS = (0.5316386245813511790852625, -0.3086019704406066393237719, 0.5
 
 _ABA84 = Splitting("aba84", 4, (8, 4), _ABA84_NODES, _ABA84_WEIGHTS,
                    "symmetric ABA, 5 kicks: Gauss-type quadrature of order 8 plus the eps^2 h^3 condition "
-                   "(McLachlan 1995, SIAM J. Sci. Comput. 16, 151; derived in docs/splitting.md)")
+                   "(after McLachlan 1995, BIT 35, 258; derived in docs/splitting.md)")
 
 #: Splitting methods by name (``simulate(..., scheme="splitting", composition=name)``).
 SPLITTINGS: dict[str, Splitting] = {
@@ -261,7 +261,7 @@ SPLITTINGS: dict[str, Splitting] = {
         Splitting("saba4", 2, (8, 2), *_gauss(4), "Laskar and Robutel (2001): SABA_4"),
         Splitting("bab64", 4, (6, 4), _BAB64_NODES, _BAB64_WEIGHTS,
                   "symmetric BAB, 5 kicks (first and last at the step's ends): quadrature of order 6 plus "
-                  "the eps^2 h^3 condition (McLachlan 1995; derived in docs/splitting.md)"),
+                  "the eps^2 h^3 condition (after McLachlan 1995; derived in docs/splitting.md)"),
         _ABA84,
         _splitting_triple_jump(_ABA84, "aba84-tj6"),
     )
