@@ -26,8 +26,8 @@ from .codes import OK, OVERFLOW
 from .torque_kernels import model_moments_s
 
 # convergence of Carlson's duplication: relative spread of the arguments below which the
-# 5th-order Taylor series of R_F and R_J is exact to round-off (the next term is ~ spread^6)
-_SPREAD = 1.5e-3
+# 7th-order Taylor series of R_F and R_J (DLMF 19.36.1-2) is exact to round-off (next term ~ spread^8)
+_SPREAD = 0.01
 
 
 @jit(inline="always")
@@ -40,6 +40,21 @@ def rc1(e):
         return math.atan(s) / s
     s = math.sqrt(-e)
     return math.atanh(s) / s
+
+
+@jit(inline="always")
+def rf_series(e2, e3):
+    """Taylor series of ``R_F`` in the elementary symmetric functions of the deviations (DLMF 19.36.1)."""
+    return (1.0 - e2 / 10.0 + e3 / 14.0 + e2 * e2 / 24.0 - 3.0 * e2 * e3 / 44.0 - 5.0 * e2 * e2 * e2 / 208.0
+            + 3.0 * e3 * e3 / 104.0 + e2 * e2 * e3 / 16.0)
+
+
+@jit(inline="always")
+def rj_series(e2, e3, e4, e5):
+    """Taylor series of ``R_J`` (DLMF 19.36.2)."""
+    return (1.0 - 3.0 * e2 / 14.0 + e3 / 6.0 + 9.0 * e2 * e2 / 88.0 - 3.0 * e4 / 22.0 - 9.0 * e2 * e3 / 52.0
+            + 3.0 * e5 / 26.0 - e2 * e2 * e2 / 16.0 + 3.0 * e3 * e3 / 40.0 + 3.0 * e2 * e4 / 20.0
+            + 45.0 * e2 * e2 * e3 / 272.0 - 9.0 * (e3 * e4 + e2 * e5) / 68.0)
 
 
 @jit
@@ -65,7 +80,7 @@ def carlson_rf(x, y, z):
     dz = -(dx + dy)
     e2 = dx * dy - dz * dz
     e3 = dx * dy * dz
-    return (1.0 - e2 / 10.0 + e3 / 14.0 + e2 * e2 / 24.0 - 3.0 * e2 * e3 / 44.0) / math.sqrt(mu)
+    return rf_series(e2, e3) / math.sqrt(mu)
 
 
 @jit
@@ -102,9 +117,55 @@ def carlson_rj(x, y, z, p):
     e3 = xyz + 2.0 * e2 * pp + 4.0 * pp * pp * pp
     e4 = (2.0 * xyz + e2 * pp + 3.0 * pp * pp * pp) * pp
     e5 = xyz * pp * pp
-    series = (1.0 - 3.0 * e2 / 14.0 + e3 / 6.0 + 9.0 * e2 * e2 / 88.0 - 3.0 * e4 / 22.0 - 9.0 * e2 * e3 / 52.0
-              + 3.0 * e5 / 26.0)
+    series = rj_series(e2, e3, e4, e5)
     return fac * series / (a * math.sqrt(a)) + 6.0 * total
+
+
+@jit(inline="always")
+def carlson_rf_rj(x, y, z, p):
+    """``(R_F(x, y, z), R_J(x, y, z, p))`` with one duplication sequence (the same ``x, y, z``)."""
+    a = (x + y + z + 2.0 * p) / 5.0
+    delta = (p - x) * (p - y) * (p - z)
+    total = 0.0
+    fac = 1.0
+    dx = dy = dz = 0.0
+    mu = 1.0
+    for _ in range(64):
+        mu = (x + y + z) / 3.0
+        dx = (a - x) / a
+        dy = (a - y) / a
+        dz = (a - z) / a
+        dp = (a - p) / a
+        if max(abs(dx), abs(dy), abs(dz), abs(dp)) < _SPREAD and \
+                max(abs(mu - x), abs(mu - y), abs(mu - z)) < _SPREAD * mu:
+            break
+        sx = math.sqrt(x)
+        sy = math.sqrt(y)
+        sz = math.sqrt(z)
+        sp = math.sqrt(p)
+        lam = sx * (sy + sz) + sy * sz
+        d = (sp + sx) * (sp + sy) * (sp + sz)
+        total += fac * rc1(delta * fac * fac * fac / (d * d)) / d
+        a = 0.25 * (a + lam)
+        x = 0.25 * (x + lam)
+        y = 0.25 * (y + lam)
+        z = 0.25 * (z + lam)
+        p = 0.25 * (p + lam)
+        fac *= 0.25
+    fx = (mu - x) / mu
+    fy = (mu - y) / mu
+    fz = -(fx + fy)
+    f2 = fx * fy - fz * fz
+    f3 = fx * fy * fz
+    rf = rf_series(f2, f3) / math.sqrt(mu)
+    pp = -0.5 * (dx + dy + dz)
+    xyz = dx * dy * dz
+    e2 = dx * dy + dx * dz + dy * dz - 3.0 * pp * pp
+    e3 = xyz + 2.0 * e2 * pp + 4.0 * pp * pp * pp
+    e4 = (2.0 * xyz + e2 * pp + 3.0 * pp * pp * pp) * pp
+    e5 = xyz * pp * pp
+    series = rj_series(e2, e3, e4, e5)
+    return rf, fac * series / (a * math.sqrt(a)) + 6.0 * total
 
 
 @jit(inline="always")
@@ -295,23 +356,6 @@ def free_flow(I, ax, symax, R, Pi, tau, ws):
     s23 = 1.0 if I3 > I2 else -1.0
     B2 = s3 * s23 * A2
     B3 = s3 * A3
-    # phase: am(u0) = phi0; reduced to phi0 - j0 pi in [-pi/2, pi/2] (am(u + 2K) = am(u) + pi, and the
-    # integrals below are differences, unchanged by the shift)
-    phi0 = math.atan2(q2 * A1 * s3 * s23, q1 * A2)
-    j0 = round(phi0 / math.pi)
-    if m1 <= 0.0:
-        j0 = 0
-        phi0 = max(-0.5 * math.pi, min(0.5 * math.pi, phi0))
-    r0 = phi0 - j0 * math.pi
-    sr0 = math.sin(r0)
-    cr0 = math.cos(r0)
-    y0 = cr0 * cr0 + m1 * sr0 * sr0
-    u0 = sr0 * carlson_rf(cr0 * cr0, y0, 1.0)
-    phi1 = jacobi_am(u0 + lam * tau, m, m1, ws)
-    flip = -1.0 if j0 % 2 != 0 else 1.0
-    sn = flip * math.sin(phi1)
-    cn = flip * math.cos(phi1)
-    dn = math.sqrt(cn * cn + m1 * sn * sn)
     # the Euler axis: the body axis whose momentum amplitude is smallest; L^2 - Pi_e^2 = c0 (1 - nn sn^2)
     if A1 <= A2 and A1 <= A3:
         e = a1
@@ -325,12 +369,30 @@ def free_flow(I, ax, symax, R, Pi, tau, ws):
         e = a3
         c0 = A1 * A1
         nn = -m * A3 * A3 / c0
+    # phase: am(u0) = phi0; reduced to phi0 - j0 pi in [-pi/2, pi/2] (am(u + 2K) = am(u) + pi, and the
+    # integrals below are differences, unchanged by the shift)
+    phi0 = math.atan2(q2 * A1 * s3 * s23, q1 * A2)
+    j0 = round(phi0 / math.pi)
+    if m1 <= 0.0:
+        j0 = 0
+        phi0 = max(-0.5 * math.pi, min(0.5 * math.pi, phi0))
+    r0 = phi0 - j0 * math.pi
+    sr0 = math.sin(r0)
+    cr0 = math.cos(r0)
+    y0 = cr0 * cr0 + m1 * sr0 * sr0
+    rf0, rj0 = carlson_rf_rj(cr0 * cr0, y0, 1.0, 1.0 - nn * sr0 * sr0)
+    u0 = sr0 * rf0
+    phi1 = jacobi_am(u0 + lam * tau, m, m1, ws)
+    flip = -1.0 if j0 % 2 != 0 else 1.0
+    sn = flip * math.sin(phi1)
+    cn = flip * math.cos(phi1)
+    dn = math.sqrt(cn * cn + m1 * sn * sn)
     Ie = I[e]
     twoE_minus = p0 * p0 * (1.0 / I[0] - 1.0 / Ie) + p1 * p1 * (1.0 / I[1] - 1.0 / Ie) + \
         p2 * p2 * (1.0 / I[2] - 1.0 / Ie)
     # int dt / (L^2 - Pi_e^2) = [Pi(nn; am u | m)] / (c0 lam), and Pi(nn; phi) = F(phi) + nn/3 G(phi) with
     # F(am u) = u, so the difference is lam tau + nn/3 (G(phi1) - G(phi0))
-    dG = third_kind_rest(nn, phi1, m1) - sr0 * sr0 * sr0 * carlson_rj(cr0 * cr0, y0, 1.0, 1.0 - nn * sr0 * sr0)
+    dG = third_kind_rest(nn, phi1, m1) - sr0 * sr0 * sr0 * rj0
     psi = L * tau / Ie + L * twoE_minus / c0 * (tau + nn / (3.0 * lam) * dG)
     euler_frame(p0, p1, p2, e, ws, 32)            # V0
     n1 = A1 * cn
