@@ -156,10 +156,12 @@ class SplittingRun(Run):
                 self.h, self.t0, self.R, self.Pi, self.codes, self.params, self.k, n, self.save_every, R_out, Pi_out,
                 self.ws, self.Rb, self.Pb, self.Rs, self.Ps)
         m = self.model
+        k0 = self.k
         if m is not None and getattr(m, "moment_func", None) is not None:   # lgvi.torques.Compiled
             status, self.k = run_split_user(m.moment_func, m.row(), *args)
         else:
             status, self.k = run_split(*args)
+        self.counts[0] += self.k - k0          # the record's histogram: steps with no solver iteration
         return int(status)
 
 
