@@ -11,7 +11,7 @@ import pytest
 
 import lgvi
 from lgvi import so3
-from lgvi.exact import free_body_attitude, free_body_momentum
+from lgvi.verification.exact import free_body_attitude, free_body_momentum
 from lgvi.registry import DEFAULT_SPLITTING, SPLITTINGS
 from lgvi.splitting import free_flow
 from lgvi.torques import Compiled, GravityGradient, LinearDamping, UniformGravity
@@ -244,7 +244,7 @@ def test_meta_and_save_every():
 
 def test_stream(tmp_path):
     """simulate_stream runs the splitting too: in chunks of 100 steps, the same bits as in memory."""
-    from lgvi.streaming import read_stream
+    from lgvi.io.streaming import read_stream
 
     kw = dict(omega0=4.14 * np.ones(3), torque=HANGING, scheme="splitting", order=4, h=0.01, steps=400,
               save_every=10)
@@ -272,7 +272,7 @@ def test_bad_input(kwargs, match):
 
 
 def test_scenario_chooses_the_splitting():
-    from lgvi.scenario import Scenario
+    from lgvi.io.scenario import Scenario
 
     d = {"body": {"inertia": [0.13, 0.28, 0.17]}, "initial": {"omega": [4.14, 4.14, 4.14]},
          "integrator": {"h": 0.01, "steps": 50, "scheme": "splitting", "composition": "aba84"},
