@@ -242,6 +242,22 @@ def test_meta_and_save_every():
     assert a.solver_summary["steps"] == 100
 
 
+def test_error_estimate_uses_the_splittings_order():
+    """error_estimate=True re-runs the splitting at h/2; with a constant moment (not a potential)
+    the order is still 2 (the LGVI's paper forcing would be 1), and the estimate is the error
+    within a factor 1.5."""
+    from lgvi.torques import Constant
+
+    kw = dict(omega0=[0.3, 1.0, 0.2], torque=Constant([0.0, 0.05, 0.1]), scheme="splitting", order=2,
+              composition="strang", save_every=200)
+    body = lgvi.RigidBody([1.0, 2.0, 3.0])
+    tr = lgvi.simulate(body, np.eye(3), h=0.05, steps=200, error_estimate=True, error_warn=None, **kw)
+    ref = lgvi.simulate(body, np.eye(3), h=0.05 / 64, steps=200 * 64, **dict(kw, save_every=200 * 64))
+    est = tr.meta["error_estimate"]
+    assert est["order"] == 2
+    assert 1 / 1.5 < est["attitude"] / angle(ref.R[-1], tr.R[-1]) < 1.5
+
+
 def test_stream(tmp_path):
     """simulate_stream runs the splitting too: in chunks of 100 steps, the same bits as in memory."""
     from lgvi.io.streaming import read_stream
