@@ -91,3 +91,9 @@ def test_memory_quick():
     assert "Traceback" not in proc.stderr
     rows = [line.split() for line in proc.stdout.splitlines() if line.startswith("lgvi run (interval")]
     assert [int(r[4]) for r in rows] == [100_000, 1_000_000] and all(float(r[6]) > 0 for r in rows)
+
+
+@pytest.mark.slow
+def test_bench_adjoint_quick():
+    proc = _run("bench_adjoint.py", "--quick")
+    _check(proc, "discrete adjoint", "/ simulate", "gradient", "7 seeds")
