@@ -260,7 +260,9 @@ def with_estimate(traj: Any, args: dict[str, Any], *, warn: float | None = DEFAU
     kw.update(h=float(kw["h"]) / 2.0, steps=2 * int(kw["steps"]), save_every=2 * int(kw.get("save_every", 1)))
     if kw.get("progress") is not True:
         kw["progress"] = False
-    order = scheme_order(kw.get("torque"), kw.get("forcing", "paper"), int(kw.get("order", 2)))
+    order = int(kw.get("order", 2))
+    if kw.get("scheme") in (None, "lgvi"):          # the splitting's order is order= for every moment
+        order = scheme_order(kw.get("torque"), kw.get("forcing", "paper"), order)
     t0 = time.perf_counter()
     try:
         shadow = simulate(**kw)

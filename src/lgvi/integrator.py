@@ -31,8 +31,8 @@ from .driver import (MemorySink, check_memory as _check_memory, drive,  # noqa: 
 from .errors import ConvergenceError, TorqueError
 from .implicit import METHODS, failure_message, largest_step
 from .invariants import declaration_of, forcing_used
-from .registry import (COMPOSITIONS, DEFAULT_COMPOSITION, FORCINGS, SOLVER_METHODS, Composition,  # noqa: F401
-                       check_composable, composition_for, torque_kind)
+from .registry import (COMPOSITIONS, DEFAULT_COMPOSITION, FORCINGS, SCHEMES, SOLVER_METHODS,  # noqa: F401
+                       Composition, check_composable, composition_for, torque_kind)
 from .systems import provide_run
 from .systems.rigid_body import RIGID_BODY, momentum_matrices
 from .torques import TorqueModel
@@ -159,7 +159,7 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
              alpha: float = 1.0, save_every: int = 1, t0: float = 0.0, forcing: str = "paper",
              order: int = 2, composition: str | None = None, progress: Any = False,
              error_estimate: Any = False, error_warn: float | None = 0.01,
-             solver_record: str = "interval") -> Trajectory:
+             solver_record: str = "interval", scheme: str | None = None) -> Trajectory:
     r"""Simulate the attitude of a rigid body with the Lie group variational integrator.
 
     Each step solves ``hat(h Pi_k) = F_k Jd - Jd F_k^T`` for ``F_k`` in SO(3), then sets
@@ -233,6 +233,12 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
         ``(M - 1,)``, so the result is sized by the saved states; ``"full"`` every step, shape
         ``(steps,)``. With ``save_every=1`` both are the per-step record. Run totals and a
         histogram of the iterations are kept either way (:attr:`Trajectory.solver_summary`).
+    scheme : {None, "lgvi", "splitting"}
+        ``None`` (or ``"lgvi"``): the LGVI above and its compositions. ``"splitting"``: exact
+        free-body flows and kicks of the torque model's moment ``M(t, R)`` (:mod:`lgvi.splitting`),
+        for potentials and other moments of the attitude and time; ``order`` 2, 4 or 6 and
+        ``composition`` a name in :data:`lgvi.registry.SPLITTINGS`. The solver options are unused
+        (no implicit equation), the record's iterations and residuals are zero.
 
     Returns
     -------
@@ -294,7 +300,11 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     from .accuracy import check_options
 
     estimate, warn = check_options(error_estimate, error_warn, torque)
-    run = _Run(body, R0, Pi0, omega0=omega0, h=h, steps=steps, torque=torque, method=method, tol=tol,
+    run_class = _Run
+    if scheme is not None and scheme != "lgvi":
+        choice(scheme, "scheme", SCHEMES)
+        from .splitting import SplittingRun as run_class
+    run = run_class(body, R0, Pi0, omega0=omega0, h=h, steps=steps, torque=torque, method=method, tol=tol,
                max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0, forcing=forcing, order=order,
                composition=composition, solver_record=solver_record)
     steps, save_every = run.steps, run.save_every
@@ -305,7 +315,8 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
         traj = with_estimate(traj, dict(body=run.body, R0=R0, Pi0=Pi0, omega0=omega0, h=run.h, steps=steps,
                                         torque=torque, method=method, tol=tol, max_iter=max_iter, alpha=alpha,
                                         save_every=save_every, t0=t0, forcing=forcing, order=order,
-                                        composition=composition, progress=progress), warn=warn, stacklevel=2)
+                                        composition=composition, progress=progress, scheme=scheme), warn=warn,
+                           stacklevel=2)
     return traj
 
 

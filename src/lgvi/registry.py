@@ -8,6 +8,8 @@ re-declares them (see ``docs/architecture.md``):
 * :data:`FORCINGS`: treatments of the non-conservative moment;
 * :data:`COMPOSITIONS` and :data:`DEFAULT_COMPOSITION`: symmetric compositions of the symmetric
   step (:data:`ORDERS` follows from them);
+* :data:`SPLITTINGS` and :data:`DEFAULT_SPLITTING`: splitting methods (exact free-body flows and
+  kicks) of ``scheme="splitting"``;
 * :data:`TORQUE_MODELS`: the torque models by scenario key, each class registered by
   :class:`lgvi.torques.TorqueModel` itself when it is defined (``key = "..."``);
 * :data:`lgvi.systems.SYSTEMS`: the dynamical systems the driver runs.
@@ -17,6 +19,7 @@ Importing this module loads no Numba.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -170,6 +173,126 @@ def composition_for(order: Any, composition: Any) -> Composition:
     return comp
 
 
+# ------------------------------------------------------------------------------------ splittings
+@dataclass(frozen=True)
+class Splitting:
+    """A symmetric splitting method for ``H = T(Pi) + eps U(t, R)`` (``scheme="splitting"``).
+
+    One step of size ``h`` alternates exact free-body flows (drifts) and kicks
+    ``Pi += weights[i] h M(t_k + nodes[i] h, R)``: the kick ``i`` happens at the fraction
+    ``nodes[i]`` of the step, and the drifts are the differences of consecutive nodes (with 0 and
+    1 at the ends). ``order`` is the classical order; ``eps_orders = (s1, s2)`` says the error is
+    ``O(eps h^s1 + eps^2 h^s2)`` (``docs/splitting.md`` derives the coefficients and the conditions).
+    """
+
+    name: str
+    order: int
+    eps_orders: tuple[int, int]
+    nodes: tuple[float, ...]
+    weights: tuple[float, ...]
+    source: str
+
+    @property
+    def kicks(self) -> int:
+        return len(self.weights)
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``drift`` (s+1,), ``weight`` (s,), ``node`` (s,) as the kernels take them (fractions of ``h``)."""
+        node = np.array(self.nodes, dtype=np.float64)
+        drift = np.diff(np.concatenate([[0.0], node, [1.0]]))
+        return drift, np.array(self.weights, dtype=np.float64), node
+
+
+def _gauss(n: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """Gauss-Legendre nodes on [0, 1] and weights (closed forms) for ``n = 1 .. 4``."""
+    if n == 1:
+        x, w = [0.0], [1.0]
+    elif n == 2:
+        r = math.sqrt(3.0) / 6.0
+        x, w = [-r, r], [0.5, 0.5]
+    elif n == 3:
+        r = math.sqrt(15.0) / 10.0
+        x, w = [-r, 0.0, r], [5.0 / 18.0, 4.0 / 9.0, 5.0 / 18.0]
+    else:
+        r1 = 0.5 * math.sqrt(3.0 / 7.0 + 2.0 / 7.0 * math.sqrt(6.0 / 5.0))
+        r2 = 0.5 * math.sqrt(3.0 / 7.0 - 2.0 / 7.0 * math.sqrt(6.0 / 5.0))
+        w1 = (18.0 - math.sqrt(30.0)) / 72.0
+        w2 = (18.0 + math.sqrt(30.0)) / 72.0
+        x, w = [-r1, -r2, r2, r1], [w1, w2, w2, w1]
+    return tuple(0.5 + xi for xi in x), tuple(w)
+
+
+def _splitting_triple_jump(base: "Splitting", name: str) -> "Splitting":
+    """Yoshida's triple jump of a symmetric splitting of order 4: order 6, same ``s1``."""
+    g1 = 1.0 / (2.0 - 2.0 ** (1.0 / 5.0))
+    g0 = 1.0 - 2.0 * g1
+    nodes: list[float] = []
+    weights: list[float] = []
+    start = 0.0
+    for g in (g1, g0, g1):
+        nodes += [start + g * c for c in base.nodes]
+        weights += [g * b for b in base.weights]
+        start += g
+    return Splitting(name, 6, (base.eps_orders[0], 6), tuple(nodes), tuple(weights),
+                     f"Yoshida's triple jump of {base.name} (g1 = 1/(2 - 2^(1/5)), g0 = 1 - 2 g1)")
+
+
+# ABA with 5 kicks, order (8, 4): nodes 1/2 -+ x1, 1/2 -+ x2, 1/2 solving the quadrature conditions
+# of order 8 and the eps^2 h^3 condition (docs/splitting.md); BAB with 5 kicks, order (6, 4).
+_ABA84_NODES = (0.0753469602698928884165278, 0.5932638149581496707173018, 0.5, 0.4067361850418503292826982,
+                0.9246530397301071115834722)
+_ABA84_WEIGHTS = (0.1902259393736766192452308, 0.8465240704435262570550805, -1.073500019634405752600623,
+                  0.8465240704435262570550805, 0.1902259393736766192452308)
+_BAB64_NODES = (0.0, -0.0437514219173741137407351, 0.5, 1.043751421917374113740735, 1.0)
+_BAB64_WEIGHTS = (0.5316386245813511790852625, -0.3086019704406066393237719, 0.5539266917185109204770189,
+                  -0.3086019704406066393237719, 0.5316386245813511790852625)
+
+_ABA84 = Splitting("aba84", 4, (8, 4), _ABA84_NODES, _ABA84_WEIGHTS,
+                   "symmetric ABA, 5 kicks: Gauss-type quadrature of order 8 plus the eps^2 h^3 condition "
+                   "(after McLachlan 1995, BIT 35, 258; derived in docs/splitting.md)")
+
+#: Splitting methods by name (``simulate(..., scheme="splitting", composition=name)``).
+SPLITTINGS: dict[str, Splitting] = {
+    s.name: s for s in (
+        Splitting("strang", 2, (2, 2), *_gauss(1), "Strang's ABA (leapfrog): drift h/2, kick h, drift h/2"),
+        Splitting("saba2", 2, (4, 2), *_gauss(2),
+                  "Laskar and Robutel (2001), Celest. Mech. Dyn. Astron. 80, 39: SABA_2, kicks at Gauss nodes"),
+        Splitting("saba3", 2, (6, 2), *_gauss(3), "Laskar and Robutel (2001): SABA_3"),
+        Splitting("saba4", 2, (8, 2), *_gauss(4), "Laskar and Robutel (2001): SABA_4"),
+        Splitting("bab64", 4, (6, 4), _BAB64_NODES, _BAB64_WEIGHTS,
+                  "symmetric BAB, 5 kicks (first and last at the step's ends): quadrature of order 6 plus "
+                  "the eps^2 h^3 condition (after McLachlan 1995; derived in docs/splitting.md)"),
+        _ABA84,
+        _splitting_triple_jump(_ABA84, "aba84-tj6"),
+    )
+}
+
+#: Splitting used by ``scheme="splitting", order=p`` unless ``composition=`` names another.
+DEFAULT_SPLITTING = {2: "saba3", 4: "aba84", 6: "aba84-tj6"}
+
+
+def splitting_for(order: Any, composition: Any) -> Splitting:
+    """The validated splitting method of ``order=`` and ``composition=`` (``None``: the default one)."""
+    from ._validation import choice
+
+    orders = tuple(sorted(DEFAULT_SPLITTING))
+    if isinstance(order, (bool, np.bool_)) or not isinstance(order, (int, np.integer)) or order not in orders:
+        raise ValueError(f"order must be {', '.join(str(o) for o in orders[:-1])} or {orders[-1]} with "
+                         f"scheme='splitting', got {order!r}")
+    if composition is None:
+        return SPLITTINGS[DEFAULT_SPLITTING[int(order)]]
+    choice(composition, "composition", tuple(SPLITTINGS))
+    sp = SPLITTINGS[composition]
+    if sp.order != order:
+        raise ValueError(f"composition {composition!r} is a splitting of order {sp.order}, but order={order}; "
+                         f"pass order={sp.order} with it")
+    return sp
+
+
+#: ``scheme=`` of :func:`lgvi.simulate`: ``None`` (or ``"lgvi"``) the LGVI and its compositions.
+SCHEMES = ("lgvi", "splitting")
+
+
 def check_composable(comp: Composition, kind: str, forcing: str, model: Any) -> None:
     """Reject compositions whose base step is not symmetric (they would not raise the order)."""
     if comp.order == 2:
@@ -225,6 +348,7 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = ["COMPOSITIONS", "Composition", "DEFAULT_COMPOSITION", "DEFAULT_METHOD", "FORCINGS", "FORCING_DOCS",
-           "ORDERS", "SECOND_ORDER", "SOLVER_METHODS", "SolverMethod", "TORQUE_KINDS", "TORQUE_MODELS",
-           "check_composable", "composition_for", "method_names", "torque_kind"]
+__all__ = ["COMPOSITIONS", "Composition", "DEFAULT_COMPOSITION", "DEFAULT_METHOD", "DEFAULT_SPLITTING", "FORCINGS",
+           "FORCING_DOCS", "ORDERS", "SCHEMES", "SECOND_ORDER", "SOLVER_METHODS", "SPLITTINGS", "SolverMethod",
+           "Splitting", "TORQUE_KINDS", "TORQUE_MODELS", "check_composable", "composition_for", "method_names",
+           "splitting_for", "torque_kind"]

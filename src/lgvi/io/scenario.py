@@ -52,6 +52,8 @@ A complete example (every key shown; comments say which keys are alternatives)::
     forcing = "paper"                    # "paper" or "symmetric" (default: the library's)
     order = 2                            # 2, 4 or 6 (default: the library's)
     # composition = "suzuki4"          # a composition of lgvi.registry.COMPOSITIONS (sets the order)
+    # scheme = "splitting"             # exact free-body flows and kicks (lgvi.splitting); composition
+                                         # then names one of lgvi.registry.SPLITTINGS
     save_every = 10                      # keep every 10th state; must divide the steps
     error_estimate = true                # also run at h/2 and report the estimated final
                                          # attitude error (lgvi.accuracy; default false)
@@ -132,7 +134,7 @@ import numpy as np
 
 from .._untrusted import name_problem
 from .._version import __version__
-from ..registry import COMPOSITIONS, FORCINGS, ORDERS, method_names
+from ..registry import COMPOSITIONS, FORCINGS, ORDERS, SCHEMES, SPLITTINGS, method_names
 from ..torques import TORQUE_MODELS
 
 __all__ = ["Scenario", "ScenarioError", "load_scenario", "to_toml"]
@@ -512,6 +514,7 @@ class Scenario:
     source: str = "<dict>"
     text: str = field(default="", repr=False)
     composition: str | None = None
+    scheme: str | None = None
 
     @property
     def duration(self) -> float:
@@ -574,7 +577,7 @@ class Scenario:
 
         integ = c.table(d["integrator"], "integrator", ("h", "steps", "duration", "method", "tol", "max_iter",
                                                         "alpha", "forcing", "order", "save_every",
-                                                        "error_estimate", "error_warn", "composition"))
+                                                        "error_estimate", "error_warn", "composition", "scheme"))
         if "h" not in integ:
             raise c.expected("integrator.h", "a non-zero number (the step size in seconds)")
         h = c.number(integ["h"], "integrator.h", nonzero=True)
@@ -608,9 +611,11 @@ class Scenario:
             if isinstance(order, bool) or order not in ORDERS or not isinstance(order, int):
                 raise c.expected("integrator.order", "one of " + ", ".join(str(o) for o in ORDERS), order)
         composition = None
+        scheme = c.string(integ["scheme"], "integrator.scheme", SCHEMES) if "scheme" in integ else None
+        comps = SPLITTINGS if scheme == "splitting" else COMPOSITIONS
         if "composition" in integ:
-            composition = c.string(integ["composition"], "integrator.composition", COMPOSITION_NAMES)
-            comp_order = COMPOSITIONS[composition].order
+            composition = c.string(integ["composition"], "integrator.composition", tuple(comps))
+            comp_order = comps[composition].order
             if order is None:
                 order = comp_order
             elif order != comp_order:
@@ -648,7 +653,7 @@ class Scenario:
         return cls(name=name, description=description, body=body, R0=R0, Pi0=Pi0, h=h, steps=steps, torque=torque,
                    torque_spec=spec, forcing=forcing, order=order, method=method, tol=tol, max_iter=max_iter,
                    alpha=alpha, save_every=save_every, error_estimate=error_estimate, error_warn=error_warn,
-                   formats=formats, plots=plots, source=source, composition=composition,
+                   formats=formats, plots=plots, source=source, composition=composition, scheme=scheme,
                    text=to_toml(d) if text is None else text)
 
     def simulate_kwargs(self) -> dict[str, Any]:
@@ -661,6 +666,8 @@ class Scenario:
             kw["order"] = self.order
         if self.composition is not None:
             kw["composition"] = self.composition
+        if self.scheme is not None:
+            kw["scheme"] = self.scheme
         return kw
 
     def run(self, progress: bool = False):

@@ -304,7 +304,8 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
                     max_iter: int = 50, alpha: float = 1.0, save_every: int = 1, t0: float = 0.0,
                     forcing: str = "paper", order: int = 2, composition: str | None = None,
                     progress: Any = False, resume: bool = False, chunk_steps: int | None = None,
-                    meta: dict[str, Any] | None = None, solver_record: str = "interval") -> Path:
+                    meta: dict[str, Any] | None = None, solver_record: str = "interval",
+                    scheme: str | None = None) -> Path:
     """Run :func:`simulate` straight to a crash-safe stream folder, in bounded memory.
 
     The run goes in chunks of ``chunk_steps`` steps (a multiple of ``save_every``); each chunk's
@@ -319,7 +320,7 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
     folder : path
         The stream folder (created; must not hold a stream unless ``resume=True``).
     body, R0, Pi0, omega0, h, steps, torque, method, tol, max_iter, alpha, save_every, t0, forcing,
-    order, composition, progress, solver_record
+    order, composition, progress, solver_record, scheme
         As in :func:`simulate` (a callable torque works too); with the default
         ``solver_record="interval"`` the chunk files are sized by the saved states. With ``resume=True`` they must be
         the same as in the interrupted run (checked against the stream's metadata).
@@ -348,6 +349,12 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
     """
     from ..integrator import Run
 
+    if scheme is not None and scheme != "lgvi":
+        from .._validation import choice
+        from ..registry import SCHEMES
+        from ..splitting import SplittingRun as Run      # type: ignore[assignment]
+
+        choice(scheme, "scheme", SCHEMES)
     run = Run(body, R0, Pi0, omega0=omega0, h=h, steps=steps, torque=torque, method=method, tol=tol,
               max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0, forcing=forcing, order=order,
               composition=composition, solver_record=solver_record)
@@ -453,7 +460,7 @@ class StreamSink:
 
 def _check_resume(old: dict[str, Any], new: dict[str, Any], folder: Path) -> None:
     keys = ("method", "tol", "max_iter", "alpha", "save_every", "forcing", "order", "composition", "torque",
-            "torque_model", "t0", "h", "steps", "inertia", "solver_record")
+            "torque_model", "t0", "h", "steps", "inertia", "solver_record", "scheme")
     old = dict(old, solver_record=old.get("solver_record", "full"))  # streams written before the option
     diff = [k for k in keys if old.get(k) != new.get(k)]
     if diff:

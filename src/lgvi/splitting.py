@@ -1,0 +1,201 @@
+"""Splitting methods for perturbed rigid bodies: ``lgvi.simulate(..., scheme="splitting", order=p)``.
+
+The Hamiltonian ``H = T(Pi) + U(t, R)`` is split into the free rigid body ``T``, whose flow is
+computed exactly (elliptic functions, :mod:`lgvi._kernels.splitting_kernels`), and the
+potential ``U``, whose flow is the kick ``Pi += tau M(t, R)`` (``R`` fixed). A symmetric
+composition of these flows (:data:`lgvi.registry.SPLITTINGS`) is a symplectic, symmetric method
+that stays exactly on SO(3) (each drift is a rotation, computed as one), conserves ``|Pi|``
+across every drift, and keeps every component of the spatial momentum ``R Pi`` that the
+potential's moment keeps (the kicks change ``R Pi`` by ``tau R M``). The error of a method of
+classical order ``p`` made for near-integrable problems is ``O(eps h^s1 + eps^2 h^s2)``, with
+``eps`` the size of the perturbation relative to the free body: small for a tumbling satellite
+under gravity gradient. See ``docs/splitting.md``.
+
+Moments that depend on ``Pi`` (damping, the PD controller, a ``Compiled`` model with
+``momentum_dependent=True``), torque callables and torque arrays are not split here: use the LGVI
+(``scheme=None``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ._validation import as_rotation, choice
+from ._version import __version__
+from .driver import check_memory, initial_momentum, run_solver_options, time_grid
+from .errors import ConvergenceError
+from .integrator import CHUNK_STEPS, SOLVER_RECORDS, Run, as_body
+from .invariants import declaration_of
+from .registry import FORCINGS, splitting_for, torque_kind
+from .trajectory import HIST_BINS
+
+_NO_CODES = np.zeros((0, 2), dtype=np.int64)
+
+
+def principal_data(body: Any) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, bool]:
+    """``(I, ax, symax, Pax, diag)`` of the kernels: principal moments per axis (3,), the axes of
+    the smallest, middle, largest moment (3,) int64, the symmetry code (``-1`` distinct moments,
+    ``0..2`` the odd axis of two equal moments, ``3`` a sphere), the principal axes (3, 3) and
+    whether ``J`` is diagonal (then the body frame is the principal frame and ``Pax = I``)."""
+    J = np.array(body.J)
+    diag = bool(np.count_nonzero(J - np.diag(np.diag(J))) == 0)
+    if diag:
+        moments = np.diag(J).copy()
+        axes = np.eye(3)
+    else:
+        moments = np.array(body.principal_moments, dtype=np.float64)
+        axes = np.array(body.principal_axes, dtype=np.float64)
+    a, b, c = moments
+    if a == b == c:
+        symax = 3
+    elif a == b:
+        symax = 2
+    elif b == c:
+        symax = 0
+    elif a == c:
+        symax = 1
+    else:
+        symax = -1
+    ax = np.argsort(moments, kind="stable").astype(np.int64)
+    return moments, ax, symax, np.ascontiguousarray(axes), diag
+
+
+class SplittingRun(Run):
+    """A validated splitting run (``scheme="splitting"``), driven by :func:`lgvi.driver.drive` like
+    :class:`lgvi.integrator.Run`; it reuses that class's results and bookkeeping.
+
+    Its record has no solver: ``iterations`` and ``residual`` are zero.
+    """
+
+    def __init__(self, body: Any, R0: Any, Pi0: Any, *, omega0: Any, h: Any, steps: Any, torque: Any,
+                 method: str, tol: Any, max_iter: Any, alpha: Any, save_every: Any, t0: Any, forcing: Any,
+                 order: Any, composition: Any, solver_record: Any = "interval") -> None:
+        self.body = body = as_body(body)
+        # the LGVI's solver options do not apply here, but stay validated (a typo is an error)
+        self.code, self.tol, self.max_iter, self.alpha = run_solver_options(method, tol, max_iter, alpha)
+        choice(forcing, "forcing", FORCINGS)
+        if forcing != "paper":
+            raise ValueError(f"forcing={forcing!r} chooses how the LGVI treats non-conservative moments; "
+                             "scheme='splitting' kicks every moment and takes no forcing= (leave the default)")
+        self.R = as_rotation(R0, "R0").copy()
+        self.Pi = initial_momentum(body, Pi0, omega0)
+        self.h, self.t0, self.steps, self.save_every = time_grid(h, t0, steps, save_every)
+        choice(solver_record, "solver_record", SOLVER_RECORDS)
+        self.full = solver_record == "full"
+        check_memory(self.steps, self.save_every, self.full)
+        self.counts = np.zeros(HIST_BINS, dtype=np.int64)
+        self.it_total = 0
+        self.res_max = 0.0
+        self.last_its = 0
+        self.last_res = 0.0
+        self.new_chunk()
+        self.split = sp = splitting_for(order, composition)
+        kind = torque_kind(torque)
+        self.kind = kind
+        self.func = None
+        self.model = None
+        self.legacy = False
+        self.M_cb = None
+        if kind in ("callable", "array"):
+            raise ValueError(f"scheme='splitting' takes torque=None or a torque model from lgvi.torques (its moment "
+                             f"evaluated at the kicks in compiled code), got a torque {kind}; use the LGVI "
+                             "(scheme=None) for callables and arrays, or write the moment as "
+                             "lgvi.torques.Compiled")
+        if kind == "model":
+            if torque.depends_on_momentum:
+                bad = ", ".join(repr(m) for m in torque.terms if m.depends_on_momentum) or repr(torque)
+                raise ValueError(f"scheme='splitting' kicks moments M(t, R) of the attitude and time; {bad} depends "
+                                 "on the angular momentum Pi. Use the LGVI (scheme=None) for damping and "
+                                 "controllers")
+            self.model = torque
+            if getattr(torque, "moment_func", None) is not None:
+                torque.row()
+        self.codes, self.params = self.model.encode() if self.model is not None else (_NO_CODES, np.zeros(0))
+        self.I, self.ax, self.symax, self.Pax, self.diag = principal_data(body)
+        self.drift, self.weight, self.node = sp.arrays()
+        self.ws = np.zeros(64)
+        self.Rb = np.zeros((3, 3))
+        self.Pb = np.zeros(3)
+        self.Rs = np.zeros((3, 3))
+        self.Ps = np.zeros(3)
+        self.meta: dict[str, Any] = {"scheme": "splitting", "composition": sp.name, "order": sp.order,
+                                     "eps_orders": list(sp.eps_orders), "save_every": self.save_every,
+                                     "torque": kind, "lgvi_version": __version__, "t0": self.t0,
+                                     "solver_record": solver_record}
+        if self.model is not None:
+            self.meta["torque_model"] = repr(self.model)
+        if kind != "none":
+            self.meta["invariants"] = declaration_of(self.model)
+        self.has_potential = self.model is not None and any(m.conservative for m in self.model.terms)
+        self.k = 0
+        self.chunk = max(1, CHUNK_STEPS // self.save_every) * self.save_every
+
+    def state(self) -> dict[str, Any]:
+        return {"k": self.k, "R": self.R.copy(), "Pi": self.Pi.copy()}
+
+    def load_state(self, st: dict[str, Any]) -> None:
+        self.k = int(st["k"])
+        self.R[:] = np.asarray(st["R"], dtype=np.float64)
+        self.Pi[:] = np.asarray(st["Pi"], dtype=np.float64)
+
+    def failure(self, status: int, residual: float, iterations: int, trajectory: Any,
+                where: str = "") -> ConvergenceError:
+        k = self.k
+        t_fail = self.t0 + k * self.h
+        return ConvergenceError(f"step {k} (t = {t_fail:g}) of the splitting failed: the torque model's moment "
+                                "made the state non-finite (overflow); reduce |h| or check the model. The run up "
+                                f"to step {k} is in .trajectory." + where, residual=float("nan"), iterations=0,
+                                step=k, time=t_fail, trajectory=trajectory)
+
+    def advance(self, n: int, R_out, Pi_out, it_out, res_out, partial) -> int:
+        from ._kernels.splitting_kernels import run_split, run_split_user
+
+        args = (self.I, self.ax, self.symax, self.Pax, self.diag, self.body.J, self.drift, self.weight, self.node,
+                self.h, self.t0, self.R, self.Pi, self.codes, self.params, self.k, n, self.save_every, R_out, Pi_out,
+                self.ws, self.Rb, self.Pb, self.Rs, self.Ps)
+        m = self.model
+        k0 = self.k
+        if m is not None and getattr(m, "moment_func", None) is not None:   # lgvi.torques.Compiled
+            status, self.k = run_split_user(m.moment_func, m.row(), *args)
+        else:
+            status, self.k = run_split(*args)
+        self.counts[0] += self.k - k0          # the record's histogram: steps with no solver iteration
+        return int(status)
+
+
+def free_flow(body: Any, R: Any, Pi: Any, tau: float) -> tuple[np.ndarray, np.ndarray]:
+    """The exact flow of the free rigid body over the time ``tau``: ``(R(tau), Pi(tau))``.
+
+    Parameters
+    ----------
+    body : RigidBody or array_like
+        The body (or its inertia).
+    R : (3, 3) array_like
+        Attitude at time 0 (body to inertial).
+    Pi : (3,) array_like
+        Body angular momentum at time 0.
+    tau : float
+        Time (any sign).
+
+    Returns
+    -------
+    R : (3, 3) ndarray
+    Pi : (3,) ndarray
+    """
+    from ._kernels.splitting_kernels import flow_once
+    from ._validation import as_float, as_float_array
+
+    body = as_body(body)
+    R = as_rotation(R, "R").copy()
+    Pi = as_float_array(Pi, "Pi", (3,)).copy()
+    tau = as_float(tau, "tau")
+    I, ax, symax, Pax, diag = principal_data(body)
+    R = R @ Pax
+    Pi = Pax.T @ Pi
+    flow_once(I, ax, symax, R, Pi, tau, np.zeros(64))
+    return R @ Pax.T, Pax @ Pi
+
+
+__all__ = ["SplittingRun", "free_flow", "principal_data"]
