@@ -36,6 +36,8 @@ from .integrator import simulate as simulate
 from .integrator import step as step
 from .modified import simulate_modified as simulate_modified
 from .streaming import simulate_stream as simulate_stream
+from .systems.orbit import OrbitTrajectory as OrbitTrajectory
+from .systems.orbit import simulate_orbit as simulate_orbit
 from .trajectory import Trajectory as Trajectory
 from .trajectory import load as load
 
@@ -45,6 +47,7 @@ __all__ = [
     "ConvergenceError",
     "EnsembleTrajectory",
     "ImplicitSolution",
+    "OrbitTrajectory",
     "RigidBody",
     "SimulationInterrupted",
     "StepResult",
@@ -58,6 +61,7 @@ __all__ = [
     "simulate",
     "simulate_ensemble",
     "simulate_modified",
+    "simulate_orbit",
     "simulate_stream",
     "so3",
     "solve_implicit",

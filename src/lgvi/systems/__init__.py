@@ -107,5 +107,6 @@ def provide_run(system: System, factory: Callable[..., Any]) -> None:
 
 
 from . import rigid_body as rigid_body  # noqa: E402  (registers the rigid body)
+from . import orbit as orbit  # noqa: E402  (a body in a central field)
 
 __all__ = ["Field", "RUNS", "SYSTEMS", "System", "provide_run", "register"]
