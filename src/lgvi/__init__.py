@@ -38,6 +38,10 @@ from .modified import simulate_modified as simulate_modified
 from .streaming import simulate_stream as simulate_stream
 from .systems.orbit import OrbitTrajectory as OrbitTrajectory
 from .systems.orbit import simulate_orbit as simulate_orbit
+from .systems.two_body import Ellipsoid as Ellipsoid
+from .systems.two_body import PointMasses as PointMasses
+from .systems.two_body import TwoBodyTrajectory as TwoBodyTrajectory
+from .systems.two_body import simulate_two_body as simulate_two_body
 from .trajectory import Trajectory as Trajectory
 from .trajectory import load as load
 
@@ -45,14 +49,17 @@ __all__ = [
     "AccuracyWarning",
     "AttitudeWarning",
     "ConvergenceError",
+    "Ellipsoid",
     "EnsembleTrajectory",
     "ImplicitSolution",
     "OrbitTrajectory",
+    "PointMasses",
     "RigidBody",
     "SimulationInterrupted",
     "StepResult",
     "TorqueError",
     "Trajectory",
+    "TwoBodyTrajectory",
     "__version__",
     "inertia_to_jd",
     "jd_to_inertia",
@@ -63,6 +70,7 @@ __all__ = [
     "simulate_modified",
     "simulate_orbit",
     "simulate_stream",
+    "simulate_two_body",
     "so3",
     "solve_implicit",
     "step",

@@ -108,5 +108,6 @@ def provide_run(system: System, factory: Callable[..., Any]) -> None:
 
 from . import rigid_body as rigid_body  # noqa: E402  (registers the rigid body)
 from . import orbit as orbit  # noqa: E402  (a body in a central field)
+from . import two_body as two_body  # noqa: E402  (two bodies in mutual gravity)
 
 __all__ = ["Field", "RUNS", "SYSTEMS", "System", "provide_run", "register"]
