@@ -91,3 +91,11 @@ def test_memory_quick():
     assert "Traceback" not in proc.stderr
     rows = [line.split() for line in proc.stdout.splitlines() if line.startswith("lgvi run (interval")]
     assert [int(r[4]) for r in rows] == [100_000, 1_000_000] and all(float(r[6]) > 0 for r in rows)
+
+
+@pytest.mark.slow
+def test_bench_bodies_quick():
+    """The two-body benchmark prints its cost table and its time-to-accuracy table against DOP853."""
+    proc = _run("bench_bodies.py", "--quick")
+    _check(proc, "Table 1", "steps/s", "order2", "order4", "Table 2", "lgvi order2", "scipy DOP853", "DOP853/lgvi")
+    assert "Traceback" not in proc.stderr
