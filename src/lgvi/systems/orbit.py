@@ -308,8 +308,8 @@ class OrbitRun:
         else:
             self.J2 = as_float(J2, "J2")
             if radius is None:
-                raise ValueError("J2 needs the central body's equatorial radius: give radius= (same length unit "
-                                 "as x0)")
+                raise ValueError(f"J2 needs the central body's equatorial radius: give radius= (same length unit "
+                                 f"as x0); got J2={J2!r} and radius=None")
             self.radius = _positive(radius, "radius")
         self.U = extra_torque(torque, self.steps)
         self.has_torque = torque is not None

@@ -119,6 +119,12 @@ class PointMasses:
         if not np.all(w > 0):
             raise ValueError(f"masses must be positive, got {w[~(w > 0)][0]}")
         q = q - (w @ q) / w.sum()
+        S = np.einsum("a,ai,aj->ij", w, q, q)
+        moments = np.linalg.eigvalsh(np.trace(S) * np.eye(3) - S)
+        if not moments[0] > 1e-12 * moments[-1]:
+            raise ValueError(f"positions of PointMasses must not all lie on one line: a rigid body needs three "
+                             f"non-zero principal moments of inertia, got {moments.tolist()} (add a point off "
+                             "the line, e.g. a light cross bar)")
         object.__setattr__(self, "masses", w)
         object.__setattr__(self, "positions", q)
 
