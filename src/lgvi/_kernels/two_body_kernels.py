@@ -298,7 +298,9 @@ def run_two_body(code, G, m1, m2, S, T3, t3, T4, Q4, q4, Q1, w1, Q2, w2, Y, Z, A
     """Steps ``k0 .. k0+n-1`` in place (see the module notes); ``N`` (10,) scratch for the new
     force and moments. Samples every ``save_every`` steps into the ``*_out`` buffers, the largest
     iterations (both solves summed) and residual of each saved interval into ``it_out``,
-    ``res_out``; ``last`` (2,) the last step's. Returns ``(status, k)``."""
+    ``res_out``; ``last`` (2,) the last step's. Returns ``(status, k)``: ``k`` the steps done (on
+    failure the failed step; a failed solve leaves the state as before the step, an overflow of the
+    new state may leave it partly advanced: the saved samples are intact, the run is over)."""
     if C[9] == 0.0:
         mutual(code, G, m1, m2, S, T3, t3, T4, Q4, q4, Q1, w1, Q2, w2, Y, Z, A, B, X[1, 0] - X[0, 0],
                X[1, 1] - X[0, 1], X[1, 2] - X[0, 2], R, C)

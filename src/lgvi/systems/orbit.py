@@ -40,7 +40,7 @@ POTENTIALS = {"point": 0, "order2": 1}
 FORMAT = "lgvi.orbit/1"
 
 
-def _positive(value: Any, name: str) -> float:
+def positive_number(value: Any, name: str) -> float:
     x = as_float(value, name)
     if not x > 0.0:
         raise ValueError(f"{name} must be positive, got {value!r}")
@@ -138,7 +138,7 @@ def orbit_equations(mass: float, inertia: Any, mu: float, potential: str = "orde
 # ------------------------------------------------------------------------------------------------
 # results
 # ------------------------------------------------------------------------------------------------
-def _save_npz(path: Any, fmt: str, arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> None:
+def save_result_npz(path: Any, fmt: str, arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> None:
     from .._files import write_atomic
 
     meta = dict(meta)
@@ -147,9 +147,12 @@ def _save_npz(path: Any, fmt: str, arrays: dict[str, np.ndarray], meta: dict[str
     write_atomic(os.fspath(path), lambda fh: np.savez(fh, __lgvi__=np.array(header), **arrays))
 
 
-def _load_npz(path: Any, fmt: str, names: tuple[str, ...]) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+def load_result_npz(path: Any, fmt: str, names: tuple[str, ...]) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    from .._untrusted import check_npz
+
     path = os.fspath(path)
     try:
+        check_npz(path)     # no object arrays, no declared size beyond the file's bytes
         with np.load(path, allow_pickle=False) as z:
             header = json.loads(str(z["__lgvi__"]))
             arrays = {k: np.array(z[k]) for k in names}
@@ -157,6 +160,16 @@ def _load_npz(path: Any, fmt: str, names: tuple[str, ...]) -> tuple[dict[str, np
         raise ValueError(f"cannot read {fmt} result {path}: {type(exc).__name__}: {exc}") from exc
     if header.get("format") != fmt:
         raise ValueError(f"{path} is not a {fmt} result (format {header.get('format')!r})")
+    M = arrays["t"].shape[0] if arrays["t"].ndim == 1 else -1
+    per = 2 if fmt.startswith("lgvi.two_body") else 0
+    want = {"x": (M,) + ((2, 3) if per else (3,)), "p": (M,) + ((2, 3) if per else (3,)),
+            "R": (M,) + ((2, 3, 3) if per else (3, 3)), "Pi": (M,) + ((2, 3) if per else (3,)),
+            "iterations": (max(M - 1, 0),), "residual": (max(M - 1, 0),)}
+    for key, shape in want.items():
+        a = arrays[key]
+        if M < 0 or a.shape != shape or a.dtype.kind not in "iuf":
+            raise ValueError(f"cannot read {fmt} result {path}: field {key!r} has shape {a.shape} and dtype "
+                             f"{a.dtype}, expected shape {shape} of real numbers")
     return arrays, header.get("meta", {})
 
 
@@ -244,12 +257,12 @@ class OrbitTrajectory:
         """Write to ``path`` (``.npz``, atomically); :meth:`load` reads it back exactly."""
         arrays = {k: np.asarray(getattr(self, k)) for k in self.ARRAYS}
         arrays["scalars"] = np.array([self.h, self.mass, self.mu])
-        _save_npz(path, FORMAT, arrays, self.meta)
+        save_result_npz(path, FORMAT, arrays, self.meta)
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "OrbitTrajectory":
         """Read a result written by :meth:`save` (ValueError naming the file if it is not one)."""
-        arrays, meta = _load_npz(path, FORMAT, cls.ARRAYS + ("scalars",))
+        arrays, meta = load_result_npz(path, FORMAT, cls.ARRAYS + ("scalars",))
         h, mass, mu = (float(v) for v in arrays.pop("scalars"))
         return cls(h=h, mass=mass, mu=mu, meta=meta, **arrays)
 
@@ -287,8 +300,8 @@ class OrbitRun:
         from ..driver import run_solver_options
 
         self.body = body if isinstance(body, RigidBody) else RigidBody(body)
-        self.mass = _positive(mass, "mass")
-        self.mu = _positive(mu, "mu")
+        self.mass = positive_number(mass, "mass")
+        self.mu = positive_number(mu, "mu")
         self.potential = choice(potential, "potential", tuple(POTENTIALS))
         self.code = POTENTIALS[self.potential]
         self.x = as_float_array(x0, "x0", (3,)).copy()
@@ -310,7 +323,7 @@ class OrbitRun:
             if radius is None:
                 raise ValueError(f"J2 needs the central body's equatorial radius: give radius= (same length unit "
                                  f"as x0); got J2={J2!r} and radius=None")
-            self.radius = _positive(radius, "radius")
+            self.radius = positive_number(radius, "radius")
         self.U = extra_torque(torque, self.steps)
         self.has_torque = torque is not None
         check_memory(self.steps, self.save_every, False)

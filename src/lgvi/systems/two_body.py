@@ -32,7 +32,7 @@ from ..driver import MemorySink, Progress, check_memory, drive, initial_momentum
 from ..errors import ConvergenceError
 from ..invariants import BOUNDED, EXACT
 from . import Field, System, register
-from .orbit import _load_npz, _positive, _save_npz
+from .orbit import load_result_npz, positive_number, save_result_npz
 
 CHUNK_STEPS = 1 << 18
 #: Mutual potentials by name (kernel codes).
@@ -83,7 +83,7 @@ class Ellipsoid:
 
     def __post_init__(self) -> None:
         for name in ("a", "b", "c"):
-            object.__setattr__(self, name, _positive(getattr(self, name), f"Ellipsoid {name}"))
+            object.__setattr__(self, name, positive_number(getattr(self, name), f"Ellipsoid {name}"))
 
     def moments(self, mass: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(S (3,3), T3 (3,3,3), T4 (3,3,3,3))``: ``int r r^T dm`` and the third, fourth moments."""
@@ -146,13 +146,13 @@ class Moments:
     def __init__(self, body: Any, mass: Any, potential: str, name: str, mname: str) -> None:
         self.points = None
         if isinstance(body, PointMasses):
-            self.mass = body.mass if mass is None else _positive(mass, mname)
+            self.mass = body.mass if mass is None else positive_number(mass, mname)
             if abs(self.mass - body.mass) > 1e-12 * body.mass:
                 raise ValueError(f"{mname} must be the sum of {name}'s point masses ({body.mass!r}) or None, got {mass!r}")
             S, T3, T4 = body.moments()
             self.points = body
         else:
-            self.mass = _positive(mass, mname)
+            self.mass = positive_number(mass, mname)
             if isinstance(body, Ellipsoid):
                 S, T3, T4 = body.moments(self.mass)
             else:
@@ -375,13 +375,13 @@ class TwoBodyTrajectory:
         arrays = {k: np.asarray(getattr(self, k)) for k in self.ARRAYS}
         arrays.update({f"moment_{k}": v for k, v in self.moments.items()})
         arrays["scalars"] = np.array([self.h, self.G])
-        _save_npz(path, FORMAT, arrays, self.meta)
+        save_result_npz(path, FORMAT, arrays, self.meta)
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "TwoBodyTrajectory":
         """Read a result written by :meth:`save` (ValueError naming the file if it is not one)."""
         keys = ("S", "T3", "T4", "Q1", "w1", "Q2", "w2")
-        arrays, meta = _load_npz(path, FORMAT, cls.ARRAYS + ("scalars",) + tuple(f"moment_{k}" for k in keys))
+        arrays, meta = load_result_npz(path, FORMAT, cls.ARRAYS + ("scalars",) + tuple(f"moment_{k}" for k in keys))
         h, G = (float(v) for v in arrays.pop("scalars"))
         moments = {k: arrays.pop(f"moment_{k}") for k in keys}
         return cls(h=h, G=G, moments=moments, meta=meta, **arrays)
@@ -417,7 +417,7 @@ class TwoBodyRun:
 
         self.potential = choice(potential, "potential", tuple(POTENTIALS))
         self.code = POTENTIALS[self.potential]
-        self.G = _positive(G, "G")
+        self.G = positive_number(G, "G")
         self.b1 = Moments(body1, m1, self.potential, "body1", "m1")
         self.b2 = Moments(body2, m2, self.potential, "body2", "m2")
         m1, m2 = self.b1.mass, self.b2.mass
