@@ -202,3 +202,35 @@ def test_overflow_raises_with_the_part():
                                np.eye(3), omega1_0=[0, 0, 0], omega2_0=[0, 0, 0], h=0.1, steps=100, G=1e307)
     part = info.value.trajectory
     assert len(part.t) == 1 and np.all(np.isfinite(part.x)) and part.meta["partial"]
+
+
+def test_kernels_interpreted_give_the_compiled_numbers():
+    """Both new kernels run as plain Python (NUMBA_DISABLE_JIT=1) give the compiled bits."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import json, numpy as np, lgvi\n"
+        "o = lgvi.simulate_orbit([0.04, 0.06, 0.075], 1.0, [1.0, 0, 0.1], [0, 1.15, 0.05], np.eye(3),\n"
+        "                        omega0=[0.3, -0.4, 1.3], h=0.02, steps=8, mu=1.0, J2=0.01, radius=0.5)\n"
+        "out = {'orbit': o.x[-1].tolist() + o.R[-1].ravel().tolist()}\n"
+        "b1 = lgvi.PointMasses([0.45, 0.45, 0.05, 0.05], [[1, 0, 0], [-1, 0, 0], [0, 0.2, 0.05], [0, -0.2, 0]])\n"
+        "b2 = lgvi.PointMasses([0.2, 0.3, 0.01], [[0.5, 0, 0], [-0.3, 0, 0.1], [0, 0.2, 0]])\n"
+        "for pot in ('order2', 'order4', 'points'):\n"
+        "    t = lgvi.simulate_two_body(b1, b2, None, None, [4, 0.5, 0.3], [0, 0.5, 0.1], np.eye(3), np.eye(3),\n"
+        "                               omega1_0=[0.1, 0.2, 0.6], omega2_0=[0.4, -0.2, 0.1], h=0.05, steps=8,\n"
+        "                               potential=pot)\n"
+        "    out[pot] = t.x[-1].ravel().tolist() + t.R[-1].ravel().tolist() + t.Pi[-1].ravel().tolist()\n"
+        "print(json.dumps(out))\n")
+    results = []
+    for jit_off in (False, True):
+        env = dict(os.environ)
+        env.pop("NUMBA_DISABLE_JIT", None)
+        if jit_off:
+            env["NUMBA_DISABLE_JIT"] = "1"
+        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+        assert proc.returncode == 0, proc.stderr
+        results.append(json.loads(proc.stdout.strip().splitlines()[-1]))
+    assert results[0] == results[1]
