@@ -879,8 +879,10 @@ def _position(c: _Checker, value: Any, key: str) -> np.ndarray:
 
 @dataclass(frozen=True)
 class BodiesScenario:
-    """A checked scenario of :func:`lgvi.simulate_orbit` (an ``[orbit]`` section) or of
-    :func:`lgvi.simulate_two_body` (a ``[two_body]`` section). Schema::
+    """A checked scenario of a body in orbit or of two bodies.
+
+    An ``[orbit]`` section runs :func:`lgvi.simulate_orbit`, a ``[two_body]`` section
+    :func:`lgvi.simulate_two_body` (``lgvi run`` does not run them yet). The schema::
 
         [orbit]                              # a rigid body in a central field
         inertia = [1.0, 2.0, 3.0]            # or matrix = [[...], [...], [...]]  [kg m^2]
