@@ -392,6 +392,84 @@ _ROWS += [
      lgvi.TorqueError, (r"controller saturated", r"step 5", r"\.trajectory")),
 ]
 
+
+def orbit(**overrides: Any) -> lgvi.OrbitTrajectory:
+    """``lgvi.simulate_orbit`` with sound defaults (issue 16); each row overrides what it breaks."""
+    kw: dict[str, Any] = dict(body=BODY, mass=1.0, x0=[1.0, 0.0, 0.0], v0=[0.0, 1.0, 0.0], R0=np.eye(3), Pi0=PI0,
+                              h=H, steps=STEPS, mu=1.0)
+    kw.update(overrides)
+    args = [kw.pop(k) for k in ("body", "mass", "x0", "v0", "R0")]
+    return lgvi.simulate_orbit(*args, **kw)
+
+
+def pair(**overrides: Any) -> lgvi.TwoBodyTrajectory:
+    """``lgvi.simulate_two_body`` with sound defaults (issue 16)."""
+    kw: dict[str, Any] = dict(body1=BODY, body2=BODY, m1=1.0, m2=0.5, x0=[3.0, 0.0, 0.0], v0=[0.0, 0.5, 0.0],
+                              R1_0=np.eye(3), R2_0=np.eye(3), Pi1_0=PI0, Pi2_0=PI0, h=H, steps=STEPS)
+    kw.update(overrides)
+    args = [kw.pop(k) for k in ("body1", "body2", "m1", "m2", "x0", "v0", "R1_0", "R2_0")]
+    return lgvi.simulate_two_body(*args, **kw)
+
+
+_ROWS += [
+    # ---- simulate_orbit (issue 16) ----------------------------------------------------------
+    ("orbit-mass-negative", lambda: orbit(mass=-1.0), ValueError, (r"\bmass\b", r"-1", r"positive")),
+    ("orbit-mass-str", lambda: orbit(mass="1"), TypeError, (r"\bmass\b", r"'1'", r"real number")),
+    ("orbit-mu-zero", lambda: orbit(mu=0.0), ValueError, (r"\bmu\b", r"0", r"positive")),
+    ("orbit-x0-shape", lambda: orbit(x0=[1.0, 0.0]), ValueError, (r"\bx0\b", r"shape \(2,\)", r"shape \(3,\)")),
+    ("orbit-x0-origin", lambda: orbit(x0=[0.0, 0.0, 0.0]), ValueError, (r"\bx0\b", r"origin", r"\|x0\| > 0")),
+    ("orbit-v0-nan", lambda: orbit(v0=[0.0, NAN, 0.0]), ValueError, (r"\bv0\b", r"nan", r"finite")),
+    ("orbit-R0-reflection", lambda: orbit(R0=np.diag([1.0, 1.0, -1.0])), ValueError,
+     (r"\bR0\b", r"determinant -1", r"rotation matrix")),
+    ("orbit-Pi0-and-omega0", lambda: orbit(omega0=[0.0, 0.0, 1.0]), ValueError, (r"\bPi0\b", r"omega0", r"not both")),
+    ("orbit-potential-unknown", lambda: orbit(potential="order4"), ValueError,
+     (r"\bpotential\b", r"'order4'", r"one of 'point', 'order2'|one of 'order2', 'point'")),
+    ("orbit-J2-without-radius", lambda: orbit(J2=1e-3), ValueError, (r"\bJ2\b", r"0\.001", r"radius")),
+    ("orbit-radius-without-J2", lambda: orbit(radius=0.5), ValueError, (r"\bradius\b", r"0\.5", r"with J2")),
+    ("orbit-radius-negative", lambda: orbit(J2=1e-3, radius=-0.5), ValueError,
+     (r"\bradius\b", r"-0\.5", r"positive")),
+    ("orbit-J2-nan", lambda: orbit(J2=NAN, radius=0.5), ValueError, (r"\bJ2\b", r"nan", r"finite")),
+    ("orbit-torque-grid-shape", lambda: orbit(torque=np.zeros((STEPS, 3))), ValueError,
+     (r"\btorque\b", r"\(10, 3\)", r"\(steps \+ 1, 3\) = \(11, 3\)")),
+    ("orbit-torque-callable", lambda: orbit(torque=lambda t, R, Pi: [0.0, 0.0, 0.0]), TypeError,
+     (r"\btorque\b", r"function", r"constant body moment \(3,\)")),
+    ("orbit-h-zero", lambda: orbit(h=0.0), ValueError, (r"\bh\b", r"0", r"non-zero|nonzero")),
+    ("orbit-save_every-divides", lambda: orbit(save_every=3), ValueError,
+     (r"\bsave_every\b", r"save_every=3", r"divide steps")),
+    # ---- simulate_two_body, Ellipsoid, PointMasses (issue 16) --------------------------------
+    ("two-body-m1-zero", lambda: pair(m1=0.0), ValueError, (r"\bm1\b", r"0", r"positive")),
+    ("two-body-m2-none", lambda: pair(m2=None), TypeError, (r"\bm2\b", r"None", r"real number")),
+    ("two-body-G-negative", lambda: pair(G=-1.0), ValueError, (r"\bG\b", r"-1", r"positive")),
+    ("two-body-potential-unknown", lambda: pair(potential="order3"), ValueError,
+     (r"\bpotential\b", r"'order3'", r"one of")),
+    ("two-body-order4-needs-moments", lambda: pair(potential="order4"), ValueError,
+     (r"\bbody1\b", r"ndarray|list", r"Ellipsoid or lgvi\.PointMasses")),
+    ("two-body-points-needs-points", lambda: pair(body2=lgvi.Ellipsoid(1.0, 1.0, 1.0), potential="points",
+                                                  body1=lgvi.PointMasses([1.0] * 4, np.eye(4, 3)), m1=None),
+     ValueError,
+     (r"\bbody2\b", r"Ellipsoid", r"PointMasses")),
+    ("two-body-m1-not-the-points", lambda: pair(body1=lgvi.PointMasses([1.0] * 4, np.eye(4, 3)), m1=3.0),
+     ValueError, (r"\bm1\b", r"3\.0", r"sum of body1's point masses")),
+    ("two-body-x0-shape", lambda: pair(x0=np.zeros((3, 3))), ValueError,
+     (r"\bx0\b", r"shape \(3, 3\)", r"\(3,\) or both bodies' \(2, 3\)")),
+    ("two-body-x0-coincident", lambda: pair(x0=[[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), ValueError,
+     (r"\bx0\b", r"coincident", r"\|x2 - x1\| > 0")),
+    ("two-body-v0-inf", lambda: pair(v0=[0.0, INF, 0.0]), ValueError, (r"\bv0\b", r"inf", r"finite")),
+    ("two-body-R2_0-not-rotation", lambda: pair(R2_0=2 * np.eye(3)), ValueError,
+     (r"\bR2_0\b", r"orthogonality error", r"rotation matrix")),
+    ("two-body-omega2_0-missing", lambda: pair(Pi2_0=None), ValueError, (r"\bPi2_0\b", r"omega2_0", r"give")),
+    ("two-body-Pi1_0-shape", lambda: pair(Pi1_0=[1.0, 2.0]), ValueError,
+     (r"\bPi0\b|\bPi1_0\b", r"shape \(2,\)", r"shape \(3,\)")),
+    ("ellipsoid-negative-axis", lambda: lgvi.Ellipsoid(1.0, -0.5, 1.0), ValueError,
+     (r"Ellipsoid b", r"-0\.5", r"positive")),
+    ("point-masses-negative", lambda: lgvi.PointMasses([1.0, -1.0, 1.0], np.eye(3)), ValueError,
+     (r"\bmasses\b", r"-1", r"positive")),
+    ("point-masses-lengths", lambda: lgvi.PointMasses([1.0, 1.0], np.eye(3)), ValueError,
+     (r"PointMasses", r"2 masses and 3 positions", r"as many masses as positions")),
+    ("point-masses-on-a-line", lambda: lgvi.PointMasses([1.0, 1.0], [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]]),
+     ValueError, (r"\bpositions\b", r"\[0\.0, 2\.0, 2\.0\]", r"one line")),
+]
+
 CASES = [pytest.param(call, exc, patterns, id=name) for name, call, exc, patterns in _ROWS] + [
     pytest.param(call, exc, patterns, id=name, marks=pytest.mark.xfail(strict=True, reason=reason))
     for name, call, exc, patterns, reason in _XFAIL_ROWS

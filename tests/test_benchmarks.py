@@ -97,3 +97,11 @@ def test_memory_quick():
 def test_bench_adjoint_quick():
     proc = _run("bench_adjoint.py", "--quick")
     _check(proc, "discrete adjoint", "/ simulate", "gradient", "7 seeds")
+
+
+@pytest.mark.slow
+def test_bench_bodies_quick():
+    """The two-body benchmark prints its cost table and its time-to-accuracy table against DOP853."""
+    proc = _run("bench_bodies.py", "--quick")
+    _check(proc, "Table 1", "steps/s", "order2", "order4", "Table 2", "lgvi order2", "scipy DOP853", "DOP853/lgvi")
+    assert "Traceback" not in proc.stderr

@@ -105,6 +105,21 @@ def test_kepler_takes_the_common_options(tmp_path):
     assert str(png) in out
 
 
+def test_orbit_attitude(tmp_path):
+    out = run_example("orbit_attitude.py", "--quick", "--out", str(tmp_path / "figs"), cwd=tmp_path)
+    assert number(r"e3\.\(x x p \+ R Pi\): max relative change ([0-9.e+-]+)", out) < 1e-13
+    assert 0.5 < number(r"up to ([0-9.]+) deg", out) < 30.0
+    assert (tmp_path / "figs" / "orbit_attitude.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_binary_asteroid(tmp_path):
+    out = run_example("binary_asteroid.py", "--quick", "--out", str(tmp_path / "figs"), cwd=tmp_path)
+    assert 11.5 < number(r"mutual orbit period ([0-9.]+) h", out) < 12.5
+    assert number(r"angular momentum ([0-9.e+-]+) relative", out) < 1e-13
+    assert number(r"energy ([0-9.e+-]+) of the mutual potential", out) < 1e-5
+    assert (tmp_path / "figs" / "binary_asteroid.png").read_bytes()[:4] == b"\x89PNG"
+
+
 def test_optimal_slew(tmp_path):
     out = run_example("optimal_slew.py", "--quick", "--out", str(tmp_path / "figs"), cwd=tmp_path)
     T = number(r"time-optimal \(20 steps\): T = ([0-9.]+)", out)
@@ -117,6 +132,6 @@ def test_optimal_slew(tmp_path):
 def test_every_script_is_tested():
     # uncertainty.py runs in tests/test_ensemble.py (with the ensemble it exercises)
     tested = {"dzhanibekov.py", "heavy_top.py", "pendulum3d.py", "slew_pd.py", "gravity_gradient.py", "kepler.py",
-              "uncertainty.py", "optimal_slew.py"}
+              "uncertainty.py", "optimal_slew.py", "orbit_attitude.py", "binary_asteroid.py"}
     scripts = {p.name for p in EXAMPLES.glob("*.py")}
     assert scripts <= tested, f"example scripts without a test here: {sorted(scripts - tested)}"

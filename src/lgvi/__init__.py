@@ -46,6 +46,12 @@ from .integrator import step as step
 from .modified import simulate_modified as simulate_modified
 from .io import streaming as streaming  # the old name lgvi.streaming (imported here anyway)
 from .io.streaming import simulate_stream as simulate_stream
+from .systems.orbit import OrbitTrajectory as OrbitTrajectory
+from .systems.orbit import simulate_orbit as simulate_orbit
+from .systems.two_body import Ellipsoid as Ellipsoid
+from .systems.two_body import PointMasses as PointMasses
+from .systems.two_body import TwoBodyTrajectory as TwoBodyTrajectory
+from .systems.two_body import simulate_two_body as simulate_two_body
 from .trajectory import Trajectory as Trajectory
 from .trajectory import load as load
 from . import view as _view  # noqa: F401  (Jupyter's display of a Trajectory; plotly imported when used)
@@ -56,13 +62,17 @@ __all__ = [
     "AccuracyWarning",
     "AttitudeWarning",
     "ConvergenceError",
+    "Ellipsoid",
     "EnsembleTrajectory",
     "ImplicitSolution",
+    "OrbitTrajectory",
+    "PointMasses",
     "RigidBody",
     "SimulationInterrupted",
     "StepResult",
     "TorqueError",
     "Trajectory",
+    "TwoBodyTrajectory",
     "__version__",
     "inertia_to_jd",
     "jd_to_inertia",
@@ -72,7 +82,9 @@ __all__ = [
     "simulate",
     "simulate_ensemble",
     "simulate_modified",
+    "simulate_orbit",
     "simulate_stream",
+    "simulate_two_body",
     "so3",
     "solve_implicit",
     "step",

@@ -128,6 +128,27 @@ def _momentum_scale(traj, v):
     return float(np.linalg.norm(np.asarray(traj.spatial_momentum)[0]))
 
 
+def _total_momentum(traj, p):
+    return np.asarray(traj.angular_momentum, dtype=np.float64)
+
+
+def _total_momentum_e3(traj, p):
+    return np.asarray(traj.angular_momentum, dtype=np.float64)[:, 2]
+
+
+def _total_momentum_scale(traj, v):
+    return float(np.linalg.norm(np.asarray(traj.angular_momentum)[0]))
+
+
+def _linear_momentum(traj, p):
+    return np.asarray(traj.linear_momentum, dtype=np.float64)
+
+
+def _linear_momentum_scale(traj, v):
+    # relative to the largest body momentum (the total is often zero)
+    return float(np.abs(np.asarray(traj.p)[0]).max())
+
+
 def _jacobi(traj, p):
     return _energy(traj, p) - float(p["n"]) * _momentum_e3(traj, p)
 
@@ -142,6 +163,15 @@ QUANTITIES: dict[str, Quantity] = {q.key: q for q in (
     Quantity("energy", "energy (total)", "dE/E", "energy $E$", _energy, "energy_abs", "energy_rel"),
     Quantity("jacobi", "Jacobi integral E - n e3 . R Pi", "dC/C",
              r"Jacobi integral $C = E - n\,e_3\cdot R\Pi$", _jacobi, "jacobi_abs", "jacobi_rel"),
+    # bodies in orbit, two bodies (lgvi.systems.orbit, lgvi.systems.two_body)
+    Quantity("angular_momentum", "total angular momentum x x p + R Pi", "dL/L",
+             r"total angular momentum $x\times p + R\Pi$", _total_momentum, None, "angular_momentum_rel",
+             _total_momentum_scale),
+    Quantity("angular_momentum_e3", "polar total angular momentum e3 . (x x p + R Pi)", "dLz/L",
+             r"polar momentum $e_3\cdot(x\times p + R\Pi)$", _total_momentum_e3, None, "angular_momentum_e3_rel",
+             _total_momentum_scale),
+    Quantity("linear_momentum", "total linear momentum p1 + p2", "dP/p", r"linear momentum $p_1 + p_2$",
+             _linear_momentum, None, "linear_momentum_rel", _linear_momentum_scale),
 )}
 
 #: Quantities a summary lists even when the system does not conserve them (then marked so).

@@ -199,9 +199,13 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 # ------------------------------------------------------------------------------------ run
 def _load(path: str):
-    from ..io.scenario import load_scenario
+    from ..io.scenario import BodiesScenario, ScenarioError, load_scenario
 
-    return load_scenario(path)
+    sc = load_scenario(path)
+    if isinstance(sc, BodiesScenario):   # issue 16: not run by the command line yet
+        raise ScenarioError(path, sc.kind, "the command line does not run [orbit] or [two_body] scenarios yet; "
+                            "run it from Python: lgvi.scenario.load_scenario(path).run()")
+    return sc
 
 
 def _parse_formats(text: str | None, default: tuple[str, ...]) -> tuple[str, ...]:

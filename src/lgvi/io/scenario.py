@@ -137,7 +137,7 @@ from .._version import __version__
 from ..registry import COMPOSITIONS, FORCINGS, ORDERS, SCHEMES, SPLITTINGS, method_names
 from ..torques import TORQUE_MODELS
 
-__all__ = ["Scenario", "ScenarioError", "load_scenario", "to_toml"]
+__all__ = ["BodiesScenario", "Scenario", "ScenarioError", "load_scenario", "to_toml"]
 
 FORMATS = ("npz", "csv", "netcdf")
 METHODS = method_names()            # from lgvi.registry, the default first
@@ -550,6 +550,8 @@ class Scenario:
             For any invalid, missing or unknown key.
         """
         c = _Checker(source)
+        if isinstance(d, dict) and ("orbit" in d or "two_body" in d):     # lgvi.simulate_orbit / simulate_two_body
+            return BodiesScenario.from_dict(d, source, text=text)  # type: ignore[return-value]
         d = c.table(d, "", _TOP_KEYS)
         for req in ("body", "initial", "integrator"):
             if req not in d:
@@ -807,3 +809,249 @@ def to_toml(d: dict[str, Any]) -> str:
     import tomli_w
 
     return tomli_w.dumps(_plain(d))
+
+
+# ------------------------------------------------------------------------------------ bodies in orbit, two bodies
+#: The sections of a scenario of lgvi.simulate_orbit ([orbit]) or lgvi.simulate_two_body ([two_body]).
+_BODIES_TOP = ("name", "description", "initial", "integrator", "output")
+_BODIES_INTEGRATOR = ("h", "steps", "duration", "save_every", "tol", "max_iter")
+
+
+def _steps(c: _Checker, integ: dict[str, Any]) -> tuple[float, int]:
+    if "h" not in integ:
+        raise c.expected("integrator.h", "a non-zero number (the step size)")
+    h = c.number(integ["h"], "integrator.h", nonzero=True)
+    if ("steps" in integ) == ("duration" in integ):
+        raise c.error("integrator", "expected exactly one of integrator.steps or integrator.duration; got "
+                      + ("both" if "steps" in integ else "neither"))
+    if "steps" in integ:
+        return h, c.integer(integ["steps"], "integrator.steps", minimum=0)
+    duration = c.number(integ["duration"], "integrator.duration")
+    ratio = duration / h
+    steps = round(ratio) if math.isfinite(ratio) else -1
+    if steps < 0 or abs(ratio - steps) > DURATION_RTOL * abs(ratio):
+        raise c.error("integrator.duration", f"expected a whole, non-negative number of steps h = {h!r}; "
+                      f"duration / h = {ratio!r}")
+    return h, int(steps)
+
+
+def _inertia_or_shape(c: _Checker, tbl: dict[str, Any], key: str, shapes: bool) -> Any:
+    """One of ``inertia`` (3 numbers), ``matrix`` (3x3), and with ``shapes`` ``ellipsoid`` (semi-axes)
+    or ``points = { masses = [...], positions = [[...], ...] }``."""
+    from ..systems.two_body import Ellipsoid, PointMasses
+
+    forms = ("inertia", "matrix") + (("ellipsoid", "points") if shapes else ())
+    given = [k for k in forms if k in tbl]
+    if len(given) != 1:
+        raise c.error(key, f"expected exactly one of {', '.join(key + '.' + f for f in forms)}; got "
+                      + (" and ".join(given) or "none"))
+    form = given[0]
+    path = f"{key}.{form}"
+    try:
+        if form == "inertia":
+            return c.vector(tbl[form], path)
+        if form == "matrix":
+            return c.matrix(tbl[form], path)
+        if form == "ellipsoid":
+            return Ellipsoid(*c.vector(tbl[form], path))
+        pts = c.table(tbl[form], path, ("masses", "positions"))
+        if not isinstance(pts.get("masses"), list) or not isinstance(pts.get("positions"), list):
+            raise c.expected(path, "a table with masses = [m1, ...] and positions = [[x, y, z], ...]", tbl[form])
+        return PointMasses([c.number(m, f"{path}.masses[{i}]", positive=True) for i, m in enumerate(pts["masses"])],
+                           [c.vector(q, f"{path}.positions[{i}]") for i, q in enumerate(pts["positions"])])
+    except ValueError as exc:
+        if isinstance(exc, ScenarioError):
+            raise
+        raise c.error(path, str(exc)) from None
+
+
+def _spin(c: _Checker, tbl: dict[str, Any], key: str) -> dict[str, Any]:
+    """The attitude (any form of [initial]) and ``omega`` or ``Pi`` of one body."""
+    out: dict[str, Any] = {"R": _attitude(c, tbl, key)}
+    if ("omega" in tbl) == ("Pi" in tbl):
+        raise c.error(key, f"expected exactly one of {key}.omega or {key}.Pi; got "
+                      + ("both" if "omega" in tbl else "neither"))
+    if "omega" in tbl:
+        out["omega"] = _omega(c, tbl["omega"], f"{key}.omega")
+    else:
+        out["Pi"] = c.vector(tbl["Pi"], f"{key}.Pi")
+    return out
+
+
+def _position(c: _Checker, value: Any, key: str) -> np.ndarray:
+    if isinstance(value, list) and len(value) == 2 and all(isinstance(v, list) for v in value):
+        return np.stack([c.vector(v, f"{key}[{i}]") for i, v in enumerate(value)])
+    return c.vector(value, key)
+
+
+@dataclass(frozen=True)
+class BodiesScenario:
+    """A checked scenario of a body in orbit or of two bodies.
+
+    An ``[orbit]`` section runs :func:`lgvi.simulate_orbit`, a ``[two_body]`` section
+    :func:`lgvi.simulate_two_body` (``lgvi run`` does not run them yet). The schema::
+
+        [orbit]                              # a rigid body in a central field
+        inertia = [1.0, 2.0, 3.0]            # or matrix = [[...], [...], [...]]  [kg m^2]
+        mass = 10.0                          # [kg]
+        mu = 3.986004418e14                  # G M of the central body [m^3/s^2]
+        position = [7.0e6, 0.0, 0.0]         # x0 [m];  velocity = v0 [m/s]
+        velocity = [0.0, 7546.0, 0.0]
+        potential = "order2"                 # or "point"
+        J2 = 1.08263e-3                      # optional, with radius = 6378137.0 [m]
+        [initial]                            # attitude (any form of the rigid body's [initial])
+        omega = [0.0, 0.0, 0.001]            # or Pi
+
+        [two_body]                           # two rigid bodies in mutual gravity
+        G = 6.674e-11                        # default 1
+        potential = "order4"                 # "order2", "order4" or "points"
+        position = [1190.0, 0.0, 0.0]        # x2 - x1 (3,) or both [[...], [...]]; velocity alike
+        velocity = [0.0, 0.17, 0.0]
+        [two_body.body1]                     # and [two_body.body2]
+        ellipsoid = [409.5, 400.5, 303.5]    # or inertia, matrix, points = { masses, positions }
+        mass = 5.0e11                        # (not with points: their sum)
+        omega = [0.0, 0.0, 7.7e-4]           # or Pi; the attitude as in [initial]
+
+        [integrator]                         # h, steps or duration, save_every, tol, max_iter
+    """
+
+    kind: str
+    name: str
+    description: str
+    args: tuple[Any, ...]
+    kwargs: dict[str, Any]
+    h: float
+    steps: int
+    save_every: int = 1
+    source: str = "<dict>"
+    text: str = field(default="", repr=False)
+
+    def __repr__(self) -> str:
+        return (f"BodiesScenario(kind={self.kind!r}, name={self.name!r}, steps={self.steps}, h={self.h:g}, "
+                f"potential={self.kwargs.get('potential')!r}, source={self.source!r})")
+
+    @property
+    def samples(self) -> int:
+        """Number of saved states, ``steps // save_every + 1``."""
+        return self.steps // self.save_every + 1
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any], source: str = "<dict>", *, text: str | None = None) -> "BodiesScenario":
+        c = _Checker(source)
+        kinds = [k for k in ("orbit", "two_body") if k in d]
+        if len(kinds) != 1:
+            raise c.error(None, "a scenario describes one system: [orbit] or [two_body], not both")
+        kind = kinds[0]
+        d = c.table(d, "", _BODIES_TOP + (kind,))
+        if "integrator" not in d:
+            raise c.error("integrator", "missing; expected an [integrator] table")
+        name = c.string(d.get("name", Path(source).stem if not source.startswith("<") else "scenario"), "name")
+        if "name" in d and (problem := name_problem(name)):
+            raise c.error("name", problem)
+        description = c.string(d.get("description", ""), "description")
+        integ = c.table(d["integrator"], "integrator", _BODIES_INTEGRATOR)
+        h, steps = _steps(c, integ)
+        kw: dict[str, Any] = {}
+        save_every = c.integer(integ.get("save_every", 1), "integrator.save_every", minimum=1)
+        if steps % save_every:
+            raise c.error("integrator.save_every", f"expected a divisor of the number of steps ({steps}) so the "
+                          f"final state is saved; got {save_every}")
+        if "tol" in integ:
+            kw["tol"] = c.number(integ["tol"], "integrator.tol", nonnegative=True)
+        if "max_iter" in integ:
+            kw["max_iter"] = c.integer(integ["max_iter"], "integrator.max_iter", minimum=1)
+        c.table(d.get("output", {}), "output", ("formats", "plots"))
+        if kind == "orbit":
+            o = c.table(d[kind], "orbit", ("inertia", "matrix", "mass", "mu", "position", "velocity", "potential",
+                                           "J2", "radius"))
+            for req in ("mass", "mu", "position", "velocity"):
+                if req not in o:
+                    raise c.expected(f"orbit.{req}", "a number" if req in ("mass", "mu") else "an array of 3 numbers")
+            body = _inertia_or_shape(c, o, "orbit", shapes=False)
+            init = c.table(d.get("initial", {}), "initial", _ATTITUDE_KEYS + ("omega", "Pi"))
+            spin = _spin(c, init, "initial")
+            args = (body, c.number(o["mass"], "orbit.mass", positive=True), c.vector(o["position"], "orbit.position"),
+                    c.vector(o["velocity"], "orbit.velocity"), spin["R"])
+            kw.update(mu=c.number(o["mu"], "orbit.mu", positive=True),
+                      potential=c.string(o.get("potential", "order2"), "orbit.potential", ("order2", "point")))
+            kw["Pi0" if "Pi" in spin else "omega0"] = spin.get("Pi", spin.get("omega"))
+            if "J2" in o:
+                kw["J2"] = c.number(o["J2"], "orbit.J2")
+                if "radius" not in o:
+                    raise c.expected("orbit.radius", "the central body's equatorial radius (a positive number) "
+                                     "with orbit.J2")
+            if "radius" in o:
+                if "J2" not in o:
+                    raise c.error("orbit.radius", "only used with orbit.J2; add J2 or remove radius")
+                kw["radius"] = c.number(o["radius"], "orbit.radius", positive=True)
+        else:
+            if "initial" in d:
+                raise c.error("initial", "a [two_body] scenario gives each body's attitude and spin in "
+                              "[two_body.body1] and [two_body.body2]")
+            t = c.table(d[kind], "two_body", ("G", "potential", "position", "velocity", "body1", "body2"))
+            for req in ("position", "velocity", "body1", "body2"):
+                if req not in t:
+                    raise c.expected(f"two_body.{req}", "a table" if req.startswith("body") else
+                                     "an array of 3 numbers (x2 - x1) or of two such arrays")
+            potential = c.string(t.get("potential", "order2"), "two_body.potential", ("order2", "order4", "points"))
+            bodies, masses = [], []
+            for i in (1, 2):
+                key = f"two_body.body{i}"
+                b = c.table(t[f"body{i}"], key, ("inertia", "matrix", "ellipsoid", "points", "mass", "omega", "Pi")
+                            + _ATTITUDE_KEYS)
+                shape = _inertia_or_shape(c, b, key, shapes=True)
+                if "mass" in b:
+                    masses.append(c.number(b["mass"], f"{key}.mass", positive=True))
+                elif "points" in b:
+                    masses.append(None)
+                else:
+                    raise c.expected(f"{key}.mass", "a positive number (the body's mass)")
+                bodies.append((shape, _spin(c, b, key)))
+            args = (bodies[0][0], bodies[1][0], masses[0], masses[1], _position(c, t["position"], "two_body.position"),
+                    _position(c, t["velocity"], "two_body.velocity"), bodies[0][1]["R"], bodies[1][1]["R"])
+            kw.update(potential=potential, G=c.number(t.get("G", 1.0), "two_body.G", positive=True))
+            for i, (_, spin) in enumerate(bodies, 1):
+                kw[f"Pi{i}_0" if "Pi" in spin else f"omega{i}_0"] = spin.get("Pi", spin.get("omega"))
+        sc = cls(kind=kind, name=name, description=description, args=args, kwargs=kw, h=h, steps=steps,
+                 save_every=save_every, source=source, text=to_toml(d) if text is None else text)
+        try:
+            sc._run(check_only=True)
+        except (ValueError, TypeError) as exc:
+            raise c.error(kind, str(exc)) from None
+        return sc
+
+    def _run(self, check_only: bool = False, progress: Any = False):
+        from ..systems.orbit import OrbitRun, simulate_orbit
+        from ..systems.two_body import TwoBodyRun, simulate_two_body
+
+        grid = {"h": self.h, "steps": self.steps, "save_every": self.save_every}
+        if check_only:      # the library's own validation, without running
+            kw = {**self.kwargs, **grid}
+            if self.kind == "orbit":
+                kw = {"Pi0": None, "omega0": None, "J2": None, "radius": None, "torque": None, "tol": 1e-14,
+                      "max_iter": 50, "t0": 0.0, "potential": "order2", **kw}
+                body, mass, x0, v0, R0 = self.args
+                Pi0 = kw.pop("Pi0")
+                return OrbitRun(body, mass, x0, v0, R0, Pi0, **kw)
+            kw = {"Pi1_0": None, "Pi2_0": None, "omega1_0": None, "omega2_0": None, "tol": 1e-14, "max_iter": 50,
+                  "t0": 0.0, "G": 1.0, **kw}
+            return TwoBodyRun(*self.args, **kw)
+        fn = simulate_orbit if self.kind == "orbit" else simulate_two_body
+        return fn(*self.args, progress=progress, **self.kwargs, **grid)
+
+    def run(self, progress: Any = False):
+        """Simulate (:func:`lgvi.simulate_orbit` or :func:`lgvi.simulate_two_body`); the result's
+        ``meta`` holds the scenario text, name and source."""
+        try:
+            traj = self._run(progress=progress)
+        except (KeyboardInterrupt, RuntimeError) as exc:
+            part = getattr(exc, "trajectory", None)
+            if part is not None:
+                exc.trajectory = self.attach(part)
+            raise
+        return self.attach(traj)
+
+    def attach(self, traj):
+        meta = dict(traj.meta)
+        meta.update(scenario=self.text, scenario_name=self.name, scenario_source=self.source)
+        return replace(traj, meta=meta)

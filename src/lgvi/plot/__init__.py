@@ -1147,6 +1147,103 @@ def save_comparison(trajs: Mapping[str, Trajectory], outdir: str | os.PathLike, 
     return [_save(comparison(trajs, extra=extra), out / "comparison.png")]
 
 
+# ------------------------------------------------------------------------------------------------
+# bodies in orbit and two bodies (lgvi.simulate_orbit, lgvi.simulate_two_body)
+# ------------------------------------------------------------------------------------------------
+def _invariant_errors(ax: Axes, traj: Any, keys: Sequence[str]) -> None:
+    from ..invariants import QUANTITIES, error_series
+
+    decl = traj.meta.get("invariants", {})
+    for key in keys:
+        q = QUANTITIES[key]
+        err, rel = error_series(traj, key)
+        kind = decl.get(key, {}).get("kind", "not an invariant")
+        ax.plot(traj.t, np.maximum(err, ERROR_FLOOR), lw=1.0,
+                label=f"{q.tex} ({kind}){'' if rel else ', absolute'}")
+    _style_log(ax)
+    ax.set_xlabel("time $t$")
+    ax.set_ylabel("relative change")
+    ax.legend(fontsize=7, loc="lower right")
+
+
+def orbit(traj: Any) -> Figure:
+    """Orbit and attitude of a :class:`lgvi.OrbitTrajectory` together: the orbit in the inertial
+    x-y plane with the body's long axis (smallest moment of inertia) drawn along it, the angle
+    between that axis and the local vertical, the body rates, and the invariants' changes (log
+    scale)."""
+    x = np.asarray(traj.x)
+    if len(traj.t) == 0:
+        raise ValueError("orbit: the trajectory is empty (no samples to plot)")
+    fig = _figure(ATTITUDE_PANELS_FIGSIZE)
+    (a, b), (c, d) = fig.subplots(2, 2)
+    a.plot(x[:, 0], x[:, 1], lw=0.8, color="0.4")
+    a.plot([0.0], [0.0], "o", color="tab:orange", ms=8, label="central body")
+    k = int(np.argmin(np.diag(np.asarray(traj.inertia))))      # the long axis: smallest moment
+    every = max(1, len(x) // 30)
+    scale = 0.12 * float(np.abs(x[:, :2]).max())
+    axis = np.asarray(traj.R)[::every, :, k]
+    a.quiver(x[::every, 0], x[::every, 1], axis[:, 0], axis[:, 1], color="tab:red", angles="xy",
+             scale_units="xy", scale=1.0 / scale, width=0.005, label=f"long axis (body {k + 1})")
+    a.set_aspect("equal", adjustable="datalim")
+    a.set_xlabel("$x_1$")
+    a.set_ylabel("$x_2$")
+    a.set_title("orbit (inertial x-y) and the body's long axis", fontsize=9)
+    a.legend(fontsize=7, loc="upper right")
+    radial = x / np.linalg.norm(x, axis=1, keepdims=True)
+    cosang = np.clip(np.einsum("ki,ki->k", np.asarray(traj.R)[:, :, k], radial), -1.0, 1.0)
+    b.plot(traj.t, np.degrees(np.arccos(cosang)), lw=0.8, color="tab:red")
+    b.set_xlabel("time $t$")
+    b.set_ylabel("deg")
+    b.set_title(f"long axis (body {k + 1}) from the local vertical", fontsize=9)
+    w = traj.omega
+    for i in range(3):
+        c.plot(traj.t, w[:, i], lw=0.8, color=_COMPONENT_COLORS[i], label=f"$\\omega_{i + 1}$")
+    c.set_xlabel("time $t$")
+    c.set_ylabel("body rate")
+    c.legend(fontsize=7)
+    keys = [k for k in ("angular_momentum", "angular_momentum_e3", "energy") if k in traj.meta.get("invariants", {})]
+    _invariant_errors(d, traj, keys or ["angular_momentum", "energy"])
+    d.set_title("invariants", fontsize=9)
+    fig.suptitle(f"body in a central field ({traj.meta.get('potential', '')} potential)", fontsize=10)
+    return fig
+
+
+def two_body(traj: Any) -> Figure:
+    """Mutual orbit and spins of a :class:`lgvi.TwoBodyTrajectory`: the relative position
+    ``x2 - x1`` in the inertial x-y plane, the distance, both bodies' body rates, and the
+    invariants' changes (log scale)."""
+    if len(traj.t) == 0:
+        raise ValueError("two_body: the trajectory is empty (no samples to plot)")
+    d_ = np.asarray(traj.relative_position)
+    fig = _figure(ATTITUDE_PANELS_FIGSIZE)
+    (a, b), (c, d) = fig.subplots(2, 2)
+    a.plot(d_[:, 0], d_[:, 1], lw=0.8, color="0.4")
+    a.plot([0.0], [0.0], "o", color="tab:orange", ms=8, label="body 1")
+    a.plot(d_[:1, 0], d_[:1, 1], "o", color="tab:blue", ms=4, label="body 2 at t0")
+    a.set_aspect("equal", adjustable="datalim")
+    a.set_xlabel("$(x_2 - x_1)_1$")
+    a.set_ylabel("$(x_2 - x_1)_2$")
+    a.set_title("mutual orbit", fontsize=9)
+    a.legend(fontsize=7, loc="upper right")
+    b.plot(traj.t, traj.distance, lw=0.8, color="0.3")
+    b.set_xlabel("time $t$")
+    b.set_ylabel("$|x_2 - x_1|$")
+    b.set_title("distance", fontsize=9)
+    w = traj.omega
+    for body, style in ((0, "-"), (1, "--")):
+        for i in range(3):
+            c.plot(traj.t, w[:, body, i], style, lw=0.8, color=_COMPONENT_COLORS[i],
+                   label=f"body {body + 1} $\\omega_{i + 1}$")
+    c.set_xlabel("time $t$")
+    c.set_ylabel("body rate")
+    c.set_title("spins (body 1 solid, body 2 dashed)", fontsize=9)
+    c.legend(fontsize=6, ncol=2)
+    _invariant_errors(d, traj, ["linear_momentum", "angular_momentum", "energy"])
+    d.set_title("invariants", fontsize=9)
+    fig.suptitle(f"two bodies ({traj.meta.get('potential', '')} mutual potential)", fontsize=10)
+    return fig
+
+
 __all__ = [
     "DPI",
     "ERROR_FLOOR",
@@ -1159,10 +1256,12 @@ __all__ = [
     "conservation",
     "has_solver_record",
     "iterations",
+    "orbit",
     "polhode",
     "polhode_curves",
     "rates",
     "sampling_note",
     "save_comparison",
     "save_figures",
+    "two_body",
 ]

@@ -7,8 +7,9 @@ driver (:mod:`lgvi.driver`) allocates the result buffers from the layout and run
 run object in compiled chunks, so progress, Ctrl-C, partial results, failures and streaming are
 the same for every system.
 
-Today's system is the rigid body (:mod:`lgvi.systems.rigid_body`); a gyrostat, a body in orbit or
-two bodies are each a new subpackage plus a :func:`register` call.
+The systems: the rigid body (:mod:`lgvi.systems.rigid_body`), a rigid body in a central field
+(:mod:`lgvi.systems.orbit`) and two rigid bodies in mutual gravity (:mod:`lgvi.systems.two_body`);
+another is a new module plus a :func:`register` call.
 """
 
 from __future__ import annotations
@@ -107,5 +108,7 @@ def provide_run(system: System, factory: Callable[..., Any]) -> None:
 
 
 from . import rigid_body as rigid_body  # noqa: E402  (registers the rigid body)
+from . import orbit as orbit  # noqa: E402  (a body in a central field)
+from . import two_body as two_body  # noqa: E402  (two bodies in mutual gravity)
 
 __all__ = ["Field", "RUNS", "SYSTEMS", "System", "provide_run", "register"]

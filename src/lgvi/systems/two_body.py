@@ -1,0 +1,577 @@
+r"""Two rigid bodies in mutual gravity (the full two-body problem): :func:`simulate_two_body`.
+
+The Lie group variational integrator of Lee, Leok and McClamroch (Comput. Methods Appl. Mech.
+Engrg. 196, 2007) in inertial coordinates: each body's orbit by the explicit variational
+(Verlet) update, its attitude by the LGVI, one evaluation of the mutual potential per step
+(:mod:`lgvi._kernels.two_body_kernels`; derivation in ``docs/orbit.md``). The mutual potential is
+
+* ``"order2"``: truncated at second order in the bodies' size over their distance (MacCullagh:
+  the point-mass term and each body's second moments in the other's point-mass field);
+* ``"order4"``: through fourth order (third and fourth moments of each body and the cross term of
+  the two second moments); bodies given as :class:`Ellipsoid` or :class:`PointMasses`;
+* ``"points"``: exact for bodies made of point masses (:class:`PointMasses`), the pairwise sum.
+
+Invariants: total linear momentum ``p1 + p2`` and total angular momentum
+``x1 x p1 + x2 x p2 + R1 Pi1 + R2 Pi2`` to round-off (the discrete Lagrangian is invariant under
+translations and rotations of the inertial frame); the energy bounded.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .._kernels.codes import NOT_FINITE, OVERFLOW
+from .._validation import as_float, as_float_array, as_rotation, choice
+from .._version import __version__
+from ..body import RigidBody
+from ..driver import MemorySink, Progress, check_memory, drive, initial_momentum, sample_times, time_grid
+from ..errors import ConvergenceError
+from ..invariants import BOUNDED, EXACT
+from . import Field, System, register
+from .orbit import load_result_npz, positive_number, save_result_npz
+
+CHUNK_STEPS = 1 << 18
+#: Mutual potentials by name (kernel codes).
+POTENTIALS = {"order2": 0, "order4": 1, "points": 2}
+FORMAT = "lgvi.two_body/1"
+
+
+def _invariants(config: Any) -> dict[str, dict[str, Any]]:
+    return {"angular_momentum": {"kind": EXACT}, "linear_momentum": {"kind": EXACT}, "energy": {"kind": BOUNDED}}
+
+
+def _kernels() -> dict[str, Any]:
+    from .._kernels import two_body_kernels
+
+    return {"run_two_body": two_body_kernels.run_two_body, "mutual_force": two_body_kernels.mutual_force}
+
+
+TWO_BODY = register(System(
+    name="two_body",
+    doc="two rigid bodies in mutual gravity: positions x (2, 3), momenta p (2, 3), attitudes R (2, 3, 3), "
+        "body momenta Pi (2, 3)",
+    state=(Field("x", (2, 3), doc="centres of mass, inertial"),
+           Field("p", (2, 3), doc="linear momenta, inertial"),
+           Field("R", (2, 3, 3), doc="attitudes, body to inertial"),
+           Field("Pi", (2, 3), doc="body angular momenta")),
+    records=(Field("iterations", (), np.int32, "largest solver iterations (both bodies) per saved interval"),
+             Field("residual", (), np.float64, "largest final solver residual per saved interval")),
+    kernels=_kernels,
+    results=("t", "x", "p", "R", "Pi", "iterations", "residual", "h", "meta"),
+    scenario_section="two_body",
+    run_factory=None,
+    invariants=_invariants,
+))
+
+
+# ------------------------------------------------------------------------------------------------
+# bodies: shapes that carry their higher moments
+# ------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Ellipsoid:
+    """A solid homogeneous ellipsoid with semi-axes ``a, b, c`` along its body axes (the mass is
+    given to :func:`simulate_two_body`). Its second and fourth moments are exact; its odd
+    moments vanish."""
+
+    a: float
+    b: float
+    c: float
+
+    def __post_init__(self) -> None:
+        for name in ("a", "b", "c"):
+            object.__setattr__(self, name, positive_number(getattr(self, name), f"Ellipsoid {name}"))
+
+    def moments(self, mass: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(S (3,3), T3 (3,3,3), T4 (3,3,3,3))``: ``int r r^T dm`` and the third, fourth moments."""
+        ax = np.array([self.a, self.b, self.c])
+        S = np.diag(mass * ax ** 2 / 5.0)
+        T4 = np.zeros((3, 3, 3, 3))
+        for i in range(3):
+            T4[i, i, i, i] = 3.0 * mass * ax[i] ** 4 / 35.0
+            for j in range(3):
+                if i != j:
+                    v = mass * ax[i] ** 2 * ax[j] ** 2 / 35.0
+                    T4[i, i, j, j] = T4[i, j, i, j] = T4[i, j, j, i] = v
+        return S, np.zeros((3, 3, 3)), T4
+
+
+@dataclass(frozen=True, eq=False)
+class PointMasses:
+    """A rigid body made of point masses ``masses`` (n,) at ``positions`` (n, 3) in its body frame.
+
+    The positions are taken relative to their centre of mass (which the run's position follows).
+    Its moments of every order follow from the points; ``potential="points"`` uses the points
+    themselves (the exact mutual potential, ``n1 n2`` pairs a step)."""
+
+    masses: Any
+    positions: Any
+
+    def __post_init__(self) -> None:
+        w = as_float_array(self.masses, "masses", (None,))
+        q = as_float_array(self.positions, "positions", (None, 3))
+        if len(w) == 0 or len(w) != len(q):
+            raise ValueError(f"PointMasses needs as many masses as positions (at least one), got {len(w)} masses "
+                             f"and {len(q)} positions")
+        if not np.all(w > 0):
+            raise ValueError(f"masses must be positive, got {w[~(w > 0)][0]}")
+        q = q - (w @ q) / w.sum()
+        S = np.einsum("a,ai,aj->ij", w, q, q)
+        moments = np.linalg.eigvalsh(np.trace(S) * np.eye(3) - S)
+        if not moments[0] > 1e-12 * moments[-1]:
+            raise ValueError(f"positions of PointMasses must not all lie on one line: a rigid body needs three "
+                             f"non-zero principal moments of inertia, got {moments.tolist()} (add a point off "
+                             "the line, e.g. a light cross bar)")
+        object.__setattr__(self, "masses", w)
+        object.__setattr__(self, "positions", q)
+
+    @property
+    def mass(self) -> float:
+        return float(self.masses.sum())
+
+    def moments(self, mass: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        w, q = self.masses, self.positions
+        S = np.einsum("a,ai,aj->ij", w, q, q)
+        T3 = np.einsum("a,ai,aj,ak->ijk", w, q, q, q)
+        T4 = np.einsum("a,ai,aj,ak,al->ijkl", w, q, q, q, q)
+        return S, T3, T4
+
+
+class Moments:
+    """What the kernels need of one body: mass, inertia, moments (and points)."""
+
+    def __init__(self, body: Any, mass: Any, potential: str, name: str, mname: str) -> None:
+        self.points = None
+        if isinstance(body, PointMasses):
+            self.mass = body.mass if mass is None else positive_number(mass, mname)
+            if abs(self.mass - body.mass) > 1e-12 * body.mass:
+                raise ValueError(f"{mname} must be the sum of {name}'s point masses ({body.mass!r}) or None, got {mass!r}")
+            S, T3, T4 = body.moments()
+            self.points = body
+        else:
+            self.mass = positive_number(mass, mname)
+            if isinstance(body, Ellipsoid):
+                S, T3, T4 = body.moments(self.mass)
+            else:
+                if potential == "points":
+                    raise ValueError(f"potential='points' needs {name} as lgvi.PointMasses (the exact pairwise sum), "
+                                     f"got {type(body).__name__}")
+                if potential == "order4":
+                    raise ValueError(f"potential='order4' needs the third and fourth moments of {name}: give it as "
+                                     f"lgvi.Ellipsoid or lgvi.PointMasses, got {type(body).__name__}")
+                J = RigidBody(body).J
+                S = np.trace(J) / 2.0 * np.eye(3) - J
+                T3 = np.zeros((3, 3, 3))
+                T4 = np.zeros((3, 3, 3, 3))
+        if potential == "points" and self.points is None:
+            raise ValueError(f"potential='points' needs {name} as lgvi.PointMasses, got {type(body).__name__}")
+        self.body = RigidBody(np.trace(S) * np.eye(3) - S)
+        self.S = np.array(self.body.Jd)
+        self.T3 = T3
+        self.T4 = T4
+        self.t3 = np.einsum("kki->i", T3)
+        self.Q4 = np.einsum("kkij->ij", T4)
+        self.q4 = float(np.einsum("iijj->", T4))
+
+
+def mutual_potential(potential: str, G: float, d: np.ndarray, R1: np.ndarray, R2: np.ndarray, b1: Moments,
+                     b2: Moments) -> np.ndarray:
+    """The mutual potential (M,) at ``d = x2 - x1`` (M, 3) and attitudes ``R1``, ``R2`` (M, 3, 3)."""
+    d = np.asarray(d, dtype=np.float64)
+    if potential == "points":
+        y = np.einsum("kij,aj->kai", R1, b1.points.positions)
+        z = np.einsum("kij,bj->kbi", R2, b2.points.positions)
+        e = d[:, None, None, :] + z[:, None, :, :] - y[:, :, None, :]
+        w = b1.points.masses[:, None] * b2.points.masses[None, :]
+        return -G * np.sum(w / np.linalg.norm(e, axis=-1), axis=(1, 2))
+    r = np.linalg.norm(d, axis=-1)
+    U = -G * b1.mass * b2.mass / r
+    order4 = potential == "order4"
+    for Ri, bi, mj, s in ((R1, b1, b2.mass, 1.0), (R2, b2, b1.mass, -1.0)):
+        u = np.einsum("kji,kj->ki", Ri, d)
+        c = G * mj
+        U = U - c * (3.0 * np.einsum("ki,ij,kj->k", u, bi.S, u) / r ** 2 - np.trace(bi.S)) / (2.0 * r ** 3)
+        if order4:
+            A3 = np.einsum("ijk,ni,nj,nk->n", bi.T3, u, u, u)
+            U = U - s * c * (5.0 * A3 / r ** 7 - 3.0 * (u @ bi.t3) / r ** 5) / 2.0
+            A4 = np.einsum("ijkl,ni,nj,nk,nl->n", bi.T4, u, u, u, u)
+            B4 = np.einsum("ni,ij,nj->n", u, bi.Q4, u)
+            U = U - c * (35.0 * A4 / r ** 9 - 30.0 * B4 / r ** 7 + 3.0 * bi.q4 / r ** 5) / 8.0
+    if order4:
+        A = np.einsum("kij,jl,kml->kim", R1, b1.S, R1)
+        B = np.einsum("kij,jl,kml->kim", R2, b2.S, R2)
+        al = np.einsum("ki,kij,kj->k", d, A, d)
+        be = np.einsum("ki,kij,kj->k", d, B, d)
+        ga = np.einsum("ki,kij,kjl,kl->k", d, A, B, d)
+        trA = np.trace(A, axis1=1, axis2=2)
+        trB = np.trace(B, axis1=1, axis2=2)
+        trAB = np.einsum("kij,kji->k", A, B)
+        U = U - G / 4.0 * (105.0 * al * be / r ** 9 - 15.0 / r ** 7 * (trA * be + trB * al + 4.0 * ga)
+                           + 3.0 / r ** 5 * (trA * trB + 2.0 * trAB))
+    return U
+
+
+def _arrays(b1: Moments, b2: Moments) -> dict[str, np.ndarray]:
+    """The kernels' body arrays (the point arrays are (1, 3) placeholders without points)."""
+    out = {"S": np.stack([b1.S, b2.S]), "T3": np.stack([b1.T3, b2.T3]), "t3": np.stack([b1.t3, b2.t3]),
+           "T4": np.stack([b1.T4, b2.T4]), "Q4": np.stack([b1.Q4, b2.Q4]), "q4": np.array([b1.q4, b2.q4])}
+    for i, b in ((1, b1), (2, b2)):
+        if b.points is not None:
+            out[f"Q{i}"] = np.ascontiguousarray(b.points.positions)
+            out[f"w{i}"] = np.ascontiguousarray(b.points.masses)
+        else:
+            out[f"Q{i}"] = np.zeros((1, 3))
+            out[f"w{i}"] = np.zeros(1)
+    return out
+
+
+def mutual_force(potential: str, G: float, d: Any, R1: Any, R2: Any, b1: Moments, b2: Moments) -> np.ndarray:
+    """``(g = dU/dd, M1, M2)`` (9,) from the compiled kernel (one state)."""
+    from .._kernels.two_body_kernels import mutual_force as kernel
+
+    a = _arrays(b1, b2)
+    out = np.zeros(10)
+    kernel(POTENTIALS[potential], G, b1.mass, b2.mass, a["S"], a["T3"], a["t3"], a["T4"], a["Q4"], a["q4"], a["Q1"],
+           a["w1"], a["Q2"], a["w2"], np.asarray(d, dtype=np.float64), np.stack([R1, R2]).astype(np.float64), out)
+    return out[:9]
+
+
+def two_body_equations(potential: str, G: float, b1: Moments, b2: Moments):
+    """The continuous equations ``f(t, y)``, ``y = (x1, x2, p1, p2, R1, R2 (row-major), Pi1, Pi2)``
+    (42,), with the same mutual force as the integrator (for a DOP853 reference)."""
+    Jinv = [np.linalg.inv(b1.body.J), np.linalg.inv(b2.body.J)]
+    m = (b1.mass, b2.mass)
+
+    def f(t: float, y: np.ndarray) -> np.ndarray:
+        x1, x2, p1, p2 = y[0:3], y[3:6], y[6:9], y[9:12]
+        R = [y[12:21].reshape(3, 3), y[21:30].reshape(3, 3)]
+        Pi = [y[30:33], y[33:36]]
+        out = mutual_force(potential, G, x2 - x1, R[0], R[1], b1, b2)
+        g, M = out[0:3], (out[3:6], out[6:9])
+        dR, dPi = [], []
+        for i in range(2):
+            w = Jinv[i] @ Pi[i]
+            dR.append((R[i] @ np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])).ravel())
+            dPi.append(np.cross(Pi[i], w) + M[i])
+        return np.concatenate([p1 / m[0], p2 / m[1], g, -g, dR[0], dR[1], dPi[0], dPi[1]])
+
+    return f
+
+
+# ------------------------------------------------------------------------------------------------
+# results
+# ------------------------------------------------------------------------------------------------
+@dataclass
+class TwoBodyTrajectory:
+    """The result of :func:`simulate_two_body`, ``M`` samples; axis 1 is the body (0, 1).
+
+    Attributes
+    ----------
+    t : (M,) ndarray
+    x, p : (M, 2, 3) ndarray
+        Centres of mass and linear momenta (inertial).
+    R : (M, 2, 3, 3) ndarray
+        Attitudes, body to inertial.
+    Pi : (M, 2, 3) ndarray
+        Body angular momenta.
+    iterations, residual : (M - 1,) ndarray
+        Largest solver iterations (both bodies summed) and residual per saved interval.
+    h, G : float
+    masses : (2,) ndarray
+    moments : dict
+        ``S`` (2,3,3) second moments (``= Jd``), ``T3``, ``T4``; ``Q1, w1, Q2, w2`` the points.
+    meta : dict
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    p: np.ndarray
+    R: np.ndarray
+    Pi: np.ndarray
+    iterations: np.ndarray
+    residual: np.ndarray
+    h: float
+    G: float
+    masses: np.ndarray
+    moments: dict[str, np.ndarray]
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    ARRAYS = ("t", "x", "p", "R", "Pi", "iterations", "residual", "masses")
+
+    @property
+    def inertia(self) -> np.ndarray:
+        """Inertias (2, 3, 3) about the centres of mass."""
+        S = self.moments["S"]
+        return np.trace(S, axis1=1, axis2=2)[:, None, None] * np.eye(3) - S
+
+    @property
+    def relative_position(self) -> np.ndarray:
+        """``x2 - x1`` (M, 3)."""
+        return self.x[:, 1] - self.x[:, 0]
+
+    @property
+    def distance(self) -> np.ndarray:
+        return np.linalg.norm(self.relative_position, axis=1)
+
+    @property
+    def v(self) -> np.ndarray:
+        return self.p / self.masses[None, :, None]
+
+    @property
+    def omega(self) -> np.ndarray:
+        """Body angular velocities (M, 2, 3)."""
+        return np.einsum("bij,kbj->kbi", np.linalg.inv(self.inertia), self.Pi)
+
+    @property
+    def spatial_momentum(self) -> np.ndarray:
+        """Spin momenta ``R_i Pi_i`` (M, 2, 3)."""
+        return np.einsum("kbij,kbj->kbi", self.R, self.Pi)
+
+    @property
+    def linear_momentum(self) -> np.ndarray:
+        """Total linear momentum ``p1 + p2`` (M, 3)."""
+        return self.p.sum(axis=1)
+
+    @property
+    def angular_momentum(self) -> np.ndarray:
+        """Total angular momentum ``sum_i x_i x p_i + R_i Pi_i`` (M, 3) about the origin."""
+        return np.cross(self.x, self.p).sum(axis=1) + self.spatial_momentum.sum(axis=1)
+
+    def _bodies(self) -> tuple[Moments, Moments]:
+        out = []
+        for i in range(2):
+            b = Moments.__new__(Moments)
+            b.mass = float(self.masses[i])
+            b.S, b.T3, b.T4 = (self.moments[k][i] for k in ("S", "T3", "T4"))
+            b.t3 = np.einsum("kki->i", b.T3)
+            b.Q4 = np.einsum("kkij->ij", b.T4)
+            b.q4 = float(np.einsum("iijj->", b.T4))
+            w = self.moments[f"w{i + 1}"]
+            b.points = PointMasses(w, self.moments[f"Q{i + 1}"]) if w.any() else None
+            out.append(b)
+        return out[0], out[1]
+
+    @property
+    def potential_energy(self) -> np.ndarray:
+        b1, b2 = self._bodies()
+        return mutual_potential(self.meta.get("potential", "order2"), self.G, self.relative_position, self.R[:, 0],
+                                self.R[:, 1], b1, b2)
+
+    @property
+    def kinetic_energy(self) -> np.ndarray:
+        return (0.5 * np.einsum("kbi,kbi,b->k", self.p, self.p, 1.0 / self.masses)
+                + 0.5 * np.einsum("kbi,kbi->k", self.Pi, self.omega))
+
+    @property
+    def energy(self) -> np.ndarray:
+        """Total energy (M,): kinetic (both bodies, orbit and spin) plus the mutual potential."""
+        return self.kinetic_energy + self.potential_energy
+
+    def save(self, path: str | os.PathLike) -> None:
+        """Write to ``path`` (``.npz``, atomically); :meth:`load` reads it back exactly."""
+        arrays = {k: np.asarray(getattr(self, k)) for k in self.ARRAYS}
+        arrays.update({f"moment_{k}": v for k, v in self.moments.items()})
+        arrays["scalars"] = np.array([self.h, self.G])
+        save_result_npz(path, FORMAT, arrays, self.meta)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> "TwoBodyTrajectory":
+        """Read a result written by :meth:`save` (ValueError naming the file if it is not one)."""
+        keys = ("S", "T3", "T4", "Q1", "w1", "Q2", "w2")
+        arrays, meta = load_result_npz(path, FORMAT, cls.ARRAYS + ("scalars",) + tuple(f"moment_{k}" for k in keys))
+        h, G = (float(v) for v in arrays.pop("scalars"))
+        moments = {k: arrays.pop(f"moment_{k}") for k in keys}
+        return cls(h=h, G=G, moments=moments, meta=meta, **arrays)
+
+
+# ------------------------------------------------------------------------------------------------
+# the run
+# ------------------------------------------------------------------------------------------------
+def _pair(value: Any, name: str, m1: float, m2: float) -> np.ndarray:
+    """``(2, 3)`` from a relative vector (3,) (the centre of mass at the origin, at rest) or (2, 3)."""
+    arr = np.asarray(value) if not isinstance(value, (str, bytes)) else None
+    if arr is not None and arr.shape == (3,):
+        rel = as_float_array(value, name, (3,))
+        M = m1 + m2
+        return np.stack([-m2 / M * rel, m1 / M * rel])
+    if arr is None or arr.shape != (2, 3):
+        raise ValueError(f"{name} must be the relative vector body 2 - body 1 (3,) or both bodies' (2, 3), got "
+                         f"{'shape ' + str(arr.shape) if arr is not None else repr(value)}")
+    return as_float_array(value, name, (2, 3)).copy()
+
+
+class TwoBodyRun:
+    """One validated run of :func:`simulate_two_body` (driven by :func:`lgvi.driver.drive`)."""
+
+    system = TWO_BODY
+    full = False
+    label = "two-body simulation"
+
+    def __init__(self, body1: Any, body2: Any, m1: Any, m2: Any, x0: Any, v0: Any, R1_0: Any, R2_0: Any, *,
+                 Pi1_0: Any, Pi2_0: Any, omega1_0: Any, omega2_0: Any, h: Any, steps: Any, G: Any, potential: Any,
+                 tol: Any, max_iter: Any, save_every: Any, t0: Any) -> None:
+        from ..driver import run_solver_options
+
+        self.potential = choice(potential, "potential", tuple(POTENTIALS))
+        self.code = POTENTIALS[self.potential]
+        self.G = positive_number(G, "G")
+        self.b1 = Moments(body1, m1, self.potential, "body1", "m1")
+        self.b2 = Moments(body2, m2, self.potential, "body2", "m2")
+        m1, m2 = self.b1.mass, self.b2.mass
+        self.arrays = _arrays(self.b1, self.b2)
+        self.x = _pair(x0, "x0", m1, m2)
+        if not np.linalg.norm(self.x[1] - self.x[0]) > 0.0:
+            raise ValueError("x0 must separate the bodies (|x2 - x1| > 0), got coincident centres")
+        self.p = _pair(v0, "v0", m1, m2) * np.array([[m1], [m2]])
+        self.R = np.stack([as_rotation(R1_0, "R1_0"), as_rotation(R2_0, "R2_0")])
+        try:
+            Pi1 = initial_momentum(self.b1.body, Pi1_0, omega1_0)
+        except ValueError as exc:
+            raise ValueError(str(exc).replace("Pi0", "Pi1_0").replace("omega0", "omega1_0")) from None
+        try:
+            Pi2 = initial_momentum(self.b2.body, Pi2_0, omega2_0)
+        except ValueError as exc:
+            raise ValueError(str(exc).replace("Pi0", "Pi2_0").replace("omega0", "omega2_0")) from None
+        self.Pi = np.stack([Pi1, Pi2])
+        self.h, self.t0, self.steps, self.save_every = time_grid(h, t0, steps, save_every)
+        _, self.tol, self.max_iter, _ = run_solver_options("cayley", tol, max_iter, 1.0)
+        check_memory(self.steps, self.save_every, False)
+        self.chunk = max(self.save_every, (CHUNK_STEPS // self.save_every) * self.save_every)
+        self.k = 0
+        self.Gh = np.zeros((2, 5, 3))
+        for i, b in enumerate((self.b1, self.b2)):
+            self.Gh[i, 0] = 0.5 * self.h * (b.body.J_inv @ self.Pi[i])
+            self.Gh[i, 3, 0] = 1.0
+        self.C = np.zeros(10)
+        self.N = np.zeros(10)
+        self.scratch = (np.zeros_like(self.arrays["Q1"]), np.zeros_like(self.arrays["Q2"]), np.zeros((3, 3)),
+                        np.zeros((3, 3)))
+        self.last = np.zeros(2)
+        self.hist = np.zeros(0)
+        self.meta = {"system": TWO_BODY.name, "potential": self.potential, "invariants": _invariants(None),
+                     "t0": self.t0, "save_every": self.save_every, "method": "cayley", "tol": self.tol,
+                     "lgvi_version": __version__}
+
+    @property
+    def last_its(self) -> int:
+        return int(self.last[0])
+
+    @property
+    def last_res(self) -> float:
+        return float(self.last[1])
+
+    def times(self, j0: int, j1: int) -> np.ndarray:
+        return sample_times(self.t0, self.h * self.save_every, j0, j1)
+
+    def advance(self, n: int, x_out, p_out, R_out, Pi_out, it_out, res_out, partial) -> int:
+        from .._kernels.two_body_kernels import run_two_body
+
+        a = self.arrays
+        Y, Z, A, B = self.scratch
+        status, self.k = run_two_body(self.code, self.G, self.b1.mass, self.b2.mass, a["S"], a["T3"], a["t3"], a["T4"],
+                                      a["Q4"], a["q4"], a["Q1"], a["w1"], a["Q2"], a["w2"], Y, Z, A, B, self.h, self.x,
+                                      self.p, self.R, self.Pi, self.Gh, self.C, self.N, self.k, n, self.tol,
+                                      self.max_iter, self.save_every, x_out, p_out, R_out, Pi_out, it_out, res_out,
+                                      self.hist, self.last)
+        return int(status)
+
+    def failure(self, status: int, residual: float, iterations: int, trajectory: Any, where: str = "") -> Exception:
+        t = self.t0 + self.k * self.h
+        what = {OVERFLOW: "the state after the step is not finite (the bodies collided, or the step is far too large)",
+                NOT_FINITE: "the positions became non-finite",
+                }.get(status, f"an attitude equation was not solved (status {status}, residual {residual:.3e}, "
+                              f"{iterations} iterations)")
+        return ConvergenceError(f"two-body step {self.k} (t = {t:g}) failed: {what}; try a smaller step h{where}",
+                                residual=float(residual), iterations=int(iterations), step=self.k, time=t,
+                                trajectory=trajectory)
+
+    def state(self) -> dict[str, Any]:
+        return {"k": self.k, "x": self.x.copy(), "p": self.p.copy(), "R": self.R.copy(), "Pi": self.Pi.copy(),
+                "Gh": self.Gh.copy(), "C": self.C.copy()}
+
+    def load_state(self, st: dict[str, Any]) -> None:
+        self.k = int(st["k"])
+        for key in ("x", "p", "R", "Pi", "Gh", "C"):
+            getattr(self, key)[...] = np.asarray(st[key], dtype=np.float64)
+
+    def trajectory(self, t, x, p, R, Pi, it, res, partial: bool = False) -> TwoBodyTrajectory:
+        meta = dict(self.meta, partial=True) if partial else dict(self.meta)
+        a = self.arrays
+        moments = {k: a[k].copy() for k in ("S", "T3", "T4", "Q1", "w1", "Q2", "w2")}
+        return TwoBodyTrajectory(t=t, x=x, p=p, R=R, Pi=Pi, iterations=it, residual=res, h=self.h, G=self.G,
+                                 masses=np.array([self.b1.mass, self.b2.mass]), moments=moments, meta=meta)
+
+
+def simulate_two_body(body1: Any, body2: Any, m1: float | None, m2: float | None, x0: Any, v0: Any, R1_0: Any,
+                      R2_0: Any, *, Pi1_0: Any = None, Pi2_0: Any = None, omega1_0: Any = None, omega2_0: Any = None,
+                      h: float, steps: int, G: float = 1.0, potential: str = "order2", save_every: int = 1,
+                      t0: float = 0.0, tol: float = 1e-14, max_iter: int = 50,
+                      progress: Any = False) -> TwoBodyTrajectory:
+    r"""Simulate two rigid bodies in mutual gravity (the full two-body problem).
+
+    Each step: both attitudes by the LGVI, both orbits by the explicit variational (Verlet)
+    update, one evaluation of the mutual potential's force and moments (``docs/orbit.md``).
+    Second order; total linear and angular momentum conserved to round-off, energy bounded.
+
+    Parameters
+    ----------
+    body1, body2 : RigidBody, array_like, Ellipsoid or PointMasses
+        The bodies: an inertia (``(3,)`` or ``(3, 3)``, about the centre of mass), an
+        :class:`Ellipsoid` (homogeneous; its moments scale with the mass) or :class:`PointMasses`.
+    m1, m2 : float or None
+        Masses, ``> 0`` (``None`` for :class:`PointMasses`: the sum of the points).
+    x0 : (3,) or (2, 3) array_like
+        The relative position ``x2 - x1`` (then the centre of mass is at the origin) or both
+        centres of mass.
+    v0 : (3,) or (2, 3) array_like
+        The relative velocity ``v2 - v1`` (the centre of mass at rest) or both velocities.
+    R1_0, R2_0 : (3, 3) array_like
+        Initial attitudes, body to inertial.
+    Pi1_0, Pi2_0, omega1_0, omega2_0 : (3,) array_like
+        Initial body angular momenta, or body angular velocities (one of each pair).
+    h : float
+        Step, non-zero.
+    steps : int
+        Number of steps, ``>= 0``.
+    G : float
+        Gravitational constant in the units of the run, ``> 0`` (default 1).
+    potential : {"order2", "order4", "points"}
+        The mutual potential (see the module notes).
+    save_every, t0, tol, max_iter, progress
+        As in :func:`lgvi.simulate_orbit`.
+
+    Returns
+    -------
+    TwoBodyTrajectory
+        ``x``, ``p`` (M, 2, 3), ``R`` (M, 2, 3, 3), ``Pi`` (M, 2, 3); ``energy``,
+        ``linear_momentum``, ``angular_momentum`` (M, 3), ``save``/``load``.
+
+    Examples
+    --------
+    >>> import numpy as np, lgvi
+    >>> traj = lgvi.simulate_two_body(lgvi.Ellipsoid(1.0, 0.7, 0.5), lgvi.Ellipsoid(0.3, 0.25, 0.2), 1.0, 0.1,
+    ...                               [3.0, 0, 0], [0, 0.6, 0], np.eye(3), np.eye(3), omega1_0=[0, 0, 1.0],
+    ...                               omega2_0=[0, 0, 0.2], h=0.05, steps=200, potential="order4")
+    >>> bool(np.abs(traj.linear_momentum).max() < 1e-14)
+    True
+    """
+    run = TwoBodyRun(body1, body2, m1, m2, x0, v0, R1_0, R2_0, Pi1_0=Pi1_0, Pi2_0=Pi2_0, omega1_0=omega1_0,
+                     omega2_0=omega2_0, h=h, steps=steps, G=G, potential=potential, tol=tol, max_iter=max_iter,
+                     save_every=save_every, t0=t0)
+    Progress(progress, 0)
+    return drive(run, MemorySink(run), progress=progress)
+
+
+def _provide() -> None:
+    from . import provide_run
+
+    provide_run(TWO_BODY, TwoBodyRun)
+
+
+_provide()
+
+__all__ = ["Ellipsoid", "Moments", "PointMasses", "TWO_BODY", "TwoBodyRun", "TwoBodyTrajectory", "mutual_force",
+           "mutual_potential", "simulate_two_body", "two_body_equations"]
