@@ -486,6 +486,79 @@ def finite_moments(Pt, Mt):
     return ok
 
 
+@jit(inline="always")
+def load_state(R, Pi, S):
+    """The state of a forced chunk loop as tuples ``(Rt, Pt, Mt)``: ``R`` (9 entries, row-major),
+    ``Pi`` and the cached moments ``S[0:6]`` (the loops keep them in locals, see :func:`save_state`)."""
+    return ((R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2]), (Pi[0], Pi[1], Pi[2]),
+            (S[0], S[1], S[2], S[3], S[4], S[5]))
+
+
+@jit(inline="always")
+def save_state(R, Pi, S, Rt, Pt, Mt):
+    """Write the tuples of :func:`load_state` back to the arrays."""
+    R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2] = Rt
+    Pi[0], Pi[1], Pi[2] = Pt
+    S[0], S[1], S[2], S[3], S[4], S[5] = Mt
+
+
+@jit(inline="always")
+def stage_done(its_sum, rmax, its, rn, st, Px, Mx):
+    """Account one substep: ``(its_sum, rmax, st)`` with its iterations and residual added, and
+    ``st`` set to ``OVERFLOW`` when a moment overflowed the momentum (never keep such a state)."""
+    its_sum += its
+    if rn > rmax:
+        rmax = rn
+    if st == OK and not finite_moments(Px, Mx):
+        st = OVERFLOW
+    return its_sum, rmax, st
+
+
+@jit(inline="always")
+def step_done(k, k0, status, its_sum, rmax, rn, Rt, Pt, book, per_step, save_every, R_out, Pi_out, it_out,
+              res_out, counts):
+    """The bookkeeping of step ``k`` once its substeps ran, shared by the forced chunk loops.
+
+    ``book`` = ``(it_total, rmax_all, rlast, imax, rimax, countdown, jout)``: the chunk's solver
+    totals, the last step's residual, the saved interval's largest iterations and residual, steps
+    to the next sample and the next sample's index. Records the step (per step, or per saved
+    interval at each sample), the histogram ``counts``, and on success stores the new state
+    ``(Rt, Pt)`` when a sample falls due. Returns the new ``book``.
+    """
+    it_total, rmax_all, rlast, imax, rimax, countdown, jout = book
+    it_total += its_sum
+    if per_step:
+        it_out[k - k0] = its_sum
+    if status != OK:
+        if per_step:
+            res_out[k - k0] = rn
+        return it_total, rmax_all, rn, imax, rimax, countdown, jout
+    if per_step:
+        res_out[k - k0] = rmax
+    if rmax > rmax_all:
+        rmax_all = rmax
+    if its_sum > imax:
+        imax = its_sum
+    if rmax > rimax:
+        rimax = rmax
+    nbins = counts.shape[0]
+    if nbins > 0:
+        counts[min(its_sum, nbins - 1)] += 1
+    countdown -= 1
+    if countdown == 0:
+        countdown = save_every
+        (R_out[jout, 0, 0], R_out[jout, 0, 1], R_out[jout, 0, 2], R_out[jout, 1, 0], R_out[jout, 1, 1],
+         R_out[jout, 1, 2], R_out[jout, 2, 0], R_out[jout, 2, 1], R_out[jout, 2, 2]) = Rt
+        Pi_out[jout, 0], Pi_out[jout, 1], Pi_out[jout, 2] = Pt
+        if not per_step:
+            it_out[jout] = imax
+            res_out[jout] = rimax
+        imax = 0
+        rimax = 0.0
+        jout += 1
+    return it_total, rmax_all, rmax, imax, rimax, countdown, jout
+
+
 @jit
 def init_moments(codes, params, J, J_inv, t, R, Pi, S, v0, v1, v2):
     """Fill the moment cache ``S`` at the state ``(t, R, Pi)`` (``v`` an extra explicit moment)."""
@@ -532,22 +605,13 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
     v0 = 0.0
     v1 = 0.0
     v2 = 0.0
-    countdown = save_every
-    jout = 0
     # the state in local tuples (written back at the end, as in free_steps)
-    Rt = (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2])
-    Pt = (Pi[0], Pi[1], Pi[2])
-    Mt = (S[0], S[1], S[2], S[3], S[4], S[5])
+    Rt, Pt, Mt = load_state(R, Pi, S)
     status = OK
     kend = k0 + n
     per_step = it_out.shape[0] == n
-    nbins = counts.shape[0]
-    it_total = 0
-    rmax_all = 0.0
     its_sum = 0
-    rlast = 0.0
-    imax = 0                 # largest iterations and residual of the saved interval in progress
-    rimax = 0.0
+    book = (0, 0.0, 0.0, 0, 0.0, save_every, 0)     # see step_done
     for k in range(k0, k0 + n):
         if has_u:
             v0 = U[k + 1, 0]
@@ -562,51 +626,18 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
             its, rn, st, Rx, Px, Mx = forced_stage_s(method, Jd, J, J_inv, gam[i] * h, t1, Rx, Px, Mx, G, gidx[i],
                                                      codes, params, D0, D1, D2, has_D, A, i, sym, v0, v1, v2, tol,
                                                      max_iter, alpha, hist)
-            its_sum += its
-            if rn > rmax:
-                rmax = rn
-            if st == OK and not finite_moments(Px, Mx):
-                st = OVERFLOW              # a moment overflowed the momentum: never keep it
+            its_sum, rmax, st = stage_done(its_sum, rmax, its, rn, st, Px, Mx)
             if st != OK:
                 status = st
                 break
-        it_total += its_sum
-        if per_step:
-            it_out[k - k0] = its_sum
+        book = step_done(k, k0, status, its_sum, rmax, rn, Rx, Px, book, per_step, save_every, R_out, Pi_out,
+                         it_out, res_out, counts)
         if status != OK:
-            if per_step:
-                res_out[k - k0] = rn
-            rlast = rn
             kend = k
             break
-        if per_step:
-            res_out[k - k0] = rmax
-        rlast = rmax
-        if rmax > rmax_all:
-            rmax_all = rmax
-        if its_sum > imax:
-            imax = its_sum
-        if rmax > rimax:
-            rimax = rmax
-        if nbins > 0:
-            counts[min(its_sum, nbins - 1)] += 1
         Rt, Pt, Mt = Rx, Px, Mx
-        countdown -= 1
-        if countdown == 0:
-            countdown = save_every
-            (R_out[jout, 0, 0], R_out[jout, 0, 1], R_out[jout, 0, 2], R_out[jout, 1, 0], R_out[jout, 1, 1],
-             R_out[jout, 1, 2], R_out[jout, 2, 0], R_out[jout, 2, 1], R_out[jout, 2, 2]) = Rt
-            Pi_out[jout, 0], Pi_out[jout, 1], Pi_out[jout, 2] = Pt
-            if not per_step:
-                it_out[jout] = imax
-                res_out[jout] = rimax
-            imax = 0
-            rimax = 0.0
-            jout += 1
-    R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2] = Rt
-    Pi[0], Pi[1], Pi[2] = Pt
-    S[0], S[1], S[2], S[3], S[4], S[5] = Mt
-    return status, kend, it_total, rmax_all, its_sum, rlast
+    save_state(R, Pi, S, Rt, Pt, Mt)
+    return status, kend, book[0], book[1], its_sum, book[2]
 
 
 @jit

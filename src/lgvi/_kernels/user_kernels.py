@@ -2,7 +2,10 @@
 
 :func:`run_chunk_user` is :func:`.stepping.run_chunk_forced` with one more moment: the user's
 ``moment(t, R, Pi, params)``, a ``numba.njit`` function passed as an argument, so Numba
-specialises the loop for it. It is compiled without the on-disk cache (a user's function is not
+specialises the loop for it. Only the substep differs (:func:`user_stage_s`); the state tuples,
+the per-step bookkeeping and the sample store are :func:`.stepping.load_state`,
+:func:`.stepping.stage_done`, :func:`.stepping.step_done` and :func:`.stepping.save_state`,
+written once for both loops. It is compiled without the on-disk cache (a user's function is not
 importable by a later process) and with reference counting on (the user's function may return a
 new array; a loop without reference counting would leak it).
 
@@ -18,9 +21,9 @@ from __future__ import annotations
 import math
 
 from .._jit import jit
-from .codes import NOT_CONVERGED, OK, OVERFLOW
+from .codes import NOT_CONVERGED, OK
 from .solvers import EPS
-from .stepping import finite_moments, push_at, rotated_row, solve_warm
+from .stepping import load_state, push_at, rotated_row, save_state, solve_warm, stage_done, step_done
 from .torque_kernels import model_moments, model_moments_s, momentum_diag
 
 
@@ -176,21 +179,13 @@ def run_chunk_user(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, h, t0, 
     has_D = D0 != 0.0 or D1 != 0.0 or D2 != 0.0
     if S[6] == 0.0:
         init_user_moments(moment, up, Rs, Ps, cons, codes, params, J, J_inv, t0 + k0 * h, R, Pi, S)
-    jout = 0
-    Rt = (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2])
-    Pt = (Pi[0], Pi[1], Pi[2])
-    Mt = (S[0], S[1], S[2], S[3], S[4], S[5])
+    Rt, Pt, Mt = load_state(R, Pi, S)
     status = OK
     kend = k0 + n
     per_step = it_out.shape[0] == n
-    nbins = counts.shape[0]
-    it_total = 0
-    rmax_all = 0.0
     its_sum = 0
-    rlast = 0.0
     rn = 0.0
-    imax = 0
-    rimax = 0.0
+    book = (0, 0.0, 0.0, 0, 0.0, countdown, 0)     # see stepping.step_done
     for k in range(k0, k0 + n):
         its_sum = 0
         rmax = 0.0
@@ -200,48 +195,15 @@ def run_chunk_user(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, h, t0, 
             its, rn, st, Rx, Px, Mx = user_stage_s(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, gam[i] * h,
                                                    t1, Rx, Px, Mx, G, gidx[i], codes, params, D0, D1, D2, has_D, A,
                                                    i, sym, tol, max_iter, alpha, hist)
-            its_sum += its
-            if rn > rmax:
-                rmax = rn
-            if st == OK and not finite_moments(Px, Mx):
-                st = OVERFLOW
+            its_sum, rmax, st = stage_done(its_sum, rmax, its, rn, st, Px, Mx)
             if st != OK:
                 status = st
                 break
-        it_total += its_sum
-        if per_step:
-            it_out[k - k0] = its_sum
+        book = step_done(k, k0, status, its_sum, rmax, rn, Rx, Px, book, per_step, save_every, R_out, Pi_out,
+                         it_out, res_out, counts)
         if status != OK:
-            if per_step:
-                res_out[k - k0] = rn
-            rlast = rn
             kend = k
             break
-        if per_step:
-            res_out[k - k0] = rmax
-        rlast = rmax
-        if rmax > rmax_all:
-            rmax_all = rmax
-        if its_sum > imax:
-            imax = its_sum
-        if rmax > rimax:
-            rimax = rmax
-        if nbins > 0:
-            counts[min(its_sum, nbins - 1)] += 1
         Rt, Pt, Mt = Rx, Px, Mx
-        countdown -= 1
-        if countdown == 0:
-            countdown = save_every
-            (R_out[jout, 0, 0], R_out[jout, 0, 1], R_out[jout, 0, 2], R_out[jout, 1, 0], R_out[jout, 1, 1],
-             R_out[jout, 1, 2], R_out[jout, 2, 0], R_out[jout, 2, 1], R_out[jout, 2, 2]) = Rt
-            Pi_out[jout, 0], Pi_out[jout, 1], Pi_out[jout, 2] = Pt
-            if not per_step:
-                it_out[jout] = imax
-                res_out[jout] = rimax
-            imax = 0
-            rimax = 0.0
-            jout += 1
-    R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2] = Rt
-    Pi[0], Pi[1], Pi[2] = Pt
-    S[0], S[1], S[2], S[3], S[4], S[5] = Mt
-    return status, kend, it_total, rmax_all, its_sum, rlast
+    save_state(R, Pi, S, Rt, Pt, Mt)
+    return status, kend, book[0], book[1], its_sum, book[2]
