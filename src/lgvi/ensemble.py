@@ -10,6 +10,7 @@ its own file, for ensembles larger than memory. Every body gives bit for bit the
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -41,7 +42,7 @@ BLOCK_BYTES = 1 << 28
 ENSEMBLE_FORMAT = "lgvi.ensemble/1"
 #: File names of the blocks written with ``out_dir=`` (block number, from 0).
 BLOCK_PATTERN = "ensemble-{:05d}.npz"
-_BLOCK_KEYS = ("block", "first_body", "bodies_total", "bodies")
+_BLOCK_KEYS = ("block", "first_body", "bodies_total", "bodies", "inputs")
 
 _NO_HIST = np.zeros(0)
 _NO_CODES = np.zeros((0, 2), dtype=np.int64)
@@ -652,7 +653,7 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
                       alpha: float = 1.0, save_every: int = 1, t0: float = 0.0, forcing: str = "paper",
                       order: int = 2, composition: str | None = None, threads: int | None = None,
                       client: Any = None, block_size: int | None = None,
-                      out_dir: str | os.PathLike | None = None,
+                      out_dir: str | os.PathLike | None = None, resume: bool = False,
                       progress: Any = False) -> EnsembleTrajectory | list[Path]:
     """Simulate ``B`` rigid bodies at once with the attitude LGVI, in parallel over cores.
 
@@ -703,7 +704,14 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
         :func:`load_ensemble` (one file, a list of them, or the whole folder). Without
         ``client`` the blocks run one after the other in this process; with it, on the
         workers, which must see ``out_dir`` (a shared file system). The folder must not hold
-        ensemble blocks already.
+        ensemble blocks already, unless ``resume``.
+    resume : bool
+        With ``out_dir``: keep the blocks of this run that the folder already holds (from a call
+        that was interrupted, ran out of disk or lost its cluster) and compute only the others;
+        the folder then holds the same ensemble bit for bit as an uninterrupted run. Each
+        block's header records the run's options and a digest of its bodies' initial states,
+        inertias and model parameters; a block written by another run, or with another block
+        layout (give the same ``block_size``), is refused with ``ValueError`` naming the file.
     progress : bool or callable
         ``True`` draws a ``tqdm`` progress bar, a callable is called as ``progress(done, total)``
         (steps of the whole ensemble in process; bodies of finished blocks with ``client`` or
@@ -773,10 +781,15 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
         if client is None and out_dir is None:
             raise ValueError("block_size is used with client= or out_dir= (blocks of bodies); an in-process run "
                              "needs no blocks")
+    if not isinstance(resume, (bool, np.bool_)):
+        raise TypeError(f"resume must be True or False, got {resume!r}")
+    if resume and out_dir is None:
+        raise ValueError("resume=True continues the blocks of an out_dir= run; give out_dir (the folder of the "
+                         "interrupted run)")
     if client is not None:
-        return _run_dask(setup, client, block_size, out_dir, progress)
+        return _run_dask(setup, client, block_size, out_dir, progress, bool(resume))
     if out_dir is not None:
-        return _run_blocks(setup, block_size, out_dir, progress)
+        return _run_blocks(setup, block_size, out_dir, progress, bool(resume))
     return _run_local(setup, progress)
 
 
@@ -987,14 +1000,62 @@ def _blocks(s: _Setup, block_size: int | None, workers: int) -> list[tuple[int, 
     return [(a, min(a + block_size, B)) for a in range(0, B, block_size)]
 
 
-def _prepare_dir(out_dir: str | os.PathLike) -> Path:
+def _prepare_dir(out_dir: str | os.PathLike, resume: bool = False, blocks: int = 0) -> Path:
     folder = Path(os.fspath(out_dir))
     folder.mkdir(parents=True, exist_ok=True)
     old = sorted(folder.glob("ensemble-*.npz"))
-    if old:
+    if old and not resume:
         raise ValueError(f"out_dir {folder} already holds ensemble blocks ({old[0].name}, ...); use an empty "
-                         "folder or remove them (load_ensemble(folder) would mix the runs)")
+                         "folder or remove them (load_ensemble(folder) would mix the runs), or pass resume=True "
+                         "to finish that run")
+    mine = {BLOCK_PATTERN.format(i) for i in range(blocks)}
+    extra = [p.name for p in old if p.name not in mine]
+    if extra:
+        raise ValueError(f"resume: out_dir {folder} holds block files that this run of {blocks} blocks would not "
+                         f"write ({', '.join(extra[:3])}{', ...' if len(extra) > 3 else ''}): another run, or "
+                         "another block_size; resume with the block_size of the first call")
     return folder
+
+
+def _inputs_digest(s: _Setup) -> str:
+    """Digest of what a block's bodies start from: attitudes, momenta, inertias, model parameters."""
+    d = hashlib.sha256()
+    for arr in (s.R, s.Pi, s.inertia(), s.ptab):
+        d.update(str(arr.shape).encode())
+        d.update(np.ascontiguousarray(arr, dtype=np.float64).tobytes())
+    for name, arr in sorted((s.model_params or {}).items()):
+        d.update(name.encode())
+        d.update(np.ascontiguousarray(arr, dtype=np.float64).tobytes())
+    return d.hexdigest()
+
+
+def _block_header(sub: _Setup, index: int, start: int, total: int) -> dict[str, Any]:
+    return dict(sub.meta, block=index, first_body=start, bodies_total=total, inputs=_inputs_digest(sub))
+
+
+def _done_block(path: Path, sub: _Setup, index: int, start: int, total: int) -> bool:
+    """True when ``path`` holds block ``index`` of this very run (by its header), False when there is
+    no such file; ``ValueError`` naming the file when it holds anything else."""
+    if not path.exists():
+        return False
+    try:
+        if not path.is_file() or path.is_symlink():
+            raise ValueError("not a regular file")
+        check_npz(path)
+        with np.load(path, allow_pickle=False) as data:
+            header = json.loads(str(data["__lgvi__"]))
+        meta = header["meta"]
+    except Exception as exc:
+        raise ValueError(f"resume: {path} is not a readable ensemble block ({type(exc).__name__}: {exc}); remove "
+                         "it to have it computed again") from exc
+    want = json.loads(json.dumps(_block_header(sub, index, start, total)))
+    if meta != want:
+        diff = sorted(str(k) for k in set(meta) | set(want) if meta.get(k) != want.get(k))
+        why = ("the initial states, inertias or model parameters of its bodies differ" if diff == ["inputs"]
+               else f"differences: {', '.join(diff)}")
+        raise ValueError(f"resume: {path} was not written by this run ({why}); resume with the arguments of the "
+                         "first call, or use another out_dir")
+    return True
 
 
 class _BlockProgress:
@@ -1012,8 +1073,7 @@ class _BlockProgress:
             self.bar.__exit__(None, None, None)
 
 
-def _block_meta(ens: EnsembleTrajectory, i: int, start: int, total: int) -> EnsembleTrajectory:
-    meta = dict(ens.meta, block=i, first_body=start, bodies_total=total)
+def _block_meta(ens: EnsembleTrajectory, meta: dict[str, Any]) -> EnsembleTrajectory:
     return EnsembleTrajectory(t=ens.t, R=ens.R, Pi=ens.Pi, inertia=ens.inertia, iterations=ens.iterations,
                               residual=ens.residual, h=ens.h, potential=ens.potential, meta=meta,
                               model_params=ens.model_params)
@@ -1024,24 +1084,27 @@ def _block_task(sub: _Setup, start: int, path: str | None, index: int, total: in
     ens = _run_local(sub, first_body=start)
     if path is None:
         return ens
-    _block_meta(ens, index, start, total).save(path)
+    _block_meta(ens, _block_header(sub, index, start, total)).save(path)
     return path
 
 
-def _run_blocks(s: _Setup, block_size: int | None, out_dir: Any, progress: Any) -> list[Path]:
-    folder = _prepare_dir(out_dir)
+def _run_blocks(s: _Setup, block_size: int | None, out_dir: Any, progress: Any, resume: bool = False) -> list[Path]:
+    blocks = _blocks(s, block_size, 0)
+    folder = _prepare_dir(out_dir, resume, len(blocks))
     bar = _BlockProgress(progress, len(s))
     paths = []
-    for i, (a, b) in enumerate(_blocks(s, block_size, 0)):
+    for i, (a, b) in enumerate(blocks):
         path = folder / BLOCK_PATTERN.format(i)
-        _block_task(s.block(a, b, s.threads), a, str(path), i, len(s))
+        sub = s.block(a, b, s.threads)
+        if not (resume and _done_block(path, sub, i, a, len(s))):     # resume: a finished block is kept
+            _block_task(sub, a, str(path), i, len(s))
         paths.append(path)
         bar.add(b - a)
     return paths
 
 
 def _run_dask(s: _Setup, client: Any, block_size: int | None, out_dir: Any,
-              progress: Any) -> EnsembleTrajectory | list[Path]:
+              progress: Any, resume: bool = False) -> EnsembleTrajectory | list[Path]:
     try:
         from distributed import as_completed
     except ImportError as exc:  # pragma: no cover - a client without distributed cannot exist
@@ -1050,16 +1113,22 @@ def _run_dask(s: _Setup, client: Any, block_size: int | None, out_dir: Any,
         workers = max(1, len(client.scheduler_info().get("workers", {})))
     except Exception:  # pragma: no cover - clients without scheduler_info
         workers = 1
-    folder = _prepare_dir(out_dir) if out_dir is not None else None
     threads = 1 if s.threads is None else s.threads
     blocks = _blocks(s, block_size, workers)
+    folder = _prepare_dir(out_dir, resume, len(blocks)) if out_dir is not None else None
     futures = []
+    index = {}
+    results: list[Any] = [None] * len(blocks)
+    bar = _BlockProgress(progress, len(s))
     for i, (a, b) in enumerate(blocks):
         path = None if folder is None else str(folder / BLOCK_PATTERN.format(i))
-        futures.append(client.submit(_block_task, s.block(a, b, threads), a, path, i, len(s), pure=False))
-    index = {f.key: i for i, f in enumerate(futures)}
-    results: list[Any] = [None] * len(futures)
-    bar = _BlockProgress(progress, len(s))
+        sub = s.block(a, b, threads)
+        if resume and _done_block(Path(path), sub, i, a, len(s)):     # resume: a finished block is kept
+            results[i] = path
+            bar.add(b - a)
+            continue
+        futures.append(client.submit(_block_task, sub, a, path, i, len(s), pure=False))
+        index[futures[-1].key] = i
     try:
         for fut in as_completed(futures):
             i = index[fut.key]
