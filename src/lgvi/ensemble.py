@@ -454,7 +454,8 @@ def _rebuild(keys: Sequence[str], model_params: dict[str, np.ndarray], b: int) -
     terms = []
     for key, prefix in zip(keys, _term_prefixes(keys)):
         if key not in TORQUE_MODELS:
-            raise ValueError(f"cannot rebuild torque model {key!r}: not a registered model ({', '.join(TORQUE_MODELS)})")
+            raise ValueError(f"cannot rebuild torque model {key!r}: not a registered model "
+                             f"({', '.join(TORQUE_MODELS)})")
         spec = {name[len(prefix) + 1:]: np.array(arr[b]) for name, arr in model_params.items()
                 if name.startswith(prefix + ".")}
         terms.append(TORQUE_MODELS[key].from_scenario(spec))
