@@ -130,10 +130,10 @@ from typing import Any
 
 import numpy as np
 
-from ._untrusted import name_problem
-from ._version import __version__
-from .registry import COMPOSITIONS, FORCINGS, ORDERS, method_names
-from .torques import TORQUE_MODELS
+from .._untrusted import name_problem
+from .._version import __version__
+from ..registry import COMPOSITIONS, FORCINGS, ORDERS, method_names
+from ..torques import TORQUE_MODELS
 
 __all__ = ["Scenario", "ScenarioError", "load_scenario", "to_toml"]
 
@@ -285,7 +285,7 @@ class _Checker:
 
 # ------------------------------------------------------------------------------------ pieces
 def _body(c: _Checker, tbl: Any):
-    from .body import RigidBody
+    from ..body import RigidBody
 
     allowed = ("inertia", "matrix", "shape", "mass", "dimensions", "radius", "height", "axis")
     tbl = c.table(tbl, "body", allowed)
@@ -338,7 +338,7 @@ def _attitude(c: _Checker, tbl: dict[str, Any], key: str) -> np.ndarray:
     """R from whichever attitude form ``tbl`` holds (identity if none); ``tbl`` already key-checked."""
     from scipy.spatial.transform import Rotation
 
-    from ._validation import nearest_rotation, warn_repaired
+    from .._validation import nearest_rotation, warn_repaired
 
     given = [k for k in _ATTITUDE_KEYS if k in tbl]
     if len(given) > 1:
@@ -682,7 +682,7 @@ class Scenario:
         ConvergenceError, TorqueError, SimulationInterrupted
             As :func:`lgvi.simulate`; their ``.trajectory`` carries the scenario metadata too.
         """
-        from .integrator import simulate
+        from ..integrator import simulate
 
         est = dict(error_estimate=True, error_warn=self.error_warn) if self.error_estimate else {}
         try:
@@ -714,7 +714,7 @@ class Scenario:
                             solver_record=solver_record, **self.simulate_kwargs())
             traj = read_stream(folder)
             if self.error_estimate:
-                from .accuracy import with_estimate
+                from ..accuracy import with_estimate
 
                 traj = with_estimate(traj, dict(body=self.body, R0=self.R0, Pi0=self.Pi0, progress=progress,
                                                 **self.simulate_kwargs()), warn=self.error_warn, stacklevel=2)
