@@ -183,3 +183,6 @@ def test_ensemble_blocks_keep_each_body_its_row(tmp_path):
         s = lgvi.simulate(lgvi.RigidBody(J), R0, omega0=OMEGA0, torque=user_gravity(rows[b]), **kw)
         assert np.array_equal(np.asarray(e.R[b]), s.R)
         assert np.array_equal(np.asarray(e.potential[b]), s.potential)
+    # the per-body rows are recorded with the ensemble (issue 11 part 6), through the block files
+    np.testing.assert_array_equal(e.model_params["params"], rows)
+    assert list(e.dispersions) == ["params"] and e[2].meta["model_params"]["params"] == rows[2].tolist()

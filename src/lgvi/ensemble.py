@@ -10,6 +10,7 @@ its own file, for ensembles larger than memory. Every body gives bit for bit the
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -28,7 +29,7 @@ from ._version import __version__
 from .body import RigidBody
 from .errors import ConvergenceError, SimulationInterrupted
 from .implicit import failure_message
-from .invariants import declaration_of, forcing_used
+from .invariants import combine, declaration_of, forcing_used
 from .so3 import project
 from .registry import torque_kind
 from .trajectory import ARRAY_FIELDS, Trajectory, freeze_arrays
@@ -41,10 +42,12 @@ BLOCK_BYTES = 1 << 28
 ENSEMBLE_FORMAT = "lgvi.ensemble/1"
 #: File names of the blocks written with ``out_dir=`` (block number, from 0).
 BLOCK_PATTERN = "ensemble-{:05d}.npz"
-_BLOCK_KEYS = ("block", "first_body", "bodies_total", "bodies")
+_BLOCK_KEYS = ("block", "first_body", "bodies_total", "bodies", "inputs")
 
 _NO_HIST = np.zeros(0)
 _NO_CODES = np.zeros((0, 2), dtype=np.int64)
+#: Prefix of the per-body model parameters in a saved ensemble (``model_params:pd.kp``, ...).
+_PARAMS_PREFIX = "model_params:"
 
 
 # ------------------------------------------------------------------------------------------------
@@ -75,10 +78,20 @@ class EnsembleTrajectory:
         Potential energy at each sample, for torque models with a conservative part.
     meta : dict
         Run options (method, forcing, order, torque model, ...), JSON-serialisable.
+    model_params : dict or None
+        Per-body torque model parameters, when the run had one model per body (a list of
+        models, or a :class:`lgvi.torques.Compiled` model with ``params`` (B, P)): parameter
+        name -> ``(B, ...)`` array of every body's value. Names are ``"<model key>.<parameter>"``
+        (``"pd.kp"``, ``"uniform_gravity.com"``; ``"damping[1].c"`` for the second term of a sum
+        when a key repeats) and ``"params"`` for a ``Compiled`` model. ``None`` when one model
+        applied to all bodies (``meta["torque_model"]`` describes it).
 
     Derived (computed on first access): ``omega`` (B,M,3), ``kinetic_energy`` (B,M),
-    ``energy`` (B,M) kinetic plus potential, ``spatial_momentum`` (B,M,3). ``ens[b]`` is body
-    ``b`` as a :class:`lgvi.Trajectory` (without per-step solver records).
+    ``energy`` (B,M) kinetic plus potential, ``spatial_momentum`` (B,M,3), ``dispersions`` (the
+    entries of ``model_params`` that differ between bodies). ``ens[b]`` is body ``b`` as a
+    :class:`lgvi.Trajectory` (without per-step solver records; with per-body models its
+    ``meta["torque_model"]`` and ``meta["invariants"]`` are body ``b``'s); ``ens.torque_model(b)``
+    is body ``b``'s model.
     """
 
     t: np.ndarray
@@ -90,9 +103,51 @@ class EnsembleTrajectory:
     h: float
     potential: np.ndarray | None = None
     meta: dict[str, Any] = field(default_factory=dict)
+    model_params: dict[str, np.ndarray] | None = None
 
     def __post_init__(self) -> None:
         freeze_arrays(self, ARRAY_FIELDS)
+        if self.model_params is not None:
+            frozen = {}
+            for name, arr in self.model_params.items():
+                arr = np.asarray(arr, dtype=np.float64)
+                if arr.ndim < 1 or arr.shape[0] != self.R.shape[0]:
+                    raise ValueError(f"model_params[{name!r}] must have one row per body ({self.R.shape[0]}), "
+                                     f"got shape {arr.shape}")
+                arr.flags.writeable = False
+                frozen[str(name)] = arr
+            object.__setattr__(self, "model_params", frozen)
+
+    @property
+    def dispersions(self) -> dict[str, np.ndarray]:
+        """The per-body torque model parameters that differ between bodies: name -> ``(B, ...)``
+        (a subset of :attr:`model_params`; empty when one model applied to all)."""
+        if not self.model_params:
+            return {}
+        return {k: v for k, v in self.model_params.items() if len(v) and not np.all(v == v[:1])}
+
+    def torque_model(self, b: int) -> Any:
+        """The torque model body ``b`` ran with (``lgvi.simulate`` with it gives body ``b`` bit for bit).
+
+        Rebuilt from :attr:`model_params` for per-body built-in models; ``None`` for the free body.
+        A single model for all bodies, or a ``Compiled`` model (its functions are not recorded),
+        cannot be rebuilt from the record: ``ValueError``.
+        """
+        b = self._index(b)
+        if self.meta.get("torque", "none") == "none":
+            return None
+        terms = self.meta.get("torque_terms")
+        if self.model_params is None or not terms:
+            raise ValueError("this ensemble ran one torque model for all bodies (meta['torque_model'] = "
+                             f"{self.meta.get('torque_model')!r}) or a Compiled model; only per-body built-in "
+                             "models are recorded so that they can be rebuilt")
+        return _rebuild(terms, self.model_params, b)
+
+    def _index(self, b: int) -> int:
+        b = int(b)
+        if not -len(self) <= b < len(self):
+            raise IndexError(f"body index {b} out of range for an ensemble of {len(self)} bodies")
+        return b % len(self)
 
     def __len__(self) -> int:
         return int(self.R.shape[0])
@@ -109,14 +164,18 @@ class EnsembleTrajectory:
 
     def __getitem__(self, b: int) -> Trajectory:
         """Body ``b`` as a :class:`lgvi.Trajectory` (its ``iterations``/``residual`` are empty)."""
-        b = int(b)
-        if not -len(self) <= b < len(self):
-            raise IndexError(f"body index {b} out of range for an ensemble of {len(self)} bodies")
-        b %= len(self)
+        b = self._index(b)
+        meta = dict(self.meta, body=b)
+        if self.model_params:
+            meta["model_params"] = {k: v[b].tolist() for k, v in self.model_params.items()}
+            if self.meta.get("torque_terms"):
+                model = _rebuild(self.meta["torque_terms"], self.model_params, b)
+                meta["torque_model"] = repr(model)
+                meta["invariants"] = declaration_of(model)
+            meta.pop("torque_terms", None)
         return Trajectory(t=self.t, R=self.R[b], Pi=self.Pi[b], inertia=self.inertia[b],
                           iterations=np.zeros(0, dtype=np.int32), residual=np.zeros(0), h=self.h,
-                          potential=None if self.potential is None else self.potential[b],
-                          meta=dict(self.meta, body=b))
+                          potential=None if self.potential is None else self.potential[b], meta=meta)
 
     @cached_property
     def omega(self) -> np.ndarray:
@@ -149,6 +208,8 @@ class EnsembleTrajectory:
                       residual=self.residual, h=np.float64(self.h))
         if self.potential is not None:
             arrays["potential"] = self.potential
+        for name, arr in (self.model_params or {}).items():
+            arrays[_PARAMS_PREFIX + name] = arr
         header = json.dumps({"format": ENSEMBLE_FORMAT, "meta": self.meta})
         try:  # atomic: a reader, or a retried Dask task, never sees a half-written file
             write_atomic(os.fspath(path), lambda fh: np.savez(fh, __lgvi__=np.array(header), **arrays))
@@ -178,6 +239,7 @@ def _load_one(path: str) -> EnsembleTrajectory:
             fields = {k: data[k] for k in names[:-1]}
             potential = data["potential"] if "potential" in data.files else None
             h = data["h"]
+            params = {k[len(_PARAMS_PREFIX):]: data[k] for k in data.files if k.startswith(_PARAMS_PREFIX)}
     except OSError as exc:
         raise ValueError(f"cannot read ensemble {path}: {exc}") from exc
     except Exception as exc:  # zip, JSON and numpy errors of damaged files
@@ -195,10 +257,15 @@ def _load_one(path: str) -> EnsembleTrajectory:
                              f"{arr.shape} and dtype {arr.dtype}")
     if h.size != 1:
         raise ValueError(f"{path}: field 'h' must be one number, got shape {h.shape}")
+    for name, arr in params.items():
+        if arr.ndim < 1 or arr.shape[0] != B or arr.dtype.kind not in "iuf":
+            raise ValueError(f"{path}: field {_PARAMS_PREFIX + name!r} must have one row per body ({B}), got "
+                             f"shape {arr.shape} and dtype {arr.dtype}")
     meta = header.get("meta", {})
     if not isinstance(meta, dict):
         raise ValueError(f"{path}: the header's 'meta' must be a JSON object")
-    return EnsembleTrajectory(h=float(h.reshape(())), potential=potential, meta=meta, **fields)
+    return EnsembleTrajectory(h=float(h.reshape(())), potential=potential, meta=meta,
+                              model_params=params or None, **fields)
 
 
 def load_ensemble(path: str | os.PathLike | Sequence[str | os.PathLike]) -> EnsembleTrajectory:
@@ -268,6 +335,9 @@ def concatenate(parts: Sequence[EnsembleTrajectory]) -> EnsembleTrajectory:
         if (p.potential is None) != (first.potential is None):
             raise ValueError(f"parts[{i}] {'lacks' if p.potential is None else 'has'} a potential, parts[0] "
                              f"{'has' if first.potential is not None else 'lacks'} one")
+        if (p.model_params is None) != (first.model_params is None) or \
+                (p.model_params is not None and set(p.model_params) != set(first.model_params)):
+            raise ValueError(f"parts[{i}] records other per-body model parameters than parts[0]")
         other = {k: v for k, v in p.meta.items() if k not in _BLOCK_KEYS}
         if other != keep:
             diff = sorted(k for k in set(other) | set(keep) if other.get(k) != keep.get(k))
@@ -279,7 +349,9 @@ def concatenate(parts: Sequence[EnsembleTrajectory]) -> EnsembleTrajectory:
     return EnsembleTrajectory(t=first.t, R=cat("R"), Pi=cat("Pi"), inertia=cat("inertia"),
                               iterations=cat("iterations"), residual=cat("residual"), h=first.h,
                               potential=None if first.potential is None else cat("potential"),
-                              meta=dict(keep, bodies=sum(len(p) for p in parts)))
+                              meta=dict(keep, bodies=sum(len(p) for p in parts)),
+                              model_params=None if first.model_params is None else
+                              {k: np.concatenate([p.model_params[k] for p in parts]) for k in first.model_params})
 
 
 # ------------------------------------------------------------------------------------------------
@@ -370,6 +442,68 @@ def _momenta(bodies: list[RigidBody], ib: np.ndarray, Pi0: Any, omega0: Any) -> 
     return Pi
 
 
+def _term_prefixes(keys: Sequence[str]) -> list[str]:
+    """Name prefix of each term's parameters: its model key, ``key[i]`` (term index) when a key repeats."""
+    return [k if list(keys).count(k) == 1 else f"{k}[{i}]" for i, k in enumerate(keys)]
+
+
+def _rebuild(keys: Sequence[str], model_params: dict[str, np.ndarray], b: int) -> Any:
+    """Body ``b``'s model from the recorded per-body parameters (terms ``keys``, in order)."""
+    from .torques import TORQUE_MODELS
+
+    terms = []
+    for key, prefix in zip(keys, _term_prefixes(keys)):
+        if key not in TORQUE_MODELS:
+            raise ValueError(f"cannot rebuild torque model {key!r}: not a registered model "
+                             f"({', '.join(TORQUE_MODELS)})")
+        spec = {name[len(prefix) + 1:]: np.array(arr[b]) for name, arr in model_params.items()
+                if name.startswith(prefix + ".")}
+        terms.append(TORQUE_MODELS[key].from_scenario(spec))
+    return terms[0] if len(terms) == 1 else sum(terms[1:], terms[0])
+
+
+def _per_body_models(torque: Any, B: int) -> list[Any] | None:
+    """The list of B models of ``torque=`` given per body (checked), or ``None`` for anything else."""
+    from .torques import Compiled, TorqueModel
+
+    if isinstance(torque, np.ndarray) and torque.dtype == object:
+        torque = list(torque.ravel())
+    if not isinstance(torque, (list, tuple)) or not any(isinstance(m, TorqueModel) for m in torque):
+        return None
+    models = list(torque)
+    for i, m in enumerate(models):
+        if not isinstance(m, TorqueModel):
+            raise TypeError(f"torque[{i}] must be a torque model of lgvi.torques like torque[0] (a list gives one "
+                            f"model per body), got {type(m).__name__} {m!r}")
+        if isinstance(m, Compiled):
+            raise TypeError(f"torque[{i}] is a Compiled model: a list of models is for the built-in models; give "
+                            "one Compiled model with params of shape (B, P), one row per body, instead")
+    if len(models) != B:
+        raise ValueError(f"torque: a list of torque models gives one model per body, so it must hold {B} models "
+                         f"(R0 has {B} attitudes), got {len(models)}")
+    kinds0 = [type(t) for t in models[0].terms]
+    for i, m in enumerate(models):
+        kinds = [type(t) for t in m.terms]
+        if kinds != kinds0:
+            raise ValueError(
+                f"torque[{i}] = {m!r} is not of the same kind as torque[0] = {models[0]!r}: per-body models must "
+                f"have the same terms in the same order ({' + '.join(k.__name__ for k in kinds0)}); only their "
+                "parameters may differ between bodies")
+    return models
+
+
+def _model_params(models: list[Any]) -> tuple[list[str], dict[str, np.ndarray]]:
+    """The term keys of per-body models and every term parameter's per-body values (B, ...)."""
+    keys = [t.key for t in models[0].terms]
+    table: dict[str, list[np.ndarray]] = {}
+    prefixes = _term_prefixes(keys)
+    for m in models:
+        for prefix, term in zip(prefixes, m.terms):
+            for name, value in term.parameters().items():
+                table.setdefault(f"{prefix}.{name}", []).append(value)
+    return keys, {name: np.stack(values) for name, values in table.items()}
+
+
 class _Setup:
     """A validated ensemble run: inputs, scheme, and everything the kernels need but the state."""
 
@@ -389,16 +523,19 @@ class _Setup:
         choice(forcing, "forcing", FORCINGS)
         self.comp = comp = _composition(order, composition)
         self.sym = forcing == "symmetric"
+        self.models = _per_body_models(torque, B)       # one built-in model per body, or None
+        if self.models is not None:
+            torque = self.models[0]                      # their kinds: the run's options are checked on it
         kind = torque_kind(torque)  # lgvi.registry: the one classification of torque=
         self.model = torque if kind == "model" else None
         if kind == "callable":
-            raise TypeError("simulate_ensemble takes torque=None or a torque model of lgvi.torques (one model, the "
-                            f"same for every body), got the callable {torque!r}: a Python function cannot run "
+            raise TypeError("simulate_ensemble takes torque=None, a torque model of lgvi.torques or a list of one "
+                            f"model per body, got the callable {torque!r}: a Python function cannot run "
                             "inside the compiled parallel kernel. Write the moment as a model (or a sum of "
                             "models), or call lgvi.simulate per body.")
         elif kind == "array":
-            raise TypeError("simulate_ensemble takes torque=None or a torque model of lgvi.torques (one model, the "
-                            f"same for every body), got {type(torque).__name__}: torque arrays are not supported "
+            raise TypeError("simulate_ensemble takes torque=None, a torque model of lgvi.torques or a list of one "
+                            f"model per body, got {type(torque).__name__}: torque arrays are not supported "
                             "for ensembles; call lgvi.simulate per body for tabulated moments.")
         _check_order(comp, kind, forcing, self.model)
         user = getattr(self.model, "params", None)      # lgvi.torques.Compiled: one row per body or one for all
@@ -415,6 +552,15 @@ class _Setup:
             self.codes, self.params = self.model.encode()
         else:
             self.codes, self.params = _NO_CODES, np.zeros(0)
+        # the kernels' parameter table: one row for all bodies, or one per body (same codes for all)
+        self.ptab = self.params.reshape(1, -1)
+        self.model_params: dict[str, np.ndarray] | None = None
+        keys: list[str] = []
+        if self.models is not None:
+            self.ptab = np.ascontiguousarray(np.stack([m.encode()[1] for m in self.models]))
+            keys, self.model_params = _model_params(self.models)
+        elif getattr(self.model, "moment_func", None) is not None and user.ndim == 2:
+            self.model_params = {"params": user}
         self.has_potential = self.model is not None and any(m.conservative for m in self.model.terms)
         self.meta: dict[str, Any] = {"method": method, "tol": self.tol, "max_iter": self.max_iter,
                                      "alpha": self.alpha, "save_every": save_every, "steps": steps,
@@ -427,6 +573,13 @@ class _Setup:
         self.meta["forcing"] = forcing_used(kind, forcing, self.model)
         if self.model is not None:  # the free body's are implied by torque "none"
             self.meta["invariants"] = declaration_of(self.model)
+        if self.models is not None:
+            # body b's own model, invariants and parameters: ens.torque_model(b), ens[b].meta, ens.model_params
+            names = " + ".join(type(t).__name__ for t in self.model.terms)
+            self.meta["torque_model"] = f"{names}, one model per body (body 0: {self.model!r})"
+            self.meta["torque_terms"] = keys
+            _, reps = self.groups()
+            self.meta["invariants"] = combine([declaration_of(self.models[r]) for r in reps])
 
     def __len__(self) -> int:
         return len(self.ib)
@@ -441,9 +594,27 @@ class _Setup:
         sub.R = self.R[start:stop].copy()
         sub.Pi = self.Pi[start:stop].copy()
         sub.threads = threads
+        if self.ptab.shape[0] > 1:
+            sub.ptab = self.ptab[start:stop]
+        if self.models is not None:
+            sub.models = self.models[start:stop]
+        if self.model_params is not None:
+            sub.model_params = {k: v[start:stop] for k, v in self.model_params.items()}
         sub.meta = dict(self.meta, bodies=stop - start)
         sub.body0 = getattr(self, "body0", 0) + start    # index of its first body in the whole ensemble
         return sub
+
+    def groups(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(ia, reps)``: body ``b`` is in group ``ia[b]`` of the bodies with the same inertia and
+        torque model; ``reps[g]`` is a body of group ``g`` (momentum matrices and potentials are
+        computed once per group)."""
+        if self.models is None:
+            reps = np.array([np.flatnonzero(self.ib == q)[0] for q in range(len(self.bodies))], dtype=np.int64)
+            return self.ib, reps
+        B = len(self.ib)
+        key = np.column_stack([self.ib.astype(np.float64)] + [v.reshape(B, -1) for v in self.model_params.values()])
+        _, reps, ia = np.unique(key, axis=0, return_index=True, return_inverse=True)
+        return ia.reshape(-1).astype(np.int64), reps.astype(np.int64)
 
     def times(self, m: int) -> np.ndarray:
         """Times of the first ``m`` samples (the same floating-point values as :func:`lgvi.simulate`)."""
@@ -462,6 +633,12 @@ class _Setup:
             for b in range(len(U)):
                 U[b] = self.model.potential(t, R_out[b], None, b=getattr(self, "body0", 0) + b)
             return U
+        if self.models is not None:       # one model per body: once per group of equal bodies and models
+            ia, reps = self.groups()
+            order = np.argsort(ia, kind="stable")
+            for r, idx in zip(reps, np.split(order, np.cumsum(np.bincount(ia, minlength=len(reps)))[:-1])):
+                U[idx] = self.models[r].potential(t, R_out[idx], self.bodies[self.ib[r]])
+            return U
         for q, body in enumerate(self.bodies):
             idx = np.flatnonzero(self.ib == q)
             U[idx] = self.model.potential(t, R_out[idx], body)
@@ -477,7 +654,7 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
                       alpha: float = 1.0, save_every: int = 1, t0: float = 0.0, forcing: str = "paper",
                       order: int = 2, composition: str | None = None, threads: int | None = None,
                       client: Any = None, block_size: int | None = None,
-                      out_dir: str | os.PathLike | None = None,
+                      out_dir: str | os.PathLike | None = None, resume: bool = False,
                       progress: Any = False) -> EnsembleTrajectory | list[Path]:
     """Simulate ``B`` rigid bodies at once with the attitude LGVI, in parallel over cores.
 
@@ -498,10 +675,19 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
         Initial body angular momenta or angular velocities (give one of the two).
     h, steps, method, tol, max_iter, alpha, save_every, t0, forcing, order, composition
         As in :func:`lgvi.simulate`.
-    torque : None or lgvi.torques.TorqueModel
-        The free body, or one built-in torque model (or a sum of them) applied to every body; it
-        is evaluated with each body's own inertia and state. Python callables and torque arrays
-        are refused (``TypeError``): they cannot run inside the compiled parallel kernel.
+    torque : None, lgvi.torques.TorqueModel, or sequence of B of them
+        The free body; one torque model (or a sum of them) applied to every body, evaluated with
+        each body's own inertia and state; or **one model per body** for Monte Carlo dispersions
+        of gains, targets, disturbance torques, centres of mass, orbits:
+        ``[AttitudePD(kp=k, kd=1.0) for k in kps]``. Per-body models must be of the same kind
+        (the same terms in the same order, e.g. all ``UniformGravity + LinearDamping``); only
+        their parameters may differ (else ``ValueError`` naming the first body that differs).
+        Their parameters are recorded in ``ens.model_params`` (those that differ in
+        ``ens.dispersions``), ``ens.torque_model(b)`` rebuilds body ``b``'s model, and body ``b``
+        equals ``lgvi.simulate(..., torque=torque[b])`` bit for bit. A
+        :class:`lgvi.torques.Compiled` model takes per-body parameters as ``params`` (B, P)
+        instead (recorded as ``model_params["params"]``). Python callables and torque arrays are
+        refused (``TypeError``): they cannot run inside the compiled parallel kernel.
     threads : int, optional
         Threads of this call (default: Numba's current number, all cores unless changed; at most
         ``numba.config.NUMBA_NUM_THREADS``). ``threads=1`` runs a serial kernel. With ``client``
@@ -519,7 +705,14 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
         :func:`load_ensemble` (one file, a list of them, or the whole folder). Without
         ``client`` the blocks run one after the other in this process; with it, on the
         workers, which must see ``out_dir`` (a shared file system). The folder must not hold
-        ensemble blocks already.
+        ensemble blocks already, unless ``resume``.
+    resume : bool
+        With ``out_dir``: keep the blocks of this run that the folder already holds (from a call
+        that was interrupted, ran out of disk or lost its cluster) and compute only the others;
+        the folder then holds the same ensemble bit for bit as an uninterrupted run. Each
+        block's header records the run's options and a digest of its bodies' initial states,
+        inertias and model parameters; a block written by another run, or with another block
+        layout (give the same ``block_size``), is refused with ``ValueError`` naming the file.
     progress : bool or callable
         ``True`` draws a ``tqdm`` progress bar, a callable is called as ``progress(done, total)``
         (steps of the whole ensemble in process; bodies of finished blocks with ``client`` or
@@ -567,6 +760,17 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
     >>> one = lgvi.simulate(body, R0[3], omega0=w0[3], h=0.01, steps=100, save_every=10)
     >>> bool(np.array_equal(ens.R[3], one.R))
     True
+
+    Dispersed controller gains, one model per body:
+
+    >>> from lgvi.torques import AttitudePD
+    >>> pd = [AttitudePD(kp=k, kd=1.0) for k in np.linspace(0.5, 2.0, 8)]
+    >>> ens = lgvi.simulate_ensemble(body, R0, omega0=w0, h=0.01, steps=100, torque=pd, forcing="symmetric")
+    >>> list(ens.dispersions), ens.dispersions["pd.kp"].shape
+    (['pd.kp'], (8, 3))
+    >>> one = lgvi.simulate(body, R0[5], omega0=w0[5], h=0.01, steps=100, torque=pd[5], forcing="symmetric")
+    >>> bool(np.array_equal(ens.R[5], one.R)), ens.torque_model(5) == pd[5]
+    (True, True)
     """
     setup = _Setup(bodies, R0, Pi0, omega0, h=h, steps=steps, torque=torque, method=method, tol=tol,
                    max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0, forcing=forcing, order=order,
@@ -578,10 +782,15 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
         if client is None and out_dir is None:
             raise ValueError("block_size is used with client= or out_dir= (blocks of bodies); an in-process run "
                              "needs no blocks")
+    if not isinstance(resume, (bool, np.bool_)):
+        raise TypeError(f"resume must be True or False, got {resume!r}")
+    if resume and out_dir is None:
+        raise ValueError("resume=True continues the blocks of an out_dir= run; give out_dir (the folder of the "
+                         "interrupted run)")
     if client is not None:
-        return _run_dask(setup, client, block_size, out_dir, progress)
+        return _run_dask(setup, client, block_size, out_dir, progress, bool(resume))
     if out_dir is not None:
-        return _run_blocks(setup, block_size, out_dir, progress)
+        return _run_blocks(setup, block_size, out_dir, progress, bool(resume))
     return _run_local(setup, progress)
 
 
@@ -634,8 +843,11 @@ class _LocalRun:
         self.G = np.zeros((B, stages, 5, 3))
         ek.init_histories(s.code, self.J, s.ib, hs, self.Pi, self.G)
         if not s.legacy:
-            self.A = np.ascontiguousarray(np.stack([momentum_matrices(b, s.codes, s.params, s.gam * h, s.sym)
-                                                    for b in s.bodies]))
+            # momentum matrices per group of bodies with the same inertia and model (A[ia[b]])
+            self.ia, reps = s.groups()
+            rows = [s.ptab[r if len(s.ptab) > 1 else 0] for r in reps]
+            self.A = np.ascontiguousarray(np.stack([momentum_matrices(s.bodies[s.ib[r]], s.codes, p, s.gam * h, s.sym)
+                                                    for r, p in zip(reps, rows)]))
             self.S = np.zeros((B, 7))
         self.its = np.zeros(B, dtype=np.int64)
         self.res = np.zeros(B)
@@ -667,7 +879,7 @@ class _LocalRun:
             q = s.ib[b]
             st, kend, it_total, rmax, its, rn = run_chunk_user(
                 m.moment_func, m.row(getattr(s, "body0", 0) + b), Rs, Ps, m.conservative, m.depends_on_momentum,
-                s.code, self.Jd[q], self.J[q], self.J_inv[q], s.h, s.t0, s.gam, s.cum, self.A[q], self.R[b],
+                s.code, self.Jd[q], self.J[q], self.J_inv[q], s.h, s.t0, s.gam, s.cum, self.A[self.ia[b]], self.R[b],
                 self.Pi[b], self.G[b], gidx, self.S[b], s.codes, s.params, int(s.sym), k, n, s.tol, s.max_iter,
                 s.alpha, se, se - k % se, R_out[b, j0:], Pi_out[b, j0:], it_buf, res_buf, _NO_HIST, counts)
             self.its[b] += it_total
@@ -692,8 +904,8 @@ class _LocalRun:
             self._advance_user(n, R_out, Pi_out)
         else:
             run = ek.run_forced_parallel if parallel else ek.run_forced_serial
-            run(s.code, self.Jd, self.J, self.J_inv, s.ib, h, s.t0, s.gam, s.cum, self.A, self.R, self.Pi, self.G,
-                self.S, s.codes, s.params, int(s.sym), k, n, s.tol, s.max_iter, s.alpha, se, R_out, Pi_out,
+            run(s.code, self.Jd, self.J, self.J_inv, s.ib, h, s.t0, s.gam, s.cum, self.ia, self.A, self.R, self.Pi,
+                self.G, self.S, s.codes, s.ptab, int(s.sym), k, n, s.tol, s.max_iter, s.alpha, se, R_out, Pi_out,
                 self.its, self.res, self.status, self.fail_step, self.fail_res, self.fail_its, _NO_HIST)
         failed = np.flatnonzero(self.status != OK)
         if failed.size:
@@ -752,7 +964,8 @@ class _LocalSink:
         Pim = self.Pi_out[:, :m].copy() if partial else self.Pi_out
         meta = dict(s.meta, partial=True) if partial else s.meta
         return EnsembleTrajectory(t=t, R=Rm, Pi=Pim, inertia=s.inertia(), iterations=run.its.copy(),
-                                  residual=run.res.copy(), h=s.h, potential=s.potential(t, Rm), meta=meta)
+                                  residual=run.res.copy(), h=s.h, potential=s.potential(t, Rm), meta=meta,
+                                  model_params=s.model_params)
 
     def partial(self, k_done: int | None = None) -> EnsembleTrajectory:
         return self.result(k_done // self.run.save_every + 1, True)
@@ -788,14 +1001,62 @@ def _blocks(s: _Setup, block_size: int | None, workers: int) -> list[tuple[int, 
     return [(a, min(a + block_size, B)) for a in range(0, B, block_size)]
 
 
-def _prepare_dir(out_dir: str | os.PathLike) -> Path:
+def _prepare_dir(out_dir: str | os.PathLike, resume: bool = False, blocks: int = 0) -> Path:
     folder = Path(os.fspath(out_dir))
     folder.mkdir(parents=True, exist_ok=True)
     old = sorted(folder.glob("ensemble-*.npz"))
-    if old:
+    if old and not resume:
         raise ValueError(f"out_dir {folder} already holds ensemble blocks ({old[0].name}, ...); use an empty "
-                         "folder or remove them (load_ensemble(folder) would mix the runs)")
+                         "folder or remove them (load_ensemble(folder) would mix the runs), or pass resume=True "
+                         "to finish that run")
+    mine = {BLOCK_PATTERN.format(i) for i in range(blocks)}
+    extra = [p.name for p in old if p.name not in mine]
+    if extra:
+        raise ValueError(f"resume: out_dir {folder} holds block files that this run of {blocks} blocks would not "
+                         f"write ({', '.join(extra[:3])}{', ...' if len(extra) > 3 else ''}): another run, or "
+                         "another block_size; resume with the block_size of the first call")
     return folder
+
+
+def _inputs_digest(s: _Setup) -> str:
+    """Digest of what a block's bodies start from: attitudes, momenta, inertias, model parameters."""
+    d = hashlib.sha256()
+    for arr in (s.R, s.Pi, s.inertia(), s.ptab):
+        d.update(str(arr.shape).encode())
+        d.update(np.ascontiguousarray(arr, dtype=np.float64).tobytes())
+    for name, arr in sorted((s.model_params or {}).items()):
+        d.update(name.encode())
+        d.update(np.ascontiguousarray(arr, dtype=np.float64).tobytes())
+    return d.hexdigest()
+
+
+def _block_header(sub: _Setup, index: int, start: int, total: int) -> dict[str, Any]:
+    return dict(sub.meta, block=index, first_body=start, bodies_total=total, inputs=_inputs_digest(sub))
+
+
+def _done_block(path: Path, sub: _Setup, index: int, start: int, total: int) -> bool:
+    """True when ``path`` holds block ``index`` of this very run (by its header), False when there is
+    no such file; ``ValueError`` naming the file when it holds anything else."""
+    if not path.exists():
+        return False
+    try:
+        if not path.is_file() or path.is_symlink():
+            raise ValueError("not a regular file")
+        check_npz(path)
+        with np.load(path, allow_pickle=False) as data:
+            header = json.loads(str(data["__lgvi__"]))
+        meta = header["meta"]
+    except Exception as exc:
+        raise ValueError(f"resume: {path} is not a readable ensemble block ({type(exc).__name__}: {exc}); remove "
+                         "it to have it computed again") from exc
+    want = json.loads(json.dumps(_block_header(sub, index, start, total)))
+    if meta != want:
+        diff = sorted(str(k) for k in set(meta) | set(want) if meta.get(k) != want.get(k))
+        why = ("the initial states, inertias or model parameters of its bodies differ" if diff == ["inputs"]
+               else f"differences: {', '.join(diff)}")
+        raise ValueError(f"resume: {path} was not written by this run ({why}); resume with the arguments of the "
+                         "first call, or use another out_dir")
+    return True
 
 
 class _BlockProgress:
@@ -813,10 +1074,10 @@ class _BlockProgress:
             self.bar.__exit__(None, None, None)
 
 
-def _block_meta(ens: EnsembleTrajectory, i: int, start: int, total: int) -> EnsembleTrajectory:
-    meta = dict(ens.meta, block=i, first_body=start, bodies_total=total)
+def _block_meta(ens: EnsembleTrajectory, meta: dict[str, Any]) -> EnsembleTrajectory:
     return EnsembleTrajectory(t=ens.t, R=ens.R, Pi=ens.Pi, inertia=ens.inertia, iterations=ens.iterations,
-                              residual=ens.residual, h=ens.h, potential=ens.potential, meta=meta)
+                              residual=ens.residual, h=ens.h, potential=ens.potential, meta=meta,
+                              model_params=ens.model_params)
 
 
 def _block_task(sub: _Setup, start: int, path: str | None, index: int, total: int) -> Any:
@@ -824,24 +1085,27 @@ def _block_task(sub: _Setup, start: int, path: str | None, index: int, total: in
     ens = _run_local(sub, first_body=start)
     if path is None:
         return ens
-    _block_meta(ens, index, start, total).save(path)
+    _block_meta(ens, _block_header(sub, index, start, total)).save(path)
     return path
 
 
-def _run_blocks(s: _Setup, block_size: int | None, out_dir: Any, progress: Any) -> list[Path]:
-    folder = _prepare_dir(out_dir)
+def _run_blocks(s: _Setup, block_size: int | None, out_dir: Any, progress: Any, resume: bool = False) -> list[Path]:
+    blocks = _blocks(s, block_size, 0)
+    folder = _prepare_dir(out_dir, resume, len(blocks))
     bar = _BlockProgress(progress, len(s))
     paths = []
-    for i, (a, b) in enumerate(_blocks(s, block_size, 0)):
+    for i, (a, b) in enumerate(blocks):
         path = folder / BLOCK_PATTERN.format(i)
-        _block_task(s.block(a, b, s.threads), a, str(path), i, len(s))
+        sub = s.block(a, b, s.threads)
+        if not (resume and _done_block(path, sub, i, a, len(s))):     # resume: a finished block is kept
+            _block_task(sub, a, str(path), i, len(s))
         paths.append(path)
         bar.add(b - a)
     return paths
 
 
 def _run_dask(s: _Setup, client: Any, block_size: int | None, out_dir: Any,
-              progress: Any) -> EnsembleTrajectory | list[Path]:
+              progress: Any, resume: bool = False) -> EnsembleTrajectory | list[Path]:
     try:
         from distributed import as_completed
     except ImportError as exc:  # pragma: no cover - a client without distributed cannot exist
@@ -850,16 +1114,22 @@ def _run_dask(s: _Setup, client: Any, block_size: int | None, out_dir: Any,
         workers = max(1, len(client.scheduler_info().get("workers", {})))
     except Exception:  # pragma: no cover - clients without scheduler_info
         workers = 1
-    folder = _prepare_dir(out_dir) if out_dir is not None else None
     threads = 1 if s.threads is None else s.threads
     blocks = _blocks(s, block_size, workers)
+    folder = _prepare_dir(out_dir, resume, len(blocks)) if out_dir is not None else None
     futures = []
+    index = {}
+    results: list[Any] = [None] * len(blocks)
+    bar = _BlockProgress(progress, len(s))
     for i, (a, b) in enumerate(blocks):
         path = None if folder is None else str(folder / BLOCK_PATTERN.format(i))
-        futures.append(client.submit(_block_task, s.block(a, b, threads), a, path, i, len(s), pure=False))
-    index = {f.key: i for i, f in enumerate(futures)}
-    results: list[Any] = [None] * len(futures)
-    bar = _BlockProgress(progress, len(s))
+        sub = s.block(a, b, threads)
+        if resume and _done_block(Path(path), sub, i, a, len(s)):     # resume: a finished block is kept
+            results[i] = path
+            bar.add(b - a)
+            continue
+        futures.append(client.submit(_block_task, sub, a, path, i, len(s), pure=False))
+        index[futures[-1].key] = i
     try:
         for fut in as_completed(futures):
             i = index[fut.key]

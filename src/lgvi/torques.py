@@ -181,6 +181,14 @@ class TorqueModel:
         """First line of the class docstring (help texts and docs)."""
         return (cls.__doc__ or "").strip().splitlines()[0] if cls.__doc__ else cls.__name__
 
+    def parameters(self) -> dict[str, np.ndarray]:
+        """The model's parameters by scenario name, as float64 arrays (a copy).
+
+        ``type(model).from_scenario(model.parameters())`` rebuilds the model; ensembles with
+        per-body models record these (:attr:`lgvi.EnsembleTrajectory.model_params`).
+        """
+        return {name: np.array(getattr(self, name), dtype=np.float64) for name in self.scenario_params}
+
     def invariants(self) -> dict[str, dict[str, Any]]:
         """The quantities the LGVI conserves under this moment (see :mod:`lgvi.invariants`).
 
@@ -545,6 +553,9 @@ class AttitudePD(TorqueModel):
         self.kd = _readonly(_gain(kd, "kd"))
         Rd = np.eye(3) if R_target is None else as_rotation(R_target, "R_target")
         self.R_target = _readonly(Rd)
+
+    def parameters(self) -> dict[str, np.ndarray]:
+        return {"kp": self.kp.copy(), "kd": self.kd.copy(), "target": self.R_target.copy()}
 
     def __repr__(self) -> str:
         text = f"AttitudePD(kp={_gain_text(self.kp)}, kd={_gain_text(self.kd)}"

@@ -17,7 +17,10 @@ Layout (``B`` bodies, ``s`` substeps per step, ``nb`` distinct bodies)::
     S (B,7)                     moment caches of the forced scheme (see .stepping)
     ib (B,) int64               body b has inertia number ib[b]
     Jd, J, J_inv (nb,3,3)       per distinct inertia
-    A (nb,s,3,3)                symmetric momentum matrices per distinct inertia and substep
+    params (1,P) or (B,P)       torque model parameters: one row for all bodies, or one per body
+                                (codes (n,2), the kinds, are the same for all; see .torque_kernels)
+    ia (B,) int64               body b uses the momentum matrices A[ia[b]]
+    A (na,s,3,3)                symmetric momentum matrices per distinct (inertia, damping) and substep
     R_out (B,M,3,3), Pi_out (B,M,3)   samples, sample j = state after step j * save_every
     its (B,) int64, res (B,)    solver updates summed, largest final residual (successful steps)
     status, fail_step, fail_its (B,) int64, fail_res (B,)   a failing body stops: solver status,
@@ -83,8 +86,8 @@ def advance_free(b, method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, sa
 
 
 @jit(_nrt=False)
-def advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, A, R, Pi, G, S, codes, params, sym, k0, n, tol,
-                   max_iter, alpha, save_every, R_out, Pi_out, its, res, status, fail_step, fail_res, fail_its,
+def advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, S, codes, params, sym, k0, n,
+                   tol, max_iter, alpha, save_every, R_out, Pi_out, its, res, status, fail_step, fail_res, fail_its,
                    hist):
     """Torque model and/or composition: body ``b`` through steps ``k0 .. k0+n-1``.
 
@@ -101,11 +104,12 @@ def advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, A, R, Pi, G, S,
     Jdb = Jd[q]
     Jb = J[q]
     Jib = J_inv[q]
-    Ab = A[q]
-    D0, D1, D2 = momentum_diag(codes, params)
+    Ab = A[ia[b]]
+    pb = params[b] if params.shape[0] > 1 else params[0]
+    D0, D1, D2 = momentum_diag(codes, pb)
     has_D = D0 != 0.0 or D1 != 0.0 or D2 != 0.0
     if Sb[6] == 0.0:
-        init_moments(codes, params, Jb, Jib, t0 + k0 * h, Rb, Pib, Sb, 0.0, 0.0, 0.0)
+        init_moments(codes, pb, Jb, Jib, t0 + k0 * h, Rb, Pib, Sb, 0.0, 0.0, 0.0)
     j = k0 // save_every + 1
     countdown = save_every - k0 % save_every
     it_sum = its[b]
@@ -114,7 +118,7 @@ def advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, A, R, Pi, G, S,
         failed = False
         for i in range(s):
             t1 = t0 + (k + cum[i + 1]) * h
-            it, rn, st = forced_stage(method, Jdb, Jb, Jib, gam[i] * h, t1, Rb, Pib, Gb, i, Sb, codes, params,
+            it, rn, st = forced_stage(method, Jdb, Jb, Jib, gam[i] * h, t1, Rb, Pib, Gb, i, Sb, codes, pb,
                                       D0, D1, D2, has_D, Ab, i, sym, 0.0, 0.0, 0.0, tol, max_iter, alpha, hist)
             it_sum += it
             if st != OK:
@@ -158,26 +162,26 @@ def run_free_serial(method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, sa
 
 
 @jit_parallel
-def run_forced_parallel(method, Jd, J, J_inv, ib, h, t0, gam, cum, A, R, Pi, G, S, codes, params, sym, k0, n,
-                        tol, max_iter, alpha, save_every, R_out, Pi_out, its, res, status, fail_step, fail_res,
+def run_forced_parallel(method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, S, codes, params, sym, k0,
+                        n, tol, max_iter, alpha, save_every, R_out, Pi_out, its, res, status, fail_step, fail_res,
                         fail_its, hist):
     """Every running body through steps ``k0 .. k0+n-1`` of the forced/composed scheme, in parallel."""
     for b in numba.prange(R.shape[0]):
         if status[b] == OK:
-            advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, A, R, Pi, G, S, codes, params, sym, k0,
-                           n, tol, max_iter, alpha, save_every, R_out, Pi_out, its, res, status, fail_step,
+            advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, S, codes, params, sym,
+                           k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out, its, res, status, fail_step,
                            fail_res, fail_its, hist)
 
 
 @jit
-def run_forced_serial(method, Jd, J, J_inv, ib, h, t0, gam, cum, A, R, Pi, G, S, codes, params, sym, k0, n,
-                      tol, max_iter, alpha, save_every, R_out, Pi_out, its, res, status, fail_step, fail_res,
+def run_forced_serial(method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, S, codes, params, sym, k0,
+                      n, tol, max_iter, alpha, save_every, R_out, Pi_out, its, res, status, fail_step, fail_res,
                       fail_its, hist):
     """:func:`run_forced_parallel` on the calling thread only."""
     for b in range(R.shape[0]):
         if status[b] == OK:
-            advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, A, R, Pi, G, S, codes, params, sym, k0,
-                           n, tol, max_iter, alpha, save_every, R_out, Pi_out, its, res, status, fail_step,
+            advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, S, codes, params, sym,
+                           k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out, its, res, status, fail_step,
                            fail_res, fail_its, hist)
 
 

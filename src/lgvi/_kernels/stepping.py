@@ -395,18 +395,15 @@ def solve_warm(method, Jd, J_inv, p0, p1, p2, G, j, tol, max_iter, alpha, hist):
 
 
 @jit(inline="always")
-def forced_stage_s(method, Jd, J, J_inv, hs, t1, Rt, Pt, Mt, G, j, codes, params, D0, D1, D2, has_D, A, i_A, sym,
-                   v0, v1, v2, tol, max_iter, alpha, hist):
-    """One substep from the state ``Rt`` (the 9 entries of ``R``, row-major), ``Pt`` (``Pi``),
-    ``Mt`` (the cached moments ``P``, ``N``) and the history ``G[j]`` (this stage's, updated in
-    place on success). Tuples rather than 18 separate numbers: a call with more than 30
-    arguments compiles to a star-args call, which Numba cannot inline.
+def variational_half(method, Jd, J_inv, hs, Rt, Pt, Mt, G, j, sym, tol, max_iter, alpha, hist):
+    """The implicit half of a forced substep from the state tuples ``Rt``, ``Pt``, ``Mt``.
 
-    ``A[i_A]`` is the momentum matrix of this substep (see :func:`run_chunk_forced`).
-
-    ``v`` is an extra explicit moment at the end point added to ``Q`` (torque arrays in symmetric
-    mode; zero otherwise). Returns ``(iterations, residual, status, Rt, Pt, Mt)``, the new state;
-    on failure the state given, and ``G`` unchanged.
+    ``mu = Pi + hs/2 (P + N)`` (``Pi + hs/2 P`` with the paper's forcing), ``F`` from
+    ``hat(hs mu) = F Jd - Jd F^T`` warm-started from the history ``G[j]``, ``R1 = R F`` and
+    ``b = F^T mu``. Returns ``(its, rn, st, g, R1, b)`` with ``g`` the solution's coordinates,
+    which the caller pushes on ``G[j]`` once it accepts the substep; after a failure (``st``
+    not OK) ``R1`` and ``b`` are not a state. Shared by :func:`forced_stage_s` and the user's
+    loop (:mod:`.user_kernels`).
     """
     r00, r01, r02, r10, r11, r12, r20, r21, r22 = Rt
     pi0, pi1, pi2 = Pt
@@ -423,8 +420,7 @@ def forced_stage_s(method, Jd, J, J_inv, hs, t1, Rt, Pt, Mt, G, j, codes, params
     (g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its, rn,
      st) = solve_warm(method, Jd, J_inv, hs * m0, hs * m1, hs * m2, G, j, tol, max_iter, alpha, hist)
     if st != OK:
-        return its, rn, st, Rt, Pt, Mt
-    push_at(G, j, g0, g1, g2)
+        return its, rn, st, (g0, g1, g2), Rt, (m0, m1, m2)
     # R <- R (I + E)
     r00, r01, r02 = rotated_row(r00, r01, r02, E00, E01, E02, E10, E11, E12, E20, E21, E22)
     r10, r11, r12 = rotated_row(r10, r11, r12, E00, E01, E02, E10, E11, E12, E20, E21, E22)
@@ -433,30 +429,70 @@ def forced_stage_s(method, Jd, J, J_inv, hs, t1, Rt, Pt, Mt, G, j, codes, params
     b0 = m0 + (E00 * m0 + E10 * m1 + E20 * m2)
     b1 = m1 + (E01 * m0 + E11 * m1 + E21 * m2)
     b2 = m2 + (E02 * m0 + E12 * m1 + E22 * m2)
+    return its, rn, st, (g0, g1, g2), (r00, r01, r02, r10, r11, r12, r20, r21, r22), (b0, b1, b2)
+
+
+@jit(inline="always")
+def symmetric_momentum(b0, b1, b2, P0, P1, P2, Q0, Q1, Q2, hh, has_D, A, i_A):
+    """The symmetric momentum equation of a substep: ``b + hs/2 (P + Q)``, times the momentum
+    matrix ``A[i_A]`` when the model damps (``has_D``; see :func:`run_chunk_forced`)."""
+    b0 += hh * (P0 + Q0)
+    b1 += hh * (P1 + Q1)
+    b2 += hh * (P2 + Q2)
+    if has_D:
+        c0 = A[i_A, 0, 0] * b0 + A[i_A, 0, 1] * b1 + A[i_A, 0, 2] * b2
+        c1 = A[i_A, 1, 0] * b0 + A[i_A, 1, 1] * b1 + A[i_A, 1, 2] * b2
+        c2 = A[i_A, 2, 0] * b0 + A[i_A, 2, 1] * b1 + A[i_A, 2, 2] * b2
+        return c0, c1, c2
+    return b0, b1, b2
+
+
+@jit(inline="always")
+def minus_damping(Q0, Q1, Q2, D0, D1, D2, J_inv, b0, b1, b2):
+    """``Q - D J^-1 b``: the moments with the diagonal damping ``-D Omega`` at momentum ``b``."""
+    return (Q0 - D0 * (J_inv[0, 0] * b0 + J_inv[0, 1] * b1 + J_inv[0, 2] * b2),
+            Q1 - D1 * (J_inv[1, 0] * b0 + J_inv[1, 1] * b1 + J_inv[1, 2] * b2),
+            Q2 - D2 * (J_inv[2, 0] * b0 + J_inv[2, 1] * b1 + J_inv[2, 2] * b2))
+
+
+@jit(inline="always")
+def forced_stage_s(method, Jd, J, J_inv, hs, t1, Rt, Pt, Mt, G, j, codes, params, D0, D1, D2, has_D, A, i_A, sym,
+                   v0, v1, v2, tol, max_iter, alpha, hist):
+    """One substep from the state ``Rt`` (the 9 entries of ``R``, row-major), ``Pt`` (``Pi``),
+    ``Mt`` (the cached moments ``P``, ``N``) and the history ``G[j]`` (this stage's, updated in
+    place on success). Tuples rather than 18 separate numbers: a call with more than 30
+    arguments compiles to a star-args call, which Numba cannot inline.
+
+    ``A[i_A]`` is the momentum matrix of this substep (see :func:`run_chunk_forced`).
+
+    ``v`` is an extra explicit moment at the end point added to ``Q`` (torque arrays in symmetric
+    mode; zero otherwise). Returns ``(iterations, residual, status, Rt, Pt, Mt)``, the new state;
+    on failure the state given, and ``G`` unchanged.
+    """
+    its, rn, st, g, R1, bt = variational_half(method, Jd, J_inv, hs, Rt, Pt, Mt, G, j, sym, tol, max_iter, alpha,
+                                              hist)
+    if st != OK:
+        return its, rn, st, Rt, Pt, Mt
+    push_at(G, j, g[0], g[1], g[2])
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = R1
+    b0, b1, b2 = bt
+    N0 = Mt[3]
+    N1 = Mt[4]
+    N2 = Mt[5]
+    hh = 0.5 * hs
     P0, P1, P2, Q0, Q1, Q2 = model_moments_s(codes, params, J, t1, r00, r01, r02, r10, r11, r12, r20, r21, r22)
     Q0 += v0
     Q1 += v1
     Q2 += v2
     if sym:
-        b0 += hh * (P0 + Q0)
-        b1 += hh * (P1 + Q1)
-        b2 += hh * (P2 + Q2)
-        if has_D:
-            c0 = A[i_A, 0, 0] * b0 + A[i_A, 0, 1] * b1 + A[i_A, 0, 2] * b2
-            c1 = A[i_A, 1, 0] * b0 + A[i_A, 1, 1] * b1 + A[i_A, 1, 2] * b2
-            c2 = A[i_A, 2, 0] * b0 + A[i_A, 2, 1] * b1 + A[i_A, 2, 2] * b2
-            b0 = c0
-            b1 = c1
-            b2 = c2
+        b0, b1, b2 = symmetric_momentum(b0, b1, b2, P0, P1, P2, Q0, Q1, Q2, hh, has_D, A, i_A)
     else:
         b0 += hh * P0 + hs * N0
         b1 += hh * P1 + hs * N1
         b2 += hh * P2 + hs * N2
     if has_D:
-        Q0 -= D0 * (J_inv[0, 0] * b0 + J_inv[0, 1] * b1 + J_inv[0, 2] * b2)
-        Q1 -= D1 * (J_inv[1, 0] * b0 + J_inv[1, 1] * b1 + J_inv[1, 2] * b2)
-        Q2 -= D2 * (J_inv[2, 0] * b0 + J_inv[2, 1] * b1 + J_inv[2, 2] * b2)
-    return (its, rn, st, (r00, r01, r02, r10, r11, r12, r20, r21, r22), (b0, b1, b2), (P0, P1, P2, Q0, Q1, Q2))
+        Q0, Q1, Q2 = minus_damping(Q0, Q1, Q2, D0, D1, D2, J_inv, b0, b1, b2)
+    return its, rn, st, R1, (b0, b1, b2), (P0, P1, P2, Q0, Q1, Q2)
 
 
 @jit(inline="always")
@@ -484,6 +520,79 @@ def finite_moments(Pt, Mt):
     for i in range(6):
         ok = ok and math.isfinite(Mt[i])
     return ok
+
+
+@jit(inline="always")
+def load_state(R, Pi, S):
+    """The state of a forced chunk loop as tuples ``(Rt, Pt, Mt)``: ``R`` (9 entries, row-major),
+    ``Pi`` and the cached moments ``S[0:6]`` (the loops keep them in locals, see :func:`save_state`)."""
+    return ((R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2]), (Pi[0], Pi[1], Pi[2]),
+            (S[0], S[1], S[2], S[3], S[4], S[5]))
+
+
+@jit(inline="always")
+def save_state(R, Pi, S, Rt, Pt, Mt):
+    """Write the tuples of :func:`load_state` back to the arrays."""
+    R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2] = Rt
+    Pi[0], Pi[1], Pi[2] = Pt
+    S[0], S[1], S[2], S[3], S[4], S[5] = Mt
+
+
+@jit(inline="always")
+def stage_done(its_sum, rmax, its, rn, st, Px, Mx):
+    """Account one substep: ``(its_sum, rmax, st)`` with its iterations and residual added, and
+    ``st`` set to ``OVERFLOW`` when a moment overflowed the momentum (never keep such a state)."""
+    its_sum += its
+    if rn > rmax:
+        rmax = rn
+    if st == OK and not finite_moments(Px, Mx):
+        st = OVERFLOW
+    return its_sum, rmax, st
+
+
+@jit(inline="always")
+def step_done(k, k0, status, its_sum, rmax, rn, Rt, Pt, book, per_step, save_every, R_out, Pi_out, it_out,
+              res_out, counts):
+    """The bookkeeping of step ``k`` once its substeps ran, shared by the forced chunk loops.
+
+    ``book`` = ``(it_total, rmax_all, rlast, imax, rimax, countdown, jout)``: the chunk's solver
+    totals, the last step's residual, the saved interval's largest iterations and residual, steps
+    to the next sample and the next sample's index. Records the step (per step, or per saved
+    interval at each sample), the histogram ``counts``, and on success stores the new state
+    ``(Rt, Pt)`` when a sample falls due. Returns the new ``book``.
+    """
+    it_total, rmax_all, rlast, imax, rimax, countdown, jout = book
+    it_total += its_sum
+    if per_step:
+        it_out[k - k0] = its_sum
+    if status != OK:
+        if per_step:
+            res_out[k - k0] = rn
+        return it_total, rmax_all, rn, imax, rimax, countdown, jout
+    if per_step:
+        res_out[k - k0] = rmax
+    if rmax > rmax_all:
+        rmax_all = rmax
+    if its_sum > imax:
+        imax = its_sum
+    if rmax > rimax:
+        rimax = rmax
+    nbins = counts.shape[0]
+    if nbins > 0:
+        counts[min(its_sum, nbins - 1)] += 1
+    countdown -= 1
+    if countdown == 0:
+        countdown = save_every
+        (R_out[jout, 0, 0], R_out[jout, 0, 1], R_out[jout, 0, 2], R_out[jout, 1, 0], R_out[jout, 1, 1],
+         R_out[jout, 1, 2], R_out[jout, 2, 0], R_out[jout, 2, 1], R_out[jout, 2, 2]) = Rt
+        Pi_out[jout, 0], Pi_out[jout, 1], Pi_out[jout, 2] = Pt
+        if not per_step:
+            it_out[jout] = imax
+            res_out[jout] = rimax
+        imax = 0
+        rimax = 0.0
+        jout += 1
+    return it_total, rmax_all, rmax, imax, rimax, countdown, jout
 
 
 @jit
@@ -532,22 +641,13 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
     v0 = 0.0
     v1 = 0.0
     v2 = 0.0
-    countdown = save_every
-    jout = 0
     # the state in local tuples (written back at the end, as in free_steps)
-    Rt = (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2])
-    Pt = (Pi[0], Pi[1], Pi[2])
-    Mt = (S[0], S[1], S[2], S[3], S[4], S[5])
+    Rt, Pt, Mt = load_state(R, Pi, S)
     status = OK
     kend = k0 + n
     per_step = it_out.shape[0] == n
-    nbins = counts.shape[0]
-    it_total = 0
-    rmax_all = 0.0
     its_sum = 0
-    rlast = 0.0
-    imax = 0                 # largest iterations and residual of the saved interval in progress
-    rimax = 0.0
+    book = (0, 0.0, 0.0, 0, 0.0, save_every, 0)     # see step_done
     for k in range(k0, k0 + n):
         if has_u:
             v0 = U[k + 1, 0]
@@ -562,51 +662,18 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
             its, rn, st, Rx, Px, Mx = forced_stage_s(method, Jd, J, J_inv, gam[i] * h, t1, Rx, Px, Mx, G, gidx[i],
                                                      codes, params, D0, D1, D2, has_D, A, i, sym, v0, v1, v2, tol,
                                                      max_iter, alpha, hist)
-            its_sum += its
-            if rn > rmax:
-                rmax = rn
-            if st == OK and not finite_moments(Px, Mx):
-                st = OVERFLOW              # a moment overflowed the momentum: never keep it
+            its_sum, rmax, st = stage_done(its_sum, rmax, its, rn, st, Px, Mx)
             if st != OK:
                 status = st
                 break
-        it_total += its_sum
-        if per_step:
-            it_out[k - k0] = its_sum
+        book = step_done(k, k0, status, its_sum, rmax, rn, Rx, Px, book, per_step, save_every, R_out, Pi_out,
+                         it_out, res_out, counts)
         if status != OK:
-            if per_step:
-                res_out[k - k0] = rn
-            rlast = rn
             kend = k
             break
-        if per_step:
-            res_out[k - k0] = rmax
-        rlast = rmax
-        if rmax > rmax_all:
-            rmax_all = rmax
-        if its_sum > imax:
-            imax = its_sum
-        if rmax > rimax:
-            rimax = rmax
-        if nbins > 0:
-            counts[min(its_sum, nbins - 1)] += 1
         Rt, Pt, Mt = Rx, Px, Mx
-        countdown -= 1
-        if countdown == 0:
-            countdown = save_every
-            (R_out[jout, 0, 0], R_out[jout, 0, 1], R_out[jout, 0, 2], R_out[jout, 1, 0], R_out[jout, 1, 1],
-             R_out[jout, 1, 2], R_out[jout, 2, 0], R_out[jout, 2, 1], R_out[jout, 2, 2]) = Rt
-            Pi_out[jout, 0], Pi_out[jout, 1], Pi_out[jout, 2] = Pt
-            if not per_step:
-                it_out[jout] = imax
-                res_out[jout] = rimax
-            imax = 0
-            rimax = 0.0
-            jout += 1
-    R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2] = Rt
-    Pi[0], Pi[1], Pi[2] = Pt
-    S[0], S[1], S[2], S[3], S[4], S[5] = Mt
-    return status, kend, it_total, rmax_all, its_sum, rlast
+    save_state(R, Pi, S, Rt, Pt, Mt)
+    return status, kend, book[0], book[1], its_sum, book[2]
 
 
 @jit

@@ -2,7 +2,11 @@
 
 :func:`run_chunk_user` is :func:`.stepping.run_chunk_forced` with one more moment: the user's
 ``moment(t, R, Pi, params)``, a ``numba.njit`` function passed as an argument, so Numba
-specialises the loop for it. It is compiled without the on-disk cache (a user's function is not
+specialises the loop for it. Only the substep's moments differ (:func:`user_stage_s`; its
+implicit half is :func:`.stepping.variational_half`); the state tuples,
+the per-step bookkeeping and the sample store are :func:`.stepping.load_state`,
+:func:`.stepping.stage_done`, :func:`.stepping.step_done` and :func:`.stepping.save_state`,
+written once for both loops. It is compiled without the on-disk cache (a user's function is not
 importable by a later process) and with reference counting on (the user's function may return a
 new array; a loop without reference counting would leak it).
 
@@ -18,9 +22,10 @@ from __future__ import annotations
 import math
 
 from .._jit import jit
-from .codes import NOT_CONVERGED, OK, OVERFLOW
+from .codes import NOT_CONVERGED, OK
 from .solvers import EPS
-from .stepping import finite_moments, push_at, rotated_row, solve_warm
+from .stepping import (load_state, minus_damping, push_at, save_state, stage_done, step_done, symmetric_momentum,
+                       variational_half)
 from .torque_kernels import model_moments, model_moments_s, momentum_diag
 
 
@@ -39,29 +44,16 @@ def user_moment(moment, up, Rs, Ps, t, Rt, p0, p1, p2):
 def user_stage_s(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, hs, t1, Rt, Pt, Mt, G, j, codes, params,
                  D0, D1, D2, has_D, A, i_A, sym, tol, max_iter, alpha, hist):
     """:func:`.stepping.forced_stage_s` with the user's moment added (see the module notes)."""
-    r00, r01, r02, r10, r11, r12, r20, r21, r22 = Rt
-    pi0, pi1, pi2 = Pt
-    P0, P1, P2, N0, N1, N2 = Mt
-    hh = 0.5 * hs
-    if sym:
-        m0 = pi0 + hh * (P0 + N0)
-        m1 = pi1 + hh * (P1 + N1)
-        m2 = pi2 + hh * (P2 + N2)
-    else:
-        m0 = pi0 + hh * P0
-        m1 = pi1 + hh * P1
-        m2 = pi2 + hh * P2
-    (g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its, rn,
-     st) = solve_warm(method, Jd, J_inv, hs * m0, hs * m1, hs * m2, G, j, tol, max_iter, alpha, hist)
+    its, rn, st, g, R1, bt = variational_half(method, Jd, J_inv, hs, Rt, Pt, Mt, G, j, sym, tol, max_iter, alpha,
+                                              hist)
     if st != OK:
         return its, rn, st, Rt, Pt, Mt
-    r00, r01, r02 = rotated_row(r00, r01, r02, E00, E01, E02, E10, E11, E12, E20, E21, E22)
-    r10, r11, r12 = rotated_row(r10, r11, r12, E00, E01, E02, E10, E11, E12, E20, E21, E22)
-    r20, r21, r22 = rotated_row(r20, r21, r22, E00, E01, E02, E10, E11, E12, E20, E21, E22)
-    R1 = (r00, r01, r02, r10, r11, r12, r20, r21, r22)
-    b0 = m0 + (E00 * m0 + E10 * m1 + E20 * m2)
-    b1 = m1 + (E01 * m0 + E11 * m1 + E21 * m2)
-    b2 = m2 + (E02 * m0 + E12 * m1 + E22 * m2)
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = R1
+    b0, b1, b2 = bt
+    N0 = Mt[3]
+    N1 = Mt[4]
+    N2 = Mt[5]
+    hh = 0.5 * hs
     P0, P1, P2, Q0, Q1, Q2 = model_moments_s(codes, params, J, t1, r00, r01, r02, r10, r11, r12, r20, r21, r22)
     u0 = 0.0
     u1 = 0.0
@@ -77,16 +69,7 @@ def user_stage_s(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, hs, t1, R
         Q1 += u1
         Q2 += u2
     if sym:
-        b0 += hh * (P0 + Q0)
-        b1 += hh * (P1 + Q1)
-        b2 += hh * (P2 + Q2)
-        if has_D:
-            c0 = A[i_A, 0, 0] * b0 + A[i_A, 0, 1] * b1 + A[i_A, 0, 2] * b2
-            c1 = A[i_A, 1, 0] * b0 + A[i_A, 1, 1] * b1 + A[i_A, 1, 2] * b2
-            c2 = A[i_A, 2, 0] * b0 + A[i_A, 2, 1] * b1 + A[i_A, 2, 2] * b2
-            b0 = c0
-            b1 = c1
-            b2 = c2
+        b0, b1, b2 = symmetric_momentum(b0, b1, b2, P0, P1, P2, Q0, Q1, Q2, hh, has_D, A, i_A)
         if mdep and not cons:
             # Pi = b + hs/2 N_user(Pi): fixed-point iteration (converged when the change is at the
             # tolerance or at round-off of the terms)
@@ -131,10 +114,8 @@ def user_stage_s(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, hs, t1, R
         Q1 += u1
         Q2 += u2
     if has_D:
-        Q0 -= D0 * (J_inv[0, 0] * b0 + J_inv[0, 1] * b1 + J_inv[0, 2] * b2)
-        Q1 -= D1 * (J_inv[1, 0] * b0 + J_inv[1, 1] * b1 + J_inv[1, 2] * b2)
-        Q2 -= D2 * (J_inv[2, 0] * b0 + J_inv[2, 1] * b1 + J_inv[2, 2] * b2)
-    push_at(G, j, g0, g1, g2)
+        Q0, Q1, Q2 = minus_damping(Q0, Q1, Q2, D0, D1, D2, J_inv, b0, b1, b2)
+    push_at(G, j, g[0], g[1], g[2])
     return its, rn, st, R1, (b0, b1, b2), (P0, P1, P2, Q0, Q1, Q2)
 
 
@@ -176,21 +157,13 @@ def run_chunk_user(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, h, t0, 
     has_D = D0 != 0.0 or D1 != 0.0 or D2 != 0.0
     if S[6] == 0.0:
         init_user_moments(moment, up, Rs, Ps, cons, codes, params, J, J_inv, t0 + k0 * h, R, Pi, S)
-    jout = 0
-    Rt = (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2])
-    Pt = (Pi[0], Pi[1], Pi[2])
-    Mt = (S[0], S[1], S[2], S[3], S[4], S[5])
+    Rt, Pt, Mt = load_state(R, Pi, S)
     status = OK
     kend = k0 + n
     per_step = it_out.shape[0] == n
-    nbins = counts.shape[0]
-    it_total = 0
-    rmax_all = 0.0
     its_sum = 0
-    rlast = 0.0
     rn = 0.0
-    imax = 0
-    rimax = 0.0
+    book = (0, 0.0, 0.0, 0, 0.0, countdown, 0)     # see stepping.step_done
     for k in range(k0, k0 + n):
         its_sum = 0
         rmax = 0.0
@@ -200,48 +173,15 @@ def run_chunk_user(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, h, t0, 
             its, rn, st, Rx, Px, Mx = user_stage_s(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, gam[i] * h,
                                                    t1, Rx, Px, Mx, G, gidx[i], codes, params, D0, D1, D2, has_D, A,
                                                    i, sym, tol, max_iter, alpha, hist)
-            its_sum += its
-            if rn > rmax:
-                rmax = rn
-            if st == OK and not finite_moments(Px, Mx):
-                st = OVERFLOW
+            its_sum, rmax, st = stage_done(its_sum, rmax, its, rn, st, Px, Mx)
             if st != OK:
                 status = st
                 break
-        it_total += its_sum
-        if per_step:
-            it_out[k - k0] = its_sum
+        book = step_done(k, k0, status, its_sum, rmax, rn, Rx, Px, book, per_step, save_every, R_out, Pi_out,
+                         it_out, res_out, counts)
         if status != OK:
-            if per_step:
-                res_out[k - k0] = rn
-            rlast = rn
             kend = k
             break
-        if per_step:
-            res_out[k - k0] = rmax
-        rlast = rmax
-        if rmax > rmax_all:
-            rmax_all = rmax
-        if its_sum > imax:
-            imax = its_sum
-        if rmax > rimax:
-            rimax = rmax
-        if nbins > 0:
-            counts[min(its_sum, nbins - 1)] += 1
         Rt, Pt, Mt = Rx, Px, Mx
-        countdown -= 1
-        if countdown == 0:
-            countdown = save_every
-            (R_out[jout, 0, 0], R_out[jout, 0, 1], R_out[jout, 0, 2], R_out[jout, 1, 0], R_out[jout, 1, 1],
-             R_out[jout, 1, 2], R_out[jout, 2, 0], R_out[jout, 2, 1], R_out[jout, 2, 2]) = Rt
-            Pi_out[jout, 0], Pi_out[jout, 1], Pi_out[jout, 2] = Pt
-            if not per_step:
-                it_out[jout] = imax
-                res_out[jout] = rimax
-            imax = 0
-            rimax = 0.0
-            jout += 1
-    R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2] = Rt
-    Pi[0], Pi[1], Pi[2] = Pt
-    S[0], S[1], S[2], S[3], S[4], S[5] = Mt
-    return status, kend, it_total, rmax_all, its_sum, rlast
+    save_state(R, Pi, S, Rt, Pt, Mt)
+    return status, kend, book[0], book[1], its_sum, book[2]
