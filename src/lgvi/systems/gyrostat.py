@@ -152,8 +152,11 @@ class ReactionWheels:
                 raise ValueError(f"wheels inconsistent with the body: the body's (locked) inertia along wheel {i}'s "
                                  f"axis is {along:.6g} kg m^2, not above the wheel's spin inertia "
                                  f"{self.spin_inertia[i]:.6g}; the body's inertia must include the wheels")
-        JB = J - (self.axes.T * self.spin_inertia) @ self.axes
-        JB = 0.5 * (JB + JB.T)
+        if len(self) == 0:
+            JB = J.copy()
+        else:
+            JB = J - (self.axes.T * self.spin_inertia) @ self.axes
+            JB = 0.5 * (JB + JB.T)
         lam = np.linalg.eigvalsh(JB)
         if not lam[0] > 1e-12 * lam[-1]:
             raise ValueError(f"wheels inconsistent with the body: J - G diag(spin_inertia) G^T is not positive "
@@ -315,7 +318,7 @@ class GyrostatRun:
         self.N = n
         self.JB = JB = wheels.hub_inertia(body)
         self.JB_inv = np.linalg.inv(JB)
-        self.JdB = np.trace(JB) / 2.0 * np.eye(3) - JB
+        self.JdB = body.Jd.copy() if n == 0 else np.trace(JB) / 2.0 * np.eye(3) - JB
         a, Js = wheels.axes, wheels.spin_inertia
         # initial state: Pi = J_B omega + G rho, rho = Js (a . omega + speed0)
         if Pi0 is None and omega0 is None:
@@ -357,6 +360,10 @@ class GyrostatRun:
         self.tau = np.zeros(3)
         self.u_now = np.zeros(2 * n)
         self.G = np.zeros((5, 3))
+        from .._kernels.solvers import initial_guess   # cold start from the linearisation (as the rigid body)
+
+        getattr(initial_guess, "py_func", initial_guess)(self.code, JB, self.h * (self.Pi - a.T @ self.wheel_momentum),
+                                                         self.G[0])
         self.external = controller is not None and (n == 0 or magnetorquers is not None or not
                                                     getattr(controller, "compiled", False))
         self.motors_off = controller is None and not wheels.has_friction
