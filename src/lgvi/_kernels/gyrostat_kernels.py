@@ -28,9 +28,13 @@ import math
 
 from .._jit import jit
 from .codes import NOT_CONVERGED, NOT_FINITE, OK, OVERFLOW, SINGULAR
-from .solvers import _A1, _A2, _A3, _A4, _B1, _B2, _B3, _B4, _E0, _E1, _E2, _E3, EPS, SERIES_ANGLE, expm1_entries
+from .solvers import EPS, SERIES_ANGLE, expm1_entries
 from .stepping import momentum_step, predict, push, rotate
 
+# Taylor coefficients below SERIES_ANGLE, as in the rigid body's solver (:mod:`.solvers`)
+A1, A2, A3, A4 = -1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362880.0          # sin t / t
+B1, B2, B3, B4 = -1.0 / 24.0, 1.0 / 720.0, -1.0 / 40320.0, 1.0 / 3628800.0       # (1 - cos t) / t^2
+E0, E1, E2, E3 = 1.0 / 12.0, 1.0 / 720.0, 1.0 / 30240.0, 1.0 / 1209600.0       # (1 - t/2 cot t/2) / t^2
 W_JS, W_UMAX, W_UMIN, W_PMAX, W_OMAX, W_FC, W_FV, W_OLC = 0, 1, 2, 3, 4, 5, 6, 7
 #: ``cp`` layout of the compiled MRP feedback: K, P, Ki, integral limit, R_ref (9, row-major),
 #: omega_ref (3, inertial), domega_ref (3, inertial), J (9), then the wheel map (N x 3, row-major)
@@ -55,8 +59,8 @@ def solve_shifted(a00, a01, a02, a10, a11, a12, a20, a21, a22, p0, p1, p2, g0, g
         if not math.isfinite(t2):
             return g0, g1, g2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, it, math.inf, NOT_FINITE
         if t2 < SERIES_ANGLE * SERIES_ANGLE:
-            a = 1.0 + t2 * (_A1 + t2 * (_A2 + t2 * (_A3 + t2 * _A4)))
-            b = 0.5 + t2 * (_B1 + t2 * (_B2 + t2 * (_B3 + t2 * _B4)))
+            a = 1.0 + t2 * (A1 + t2 * (A2 + t2 * (A3 + t2 * A4)))
+            b = 0.5 + t2 * (B1 + t2 * (B2 + t2 * (B3 + t2 * B4)))
         else:
             t = math.sqrt(t2)
             sh = math.sin(0.5 * t)
@@ -114,7 +118,7 @@ def solve_shifted(a00, a01, a02, a10, a11, a12, a20, a21, a22, p0, p1, p2, g0, g
         s1 = -(c01 * r0 + c11 * r1 + c21 * r2) * inv
         s2 = -(c02 * r0 + c12 * r1 + c22 * r2) * inv
         if t2 < SERIES_ANGLE * SERIES_ANGLE:
-            e = _E0 + t2 * (_E1 + t2 * (_E2 + t2 * _E3))
+            e = E0 + t2 * (E1 + t2 * (E2 + t2 * E3))
         else:
             e = (1.0 - 0.5 * a / b) / t2
         u0 = g1 * s2 - g2 * s1

@@ -364,8 +364,8 @@ class GyrostatRun:
 
         getattr(initial_guess, "py_func", initial_guess)(self.code, JB, self.h * (self.Pi - a.T @ self.wheel_momentum),
                                                          self.G[0])
-        self.external = controller is not None and (n == 0 or magnetorquers is not None or not
-                                                    getattr(controller, "compiled", False))
+        # a body torque acted (the declaration of invariants is that of the run so far)
+        self.external = self.ctrl == 1 and n == 0
         self.motors_off = controller is None and not wheels.has_friction
         self.k = 0
         self.counts = np.zeros(HIST_BINS, dtype=np.int64)
@@ -401,6 +401,7 @@ class GyrostatRun:
     def trajectory(self, t, R_out, Pi_out, rho_out, it_out, res_out, u_out, partial: bool = False) -> GyrostatTrajectory:
         meta = dict(self.meta, partial=True) if partial else dict(self.meta)
         meta["solver_summary"] = self.summary()
+        meta["invariants"] = _invariants(self)
         M = len(t)
         se = self.save_every
         rec = u_out if not self.full or se == 1 else u_out[::se]
@@ -499,6 +500,8 @@ class GyrostatRun:
             raise TorqueError(f"at step {k} (t = {t:g}): {msg}. The run up to step {k} is in .trajectory.",
                               step=k, time=t, trajectory=partial(k)) from exc
         self.tau[:] = 0.0 if tau is None else tau
+        if np.any(self.tau):
+            self.external = True
         self.cmd[:] = 0.0 if wheel is None else wheel
 
 
