@@ -21,6 +21,7 @@ import numpy as np
 
 from .._validation import as_float, as_float_array, as_int, as_rotation, choice
 from .._version import __version__
+from ..control import Command, Controller
 from ..driver import MemorySink, check_memory, drive, run_solver_options, sample_times, time_grid
 from ..errors import ConvergenceError, TorqueError
 from ..invariants import BOUNDED, EXACT
@@ -296,7 +297,6 @@ class GyrostatRun:
                  magnetorquers: Any = None, method: str = "newton", tol: Any = 1e-14, max_iter: Any = 50,
                  alpha: Any = 1.0, save_every: Any = 1, t0: Any = 0.0, solver_record: str = "interval") -> None:
         from ..body import RigidBody
-        from ..control import Controller
 
         self.body = body = body if isinstance(body, RigidBody) else RigidBody(body)
         if wheels is None:
@@ -506,8 +506,6 @@ class GyrostatRun:
 
 
 def _check_command(cmd: Any, n: int, k: int, t: float) -> tuple[Any, Any, Any]:
-    from ..control import Command
-
     if not isinstance(cmd, Command):
         raise TorqueError(f"controller.command must return an lgvi.control.Command, got {type(cmd).__name__}")
     out = []
