@@ -217,6 +217,20 @@ def test_mrp_feedback_without_wheels_is_a_body_torque():
     assert traj.meta["invariants"] == {}
 
 
+@pytest.mark.parametrize("error", ["rotation", "quaternion"])
+def test_rotation_pd_slews_with_wheels(error):
+    from lgvi.control import RotationPD
+
+    R_ref = lgvi.so3.exp([0.0, 0.0, 1.0])
+    traj = lgvi.simulate(BODY, np.eye(3), omega0=np.zeros(3), h=0.05, steps=1600, wheels=wheels(speed0=0.0),
+                         controller=RotationPD(1.0, 2.0, target=R_ref, error=error), control_period=0.1,
+                         save_every=1600)
+    assert np.linalg.norm(lgvi.so3.log(R_ref.T @ traj.R[-1])) < 1e-4
+    assert np.abs(traj.spatial_momentum).max() < 1e-15          # zero total momentum stays zero
+    with pytest.raises(ValueError, match="error must be"):
+        RotationPD(1.0, 1.0, error="euler")
+
+
 def test_map_to_wheels_is_rwmotortorque():
     L = np.array([0.1, -0.2, 0.3])
     u = map_to_wheels(L, AXES)

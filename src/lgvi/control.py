@@ -311,4 +311,53 @@ class MRPFeedback(Controller):
                 f"integral_limit={self.integral_limit:g})")
 
 
-__all__ = ["Command", "Controller", "MRPFeedback", "map_to_wheels", "matrix_from_mrp", "mrp_from_matrix"]
+class RotationPD(Controller):
+    """A proportional-derivative law on the rotation error (Python, called at the control rate).
+
+    ``L = -kp e - kd (omega - R^T omega_ref)`` with ``e`` the attitude error of ``R_ref^T R``: its
+    rotation vector (``error="rotation"``, the log map) or twice the vector part of its quaternion
+    with non-negative scalar part (``error="quaternion"``). With wheels ``L`` is mapped to wheel
+    motor torques as :class:`MRPFeedback` does; without, applied as a body torque.
+
+    Parameters
+    ----------
+    kp, kd : float
+        Gains, N m / rad and N m s / rad (> 0).
+    target : None, (3, 3) array_like, scipy Rotation or callable
+        As :class:`MRPFeedback` (``None``: the identity or the environment's ``"sigma_ref"``).
+    error : {"rotation", "quaternion"}
+    """
+
+    def __init__(self, kp: float, kd: float, *, target: Any = None, error: str = "rotation") -> None:
+        self.kp = as_float(kp, "kp", positive=True)
+        self.kd = as_float(kd, "kd", positive=True)
+        if error not in ("rotation", "quaternion"):
+            raise ValueError(f"error must be 'rotation' or 'quaternion', got {error!r}")
+        self.error = error
+        self._law = MRPFeedback(1.0, 1.0, target=target)
+
+    def setup(self, body: Any, wheels: Any) -> None:
+        super().setup(body, wheels)
+        self._law.setup(body, wheels)
+
+    def command(self, t: float, R: np.ndarray, omega: np.ndarray, wheel_speed: np.ndarray,
+                env: dict[str, Any]) -> Command:
+        from .so3 import log
+
+        R_ref, w_ref, _ = self._law.reference(t, env)
+        C = R_ref.T @ R
+        if self.error == "rotation":
+            e = log(C)
+        else:
+            s = _mrp3(C)                        # sigma = q / (1 + q4): q = 2 sigma / (1 + |sigma|^2)
+            e = 4.0 * s / (1.0 + s @ s)
+        L = -self.kp * e - self.kd * (omega - R.T @ w_ref)
+        if len(self._law.spin_inertia):
+            return Command(wheel_torque=self._law.wheel_map @ L)
+        return Command(torque=L)
+
+    def __repr__(self) -> str:
+        return f"RotationPD(kp={self.kp:g}, kd={self.kd:g}, error={self.error!r})"
+
+
+__all__ = ["Command", "Controller", "MRPFeedback", "RotationPD", "map_to_wheels", "matrix_from_mrp", "mrp_from_matrix"]
