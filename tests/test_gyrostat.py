@@ -120,6 +120,17 @@ def test_second_order_against_dop853():
     assert 3.6 < errs[0] / errs[1] < 4.4 and 3.6 < errs[1] / errs[2] < 4.4
 
 
+def test_save_and_load_keep_the_wheels(tmp_path):
+    traj = lgvi.simulate(BODY, R0, omega0=W0, h=0.05, steps=40, wheels=wheels(max_torque=0.01),
+                         controller=Random(0.1), control_period=0.1, save_every=2)
+    traj.save(tmp_path / "g.npz")
+    back = lgvi.load(tmp_path / "g.npz")
+    assert type(back) is type(traj)
+    for name in ("R", "Pi", "wheel_momentum", "wheel_torque", "wheel_speed", "omega", "energy"):
+        assert np.array_equal(getattr(back, name), getattr(traj, name)), name
+    assert back.meta["wheels"] == traj.meta["wheels"]
+
+
 def test_zero_wheels_is_the_rigid_body_bit_for_bit():
     plain = lgvi.simulate(BODY, R0, omega0=W0, h=0.05, steps=4000)
     gyro = lgvi.simulate(BODY, R0, omega0=W0, h=0.05, steps=4000,

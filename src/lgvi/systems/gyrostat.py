@@ -25,7 +25,7 @@ from ..control import Command, Controller
 from ..driver import MemorySink, check_memory, drive, run_solver_options, sample_times, time_grid
 from ..errors import ConvergenceError, TorqueError
 from ..invariants import BOUNDED, EXACT
-from ..trajectory import HIST_BINS, Trajectory, summary_dict
+from ..trajectory import HIST_BINS, RESULT_TYPES, Trajectory, freeze_arrays, summary_dict
 from . import Field, System, register
 
 #: Steps per compiled call when no Python controller needs the loop back sooner.
@@ -238,6 +238,10 @@ class GyrostatTrajectory(Trajectory):
     wheel_axes: np.ndarray | None = None
     spin_inertia: np.ndarray | None = None
 
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        freeze_arrays(self, ("wheel_momentum", "wheel_torque", "wheel_axes", "spin_inertia"))
+
     @cached_property
     def hub_inertia(self) -> np.ndarray:
         """(3, 3) ``J_B = J - G diag(Js) G^T``."""
@@ -262,6 +266,25 @@ class GyrostatTrajectory(Trajectory):
 
     def __repr__(self) -> str:
         return "Gyrostat" + super().__repr__() + f" with {self.wheel_axes.shape[0]} wheels"
+
+    def _extra_arrays(self) -> dict[str, np.ndarray]:
+        return {"wheel_momentum": self.wheel_momentum, "wheel_torque": self.wheel_torque,
+                "wheel_axes": self.wheel_axes, "spin_inertia": self.spin_inertia}
+
+
+def _from_file(**fields: Any) -> GyrostatTrajectory:
+    """A :class:`GyrostatTrajectory` read by :func:`lgvi.load` (shapes checked)."""
+    M = len(fields["t"])
+    n = fields["spin_inertia"].shape[0] if fields["spin_inertia"].ndim == 1 else -1
+    want = {"wheel_momentum": (M, n), "wheel_torque": (M, n), "wheel_axes": (n, 3), "spin_inertia": (n,)}
+    for name, shape in want.items():
+        if fields[name].shape != shape:
+            raise ValueError(f"field {name!r} must have shape {shape} (M = {M} samples, N = {n} wheels), got shape "
+                             f"{fields[name].shape}")
+    return GyrostatTrajectory(**fields)
+
+
+RESULT_TYPES["gyrostat"] = (("wheel_momentum", "wheel_torque", "wheel_axes", "spin_inertia"), _from_file)
 
 
 # ------------------------------------------------------------------------------------------------
