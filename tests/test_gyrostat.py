@@ -377,3 +377,44 @@ def test_mrp_roundtrip_matches_scipy():
     s = np.array([[0.1, 0.2, -0.3], [0.5, -0.4, 0.6]])
     assert np.allclose(matrix_from_mrp(s), Rotation.from_mrp(s).as_matrix(), atol=1e-15)
     assert np.allclose(mrp_from_matrix(matrix_from_mrp(s)), s, atol=1e-15)
+
+
+# ------------------------------------------------------------------------------------------------
+# scenario files: [[wheel]] and [controller]
+# ------------------------------------------------------------------------------------------------
+def test_scenario_wheel_slew_runs_like_the_example():
+    from lgvi.scenario import load_scenario
+
+    sys.path.insert(0, str(BENCH.parent / "examples"))
+    try:
+        import wheel_slew as ws
+    finally:
+        sys.path.remove(str(BENCH.parent / "examples"))
+    sc = load_scenario(BENCH.parent / "examples" / "wheel_slew.toml")
+    traj = sc.run()
+    ref = lgvi.simulate(ws.J, np.eye(3), omega0=np.zeros(3), h=0.1, steps=6000, wheels=ws.WHEELS, save_every=10,
+                        controller=MRPFeedback(K=20.0, P=200.0, target=ws.TARGET), control_period=0.1)
+    assert np.abs(traj.R - ref.R).max() < 1e-12
+    assert np.abs(traj.wheel_speed - ref.wheel_speed).max() < 1e-9
+
+
+@pytest.mark.parametrize("edit, match", [
+    ({"wheel": {"axis": [1.0, 0.0, 0.0], "spin_inertia": 0.1}}, r"\[\[wheel\]\] \(double brackets\)"),
+    ({"wheel": [{"spin_inertia": 0.1}]}, r"wheel\[0\]\.axis"),
+    ({"wheel": [{"axis": [1.0, 0.0, 0.0], "spin_inertia": -0.1}]}, r"wheel\[0\]\.spin_inertia"),
+    ({"wheel": [{"axis": [1.0, 1.0, 0.0], "spin_inertia": 0.1}]}, r"unit vectors"),
+    ({"wheel": [{"axis": [1.0, 0.0, 0.0], "spin_inertia": 0.1, "max_torque": 0.2},
+                {"axis": [0.0, 1.0, 0.0], "spin_inertia": 0.1}]}, r"max_torque for every wheel or for none"),
+    ({"controller": {"type": "mrp_feedback", "K": 1.0, "P": 1.0, "period": 0.015}}, r"controller\.period"),
+    ({"controller": {"type": "mrp_feedback", "K": 1.0, "period": 0.1}}, r"controller\.P"),
+    ({"controller": {"type": "pid", "period": 0.1}}, r"controller\.type"),
+    ({"controller": {"type": "rotation_pd", "kp": 1.0, "kd": 1.0, "period": 0.1, "gain": 2}}, r"gain"),
+])
+def test_scenario_bad_wheel_and_controller_tables(edit, match):
+    from lgvi.scenario import Scenario, ScenarioError
+
+    d = {"body": {"inertia": [1.0, 2.0, 3.0]}, "initial": {"omega": [0.1, 0.2, 0.3]},
+         "integrator": {"h": 0.01, "steps": 10}}
+    d.update(edit)
+    with pytest.raises(ScenarioError, match=match):
+        Scenario.from_dict(d)
