@@ -413,6 +413,9 @@ class GyrostatRun:
                                      "controller": repr(controller) if controller is not None else None,
                                      "control_period": None if controller is None else self.spc * abs(self.h),
                                      "invariants": _invariants(self)}
+        self.meta["torque_model"] = (f"the gyrostat ({n} reaction wheels"
+                                     + (f", {controller!r} every {self.spc * abs(self.h):g} s)" if controller is not None
+                                        else ")"))
 
     # -------------------------------------------------------------- results
     def times(self, j0: int, j1: int) -> np.ndarray:
