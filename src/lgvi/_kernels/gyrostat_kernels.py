@@ -29,7 +29,7 @@ import math
 from .._jit import jit
 from .codes import NOT_CONVERGED, NOT_FINITE, OK, OVERFLOW, SINGULAR
 from .solvers import EPS, SERIES_ANGLE, expm1_entries
-from .stepping import momentum_step, predict, push, rotate
+from .stepping import momentum_step, predict_at, push_at, rotate
 
 # Taylor coefficients below SERIES_ANGLE, as in the rigid body's solver (:mod:`.solvers`)
 A1, A2, A3, A4 = -1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362880.0          # sin t / t
@@ -297,15 +297,19 @@ def mrp_feedback(cp, cs, t, R, w0, w1, w2, axes, wp, rho, cmd, tau):
 
 
 @jit(_nrt=False)
-def run_gyro(JdB, JBi, h, t0, R, Pi, rho, G, axes, wp, cmd, tau, u_now, ctrl, cp, cs, spc, k0, n, kb, tol,
+def run_gyro(JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cmd, tau, u_now, ctrl, cp, cs, spc, k0, n, kb, tol,
              max_iter, save_every, per, R_out, Pi_out, rho_out, u_out, it_out, res_out, counts):
     """Steps ``k0 .. k0 + n - 1`` of the gyrostat in place on ``R``, ``Pi``, ``rho``, ``G``.
 
-    The buffers start at step ``kb`` (a multiple of ``save_every``): sample ``j`` after step ``k``
-    with ``(k + 1 - kb) % save_every == 0`` is ``(k + 1 - kb) // save_every - 1``; record entry
-    ``(k - kb) // per``. ``u_now`` (N,) is the motor torque of the last step (saturated).
-    Returns ``(status, k, iterations_total, residual_max, its, residual)`` (the last of the step
-    that stopped the loop).
+    Each step is the composition of substeps ``gam[i] h`` (``gam = [1]``: the second-order step;
+    a symmetric composition raises the order), ``G`` (s, 5, 3) one solver history per substep.
+    The wheel torques (saturated command plus friction, from the state at the step's start) and
+    ``tau`` are held over the whole step. The buffers start at step ``kb`` (a multiple of
+    ``save_every``): sample ``j`` after step ``k`` with ``(k + 1 - kb) % save_every == 0`` is
+    ``(k + 1 - kb) // save_every - 1``; record entry ``(k - kb) // per``. ``u_now`` (2N,): the
+    motor torques and the total wheel torques of the last step. Returns ``(status, k,
+    iterations_total, residual_max, its, residual)`` (the last of the step that stopped the loop;
+    on failure the state is that of the step's start only for a single substep).
     """
     N = rho.shape[0]
     d00 = JdB[0, 0]
@@ -317,7 +321,7 @@ def run_gyro(JdB, JBi, h, t0, R, Pi, rho, G, axes, wp, cmd, tau, u_now, ctrl, cp
     d20 = JdB[2, 0]
     d21 = JdB[2, 1]
     d22 = JdB[2, 2]
-    hh = 0.5 * h
+    s = gam.shape[0]
     it_sum = 0
     rmax = 0.0
     its = 0
@@ -328,60 +332,72 @@ def run_gyro(JdB, JBi, h, t0, R, Pi, rho, G, axes, wp, cmd, tau, u_now, ctrl, cp
         if ctrl == 1 and k % spc == 0:
             mrp_feedback(cp, cs, t0 + k * h, R, w0, w1, w2, axes, wp, rho, cmd, tau)
         # wheel torques: saturated motor command plus friction, held over the step
-        g0 = 0.0
-        g1 = 0.0
-        g2 = 0.0
         for i in range(N):
             js = wp[i, W_JS]
             Om = rho[i] / js - (axes[i, 0] * w0 + axes[i, 1] * w1 + axes[i, 2] * w2)
             um = saturate(cmd[i], Om, js, wp[i, W_UMAX], wp[i, W_UMIN], wp[i, W_PMAX], wp[i, W_OMAX])
             u_now[i] = um
-            ut = um + friction(Om, wp[i, W_FC], wp[i, W_FV], wp[i, W_OLC])
-            u_now[N + i] = ut
-            rb = rho[i] + hh * ut
-            g0 += axes[i, 0] * rb
-            g1 += axes[i, 1] * rb
-            g2 += axes[i, 2] * rb
-        # A = Jd_B + h/2 hat(g)
-        a01 = d01 - hh * g2
-        a02 = d02 + hh * g1
-        a10 = d10 + hh * g2
-        a12 = d12 - hh * g0
-        a20 = d20 - hh * g1
-        a21 = d21 + hh * g0
+            u_now[N + i] = um + friction(Om, wp[i, W_FC], wp[i, W_FV], wp[i, W_OLC])
         ta0 = tau[0]
         ta1 = tau[1]
         ta2 = tau[2]
-        p0 = h * (Pi[0] - g0) + h * hh * ta0
-        p1 = h * (Pi[1] - g1) + h * hh * ta1
-        p2 = h * (Pi[2] - g2) + h * hh * ta2
-        q0, q1, q2 = predict(G)
-        (x0, x1, x2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its,
-         rn, st) = solve_shifted(d00, a01, a02, a10, d11, a12, a20, a21, d22, p0, p1, p2, q0, q1, q2, tol, max_iter)
-        it_sum += its
-        if st == OK:
-            b0 = Pi[0] + hh * ta0
-            b1 = Pi[1] + hh * ta1
-            b2 = Pi[2] + hh * ta2
-            c0, c1, c2, l0, l1, l2 = momentum_step(b0, b1, b2, G[4, 0], G[4, 1], G[4, 2], E00, E01, E02, E10,
-                                                   E11, E12, E20, E21, E22, hh * ta0, hh * ta1, hh * ta2)
-            if not (math.isfinite(c0) and math.isfinite(c1) and math.isfinite(c2)):
-                st = OVERFLOW
-        if st != OK:
-            return st, k, it_sum, rmax, its, rn
+        its_k = 0
+        rn_k = 0.0
+        for sub in range(s):
+            hs = gam[sub] * h
+            hh = 0.5 * hs
+            g0 = 0.0
+            g1 = 0.0
+            g2 = 0.0
+            for i in range(N):
+                rb = rho[i] + hh * u_now[N + i]
+                g0 += axes[i, 0] * rb
+                g1 += axes[i, 1] * rb
+                g2 += axes[i, 2] * rb
+            # A = Jd_B + hs/2 hat(g)
+            a01 = d01 - hh * g2
+            a02 = d02 + hh * g1
+            a10 = d10 + hh * g2
+            a12 = d12 - hh * g0
+            a20 = d20 - hh * g1
+            a21 = d21 + hh * g0
+            p0 = hs * (Pi[0] - g0) + hs * hh * ta0
+            p1 = hs * (Pi[1] - g1) + hs * hh * ta1
+            p2 = hs * (Pi[2] - g2) + hs * hh * ta2
+            q0, q1, q2 = predict_at(G, sub)
+            (x0, x1, x2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its,
+             rn, st) = solve_shifted(d00, a01, a02, a10, d11, a12, a20, a21, d22, p0, p1, p2, q0, q1, q2, tol,
+                                     max_iter)
+            its_k += its
+            it_sum += its
+            if st == OK:
+                b0 = Pi[0] + hh * ta0
+                b1 = Pi[1] + hh * ta1
+                b2 = Pi[2] + hh * ta2
+                c0, c1, c2, l0, l1, l2 = momentum_step(b0, b1, b2, G[sub, 4, 0], G[sub, 4, 1], G[sub, 4, 2], E00,
+                                                       E01, E02, E10, E11, E12, E20, E21, E22, hh * ta0, hh * ta1,
+                                                       hh * ta2)
+                if not (math.isfinite(c0) and math.isfinite(c1) and math.isfinite(c2)):
+                    st = OVERFLOW
+            if st != OK:
+                return st, k, it_sum, rmax, its_k, rn
+            if rn > rn_k:
+                rn_k = rn
+            push_at(G, sub, x0, x1, x2)
+            G[sub, 4, 0] = l0
+            G[sub, 4, 1] = l1
+            G[sub, 4, 2] = l2
+            rotate(R, E00, E01, E02, E10, E11, E12, E20, E21, E22)
+            Pi[0] = c0
+            Pi[1] = c1
+            Pi[2] = c2
+            for i in range(N):
+                rho[i] += hs * u_now[N + i]
+        its = its_k
+        rn = rn_k
         if rn > rmax:
             rmax = rn
         counts[its if its < nb else nb - 1] += 1
-        push(G, x0, x1, x2)
-        G[4, 0] = l0
-        G[4, 1] = l1
-        G[4, 2] = l2
-        rotate(R, E00, E01, E02, E10, E11, E12, E20, E21, E22)
-        Pi[0] = c0
-        Pi[1] = c1
-        Pi[2] = c2
-        for i in range(N):
-            rho[i] += h * u_now[N + i]
         # records: the largest per entry; the motor torque at the entry's first step
         e = (k - kb) // per
         if (k - kb) % per == 0:

@@ -318,7 +318,8 @@ class GyrostatRun:
     def __init__(self, body: Any, R0: Any, Pi0: Any, *, omega0: Any, h: Any, steps: Any, wheels: Any,
                  controller: Any = None, control_period: Any = None, environment: Any = None,
                  magnetorquers: Any = None, method: str = "newton", tol: Any = 1e-14, max_iter: Any = 50,
-                 alpha: Any = 1.0, save_every: Any = 1, t0: Any = 0.0, solver_record: str = "interval") -> None:
+                 alpha: Any = 1.0, save_every: Any = 1, t0: Any = 0.0, solver_record: str = "interval",
+                 order: Any = 2, composition: Any = None) -> None:
         from ..body import RigidBody
 
         self.body = body = body if isinstance(body, RigidBody) else RigidBody(body)
@@ -382,11 +383,15 @@ class GyrostatRun:
         self.cmd = np.zeros(n)
         self.tau = np.zeros(3)
         self.u_now = np.zeros(2 * n)
-        self.G = np.zeros((5, 3))
+        from ..registry import composition_for
         from .._kernels.solvers import initial_guess   # cold start from the linearisation (as the rigid body)
 
-        getattr(initial_guess, "py_func", initial_guess)(self.code, JB, self.h * (self.Pi - a.T @ self.wheel_momentum),
-                                                         self.G[0])
+        self.comp = composition_for(order, composition)
+        self.gam = self.comp.arrays()[0]
+        self.G = np.zeros((len(self.gam), 5, 3))
+        for i, g in enumerate(self.gam):
+            getattr(initial_guess, "py_func", initial_guess)(self.code, JB, g * self.h * (self.Pi - a.T @ self.wheel_momentum),
+                                                             self.G[i, 0])
         # a body torque acted (the declaration of invariants is that of the run so far)
         self.external = self.ctrl == 1 and n == 0
         self.motors_off = controller is None and not wheels.has_friction
@@ -408,11 +413,13 @@ class GyrostatRun:
         self.meta: dict[str, Any] = {"system": "gyrostat", "method": "newton", "tol": self.tol,
                                      "max_iter": self.max_iter, "alpha": 1.0, "save_every": se,
                                      "torque": "none" if controller is None else "controller",
-                                     "forcing": "symmetric", "lgvi_version": __version__, "t0": self.t0, "order": 2,
+                                     "forcing": "symmetric", "lgvi_version": __version__, "t0": self.t0, "order": self.comp.order,
                                      "solver_record": solver_record, "wheels": wheels.describe(),
                                      "controller": repr(controller) if controller is not None else None,
                                      "control_period": None if controller is None else self.spc * abs(self.h),
                                      "invariants": _invariants(self)}
+        if self.comp.order != 2:
+            self.meta["composition"] = self.comp.name
         self.meta["torque_model"] = (f"the gyrostat ({n} reaction wheels"
                                      + (f", {controller!r} every {self.spc * abs(self.h):g} s)" if controller is not None
                                         else ")"))
@@ -468,7 +475,7 @@ class GyrostatRun:
 
         per = 1 if self.full else self.save_every
         status, k, it_sum, rmax, its, rn = run_gyro(
-            self.JdB, self.JB_inv, self.h, self.t0, self.R, self.Pi, self.wheel_momentum, self.G, self.wheels.axes,
+            self.JdB, self.JB_inv, self.h, self.gam, self.t0, self.R, self.Pi, self.wheel_momentum, self.G, self.wheels.axes,
             self.wp, self.cmd, self.tau, self.u_now, self.ctrl, self.cp, self.cs, self.spc, k0, n, kb, self.tol,
             self.max_iter, self.save_every, per, R_out, Pi_out, rho_out, u_out, it_out, res_out, self.counts)
         self.k = int(k)
@@ -571,9 +578,6 @@ def gyrostat_options(*, torque: Any, forcing: Any, order: Any, composition: Any,
     if torque is not None:
         raise ValueError("torque= cannot be combined with wheels= or controller= yet: give body torques through "
                          "the controller (Command.torque)")
-    if order != 2 or composition is not None:
-        raise ValueError(f"order must be 2 (and composition None) with wheels= or controller=, got order={order!r}, "
-                         f"composition={composition!r}")
     if forcing not in ("paper", "symmetric"):
         choice(forcing, "forcing", ("paper", "symmetric"))
     if error_estimate not in (False, None):
