@@ -149,6 +149,21 @@ def test_compositions_raise_the_order_with_wheels(order, hs):
     assert 2 ** order * 0.8 < errs[0] / errs[1] < 2 ** order * 1.25
 
 
+def test_figures_of_a_wheel_run(tmp_path):
+    pytest.importorskip("matplotlib")
+    from lgvi import plot
+
+    traj = lgvi.simulate(BODY, R0, omega0=W0, h=0.05, steps=200, wheels=wheels(max_torque=0.01),
+                         controller=Random(0.1), control_period=0.1)
+    files = plot.save_figures(traj, tmp_path)
+    assert files[-1].name == "wheels.png"
+    with open(files[-1], "rb") as fh:
+        head = fh.read(24)
+    assert (int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")) == plot.FIGURE_PIXELS["wheels"]
+    with pytest.raises(TypeError, match="reaction wheels"):
+        plot.wheels(lgvi.simulate(BODY, R0, omega0=W0, h=0.05, steps=2))
+
+
 def test_zero_wheels_is_the_rigid_body_bit_for_bit():
     plain = lgvi.simulate(BODY, R0, omega0=W0, h=0.05, steps=4000)
     gyro = lgvi.simulate(BODY, R0, omega0=W0, h=0.05, steps=4000,
