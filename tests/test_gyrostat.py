@@ -389,6 +389,9 @@ def test_bad_wheels(args, kw, exc, match):
     ({"wheels": lgvi.ReactionWheels(np.eye(3), 0.1), "torque": [0.0, 0.0, 1.0]}, ValueError, "torque="),
     ({"wheels": lgvi.ReactionWheels(np.eye(3), 0.1), "method": "cayley"}, ValueError, "method"),
     ({"controller": MRPFeedback(1.0, 1.0), "control_period": 0.1, "environment": 3}, TypeError, "sample"),
+    ({"environment": type("E", (), {"sample": lambda self, t: {}})()}, ValueError,
+     "environment is sampled for a controller"),
+    ({"magnetorquers": object()}, TypeError, "magnetorquers must have a method torque"),
 ])
 def test_bad_simulate_arguments(kw, exc, match):
     with pytest.raises(exc, match=match):

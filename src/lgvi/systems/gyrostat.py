@@ -366,6 +366,8 @@ class GyrostatRun:
         if magnetorquers is not None and not callable(getattr(magnetorquers, "torque", None)):
             raise TypeError("magnetorquers must have a method torque(dipole, B_body) -> (3,), got "
                             f"{type(magnetorquers).__name__}")
+        if environment is not None and controller is None:
+            raise ValueError("environment is sampled for a controller (at its control rate): give a controller")
         if magnetorquers is not None and controller is None:
             raise ValueError("magnetorquers are driven by a controller's dipole: give a controller")
         self.environment = environment
