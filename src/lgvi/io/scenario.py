@@ -144,10 +144,10 @@ from typing import Any
 
 import numpy as np
 
-from ._untrusted import name_problem
-from ._version import __version__
-from .registry import COMPOSITIONS, FORCINGS, ORDERS, method_names
-from .torques import TORQUE_MODELS
+from .._untrusted import name_problem
+from .._version import __version__
+from ..registry import COMPOSITIONS, FORCINGS, ORDERS, method_names
+from ..torques import TORQUE_MODELS
 
 __all__ = ["Scenario", "ScenarioError", "load_scenario", "to_toml"]
 
@@ -299,7 +299,7 @@ class _Checker:
 
 # ------------------------------------------------------------------------------------ pieces
 def _body(c: _Checker, tbl: Any):
-    from .body import RigidBody
+    from ..body import RigidBody
 
     allowed = ("inertia", "matrix", "shape", "mass", "dimensions", "radius", "height", "axis")
     tbl = c.table(tbl, "body", allowed)
@@ -352,7 +352,7 @@ def _attitude(c: _Checker, tbl: dict[str, Any], key: str) -> np.ndarray:
     """R from whichever attitude form ``tbl`` holds (identity if none); ``tbl`` already key-checked."""
     from scipy.spatial.transform import Rotation
 
-    from ._validation import nearest_rotation, warn_repaired
+    from .._validation import nearest_rotation, warn_repaired
 
     given = [k for k in _ATTITUDE_KEYS if k in tbl]
     if len(given) > 1:
@@ -474,7 +474,7 @@ _CONTROLLERS = {"mrp_feedback": ("K", "P", "Ki", "integral_limit"), "rotation_pd
 
 def _wheels(c: _Checker, entries: Any, body: Any) -> Any:
     """The ``[[wheel]]`` tables: one :class:`lgvi.ReactionWheels` (issue 12)."""
-    from .systems.gyrostat import ReactionWheels
+    from ..systems.gyrostat import ReactionWheels
 
     if isinstance(entries, dict):
         raise c.error("wheel", "expected an array of tables: write [[wheel]] (double brackets) for each wheel")
@@ -523,7 +523,7 @@ def _wheels(c: _Checker, entries: Any, body: Any) -> Any:
 
 def _controller(c: _Checker, tbl: Any, h: float) -> tuple[Any, float]:
     """The ``[controller]`` table: a controller of :mod:`lgvi.control` and its period (issue 12)."""
-    from . import control
+    from .. import control
 
     if not isinstance(tbl, dict) or "type" not in tbl:
         raise c.expected("controller.type", "one of " + ", ".join(f'"{t}"' for t in _CONTROLLERS))
@@ -802,7 +802,7 @@ class Scenario:
         ConvergenceError, TorqueError, SimulationInterrupted
             As :func:`lgvi.simulate`; their ``.trajectory`` carries the scenario metadata too.
         """
-        from .integrator import simulate
+        from ..integrator import simulate
 
         est = dict(error_estimate=True, error_warn=self.error_warn) if self.error_estimate else {}
         try:
@@ -840,7 +840,7 @@ class Scenario:
                             solver_record=solver_record, **self.simulate_kwargs())
             traj = read_stream(folder)
             if self.error_estimate:
-                from .accuracy import with_estimate
+                from ..accuracy import with_estimate
 
                 traj = with_estimate(traj, dict(body=self.body, R0=self.R0, Pi0=self.Pi0, progress=progress,
                                                 **self.simulate_kwargs()), warn=self.error_warn, stacklevel=2)
