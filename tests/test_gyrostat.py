@@ -422,7 +422,7 @@ def test_mrp_roundtrip_matches_scipy():
 # scenario files: [[wheel]] and [controller]
 # ------------------------------------------------------------------------------------------------
 def test_scenario_wheel_slew_runs_like_the_example():
-    from lgvi.scenario import load_scenario
+    from lgvi.io.scenario import load_scenario
 
     sys.path.insert(0, str(BENCH.parent / "examples"))
     try:
@@ -450,7 +450,7 @@ def test_scenario_wheel_slew_runs_like_the_example():
     ({"controller": {"type": "rotation_pd", "kp": 1.0, "kd": 1.0, "period": 0.1, "gain": 2}}, r"gain"),
 ])
 def test_scenario_bad_wheel_and_controller_tables(edit, match):
-    from lgvi.scenario import Scenario, ScenarioError
+    from lgvi.io.scenario import Scenario, ScenarioError
 
     d = {"body": {"inertia": [1.0, 2.0, 3.0]}, "initial": {"omega": [0.1, 0.2, 0.3]},
          "integrator": {"h": 0.01, "steps": 10}}
