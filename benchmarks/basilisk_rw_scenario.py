@@ -5,6 +5,7 @@ Usage::
     python benchmarks/basilisk_rw_scenario.py --write-fixture      # needs Basilisk (pip install bsk)
     python benchmarks/basilisk_rw_scenario.py                       # lgvi vs Basilisk, same run
     python benchmarks/basilisk_rw_scenario.py --bsk-python /tmp/venv/bin/python   # Basilisk in another venv
+    python benchmarks/basilisk_rw_scenario.py --quick       # against the fixture only, reduced
 
 The scenario (Basilisk's example, without its plots and visualisation): hub inertia
 diag(900, 800, 600) kg m^2 (750 kg, centre of mass at B), three Honeywell HR16 wheels (50 N m s:
@@ -198,6 +199,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--bsk-python", default=None, help="a Python with Basilisk (bsk) installed")
     ap.add_argument("--basilisk-only", default=None, help=argparse.SUPPRESS)
     ap.add_argument("--repeat", type=int, default=9, help="timing repetitions for lgvi (median)")
+    ap.add_argument("--quick", action="store_true", help="one repetition, three rows (for the tests)")
     args = ap.parse_args(argv)
     if args.basilisk_only:
         d = run_basilisk()
@@ -217,7 +219,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wrote {FIXTURE} ({FIXTURE.stat().st_size} bytes); Basilisk ExecuteSimulation {d['wall']:.3f} s")
         return 0
     fix = np.load(FIXTURE)
-    bsk = basilisk_in(args.bsk_python) if args.bsk_python or _have_basilisk() else None
+    bsk = basilisk_in(args.bsk_python) if (args.bsk_python or _have_basilisk()) and not args.quick else None
     run_lgvi()  # compile / load the kernels
     walls = []
     for _ in range(args.repeat):
@@ -230,6 +232,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'h':>8} {'order':>5} {'max |d sigma|':>14} {'max |d omega|':>14} {'max |d speed|':>14} {'lgvi ms':>9} "
           f"{'Basilisk/lgvi':>14}")
     rows = [(DT / sub, 2) for sub in (1, 2, 4, 8, 16)] + [(DT, 4), (DT, 6)]
+    if args.quick:
+        args.repeat, rows = 1, [(DT, 2), (DT / 2, 2), (DT, 4)]
     for h, order in rows:
         ds, dw, dv = differences(run_lgvi(h, order=order), fix)
         ts = []

@@ -91,3 +91,19 @@ def test_memory_quick():
     assert "Traceback" not in proc.stderr
     rows = [line.split() for line in proc.stdout.splitlines() if line.startswith("lgvi run (interval")]
     assert [int(r[4]) for r in rows] == [100_000, 1_000_000] and all(float(r[6]) > 0 for r in rows)
+
+
+@pytest.mark.slow
+def test_bench_gyrostat_quick():
+    proc = _run("bench_gyrostat.py", "--quick")
+    _check(proc, "gyrostat step vs free body", "ns/step", "ratio", "free body", "4 wheels, motors off",
+           "MRPFeedback compiled", "Python controller")
+    assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
+def test_basilisk_rw_scenario_quick():
+    """Against the stored Basilisk fixture (no Basilisk needed)."""
+    proc = _run("basilisk_rw_scenario.py", "--quick")
+    _check(proc, "scenarioAttitudeFeedbackRW", "max |d sigma|", "Basilisk/lgvi", "Basilisk ExecuteSimulation")
+    assert "Traceback" not in proc.stderr
