@@ -10,8 +10,9 @@ Every case runs the same body (``J = diag(1, 2, 3)``, ``omega0 = (0.3, 1.0, 0.2)
 ratio is taken within a round (then the median over rounds), so the load of a shared machine
 affects both sides alike. Cases: the free body (``lgvi.simulate`` without wheels), 3 wheels on
 the body axes and 4 wheels (a pyramid) with the motors off, 4 wheels with friction and limits,
-and 3 wheels driven by the compiled ``MRPFeedback`` every 0.1 s and by the same law called
-from Python every 0.1 s (the per-call cost of a Python controller).
+and 3 wheels driven by the compiled ``MRPFeedback`` every 0.1 s, by the same law called from
+Python every 0.1 s (the per-call cost of a Python controller) and by an empty Python controller
+(the cost per control period of returning to Python: one compiled chunk per call).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ import numpy as np
 os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
 import lgvi  # noqa: E402
-from lgvi.control import MRPFeedback  # noqa: E402
+from lgvi.control import Command, Controller, MRPFeedback  # noqa: E402
 
 BODY = lgvi.RigidBody([1.0, 2.0, 3.0])
 W0 = np.array([0.3, 1.0, 0.2])
@@ -38,6 +39,13 @@ AX4 = np.array([[_b, _b, _b], [-_b, _b, _b], [-_b, -_b, _b], [_b, -_b, _b]])
 
 class PythonMRP(MRPFeedback):
     """The same law called from Python (a subclass is not compiled)."""
+
+
+class Hold(Controller):
+    """A Python controller that does nothing but return a held command: the loop's own cost per call."""
+
+    def command(self, t, R, omega, wheel_speed, env):
+        return Command(wheel_torque=np.zeros(len(wheel_speed)))
 
 
 def cases():
@@ -55,6 +63,7 @@ def cases():
                                                   "control_period": 0.1},
         "3 wheels, MRPFeedback Python @0.1 s": {"wheels": w3, "controller": PythonMRP(0.5, 2.0, target=ref),
                                                 "control_period": 0.1},
+        "3 wheels, empty Python controller @0.1 s": {"wheels": w3, "controller": Hold(), "control_period": 0.1},
     }
 
 
@@ -90,7 +99,11 @@ def main(argv=None) -> int:
     py = statistics.median(times["3 wheels, MRPFeedback Python @0.1 s"])
     cc = statistics.median(times["3 wheels, MRPFeedback compiled @0.1 s"])
     calls = steps * H / 0.1
-    print(f"Python controller: {(py - cc) / calls * 1e6:.1f} us per call over the compiled law ({calls:.0f} calls)")
+    empty = statistics.median(times["3 wheels, empty Python controller @0.1 s"])
+    base = statistics.median(times["3 wheels, motors off"])
+    print(f"Python controller: {(py - cc) / calls * 1e6:.1f} us per call over the compiled law ({calls:.0f} calls); "
+          f"the loop's own cost (an empty controller, a compiled chunk per call): "
+          f"{(empty - base) / calls * 1e6:.1f} us per call")
     return 0
 
 
