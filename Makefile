@@ -9,9 +9,10 @@ STAMP := $(VENV)/.installed
 FLOORS := .venv-floors
 FLOORS_STAMP := $(FLOORS)/.installed
 # The core at the floors: simulate and its results, so3, outputs, scenarios, the command line, and
-# the netCDF reader on corrupted files (netCDF4 < 1.7.1 crashes there).
+# the netCDF reader on corrupted files (netCDF4 < 1.7.1 crashes there), the interactive page (plotly).
 FLOORS_TESTS := tests/test_dependencies.py tests/test_api.py tests/test_so3.py tests/test_outputs.py tests/test_libraries.py \
-                tests/test_scenario.py tests/test_cli.py tests/test_fuzz.py::test_read_netcdf_mutated_bytes_in_a_subprocess
+                tests/test_scenario.py tests/test_cli.py tests/test_fuzz.py::test_read_netcdf_mutated_bytes_in_a_subprocess \
+                tests/test_view.py
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -30,7 +31,7 @@ $(FLOORS_STAMP): pyproject.toml requirements/floors.txt
 	    -c requirements/floors.txt -e ".[test,plot]"
 	touch $(FLOORS_STAMP)
 
-.PHONY: install demo test test-newest test-floors bench
+.PHONY: install demo test test-newest test-floors bench browser docs
 install: $(STAMP)
 
 demo: $(STAMP)
@@ -38,8 +39,23 @@ demo: $(STAMP)
 
 test: test-newest test-floors
 
-test-newest: $(STAMP)
+test-newest: $(STAMP) browser
 	$(BIN)/python -m pytest -q
+
+# Headless Chromium and its driver for tests/test_view_browser.py: Debian's chromium and
+# chromium-driver, installed once when missing (root with apt-get; `apt-get update` only when the
+# install fails on stale package lists). Not root: a note, and the browser test skips (fails in CI).
+browser:
+	@if command -v chromium >/dev/null 2>&1 && command -v chromedriver >/dev/null 2>&1; then :; \
+	elif [ "$$(id -u)" != 0 ] || ! command -v apt-get >/dev/null 2>&1; then \
+	    echo "make browser: chromium or chromedriver missing and not root with apt-get; the browser test" \
+	         "will skip (as root: apt-get install chromium chromium-driver)"; \
+	else \
+	    echo "make browser: installing Debian's chromium and chromium-driver (apt-get)"; \
+	    export DEBIAN_FRONTEND=noninteractive; \
+	    apt-get install -y -qq chromium chromium-driver >/dev/null 2>&1 \
+	    || { apt-get update -qq && apt-get install -y -qq chromium chromium-driver >/dev/null; }; \
+	fi
 
 # Its own Numba cache: kernels cached by another Numba version would be recompiled (and the
 # shared cache overwritten) on every switch between the two environments. Old releases under newer
@@ -47,6 +63,12 @@ test-newest: $(STAMP)
 test-floors: $(FLOORS_STAMP)
 	LGVI_FLOORS=1 NUMBA_CACHE_DIR=$(CURDIR)/$(FLOORS)/numba-cache $(FLOORS)/bin/python -m pytest -q -p no:cacheprovider \
 	    -W "ignore::DeprecationWarning" $(FLOORS_TESTS)
+
+# The documentation site (Sphinx; the `docs` extra, inside `test`) in docs/_build/html, warnings as
+# errors. The gallery runs every example (--quick); LGVI_DOCS_EXAMPLES=none (or a list) runs fewer.
+docs: $(STAMP)
+	$(BIN)/python -m sphinx -b html -W --keep-going -q docs docs/_build/html
+	@echo "make docs: open docs/_build/html/index.html"
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py

@@ -140,6 +140,15 @@ def slew(out: Path, quick: bool) -> list[Path]:
     return [save_small(ex.slew_figure(traj, body), out / "slew_pd_error.png")]
 
 
+def optimal_slew(out: Path, quick: bool) -> list[Path]:
+    import optimal_slew as ex
+
+    N = 20 if quick else 40
+    eig, u_eig = ex.eigenaxis_bang_bang(N)
+    opt = lgvi.optimal.transfer(ex.SPHERE, np.eye(3), ex.TARGET, 3.6, N, cost="time", max_torque=1.0)
+    return [save_small(ex.slew_figure(eig, u_eig, opt), out / "optimal_slew.png")]
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=str(HERE / "figures"), help="folder (default docs/figures)")
@@ -147,7 +156,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    for make in (dzhanibekov, convergence, solvers, pendulum, heavy_top, gravity_gradient, slew):
+    for make in (dzhanibekov, convergence, solvers, pendulum, heavy_top, gravity_gradient, slew, optimal_slew):
         t0 = time.perf_counter()
         for path in make(out, args.quick):
             print(f"{path}  {path.stat().st_size / 1024:6.1f} KB  ({time.perf_counter() - t0:.1f} s)")

@@ -94,6 +94,12 @@ def test_memory_quick():
 
 
 @pytest.mark.slow
+def test_bench_adjoint_quick():
+    proc = _run("bench_adjoint.py", "--quick")
+    _check(proc, "discrete adjoint", "/ simulate", "gradient", "7 seeds")
+
+
+@pytest.mark.slow
 def test_bench_gyrostat_quick():
     proc = _run("bench_gyrostat.py", "--quick")
     _check(proc, "gyrostat step vs free body", "ns/step", "ratio", "free body", "4 wheels, motors off",

@@ -28,7 +28,8 @@ import lgvi
 
 ROOT = Path(__file__).resolve().parent.parent
 FLOORS = ROOT / "requirements" / "floors.txt"
-OPTIONAL = ("matplotlib", "xarray", "netCDF4", "dask", "distributed", "pandas", "sympy", "hypothesis")
+OPTIONAL = ("matplotlib", "xarray", "netCDF4", "dask", "distributed", "pandas", "sympy", "hypothesis", "plotly",
+            "selenium", "sphinx")
 
 
 def _canonical(name: str) -> str:

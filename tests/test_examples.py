@@ -105,10 +105,19 @@ def test_kepler_takes_the_common_options(tmp_path):
     assert str(png) in out
 
 
+def test_optimal_slew(tmp_path):
+    out = run_example("optimal_slew.py", "--quick", "--out", str(tmp_path / "figs"), cwd=tmp_path)
+    T = number(r"time-optimal \(20 steps\): T = ([0-9.]+)", out)
+    assert T < 0.95 * 3.5449077            # 5% faster than the eigenaxis bang-bang, 2 sqrt(pi)
+    assert "switches per axis [1, 2, 2]" in out
+    assert abs(number(r"cost ([0-9.]+) \(continuous", out) - 47.871081) < 2e-6
+    assert (tmp_path / "figs" / "optimal_slew.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
 def test_every_script_is_tested():
     # uncertainty.py runs in tests/test_ensemble.py (with the ensemble it exercises)
     tested = {"dzhanibekov.py", "heavy_top.py", "pendulum3d.py", "slew_pd.py", "gravity_gradient.py", "kepler.py",
-              "uncertainty.py", "wheel_slew.py"}
+              "uncertainty.py", "optimal_slew.py", "wheel_slew.py"}
     scripts = {p.name for p in EXAMPLES.glob("*.py")}
     assert scripts <= tested, f"example scripts without a test here: {sorted(scripts - tested)}"
 

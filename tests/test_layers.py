@@ -27,7 +27,8 @@ SRC = Path(lgvi.__file__).parent
 
 #: The folders of the package (subpackages) above the core, and the kernels; the top-level modules
 #: and every other folder (``systems/``, a folder of models) are the core.
-AREAS = {"_kernels": "kernels", "io": "io", "verification": "verification", "plot": "plot", "cli": "cli"}
+AREAS = {"_kernels": "kernels", "io": "io", "verification": "verification", "plot": "plot", "cli": "cli",
+         "view": "plot"}  # lgvi.view (the interactive page) is a plot module at the top level for now
 #: The package's front door: re-exports, ``python -m lgvi``, the old names of moved modules.
 FRONT = {"__init__", "__main__", "_aliases"}
 #: Areas that an area never imports.
@@ -50,7 +51,7 @@ CORE_RANKS: dict[str, int] = {
     "registry": 2, "torques": 2, "invariants": 2, "implicit": 2, "accuracy": 2, "trajectory": 2,
     "discrete": 2, "control": 2,
     # 3: systems and the driver
-    "driver": 3, "systems": 3, "integrator": 3, "ensemble": 3, "modified": 3,
+    "driver": 3, "systems": 3, "integrator": 3, "ensemble": 3, "modified": 3, "optimal": 3,
 }
 
 # Imports inside the core that run back up, each with its reason; the test fails when one

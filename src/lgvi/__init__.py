@@ -7,7 +7,7 @@ Public names (everything else is private):
 - :func:`solve_implicit`, :class:`ImplicitSolution`
 - :class:`ConvergenceError`, :class:`TorqueError`, :class:`SimulationInterrupted`, :class:`AccuracyWarning`,
   :class:`AttitudeWarning`
-- modules :mod:`lgvi.so3`, :mod:`lgvi.torques`, :mod:`lgvi.reference`, :mod:`lgvi.baselines`, :mod:`lgvi.exact`,
+- modules :mod:`lgvi.optimal` (optimal control and adjoint gradients), :mod:`lgvi.so3`, :mod:`lgvi.torques`, :mod:`lgvi.reference`, :mod:`lgvi.baselines`, :mod:`lgvi.exact`,
   :mod:`lgvi.accuracy` (the error estimate of ``simulate(..., error_estimate=True)``)
 
 Layout: the core at the top level (with :mod:`lgvi.systems` and the compiled :mod:`lgvi._kernels`),
@@ -24,6 +24,7 @@ import sys as _sys
 from . import _aliases  # noqa: F401  (installs the old names of moved modules: lgvi.exact, ...)
 from . import _jit  # noqa: F401  (imports Numba now; compiles nothing)
 from . import control as control
+from . import optimal as optimal
 from . import so3 as so3
 from . import torques as torques
 from ._version import __version__ as __version__
@@ -49,6 +50,7 @@ from .io.streaming import simulate_stream as simulate_stream
 from .systems.gyrostat import ReactionWheels as ReactionWheels
 from .trajectory import Trajectory as Trajectory
 from .trajectory import load as load
+from . import view as _view  # noqa: F401  (Jupyter's display of a Trajectory; plotly imported when used)
 
 _sys.modules.setdefault("lgvi.streaming", streaming)
 
@@ -70,6 +72,7 @@ __all__ = [
     "jd_to_inertia",
     "load",
     "load_ensemble",
+    "optimal",
     "simulate",
     "simulate_ensemble",
     "simulate_modified",

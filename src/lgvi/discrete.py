@@ -20,12 +20,11 @@ Contents
 :func:`mechanical_lagrangian`, :class:`MechanicalSystem`
     ``L = 1/2 qdot^T M qdot - V(q)`` with midpoint or trapezoidal quadrature (the latter is
     Stormer-Verlet and is solved in closed form).
-:func:`kepler`, :class:`KeplerPotential`, :func:`kepler_energy`, :func:`kepler_angular_momentum`,
-:func:`kepler_initial_state`
+:func:`kepler`, :class:`KeplerPotential`, :func:`kepler_energy`, :func:`kepler_angular_momentum`, :func:`kepler_initial_state`
     The Kepler problem of the paper's introduction, with a compiled Stormer-Verlet path.
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> from lgvi import discrete
 >>> system = discrete.kepler(mu=1.0)
@@ -170,8 +169,8 @@ class DiscreteLagrangian:
     difference quotient ``M (q1 - q0)/h`` cannot fall below ``eps |M q| / h``, so for small
     ``h`` only the second test is reachable).
 
-    Example
-    -------
+    Examples
+    --------
     The harmonic oscillator ``L = qdot^2/2 - q^2/2`` with the midpoint rule:
 
     >>> import numpy as np

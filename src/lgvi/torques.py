@@ -14,15 +14,15 @@ and the rules are in :mod:`lgvi.invariants`): uniform gravity the total energy (
 ``e3 . R Pi`` (exact), the gravity gradient the Jacobi integral ``E - n e3 . R Pi`` (bounded), the
 others nothing; a sum keeps what all its members conserve.
 
-================================  ============  ==================  ==============
-model                             conservative  depends on momentum time-dependent
-================================  ============  ==================  ==============
-:class:`UniformGravity`           yes           no                  no
-:class:`GravityGradient`          yes           no                  yes (the orbit)
-:class:`Constant`                 no            no                  no
-:class:`LinearDamping`            no            yes                 no
-:class:`AttitudePD`               no            yes                 no
-================================  ============  ==================  ==============
+================================  ============  ===================  ===============
+model                             conservative  depends on momentum  time-dependent
+================================  ============  ===================  ===============
+:class:`UniformGravity`           yes           no                   no
+:class:`GravityGradient`          yes           no                   yes (the orbit)
+:class:`Constant`                 no            no                   no
+:class:`LinearDamping`            no            yes                  no
+:class:`AttitudePD`               no            yes                  no
+================================  ============  ===================  ===============
 
 Conventions
 -----------

@@ -48,6 +48,11 @@ def merge_summaries(a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any]:
                         max(int(a["iterations_max"]), int(b["iterations_max"])))
 
 
+#: Jupyter's rich display of a trajectory, ``rich_display(traj, include, exclude) -> mimebundle``:
+#: set by :mod:`lgvi.view` (a layer above, imported by the package), ``None`` without it.
+rich_display = None
+
+
 def freeze_arrays(obj: Any, names: tuple[str, ...]) -> None:
     """Turn the named fields of a frozen dataclass into read-only arrays (``None`` stays)."""
     for name in names:
@@ -130,6 +135,12 @@ class Trajectory:
         span = f"t=[{self.t[0]:.6g}, {self.t[-1]:.6g}]" if len(self.t) else "empty"
         return (f"Trajectory(samples={len(self.t)}, steps={self.steps}, h={self.h:g}, {span}, "
                 f"method={self.meta.get('method', '?')!r})")
+
+    def _repr_mimebundle_(self, include=None, exclude=None):
+        """Jupyter's display: the interactive view of :mod:`lgvi.view` (plotly), else the repr."""
+        if rich_display is None:
+            return {"text/plain": repr(self)}
+        return rich_display(self, include, exclude)
 
     @property
     def error_estimate(self):

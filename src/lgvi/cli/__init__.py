@@ -6,13 +6,15 @@ command                                            what it does
 ``lgvi`` or ``lgvi demo [-o DIR]``                 the default scenario (Dzhanibekov effect), LGVI against RK45;
                                                    with ``-o`` also the trajectory and figures
 ``lgvi run SCENARIO.toml [-o DIR]``                runs a scenario file (:mod:`lgvi.scenario`); writes the
-``[--no-plots] [--format npz,csv,netcdf]``         trajectory, ``summary.txt``/``summary.json``, the scenario and
-                                                   the figures
+``[--no-plots] [--format npz,csv,netcdf]``         trajectory, ``summary.txt``/``summary.json``, the scenario,
+                                                   the figures and ``report.html``
 ``lgvi compare SCENARIO.toml --with rk4,rk45``     the same problem through the baselines (``rk4``, ``rk45``,
 ``[-o DIR]``                                       ``dop853``): a table of conservation errors and wall times,
                                                    and with ``-o`` overlaid figures
 ``lgvi plot TRAJECTORY [-o DIR] [--animate]``      figures (PNG) of a saved trajectory (``.npz``, ``.csv``, ``.nc``)
 ``lgvi info TRAJECTORY``                           shape, times, method, metadata and conservation drifts
+``lgvi view TRAJECTORY [-o PAGE.html]``            an interactive page (plotly, offline): the body turning in
+                                                   3D, linked plots, the summary
 ``lgvi warmup``                                    compiles (or loads from Numba's cache) the kernels
 =================================================  ==============================================================
 
@@ -354,6 +356,7 @@ def _write_results(traj, scenario, outdir: Path, formats: tuple[str, ...], plots
     files.append(outdir / "scenario.toml")
     if plots:
         files += _save_figures(traj, outdir)
+        files += _save_report(traj, outdir, {"scenario": scenario.name, "wall time": f"{wall:.4g} s"})
     txt, js = write_summary(outdir, traj, scenario, wall, files, status=status, message=message,
                             kernel_load=kernel_load)
     return files + [txt, js]
@@ -616,6 +619,35 @@ def cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
+def _save_report(traj, outdir: Path, summary: dict[str, Any]) -> list[Path]:
+    """``report.html`` (:mod:`lgvi.view`), or nothing (with a note on stderr) without plotly."""
+    from .. import view
+
+    try:
+        return [view.write_html(traj, outdir / "report.html", summary=summary)]
+    except ImportError as exc:
+        _err(f"report.html skipped: {exc}")
+        return []
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    from .. import view
+
+    traj = _read(args.trajectory)
+    out = Path(args.output) if args.output else Path(args.trajectory).with_suffix(".html")
+    if args.max_frames < 2:
+        raise UsageError(f"--max-frames must be an integer >= 2, got {args.max_frames}")
+    if not len(traj.t):
+        raise UsageError(f"{args.trajectory}: the trajectory has no samples, nothing to show")
+    try:
+        path = view.write_html(traj, out, title=f"lgvi: {Path(args.trajectory).name}",
+                               max_frames=args.max_frames)
+    except ImportError as exc:
+        raise RunFailure(str(exc)) from None
+    print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB, self-contained: open it in a browser, offline)")
+    return 0
+
+
 # ------------------------------------------------------------------------------------ warmup
 def cmd_warmup(args: argparse.Namespace) -> int:
     import inspect
@@ -679,7 +711,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser("run", help="run a scenario file (TOML)",
                          description="Run a scenario file and write the trajectory, summary.txt, summary.json, "
-                         "scenario.toml and figures. The file format is documented in lgvi.scenario "
+                         "scenario.toml, figures and report.html (the interactive page). The file format is documented in lgvi.scenario "
                          "(python -c 'import lgvi.scenario; help(lgvi.scenario)').")
     run.add_argument("scenario", metavar="SCENARIO.toml", help="scenario file")
     run.add_argument("-o", "--output", default=None, metavar="DIR",
@@ -726,6 +758,17 @@ def build_parser() -> argparse.ArgumentParser:
                           "conservation drifts of a trajectory file (.npz, .csv, .nc).")
     info.add_argument("trajectory", metavar="TRAJECTORY", help="trajectory file (.npz, .csv, .nc)")
     info.set_defaults(func=cmd_info)
+
+    view = sub.add_parser("view", help="an interactive page of a saved trajectory (HTML)",
+                          description="Write a self-contained HTML page (plotly, works offline) of a trajectory "
+                          "file: the body turning in 3D with play, pause and a time scrubber, linked plots of "
+                          "the rates, the declared invariants (and wheels, control error when present), and "
+                          "the run's summary.")
+    view.add_argument("trajectory", metavar="TRAJECTORY", help="trajectory file (.npz, .csv, .nc)")
+    view.add_argument("-o", "--output", default=None, metavar="PAGE.html",
+                      help="the page to write (default: the trajectory's name with .html)")
+    view.add_argument("--max-frames", type=int, default=200, help="most animation frames (default 200)")
+    view.set_defaults(func=cmd_view)
 
     warm = sub.add_parser("warmup", help="compile and cache the kernels",
                           description="Compile (or load from Numba's cache) every kernel by running each solver "

@@ -380,11 +380,11 @@ def conservation_drifts(traj: Trajectory, invariants: Any = None) -> dict[str, f
     Returns
     -------
     dict
-        Of the declared quantities: ``energy_abs`` = max |E - E0| (total energy), ``energy_rel`` =
-        that / |E0|; ``casimir_rel`` = max ||Pi| - |Pi0|| / |Pi0|; ``spatial_momentum_rel`` =
-        max |R Pi - R0 Pi0| / |R0 Pi0|; ``spatial_momentum_e3_rel`` the same for the vertical
-        component ``e3 . R Pi``; ``jacobi_abs`` = max |C - C0| (``C = E - n e3 . R Pi``),
-        ``jacobi_rel`` = that / |C0|. Always ``orthogonality_max`` = max |R^T R - I|_F. A
+        Of the declared quantities: ``energy_abs`` = ``max |E - E0|`` (total energy), ``energy_rel`` =
+        that / ``|E0|``; ``casimir_rel`` = ``max ||Pi| - |Pi0|| / |Pi0|``; ``spatial_momentum_rel`` =
+        ``max |R Pi - R0 Pi0| / |R0 Pi0|``; ``spatial_momentum_e3_rel`` the same for the vertical
+        component ``e3 . R Pi``; ``jacobi_abs`` = ``max |C - C0|`` (``C = E - n e3 . R Pi``),
+        ``jacobi_rel`` = that / ``|C0|``. Always ``orthogonality_max`` = ``max |R^T R - I|_F``. A
         relative value is ``None`` where its scale is zero.
     """
     from ..invariants import declared, drifts

@@ -1,0 +1,576 @@
+"""An interactive page of a :class:`~lgvi.Trajectory`: the body turning in 3D, linked plots, summary.
+
+:func:`write_html` writes one self-contained HTML file that works offline: the JavaScript is the
+plotly.js bundled inside the installed ``plotly`` Python package, embedded in the page (about
+4.8 MB), never fetched from a network. ``lgvi view TRAJ.npz`` and ``lgvi run`` (its
+``report.html``) call it. The page shows
+
+* the body turning in 3D: the uniform box with the body's principal moments, its principal axes
+  (red, green, blue), the spatial angular momentum ``R Pi`` (black, scaled to the largest
+  ``|R Pi|`` of the run), the path of the tip of the intermediate axis and, for a trajectory with
+  a ``wheel_speed`` field, the reaction wheels (a disc per wheel with a spoke turning at the
+  wheel's speed relative to the body); play, pause and a time scrubber;
+* linked plots against time, each with a cursor at the frame shown: the body rates ``omega``; the
+  relative error of every invariant the run declares (:mod:`lgvi.invariants`; none drawn, and a
+  note, for a system without invariants); the wheel speeds and a ``control_error`` field when the
+  trajectory has them;
+* the run's summary: samples, steps, method, the solver's totals, the largest change of each
+  declared invariant with its kind, ``|R^T R - I|``, the error estimate, the scenario.
+
+Long runs are decimated for display, with a note on the page saying so: the animation shows at
+most ``max_frames`` evenly spread samples, each curve at most ``max_points`` points (rates: the
+minimum and maximum of every bin; errors: the maximum of every bin, so no excursion is hidden).
+
+**In Jupyter** a trajectory displays this view inline (``Trajectory._repr_mimebundle_`` calls
+:func:`mimebundle`). To keep notebooks light, plotly.js (4.8 MB) is embedded only in the *first*
+trajectory displayed by a Python process; later displays reuse the copy the page has already
+loaded, and each costs only its data (a few hundred KB at the inline defaults,
+:data:`INLINE_FRAMES` frames and :data:`INLINE_POINTS` points per curve). A notebook saved with its
+outputs keeps that first output and so renders offline. Where the first output was cleared, a
+display says so; ``IPython.display.HTML(lgvi.view.html(traj, full_html=False))`` embeds the
+library again.
+
+Requires plotly (``pip install 'lgvi[plot]'``); imported only when a page is made.
+"""
+
+from __future__ import annotations
+
+import html as _html
+import json
+import os
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from . import trajectory as _trajectory
+from .invariants import KIND_TEXT, QUANTITIES, declared, drifts, error_series
+
+__all__ = ["MAX_FRAMES", "MAX_POINTS", "INLINE_FRAMES", "INLINE_POINTS", "figure", "html", "write_html",
+           "mimebundle"]
+
+#: Most animation frames of a page (the run is sampled evenly, first and last sample included).
+MAX_FRAMES: int = 200
+#: Most points per curve of a page.
+MAX_POINTS: int = 4000
+#: The same for the inline view in Jupyter.
+INLINE_FRAMES: int = 100
+INLINE_POINTS: int = 1500
+#: Errors below this are drawn at this value on the logarithmic axis (an exact zero has no log).
+ERROR_FLOOR: float = 1e-17
+
+_AXIS_COLORS = ("#d62728", "#2ca02c", "#1f77b4")
+_ERROR_COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd")
+_WHEEL_COLORS = ("#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22")
+_CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64)
+# the 12 triangles of the box (two per face), as indices into _CORNERS
+_TRI = np.array([(0, 1, 3), (0, 3, 2), (4, 5, 7), (4, 7, 6), (0, 1, 5), (0, 5, 4),
+                 (2, 3, 7), (2, 7, 6), (0, 2, 6), (0, 6, 4), (1, 3, 7), (1, 7, 5)])
+_DIV_ID = "lgvi-view"
+_inline_library_sent = False
+
+
+def _plotly():
+    try:
+        import plotly.graph_objects as go
+        from plotly.subplots import make_subplots
+    except ImportError as exc:  # pragma: no cover - exercised where plotly is missing
+        raise ImportError(f"the interactive view needs plotly ({exc}): pip install 'lgvi[plot]'") from None
+    return go, make_subplots
+
+
+def _check(traj: Any, name: str, max_frames: int, max_points: int) -> None:
+    if not isinstance(traj, _trajectory.Trajectory):
+        raise TypeError(f"{name}: traj must be an lgvi.Trajectory, got {type(traj).__name__}")
+    if len(traj.t) == 0:
+        raise ValueError(f"{name}: traj has no samples (len(traj.t) == 0): nothing to show")
+    for key, val, low in (("max_frames", max_frames, 2), ("max_points", max_points, 10)):
+        if isinstance(val, bool) or not isinstance(val, (int, np.integer)) or val < low:
+            raise ValueError(f"{name}: {key} must be an integer >= {low}, got {val!r}")
+
+
+# ------------------------------------------------------------------------------------ geometry
+def _principal(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """Principal moments, axes (columns, body frame) and names; a diagonal inertia keeps body axes."""
+    J = np.asarray(inertia, dtype=np.float64)
+    if np.count_nonzero(J - np.diag(np.diag(J))) == 0:
+        return np.diag(J).copy(), np.eye(3), ["body x", "body y", "body z"]
+    moments, V = np.linalg.eigh(0.5 * (J + J.T))
+    return moments, V, ["principal axis 1", "principal axis 2", "principal axis 3"]
+
+
+def _box_half_sides(moments: np.ndarray) -> np.ndarray:
+    """Half sides of the uniform box with these principal moments, the longest scaled to 1/2."""
+    I1, I2, I3 = moments
+    sides = np.sqrt(np.clip(6.0 * np.array([I2 + I3 - I1, I1 + I3 - I2, I1 + I2 - I3]), 0.0, None))
+    sides = sides / sides.max() if sides.max() > 0 else np.ones(3)
+    return 0.5 * np.maximum(sides, 0.04)  # a flat body keeps a visible thickness
+
+
+def _wheel_axes(traj: Any, n: int) -> np.ndarray | None:
+    """(n, 3) unit wheel axes (body frame) from ``traj.wheel_axes`` or the metadata, else None."""
+    meta = getattr(traj, "meta", None) or {}
+    wheels = meta.get("wheels") if isinstance(meta.get("wheels"), Mapping) else {}
+    for cand in (getattr(traj, "wheel_axes", None), wheels.get("axes"), meta.get("wheel_axes")):
+        if cand is None:
+            continue
+        try:
+            a = np.asarray(cand, dtype=np.float64)
+        except (TypeError, ValueError):
+            continue
+        if a.shape == (n, 3) and np.all(np.isfinite(a)) and np.all(np.linalg.norm(a, axis=1) > 0):
+            return a / np.linalg.norm(a, axis=1)[:, None]
+    return None
+
+
+def _optional_series(traj: Any, name: str, m: int) -> np.ndarray | None:
+    """A per-sample field the trajectory may have (``wheel_speed``, ``control_error``), as (M, k)."""
+    val = getattr(traj, name, None)
+    if val is None:
+        return None
+    a = np.asarray(val, dtype=np.float64)
+    if a.size == 0 or a.shape[0] != m:
+        return None
+    return a.reshape(m, -1)
+
+
+# ------------------------------------------------------------------------------------ decimation
+def _frames(m: int, max_frames: int) -> np.ndarray:
+    return np.unique(np.linspace(0, m - 1, min(m, max_frames)).round().astype(np.int64))
+
+
+def _bins(n: int, max_points: int) -> np.ndarray:
+    """Edges of at most ``max_points // 2`` bins covering ``range(n)``."""
+    return np.unique(np.linspace(0, n, max(1, max_points // 2) + 1).round().astype(np.int64))
+
+
+def _f32(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Curves are drawn in single precision (half the page's bytes; far below a pixel)."""
+    return t.astype(np.float32), y.astype(np.float32)
+
+
+def _envelope(t: np.ndarray, y: np.ndarray, max_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """At most ``max_points`` points: the minimum and maximum of each bin, in time order."""
+    if len(t) <= max_points:
+        return _f32(t, y)
+    edges = _bins(len(t), max_points)
+    idx = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        seg = y[a:b]
+        i, j = a + int(np.argmin(seg)), a + int(np.argmax(seg))
+        idx += sorted({i, j})
+    idx = np.asarray(idx)
+    return _f32(t[idx], y[idx])
+
+
+def _bin_max(t: np.ndarray, y: np.ndarray, max_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """At most ``max_points`` points: the maximum of each bin."""
+    if len(t) <= max_points:
+        return _f32(t, y)
+    edges = np.unique(np.linspace(0, len(t), max_points + 1).round().astype(np.int64))
+    idx = np.array([a + int(np.argmax(y[a:b])) for a, b in zip(edges[:-1], edges[1:])])
+    return _f32(t[idx], y[idx])
+
+
+def decimation_note(traj: Any, max_frames: int = MAX_FRAMES, max_points: int = MAX_POINTS) -> str | None:
+    """The note a page shows when it decimates the run for display, else ``None``."""
+    m = len(traj.t)
+    if m <= max_frames and m <= max_points:
+        return None
+    nf = len(_frames(m, max_frames))
+    parts = [f"Decimated for display: the run has {m:,} saved samples"]
+    if m > max_frames:
+        parts.append(f"the animation shows {nf} of them (about every {max(1, round((m - 1) / (nf - 1))):,}th)")
+    if m > max_points:
+        parts.append(f"each curve at most {max_points:,} points (rates: the minimum and maximum of every bin; "
+                     "errors: the maximum of every bin)")
+    return "; ".join(parts) + ". The trajectory file holds every sample."
+
+
+# ------------------------------------------------------------------------------------ figure
+def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POINTS):
+    """The view as a plotly figure: the 3D body with frames and a scrubber, and the linked plots.
+
+    Parameters
+    ----------
+    traj : Trajectory
+        A trajectory with ``M >= 1`` samples. Optional fields, used when present: ``wheel_speed``
+        (M, N) rad/s relative to the body, with the wheel axes (N, 3) from ``wheel_axes`` or
+        ``meta["wheels"]["axes"]``; ``control_error`` (M,) or (M, k) (the norm is drawn).
+    max_frames : int
+        Most animation frames (>= 2).
+    max_points : int
+        Most points per curve (>= 10).
+
+    Returns
+    -------
+    plotly.graph_objects.Figure
+
+    Raises
+    ------
+    TypeError
+        ``traj`` is not a Trajectory.
+    ValueError
+        An empty trajectory, or ``max_frames``/``max_points`` out of range.
+    ImportError
+        plotly is not installed.
+    """
+    _check(traj, "figure", max_frames, max_points)
+    go, make_subplots = _plotly()
+    t = np.asarray(traj.t, dtype=np.float64)
+    R = np.asarray(traj.R, dtype=np.float64)
+    m = len(t)
+    frames = _frames(m, max_frames)
+    decl = declared(traj)
+    wheel_speed = _optional_series(traj, "wheel_speed", m)
+    control = _optional_series(traj, "control_error", m)
+    panels = ["rates", "invariants"] + (["wheels"] if wheel_speed is not None else []) \
+        + (["control"] if control is not None else [])
+    titles = {"rates": "body rates ω (rad/s)", "invariants": "relative error of the invariants",
+              "wheels": "wheel speeds relative to the body (rad/s)", "control": "control error"}
+    n = len(panels)
+    specs = [[{"type": "scene", "rowspan": n}, {"type": "xy"}]] + [[None, {"type": "xy"}] for _ in range(n - 1)]
+    fig = make_subplots(rows=n, cols=2, specs=specs, column_widths=[0.52, 0.48], horizontal_spacing=0.07,
+                        vertical_spacing=0.09, subplot_titles=["", titles[panels[0]]]
+                        + [titles[p] for p in panels[1:]])
+
+    # ---- the 3D body: traces 0.. are redrawn by every frame
+    moments, V, names = _principal(traj.inertia)
+    half = _box_half_sides(moments)
+    verts = (_CORNERS * half) @ V.T                       # box corners, body frame
+    axes = (V * 1.6 * half.max() * 1.35).T                # rows: principal axes, body frame
+    L = np.asarray(traj.spatial_momentum, dtype=np.float64)     # a system may add to R Pi (wheels)
+    Lmax = float(np.max(np.linalg.norm(L, axis=1))) or 1.0
+    wheel_axes = _wheel_axes(traj, wheel_speed.shape[1]) if wheel_speed is not None else None
+    wheel_geom = []
+    if wheel_axes is not None:
+        angle = np.concatenate([np.zeros((1, wheel_speed.shape[1])),
+                                np.cumsum(0.5 * (wheel_speed[1:] + wheel_speed[:-1]) * np.diff(t)[:, None], axis=0)])
+        phi = np.linspace(0.0, 2.0 * np.pi, 25)
+        for i, a in enumerate(wheel_axes):
+            u = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+            u /= np.linalg.norm(u)
+            v = np.cross(a, u)
+            reach = float(np.sum(np.abs(a @ V) * half))   # the box's extent along the axis
+            c = a * (reach + 0.12)
+            wheel_geom.append((c, u, v, angle[:, i], 0.16))
+
+    def body_traces(k: int) -> list[dict[str, Any]]:
+        Rk = R[k]
+        p = verts @ Rk.T
+        out = [dict(x=p[:, 0], y=p[:, 1], z=p[:, 2])]
+        for i in range(3):
+            a = Rk @ axes[i]
+            out.append(dict(x=[0.0, a[0]], y=[0.0, a[1]], z=[0.0, a[2]]))
+        s = L[k] / Lmax * 1.15
+        out.append(dict(x=[0.0, s[0]], y=[0.0, s[1]], z=[0.0, s[2]]))
+        for c, u, v, ang, r in wheel_geom:
+            ring = c + r * (np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * v)
+            tip = c + r * (np.cos(ang[k]) * u + np.sin(ang[k]) * v)
+            pts = np.vstack([ring, c, tip]) @ Rk.T
+            out.append(dict(x=pts[:, 0], y=pts[:, 1], z=pts[:, 2]))
+        for d in out:
+            for key in ("x", "y", "z"):
+                d[key] = np.round(np.asarray(d[key], dtype=np.float64), 5)
+        return out
+
+    first = body_traces(int(frames[0]))
+    fig.add_trace(go.Mesh3d(**first[0], i=_TRI[:, 0], j=_TRI[:, 1], k=_TRI[:, 2], color="lightsteelblue",
+                            opacity=0.6, flatshading=True, name="body (uniform box, same principal moments)",
+                            showlegend=True, hoverinfo="skip"), row=1, col=1)
+    for i in range(3):
+        fig.add_trace(go.Scatter3d(**first[1 + i], mode="lines", line=dict(color=_AXIS_COLORS[i], width=7),
+                                   name=f"{names[i]}, J = {moments[i]:.3g} kg m²", hoverinfo="skip"), row=1, col=1)
+    fig.add_trace(go.Scatter3d(**first[4], mode="lines+markers", line=dict(color="black", width=8),
+                               marker=dict(size=[0, 6], color="black", symbol="diamond"),
+                               name="angular momentum R Π (scaled)", hoverinfo="skip"), row=1, col=1)
+    for i in range(len(wheel_geom)):
+        fig.add_trace(go.Scatter3d(**first[5 + i], mode="lines", line=dict(color=_WHEEL_COLORS[i % 6], width=5),
+                                   name=f"wheel {i + 1}", hoverinfo="skip"), row=1, col=1)
+    n_body = len(first)
+    # the path of the tip of the intermediate axis over the whole run (static)
+    fine = np.unique(np.linspace(0, m - 1, min(m, max_points)).round().astype(np.int64))
+    tip = np.einsum("mij,j->mi", R[fine], axes[1])
+    fig.add_trace(go.Scatter3d(x=np.round(tip[:, 0], 5), y=np.round(tip[:, 1], 5), z=np.round(tip[:, 2], 5),
+                               mode="lines", line=dict(color=_AXIS_COLORS[1], width=2), opacity=0.45,
+                               name=f"path of the {names[1]} tip", hoverinfo="skip"), row=1, col=1)
+
+    # ---- linked plots
+    omega = np.asarray(traj.omega, dtype=np.float64)
+    for i, lab in enumerate("xyz"):
+        tt, yy = _envelope(t, omega[:, i], max_points)
+        fig.add_trace(go.Scatter(x=tt, y=yy, mode="lines", line=dict(color=_AXIS_COLORS[i], width=1.3),
+                                 name=f"ω{lab}", legendgroup="rates", showlegend=False,
+                                 hovertemplate=f"ω{lab} = %{{y:.4g}} rad/s<br>t = %{{x:.4g}} s<extra></extra>"),
+                      row=1 + panels.index("rates"), col=2)
+    row = 1 + panels.index("invariants")
+    keys = decl.quantities()
+    for j, key in enumerate(keys):
+        err, relative = error_series(traj, key, {k: v for k, v in decl.entries[key].items() if k != "kind"})
+        tt, yy = _bin_max(t[1:], np.maximum(err[1:], ERROR_FLOOR), max_points) if m > 1 else (t, err)
+        q = QUANTITIES[key]
+        fig.add_trace(go.Scatter(x=tt, y=yy, mode="lines", showlegend=False,
+                                 line=dict(width=1.3, color=_ERROR_COLORS[j % len(_ERROR_COLORS)]),
+                                 name=f"{q.name} ({decl.kind(key)})",
+                                 hovertemplate=f"{_html.escape(q.name)}: %{{y:.3g}}"
+                                 f"{'' if relative else ' (absolute)'}<br>t = %{{x:.4g}} s<extra></extra>"),
+                      row=row, col=2)
+    if keys:
+        fig.update_yaxes(type="log", exponentformat="power", row=row, col=2)
+    else:  # nothing to draw: the panel keeps only its note
+        fig.update_yaxes(visible=False, row=row, col=2)
+    if wheel_speed is not None:
+        for i in range(wheel_speed.shape[1]):
+            tt, yy = _envelope(t, wheel_speed[:, i], max_points)
+            fig.add_trace(go.Scatter(x=tt, y=yy, mode="lines", line=dict(color=_WHEEL_COLORS[i % 6], width=1.3),
+                                     name=f"wheel {i + 1}", showlegend=False,
+                                     hovertemplate=f"wheel {i + 1}: %{{y:.4g}} rad/s<extra></extra>"),
+                          row=1 + panels.index("wheels"), col=2)
+    if control is not None:
+        ce = np.linalg.norm(control, axis=1) if control.shape[1] > 1 else control[:, 0]
+        tt, yy = _envelope(t, ce, max_points)
+        fig.add_trace(go.Scatter(x=tt, y=yy, mode="lines", line=dict(color="black", width=1.3), showlegend=False,
+                                 name="control error", hovertemplate="%{y:.4g}<extra></extra>"),
+                      row=1 + panels.index("control"), col=2)
+    first_x = fig.get_subplot(1, 2).xaxis.plotly_name.replace("axis", "")
+    for r in range(1, n + 1):
+        fig.update_xaxes(showticklabels=(r == n), row=r, col=2, **({"matches": first_x} if r > 1 else {}))
+    fig.update_xaxes(title_text="time t (s)", row=n, col=2)
+
+    # each panel's key (coloured names); the invariants' kinds, or why none is drawn
+    def key(r: int, items: list[tuple[str, str]]) -> None:
+        sp = fig.get_subplot(r, 2)
+        xr, yr = sp.xaxis.plotly_name.replace("axis", ""), sp.yaxis.plotly_name.replace("axis", "")
+        text = "  ".join(f"<span style='color:{c}'>{_html.escape(label)}</span>" for label, c in items)
+        fig.add_annotation(text=text, xref=f"{xr} domain", yref=f"{yr} domain", x=0.01, y=0.99, showarrow=False,
+                           xanchor="left", yanchor="top", font=dict(size=11), bgcolor="rgba(255,255,255,0.8)")
+
+    key(1 + panels.index("rates"), [(f"ω{lab}", _AXIS_COLORS[i]) for i, lab in enumerate("xyz")])
+    key(row, [(f"{QUANTITIES[k].name.split(' (')[0]}: {decl.kind(k)}", _ERROR_COLORS[j % len(_ERROR_COLORS)])
+              for j, k in enumerate(keys)] or [(decl.note(), "#222")])
+    if wheel_speed is not None:
+        key(1 + panels.index("wheels"), [(f"wheel {i + 1}", _WHEEL_COLORS[i % 6])
+                                         for i in range(wheel_speed.shape[1])])
+
+    # the time cursor of every linked plot: a vertical line that each frame moves
+    refs = []
+    for r in range(1, n + 1):
+        sp = fig.get_subplot(r, 2)
+        refs.append((sp.xaxis.plotly_name.replace("axis", ""), sp.yaxis.plotly_name.replace("axis", "")))
+
+    def cursors(tk: float) -> list[dict[str, Any]]:
+        return [dict(type="line", xref=xr, yref=f"{yr} domain", x0=tk, x1=tk, y0=0, y1=1,
+                     line=dict(color="rgba(0,0,0,0.55)", width=1.5, dash="dot")) for xr, yr in refs]
+
+    body_idx = list(range(n_body))
+    fig.frames = [go.Frame(name=str(j), data=[go.Mesh3d(**d) if i == 0 else go.Scatter3d(**d)
+                                              for i, d in enumerate(body_traces(int(k)))],
+                           traces=body_idx, layout=dict(shapes=cursors(float(t[k]))))
+                  for j, k in enumerate(frames)]
+    fig.update_layout(shapes=cursors(float(t[frames[0]])))
+    lim = 1.25
+    fig.update_scenes(xaxis=dict(range=[-lim, lim], title="inertial x"), yaxis=dict(range=[-lim, lim], title="inertial y"),
+                      zaxis=dict(range=[-lim, lim], title="inertial z"), aspectmode="cube",
+                      camera=dict(eye=dict(x=1.45, y=1.45, z=0.9)))
+    step_args = dict(mode="immediate", frame=dict(duration=0, redraw=True), transition=dict(duration=0))
+    fig.update_layout(
+        height=max(620, 230 * n + 160), margin=dict(l=10, r=20, t=40, b=10), uirevision="lgvi",
+        legend=dict(x=0.0, y=1.0, xanchor="left", yanchor="top", font=dict(size=10), bgcolor="rgba(255,255,255,0.7)"),
+        updatemenus=[dict(type="buttons", direction="left", x=0.0, y=-0.02, xanchor="left", yanchor="top",
+                          pad=dict(t=0, r=8), showactive=False,
+                          buttons=[dict(label="▶ play", method="animate",
+                                        args=[None, dict(mode="immediate", fromcurrent=True,
+                                                         frame=dict(duration=60, redraw=True),
+                                                         transition=dict(duration=0))]),
+                                   dict(label="❚❚ pause", method="animate",
+                                        args=[[None], dict(mode="immediate", frame=dict(duration=0, redraw=False),
+                                                           transition=dict(duration=0))])])],
+        sliders=[dict(active=0, x=0.14, len=0.36, y=-0.01, xanchor="left", yanchor="top", pad=dict(t=0),
+                      currentvalue=dict(prefix="t = ", suffix=" s", font=dict(size=12, color="#222")),
+                      font=dict(color="rgba(0,0,0,0)"), ticklen=3, minorticklen=0,  # no label per frame
+                      steps=[dict(label=f"{t[k]:.4g}", method="animate", args=[[str(j)], step_args])
+                             for j, k in enumerate(frames)])])
+    return fig
+
+
+# ------------------------------------------------------------------------------------ summary
+def _fmt(x: Any) -> str:
+    if x is None:
+        return "n/a"
+    if isinstance(x, (float, np.floating)):
+        return f"{float(x):.4g}"
+    return str(x)
+
+
+def summary_rows(traj: Any, extra: Mapping[str, Any] | None = None) -> list[tuple[str, str]]:
+    """``(label, value)`` rows of the run's summary (plain text; the page escapes them)."""
+    meta = dict(getattr(traj, "meta", None) or {})
+    t = np.asarray(traj.t)
+    rows: list[tuple[str, str]] = [(str(k), _fmt(v)) for k, v in (extra or {}).items()]
+    rows += [("samples", f"{len(t):,}"), ("steps", f"{traj.steps:,}, h = {traj.h:g} s"),
+             ("time", f"{t[0]:g} .. {t[-1]:g} s")]
+    for key in ("method", "forcing", "order", "torque", "torque_model", "lgvi_version"):
+        if key in meta:
+            rows.append((key.replace("_", " "), _fmt(meta[key])))
+    solver = traj.solver_summary
+    if solver["steps"]:
+        rows.append(("solver", f"mean {solver['iterations_mean']:.3f} updates per step, max "
+                               f"{solver['iterations_max']}, largest residual {solver['residual_max']:.3e}"))
+    decl = declared(traj)
+    rows.append(("invariants", decl.note()))
+    d = drifts(traj, decl)
+    for key in decl.quantities():
+        q = QUANTITIES[key]
+        rel = d[q.rel_key]
+        rows.append((f"  {q.name}", f"largest relative change {_fmt(rel)} ({KIND_TEXT[decl.kind(key)]})"))
+    if decl.not_invariants():
+        rows.append(("not invariants here", ", ".join(QUANTITIES[k].name for k in decl.not_invariants())))
+    rows.append(("|RᵀR − I|", f"largest {float(np.max(traj.orthogonality_error)):.3e}"))
+    est = traj.error_estimate if "error_estimate" in meta else None
+    if est is not None:
+        rows.append(("accuracy", est.describe()))
+    return rows
+
+
+# every rule under .lgvi-view: the inline view in a notebook must not restyle the notebook
+_CSS = """
+.lgvi-view { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; color: #222; }
+.lgvi-view h1 { font-size: 1.35em; margin: 0 0 0.3em 0; }
+.lgvi-view h2 { font-size: 1.1em; margin: 1.2em 0 0.4em 0; }
+.lgvi-view .lgvi-note { color: #8b0000; border: 1px solid #8b0000; border-radius: 4px; padding: 0.3em 0.6em;
+                        display: inline-block; margin: 0.3em 0; font-size: 0.9em; }
+.lgvi-view table.lgvi-summary { border-collapse: collapse; font-size: 0.9em; margin: 0; }
+.lgvi-view table.lgvi-summary td { padding: 0.15em 0.9em 0.15em 0; vertical-align: top; text-align: left;
+                                   background: none; border: none; }
+.lgvi-view table.lgvi-summary td:first-child { color: #555; white-space: pre; }
+.lgvi-view pre { background: #f5f5f5; padding: 0.6em; font-size: 0.85em; overflow-x: auto; text-align: left; }
+"""
+
+
+def _script_safe(text: str) -> str:
+    """JSON text safe inside a ``<script>`` element (no ``</``, no ``<!--``)."""
+    return text.replace("</", "<\\/").replace("<!--", "<\\!--")
+
+
+def _body(traj: Any, *, title: str | None, summary: Mapping[str, Any] | None, max_frames: int,
+          max_points: int, library: str, div_id: str) -> str:
+    """The view's HTML fragment: heading, note, figure (with ``library``, a script or ""), summary."""
+    fig = figure(traj, max_frames=max_frames, max_points=max_points)
+    spec = _script_safe(fig.to_json())
+    note = decimation_note(traj, max_frames, max_points)
+    head = f"<h1>{_html.escape(title)}</h1>\n" if title else ""
+    rows = "\n".join(f"<tr><td>{_html.escape(a)}</td><td>{_html.escape(b)}</td></tr>"
+                     for a, b in summary_rows(traj, summary))
+    scenario = (getattr(traj, "meta", None) or {}).get("scenario")
+    scen = (f"<details><summary>scenario</summary><pre>{_html.escape(str(scenario))}</pre></details>\n"
+            if scenario else "")
+    did = json.dumps(div_id)
+    return (f"{head}" + (f'<p class="lgvi-note">{_html.escape(note)}</p>\n' if note else "")
+            + f"{library}<div id=\"{div_id}\" class=\"lgvi-plot\"></div>\n"
+            "<script type=\"text/javascript\">\n(function () {\n"
+            f"  var el = document.getElementById({did});\n"
+            "  if (typeof window.Plotly === 'undefined') {\n"
+            "    el.textContent = 'plotly.js is not loaded on this page: display the trajectory with "
+            "IPython.display.HTML(lgvi.view.html(traj, full_html=False)) to embed it.';\n    return;\n  }\n"
+            f"  var fig = {spec};\n"
+            "  Plotly.newPlot(el, {data: fig.data, layout: fig.layout, frames: fig.frames,\n"
+            "                      config: {responsive: true, displaylogo: false}});\n"
+            "})();\n</script>\n"
+            f"<h2>Run summary</h2>\n<table class=\"lgvi-summary\">\n{rows}\n</table>\n{scen}")
+
+
+def _library() -> str:
+    """plotly.js from the installed plotly package, as a script element (AMD loaders kept out)."""
+    from plotly.offline import get_plotlyjs
+
+    js = get_plotlyjs()
+    if "</script" in js.lower():  # pragma: no cover - the bundle never contains it
+        raise RuntimeError("plotly.js contains '</script' and cannot be embedded")
+    # in a page with require.js (the classic notebook) the bundle would register as an AMD module
+    # instead of defining window.Plotly: hide `define` while it runs
+    return ("<script type=\"text/javascript\">window.__lgviDefine = window.define; window.define = undefined;"
+            "</script>\n<script type=\"text/javascript\">" + js + "</script>\n"
+            "<script type=\"text/javascript\">window.define = window.__lgviDefine;</script>\n")
+
+
+def html(traj: Any, *, title: str | None = None, summary: Mapping[str, Any] | None = None,
+         include_plotlyjs: bool = True, full_html: bool = True, max_frames: int = MAX_FRAMES,
+         max_points: int = MAX_POINTS, div_id: str = _DIV_ID) -> str:
+    """The view as HTML text.
+
+    Parameters
+    ----------
+    traj : Trajectory
+    title : str, optional
+        Heading of the page (default: a description of the run).
+    summary : mapping, optional
+        Extra ``label: value`` rows placed first in the summary (``lgvi run``: scenario, wall time).
+    include_plotlyjs : bool
+        Embed plotly.js (from the installed plotly package; about 4.8 MB). Without it the page
+        needs ``window.Plotly`` from elsewhere (the inline Jupyter view's later displays).
+    full_html : bool
+        A whole document (``<!DOCTYPE html>`` ...) or a fragment to place in a page.
+    max_frames, max_points : int
+        Decimation for display (see the module notes).
+    div_id : str
+        ``id`` of the plot's element.
+
+    Returns
+    -------
+    str
+    """
+    if not isinstance(div_id, str) or not div_id.replace("-", "").replace("_", "").isalnum():
+        raise ValueError(f"html: div_id must be letters, digits, '-' and '_', got {div_id!r}")
+    if title is None:
+        meta = getattr(traj, "meta", None) or {}
+        title = f"lgvi trajectory: {len(traj.t):,} samples, method {meta.get('method', '?')}"
+    body = _body(traj, title=title, summary=summary, max_frames=max_frames, max_points=max_points,
+                 library=_library() if include_plotlyjs else "", div_id=div_id)
+    if not full_html:
+        return f"<div class=\"lgvi-view\"><style>{_CSS}</style>\n{body}</div>\n"
+    return ("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
+            f"<title>{_html.escape(title)}</title>\n<style>body {{ margin: 1.2em 2em; }}{_CSS}</style>\n</head>\n"
+            f"<body>\n<div class=\"lgvi-view\">\n{body}</div>\n</body>\n</html>\n")
+
+
+def write_html(traj: Any, path: str | os.PathLike, **kwargs: Any) -> Path:
+    """Write the self-contained page of ``traj`` to ``path`` (atomically); keywords as :func:`html`.
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+    """
+    text = html(traj, **kwargs)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, path)
+    return path
+
+
+def mimebundle(traj: Any, include: Any = None, exclude: Any = None) -> dict[str, str]:
+    """Jupyter's rich display of a trajectory (``Trajectory._repr_mimebundle_``).
+
+    ``text/html``: the view at :data:`INLINE_FRAMES` frames and :data:`INLINE_POINTS` points per
+    curve, with plotly.js embedded only in the first display of the process (see the module
+    notes); ``text/plain``: the trajectory's ``repr``. Without plotly, or for an empty
+    trajectory, the plain text only.
+    """
+    global _inline_library_sent
+    plain = repr(traj)
+    try:
+        import plotly  # noqa: F401
+    except ImportError:
+        return {"text/plain": plain + "\n(pip install 'lgvi[plot]' for the interactive view)"}
+    if len(traj.t) == 0:
+        return {"text/plain": plain}
+    div_id = f"lgvi-view-{os.urandom(6).hex()}"
+    text = html(traj, full_html=False, include_plotlyjs=not _inline_library_sent, max_frames=INLINE_FRAMES,
+                max_points=INLINE_POINTS, div_id=div_id)
+    _inline_library_sent = True
+    return {"text/plain": plain, "text/html": text}
+
+
+_trajectory.rich_display = mimebundle

@@ -1,0 +1,183 @@
+"""The interactive page (lgvi.view, ``lgvi view``, ``lgvi run``'s report.html) without a browser.
+
+What a browser does with the page is tests/test_view_browser.py; here: the page is self-contained
+(plotly.js embedded from the installed package, nothing fetched), its frames turn the body as
+the trajectory does, long runs are decimated with a note, the declared invariants and the
+optional wheel fields are drawn, text read from a file cannot inject markup, and Jupyter's
+display embeds plotly.js once per process.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+import lgvi
+from lgvi.cli import main
+
+pytest.importorskip("plotly")
+from lgvi import view  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def traj():
+    return lgvi.simulate([1.0, 2.0, 3.0], np.eye(3), omega0=[1e-3, 1.0, 1e-3], h=0.01, steps=3000)
+
+
+def _figure_json(page: str, div_id: str = "lgvi-view") -> dict:
+    m = re.search(r"var fig = (\{.*?\});\n  Plotly\.newPlot", page, re.S)
+    assert m is not None, "no figure in the page"
+    return json.loads(m.group(1).replace("<\\/", "</"))
+
+
+def _decode(a) -> np.ndarray:
+    """A plotly JSON array: a list, or ``{"dtype", "bdata"}`` (base64 typed array, plotly >= 6)."""
+    if isinstance(a, dict):
+        import base64
+
+        return np.frombuffer(base64.b64decode(a["bdata"]), dtype=a["dtype"])
+    return np.asarray(a, dtype=np.float64)
+
+
+def test_page_is_self_contained(traj, tmp_path):
+    from plotly.offline import get_plotlyjs
+
+    path = view.write_html(traj, tmp_path / "page.html")
+    page = path.read_text(encoding="utf-8")
+    assert page.startswith("<!DOCTYPE html>")
+    js = get_plotlyjs()
+    assert js in page                                          # the installed package's bundle, inline
+    rest = page.replace(js, "")
+    assert not re.search(r"<script[^>]+src=", rest)            # no script fetched from anywhere
+    assert "<link" not in rest and "http://" not in rest and "https://" not in rest
+
+
+def test_frames_turn_the_body_as_the_trajectory(traj):
+    fig = view.figure(traj, max_frames=50)
+    frames = fig.frames
+    assert len(frames) == 50 and len(fig.layout.sliders[0].steps) == 50
+    k = np.unique(np.linspace(0, len(traj.t) - 1, 50).round().astype(int))
+    # the body x axis drawn in frame j is R_k e1 (scaled): its direction equals the trajectory's
+    for j in (0, 17, 49):
+        line = frames[j].data[1]
+        tip = np.array([line.x[1], line.y[1], line.z[1]])
+        assert np.allclose(tip / np.linalg.norm(tip), traj.R[k[j]][:, 0], atol=1e-4)
+    # the momentum arrow is R Pi (scaled): constant for the free body
+    arrows = np.array([[f.data[4].x[1], f.data[4].y[1], f.data[4].z[1]] for f in frames])
+    assert np.ptp(arrows, axis=0).max() < 1e-4
+    # the slider shows the frame times; the cursor of the linked plots moves with them
+    assert [s.args[0][0] for s in fig.layout.sliders[0].steps] == [f.name for f in frames]
+    assert frames[17].layout.shapes[0].x0 == pytest.approx(traj.t[k[17]])
+
+
+def test_long_run_is_decimated_with_a_note(traj):
+    assert view.decimation_note(traj, max_frames=5000, max_points=5000) is None
+    note = view.decimation_note(traj, max_frames=100, max_points=500)
+    assert "3,001 saved samples" in note and "100" in note
+    page = view.html(traj, include_plotlyjs=False, max_frames=100, max_points=500)
+    assert note in page.replace("&#x27;", "'")
+    fig = _figure_json(page)
+    rates = [d for d in fig["data"] if d.get("name") == "ωy"][0]
+    y = _decode(rates["y"])
+    assert len(y) <= 500
+    assert y.min() == pytest.approx(traj.omega[:, 1].min(), abs=1e-6)   # the envelope keeps extremes
+    assert y.max() == pytest.approx(traj.omega[:, 1].max(), abs=1e-6)
+
+
+def test_declared_invariants_are_drawn():
+    free = lgvi.simulate([1.0, 2.0, 3.0], np.eye(3), omega0=[0.3, 1.0, 0.2], h=0.01, steps=50)
+    names = [d.name for d in view.figure(free).data if d.type == "scatter"]
+    drawn = [n for n in names if n.endswith("(exact)") or n.endswith("(bounded)")]
+    assert len(drawn) == len(lgvi.invariants.declared(free).quantities()) >= 3
+    damped = lgvi.simulate([1.0, 2.0, 3.0], np.eye(3), omega0=[0.3, 1.0, 0.2], h=0.01, steps=50,
+                           torque=lgvi.torques.LinearDamping(0.1))
+    fig = view.figure(damped)
+    assert not any("exact" in (d.name or "") or "bounded" in (d.name or "") for d in fig.data)
+    assert any("has no invariants" in a.text for a in fig.layout.annotations)
+
+
+@dataclass(frozen=True, eq=False)
+class _WheelTrajectory(lgvi.Trajectory):
+    """A trajectory with the fields of a gyrostat's result (lgvi's wheels add them)."""
+
+    wheel_speed: np.ndarray | None = None
+    wheel_axes: np.ndarray | None = None
+    control_error: np.ndarray | None = None
+
+
+def test_wheels_and_control_error_by_attribute(traj):
+    m = len(traj.t)
+    speed = np.column_stack([np.linspace(0, 50, m), np.linspace(0, -20, m), np.full(m, 10.0)])
+    wt = _WheelTrajectory(t=traj.t, R=traj.R, Pi=traj.Pi, inertia=traj.inertia, iterations=traj.iterations,
+                          residual=traj.residual, h=traj.h, meta=traj.meta, wheel_speed=speed,
+                          wheel_axes=np.eye(3), control_error=np.linspace(1, 0, m))
+    fig = view.figure(wt, max_frames=20)
+    names = [d.name for d in fig.data]
+    assert [n for n in names if n and n.startswith("wheel")] == ["wheel 1", "wheel 2", "wheel 3"] * 2
+    assert "control error" in names
+    # the spoke of wheel 3 (10 rad/s relative to the body) turns between frames, in the body frame
+    w3 = [5 + 2]
+    k = np.unique(np.linspace(0, m - 1, 20).round().astype(int))
+    spoke = []
+    for j in (3, 4):
+        d = fig.frames[j].data[w3[0]]
+        tip = np.array([d.x[-1], d.y[-1], d.z[-1]])
+        spoke.append(traj.R[k[j]].T @ tip)
+    assert np.linalg.norm(spoke[0] - spoke[1]) > 0.01
+    # without wheels the panels are only rates and invariants
+    plain = view.figure(traj, max_frames=20)
+    assert not any((d.name or "").startswith("wheel") for d in plain.data)
+
+
+def test_text_from_the_file_cannot_inject_markup(traj, tmp_path):
+    hostile = "</script><script>alert(1)</script><img src=x onerror=alert(2)>"
+    bad = lgvi.Trajectory(t=traj.t[:20], R=traj.R[:20], Pi=traj.Pi[:20], inertia=traj.inertia,
+                          iterations=traj.iterations[:19], residual=traj.residual[:19], h=traj.h,
+                          meta={"method": hostile, "scenario": hostile, "torque": "none"})
+    page = view.html(bad, include_plotlyjs=False, title=hostile)
+    assert "<script>alert" not in page and "<img" not in page
+    assert page.count("<script") == page.count("</script>") == 1
+
+
+def test_bad_arguments(traj):
+    with pytest.raises(TypeError, match="traj must be an lgvi.Trajectory"):
+        view.figure(np.zeros(3))
+    with pytest.raises(ValueError, match="max_frames must be an integer >= 2, got 1"):
+        view.figure(traj, max_frames=1)
+    with pytest.raises(ValueError, match="div_id"):
+        view.html(traj, div_id="a b")
+
+
+def test_jupyter_display_embeds_the_library_once(traj, monkeypatch):
+    monkeypatch.setattr(view, "_inline_library_sent", False)
+    first = traj._repr_mimebundle_()
+    second = traj._repr_mimebundle_()
+    assert first["text/plain"] == repr(traj)
+    assert len(first["text/html"]) > 4_000_000                  # plotly.js, once
+    assert len(second["text/html"]) < 600_000                   # data only, reusing window.Plotly
+    assert "window.Plotly" in second["text/html"]
+    ids = [re.search(r'id="(lgvi-view-[0-9a-f]+)"', b["text/html"]).group(1) for b in (first, second)]
+    assert ids[0] != ids[1]                                      # two views on one page do not collide
+
+
+def test_cli_view_and_run_report(traj, tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("lgvi.cli._save_figures", lambda traj, outdir: [])   # the PNGs are test_cli's
+    traj.save(tmp_path / "run.npz")
+    assert main(["view", str(tmp_path / "run.npz")]) == 0
+    assert (tmp_path / "run.html").stat().st_size > 4_000_000
+    assert main(["view", str(tmp_path / "run.npz"), "-o", str(tmp_path / "v" / "p.html"), "--max-frames", "30"]) == 0
+    fig = _figure_json((tmp_path / "v" / "p.html").read_text(encoding="utf-8"))
+    assert len(fig["frames"]) == 30
+    assert main(["view", str(tmp_path / "missing.npz")]) == 2
+    assert main(["view", str(tmp_path / "run.npz"), "--max-frames", "1"]) == 2
+    scenario = tmp_path / "s.toml"
+    scenario.write_text('name = "tiny"\n[body]\ninertia = [1.0, 2.0, 3.0]\n[initial]\nomega = [0.3, 1.0, 0.2]\n'
+                        '[integrator]\nh = 0.01\nsteps = 100\n')
+    assert main(["run", str(scenario), "-o", str(tmp_path / "out")]) == 0
+    report = (tmp_path / "out" / "report.html").read_text(encoding="utf-8")
+    assert "tiny" in report and "Run summary" in report
+    assert "report.html" in json.loads((tmp_path / "out" / "summary.json").read_text())["files"]

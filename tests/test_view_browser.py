@@ -1,0 +1,173 @@
+"""The interactive page in a real browser: headless Chromium (Debian's ``chromium`` and
+``chromium-driver``, driven by selenium) opens the file written by ``lgvi view``.
+
+Checked as a person would see it: no error on the browser's console, the 3D view is drawn (the
+pixels inside its canvas vary), the time scrubber turns the body (the drawn attitude and the
+pixels change), play runs the animation. The screenshots are saved in the test's temporary
+folder (``pytest --basetemp=DIR`` keeps them where you can look at them).
+
+Without a browser the test skips, saying how to install one (``make browser`` as root, which
+``make test`` runs); in CI (the ``CI`` variable set) a missing browser fails.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import shutil
+import tempfile
+import time
+
+import numpy as np
+import pytest
+
+import lgvi
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+DRIVER = shutil.which("chromedriver")
+FLAGS = ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync",
+         "--enable-unsafe-swiftshader",  # WebGL in software (plotly's 3D scene) without a GPU
+         "--window-size=1400,1000", "--force-device-scale-factor=1")
+
+
+def _missing() -> str | None:
+    try:
+        import selenium  # noqa: F401
+        import plotly  # noqa: F401
+        import PIL  # noqa: F401
+    except ImportError as exc:
+        return f"{exc.name} is not installed (pip install -e '.[test,plot]')"
+    if CHROMIUM is None or DRIVER is None:
+        return ("headless Chromium is not installed: run `make browser` as root (Debian: apt-get install "
+                "chromium chromium-driver)")
+    return None
+
+
+@pytest.fixture(scope="module")
+def browser():
+    why = _missing()
+    if why is not None:
+        if os.environ.get("CI"):
+            pytest.fail(f"the browser test must run in CI: {why}")
+        pytest.skip(why)
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = CHROMIUM
+    profile = tempfile.mkdtemp(prefix="lgvi-chromium-")
+    for flag in FLAGS + (f"--user-data-dir={profile}",):
+        opts.add_argument(flag)
+    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    driver = webdriver.Chrome(options=opts, service=Service(DRIVER))
+    driver.set_page_load_timeout(60)
+    yield driver
+    driver.quit()
+    shutil.rmtree(profile, ignore_errors=True)
+
+
+def _open(driver, path) -> None:
+    driver.get(path.resolve().as_uri())
+    driver.get_log("browser")  # the log so far belongs to this page; read (and empty) it in _errors
+    deadline = time.monotonic() + 30
+    js = ("var el = document.querySelector('.lgvi-plot'); return !!(el && el._fullLayout && "
+          "el.querySelector('.gl-container canvas') && el._transitionData && el._transitionData._frames.length);")
+    while not driver.execute_script(js):
+        assert time.monotonic() < deadline, "the plot was not drawn within 30 s"
+        time.sleep(0.2)
+    time.sleep(0.5)  # the WebGL scene draws on the next animation frames
+
+
+def _errors(driver) -> list[str]:
+    return [e["message"] for e in driver.get_log("browser") if e["level"] == "SEVERE"]
+
+
+def _canvas(driver, path, selector=".lgvi-plot .gl-container canvas") -> np.ndarray:
+    """The screenshot's pixels inside the 3D canvas, (h, w, 3); the whole screenshot saved to ``path``."""
+    from PIL import Image
+
+    png = driver.get_screenshot_as_png()
+    path.write_bytes(png)
+    rect = driver.execute_script(f"var r = document.querySelector('{selector}').getBoundingClientRect();"
+                                 "return [r.left, r.top, r.width, r.height];")
+    x, y, w, h = (int(round(v)) for v in rect)
+    img = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.int16)
+    assert w > 200 and h > 200, f"the 3D canvas is {w} x {h} pixels"
+    return img[max(y, 0):y + h, max(x, 0):x + w]
+
+
+def _attitude(driver) -> np.ndarray:
+    """The tips of the three body axes as drawn now (traces 1 to 3 of the plot, decoded by plotly.js)."""
+    return np.array(driver.execute_script(
+        "var d = document.querySelector('.lgvi-plot')._fullData; return [1, 2, 3].map(function (i) { "
+        "return [Number(d[i].x[1]), Number(d[i].y[1]), Number(d[i].z[1])]; });"), dtype=np.float64)
+
+
+@pytest.fixture(scope="module")
+def page(tmp_path_factory):
+    from lgvi import view
+
+    traj = lgvi.simulate([1.0, 2.0, 3.0], np.eye(3), omega0=[0.3, 1.0, 0.2], h=0.01, steps=4000)
+    return view.write_html(traj, tmp_path_factory.mktemp("page") / "view.html", max_frames=60), traj
+
+
+def test_page_draws_and_the_scrubber_turns_the_body(browser, page):
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+
+    page, traj = page
+    frames = np.unique(np.linspace(0, len(traj.t) - 1, 60).round().astype(int))
+
+    _open(browser, page)
+    shots = page.parent
+    before = _canvas(browser, shots / "view-start.png")
+    assert not _errors(browser), _errors(browser)
+    # not blank: a drawn box, axes and grid give many colours and real contrast inside the canvas
+    assert before.std() > 15, f"the 3D canvas looks blank (pixel std {before.std():.1f})"
+    assert len(np.unique(before.reshape(-1, 3), axis=0)) > 50
+    att0 = _attitude(browser)
+
+    # drag the scrubber to about two thirds of its rail, as a person would
+    rail = browser.find_element(By.CSS_SELECTOR, ".slider-container .slider-rail-touch-rect")
+    width = rail.size["width"]
+    ActionChains(browser).move_to_element_with_offset(rail, int(-width / 2 + 5), 0).click_and_hold() \
+        .move_by_offset(int(width * 0.66), 0).release().perform()
+    time.sleep(1.0)
+    active = browser.execute_script("return document.querySelector('.lgvi-plot').layout.sliders[0].active;")
+    assert 30 <= active <= 50, f"the slider is at step {active} after the drag"
+    after = _canvas(browser, shots / "view-scrubbed.png")
+    att1 = _attitude(browser)
+    # the body axes drawn are those of the trajectory at the slider's time: R_k e_i
+    R = traj.R[frames[active]]
+    assert np.allclose(att1 / np.linalg.norm(att1, axis=1)[:, None], R.T, atol=1e-3)
+    assert np.abs(att1 - att0).max() > 0.1, "the drawn attitude did not change"
+    assert np.abs(after - before).max(axis=2).astype(bool).mean() > 0.005, "the 3D view did not change"
+    # the cursor of the linked plots moved with it
+    x0 = browser.execute_script("return document.querySelector('.lgvi-plot').layout.shapes[0].x0;")
+    assert x0 == pytest.approx(traj.t[frames[active]])
+    # play runs the animation from there; pause stops it
+    buttons = browser.find_elements(By.CSS_SELECTOR, ".updatemenu-button")
+    buttons[0].click()
+    time.sleep(1.5)
+    buttons[1].click()
+    moved = browser.execute_script("return document.querySelector('.lgvi-plot').layout.sliders[0].active;")
+    assert moved > active, f"play did not advance the animation ({active} -> {moved})"
+    assert not _errors(browser), _errors(browser)
+
+
+def test_inline_views_share_one_library(browser, tmp_path, monkeypatch):
+    """Two Jupyter displays on one page: the first embeds plotly.js, the second uses it."""
+    from lgvi import view
+
+    monkeypatch.setattr(view, "_inline_library_sent", False)
+    traj = lgvi.simulate([1.0, 2.0, 3.0], np.eye(3), omega0=[0.3, 1.0, 0.2], h=0.01, steps=500)
+    parts = [traj._repr_mimebundle_()["text/html"] for _ in range(2)]
+    path = tmp_path / "notebook.html"
+    path.write_text("<!DOCTYPE html><html><head><meta charset='utf-8'></head><body>" + "".join(parts)
+                    + "</body></html>", encoding="utf-8")
+    _open(browser, path)
+    drawn = browser.execute_script("return Array.from(document.querySelectorAll('.lgvi-plot')).map("
+                                   "function (el) { return !!el._fullLayout; });")
+    assert drawn == [True, True]
+    assert not _errors(browser), _errors(browser)
