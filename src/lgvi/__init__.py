@@ -23,6 +23,7 @@ import sys as _sys
 
 from . import _aliases  # noqa: F401  (installs the old names of moved modules: lgvi.exact, ...)
 from . import _jit  # noqa: F401  (imports Numba now; compiles nothing)
+from . import control as control
 from . import optimal as optimal
 from . import so3 as so3
 from . import torques as torques
@@ -52,6 +53,7 @@ from .systems.two_body import Ellipsoid as Ellipsoid
 from .systems.two_body import PointMasses as PointMasses
 from .systems.two_body import TwoBodyTrajectory as TwoBodyTrajectory
 from .systems.two_body import simulate_two_body as simulate_two_body
+from .systems.gyrostat import ReactionWheels as ReactionWheels
 from .trajectory import Trajectory as Trajectory
 from .trajectory import load as load
 from . import view as _view  # noqa: F401  (Jupyter's display of a Trajectory; plotly imported when used)
@@ -67,6 +69,7 @@ __all__ = [
     "ImplicitSolution",
     "OrbitTrajectory",
     "PointMasses",
+    "ReactionWheels",
     "RigidBody",
     "SimulationInterrupted",
     "StepResult",
@@ -74,6 +77,7 @@ __all__ = [
     "Trajectory",
     "TwoBodyTrajectory",
     "__version__",
+    "control",
     "inertia_to_jd",
     "jd_to_inertia",
     "load",
