@@ -24,6 +24,8 @@ from .body import jd_to_inertia as jd_to_inertia
 from .ensemble import EnsembleTrajectory as EnsembleTrajectory
 from .ensemble import load_ensemble as load_ensemble
 from .ensemble import simulate_ensemble as simulate_ensemble
+from . import environment as environment
+from .environment import Magnetorquers as Magnetorquers
 from .errors import AccuracyWarning as AccuracyWarning
 from .errors import AttitudeWarning as AttitudeWarning
 from .errors import ConvergenceError as ConvergenceError
@@ -45,12 +47,14 @@ __all__ = [
     "ConvergenceError",
     "EnsembleTrajectory",
     "ImplicitSolution",
+    "Magnetorquers",
     "RigidBody",
     "SimulationInterrupted",
     "StepResult",
     "TorqueError",
     "Trajectory",
     "__version__",
+    "environment",
     "inertia_to_jd",
     "jd_to_inertia",
     "load",
