@@ -1,0 +1,102 @@
+"""Magnetorquers and the magnetic control laws (issue 12, part 3).
+
+* ``Magnetorquers.torque`` is ``m x B`` with the request mapped to the rods by least squares and
+  each rod clipped at its limit (not the whole vector scaled).
+* ``BDot`` with the rate form never adds rotational energy (``omega . (m x B) <= 0``), and the
+  difference form is ``-k dB/dt``: for a body spinning in a constant field it equals the rate form
+  to first order in the control period.
+* ``MomentumDumping``'s torque is ``-k h_perp``: it removes the wheels' momentum across the field.
+"""
+
+from __future__ import annotations
+
+import types
+
+import numpy as np
+import pytest
+
+import lgvi
+from lgvi.control import Command, Controller
+from lgvi.environment import BDot, MomentumDumping
+from lgvi.so3 import exp
+
+
+def test_torque_is_m_cross_b_with_per_rod_saturation():
+    rods = lgvi.Magnetorquers(np.eye(3), max_dipole=[0.2, 0.5, 1.0])
+    B = np.array([2e-5, -3e-5, 4e-5])
+    m = np.array([0.1, -0.3, 0.2])
+    assert np.allclose(rods.torque(m, B), np.cross(m, B), rtol=1e-15, atol=0)
+    big = np.array([1.0, -2.0, 0.5])
+    assert np.allclose(rods.rod_dipoles(big), [0.2, -0.5, 0.5])
+    assert np.allclose(rods.torque(big, B), np.cross([0.2, -0.5, 0.5], B), rtol=1e-15, atol=0)
+
+
+def test_skewed_and_redundant_rods():
+    axes = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]]) / np.array([1, 1, 1, np.sqrt(3)])[:, None]
+    rods = lgvi.Magnetorquers(axes, max_dipole=10.0)
+    m = np.array([0.3, -0.1, 0.7])
+    assert np.allclose(rods.dipole(m), m, atol=1e-15)                 # reproduced when nothing saturates
+    d = rods.rod_dipoles(m)
+    assert np.isclose(d @ d, np.linalg.lstsq(axes.T, m, rcond=None)[0] @ np.linalg.lstsq(axes.T, m, rcond=None)[0])
+    two = lgvi.Magnetorquers([[1.0, 0, 0], [0, 1.0, 0]], 1.0)         # no z rod: the z part is lost
+    assert np.allclose(two.dipole([0.1, 0.2, 0.3]), [0.1, 0.2, 0.0])
+
+
+def test_bdot_rate_form_never_adds_energy():
+    rng = np.random.default_rng(0)
+    ctrl = BDot(5e4, derivative="rate")
+    assert isinstance(ctrl, Controller)
+    for _ in range(50):
+        R = exp(rng.normal(size=3))
+        w = rng.normal(size=3) * 0.1
+        Bi = rng.normal(size=3) * 3e-5
+        cmd = ctrl.command(0.0, R, w, np.zeros(0), {"B_inertial": Bi})
+        assert isinstance(cmd, Command) and cmd.torque is None and cmd.wheel_torque is None
+        tau = np.cross(cmd.dipole, R.T @ Bi)
+        assert w @ tau <= 1e-30
+        Bb = R.T @ Bi
+        assert np.allclose(tau, -5e4 * (w * (Bb @ Bb) - Bb * (Bb @ w)), rtol=1e-12, atol=1e-30)
+
+
+def test_bdot_difference_form_is_minus_k_dbdt():
+    ctrl = BDot(2.0)
+    w = np.array([0.02, -0.05, 0.1])
+    Bi = np.array([1e-5, 2e-5, -3e-5])
+    dt = 1e-3
+    first = ctrl.command(0.0, np.eye(3), w, np.zeros(0), {"B_inertial": Bi})
+    assert np.array_equal(first.dipole, np.zeros(3))                 # nothing to difference yet
+    R1 = exp(w * dt)
+    second = ctrl.command(dt, R1, w, np.zeros(0), {"B_inertial": Bi})
+    rate = BDot(2.0, derivative="rate").command(dt, R1, w, np.zeros(0), {"B_inertial": Bi})
+    assert np.allclose(second.dipole, rate.dipole, rtol=0, atol=1e-3 * np.linalg.norm(rate.dipole))
+    ctrl.reset()
+    assert np.array_equal(ctrl.command(dt, R1, w, np.zeros(0), {"B_body": R1.T @ Bi}).dipole, np.zeros(3))
+
+
+def test_momentum_dumping_torque_removes_the_wheel_momentum_across_the_field():
+    wheels = types.SimpleNamespace(axes=np.eye(3), spin_inertia=np.array([0.01, 0.02, 0.03]))
+    ctrl = MomentumDumping(0.05, wheels=wheels)
+    w = np.array([0.001, -0.002, 0.0005])
+    speeds = np.array([100.0, -50.0, 30.0])
+    B = np.array([1e-5, -2e-5, 3e-5])
+    cmd = ctrl.command(0.0, np.eye(3), w, speeds, {"B_body": B})
+    h = wheels.spin_inertia * (w + speeds)
+    h_perp = h - B * (B @ h) / (B @ B)
+    assert np.allclose(np.cross(cmd.dipole, B), -0.05 * h_perp, rtol=1e-12, atol=0)
+    assert cmd.torque is None and cmd.wheel_torque is None
+
+
+def test_momentum_dumping_passes_the_attitude_controller_on():
+    class Fixed(Controller):
+        def command(self, t, R, omega, wheel_speed, env):
+            return Command(wheel_torque=np.array([0.1, 0.2, 0.3]))
+
+    wheels = types.SimpleNamespace(axes=np.eye(3), spin_inertia=np.ones(3))
+    cmd = MomentumDumping(0.1, controller=Fixed(), wheels=wheels).command(
+        0.0, np.eye(3), np.zeros(3), np.ones(3), {"B_body": [0.0, 0.0, 1e-5]})
+    assert np.array_equal(cmd.wheel_torque, [0.1, 0.2, 0.3]) and np.allclose(cmd.dipole, [1e4, -1e4, 0.0])
+
+
+def test_controllers_need_the_field():
+    with pytest.raises(KeyError, match="B_inertial"):
+        BDot(1.0).command(0.0, np.eye(3), np.zeros(3), np.zeros(0), {"r": np.ones(3)})
