@@ -91,3 +91,9 @@ def test_memory_quick():
     assert "Traceback" not in proc.stderr
     rows = [line.split() for line in proc.stdout.splitlines() if line.startswith("lgvi run (interval")]
     assert [int(r[4]) for r in rows] == [100_000, 1_000_000] and all(float(r[6]) > 0 for r in rows)
+
+
+def test_bench_field_quick():
+    proc = _run("bench_field.py", "--quick")
+    _check(proc, "us/point", "IGRF-14 n=13, compiled, batch", "centred dipole n=1, compiled, batch")
+    assert "Traceback" not in proc.stderr
