@@ -392,6 +392,78 @@ _ROWS += [
      lgvi.TorqueError, (r"controller saturated", r"step 5", r"\.trajectory")),
 ]
 
+# ---- issue 12: magnetic field, magnetorquers, orbits (lgvi.environment) ------------------------
+from lgvi import environment as env  # noqa: E402
+
+_TLE1 = "1 00005U 58002B   00179.78495062  .00000023  00000-0  28098-4 0  4753"
+_TLE2 = "2 00005  34.2682 348.7242 1859667 331.7664  19.3264 10.82419157413667"
+_ROWS += [
+    ("rods-axes-shape", lambda: lgvi.Magnetorquers(np.eye(2), 1.0), ValueError,
+     (r"\baxes\b", r"\(2, 2\)", r"shape \(N, 3\)")),
+    ("rods-axes-not-unit", lambda: lgvi.Magnetorquers([[1.0, 0, 0], [0, 2.0, 0]], 1.0), ValueError,
+     (r"\baxes\b", r"row 1 has norm 2\b", r"unit vectors")),
+    ("rods-axes-nan", lambda: lgvi.Magnetorquers([[NAN, 0, 0]], 1.0), ValueError, (r"\baxes\b", r"nan", r"finite")),
+    ("rods-max-dipole-zero", lambda: lgvi.Magnetorquers(np.eye(3), [1.0, 0.0, 1.0]), ValueError,
+     (r"\bmax_dipole\b", r"\[1\. 0\. 1\.\]", r"> 0")),
+    ("rods-max-dipole-count", lambda: lgvi.Magnetorquers(np.eye(3), [1.0, 1.0]), ValueError,
+     (r"\bmax_dipole\b", r"\(2,\)", r"one per rod")),
+    ("rods-dipole-shape", lambda: lgvi.Magnetorquers(np.eye(3), 1.0).torque([1.0, 2.0], [0, 0, 1e-5]), ValueError,
+     (r"\bdipole_cmd\b", r"\(2,\)", r"shape \(3,\)")),
+    ("rods-field-nan", lambda: lgvi.Magnetorquers(np.eye(3), 1.0).torque([1.0, 0, 0], [0, NAN, 1e-5]), ValueError,
+     (r"\bB_body\b", r"nan", r"finite")),
+    ("bdot-gain-negative", lambda: env.BDot(-1.0), ValueError, (r"\bgain\b", r"-1", r"positive")),
+    ("bdot-derivative", lambda: env.BDot(1.0, derivative="central"), ValueError,
+     (r"\bderivative\b", r"'central'", r"one of 'difference', 'rate'")),
+    ("dumping-gain-nan", lambda: env.MomentumDumping(NAN), ValueError, (r"\bgain\b", r"nan", r"finite")),
+    ("dumping-controller-type", lambda: env.MomentumDumping(1.0, controller=lambda *a: None), TypeError,
+     (r"\bcontroller\b", r"function", r"lgvi\.control\.Controller")),
+    ("kepler-a-negative", lambda: env.KeplerOrbit(-7e6), ValueError, (r"\ba\b", r"-7000000", r"positive")),
+    ("kepler-e-hyperbolic", lambda: env.KeplerOrbit(7e6, 1.0), ValueError, (r"\be\b", r"1\.0", r"0 <= e < 1")),
+    ("kepler-e-negative", lambda: env.KeplerOrbit(7e6, -0.1), ValueError, (r"\be\b", r"-0\.1", r"0 <= e < 1")),
+    ("kepler-inclination", lambda: env.KeplerOrbit(7e6, 0.0, 98.0), ValueError,
+     (r"\binclination\b", r"98", r"\[0, pi\] radians")),
+    ("kepler-raan-inf", lambda: env.KeplerOrbit(7e6, 0.0, 1.0, INF), ValueError, (r"\braan\b", r"inf", r"finite")),
+    ("circular-radius-zero", lambda: env.CircularOrbit(0.0), ValueError, (r"\bradius\b", r"0\.0", r"positive")),
+    ("j2-J2-nan", lambda: env.J2Orbit(7e6, J2=NAN), ValueError, (r"\bJ2\b", r"nan", r"finite")),
+    ("solve-kepler-e", lambda: env.solve_kepler([0.1], 1.5), ValueError, (r"\be\b", r"1\.5", r"0 <= e < 1")),
+    ("sgp4-line-type", lambda: env.SGP4Orbit(_TLE1, None), TypeError, (r"\bline2\b", r"NoneType", r"a TLE line")),
+    ("sgp4-line-swapped", lambda: env.SGP4Orbit(_TLE2, _TLE1), ValueError,
+     (r"\bline1\b", r"'2 00005", r"start with '1 '")),
+    ("orbit-env-orbit", lambda: env.OrbitEnvironment([7e6, 0, 0]), TypeError,
+     (r"\borbit\b", r"list", r"position_velocity")),
+    ("orbit-env-field", lambda: env.OrbitEnvironment(env.CircularOrbit(7e6), "IGRF"), TypeError,
+     (r"\bfield\b", r"str", r"IGRF, WMM, CentredDipole")),
+    ("orbit-env-no-epoch", lambda: env.OrbitEnvironment(env.CircularOrbit(7e6), env.CentredDipole()), ValueError,
+     (r"\bepoch\b", r"None|required", r"with a field")),
+    ("orbit-env-epoch-type", lambda: env.OrbitEnvironment(env.CircularOrbit(7e6), epoch="2026-01-01"), TypeError,
+     (r"\bepoch\b", r"'2026-01-01'", r"datetime")),
+    ("orbit-env-reference", lambda: env.OrbitEnvironment(env.CircularOrbit(7e6), reference="sun"), ValueError,
+     (r"\breference\b", r"'sun'", r"None or 'nadir'")),
+    ("orbit-env-epoch-outside-field", lambda: env.OrbitEnvironment(
+        env.CircularOrbit(7e6), env.SphericalHarmonicField([2025.0, 2030.0], np.ones((2, 2, 2)), np.ones((2, 2, 2))),
+        epoch=__import__("datetime").datetime(2040, 1, 1)), ValueError,
+     (r"\bwhen\b", r"2040\.0", r"2025 <= year <= 2030")),
+    ("field-degree", lambda: env.SphericalHarmonicField([0.0, 1.0], np.ones((2, 3, 3)), np.ones((2, 3, 3)), degree=3),
+     ValueError, (r"\bdegree\b", r"\b3\b", r"<= 2")),
+    ("field-times", lambda: env.SphericalHarmonicField([1.0, 0.0], np.ones((2, 2, 2)), np.ones((2, 2, 2))),
+     ValueError, (r"\btimes\b", r"\[1\. 0\.\]", r"increasing")),
+    ("field-r-shape", lambda: env.CentredDipole().ecef([7e6, 0.0], 2026.0), ValueError,
+     (r"\br\b", r"\(2,\)", r"\(\.\.\., 3\)")),
+    ("field-r-centre", lambda: env.CentredDipole().ecef([0.0, 0.0, 0.0], 2026.0), ValueError,
+     (r"\br\b", r"\[0, 0, 0\]", r"singular")),
+    ("field-dipole-zero", lambda: env.CentredDipole(0.0, 0.0, 0.0), ValueError,
+     (r"g10, g11, h11", r"\b0\b", r"not all be zero")),
+    ("field-lat", lambda: env.geodetic_to_ecef(91.0, 0.0, 0.0), ValueError, (r"\blat\b", r"91", r"\[-90, 90\]")),
+    ("lvlh-parallel", lambda: env.lvlh_frame([7e6, 0, 0], [1.0, 0, 0]), ValueError,
+     (r"\br and v\b", r"r x v = 0", r"not be parallel")),
+    ("gg-orbit-duration", lambda: env.OrbitGravityGradient(env.CircularOrbit(7e6), BODY, duration=-1.0), ValueError,
+     (r"\bduration\b", r"-1", r"positive")),
+    ("gg-orbit-dt", lambda: env.OrbitGravityGradient(env.CircularOrbit(7e6), BODY, duration=10.0, dt=0.0),
+     ValueError, (r"\bdt\b", r"0\.0", r"positive")),
+    ("gg-orbit-inertia", lambda: env.OrbitGravityGradient(env.CircularOrbit(7e6), [1.0, -2.0, 3.0], duration=10.0),
+     ValueError, (r"\binertia\b", r"-2", r"positive definite")),
+]
+
 CASES = [pytest.param(call, exc, patterns, id=name) for name, call, exc, patterns in _ROWS] + [
     pytest.param(call, exc, patterns, id=name, marks=pytest.mark.xfail(strict=True, reason=reason))
     for name, call, exc, patterns, reason in _XFAIL_ROWS

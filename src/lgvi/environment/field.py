@@ -196,8 +196,10 @@ class SphericalHarmonicField:
         if r.ndim == 0 or r.shape[-1] != 3:
             raise ValueError(f"r must have shape (..., 3), got shape {r.shape}")
         flat = np.ascontiguousarray(r.reshape(-1, 3))
-        if np.any(np.einsum("ij,ij->i", flat, flat) == 0.0):
-            raise ValueError("r must not be the Earth's centre (the field is singular there)")
+        zero = np.flatnonzero(np.einsum("ij,ij->i", flat, flat) == 0.0)
+        if zero.size:
+            raise ValueError(f"r must not be the Earth's centre [0, 0, 0] (the field is singular there); point "
+                             f"{int(zero[0])} is")
         g, h, P, dP, Q = self._at(self._check_year(when))
         out = np.empty_like(flat)
         sh_field_many(flat, g, h, self.degree, self.radius, P, dP, Q, out)
@@ -313,7 +315,7 @@ class CentredDipole(SphericalHarmonicField):
         g[:, 1, 1] = as_float(g11, "g11")
         h[:, 1, 1] = as_float(h11, "h11")
         if g[0, 1, 0] == 0.0 and g[0, 1, 1] == 0.0 and h[0, 1, 1] == 0.0:
-            raise ValueError("CentredDipole: g10, g11, h11 must not all be zero")
+            raise ValueError("CentredDipole: g10, g11, h11 must not all be zero (no field), got 0, 0, 0")
         super().__init__([0.0, 1.0], g, h, radius=radius, valid=(-np.inf, np.inf), name="CentredDipole")
 
     @classmethod
