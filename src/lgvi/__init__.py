@@ -15,6 +15,7 @@ Numba itself is imported here (about 0.3 s) so that the first simulation does no
 """
 
 from . import _jit  # noqa: F401  (imports Numba now; compiles nothing)
+from . import control as control
 from . import so3 as so3
 from . import torques as torques
 from ._version import __version__ as __version__
@@ -38,6 +39,7 @@ from .integrator import simulate as simulate
 from .integrator import step as step
 from .modified import simulate_modified as simulate_modified
 from .streaming import simulate_stream as simulate_stream
+from .systems.gyrostat import ReactionWheels as ReactionWheels
 from .trajectory import Trajectory as Trajectory
 from .trajectory import load as load
 
@@ -48,12 +50,14 @@ __all__ = [
     "EnsembleTrajectory",
     "ImplicitSolution",
     "Magnetorquers",
+    "ReactionWheels",
     "RigidBody",
     "SimulationInterrupted",
     "StepResult",
     "TorqueError",
     "Trajectory",
     "__version__",
+    "control",
     "environment",
     "inertia_to_jd",
     "jd_to_inertia",

@@ -159,7 +159,8 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
              alpha: float = 1.0, save_every: int = 1, t0: float = 0.0, forcing: str = "paper",
              order: int = 2, composition: str | None = None, progress: Any = False,
              error_estimate: Any = False, error_warn: float | None = 0.01,
-             solver_record: str = "interval") -> Trajectory:
+             solver_record: str = "interval", wheels: Any = None, controller: Any = None,
+             control_period: Any = None, environment: Any = None, magnetorquers: Any = None) -> Trajectory:
     r"""Simulate the attitude of a rigid body with the Lie group variational integrator.
 
     Each step solves ``hat(h Pi_k) = F_k Jd - Jd F_k^T`` for ``F_k`` in SO(3), then sets
@@ -291,6 +292,16 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     >>> bool(np.abs(traj.energy - traj.energy[0]).max() < 1e-2 * traj.energy[0])
     True
     """
+    if wheels is not None or controller is not None or control_period is not None or environment is not None \
+            or magnetorquers is not None:   # the gyrostat and the control loop (lgvi.systems.gyrostat)
+        from .systems.gyrostat import gyrostat_options, simulate_gyrostat
+
+        gyrostat_options(torque=torque, forcing=forcing, order=order, composition=composition,
+                         error_estimate=error_estimate)
+        return simulate_gyrostat(body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels, controller=controller,
+                                 control_period=control_period, environment=environment, magnetorquers=magnetorquers,
+                                 progress=progress, method=method, tol=tol, max_iter=max_iter, alpha=alpha,
+                                 save_every=save_every, t0=t0, solver_record=solver_record)
     from .accuracy import check_options
 
     estimate, warn = check_options(error_estimate, error_warn, torque)

@@ -107,5 +107,6 @@ def provide_run(system: System, factory: Callable[..., Any]) -> None:
 
 
 from . import rigid_body as rigid_body  # noqa: E402  (registers the rigid body)
+from . import gyrostat as gyrostat  # noqa: E402  (registers the gyrostat: reaction wheels)
 
 __all__ = ["Field", "RUNS", "SYSTEMS", "System", "provide_run", "register"]
