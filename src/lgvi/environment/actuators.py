@@ -79,4 +79,5 @@ class Magnetorquers:
     def torque(self, dipole_cmd: Any, B_body: Any) -> np.ndarray:
         """Body torque (3,), N m: ``dipole(dipole_cmd) x B_body`` with ``B_body`` (3,) in tesla."""
         B = as_float_array(B_body, "B_body", (3,))
-        return np.cross(self.dipole(dipole_cmd), B)
+        m = self.dipole(dipole_cmd)
+        return np.array([m[1] * B[2] - m[2] * B[1], m[2] * B[0] - m[0] * B[2], m[0] * B[1] - m[1] * B[0]])

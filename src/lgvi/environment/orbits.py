@@ -51,6 +51,21 @@ def solve_kepler(M: Any, e: float, *, tol: float = 1e-15, max_iter: int = 60) ->
     e = as_float(e, "e")
     if not 0.0 <= e < 1.0:
         raise ValueError(f"e must satisfy 0 <= e < 1 (an ellipse), got {e}")
+    if M.ndim == 0:                                # one value: the same iteration on floats
+        Mf = float(M)
+        turns = round(Mf / (2.0 * math.pi))
+        m = Mf - 2.0 * math.pi * turns
+        Ef = m + 0.85 * e * math.copysign(1.0, math.sin(m)) if math.sin(m) != 0.0 else m
+        for _ in range(max_iter):
+            f = Ef - e * math.sin(Ef) - m
+            Ef -= f / (1.0 - e * math.cos(Ef))
+            if abs(f) <= tol * (1.0 + abs(m)):
+                return np.array(Ef + 2.0 * math.pi * turns)
+        res = abs(Ef - e * math.sin(Ef) - m)
+        if res > 1e-12:
+            raise ConvergenceError(f"Kepler's equation not solved in {max_iter} iterations (e = {e}, residual "
+                                   f"{res:.3g})", residual=res, iterations=max_iter)
+        return np.array(Ef + 2.0 * math.pi * turns)
     turns = np.round(M / (2.0 * np.pi))
     m = M - 2.0 * np.pi * turns                  # (-pi, pi]
     E = m + 0.85 * e * np.sign(np.sin(m))
@@ -73,6 +88,12 @@ def _times(t: Any) -> np.ndarray:
 
 def _rotation(raan: Any, inc: Any, argp: Any) -> np.ndarray:
     """Perifocal to inertial, ``R3(-raan) R1(-inc) R3(-argp)`` (..., 3, 3)."""
+    if np.ndim(raan) == 0 and np.ndim(argp) == 0:
+        cO, sO, ci, si = math.cos(raan), math.sin(raan), math.cos(inc), math.sin(inc)
+        cw, sw = math.cos(argp), math.sin(argp)
+        return np.array([[cO * cw - sO * sw * ci, -cO * sw - sO * cw * ci, sO * si],
+                         [sO * cw + cO * sw * ci, -sO * sw + cO * cw * ci, -cO * si],
+                         [sw * si, cw * si, ci]])
     cO, sO, ci, si, cw, sw = np.cos(raan), np.sin(raan), np.cos(inc), np.sin(inc), np.cos(argp), np.sin(argp)
     cO, sO, ci, si, cw, sw = np.broadcast_arrays(cO, sO, ci, si, cw, sw)
     P = np.stack([cO * cw - sO * sw * ci, sO * cw + cO * sw * ci, sw * si], axis=-1)
@@ -152,6 +173,8 @@ class KeplerOrbit(Orbit):
     def position_velocity(self, t: Any) -> tuple[np.ndarray, np.ndarray]:
         t = _times(t)
         raan, argp, M = self._angles(t)
+        if t.ndim == 0:
+            return self._one(float(raan), float(argp), float(M))
         E = solve_kepler(M, self.e)
         a, e = self.a, self.e
         b = math.sqrt(1.0 - e * e)
@@ -162,6 +185,16 @@ class KeplerOrbit(Orbit):
         vp = np.stack([-k * sE, k * b * cE, np.zeros_like(E)], axis=-1)
         Q = _rotation(raan, self.inclination, argp)
         return np.einsum("...ij,...j->...i", Q, rp), np.einsum("...ij,...j->...i", Q, vp)
+
+    def _one(self, raan: float, argp: float, M: float) -> tuple[np.ndarray, np.ndarray]:
+        """One time (the controller's call): the same formulas on floats."""
+        E = float(solve_kepler(M, self.e))
+        a, e = self.a, self.e
+        b = math.sqrt(1.0 - e * e)
+        cE, sE = math.cos(E), math.sin(E)
+        k = math.sqrt(self.mu * a) / (a * (1.0 - e * cE))
+        Q = _rotation(raan, self.inclination, argp)
+        return Q @ np.array([a * (cE - e), a * b * sE, 0.0]), Q @ np.array([-k * sE, k * b * cE, 0.0])
 
     def __repr__(self) -> str:
         return (f"{type(self).__name__}(a={self.a:g}, e={self.e:g}, inclination={self.inclination:g}, "
@@ -272,6 +305,14 @@ def gmst(when: _dt.datetime, t: Any = 0.0) -> np.ndarray:
     return np.mod(sec * (2.0 * np.pi / 86400.0), 2.0 * np.pi)
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
+
+
 def lvlh_frame(r: Any, v: Any) -> np.ndarray:
     """The LVLH frame: columns ``x = y x z``, ``y = -(r x v)/|r x v|``, ``z = -r/|r|`` (..., 3, 3).
 
@@ -281,14 +322,14 @@ def lvlh_frame(r: Any, v: Any) -> np.ndarray:
     v = as_float_array(v, "v")
     if r.shape[-1:] != (3,) or v.shape != r.shape:
         raise ValueError(f"r and v must have the same shape (..., 3), got {r.shape} and {v.shape}")
-    h = np.cross(r, v)
-    hn = np.linalg.norm(h, axis=-1, keepdims=True)
-    rn = np.linalg.norm(r, axis=-1, keepdims=True)
+    h = _cross(r, v)
+    hn = np.sqrt(np.sum(h * h, axis=-1, keepdims=True))
+    rn = np.sqrt(np.sum(r * r, axis=-1, keepdims=True))
     if np.any(hn == 0.0):
         raise ValueError("r and v must not be parallel (no orbit plane: r x v = 0)")
     z = -r / rn
     y = -h / hn
-    x = np.cross(y, z)
+    x = _cross(y, z)
     return np.stack([x, y, z], axis=-1)
 
 
@@ -302,11 +343,34 @@ def nadir_reference(r: Any, v: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     R = lvlh_frame(r, v)
     r = np.asarray(r, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)
-    h = np.cross(r, v)
+    h = _cross(r, v)
     r2 = np.sum(r * r, axis=-1, keepdims=True)
     w = h / r2
     dw = -2.0 * np.sum(r * v, axis=-1, keepdims=True) * h / (r2 * r2)
     return R, w, dw
+
+
+def _mrp(R: np.ndarray) -> np.ndarray:
+    """MRP (|sigma| <= 1) of rotation matrices (..., 3, 3), Shepperd's branch choice."""
+    R = np.asarray(R)
+    flat = R.reshape(-1, 3, 3)
+    out = np.empty((flat.shape[0], 3))
+    for i, m in enumerate(flat):
+        tr = m[0, 0] + m[1, 1] + m[2, 2]
+        k = int(np.argmax([tr, m[0, 0], m[1, 1], m[2, 2]]))
+        if k == 0:
+            w = 0.5 * math.sqrt(1.0 + tr)
+            q = ((m[2, 1] - m[1, 2]) / (4 * w), (m[0, 2] - m[2, 0]) / (4 * w), (m[1, 0] - m[0, 1]) / (4 * w), w)
+        else:
+            a = k - 1
+            b, c = (a + 1) % 3, (a + 2) % 3
+            x = 0.5 * math.sqrt(1.0 + 2.0 * m[a, a] - tr)
+            q = [0.0, 0.0, 0.0, (m[c, b] - m[b, c]) / (4 * x)]
+            q[a], q[b], q[c] = x, (m[a, b] + m[b, a]) / (4 * x), (m[a, c] + m[c, a]) / (4 * x)
+        if q[3] < 0.0:
+            q = [-v for v in q]
+        out[i] = np.array(q[:3]) / (1.0 + q[3])
+    return out.reshape(R.shape[:-2] + (3,))
 
 
 class OrbitEnvironment:
@@ -374,7 +438,13 @@ class OrbitEnvironment:
         t = _times(t)
         r, v = self.orbit.position_velocity(t + self._offset)
         out = {"r": r, "v": v}
-        if self.field is not None:
+        if self.field is not None and t.ndim == 0:
+            theta = float(gmst(self.epoch, t))
+            c, s = math.cos(theta), math.sin(theta)
+            x, y, z = r
+            bx, by, bz = self.field.ecef_one(c * x + s * y, -s * x + c * y, z, self._years(t))
+            out["B_inertial"] = np.array([c * bx - s * by, s * bx + c * by, bz])
+        elif self.field is not None:
             theta = gmst(self.epoch, t)
             c, s = np.cos(theta), np.sin(theta)
             x = c * r[..., 0] + s * r[..., 1]              # r_ecef = R3(theta) r
@@ -390,10 +460,8 @@ class OrbitEnvironment:
             by = s * b[..., 0] + c * b[..., 1]
             out["B_inertial"] = np.stack([bx, by, b[..., 2]], axis=-1)
         if self.reference == "nadir":
-            from ..control import mrp_from_matrix
-
             R, w, dw = nadir_reference(r, v)
-            out["sigma_ref"], out["omega_ref"], out["domega_ref"] = mrp_from_matrix(R), w, dw
+            out["sigma_ref"], out["omega_ref"], out["domega_ref"] = _mrp(R), w, dw
         return out
 
     def _years(self, t: np.ndarray) -> Any:
