@@ -114,9 +114,9 @@ def _dumping_run(k: float | None):
     wheels = lgvi.ReactionWheels(np.eye(3), 0.01, speed0=[20.0, -15.0, 10.0])
     attitude = MRPFeedback(K=0.5, P=5.0)
     ctrl = attitude if k is None else MomentumDumping(k, controller=attitude)
-    return lgvi.simulate(lgvi.RigidBody([10.0, 12.0, 14.0]), np.eye(3), omega0=np.zeros(3), h=0.5, steps=11600,
-                         wheels=wheels, controller=ctrl, control_period=1.0, environment=env,
-                         magnetorquers=lgvi.Magnetorquers(np.eye(3), 10.0), save_every=100)
+    return lgvi.simulate(lgvi.RigidBody([10.0, 12.0, 14.0]), np.eye(3), omega0=np.zeros(3), h=1.0, steps=5800,
+                         wheels=wheels, controller=ctrl, control_period=2.0, environment=env,
+                         magnetorquers=lgvi.Magnetorquers(np.eye(3), 10.0), save_every=50)
 
 
 def test_momentum_dumping_empties_the_wheels_in_orbit():
