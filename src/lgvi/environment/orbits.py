@@ -428,7 +428,11 @@ class OrbitEnvironment:
         self.reference = reference
         self._offset = 0.0 if orbit_epoch is None or epoch is None else (epoch - orbit_epoch).total_seconds()
         if field is not None:
-            field._check_year(decimal_year(epoch))
+            lo, hi = field.valid
+            year = decimal_year(epoch)
+            if not lo <= year <= hi:
+                raise ValueError(f"epoch must lie in {field.name}'s validity, {lo:g} <= year <= {hi:g}; got {epoch} "
+                                 f"(decimal year {year:.6f})")
 
     def __repr__(self) -> str:
         return f"OrbitEnvironment({self.orbit!r}, field={self.field!r}, epoch={self.epoch!r})"
