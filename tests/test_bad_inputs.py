@@ -464,6 +464,61 @@ _ROWS += [
      ValueError, (r"\binertia\b", r"-2", r"positive definite")),
 ]
 
+# ---- reaction wheels and controllers (issue 12) ------------------------------------------
+def _wheels(**kw: Any) -> lgvi.ReactionWheels:
+    return lgvi.ReactionWheels(np.eye(3), kw.pop("spin_inertia", 0.01), **kw)
+
+
+class _NanAt(lgvi.control.Controller):
+    """Wheel torques that turn NaN from t = 0.05."""
+
+    def command(self, t, R, omega, wheel_speed, env):
+        return lgvi.control.Command(wheel_torque=[0.001, NAN if t > 0.04 else 0.0, 0.0])
+
+
+_ROWS += [
+    ("wheels-axis-not-unit", lambda: lgvi.ReactionWheels([[1.0, 1.0, 0.0]], 0.01), ValueError,
+     (r"\baxes\b", r"\[1\.0, 1\.0, 0\.0\]", r"unit vectors")),
+    ("wheels-axes-shape", lambda: lgvi.ReactionWheels(np.ones((2, 2)), 0.01), ValueError,
+     (r"\baxes\b", r"shape \(2, 2\)", r"must have shape \(N, 3\)")),
+    ("wheels-spin-inertia-zero", lambda: _wheels(spin_inertia=[0.01, 0.0, 0.01]), ValueError,
+     (r"\bspin_inertia\b", r"wheel 1 has 0", r"> 0")),
+    ("wheels-spin-inertia-nan", lambda: _wheels(spin_inertia=NAN), ValueError,
+     (r"\bspin_inertia\b", r"nan", r"finite")),
+    ("wheels-speed0-shape", lambda: _wheels(speed0=[1.0, 2.0]), ValueError,
+     (r"\bspeed0\b", r"shape \(2,\)", r"scalar or have shape \(3,\)")),
+    ("wheels-max-torque-negative", lambda: _wheels(max_torque=-0.2), ValueError,
+     (r"\bmax_torque\b", r"-0\.2", r"> 0")),
+    ("wheels-min-torque-negative", lambda: _wheels(min_torque=-1e-3), ValueError,
+     (r"\bmin_torque\b", r"-0\.001", r">= 0")),
+    ("wheels-max-power-zero", lambda: _wheels(max_power=0.0), ValueError, (r"\bmax_power\b", r"has 0", r"> 0")),
+    ("wheels-max-speed-inf", lambda: _wheels(max_speed=INF), ValueError, (r"\bmax_speed\b", r"inf", r"finite")),
+    ("wheels-friction-key", lambda: _wheels(friction={"stribeck": 1.0}), ValueError,
+     (r"\bfriction\b", r"stribeck", r"unknown keys")),
+    ("wheels-friction-negative", lambda: _wheels(friction={"viscous": -1.0}), ValueError,
+     (r"friction\['viscous'\]", r"-1", r">= 0")),
+    ("wheels-bigger-than-body", lambda: sim(wheels=_wheels(spin_inertia=1.5)), ValueError,
+     (r"\bwheels\b", r"spin inertia 1\.5", r"not above")),
+    ("wheels-not-wheels", lambda: sim(wheels=np.eye(3)), TypeError,
+     (r"\bwheels\b", r"ndarray", r"lgvi\.ReactionWheels")),
+    ("wheels-with-torque", lambda: sim(wheels=_wheels(), torque=np.zeros((STEPS, 3))), ValueError,
+     (r"\btorque=", r"wheels=", r"cannot be combined")),
+    ("controller-not-controller", lambda: sim(controller=print, control_period=H), TypeError,
+     (r"\bcontroller\b", r"builtin_function_or_method", r"lgvi\.control\.Controller")),
+    ("controller-without-period", lambda: sim(controller=lgvi.control.MRPFeedback(1.0, 1.0)), ValueError,
+     (r"\bcontrol_period\b", r"controller", r"give")),
+    ("control-period-not-multiple", lambda: sim(controller=lgvi.control.MRPFeedback(1.0, 1.0), control_period=0.015),
+     ValueError, (r"\bcontrol_period\b", r"0\.015", r"multiple of \|h\|")),
+    ("control-period-negative", lambda: sim(controller=lgvi.control.MRPFeedback(1.0, 1.0), control_period=-0.1),
+     ValueError, (r"\bcontrol_period\b", r"-0\.1", r"positive")),
+    ("mrp-feedback-K-zero", lambda: lgvi.control.MRPFeedback(0.0, 1.0), ValueError,
+     (r"\bK\b", r"0\.0", r"positive")),
+    ("mrp-feedback-Ki-nan", lambda: lgvi.control.MRPFeedback(1.0, 1.0, Ki=NAN), ValueError,
+     (r"\bKi\b", r"nan", r"finite")),
+    ("controller-returns-nan", lambda: sim(wheels=_wheels(), controller=_NanAt(), control_period=H),
+     lgvi.TorqueError, (r"wheel_torque", r"nan", r"non-finite", r"step 5", r"\.trajectory")),
+]
+
 CASES = [pytest.param(call, exc, patterns, id=name) for name, call, exc, patterns in _ROWS] + [
     pytest.param(call, exc, patterns, id=name, marks=pytest.mark.xfail(strict=True, reason=reason))
     for name, call, exc, patterns, reason in _XFAIL_ROWS

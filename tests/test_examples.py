@@ -108,9 +108,17 @@ def test_kepler_takes_the_common_options(tmp_path):
 def test_every_script_is_tested():
     # uncertainty.py runs in tests/test_ensemble.py (with the ensemble it exercises)
     tested = {"dzhanibekov.py", "heavy_top.py", "pendulum3d.py", "slew_pd.py", "gravity_gradient.py", "kepler.py",
-              "uncertainty.py", "bdot_detumble.py"}
+              "uncertainty.py", "wheel_slew.py", "bdot_detumble.py"}
     scripts = {p.name for p in EXAMPLES.glob("*.py")}
     assert scripts <= tested, f"example scripts without a test here: {sorted(scripts - tested)}"
+
+
+def test_wheel_slew(tmp_path):
+    out = run_example("wheel_slew.py", "--quick", "--out", str(tmp_path / "figs"), cwd=tmp_path)
+    assert number(r"settled within 0.01 deg at t = ([0-9.]+) s", out) < 600.0
+    assert number(r"largest wheel torque ([0-9.]+) N m", out) == 0.2
+    assert number(r"total angular momentum drift ([0-9.e+-]+)", out) < 1e-13
+    assert (tmp_path / "figs" / "wheel_slew.png").exists()
 
 
 def test_bdot_detumble(tmp_path):

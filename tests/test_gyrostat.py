@@ -120,6 +120,17 @@ def test_second_order_against_dop853():
     assert 3.6 < errs[0] / errs[1] < 4.4 and 3.6 < errs[1] / errs[2] < 4.4
 
 
+def test_save_and_load_keep_the_wheels(tmp_path):
+    traj = lgvi.simulate(BODY, R0, omega0=W0, h=0.05, steps=40, wheels=wheels(max_torque=0.01),
+                         controller=Random(0.1), control_period=0.1, save_every=2)
+    traj.save(tmp_path / "g.npz")
+    back = lgvi.load(tmp_path / "g.npz")
+    assert type(back) is type(traj)
+    for name in ("R", "Pi", "wheel_momentum", "wheel_torque", "wheel_speed", "omega", "energy"):
+        assert np.array_equal(getattr(back, name), getattr(traj, name)), name
+    assert back.meta["wheels"] == traj.meta["wheels"]
+
+
 def test_zero_wheels_is_the_rigid_body_bit_for_bit():
     plain = lgvi.simulate(BODY, R0, omega0=W0, h=0.05, steps=4000)
     gyro = lgvi.simulate(BODY, R0, omega0=W0, h=0.05, steps=4000,
@@ -215,6 +226,20 @@ def test_mrp_feedback_without_wheels_is_a_body_torque():
     assert np.linalg.norm(traj.omega[-1]) < 1e-4
     assert np.linalg.norm(mrp_from_matrix(traj.R[-1])) < 1e-4
     assert traj.meta["invariants"] == {}
+
+
+@pytest.mark.parametrize("error", ["rotation", "quaternion"])
+def test_rotation_pd_slews_with_wheels(error):
+    from lgvi.control import RotationPD
+
+    R_ref = lgvi.so3.exp([0.0, 0.0, 1.0])
+    traj = lgvi.simulate(BODY, np.eye(3), omega0=np.zeros(3), h=0.05, steps=1600, wheels=wheels(speed0=0.0),
+                         controller=RotationPD(1.0, 2.0, target=R_ref, error=error), control_period=0.1,
+                         save_every=1600)
+    assert np.linalg.norm(lgvi.so3.log(R_ref.T @ traj.R[-1])) < 1e-4
+    assert np.abs(traj.spatial_momentum).max() < 1e-15          # zero total momentum stays zero
+    with pytest.raises(ValueError, match="error must be"):
+        RotationPD(1.0, 1.0, error="euler")
 
 
 def test_map_to_wheels_is_rwmotortorque():
@@ -352,3 +377,44 @@ def test_mrp_roundtrip_matches_scipy():
     s = np.array([[0.1, 0.2, -0.3], [0.5, -0.4, 0.6]])
     assert np.allclose(matrix_from_mrp(s), Rotation.from_mrp(s).as_matrix(), atol=1e-15)
     assert np.allclose(mrp_from_matrix(matrix_from_mrp(s)), s, atol=1e-15)
+
+
+# ------------------------------------------------------------------------------------------------
+# scenario files: [[wheel]] and [controller]
+# ------------------------------------------------------------------------------------------------
+def test_scenario_wheel_slew_runs_like_the_example():
+    from lgvi.scenario import load_scenario
+
+    sys.path.insert(0, str(BENCH.parent / "examples"))
+    try:
+        import wheel_slew as ws
+    finally:
+        sys.path.remove(str(BENCH.parent / "examples"))
+    sc = load_scenario(BENCH.parent / "examples" / "wheel_slew.toml")
+    traj = sc.run()
+    ref = lgvi.simulate(ws.J, np.eye(3), omega0=np.zeros(3), h=0.1, steps=6000, wheels=ws.WHEELS, save_every=10,
+                        controller=MRPFeedback(K=20.0, P=200.0, target=ws.TARGET), control_period=0.1)
+    assert np.abs(traj.R - ref.R).max() < 1e-12
+    assert np.abs(traj.wheel_speed - ref.wheel_speed).max() < 1e-9
+
+
+@pytest.mark.parametrize("edit, match", [
+    ({"wheel": {"axis": [1.0, 0.0, 0.0], "spin_inertia": 0.1}}, r"\[\[wheel\]\] \(double brackets\)"),
+    ({"wheel": [{"spin_inertia": 0.1}]}, r"wheel\[0\]\.axis"),
+    ({"wheel": [{"axis": [1.0, 0.0, 0.0], "spin_inertia": -0.1}]}, r"wheel\[0\]\.spin_inertia"),
+    ({"wheel": [{"axis": [1.0, 1.0, 0.0], "spin_inertia": 0.1}]}, r"unit vectors"),
+    ({"wheel": [{"axis": [1.0, 0.0, 0.0], "spin_inertia": 0.1, "max_torque": 0.2},
+                {"axis": [0.0, 1.0, 0.0], "spin_inertia": 0.1}]}, r"max_torque for every wheel or for none"),
+    ({"controller": {"type": "mrp_feedback", "K": 1.0, "P": 1.0, "period": 0.015}}, r"controller\.period"),
+    ({"controller": {"type": "mrp_feedback", "K": 1.0, "period": 0.1}}, r"controller\.P"),
+    ({"controller": {"type": "pid", "period": 0.1}}, r"controller\.type"),
+    ({"controller": {"type": "rotation_pd", "kp": 1.0, "kd": 1.0, "period": 0.1, "gain": 2}}, r"gain"),
+])
+def test_scenario_bad_wheel_and_controller_tables(edit, match):
+    from lgvi.scenario import Scenario, ScenarioError
+
+    d = {"body": {"inertia": [1.0, 2.0, 3.0]}, "initial": {"omega": [0.1, 0.2, 0.3]},
+         "integrator": {"h": 0.01, "steps": 10}}
+    d.update(edit)
+    with pytest.raises(ScenarioError, match=match):
+        Scenario.from_dict(d)

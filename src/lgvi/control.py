@@ -25,6 +25,7 @@ Conventions: ``R`` maps body vectors to inertial ones (lgvi's), so Basilisk's DC
 
 from __future__ import annotations
 
+import math
 from typing import Any, Callable, NamedTuple
 
 import numpy as np
@@ -119,6 +120,31 @@ def matrix_from_mrp(sigma: Any) -> np.ndarray:
     return quat_to_matrix(q)
 
 
+def _mrp3(C: np.ndarray) -> np.ndarray:
+    """:func:`mrp_from_matrix` of one (3, 3) matrix in scalar code (the controllers' hot path)."""
+    (c00, c01, c02), (c10, c11, c12), (c20, c21, c22) = C.tolist()
+    tr = c00 + c11 + c22
+    if tr >= c00 and tr >= c11 and tr >= c22:
+        s = math.sqrt(1.0 + tr) * 2.0
+        w, x, y, z = 0.25 * s, (c21 - c12) / s, (c02 - c20) / s, (c10 - c01) / s
+    elif c00 >= c11 and c00 >= c22:
+        s = math.sqrt(1.0 + c00 - c11 - c22) * 2.0
+        w, x, y, z = (c21 - c12) / s, 0.25 * s, (c01 + c10) / s, (c02 + c20) / s
+    elif c11 >= c22:
+        s = math.sqrt(1.0 + c11 - c00 - c22) * 2.0
+        w, x, y, z = (c02 - c20) / s, (c01 + c10) / s, 0.25 * s, (c12 + c21) / s
+    else:
+        s = math.sqrt(1.0 + c22 - c00 - c11) * 2.0
+        w, x, y, z = (c10 - c01) / s, (c02 + c20) / s, (c12 + c21) / s, 0.25 * s
+    if w < 0.0:
+        w, x, y, z = -w, -x, -y, -z
+    return np.array([x, y, z]) / (1.0 + w)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
 def map_to_wheels(torque_request: Any, axes: Any) -> np.ndarray:
     """Wheel motor torques ``u`` (N,) whose reaction on the body is ``torque_request`` (3,).
 
@@ -209,6 +235,7 @@ class MRPFeedback(Controller):
         self.J = self._inertia if self._inertia is not None else np.zeros((3, 3))
         self.axes = np.zeros((0, 3))
         self.spin_inertia = np.zeros(0)
+        self.wheel_map = np.zeros((0, 3))
         self.reset()
 
     # -------------------------------------------------------------- run set-up
@@ -219,6 +246,8 @@ class MRPFeedback(Controller):
             self.axes, self.spin_inertia = np.zeros((0, 3)), np.zeros(0)
         else:
             self.axes, self.spin_inertia = wheels.axes.copy(), wheels.spin_inertia.copy()
+        # (N, 3): torque request -> wheel motor torques (rwMotorTorque), one column per body axis
+        self.wheel_map = np.stack([map_to_wheels(e, self.axes) for e in np.eye(3)], axis=1)
 
     def reset(self) -> None:
         self.int_sigma = np.zeros(3)
@@ -249,7 +278,7 @@ class MRPFeedback(Controller):
                        env: dict[str, Any]) -> np.ndarray:
         """The body torque ``L`` (3,) the law asks for (Basilisk's ``torqueRequestBody``)."""
         R_ref, w_ref_N, dw_ref_N = self.reference(t, env)
-        sigma = mrp_from_matrix(R_ref.T @ R)
+        sigma = _mrp3(R_ref.T @ R)
         BN = R.T
         w_r = BN @ w_ref_N
         dw_r = BN @ dw_ref_N
@@ -266,15 +295,15 @@ class MRPFeedback(Controller):
         H = J @ omega
         if len(self.spin_inertia):
             H = H + self.axes.T @ (self.spin_inertia * (self.axes @ omega + wheel_speed))
-        L = L - np.cross(w_r + Ki * z, H)
-        L = L + J @ (np.cross(omega, w_r) - dw_r)
+        L = L - _cross(w_r + Ki * z, H)
+        L = L + J @ (_cross(omega, w_r) - dw_r)
         return -L
 
     def command(self, t: float, R: np.ndarray, omega: np.ndarray, wheel_speed: np.ndarray,
                 env: dict[str, Any]) -> Command:
         L = self.torque_request(t, R, omega, wheel_speed, env)
         if len(self.spin_inertia):
-            return Command(wheel_torque=map_to_wheels(L, self.axes))
+            return Command(wheel_torque=self.wheel_map @ L)
         return Command(torque=L)
 
     def __repr__(self) -> str:
@@ -282,4 +311,53 @@ class MRPFeedback(Controller):
                 f"integral_limit={self.integral_limit:g})")
 
 
-__all__ = ["Command", "Controller", "MRPFeedback", "map_to_wheels", "matrix_from_mrp", "mrp_from_matrix"]
+class RotationPD(Controller):
+    """A proportional-derivative law on the rotation error (Python, called at the control rate).
+
+    ``L = -kp e - kd (omega - R^T omega_ref)`` with ``e`` the attitude error of ``R_ref^T R``: its
+    rotation vector (``error="rotation"``, the log map) or twice the vector part of its quaternion
+    with non-negative scalar part (``error="quaternion"``). With wheels ``L`` is mapped to wheel
+    motor torques as :class:`MRPFeedback` does; without, applied as a body torque.
+
+    Parameters
+    ----------
+    kp, kd : float
+        Gains, N m / rad and N m s / rad (> 0).
+    target : None, (3, 3) array_like, scipy Rotation or callable
+        As :class:`MRPFeedback` (``None``: the identity or the environment's ``"sigma_ref"``).
+    error : {"rotation", "quaternion"}
+    """
+
+    def __init__(self, kp: float, kd: float, *, target: Any = None, error: str = "rotation") -> None:
+        self.kp = as_float(kp, "kp", positive=True)
+        self.kd = as_float(kd, "kd", positive=True)
+        if error not in ("rotation", "quaternion"):
+            raise ValueError(f"error must be 'rotation' or 'quaternion', got {error!r}")
+        self.error = error
+        self._law = MRPFeedback(1.0, 1.0, target=target)
+
+    def setup(self, body: Any, wheels: Any) -> None:
+        super().setup(body, wheels)
+        self._law.setup(body, wheels)
+
+    def command(self, t: float, R: np.ndarray, omega: np.ndarray, wheel_speed: np.ndarray,
+                env: dict[str, Any]) -> Command:
+        from .so3 import log
+
+        R_ref, w_ref, _ = self._law.reference(t, env)
+        C = R_ref.T @ R
+        if self.error == "rotation":
+            e = log(C)
+        else:
+            s = _mrp3(C)                        # sigma = q / (1 + q4): q = 2 sigma / (1 + |sigma|^2)
+            e = 4.0 * s / (1.0 + s @ s)
+        L = -self.kp * e - self.kd * (omega - R.T @ w_ref)
+        if len(self._law.spin_inertia):
+            return Command(wheel_torque=self._law.wheel_map @ L)
+        return Command(torque=L)
+
+    def __repr__(self) -> str:
+        return f"RotationPD(kp={self.kp:g}, kd={self.kd:g}, error={self.error!r})"
+
+
+__all__ = ["Command", "Controller", "MRPFeedback", "RotationPD", "map_to_wheels", "matrix_from_mrp", "mrp_from_matrix"]

@@ -234,6 +234,20 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
         ``(M - 1,)``, so the result is sized by the saved states; ``"full"`` every step, shape
         ``(steps,)``. With ``save_every=1`` both are the per-step record. Run totals and a
         histogram of the iterations are kept either way (:attr:`Trajectory.solver_summary`).
+    wheels : lgvi.ReactionWheels, optional
+        Balanced reaction wheels (a gyrostat, ``docs/gyrostat.md``); ``body`` is then the
+        spacecraft with the wheels locked, ``Pi0`` the total body momentum. The result is a
+        :class:`lgvi.systems.gyrostat.GyrostatTrajectory` (``wheel_speed``, ``wheel_torque``,
+        ``wheel_momentum`` (M, N)). Not with ``torque``, ``order != 2`` or ``error_estimate``.
+    controller : lgvi.control.Controller, optional
+        Called every ``control_period`` (zero-order hold); :class:`lgvi.control.MRPFeedback`
+        with a fixed target runs compiled, others from Python between compiled chunks.
+    control_period : float, optional
+        Seconds between controller calls, a positive multiple of ``|h|`` (with ``controller``).
+    environment : object with ``sample(t) -> dict``, optional
+        Sampled at the control rate and handed to the controller (see :mod:`lgvi.control`).
+    magnetorquers : object with ``torque(dipole, B_body) -> (3,)``, optional
+        Turns a controller's dipole into a body torque held over the control period.
 
     Returns
     -------

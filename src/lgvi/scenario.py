@@ -83,6 +83,20 @@ A complete example (every key shown; comments say which keys are alternatives)::
     target = { euler = { sequence = "ZYX", angles = [60.0, 0.0, 0.0], unit = "deg" } }
                                          # optional, any attitude form of [initial]; default I
 
+    [[wheel]]                            # reaction wheels (lgvi.ReactionWheels), one table each;
+    axis = [1.0, 0.0, 0.0]               # then [body] is the spacecraft with the wheels locked
+    spin_inertia = 0.08                  # [kg m^2]
+    speed0 = 10.0                        # optional, relative to the body [rad/s]
+    max_torque = 0.2                     # optional limits: [N m], max_power [W], max_speed [rad/s]
+    # min_torque, coulomb, viscous, omega_limit_cycle: optional (deadband, friction)
+
+    [controller]                         # a control loop (lgvi.control), held between calls
+    type = "mrp_feedback"                # or "rotation_pd" (kp, kd, error = "rotation"/"quaternion")
+    K = 3.5                              # Basilisk's mrpFeedback gains (Ki, integral_limit optional)
+    P = 30.0
+    period = 0.1                         # [s], a multiple of integrator.h
+    # target = { ... }                   # optional, any attitude form of [initial]; default I
+
     [output]
     formats = ["npz", "csv"]             # any of "npz" (default), "csv", "netcdf"
     plots = true                         # write figures with ``lgvi run`` (default true)
@@ -144,7 +158,7 @@ ERROR_ESTIMATES = (True, False, "richardson")
 QUAT_NORM_TOL = 1e-3
 DURATION_RTOL = 1e-9
 
-_TOP_KEYS = ("name", "description", "body", "initial", "integrator", "torque", "output")
+_TOP_KEYS = ("name", "description", "body", "initial", "integrator", "torque", "wheel", "controller", "output")
 _ATTITUDE_KEYS = ("matrix", "quat_xyzw", "quat_wxyz", "euler", "rotvec")
 #: type: {key: (kind, required)}, read from the registered torque models (lgvi.torques); kinds:
 #: number, positive (number > 0), vector, gain (number | 3 numbers), attitude
@@ -452,6 +466,100 @@ def _torque(c: _Checker, entries: Any) -> tuple[Any, tuple[dict[str, Any], ...]]
 
 
 # ------------------------------------------------------------------------------------ scenario
+_WHEEL_KEYS = {"axis": "vector", "spin_inertia": "positive", "speed0": "number", "max_torque": "positive",
+               "min_torque": "number", "max_power": "positive", "max_speed": "positive", "coulomb": "number",
+               "viscous": "number", "omega_limit_cycle": "positive"}
+_CONTROLLERS = {"mrp_feedback": ("K", "P", "Ki", "integral_limit"), "rotation_pd": ("kp", "kd", "error")}
+
+
+def _wheels(c: _Checker, entries: Any, body: Any) -> Any:
+    """The ``[[wheel]]`` tables: one :class:`lgvi.ReactionWheels` (issue 12)."""
+    from .systems.gyrostat import ReactionWheels
+
+    if isinstance(entries, dict):
+        raise c.error("wheel", "expected an array of tables: write [[wheel]] (double brackets) for each wheel")
+    if not isinstance(entries, list) or not entries:
+        raise c.expected("wheel", "an array of tables ([[wheel]] sections)", entries)
+    cols: dict[str, list[float]] = {k: [] for k in _WHEEL_KEYS}
+    for i, entry in enumerate(entries):
+        key = f"wheel[{i}]"
+        c.table(entry, key, tuple(_WHEEL_KEYS))
+        for name in ("axis", "spin_inertia"):
+            if name not in entry:
+                raise c.expected(f"{key}.{name}", "an array of 3 numbers" if name == "axis" else "a positive number")
+        for name, what in _WHEEL_KEYS.items():
+            path = f"{key}.{name}"
+            if name not in entry:
+                cols[name].append(np.nan)
+            elif what == "vector":
+                cols[name].append(c.vector(entry[name], path))
+            else:
+                cols[name].append(c.number(entry[name], path, positive=what == "positive"))
+    n = len(entries)
+
+    def col(name: str, default: Any) -> Any:
+        v = np.array(cols[name], dtype=float)
+        if np.all(np.isnan(v)):
+            return default
+        return np.where(np.isnan(v), np.nan if default is None else default, v)
+
+    limits = {}
+    for name in ("max_torque", "max_power", "max_speed"):
+        v = col(name, None)
+        if v is not None and np.any(np.isnan(v)):
+            raise c.error("wheel", f"give {name} for every wheel or for none (wheel "
+                          f"{int(np.argmax(np.isnan(v)))} has none)")
+        limits[name] = v
+    friction = {k: col(k, d) for k, d in (("coulomb", 0.0), ("viscous", 0.0), ("omega_limit_cycle", 1e-4))}
+    try:
+        wheels = ReactionWheels(np.array(cols["axis"]).reshape(n, 3), np.array(cols["spin_inertia"]),
+                                speed0=col("speed0", 0.0), min_torque=col("min_torque", 0.0), friction=friction,
+                                **limits)
+        wheels.hub_inertia(body)
+    except (ValueError, TypeError) as exc:
+        raise c.error("wheel", f"invalid wheels: {exc}") from None
+    return wheels
+
+
+def _controller(c: _Checker, tbl: Any, h: float) -> tuple[Any, float]:
+    """The ``[controller]`` table: a controller of :mod:`lgvi.control` and its period (issue 12)."""
+    from . import control
+
+    if not isinstance(tbl, dict) or "type" not in tbl:
+        raise c.expected("controller.type", "one of " + ", ".join(f'"{t}"' for t in _CONTROLLERS))
+    kind = c.string(tbl["type"], "controller.type", tuple(_CONTROLLERS))
+    tbl = c.table(tbl, "controller", ("type", "period", "target") + _CONTROLLERS[kind])
+    if "period" not in tbl:
+        raise c.expected("controller.period", "a positive number (seconds, a multiple of integrator.h)")
+    period = c.number(tbl["period"], "controller.period", positive=True)
+    target = _attitude(c, c.table(tbl["target"], "controller.target", _ATTITUDE_KEYS),
+                       "controller.target") if "target" in tbl else None
+    try:
+        if kind == "mrp_feedback":
+            for name in ("K", "P"):
+                if name not in tbl:
+                    raise c.expected(f"controller.{name}", "a positive number")
+            opt = {k: c.number(tbl[k], f"controller.{k}", positive=True) for k in ("Ki", "integral_limit") if k in tbl}
+            ctrl = control.MRPFeedback(c.number(tbl["K"], "controller.K"), c.number(tbl["P"], "controller.P"),
+                                       target=target, **opt)
+        else:
+            for name in ("kp", "kd"):
+                if name not in tbl:
+                    raise c.expected(f"controller.{name}", "a positive number")
+            ctrl = control.RotationPD(c.number(tbl["kp"], "controller.kp"), c.number(tbl["kd"], "controller.kd"),
+                                      target=target, error=c.string(tbl.get("error", "rotation"), "controller.error",
+                                                                    ("rotation", "quaternion")))
+    except ValueError as exc:
+        if isinstance(exc, ScenarioError):
+            raise
+        raise c.error("controller", f"invalid {kind} controller: {exc}") from None
+    ratio = period / abs(h)
+    if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio) or round(ratio) < 1:
+        raise c.error("controller.period", f"expected a positive multiple of |integrator.h| = {abs(h)!r}; "
+                      f"got {period!r} (ratio {ratio!r})")
+    return ctrl, period
+
+
 @dataclass(frozen=True, eq=False)
 class Scenario:
     """A checked, ready-to-run scenario (see the module docstring for the file format).
@@ -512,6 +620,9 @@ class Scenario:
     source: str = "<dict>"
     text: str = field(default="", repr=False)
     composition: str | None = None
+    wheels: Any = None
+    controller: Any = None
+    control_period: float | None = None
 
     @property
     def duration(self) -> float:
@@ -633,6 +744,10 @@ class Scenario:
                               "error_estimate = true to [integrator], or remove error_warn")
 
         torque, spec = _torque(c, d["torque"]) if "torque" in d else (None, ())
+        wheels = _wheels(c, d["wheel"], body) if "wheel" in d else None
+        controller, control_period = _controller(c, d["controller"], h) if "controller" in d else (None, None)
+        if wheels is not None and "omega" in init:   # Pi0 is the total momentum: J omega + G diag(Js) speed0
+            Pi0 = Pi0 + wheels.axes.T @ (wheels.spin_inertia * wheels.speed0)
 
         out = c.table(d.get("output", {}), "output", ("formats", "plots"))
         formats: tuple[str, ...] = ("npz",)
@@ -649,7 +764,8 @@ class Scenario:
                    torque_spec=spec, forcing=forcing, order=order, method=method, tol=tol, max_iter=max_iter,
                    alpha=alpha, save_every=save_every, error_estimate=error_estimate, error_warn=error_warn,
                    formats=formats, plots=plots, source=source, composition=composition,
-                   text=to_toml(d) if text is None else text)
+                   text=to_toml(d) if text is None else text, wheels=wheels, controller=controller,
+                   control_period=control_period)
 
     def simulate_kwargs(self) -> dict[str, Any]:
         """Keyword arguments of :func:`lgvi.simulate` for this scenario (after body, R0, Pi0)."""
@@ -661,6 +777,10 @@ class Scenario:
             kw["order"] = self.order
         if self.composition is not None:
             kw["composition"] = self.composition
+        if self.wheels is not None:
+            kw["wheels"] = self.wheels
+        if self.controller is not None:
+            kw.update(controller=self.controller, control_period=self.control_period)
         return kw
 
     def run(self, progress: bool = False):
@@ -708,6 +828,12 @@ class Scenario:
         """
         from .streaming import read_stream, simulate_stream
 
+        if self.wheels is not None or self.controller is not None:
+            # no stream format for the gyrostat yet: the run is kept in memory (it is fast)
+            if resume:
+                raise ScenarioError(self.source, None, "resume: runs with [[wheel]] or [controller] are not "
+                                    "streamed to disk, so there is nothing to resume; run it again")
+            return self.run(progress=progress)
         try:
             simulate_stream(folder, self.body, self.R0, self.Pi0, progress=progress, resume=resume,
                             chunk_steps=chunk_steps, meta={"scenario_name": self.name},

@@ -21,10 +21,11 @@ import numpy as np
 
 from .._validation import as_float, as_float_array, as_int, as_rotation, choice
 from .._version import __version__
+from ..control import Command, Controller
 from ..driver import MemorySink, check_memory, drive, run_solver_options, sample_times, time_grid
 from ..errors import ConvergenceError, TorqueError
 from ..invariants import BOUNDED, EXACT
-from ..trajectory import HIST_BINS, Trajectory, summary_dict
+from ..trajectory import HIST_BINS, RESULT_TYPES, Trajectory, freeze_arrays, summary_dict
 from . import Field, System, register
 
 #: Steps per compiled call when no Python controller needs the loop back sooner.
@@ -237,6 +238,10 @@ class GyrostatTrajectory(Trajectory):
     wheel_axes: np.ndarray | None = None
     spin_inertia: np.ndarray | None = None
 
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        freeze_arrays(self, ("wheel_momentum", "wheel_torque", "wheel_axes", "spin_inertia"))
+
     @cached_property
     def hub_inertia(self) -> np.ndarray:
         """(3, 3) ``J_B = J - G diag(Js) G^T``."""
@@ -261,6 +266,25 @@ class GyrostatTrajectory(Trajectory):
 
     def __repr__(self) -> str:
         return "Gyrostat" + super().__repr__() + f" with {self.wheel_axes.shape[0]} wheels"
+
+    def _extra_arrays(self) -> dict[str, np.ndarray]:
+        return {"wheel_momentum": self.wheel_momentum, "wheel_torque": self.wheel_torque,
+                "wheel_axes": self.wheel_axes, "spin_inertia": self.spin_inertia}
+
+
+def _from_file(**fields: Any) -> GyrostatTrajectory:
+    """A :class:`GyrostatTrajectory` read by :func:`lgvi.load` (shapes checked)."""
+    M = len(fields["t"])
+    n = fields["spin_inertia"].shape[0] if fields["spin_inertia"].ndim == 1 else -1
+    want = {"wheel_momentum": (M, n), "wheel_torque": (M, n), "wheel_axes": (n, 3), "spin_inertia": (n,)}
+    for name, shape in want.items():
+        if fields[name].shape != shape:
+            raise ValueError(f"field {name!r} must have shape {shape} (M = {M} samples, N = {n} wheels), got shape "
+                             f"{fields[name].shape}")
+    return GyrostatTrajectory(**fields)
+
+
+RESULT_TYPES["gyrostat"] = (("wheel_momentum", "wheel_torque", "wheel_axes", "spin_inertia"), _from_file)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -296,7 +320,6 @@ class GyrostatRun:
                  magnetorquers: Any = None, method: str = "newton", tol: Any = 1e-14, max_iter: Any = 50,
                  alpha: Any = 1.0, save_every: Any = 1, t0: Any = 0.0, solver_record: str = "interval") -> None:
         from ..body import RigidBody
-        from ..control import Controller
 
         self.body = body = body if isinstance(body, RigidBody) else RigidBody(body)
         if wheels is None:
@@ -390,6 +413,9 @@ class GyrostatRun:
                                      "controller": repr(controller) if controller is not None else None,
                                      "control_period": None if controller is None else self.spc * abs(self.h),
                                      "invariants": _invariants(self)}
+        self.meta["torque_model"] = (f"the gyrostat ({n} reaction wheels"
+                                     + (f", {controller!r} every {self.spc * abs(self.h):g} s)" if controller is not None
+                                        else ")"))
 
     # -------------------------------------------------------------- results
     def times(self, j0: int, j1: int) -> np.ndarray:
@@ -506,8 +532,6 @@ class GyrostatRun:
 
 
 def _check_command(cmd: Any, n: int, k: int, t: float) -> tuple[Any, Any, Any]:
-    from ..control import Command
-
     if not isinstance(cmd, Command):
         raise TorqueError(f"controller.command must return an lgvi.control.Command, got {type(cmd).__name__}")
     out = []
