@@ -33,6 +33,7 @@ LAYERS: dict[str, int] = {
     "driver": 3, "systems": 3, "integrator": 3, "ensemble": 3, "modified": 3,
     # 4: input/output, verification baselines
     "streaming": 4, "outputs": 4, "scenario": 4, "baselines": 4,
+    "scenario_space": 4,
     # 5: plots; 6: the command line and the package's front door
     "plot": 5, "cli": 6, "__main__": 6, "__init__": 6,
 }
