@@ -221,7 +221,7 @@ def check_conventions(T: float = 10.0, verbose: bool = True) -> dict[str, float]
     """
     _require()
     import lgvi
-    from lgvi.exact import free_body_attitude
+    from lgvi.verification.exact import free_body_attitude
     from lgvi.torques import UniformGravity
 
     out: dict[str, float] = {}
@@ -262,7 +262,7 @@ def main(argv: list[str] | None = None) -> int:
     check_conventions(T=2.0 if args.quick else 10.0)
     if args.quick:
         return 0
-    from lgvi.exact import free_body_attitude
+    from lgvi.verification.exact import free_body_attitude
 
     J = np.array([1.0, 2.0, 3.0])
     w0 = np.array([0.3, 1.0, 0.2])

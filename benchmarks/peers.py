@@ -44,7 +44,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import basilisk_peer  # noqa: E402
 
 import lgvi  # noqa: E402
-from lgvi import reference  # noqa: E402
+from lgvi.verification import reference  # noqa: E402
 
 J = np.array([1.0, 2.0, 3.0])
 OMEGA0 = np.array([0.3, 1.0, 0.2])
@@ -99,7 +99,7 @@ def _try(table: Table, name: str, steps: int, run: Callable[[int], Any], repeat:
 
 
 def free_body(quick: bool, repeat: int) -> Table:
-    from lgvi.baselines import rk4, solve_ivp_baseline
+    from lgvi.verification.baselines import rk4, solve_ivp_baseline
 
     n = 20_000 if quick else 1_000_000
     n_comp = 4_000 if quick else 200_000
@@ -165,7 +165,7 @@ def free_body(quick: bool, repeat: int) -> Table:
 
 
 def pendulum(quick: bool, repeat: int) -> Table:
-    from lgvi.baselines import rk4
+    from lgvi.verification.baselines import rk4
 
     n = 20_000 if quick else 500_000
     n_comp = 4_000 if quick else 100_000

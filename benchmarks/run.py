@@ -22,7 +22,7 @@ import time
 import numpy as np
 
 import lgvi
-from lgvi import reference
+from lgvi.verification import reference
 
 J = (1.0, 2.0, 3.0)
 OMEGA0 = (0.3, 1.0, 0.2)

@@ -117,7 +117,7 @@ def attitude_error(R_ref: np.ndarray, R: np.ndarray) -> float:
 
 
 def _dop853(p: Problem, tol: float) -> np.ndarray:
-    from lgvi.baselines import solve_ivp_baseline
+    from lgvi.verification.baselines import solve_ivp_baseline
 
     tr = solve_ivp_baseline(p.body, p.R0, p.Pi0, t_final=p.T, samples=2, method="DOP853", rtol=tol, atol=tol,
                             torque=p.torque())
@@ -129,7 +129,7 @@ def compute_reference(p: Problem) -> float:
     """Fill ``p.R_ref``; return the disagreement of the two reference computations (rad)."""
     t0 = time.perf_counter()
     if p.gravity is None:
-        from lgvi.exact import free_body_attitude
+        from lgvi.verification.exact import free_body_attitude
 
         p.R_ref = free_body_attitude(p.inertia, p.R0, p.Pi0, p.T)
         t1 = time.perf_counter()
@@ -146,7 +146,7 @@ def compute_reference(p: Problem) -> float:
             names = (f"DOP853 rtol=atol=1e-13 ({t1 - t0:.1f} s)",
                      f"lgvi order 6, h={p.T / n:.0e} ({time.perf_counter() - t1:.1f} s)")
         except (TypeError, ValueError, NotImplementedError) as exc:   # lgvi order 6 not there yet
-            from lgvi.baselines import solve_ivp_baseline
+            from lgvi.verification.baselines import solve_ivp_baseline
 
             tr = solve_ivp_baseline(p.body, p.R0, p.Pi0, t_final=p.T, samples=2, method="Radau", rtol=1e-13,
                                     atol=1e-13, torque=p.torque())
@@ -233,7 +233,7 @@ def modified_config(p: Problem, order: int) -> Config:
 def rk4_config(p: Problem) -> Config:
     cfg = Config("lgvi.baselines.rk4", True, "fixed", 4.0)
     try:
-        from lgvi.baselines import rk4
+        from lgvi.verification.baselines import rk4
 
         torque = p.torque()
         body = p.body
@@ -254,7 +254,7 @@ def rk4_config(p: Problem) -> Config:
 def scipy_config(p: Problem, method: str) -> Config:
     cfg = Config(f"scipy {method}", True, "adaptive", 1.0)
     try:
-        from lgvi.baselines import solve_ivp_baseline
+        from lgvi.verification.baselines import solve_ivp_baseline
 
         torque = p.torque()
         body = p.body

@@ -25,8 +25,8 @@ sys.path.insert(0, str(HERE.parent / "examples"))
 
 import lgvi  # noqa: E402
 from lgvi import plot  # noqa: E402
-from lgvi.baselines import solve_ivp_baseline  # noqa: E402
-from lgvi.exact import free_body  # noqa: E402
+from lgvi.verification.baselines import solve_ivp_baseline  # noqa: E402
+from lgvi.verification.exact import free_body  # noqa: E402
 
 
 def save_small(fig, path: Path) -> Path:

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 import lgvi
-from lgvi.baselines import solve_ivp_baseline
+from lgvi.verification.baselines import solve_ivp_baseline
 from lgvi.torques import UniformGravity
 
 J = (0.13, 0.28, 0.17)           # about the pivot [kg m^2]

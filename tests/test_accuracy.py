@@ -23,8 +23,8 @@ import pytest
 
 import lgvi
 from lgvi.accuracy import ErrorEstimate, geodesic_distance
-from lgvi.exact import free_body
-from lgvi.scenario import Scenario, ScenarioError
+from lgvi.verification.exact import free_body
+from lgvi.io.scenario import Scenario, ScenarioError
 from lgvi.torques import Constant, GravityGradient, LinearDamping
 
 FREE_J = [1.0, 2.0, 3.0]

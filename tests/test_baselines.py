@@ -13,9 +13,9 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import lgvi
-from lgvi import baselines, exact
+from lgvi.verification import baselines, exact
 from lgvi._kernels import rk4_kernels
-from lgvi.baselines import compare, homogeneous_matrix, quat_rhs, rk4, solve_ivp_baseline
+from lgvi.verification.baselines import compare, homogeneous_matrix, quat_rhs, rk4, solve_ivp_baseline
 from lgvi.errors import TorqueError
 
 MOMENTS = (1.0, 2.0, 3.0)

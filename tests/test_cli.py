@@ -14,7 +14,7 @@ import pytest
 
 import lgvi
 from lgvi import cli
-from lgvi.scenario import load_scenario
+from lgvi.io.scenario import load_scenario
 
 SCENARIO = """\
 name = "spin"
@@ -125,7 +125,7 @@ def test_run_writes_everything(capsys, tmp_path, scenario_file):
     side = json.loads((out_dir / "trajectory.meta.json").read_text())
     assert side["meta"]["scenario"] == SCENARIO
     if has_xarray():
-        from lgvi.outputs import read_netcdf
+        from lgvi.io.outputs import read_netcdf
 
         assert np.array_equal(read_netcdf(out_dir / "trajectory.nc").R, traj.R)
 
@@ -219,7 +219,7 @@ def test_run_convergence_failure_exits_1_and_keeps_the_part_computed(capsys, tmp
 
 def test_run_interrupted_writes_the_part_computed(capsys, tmp_path, scenario_file, monkeypatch):
     from lgvi.errors import SimulationInterrupted
-    from lgvi.scenario import Scenario
+    from lgvi.io.scenario import Scenario
 
     sc = load_scenario(scenario_file)
     full = sc.run()
@@ -302,7 +302,7 @@ def test_plot_command(capsys, tmp_path, saved):
 
 @needs_plot
 def test_plot_command_reads_csv(capsys, tmp_path, saved):
-    from lgvi.outputs import write_csv
+    from lgvi.io.outputs import write_csv
 
     p = write_csv(lgvi.load(saved), tmp_path / "run.csv")
     code, _, err = run(capsys, "plot", p, "-o", tmp_path / "f")
@@ -342,7 +342,7 @@ def test_info_command(capsys, saved):
 
 
 def test_info_of_csv_reports_steps_from_sidecar(capsys, tmp_path, saved):
-    from lgvi.outputs import write_csv
+    from lgvi.io.outputs import write_csv
 
     p = write_csv(lgvi.load(saved), tmp_path / "run.csv")
     code, out, _ = run(capsys, "info", p)

@@ -17,7 +17,7 @@ from scipy.integrate import solve_ivp
 
 import lgvi
 from lgvi import so3
-from lgvi.exact import free_body_attitude, free_body_momentum
+from lgvi.verification.exact import free_body_attitude, free_body_momentum
 
 METHODS = ("paper", "newton", "cayley")
 MOMENTS = np.array([1.0, 2.0, 3.0])

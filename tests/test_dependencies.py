@@ -116,7 +116,7 @@ def test_trajectory_hands_scipy_writable_arrays(strict_scipy):
 
 
 def test_baselines_hand_scipy_writable_arrays(strict_scipy):
-    from lgvi import baselines
+    from lgvi.verification import baselines
 
     R = lgvi.so3.exp(np.array([[0.1, 0.2, 0.3], [0.4, -0.1, 0.2]]))
     R.flags.writeable = False

@@ -29,8 +29,8 @@ import numpy as np
 import pytest
 
 import lgvi
-from lgvi import outputs, streaming
-from lgvi.scenario import ScenarioError, load_scenario
+from lgvi.io import outputs, streaming
+from lgvi.io.scenario import ScenarioError, load_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 SRC = Path(lgvi.__file__).resolve().parents[1]       # the package under test (editable or not)

@@ -11,8 +11,8 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 from scipy.spatial.transform import Rotation
 
-from lgvi import exact as exact_module
-from lgvi.exact import free_body, free_body_attitude, free_body_momentum
+from lgvi.verification import exact as exact_module
+from lgvi.verification.exact import free_body, free_body_attitude, free_body_momentum
 
 T_END = 20.0
 TIMES = np.linspace(0.0, T_END, 81)

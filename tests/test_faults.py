@@ -32,9 +32,10 @@ import numpy as np
 import pytest
 
 import lgvi
-from lgvi import ensemble, so3, streaming
+from lgvi import ensemble, so3
+from lgvi.io import streaming
 from lgvi._files import FolderLock, FolderLocked, StaleLockWarning
-from lgvi.streaming import StreamWriter, read_manifest, read_stream
+from lgvi.io.streaming import StreamWriter, read_manifest, read_stream
 from lgvi.torques import UniformGravity
 
 HAVE_DASK = importlib.util.find_spec("dask") is not None and importlib.util.find_spec("distributed") is not None

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 import lgvi
-from lgvi import integrator, reference, so3
+from lgvi import integrator, so3
+from lgvi.verification import reference
 from lgvi.torques import AttitudePD, Constant, GravityGradient, LinearDamping, UniformGravity
 
 BODY = lgvi.RigidBody(np.array([[0.9, 0.05, -0.1], [0.05, 1.3, 0.08], [-0.1, 0.08, 1.7]]))

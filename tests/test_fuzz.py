@@ -45,8 +45,8 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import lgvi
-from lgvi import outputs, streaming
-from lgvi.scenario import Scenario, ScenarioError, load_scenario
+from lgvi.io import outputs, streaming
+from lgvi.io.scenario import Scenario, ScenarioError, load_scenario
 
 MAX_EXAMPLES = int(os.environ.get("LGVI_FUZZ_EXAMPLES", "60"))
 pytestmark = pytest.mark.filterwarnings("ignore::UserWarning", "ignore::RuntimeWarning")
@@ -275,7 +275,7 @@ _NC_FUZZ = textwrap.dedent("""\
     import json, os, random, sys, tempfile
     import numpy as np
     import lgvi
-    from lgvi.outputs import read_netcdf, write_netcdf
+    from lgvi.io.outputs import read_netcdf, write_netcdf
 
     seed, n = int(sys.argv[1]), int(sys.argv[2])
     d = tempfile.mkdtemp()
@@ -423,7 +423,7 @@ def test_scenario_structured(data, action, value, via_file):
         assert np.all(np.isfinite(sc.R0)) and np.all(np.isfinite(sc.Pi0))
         return
     try:
-        text = lgvi.scenario.to_toml(d)
+        text = lgvi.io.scenario.to_toml(d)
     except TypeError:
         return
     with tempfile.TemporaryDirectory() as tmp:

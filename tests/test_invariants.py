@@ -14,7 +14,7 @@ import pytest
 
 import lgvi
 from lgvi import so3
-from lgvi.exact import free_body
+from lgvi.verification.exact import free_body
 
 METHODS = ("paper", "newton", "cayley")
 OMEGA0 = np.array([0.3, 1.0, 0.2])

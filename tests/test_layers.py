@@ -1,71 +1,90 @@
-"""The layer rules of the package, checked on the source (AST): see ``docs/architecture.md``.
+"""The layer rules of the package, by folder, checked on the source (AST): see ``docs/architecture.md``.
 
-* kernels (``lgvi._kernels``) import only ``lgvi._jit`` and other kernels;
-* the core (systems, driver, registries, models, the integrator) never imports the input/output
-  layer (``streaming``, ``outputs``, ``scenario``), the command line or the plots;
-* nothing below imports anything above (the layers are ranked below); an import inside a function
-  counts too (it runs when the function does).
+* the core (the modules at the top of ``src/lgvi/``, ``systems/`` and ``_kernels/``) never imports
+  ``lgvi.io``, ``lgvi.cli``, ``lgvi.plot`` or ``lgvi.verification``;
+* kernels (``_kernels/``) import only ``lgvi._jit`` and other kernels;
+* ``io/`` never imports ``cli/`` or ``plot/``; ``verification/`` never imports ``io/``, ``cli/`` or
+  ``plot/``; ``plot/`` never imports ``cli/``;
+* inside the core, nothing below imports anything above (the top-level modules are ranked below).
+
+An import inside a function counts too (it runs when the function does), and an old name of a moved
+module (``from . import exact``, ``from .streaming import ...``: :data:`lgvi._aliases.MOVED`) counts
+as the module it names.
 """
 
 from __future__ import annotations
 
 import ast
+import sys
 from pathlib import Path
 
 import pytest
 
 import lgvi
+from lgvi._aliases import MOVED
 
 SRC = Path(lgvi.__file__).parent
 
-#: Layer of each module (dotted name below ``lgvi``; a package covers its submodules), lowest first.
-#: A module may import modules of its own layer or of lower layers only.
-LAYERS: dict[str, int] = {
-    # 0: the compiled layer and its helpers (no lgvi Python objects)
-    "_jit": 0, "_kernels": 0,
-    # 1: foundations
+#: The folders of the package (subpackages) above the core, and the kernels; the top-level modules
+#: and every other folder (``systems/``, a folder of models) are the core.
+AREAS = {"_kernels": "kernels", "io": "io", "verification": "verification", "plot": "plot", "cli": "cli"}
+#: The package's front door: re-exports, ``python -m lgvi``, the old names of moved modules.
+FRONT = {"__init__", "__main__", "_aliases"}
+#: Areas that an area never imports.
+FORBIDDEN: dict[str, set[str]] = {
+    "kernels": {"core", "io", "verification", "plot", "cli", "front"},   # only _jit and kernels
+    "core": {"io", "verification", "plot", "cli", "front"},
+    "io": {"plot", "cli", "front"},
+    "verification": {"io", "plot", "cli", "front"},
+    "plot": {"cli", "front"},
+}
+
+#: Rank of each top-level module of the core, lowest first: inside the core a module imports its
+#: own rank or lower ones (``systems/`` is rank 3, the kernels and ``_jit`` rank 0).
+CORE_RANKS: dict[str, int] = {
+    "_jit": 0,
+    # 1: foundations (``_files`` and ``_untrusted`` stay here: ``trajectory`` and ``ensemble`` save,
+    # load and check result files with them)
     "_version": 1, "errors": 1, "_validation": 1, "_untrusted": 1, "_files": 1, "so3": 1, "body": 1,
     # 2: models, registries, invariants, implicit solver, results
     "registry": 2, "torques": 2, "invariants": 2, "implicit": 2, "accuracy": 2, "trajectory": 2,
-    "discrete": 2, "reference": 2, "exact": 2, "control": 2,
+    "discrete": 2, "control": 2,
     "environment": 2,
-    # 3: systems and the driver (the core)
+    # 3: systems and the driver
     "driver": 3, "systems": 3, "integrator": 3, "ensemble": 3, "modified": 3,
-    # 4: input/output, verification baselines
-    "streaming": 4, "outputs": 4, "scenario": 4, "baselines": 4,
-    "scenario_space": 4,
-    # 5: plots; 6: the command line and the package's front door
-    "plot": 5, "cli": 6, "__main__": 6, "__init__": 6,
 }
-CORE = {"driver", "systems", "integrator", "ensemble", "modified", "registry", "torques", "invariants",
-        "implicit", "trajectory", "body", "so3"}
-IO_CLI_PLOT = {"streaming", "outputs", "scenario", "cli", "plot", "__main__"}
 
-# Imports that run back up, each with its reason; the test fails when one disappears (so that the
-# list stays true) or when a new one appears.
+# Imports inside the core that run back up, each with its reason; the test fails when one
+# disappears (so that the list stays true) or when a new one appears.
 ALLOWED_UPWARD = {
     # the accuracy estimate re-runs lgvi.simulate at h/2 (a shadow run of the same problem)
     ("accuracy", "integrator"),
 }
 
 
-def _modules() -> dict[str, Path]:
+def _modules(src: Path = SRC) -> dict[str, Path]:
+    """Dotted name below ``lgvi`` (``io.streaming``; ``cli`` for ``cli/__init__.py``) -> file."""
     out = {}
-    for path in SRC.rglob("*.py"):
-        rel = path.relative_to(SRC).with_suffix("")
-        out[".".join(rel.parts)] = path
+    for path in src.rglob("*.py"):
+        parts = path.relative_to(src).with_suffix("").parts
+        if len(parts) > 1 and parts[-1] == "__init__":
+            parts = parts[:-1]
+        out[".".join(parts)] = path
     return out
 
 
-def _top(mod: str) -> str:
-    return mod.split(".")[0]
+def _real(name: str) -> str:
+    """An old name of a moved module (``exact``, ``streaming.x``) -> its real one."""
+    top, _, rest = name.partition(".")
+    new = MOVED.get(f"lgvi.{top}")
+    return (new[5:] + ("." + rest if rest else "")) if new else name
 
 
 def _imports(mod: str, path: Path) -> set[str]:
-    """Dotted names (below ``lgvi``) that module ``mod`` imports, anywhere in its body."""
+    """Dotted names (below ``lgvi``, old names made real) that module ``mod`` imports, anywhere."""
     tree = ast.parse(path.read_text(encoding="utf-8"))
-    package = mod.split(".")[:-1] if path.name != "__init__.py" else mod.split(".")
-    if path.name == "__init__.py" and mod == "__init__":
+    package = mod.split(".") if path.name == "__init__.py" else mod.split(".")[:-1]
+    if mod == "__init__":
         package = []
     found = set()
     for node in ast.walk(tree):
@@ -76,57 +95,177 @@ def _imports(mod: str, path: Path) -> set[str]:
         elif isinstance(node, ast.ImportFrom):
             if node.level == 0:
                 if node.module and (node.module == "lgvi" or node.module.startswith("lgvi.")):
-                    base = node.module[5:]
+                    parts = node.module.split(".")[1:]
                 else:
                     continue
             else:
-                parts = package[:len(package) - (node.level - 1)] if node.level > 1 else package
-                base = ".".join(parts + ([node.module] if node.module else []))
-            if base:
-                found.add(base)
-            else:  # from . import x
-                found.update(a.name for a in node.names)
-    return found
+                parts = package[:len(package) - (node.level - 1)] + (node.module.split(".") if node.module else [])
+            # ``from lgvi.io import streaming`` imports lgvi.io.streaming (or a name of lgvi.io)
+            found.update(".".join(parts + [a.name]) if parts else a.name for a in node.names)
+            if parts:
+                found.add(".".join(parts))
+    return {_real(f) for f in found}
 
 
-def _edges() -> list[tuple[str, str]]:
-    mods = _modules()
-    edges = []
+def _area(mod: str) -> str:
+    if mod in FRONT:
+        return "front"
+    if mod == "_jit":
+        return "kernels"
+    return AREAS.get(mod.split(".")[0], "core")
+
+
+def _rank(mod: str) -> int:
+    top = mod.split(".")[0]
+    return 0 if top == "_kernels" else CORE_RANKS[top]
+
+
+def _edges(src: Path = SRC) -> list[tuple[str, str]]:
+    """(importer, imported) for every import of one lgvi module by another (by module, not by name:
+    ``io.streaming.read_stream`` is cut to the longest prefix that is a module)."""
+    mods = _modules(src)
+    edges = set()
     for mod, path in mods.items():
         for target in _imports(mod, path):
-            if target and _top(target) != _top(mod):
-                edges.append((mod, target))
-    return edges
+            parts = target.split(".")
+            while len(parts) > 1 and ".".join(parts) not in mods:
+                parts.pop()
+            target = ".".join(parts)
+            if target != mod and target in mods:
+                edges.add((mod, target))
+    return sorted(edges)
 
 
-def test_every_module_has_a_layer():
-    missing = sorted({_top(m) for m in _modules()} - set(LAYERS) - {"__init__"})
-    assert not missing, f"modules without a layer in tests/test_layers.py: {missing}"
+def _violations(src: Path = SRC) -> list[str]:
+    """Every import that breaks a folder rule, as ``'importer (area) -> imported (area)'``."""
+    return [f"{m} ({_area(m)}) -> {t} ({_area(t)})" for m, t in _edges(src)
+            if _area(t) in FORBIDDEN.get(_area(m), set())]
+
+
+def _upward(src: Path = SRC) -> set[tuple[str, str]]:
+    """Imports inside the core (top-level modules and ``systems``) of a higher-ranked module."""
+    return {(m.split(".")[0], t.split(".")[0]) for m, t in _edges(src)
+            if _area(m) == "core" and _area(t) in ("core", "kernels") and _rank(t) > _rank(m)}
+
+
+def test_every_core_module_and_folder_has_a_rank():
+    mods = _modules()
+    missing = sorted({m.split(".")[0] for m in mods if _area(m) in ("core", "kernels")} - set(CORE_RANKS) - {"_kernels"})
+    assert not missing, f"core modules without a rank in tests/test_layers.py: {missing}"
+
+
+def test_the_folders_of_the_layout_exist():
+    assert {m for m in _modules() if "." not in m} >= {"io", "cli", "plot", "verification", "systems", "_kernels"}
+    assert {"io.streaming", "io.outputs", "io.scenario", "verification.reference", "verification.exact",
+            "verification.baselines"} <= set(_modules())
 
 
 def test_kernels_import_only_jit_and_kernels():
-    bad = [(m, t) for m, t in _edges() if _top(m) == "_kernels" and _top(t) not in ("_jit", "_kernels")]
+    bad = [(m, t) for m, t in _edges() if _area(m) == "kernels" and _area(t) != "kernels"]
     assert not bad, f"kernels may import only lgvi._jit and other kernels: {bad}"
 
 
-def test_core_never_imports_io_cli_or_plot():
-    bad = [(m, t) for m, t in _edges() if _top(m) in CORE and _top(t) in IO_CLI_PLOT]
-    assert not bad, f"the core imports the io/cli/plot layer: {bad}"
+def test_no_folder_imports_a_folder_it_must_not():
+    """The core never imports io, cli, plot or verification; io never cli or plot; and so on."""
+    bad = _violations()
+    assert not bad, "imports breaking the layer rules (see tests/test_layers.py):\n" + "\n".join(bad)
 
 
-def test_nothing_below_imports_anything_above():
-    up = {(_top(m), _top(t)) for m, t in _edges() if _top(t) in LAYERS and LAYERS[_top(t)] > LAYERS[_top(m)]}
+def test_nothing_in_the_core_imports_anything_above():
+    up = _upward()
     assert up - ALLOWED_UPWARD == set(), f"imports running back up the layers: {sorted(up - ALLOWED_UPWARD)}"
     assert ALLOWED_UPWARD - up == set(), f"listed as allowed but gone (remove from the list): {ALLOWED_UPWARD - up}"
 
 
-@pytest.mark.parametrize("source, target", [("integrator", "streaming"), ("_kernels.solvers", "torques")])
-def test_the_checker_sees_a_violation(tmp_path, source, target):
-    """The AST reader finds relative and absolute imports, also inside functions."""
-    p = tmp_path / "m.py"
-    p.write_text(f"def f():\n    from .{target.split('.')[-1]} import x\n    import lgvi.{target}\n")
-    found = _imports(source, p)
-    assert target in found or target.split(".")[-1] in {f.split(".")[-1] for f in found}
+VIOLATIONS = {
+    # file (relative to a fake src/lgvi) -> its source, each breaking one rule
+    "integrator.py": "from .io.streaming import StreamSink\n",
+    "driver.py": "def f():\n    from . import exact\n",            # an old name, inside a function
+    "registry.py": "import lgvi.plot\n",
+    "systems/rigid_body.py": "from ..verification.baselines import rk4\n",
+    "_kernels/solvers.py": "from ..torques import TORQUE_MODELS\n",
+    "io/outputs.py": "def g():\n    from ..cli import main\n",
+    "verification/exact.py": "from lgvi.io import scenario\n",
+    "so3.py": "from .integrator import simulate\n",                # upward inside the core
+}
+
+
+def test_the_checker_sees_a_violation(tmp_path):
+    """A fake package with one violation per rule: every one is reported, nothing else is."""
+    src = tmp_path / "lgvi"
+    for name in ["__init__.py", "_jit.py", "torques.py", "cli/__init__.py", "plot/__init__.py",
+                 "io/__init__.py", "io/streaming.py", "io/scenario.py", "verification/__init__.py",
+                 "verification/baselines.py", "systems/__init__.py", "_kernels/__init__.py",
+                 "_kernels/codes.py", *VIOLATIONS]:
+        (src / name).parent.mkdir(parents=True, exist_ok=True)
+        (src / name).write_text(VIOLATIONS.get(name, ""))
+    (src / "_kernels" / "codes.py").write_text("from .._jit import njit\n")           # allowed
+    (src / "io" / "scenario.py").write_text("from ..integrator import simulate\nfrom .streaming import x\n")  # allowed
+    bad = _violations(src)
+    assert {b.split(" ")[0] for b in bad} == {"integrator", "driver", "registry", "systems.rigid_body",
+                                              "_kernels.solvers", "io.outputs", "verification.exact"}, bad
+    assert _upward(src) == {("so3", "integrator")}
+
+
+def test_the_old_names_are_the_moved_modules():
+    """``lgvi.streaming`` is ``lgvi.io.streaming`` (one module object), and so on for every old name."""
+    import importlib
+
+    for old, new in MOVED.items():
+        assert importlib.import_module(old) is importlib.import_module(new) is sys.modules[old], old
+        module = sys.modules[new]
+        assert module.__name__ == new and module.__spec__.name == new, (old, module.__spec__)
+    import lgvi.baselines
+    import lgvi.verification.baselines
+    from lgvi import exact
+
+    assert exact is lgvi.verification.exact and lgvi.baselines is lgvi.verification.baselines
+    assert lgvi.streaming is lgvi.io.streaming
+
+
+def test_a_patch_through_an_old_name_is_seen_by_the_real_module(monkeypatch):
+    import lgvi.exact
+    import lgvi.streaming
+    import lgvi.verification.exact
+
+    monkeypatch.setattr(lgvi.streaming, "read_stream", "patched")
+    monkeypatch.setattr("lgvi.exact.free_body", "patched too")
+    assert lgvi.io.streaming.read_stream == "patched"
+    assert lgvi.verification.exact.free_body == "patched too"
+
+
+def _missing_modules(src: Path = SRC) -> list[str]:
+    """``from .x import y`` (or ``import lgvi.x``) whose module ``x`` does not exist; e.g. an edit of
+    the old ``cli.py`` merged into ``cli/__init__.py`` with ``from .registry import ...``, which now
+    means ``lgvi.cli.registry`` and fails only when the function runs."""
+    mods = _modules(src)
+    bad = []
+    for mod, path in mods.items():
+        package = mod.split(".") if path.name == "__init__.py" and mod != "__init__" else mod.split(".")[:-1]
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = []
+            if isinstance(node, ast.ImportFrom) and node.module and node.level:
+                names = [".".join(package[:len(package) - (node.level - 1)] + node.module.split("."))]
+            elif isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("lgvi."):
+                names = [node.module[5:]]
+            elif isinstance(node, ast.Import):
+                names = [a.name[5:] for a in node.names if a.name.startswith("lgvi.")]
+            bad += [f"{mod}: {name}" for name in names if name not in mods and f"lgvi.{name}" not in MOVED]
+    return bad
+
+
+def test_every_imported_module_exists():
+    bad = _missing_modules()
+    assert not bad, f"imports of modules that do not exist (a relative import after a move?): {bad}"
+
+
+def test_the_missing_module_check_sees_one(tmp_path):
+    src = tmp_path / "lgvi"
+    (src / "cli").mkdir(parents=True)
+    (src / "registry.py").write_text("")
+    (src / "cli" / "__init__.py").write_text("def f():\n    from .registry import X\n    from ..registry import Y\n"
+                                             "    from ..exact import free_body\n    import lgvi.nowhere\n")
+    assert _missing_modules(src) == ["cli: cli.registry", "cli: nowhere"]
 
 
 def test_no_module_imports_another_modules_private_names():

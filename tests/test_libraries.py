@@ -16,7 +16,7 @@ import tqdm.std
 
 import lgvi
 from lgvi import integrator, so3
-from lgvi.scenario import Scenario, load_scenario, to_toml
+from lgvi.io.scenario import Scenario, load_scenario, to_toml
 
 EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.toml"))
 

@@ -13,7 +13,7 @@ import pytest
 
 import lgvi
 from lgvi import so3
-from lgvi.exact import free_body_attitude, free_body_momentum
+from lgvi.verification.exact import free_body_attitude, free_body_momentum
 from lgvi.modified import (MAX_STEP_ANGLE, ORDERS, _COEFFICIENTS, max_step_angle, modified_inertia,
                            pencil_coefficients, simulate_modified)
 

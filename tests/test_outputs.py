@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import lgvi
-from lgvi import outputs
-from lgvi.outputs import (CSV_COLUMNS, conservation_drifts, read_csv, read_netcdf, read_trajectory, sidecar_path,
+from lgvi.io import outputs
+from lgvi.io.outputs import (CSV_COLUMNS, conservation_drifts, read_csv, read_netcdf, read_trajectory, sidecar_path,
                           write_csv, write_netcdf, write_trajectory)
 
 SCENARIO_TEXT = '[body]\ninertia = [1.0, 2.0, 3.0]\n# a "quoted" comment\n'

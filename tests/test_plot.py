@@ -26,7 +26,7 @@ def traj() -> lgvi.Trajectory:
 
 @pytest.fixture(scope="module")
 def rk(traj) -> lgvi.Trajectory:
-    from lgvi.baselines import solve_ivp_baseline
+    from lgvi.verification.baselines import solve_ivp_baseline
 
     return solve_ivp_baseline([1.0, 2.0, 3.0], np.eye(3), omega0=[1e-3, 1.0, 1e-3], t_final=20.0, samples=201)
 
@@ -194,7 +194,7 @@ def test_save_figures_of_a_baseline_skips_iterations(rk, tmp_path):
 
 
 def test_rk4_baseline_has_no_solver_record(tmp_path):
-    from lgvi.baselines import rk4
+    from lgvi.verification.baselines import rk4
 
     tr = rk4([1.0, 2.0, 3.0], np.eye(3), omega0=[0.3, 1.0, 0.2], h=0.01, steps=100)
     assert not plot.has_solver_record(tr)
@@ -311,7 +311,7 @@ def test_forced_run_has_no_free_body_polhodes():
 
 def test_gravity_gradient_figures_show_the_jacobi_integral():
     torques = pytest.importorskip("lgvi.torques", reason="lgvi.torques not available")
-    from lgvi.baselines import rk4
+    from lgvi.verification.baselines import rk4
 
     gg = torques.GravityGradient(mu=1.0, radius=1.0)
     kw = dict(omega0=[0.4, 1.3, -0.6], h=0.02, steps=2000, torque=gg, save_every=10)

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 import lgvi
-from lgvi import registry, scenario, torques
+from lgvi import registry, torques
+from lgvi.io import scenario
 from lgvi._kernels import codes as kcodes
 from lgvi.implicit import METHODS
 

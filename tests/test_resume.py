@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 import lgvi
-from lgvi.streaming import read_manifest, read_stream
+from lgvi.io.streaming import read_manifest, read_stream
 from lgvi.torques import UniformGravity
 
 PENDULUM = dict(omega0=[4.14, 4.14, 4.14], h=0.01, save_every=10, torque=UniformGravity(1.0, [0.0, 0.0, 0.3]))

@@ -12,7 +12,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import lgvi
-from lgvi.scenario import Scenario, ScenarioError, load_scenario, to_toml
+from lgvi.io.scenario import Scenario, ScenarioError, load_scenario, to_toml
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

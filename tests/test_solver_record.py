@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 import lgvi
-from lgvi.outputs import read_csv, read_netcdf, write_csv, write_netcdf
-from lgvi.streaming import read_stream
+from lgvi.io.outputs import read_csv, read_netcdf, write_csv, write_netcdf
+from lgvi.io.streaming import read_stream
 from lgvi.torques import LinearDamping, UniformGravity
 
 BODY = lgvi.RigidBody([0.13, 0.28, 0.17])

@@ -453,7 +453,7 @@ def test_gravity_gradient_conserves_the_jacobi_integral_not_the_energy():
                          ids=["constant", "damping", "pd", "gravity+damping"])
 def test_models_that_conserve_nothing_declare_nothing(model):
     from lgvi.invariants import USUAL, error_series
-    from lgvi.outputs import conservation_drifts
+    from lgvi.io.outputs import conservation_drifts
 
     assert model.invariants() == {}
     traj = lgvi.simulate(lgvi.RigidBody(PENDULUM_J), np.eye(3), omega0=[0.5, 1.0, -0.3], h=0.01, steps=2000,
@@ -476,7 +476,7 @@ def test_sums_keep_what_every_member_conserves():
 
 def test_meta_names_the_forcing_scheme_used(tmp_path):
     """Potentials always take the symmetric step: meta["forcing"] says so whatever was asked."""
-    from lgvi.streaming import read_stream
+    from lgvi.io.streaming import read_stream
 
     body = lgvi.RigidBody(PENDULUM_J)
     gg = GravityGradient(mu=1.0, radius=1.0)

@@ -10,10 +10,18 @@ Public names (everything else is private):
 - modules :mod:`lgvi.so3`, :mod:`lgvi.torques`, :mod:`lgvi.reference`, :mod:`lgvi.baselines`, :mod:`lgvi.exact`,
   :mod:`lgvi.accuracy` (the error estimate of ``simulate(..., error_estimate=True)``)
 
+Layout: the core at the top level (with :mod:`lgvi.systems` and the compiled :mod:`lgvi._kernels`),
+input/output in :mod:`lgvi.io`, :mod:`lgvi.cli`, :mod:`lgvi.plot`, and :mod:`lgvi.verification`
+(``reference``, ``exact``, ``baselines``). The old names of the modules that moved
+(``lgvi.streaming``, ``lgvi.exact``, ...) are the same module objects (:mod:`lgvi._aliases`).
+
 Importing lgvi compiles nothing: kernels are compiled (or loaded from Numba's cache) on first use.
 Numba itself is imported here (about 0.3 s) so that the first simulation does not pay for it.
 """
 
+import sys as _sys
+
+from . import _aliases  # noqa: F401  (installs the old names of moved modules: lgvi.exact, ...)
 from . import _jit  # noqa: F401  (imports Numba now; compiles nothing)
 from . import control as control
 from . import so3 as so3
@@ -38,10 +46,13 @@ from .integrator import StepResult as StepResult
 from .integrator import simulate as simulate
 from .integrator import step as step
 from .modified import simulate_modified as simulate_modified
-from .streaming import simulate_stream as simulate_stream
+from .io import streaming as streaming  # the old name lgvi.streaming (imported here anyway)
+from .io.streaming import simulate_stream as simulate_stream
 from .systems.gyrostat import ReactionWheels as ReactionWheels
 from .trajectory import Trajectory as Trajectory
 from .trajectory import load as load
+
+_sys.modules.setdefault("lgvi.streaming", streaming)
 
 __all__ = [
     "AccuracyWarning",

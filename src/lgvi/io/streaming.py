@@ -32,12 +32,12 @@ from typing import Any
 
 import numpy as np
 
-from ._files import FolderLock, write_atomic, write_failure
-from ._untrusted import check_npz, inside
-from ._validation import as_int
-from ._version import __version__
-from .driver import drive, record_every
-from .trajectory import Trajectory, check_arrays as _check_arrays, merge_summaries, summary_dict
+from .._files import FolderLock, write_atomic, write_failure
+from .._untrusted import check_npz, inside
+from .._validation import as_int
+from .._version import __version__
+from ..driver import drive, record_every
+from ..trajectory import Trajectory, check_arrays as _check_arrays, merge_summaries, summary_dict
 
 STREAM_FORMAT = "lgvi.stream/1"
 MANIFEST = "manifest.json"
@@ -346,7 +346,7 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
     >>> traj.R.shape, traj.iterations.shape, traj.steps
     ((101, 3, 3), (100,), 1000)
     """
-    from .integrator import Run
+    from ..integrator import Run
 
     run = Run(body, R0, Pi0, omega0=omega0, h=h, steps=steps, torque=torque, method=method, tol=tol,
               max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0, forcing=forcing, order=order,

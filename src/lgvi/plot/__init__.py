@@ -36,7 +36,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-    from .trajectory import Trajectory
+    from ..trajectory import Trajectory
 
 #: Size of the figures made by this module, in inches, and the resolution of saved PNGs.
 FIGSIZE: tuple[float, float] = (8.0, 5.0)
@@ -132,7 +132,7 @@ def has_solver_record(traj: Trajectory) -> bool:
     True for runs of :func:`lgvi.simulate` (and their ``.npz``/netCDF copies); False for the
     baselines of :mod:`lgvi.baselines` (no implicit solves) and trajectories read from CSV.
     """
-    from .implicit import METHODS
+    from ..implicit import METHODS
 
     its = getattr(traj, "iterations", ())
     res = getattr(traj, "residual", ())
@@ -214,7 +214,7 @@ _LEGACY_NAMES = {"momentum": "spatial_momentum"}
 
 def _declaration(trajs: Sequence[Trajectory]):
     """The invariants of the problem: those of the first trajectory that records (or implies) them."""
-    from .invariants import declared
+    from ..invariants import declared
 
     decls = [declared(tr) for tr in trajs]
     return next((d for d in decls if d.recorded), decls[0])
@@ -227,7 +227,7 @@ def _shown(keys: Sequence[str]) -> list[str]:
 
 def _error(traj: Trajectory, key: str, decl: Any) -> tuple[np.ndarray, str]:
     """Error series of one quantity (``"orthogonality"`` too) and its legend label."""
-    from .invariants import error_series
+    from ..invariants import error_series
 
     if key == "orthogonality":
         return np.asarray(traj.orthogonality_error, dtype=np.float64), r"orthogonality $\|R^T R - I\|_F$"
@@ -507,7 +507,7 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     _check_traj(traj, "conservation")
     fig, ax = _axes(ax)
     t = np.asarray(traj.t)
-    from .invariants import KIND_TEXT, QUANTITIES
+    from ..invariants import KIND_TEXT, QUANTITIES
 
     decl = _declaration([traj])
     if invariants is None:
@@ -1080,7 +1080,7 @@ def comparison(trajs: Mapping[str, Trajectory], axes: Sequence[Axes] | None = No
     for label, tr in trajs.items():
         _check_traj(tr, f"comparison[{label!r}]")
     extra = dict(extra or {})
-    from .invariants import KIND_TEXT, QUANTITIES
+    from ..invariants import KIND_TEXT, QUANTITIES
 
     decl = _declaration(list(trajs.values()))
     keys = _shown(decl.quantities()) + ["orthogonality"]

@@ -36,8 +36,8 @@ from typing import Any, Iterable
 
 import numpy as np
 
-from ._version import __version__
-from .trajectory import Trajectory, check_arrays as _check_arrays, load
+from .._version import __version__
+from ..trajectory import Trajectory, check_arrays as _check_arrays, load
 
 __all__ = [
     "CSV_COLUMNS",
@@ -387,7 +387,7 @@ def conservation_drifts(traj: Trajectory, invariants: Any = None) -> dict[str, f
         ``jacobi_rel`` = that / |C0|. Always ``orthogonality_max`` = max |R^T R - I|_F. A
         relative value is ``None`` where its scale is zero.
     """
-    from .invariants import declared, drifts
+    from ..invariants import declared, drifts
 
     decl = invariants if invariants is not None else declared(traj)
     out = drifts(traj, decl)

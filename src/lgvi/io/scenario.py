@@ -96,7 +96,7 @@ A complete example (every key shown; comments say which keys are alternatives)::
     P = 30.0
     period = 0.1                         # [s], a multiple of integrator.h
     # target = { ... }                   # optional, any attitude form of [initial]; default I
-    # [orbit], [field], [[magnetorquer]] and type = "bdot": see lgvi.scenario_space
+    # [orbit], [field], [[magnetorquer]] and type = "bdot": see lgvi.io.scenario_space
 
     [output]
     formats = ["npz", "csv"]             # any of "npz" (default), "csv", "netcdf"
@@ -146,10 +146,10 @@ from typing import Any
 import numpy as np
 
 from . import scenario_space
-from ._untrusted import name_problem
-from ._version import __version__
-from .registry import COMPOSITIONS, FORCINGS, ORDERS, method_names
-from .torques import TORQUE_MODELS
+from .._untrusted import name_problem
+from .._version import __version__
+from ..registry import COMPOSITIONS, FORCINGS, ORDERS, method_names
+from ..torques import TORQUE_MODELS
 
 __all__ = ["Scenario", "ScenarioError", "load_scenario", "to_toml"]
 
@@ -161,7 +161,7 @@ QUAT_NORM_TOL = 1e-3
 DURATION_RTOL = 1e-9
 
 _TOP_KEYS = ("name", "description", "body", "initial", "integrator", "torque", "wheel", "controller", "output")
-_TOP_KEYS += ("orbit", "field", "magnetorquer")         # lgvi.scenario_space (issue 12)
+_TOP_KEYS += ("orbit", "field", "magnetorquer")         # lgvi.io.scenario_space (issue 12)
 _ATTITUDE_KEYS = ("matrix", "quat_xyzw", "quat_wxyz", "euler", "rotvec")
 #: type: {key: (kind, required)}, read from the registered torque models (lgvi.torques); kinds:
 #: number, positive (number > 0), vector, gain (number | 3 numbers), attitude
@@ -302,7 +302,7 @@ class _Checker:
 
 # ------------------------------------------------------------------------------------ pieces
 def _body(c: _Checker, tbl: Any):
-    from .body import RigidBody
+    from ..body import RigidBody
 
     allowed = ("inertia", "matrix", "shape", "mass", "dimensions", "radius", "height", "axis")
     tbl = c.table(tbl, "body", allowed)
@@ -355,7 +355,7 @@ def _attitude(c: _Checker, tbl: dict[str, Any], key: str) -> np.ndarray:
     """R from whichever attitude form ``tbl`` holds (identity if none); ``tbl`` already key-checked."""
     from scipy.spatial.transform import Rotation
 
-    from ._validation import nearest_rotation, warn_repaired
+    from .._validation import nearest_rotation, warn_repaired
 
     given = [k for k in _ATTITUDE_KEYS if k in tbl]
     if len(given) > 1:
@@ -478,7 +478,7 @@ _CONTROLLERS["bdot"] = scenario_space.BDOT_KEYS
 
 def _wheels(c: _Checker, entries: Any, body: Any) -> Any:
     """The ``[[wheel]]`` tables: one :class:`lgvi.ReactionWheels` (issue 12)."""
-    from .systems.gyrostat import ReactionWheels
+    from ..systems.gyrostat import ReactionWheels
 
     if isinstance(entries, dict):
         raise c.error("wheel", "expected an array of tables: write [[wheel]] (double brackets) for each wheel")
@@ -527,7 +527,7 @@ def _wheels(c: _Checker, entries: Any, body: Any) -> Any:
 
 def _controller(c: _Checker, tbl: Any, h: float) -> tuple[Any, float]:
     """The ``[controller]`` table: a controller of :mod:`lgvi.control` and its period (issue 12)."""
-    from . import control
+    from .. import control
 
     if not isinstance(tbl, dict) or "type" not in tbl:
         raise c.expected("controller.type", "one of " + ", ".join(f'"{t}"' for t in _CONTROLLERS))
@@ -816,7 +816,7 @@ class Scenario:
         ConvergenceError, TorqueError, SimulationInterrupted
             As :func:`lgvi.simulate`; their ``.trajectory`` carries the scenario metadata too.
         """
-        from .integrator import simulate
+        from ..integrator import simulate
 
         est = dict(error_estimate=True, error_warn=self.error_warn) if self.error_estimate else {}
         try:
@@ -854,7 +854,7 @@ class Scenario:
                             solver_record=solver_record, **self.simulate_kwargs())
             traj = read_stream(folder)
             if self.error_estimate:
-                from .accuracy import with_estimate
+                from ..accuracy import with_estimate
 
                 traj = with_estimate(traj, dict(body=self.body, R0=self.R0, Pi0=self.Pi0, progress=progress,
                                                 **self.simulate_kwargs()), warn=self.error_warn, stacklevel=2)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .so3 import exp, hat, vee
+from ..so3 import exp, hat, vee
 
 E_BASIS = [hat(e) for e in np.eye(3)]  # d hat(w) / d w_i
 

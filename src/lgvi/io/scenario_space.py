@@ -42,7 +42,7 @@ _ANGLES = ("inclination", "raan", "arg_latitude", "arg_perigee", "mean_anomaly")
 
 def environment(c: Any, d: dict[str, Any]) -> Any:
     """``[orbit]`` and ``[field]``: an :class:`lgvi.environment.OrbitEnvironment`, or ``None``."""
-    from . import environment as env
+    from .. import environment as env
 
     if "field" in d and "orbit" not in d:
         raise c.error("field", "a field is evaluated along an orbit: add an [orbit] table")
@@ -108,7 +108,7 @@ def environment(c: Any, d: dict[str, Any]) -> Any:
 
 def magnetorquers(c: Any, entries: Any) -> Any:
     """``[[magnetorquer]]``: one :class:`lgvi.Magnetorquers` of all the rods."""
-    from .environment import Magnetorquers
+    from ..environment import Magnetorquers
 
     if isinstance(entries, dict):
         raise c.error("magnetorquer", "expected an array of tables: write [[magnetorquer]] (double brackets) "
@@ -132,7 +132,7 @@ def magnetorquers(c: Any, entries: Any) -> Any:
 
 def bdot(c: Any, tbl: dict[str, Any]) -> Any:
     """The ``"bdot"`` controller of ``[controller]`` (its ``gain`` and ``derivative``)."""
-    from .environment import BDot
+    from ..environment import BDot
 
     if "gain" not in tbl:
         raise c.expected("controller.gain", "a positive number (A m^2 s / T)")

@@ -35,13 +35,13 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from ._kernels import rk4_kernels as _rk
-from ._validation import as_float, as_float_array, as_int, as_rotation
-from ._version import __version__
-from .errors import SimulationInterrupted, TorqueError
-from .driver import time_grid
-from .registry import torque_kind
-from .trajectory import Trajectory, summary_dict
+from .._kernels import rk4_kernels as _rk
+from .._validation import as_float, as_float_array, as_int, as_rotation
+from .._version import __version__
+from ..errors import SimulationInterrupted, TorqueError
+from ..driver import time_grid
+from ..registry import torque_kind
+from ..trajectory import Trajectory, summary_dict
 
 #: RK4 steps per compiled call; between chunks Ctrl-C is honoured.
 CHUNK_STEPS = 1 << 18
@@ -146,7 +146,7 @@ def _resolve_torque(torque: Any, body) -> _Torque:
             except NotImplementedError:       # a user subclass without a kernel encoding
                 codes = None
             if codes is not None:
-                from ._kernels.torque_kernels import momentum_diag
+                from .._kernels.torque_kernels import momentum_diag
 
                 codes = np.ascontiguousarray(codes, dtype=np.int64)
                 params = np.ascontiguousarray(params, dtype=np.float64)
@@ -195,8 +195,8 @@ def _python_rhs(tq: _Torque, body) -> Callable[[float, np.ndarray], np.ndarray]:
 
 
 def _initial_state(body: Any, R0: Any, Pi0: Any, omega0: Any):
-    from .driver import initial_momentum as _initial_momentum
-    from .integrator import as_body
+    from ..driver import initial_momentum as _initial_momentum
+    from ..integrator import as_body
 
     body = as_body(body)
     R0 = as_rotation(R0, "R0")
@@ -426,7 +426,7 @@ def solve_ivp_baseline(body, R0, Pi0=None, *, omega0=None, t_final: float, sampl
 # one-line comparisons
 # ------------------------------------------------------------------------------------------------
 def _run_lgvi(body, R0, Pi0, h, steps, torque, save_every, opts) -> Trajectory:
-    from .integrator import simulate
+    from ..integrator import simulate
 
     try:
         traj = simulate(body, R0, Pi0, h=h, steps=steps, torque=torque, save_every=save_every, **opts)

@@ -66,8 +66,8 @@ def drift_table_row(name: str, traj, steps: int, wall: float, invariants=None) -
     ``invariants`` (an :class:`lgvi.invariants.Declaration`) chooses the columns, as in
     :func:`table_header`; default the trajectory's own declaration.
     """
-    from .invariants import QUANTITIES, declared
-    from .outputs import conservation_drifts
+    from ..invariants import QUANTITIES, declared
+    from ..io.outputs import conservation_drifts
 
     decl = invariants if invariants is not None else declared(traj)
     d = conservation_drifts(traj, decl)
@@ -82,7 +82,7 @@ def drift_table_row(name: str, traj, steps: int, wall: float, invariants=None) -
 
 def table_header(invariants=None) -> str:
     """Header of the conservation table: one column per declared invariant (default: the free body's)."""
-    from .invariants import FREE_BODY, QUANTITIES, Declaration
+    from ..invariants import FREE_BODY, QUANTITIES, Declaration
 
     decl = invariants if invariants is not None else Declaration(FREE_BODY, "the free body")
     cols = "".join(f" {QUANTITIES[k].column:>10}" for k in decl.quantities())
@@ -97,7 +97,7 @@ _LEGEND = {"spatial_momentum": ("dL", "spatial angular momentum R Pi"),
 
 def table_legend(invariants=None) -> str:
     """What the columns of :func:`table_header` are, how the LGVI conserves each, what is left out."""
-    from .invariants import FREE_BODY, KIND_TEXT, QUANTITIES, Declaration
+    from ..invariants import FREE_BODY, KIND_TEXT, QUANTITIES, Declaration
 
     decl = invariants if invariants is not None else Declaration(FREE_BODY, "the free body")
     keys = decl.quantities()
@@ -147,7 +147,7 @@ def run_demo(out: str | None = None, steps: int = DEMO_STEPS, h: float = DEMO_H,
              plots: bool = True) -> int:
     """Run the default scenario and print the comparison table; with ``out``, write files too."""
     import lgvi
-    from lgvi.baselines import solve_ivp_baseline
+    from ..verification.baselines import solve_ivp_baseline
 
     body = lgvi.RigidBody(DEMO_INERTIA)
     R0 = np.eye(3)
@@ -197,13 +197,13 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 # ------------------------------------------------------------------------------------ run
 def _load(path: str):
-    from .scenario import load_scenario
+    from ..io.scenario import load_scenario
 
     return load_scenario(path)
 
 
 def _parse_formats(text: str | None, default: tuple[str, ...]) -> tuple[str, ...]:
-    from .scenario import FORMATS
+    from ..io.scenario import FORMATS
 
     if text is None:
         return default
@@ -221,7 +221,7 @@ def _fmt_drift(x: float | None) -> str:
 def _conservation_lines(traj, drifts: dict[str, Any]) -> list[str]:
     """The conservation block of ``summary.txt``: each declared invariant with its kind and
     largest change, then the usual quantities this system does not conserve, marked so."""
-    from .invariants import KIND_TEXT, QUANTITIES, declared
+    from ..invariants import KIND_TEXT, QUANTITIES, declared
 
     decl = declared(traj)
     lines = [f"conservation (largest change over the run; {decl.note()}):"]
@@ -243,8 +243,8 @@ def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], 
     """
     import lgvi
 
-    from .invariants import declared
-    from .outputs import conservation_drifts
+    from ..invariants import declared
+    from ..io.outputs import conservation_drifts
 
     drifts = conservation_drifts(traj)
     steps_done = int(traj.steps)
@@ -325,7 +325,7 @@ def _accuracy_lines(traj) -> list[str]:
 def _default_outdir(scenario) -> Path:
     """``./SLUG_output``: the scenario name made a safe file name, so no name read from a file
     (``../x``, ``/abs``, control characters) puts the results outside the current folder."""
-    from ._untrusted import safe_name
+    from .._untrusted import safe_name
 
     return Path.cwd() / f"{safe_name(scenario.name)}_output"
 
@@ -333,7 +333,7 @@ def _default_outdir(scenario) -> Path:
 def _check_outdir(outdir: Path) -> None:
     """Refuse an output folder holding a symbolic link that points outside it (a folder from
     elsewhere must not redirect where the results are written)."""
-    from ._untrusted import inside
+    from .._untrusted import inside
 
     for folder in (outdir, outdir / "stream"):
         if not folder.is_dir():
@@ -346,7 +346,7 @@ def _check_outdir(outdir: Path) -> None:
 
 def _write_results(traj, scenario, outdir: Path, formats: tuple[str, ...], plots: bool, wall: float, *,
                    status: str = "complete", message: str = "", kernel_load: float | None = None) -> list[Path]:
-    from .outputs import write_trajectory
+    from ..io.outputs import write_trajectory
 
     outdir.mkdir(parents=True, exist_ok=True)
     files = write_trajectory(traj, outdir, formats)
@@ -376,7 +376,7 @@ def _warm(scenario, baselines: tuple[str, ...] = ()) -> float:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from .errors import AccuracyWarning, ConvergenceError, SimulationInterrupted, TorqueError
+    from ..errors import AccuracyWarning, ConvergenceError, SimulationInterrupted, TorqueError
 
     scenario = _load(args.scenario)
     formats = _parse_formats(args.format, scenario.formats)
@@ -455,7 +455,7 @@ def _parse_with(text: str) -> tuple[str, ...]:
 
 
 def _baseline(name: str, scenario, rtol: float):
-    from . import baselines
+    from ..verification import baselines
 
     if name == "rk4":
         if not hasattr(baselines, "rk4"):
@@ -474,8 +474,8 @@ def _baseline(name: str, scenario, rtol: float):
 def cmd_compare(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
-    from .invariants import Declaration, declaration_of
-    from .outputs import conservation_drifts
+    from ..invariants import Declaration, declaration_of
+    from ..io.outputs import conservation_drifts
 
     scenario = _load(args.scenario)
     which = _parse_with(args.with_)
@@ -541,7 +541,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 # ------------------------------------------------------------------------------------ plot / info
 def _read(path: str):
-    from .outputs import read_trajectory
+    from ..io.outputs import read_trajectory
 
     if not Path(path).exists():
         raise UsageError(f"{path}: no such file")
@@ -569,8 +569,8 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
-    from .invariants import KIND_TEXT, QUANTITIES, declared
-    from .outputs import conservation_drifts
+    from ..invariants import KIND_TEXT, QUANTITIES, declared
+    from ..io.outputs import conservation_drifts
 
     traj = _read(args.trajectory)
     meta = dict(traj.meta)
@@ -628,7 +628,7 @@ def cmd_warmup(args: argparse.Namespace) -> int:
     total = time.perf_counter()
     jobs: list[tuple[str, Any]] = [(f"simulate method={m}", dict(method=m)) for m in SOLVER_METHODS]
     try:
-        from . import torques
+        from .. import torques
     except ImportError:
         torques = None
     params = inspect.signature(lgvi.simulate).parameters
@@ -644,7 +644,7 @@ def cmd_warmup(args: argparse.Namespace) -> int:
         t0 = time.perf_counter()
         lgvi.simulate(body, np.eye(3), omega0=omega0, h=0.01, steps=20, **kw)
         print(f"  {name:<32} {time.perf_counter() - t0:8.2f} s")
-    from . import baselines
+    from ..verification import baselines
 
     if hasattr(baselines, "rk4"):
         t0 = time.perf_counter()
@@ -656,7 +656,7 @@ def cmd_warmup(args: argparse.Namespace) -> int:
 
 # ------------------------------------------------------------------------------------ parser
 def build_parser() -> argparse.ArgumentParser:
-    from ._version import __version__
+    from .._version import __version__
 
     parser = argparse.ArgumentParser(
         prog="lgvi", description="Lie group variational integrator for rigid-body attitude dynamics on SO(3). "
@@ -732,7 +732,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``lgvi`` and ``python -m lgvi``; returns the exit code."""
-    from .scenario import ScenarioError
+    from ..io.scenario import ScenarioError
 
     parser = build_parser()
     try:
