@@ -133,7 +133,7 @@ def test_every_script_is_tested():
     # uncertainty.py runs in tests/test_ensemble.py (with the ensemble it exercises)
     tested = {"dzhanibekov.py", "heavy_top.py", "pendulum3d.py", "slew_pd.py", "gravity_gradient.py", "kepler.py",
               "uncertainty.py", "optimal_slew.py", "orbit_attitude.py", "binary_asteroid.py",
-              "wheel_slew.py"}
+              "wheel_slew.py", "bdot_detumble.py"}
     scripts = {p.name for p in EXAMPLES.glob("*.py")}
     assert scripts <= tested, f"example scripts without a test here: {sorted(scripts - tested)}"
 
@@ -144,3 +144,11 @@ def test_wheel_slew(tmp_path):
     assert number(r"largest wheel torque ([0-9.]+) N m", out) == 0.2
     assert number(r"total angular momentum drift ([0-9.e+-]+)", out) < 1e-13
     assert (tmp_path / "figs" / "wheel_slew.png").exists()
+
+
+def test_bdot_detumble(tmp_path):
+    pytest.importorskip("ppigrf")
+    out = run_example("bdot_detumble.py", "--quick", "--out", str(tmp_path / "figs"), cwd=tmp_path)
+    assert number(r"initial \|omega\| ([0-9.]+) deg/s", out) == 14.142
+    assert number(r"final ([0-9.]+) deg/s", out) < 1.5                  # 14 deg/s to about 1 in half an orbit
+    assert (tmp_path / "figs" / "detumble.png").exists()

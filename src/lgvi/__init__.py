@@ -34,6 +34,8 @@ from .body import jd_to_inertia as jd_to_inertia
 from .ensemble import EnsembleTrajectory as EnsembleTrajectory
 from .ensemble import load_ensemble as load_ensemble
 from .ensemble import simulate_ensemble as simulate_ensemble
+from . import environment as environment
+from .environment import Magnetorquers as Magnetorquers
 from .errors import AccuracyWarning as AccuracyWarning
 from .errors import AttitudeWarning as AttitudeWarning
 from .errors import ConvergenceError as ConvergenceError
@@ -67,6 +69,7 @@ __all__ = [
     "Ellipsoid",
     "EnsembleTrajectory",
     "ImplicitSolution",
+    "Magnetorquers",
     "OrbitTrajectory",
     "PointMasses",
     "ReactionWheels",
@@ -78,6 +81,7 @@ __all__ = [
     "TwoBodyTrajectory",
     "__version__",
     "control",
+    "environment",
     "inertia_to_jd",
     "jd_to_inertia",
     "load",

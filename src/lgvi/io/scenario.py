@@ -98,6 +98,7 @@ A complete example (every key shown; comments say which keys are alternatives)::
     P = 30.0
     period = 0.1                         # [s], a multiple of integrator.h
     # target = { ... }                   # optional, any attitude form of [initial]; default I
+    # [orbit], [field], [[magnetorquer]] and type = "bdot": see lgvi.io.scenario_space
 
     [output]
     formats = ["npz", "csv"]             # any of "npz" (default), "csv", "netcdf"
@@ -146,6 +147,7 @@ from typing import Any
 
 import numpy as np
 
+from . import scenario_space
 from .._untrusted import name_problem
 from .._version import __version__
 from ..registry import COMPOSITIONS, FORCINGS, ORDERS, SCHEMES, SPLITTINGS, method_names
@@ -161,6 +163,7 @@ QUAT_NORM_TOL = 1e-3
 DURATION_RTOL = 1e-9
 
 _TOP_KEYS = ("name", "description", "body", "initial", "integrator", "torque", "wheel", "controller", "output")
+_TOP_KEYS += ("orbit", "field", "magnetorquer")         # lgvi.io.scenario_space (issue 12)
 _ATTITUDE_KEYS = ("matrix", "quat_xyzw", "quat_wxyz", "euler", "rotvec")
 #: type: {key: (kind, required)}, read from the registered torque models (lgvi.torques); kinds:
 #: number, positive (number > 0), vector, gain (number | 3 numbers), attitude
@@ -472,6 +475,7 @@ _WHEEL_KEYS = {"axis": "vector", "spin_inertia": "positive", "speed0": "number",
                "min_torque": "number", "max_power": "positive", "max_speed": "positive", "coulomb": "number",
                "viscous": "number", "omega_limit_cycle": "positive"}
 _CONTROLLERS = {"mrp_feedback": ("K", "P", "Ki", "integral_limit"), "rotation_pd": ("kp", "kd", "error")}
+_CONTROLLERS["bdot"] = scenario_space.BDOT_KEYS
 
 
 def _wheels(c: _Checker, entries: Any, body: Any) -> Any:
@@ -544,6 +548,8 @@ def _controller(c: _Checker, tbl: Any, h: float) -> tuple[Any, float]:
             opt = {k: c.number(tbl[k], f"controller.{k}", positive=True) for k in ("Ki", "integral_limit") if k in tbl}
             ctrl = control.MRPFeedback(c.number(tbl["K"], "controller.K"), c.number(tbl["P"], "controller.P"),
                                        target=target, **opt)
+        elif kind == "bdot":
+            ctrl = scenario_space.bdot(c, tbl)
         else:
             for name in ("kp", "kd"):
                 if name not in tbl:
@@ -626,6 +632,8 @@ class Scenario:
     wheels: Any = None
     controller: Any = None
     control_period: float | None = None
+    environment: Any = None
+    magnetorquers: Any = None
 
     @property
     def duration(self) -> float:
@@ -753,6 +761,8 @@ class Scenario:
         torque, spec = _torque(c, d["torque"]) if "torque" in d else (None, ())
         wheels = _wheels(c, d["wheel"], body) if "wheel" in d else None
         controller, control_period = _controller(c, d["controller"], h) if "controller" in d else (None, None)
+        environment = scenario_space.environment(c, d)
+        rods = scenario_space.magnetorquers(c, d["magnetorquer"]) if "magnetorquer" in d else None
         if wheels is not None and "omega" in init:   # Pi0 is the total momentum: J omega + G diag(Js) speed0
             Pi0 = Pi0 + wheels.axes.T @ (wheels.spin_inertia * wheels.speed0)
 
@@ -772,7 +782,7 @@ class Scenario:
                    alpha=alpha, save_every=save_every, error_estimate=error_estimate, error_warn=error_warn,
                    formats=formats, plots=plots, source=source, composition=composition, scheme=scheme,
                    text=to_toml(d) if text is None else text, wheels=wheels, controller=controller,
-                   control_period=control_period)
+                   control_period=control_period, environment=environment, magnetorquers=rods)
 
     def simulate_kwargs(self) -> dict[str, Any]:
         """Keyword arguments of :func:`lgvi.simulate` for this scenario (after body, R0, Pi0)."""
@@ -790,6 +800,10 @@ class Scenario:
             kw["wheels"] = self.wheels
         if self.controller is not None:
             kw.update(controller=self.controller, control_period=self.control_period)
+        if self.environment is not None:
+            kw["environment"] = self.environment
+        if self.magnetorquers is not None:
+            kw["magnetorquers"] = self.magnetorquers
         return kw
 
     def run(self, progress: bool = False):
@@ -837,7 +851,7 @@ class Scenario:
         """
         from .streaming import read_stream, simulate_stream
 
-        if self.wheels is not None or self.controller is not None:
+        if self.wheels is not None or self.controller is not None or self.environment is not None:
             # no stream format for the gyrostat yet: the run is kept in memory (it is fast)
             if resume:
                 raise ScenarioError(self.source, None, "resume: runs with [[wheel]] or [controller] are not "
