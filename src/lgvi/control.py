@@ -98,7 +98,7 @@ class Controller:
 # modified Rodrigues parameters (Basilisk's attitude coordinates)
 # ------------------------------------------------------------------------------------------------
 def mrp_from_matrix(R: Any) -> np.ndarray:
-    """The MRP ``sigma`` (|sigma| <= 1) of the rotation ``R = exp(hat(phi e))``: ``e tan(phi/4)``.
+    """The MRP ``sigma`` (``|sigma| <= 1``) of the rotation ``R = exp(hat(phi e))``: ``e tan(phi/4)``.
 
     For lgvi's ``R`` (body to inertial) that is Basilisk's ``sigma_BN``; for ``R_ref.T @ R`` it is
     ``sigma_BR``. Vectorised over leading axes: ``(..., 3, 3) -> (..., 3)``.
