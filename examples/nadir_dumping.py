@@ -7,8 +7,8 @@ axes (Js = 2e-3 kg m^2, 5 mN m, 6000 rpm) start with 0.19 N m s of momentum. ``M
 (K = 0.5 N m, P = 3 N m s) tracks the nadir (LVLH) reference of ``OrbitEnvironment`` from a 5 deg,
 0.1 deg/s error; ``MomentumDumping`` (k = 2e-3 1/s) commands three magnetorquer rods (5 A m^2)
 with ``m = k (h x B) / |B|^2`` from the IGRF-14 field (degree 13) along the orbit; the gravity
-gradient along the orbit (``OrbitGravityGradient``) acts as the disturbance. Controller and
-disturbance every 1 s (zero-order hold), h = 0.5 s. The same run without dumping (rods off) shows
+gradient along the orbit (``OrbitGravityGradient``, ``torque=``) acts as the disturbance inside the
+compiled gyrostat step. Controller every 1 s (zero-order hold), h = 0.5 s. The same run without dumping (rods off) shows
 the wheel momentum that the gravity gradient builds up about the orbit normal. The magnetic torque
 is rejected by the attitude feedback alone (no feedforward to the wheels): while the rods saturate
 it costs about 0.1 deg of pointing.
@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 import lgvi
-from lgvi.control import Command, Controller, MRPFeedback
+from lgvi.control import MRPFeedback
 from lgvi.environment import IGRF, CircularOrbit, MomentumDumping, OrbitEnvironment, OrbitGravityGradient
 from lgvi.environment import nadir_reference
 
@@ -49,45 +49,20 @@ CONTROL = 1.0                                                               # [s
 SETTLE = 600.0                                                              # [s], excluded from the error
 
 
-class WithDisturbance(Controller):
-    """``controller`` plus an external torque model's moment, both held over the control period.
-
-    ``simulate(..., torque=)`` is not accepted with wheels yet; the gravity gradient enters here as a
-    body torque evaluated at the control rate (it changes over the orbit and the attitude error's
-    time scales, minutes, against a 1 s hold).
-    """
-
-    def __init__(self, controller: Controller, model):
-        self.controller, self.model = controller, model
-
-    def setup(self, body, wheels):
-        super().setup(body, wheels)
-        self.controller.setup(body, wheels)
-
-    def reset(self):
-        self.controller.reset()
-
-    def command(self, t, R, omega, wheel_speed, env):
-        cmd = self.controller.command(t, R, omega, wheel_speed, env)
-        tau = np.asarray(self.model.moment(t, R, np.zeros(3), self.model.params), dtype=np.float64)
-        return Command(torque=tau if cmd.torque is None else cmd.torque + tau, wheel_torque=cmd.wheel_torque,
-                       dipole=cmd.dipole)
-
-
 def run(orbits: float, dumping: bool = True):
     """The closed loop over ``orbits`` orbits; returns ``(trajectory, environment)``."""
     env = OrbitEnvironment(ORBIT, IGRF(), epoch=EPOCH, reference="nadir")
     every = int(round(10.0 / H))                                             # save every 10 s
     steps = every * int(round(orbits * ORBIT.period / (every * H)))
-    gravity = OrbitGravityGradient(ORBIT, J, duration=steps * H + CONTROL)
+    gravity = OrbitGravityGradient(ORBIT, J, duration=steps * H)
     feedback = MRPFeedback(K=K, P=P)
     ctrl = MomentumDumping(DUMP, controller=feedback) if dumping else feedback
     s0 = env.sample(0.0)
     R_ref, w_ref, _ = nadir_reference(s0["r"], s0["v"])
     R0 = R_ref @ lgvi.so3.exp(np.radians(5.0) * np.array([1.0, -2.0, 2.0]) / 3.0)
     omega0 = R0.T @ w_ref + np.radians([0.1, 0.0, -0.05])
-    traj = lgvi.simulate(lgvi.RigidBody(J), R0, omega0=omega0, h=H, steps=steps, wheels=WHEELS,
-                         controller=WithDisturbance(ctrl, gravity), control_period=CONTROL, environment=env,
+    traj = lgvi.simulate(lgvi.RigidBody(J), R0, omega0=omega0, h=H, steps=steps, wheels=WHEELS, torque=gravity,
+                         controller=ctrl, control_period=CONTROL, environment=env,
                          magnetorquers=RODS if dumping else None, save_every=every)
     return traj, env
 

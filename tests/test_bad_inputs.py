@@ -539,9 +539,24 @@ _ROWS += [
      (r"PointMasses", r"2 masses and 3 positions", r"as many masses as positions")),
     ("point-masses-on-a-line", lambda: lgvi.PointMasses([1.0, 1.0], [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]]),
      ValueError, (r"\bpositions\b", r"\[0\.0, 2\.0, 2\.0\]", r"one line")),
+]
+
+
 # ---- reaction wheels and controllers (issue 12) ------------------------------------------
 def _wheels(**kw: Any) -> lgvi.ReactionWheels:
     return lgvi.ReactionWheels(np.eye(3), kw.pop("spin_inertia", 0.01), **kw)
+
+
+def _pi_damping(t, R, Pi, p):
+    return (-Pi[0], -Pi[1], -Pi[2])
+
+
+try:
+    import numba
+
+    _pi_damping = numba.njit(_pi_damping)
+except ImportError:  # pragma: no cover - numba is a dependency
+    pass
 
 
 class _NanAt(lgvi.control.Controller):
@@ -577,7 +592,10 @@ _ROWS += [
     ("wheels-not-wheels", lambda: sim(wheels=np.eye(3)), TypeError,
      (r"\bwheels\b", r"ndarray", r"lgvi\.ReactionWheels")),
     ("wheels-with-torque", lambda: sim(wheels=_wheels(), torque=np.zeros((STEPS, 3))), ValueError,
-     (r"\btorque=", r"wheels=", r"cannot be combined")),
+     (r"\btorque=", r"wheels=", r"ndarray", r"one lgvi\.torques\.Compiled model")),
+    ("wheels-with-momentum-dependent-torque",
+     lambda: sim(wheels=_wheels(), torque=lgvi.torques.Compiled(_pi_damping, momentum_dependent=True)), ValueError,
+     (r"\btorque=", r"wheels=", r"must not depend on Pi")),
     ("controller-not-controller", lambda: sim(controller=print, control_period=H), TypeError,
      (r"\bcontroller\b", r"builtin_function_or_method", r"lgvi\.control\.Controller")),
     ("controller-without-period", lambda: sim(controller=lgvi.control.MRPFeedback(1.0, 1.0)), ValueError,
