@@ -573,7 +573,10 @@ def _mrp_params(ctrl: Any, wheels: ReactionWheels) -> np.ndarray:
     n = len(wheels)
     R_ref = np.eye(3) if ctrl.R_ref is None else ctrl.R_ref
     M = np.zeros((n, 3))
-    if n:
+    wm = getattr(ctrl, "wheel_map", None)      # set by MRPFeedback.setup from these axes: the same numbers
+    if n and isinstance(wm, np.ndarray) and wm.shape == (n, 3) and np.array_equal(ctrl.axes, wheels.axes):
+        M[:] = wm
+    elif n:
         for j in range(3):
             M[:, j] = map_to_wheels(np.eye(3)[j], wheels.axes)
     lim = ctrl.integral_limit if math.isfinite(ctrl.integral_limit) else 1e300
