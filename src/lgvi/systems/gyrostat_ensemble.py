@@ -145,10 +145,14 @@ def _numeric(value: Any) -> np.ndarray | None:
     return arr if arr.size <= 64 else None
 
 
+#: a controller's attributes that ``setup``/``reset`` derive from the run (not inputs)
+_RUN_STATE = frozenset({"body", "wheels", "J", "axes", "spin_inertia", "wheel_map", "int_sigma", "prior_time"})
+
+
 def _controller_params(ctrls: Sequence[Any]) -> dict[str, np.ndarray]:
     """``controller.<name>``: the numeric public attributes every member's controller has, same shapes."""
     out: dict[str, np.ndarray] = {}
-    names = [k for k in vars(ctrls[0]) if not k.startswith("_") and k not in ("body", "wheels")]
+    names = [k for k in vars(ctrls[0]) if not k.startswith("_") and k not in _RUN_STATE]
     for name in names:
         vals = [_numeric(getattr(c, name, None)) for c in ctrls]
         if all(v is not None and v.shape == vals[0].shape for v in vals):
@@ -176,6 +180,7 @@ def simulate_gyrostat_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0:
         if len(n) > 1:
             raise ValueError(f"wheels must have the same number of wheels in every member, got {sorted(n)}")
     cl = _per_member(controller, "controller", B, Controller) if controller is not None else [None] * B
+    ctrl_params = _controller_params(cl) if controller is not None else {}     # before setup
     if threads is None:
         threads = min(B, os.cpu_count() or 1)
     threads = as_int(threads, "threads", minimum=1)
@@ -196,8 +201,7 @@ def simulate_gyrostat_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0:
     if wheels is not None:
         for key in wl[0].describe():
             params[f"wheels.{key}"] = np.stack([np.asarray(w.describe()[key], dtype=np.float64) for w in wl])
-    if controller is not None:
-        params.update(_controller_params(cl))
+    params.update(ctrl_params)
 
     def one(b: int) -> GyrostatTrajectory:
         try:
