@@ -3,7 +3,7 @@
 A small spacecraft (wheels locked: J with a product of inertia J_xz = 1.5 kg m^2, so the gravity
 gradient pushes it about the orbit normal even when it points exactly at nadir) on a 550 km
 circular sun-synchronous orbit (i = 97.6 deg) from 2026-06-01 00:00 UTC. Three wheels on the body
-axes (Js = 2e-3 kg m^2, 5 mN m, 6000 rpm) start with 0.19 N m s of momentum. ``MRPFeedback``
+axes (Js = 2e-3 kg m^2, 5 mN m, 6000 rpm) start with 0.21 N m s of momentum. ``MRPFeedback``
 (K = 0.5 N m, P = 3 N m s) tracks the nadir (LVLH) reference of ``OrbitEnvironment`` from a 5 deg,
 0.1 deg/s error; ``MomentumDumping`` (k = 2e-3 1/s) commands three magnetorquer rods (5 A m^2)
 with ``m = k (h x B) / |B|^2`` from the IGRF-14 field (degree 13) along the orbit; the gravity
@@ -37,7 +37,7 @@ from lgvi.environment import nadir_reference
 
 J = np.array([[20.0, 0.0, 1.5], [0.0, 25.0, 0.0], [1.5, 0.0, 15.0]])      # [kg m^2], wheels locked
 RPM = 2.0 * np.pi / 60.0
-WHEELS = lgvi.ReactionWheels(np.eye(3), 2e-3, speed0=np.array([400.0, -600.0, 700.0]) * RPM,
+WHEELS = lgvi.ReactionWheels(np.eye(3), 2e-3, speed0=np.array([400.0, 600.0, 700.0]) * RPM,
                              max_torque=5e-3, max_speed=6000.0 * RPM)
 RODS = lgvi.Magnetorquers(np.eye(3), max_dipole=5.0)                       # [A m^2]
 ORBIT = CircularOrbit(6371e3 + 550e3, np.radians(97.6))                    # 550 km, sun-synchronous
@@ -97,14 +97,14 @@ def figure(dumped, free, env):
     ax1.semilogy(t, np.maximum(pointing_error_deg(free, env), 1e-6), color="C1", lw=1, ls="--",
                  label="without dumping")
     ax1.set_ylabel("pointing error [deg]")
-    ax1.set_title("Nadir pointing, 550 km SSO, IGRF-14, gravity gradient: wheels + magnetic dumping")
+    fig.suptitle("Nadir pointing, 550 km SSO, IGRF-14, gravity gradient: wheels + magnetic dumping", fontsize=11)
     ax1.legend(fontsize=8, loc="upper right")
     hd, hf = wheel_momentum_body(dumped), wheel_momentum_body(free)
     for i, c in enumerate("xyz"):
-        ax2.plot(t, 1e3 * hd[:, i], color=f"C{i}", lw=1.2, label=f"$h_{c}$ dumping")
-        ax2.plot(t, 1e3 * hf[:, i], color=f"C{i}", lw=0.8, ls="--", label=f"$h_{c}$ no dumping")
+        ax2.plot(t, 1e3 * hd[:, i], color=f"C{i}", lw=1.2, label=f"$h_{c}$")
+        ax2.plot(t, 1e3 * hf[:, i], color=f"C{i}", lw=0.8, ls="--", label=f"$h_{c}$, no dumping")
     ax2.set_ylabel("wheel momentum [mN m s]")
-    ax2.legend(ncol=3, fontsize=7, loc="upper left")
+    ax2.legend(ncol=1, fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
     m = dipoles(dumped, env)
     for i, c in enumerate("xyz"):
         ax3.plot(t, m[:, i], lw=0.8, label=f"$m_{c}$")

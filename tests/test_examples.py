@@ -164,11 +164,11 @@ def test_nadir_dumping(tmp_path):
     assert number(r"max ([0-9.]+) deg", dump) < 0.2
     assert number(r"max ([0-9.]+) deg", free) < 0.01
     assert number(r"final ([0-9.]+) deg", dump) < 0.01
-    # the wheels start with 0.21 N m s: dumped below 5 % in one orbit, kept (and pushed about the
-    # orbit normal by the gravity gradient) without the rods
+    # the wheels start with 0.21 N m s: dumped below 5 % in one orbit; without the rods the gravity
+    # gradient adds about 0.03 N m s per orbit about the orbit normal
     start = number(r"start ([0-9.]+)", dump)
     assert abs(start - number(r"start ([0-9.]+)", free)) < 1e-12 and start > 0.2
     assert number(r"end ([0-9.]+) N m s", dump) < 0.05 * start
-    assert number(r"end ([0-9.]+) N m s", free) > 0.9 * start
+    assert number(r"end ([0-9.]+) N m s", free) > start + 0.02
     assert number(r"max ([0-9.]+), end", dump) < 0.3                  # bounded: the wheels hold 1.26 N m s
     assert (tmp_path / "figs" / "nadir_dumping.png").exists()
