@@ -539,6 +539,9 @@ _ROWS += [
      (r"PointMasses", r"2 masses and 3 positions", r"as many masses as positions")),
     ("point-masses-on-a-line", lambda: lgvi.PointMasses([1.0, 1.0], [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]]),
      ValueError, (r"\bpositions\b", r"\[0\.0, 2\.0, 2\.0\]", r"one line")),
+]
+
+
 # ---- reaction wheels and controllers (issue 12) ------------------------------------------
 def _wheels(**kw: Any) -> lgvi.ReactionWheels:
     return lgvi.ReactionWheels(np.eye(3), kw.pop("spin_inertia", 0.01), **kw)
