@@ -797,7 +797,9 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
                 raise ValueError(f"{name}={value!r} cannot be combined with wheels= or controller= in "
                                  "simulate_ensemble (the members run in threads in this process)")
         gyrostat_options(torque=torque, forcing=forcing, order=order, composition=composition, error_estimate=None)
-        return simulate_gyrostat_ensemble(bodies, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels,
+        R = _rotations(R0)
+        unique, ib = _bodies(bodies, len(R))
+        return simulate_gyrostat_ensemble([unique[i] for i in ib], R, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels,
                                           controller=controller, control_period=control_period,
                                           environment=environment, magnetorquers=magnetorquers, torque=torque,
                                           threads=threads, method=method, tol=tol, max_iter=max_iter, alpha=alpha,

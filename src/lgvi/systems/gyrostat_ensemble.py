@@ -160,16 +160,13 @@ def _controller_params(ctrls: Sequence[Any]) -> dict[str, np.ndarray]:
     return out
 
 
-def simulate_gyrostat_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: Any, steps: Any,
-                               wheels: Any = None, controller: Any = None, control_period: Any = None,
-                               environment: Any = None, magnetorquers: Any = None, torque: Any = None,
-                               threads: Any = None, **options: Any) -> GyrostatEnsemble:
-    """:func:`lgvi.simulate_ensemble` with ``wheels=`` or ``controller=`` (see there)."""
-    from ..ensemble import _bodies, _rotations
-
-    R = _rotations(R0)
+def simulate_gyrostat_ensemble(bodies: Sequence[Any], R: np.ndarray, Pi0: Any = None, *, omega0: Any = None,
+                               h: Any, steps: Any, wheels: Any = None, controller: Any = None,
+                               control_period: Any = None, environment: Any = None, magnetorquers: Any = None,
+                               torque: Any = None, threads: Any = None, **options: Any) -> GyrostatEnsemble:
+    """:func:`lgvi.simulate_ensemble` with ``wheels=`` or ``controller=`` (see there); ``bodies`` (B
+    :class:`lgvi.RigidBody`) and ``R`` (B, 3, 3) rotations are validated by the caller."""
     B = len(R)
-    unique, ib = _bodies(bodies, B)
     if (Pi0 is None) == (omega0 is None):
         raise ValueError("give the initial body angular momenta Pi0 (B, 3) or the angular velocities omega0 (B, 3), "
                          "one of the two")
@@ -188,7 +185,7 @@ def simulate_gyrostat_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0:
     for b in range(B):
         kw = {"Pi0": init[b], "omega0": None} if omega0 is None else {"Pi0": None, "omega0": init[b]}
         try:
-            runs.append(GyrostatRun(unique[ib[b]], R[b], kw["Pi0"], omega0=kw["omega0"], h=h, steps=steps,
+            runs.append(GyrostatRun(bodies[b], R[b], kw["Pi0"], omega0=kw["omega0"], h=h, steps=steps,
                                     wheels=wl[b], controller=cl[b], control_period=control_period,
                                     environment=environment, magnetorquers=magnetorquers, torque=torque, **options))
         except (TypeError, ValueError) as exc:
