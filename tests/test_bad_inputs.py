@@ -547,18 +547,6 @@ def _wheels(**kw: Any) -> lgvi.ReactionWheels:
     return lgvi.ReactionWheels(np.eye(3), kw.pop("spin_inertia", 0.01), **kw)
 
 
-def _pi_damping(t, R, Pi, p):
-    return (-Pi[0], -Pi[1], -Pi[2])
-
-
-try:
-    import numba
-
-    _pi_damping = numba.njit(_pi_damping)
-except ImportError:  # pragma: no cover - numba is a dependency
-    pass
-
-
 class _NanAt(lgvi.control.Controller):
     """Wheel torques that turn NaN from t = 0.05."""
 
@@ -593,9 +581,6 @@ _ROWS += [
      (r"\bwheels\b", r"ndarray", r"lgvi\.ReactionWheels")),
     ("wheels-with-torque", lambda: sim(wheels=_wheels(), torque=np.zeros((STEPS, 3))), ValueError,
      (r"\btorque=", r"wheels=", r"ndarray", r"one lgvi\.torques\.Compiled model")),
-    ("wheels-with-momentum-dependent-torque",
-     lambda: sim(wheels=_wheels(), torque=lgvi.torques.Compiled(_pi_damping, momentum_dependent=True)), ValueError,
-     (r"\btorque=", r"wheels=", r"must not depend on Pi")),
     ("controller-not-controller", lambda: sim(controller=print, control_period=H), TypeError,
      (r"\bcontroller\b", r"builtin_function_or_method", r"lgvi\.control\.Controller")),
     ("controller-without-period", lambda: sim(controller=lgvi.control.MRPFeedback(1.0, 1.0)), ValueError,

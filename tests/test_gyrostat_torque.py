@@ -100,3 +100,15 @@ def test_a_non_finite_moment_stops_the_run_with_the_part_computed():
     part = info.value.trajectory
     assert part is not None and 99 <= len(part.t) - 1 <= 100, len(part.t)
     assert np.all(np.isfinite(part.Pi)) and np.all(np.isfinite(part.wheel_momentum))
+
+
+@numba.njit
+def _pi_damping(t, R, Pi, p):
+    return (-Pi[0], -Pi[1], -Pi[2])
+
+
+def test_a_momentum_dependent_model_is_refused_by_name():
+    # (here, not in test_bad_inputs: that table also runs interpreted, where Compiled needs Numba)
+    with pytest.raises(ValueError, match=r"torque= with wheels= or controller= must not depend on Pi"):
+        lgvi.simulate(J, R0, omega0=W0, h=0.1, steps=5, wheels=WHEELS,
+                      torque=Compiled(_pi_damping, momentum_dependent=True))
