@@ -123,7 +123,10 @@ def _cone_moments(P: np.ndarray, vol: np.ndarray, n: int) -> np.ndarray:
 
     M = np.einsum(spec, W, vol, *([P] * n), optimize=True)
     perms = list(permutations(range(n)))
-    return sum(np.transpose(M, p) for p in perms) / len(perms)      # symmetric to the last bit
+    M = sum(np.transpose(M, p) for p in perms) / len(perms)
+    for idx in np.ndindex(*M.shape):             # symmetric to the last bit
+        M[idx] = M[tuple(sorted(idx))]
+    return M
 
 
 class Polyhedron:
