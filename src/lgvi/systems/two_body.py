@@ -115,13 +115,14 @@ def _simplex_weights(n: int) -> np.ndarray:
 def _cone_moments(P: np.ndarray, vol: np.ndarray, n: int) -> np.ndarray:
     """``sum_t int_{tet(0, P_t)} x^(n) dV`` (3,)*n: the tetrahedra from the origin to the faces ``P`` (m, 3, 3)
     with signed volumes ``vol`` (m,), exactly (the monomials' means over a tetrahedron)."""
-    W = _simplex_weights(n)
-    letters = "abcd"[:n]
-    coords = "ijkl"[:n]
-    spec = letters + "," + "t," + ",".join(f"t{a}{c}" for a, c in zip(letters, coords)) + "->" + coords
     from itertools import permutations
 
-    M = np.einsum(spec, W, vol, *([P] * n), optimize=True)
+    verts, coords = "abcd"[:n], "ijkl"[:n]
+    Y = vol.reshape((-1,) + (1,) * n) * _simplex_weights(n)          # (m, 3, ..., 3)
+    for k in range(n - 1, -1, -1):                                    # one vertex index at a time
+        sub = verts[:k + 1] + coords[k + 1:]
+        Y = np.einsum(f"t{sub},t{verts[k]}{coords[k]}->t{sub[:k]}{coords[k]}{coords[k + 1:]}", Y, P)
+    M = Y.sum(axis=0)
     perms = list(permutations(range(n)))
     M = sum(np.transpose(M, p) for p in perms) / len(perms)
     for idx in np.ndindex(*M.shape):             # symmetric to the last bit
