@@ -153,11 +153,22 @@ class Polyhedron:
     Attributes
     ----------
     vertices : (n, 3) ndarray
-        As given (float64). ``faces`` : (m, 3) int64 ndarray.
+        As given (float64).
+    faces : (m, 3) ndarray of int64
+        As given.
     volume : float
+        The enclosed volume.
     center_of_mass : (3,) ndarray
         In the frame of ``vertices``.
     mass : float or None
+        From ``mass`` or ``density`` (``None`` with neither).
+
+    Examples
+    --------
+    >>> import numpy as np, lgvi
+    >>> tet = lgvi.Polyhedron(np.eye(4, 3, -1), [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], density=6.0)
+    >>> round(tet.volume, 12), tet.center_of_mass.tolist()
+    (0.166666666667, [0.25, 0.25, 0.25])
     """
 
     def __init__(self, vertices: Any, faces: Any, *, mass: Any = None, density: Any = None) -> None:
