@@ -191,7 +191,7 @@ class Polyhedron:
         # closed and consistently oriented: every directed edge once, and its reverse once
         e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
         key = e[:, 0] * n + e[:, 1]
-        uniq, first, counts = np.unique(key, return_index=True, return_counts=True)
+        uniq, counts = np.unique(key, return_counts=True)
         if (counts > 1).any():
             i, j = divmod(int(uniq[np.argmax(counts > 1)]), n)
             fs = np.nonzero(key == i * n + j)[0] % len(F)
