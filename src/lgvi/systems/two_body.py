@@ -744,5 +744,5 @@ def _provide() -> None:
 
 _provide()
 
-__all__ = ["Ellipsoid", "Moments", "PointMasses", "Polyhedron", "TWO_BODY", "TwoBodyRun", "TwoBodyTrajectory", "mutual_force",
-           "mutual_potential", "simulate_two_body", "two_body_equations"]
+__all__ = ["Ellipsoid", "Moments", "PointMasses", "Polyhedron", "TWO_BODY", "TwoBodyRun", "TwoBodyTrajectory",
+           "mutual_force", "mutual_potential", "simulate_two_body", "two_body_equations"]
