@@ -76,13 +76,13 @@ def figure(traj, env):
     return fig
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--orbits", type=float, default=2.0)
     ap.add_argument("--quick", action="store_true", help="half an orbit")
     ap.add_argument("--out", type=Path, default=Path("figures") / "bdot_detumble")
     ap.add_argument("--no-plots", action="store_true")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     orbits = 0.5 if args.quick else args.orbits
     traj, env = detumble(orbits)
     rate = np.degrees(np.linalg.norm(traj.omega, axis=1))
@@ -99,7 +99,8 @@ def main() -> None:
         path = args.out / "detumble.png"
         figure(traj, env).savefig(path)
         print(f"figure: {path}")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

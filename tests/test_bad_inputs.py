@@ -473,6 +473,11 @@ def orbit(**overrides: Any) -> lgvi.OrbitTrajectory:
     return lgvi.simulate_orbit(*args, **kw)
 
 
+#: The unit tetrahedron and its outward faces (Polyhedron rows).
+_TET = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+_TET_FACES = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]
+
+
 def pair(**overrides: Any) -> lgvi.TwoBodyTrajectory:
     """``lgvi.simulate_two_body`` with sound defaults (issue 16)."""
     kw: dict[str, Any] = dict(body1=BODY, body2=BODY, m1=1.0, m2=0.5, x0=[3.0, 0.0, 0.0], v0=[0.0, 0.5, 0.0],
@@ -514,7 +519,7 @@ _ROWS += [
     ("two-body-potential-unknown", lambda: pair(potential="order3"), ValueError,
      (r"\bpotential\b", r"'order3'", r"one of")),
     ("two-body-order4-needs-moments", lambda: pair(potential="order4"), ValueError,
-     (r"\bbody1\b", r"ndarray|list", r"Ellipsoid or lgvi\.PointMasses")),
+     (r"\bbody1\b", r"ndarray|list", r"Ellipsoid, lgvi\.Polyhedron or lgvi\.PointMasses")),
     ("two-body-points-needs-points", lambda: pair(body2=lgvi.Ellipsoid(1.0, 1.0, 1.0), potential="points",
                                                   body1=lgvi.PointMasses([1.0] * 4, np.eye(4, 3)), m1=None),
      ValueError,
@@ -539,6 +544,33 @@ _ROWS += [
      (r"PointMasses", r"2 masses and 3 positions", r"as many masses as positions")),
     ("point-masses-on-a-line", lambda: lgvi.PointMasses([1.0, 1.0], [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]]),
      ValueError, (r"\bpositions\b", r"\[0\.0, 2\.0, 2\.0\]", r"one line")),
+    # ---- Polyhedron (issue 16) ----------------------------------------------------------------
+    ("polyhedron-hole", lambda: lgvi.Polyhedron(np.vstack([_TET, [[0.3, 0.3, 0.3]]]), _TET_FACES[:3] + [[1, 2, 4]]),
+     ValueError, (r"\bfaces\b", r"edge \(1, 3\) of face 1", r"closed surface")),
+    ("polyhedron-flipped-face", lambda: lgvi.Polyhedron(_TET, _TET_FACES[:3] + [[1, 3, 2]]), ValueError,
+     (r"\bfaces\b", r"faces \[\d, 3\]", r"consistently oriented")),
+    ("polyhedron-inward", lambda: lgvi.Polyhedron(_TET, [f[::-1] for f in _TET_FACES]), ValueError,
+     (r"\bfaces\b", r"-0\.166667", r"oriented outward")),
+    ("polyhedron-degenerate-face", lambda: lgvi.Polyhedron([[0, 0, 0], [1, 0, 0], [2, 0, 0], [0, 1, 0]], _TET_FACES),
+     ValueError, (r"\bfaces\b", r"face 0 \(vertices \[0, 2, 1\]\) has area 0", r"degenerate")),
+    ("polyhedron-flat", lambda: lgvi.Polyhedron([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], _TET_FACES), ValueError,
+     (r"\bvertices and faces\b", r"got 0", r"positive volume")),
+    ("polyhedron-index", lambda: lgvi.Polyhedron(_TET, _TET_FACES[:3] + [[1, 2, 4]]), ValueError,
+     (r"\bfaces\b", r"index 4", r"0 <= index < 4")),
+    ("polyhedron-float-faces", lambda: lgvi.Polyhedron(_TET, np.array(_TET_FACES, dtype=float)), TypeError,
+     (r"\bfaces\b", r"float64", r"integer vertex indices")),
+    ("polyhedron-repeated-vertex", lambda: lgvi.Polyhedron(_TET, _TET_FACES[:3] + [[1, 1, 3]]), ValueError,
+     (r"\bfaces\b", r"face 3 is \[1, 1, 3\]", r"three distinct vertices")),
+    ("polyhedron-vertices-nan", lambda: lgvi.Polyhedron(np.vstack([_TET[:3], [[0.0, NAN, 1.0]]]), _TET_FACES),
+     ValueError, (r"\bvertices\b", r"nan", r"finite")),
+    ("polyhedron-mass-and-density", lambda: lgvi.Polyhedron(_TET, _TET_FACES, mass=1.0, density=2.0), ValueError,
+     (r"\bmass\b", r"density=2\.0", r"not both")),
+    ("polyhedron-density-negative", lambda: lgvi.Polyhedron(_TET, _TET_FACES, density=-2.0), ValueError,
+     (r"\bdensity\b", r"-2\.0", r"positive")),
+    ("polyhedron-no-mass", lambda: lgvi.Polyhedron(_TET, _TET_FACES).moments(), ValueError,
+     (r"\bmass\b", r"without mass or density", r"must be given")),
+    ("two-body-m1-not-the-polyhedron", lambda: pair(body1=lgvi.Polyhedron(_TET, _TET_FACES, mass=2.0), m1=3.0),
+     ValueError, (r"\bm1\b", r"3\.0", r"body1's mass \(2\.0")),
 ]
 
 

@@ -138,6 +138,20 @@ def test_every_script_is_tested():
     assert scripts <= tested, f"example scripts without a test here: {sorted(scripts - tested)}"
 
 
+def test_every_script_takes_the_gallery_call():
+    """The documentation site's gallery (docs/conf.py) calls ``main(["--quick", "--out", DIR])`` in
+    process: every example's ``main`` takes that argument list and understands both options."""
+    import ast
+
+    for path in sorted(EXAMPLES.glob("*.py")):
+        src = path.read_text(encoding="utf-8")
+        mains = [f for f in ast.parse(src).body if isinstance(f, ast.FunctionDef) and f.name == "main"]
+        assert len(mains) == 1, f"{path.name}: no module-level main()"
+        args = mains[0].args
+        assert len(args.args) == 1 and len(args.defaults) == 1, f"{path.name}: main must be main(argv=None)"
+        assert '"--quick"' in src and '"--out"' in src, f"{path.name}: no --quick or --out option"
+
+
 def test_wheel_slew(tmp_path):
     out = run_example("wheel_slew.py", "--quick", "--out", str(tmp_path / "figs"), cwd=tmp_path)
     assert number(r"settled within 0.01 deg at t = ([0-9.]+) s", out) < 600.0

@@ -53,6 +53,7 @@ from .systems.orbit import OrbitTrajectory as OrbitTrajectory
 from .systems.orbit import simulate_orbit as simulate_orbit
 from .systems.two_body import Ellipsoid as Ellipsoid
 from .systems.two_body import PointMasses as PointMasses
+from .systems.two_body import Polyhedron as Polyhedron
 from .systems.two_body import TwoBodyTrajectory as TwoBodyTrajectory
 from .systems.two_body import simulate_two_body as simulate_two_body
 from .systems.gyrostat import ReactionWheels as ReactionWheels
@@ -72,6 +73,7 @@ __all__ = [
     "Magnetorquers",
     "OrbitTrajectory",
     "PointMasses",
+    "Polyhedron",
     "ReactionWheels",
     "RigidBody",
     "SimulationInterrupted",

@@ -203,7 +203,7 @@ def _load(path: str):
 
     sc = load_scenario(path)
     if isinstance(sc, BodiesScenario):   # issue 16: not run by the command line yet
-        raise ScenarioError(path, sc.kind, "the command line does not run [orbit] or [two_body] scenarios yet; "
+        raise ScenarioError(path, sc.kind, "the command line does not run [orbiting_body] or [two_body] scenarios yet; "
                             "run it from Python: lgvi.scenario.load_scenario(path).run()")
     return sc
 

@@ -669,7 +669,7 @@ class Scenario:
             For any invalid, missing or unknown key.
         """
         c = _Checker(source)
-        if isinstance(d, dict) and ("orbit" in d or "two_body" in d):     # lgvi.simulate_orbit / simulate_two_body
+        if isinstance(d, dict) and ("orbiting_body" in d or "two_body" in d):     # lgvi.simulate_orbit / simulate_two_body
             return BodiesScenario.from_dict(d, source, text=text)  # type: ignore[return-value]
         d = c.table(d, "", _TOP_KEYS)
         for req in ("body", "initial", "integrator"):
@@ -952,7 +952,10 @@ def to_toml(d: dict[str, Any]) -> str:
 
 
 # ------------------------------------------------------------------------------------ bodies in orbit, two bodies
-#: The sections of a scenario of lgvi.simulate_orbit ([orbit]) or lgvi.simulate_two_body ([two_body]).
+#: The sections of a scenario of lgvi.simulate_orbit ([orbiting_body]) or lgvi.simulate_two_body ([two_body]),
+#: and the system each runs. (A spacecraft scenario's [orbit] is the orbit that drives its environment:
+#: lgvi.io.scenario_space.)
+_BODIES_SECTIONS = {"orbiting_body": "orbit", "two_body": "two_body"}
 _BODIES_TOP = ("name", "description", "initial", "integrator", "output")
 _BODIES_INTEGRATOR = ("h", "steps", "duration", "save_every", "tol", "max_iter")
 
@@ -1028,10 +1031,10 @@ def _position(c: _Checker, value: Any, key: str) -> np.ndarray:
 class BodiesScenario:
     """A checked scenario of a body in orbit or of two bodies.
 
-    An ``[orbit]`` section runs :func:`lgvi.simulate_orbit`, a ``[two_body]`` section
+    An ``[orbiting_body]`` section runs :func:`lgvi.simulate_orbit`, a ``[two_body]`` section
     :func:`lgvi.simulate_two_body` (``lgvi run`` does not run them yet). The schema::
 
-        [orbit]                              # a rigid body in a central field
+        [orbiting_body]                      # a rigid body in a central field
         inertia = [1.0, 2.0, 3.0]            # or matrix = [[...], [...], [...]]  [kg m^2]
         mass = 10.0                          # [kg]
         mu = 3.986004418e14                  # G M of the central body [m^3/s^2]
@@ -1078,11 +1081,12 @@ class BodiesScenario:
     @classmethod
     def from_dict(cls, d: dict[str, Any], source: str = "<dict>", *, text: str | None = None) -> "BodiesScenario":
         c = _Checker(source)
-        kinds = [k for k in ("orbit", "two_body") if k in d]
-        if len(kinds) != 1:
-            raise c.error(None, "a scenario describes one system: [orbit] or [two_body], not both")
-        kind = kinds[0]
-        d = c.table(d, "", _BODIES_TOP + (kind,))
+        sections = [k for k in _BODIES_SECTIONS if k in d]
+        if len(sections) != 1:
+            raise c.error(None, "a scenario describes one system: [orbiting_body] or [two_body], not both")
+        section = sections[0]
+        kind = _BODIES_SECTIONS[section]
+        d = c.table(d, "", _BODIES_TOP + (section,))
         if "integrator" not in d:
             raise c.error("integrator", "missing; expected an [integrator] table")
         name = c.string(d.get("name", Path(source).stem if not source.startswith("<") else "scenario"), "name")
@@ -1102,28 +1106,28 @@ class BodiesScenario:
             kw["max_iter"] = c.integer(integ["max_iter"], "integrator.max_iter", minimum=1)
         c.table(d.get("output", {}), "output", ("formats", "plots"))
         if kind == "orbit":
-            o = c.table(d[kind], "orbit", ("inertia", "matrix", "mass", "mu", "position", "velocity", "potential",
+            o = c.table(d[section], "orbiting_body", ("inertia", "matrix", "mass", "mu", "position", "velocity", "potential",
                                            "J2", "radius"))
             for req in ("mass", "mu", "position", "velocity"):
                 if req not in o:
-                    raise c.expected(f"orbit.{req}", "a number" if req in ("mass", "mu") else "an array of 3 numbers")
-            body = _inertia_or_shape(c, o, "orbit", shapes=False)
+                    raise c.expected(f"orbiting_body.{req}", "a number" if req in ("mass", "mu") else "an array of 3 numbers")
+            body = _inertia_or_shape(c, o, "orbiting_body", shapes=False)
             init = c.table(d.get("initial", {}), "initial", _ATTITUDE_KEYS + ("omega", "Pi"))
             spin = _spin(c, init, "initial")
-            args = (body, c.number(o["mass"], "orbit.mass", positive=True), c.vector(o["position"], "orbit.position"),
-                    c.vector(o["velocity"], "orbit.velocity"), spin["R"])
-            kw.update(mu=c.number(o["mu"], "orbit.mu", positive=True),
-                      potential=c.string(o.get("potential", "order2"), "orbit.potential", ("order2", "point")))
+            args = (body, c.number(o["mass"], "orbiting_body.mass", positive=True), c.vector(o["position"], "orbiting_body.position"),
+                    c.vector(o["velocity"], "orbiting_body.velocity"), spin["R"])
+            kw.update(mu=c.number(o["mu"], "orbiting_body.mu", positive=True),
+                      potential=c.string(o.get("potential", "order2"), "orbiting_body.potential", ("order2", "point")))
             kw["Pi0" if "Pi" in spin else "omega0"] = spin.get("Pi", spin.get("omega"))
             if "J2" in o:
-                kw["J2"] = c.number(o["J2"], "orbit.J2")
+                kw["J2"] = c.number(o["J2"], "orbiting_body.J2")
                 if "radius" not in o:
-                    raise c.expected("orbit.radius", "the central body's equatorial radius (a positive number) "
-                                     "with orbit.J2")
+                    raise c.expected("orbiting_body.radius", "the central body's equatorial radius (a positive number) "
+                                     "with orbiting_body.J2")
             if "radius" in o:
                 if "J2" not in o:
-                    raise c.error("orbit.radius", "only used with orbit.J2; add J2 or remove radius")
-                kw["radius"] = c.number(o["radius"], "orbit.radius", positive=True)
+                    raise c.error("orbiting_body.radius", "only used with orbiting_body.J2; add J2 or remove radius")
+                kw["radius"] = c.number(o["radius"], "orbiting_body.radius", positive=True)
         else:
             if "initial" in d:
                 raise c.error("initial", "a [two_body] scenario gives each body's attitude and spin in "
@@ -1157,7 +1161,7 @@ class BodiesScenario:
         try:
             sc._run(check_only=True)
         except (ValueError, TypeError) as exc:
-            raise c.error(kind, str(exc)) from None
+            raise c.error(section, str(exc)) from None
         return sc
 
     def _run(self, check_only: bool = False, progress: Any = False):
