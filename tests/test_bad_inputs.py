@@ -612,7 +612,7 @@ _ROWS += [
     ("wheels-not-wheels", lambda: sim(wheels=np.eye(3)), TypeError,
      (r"\bwheels\b", r"ndarray", r"lgvi\.ReactionWheels")),
     ("wheels-with-torque", lambda: sim(wheels=_wheels(), torque=np.zeros((STEPS, 3))), ValueError,
-     (r"\btorque=", r"wheels=", r"cannot be combined")),
+     (r"\btorque=", r"wheels=", r"ndarray", r"one lgvi\.torques\.Compiled model")),
     ("controller-not-controller", lambda: sim(controller=print, control_period=H), TypeError,
      (r"\bcontroller\b", r"builtin_function_or_method", r"lgvi\.control\.Controller")),
     ("controller-without-period", lambda: sim(controller=lgvi.control.MRPFeedback(1.0, 1.0)), ValueError,

@@ -120,6 +120,11 @@ def test_basilisk_rw_scenario_quick():
     _check(proc, "scenarioAttitudeFeedbackRW", "max |d sigma|", "Basilisk/lgvi", "Basilisk ExecuteSimulation")
 
 
+def test_bench_gyrostat_ensemble_quick():
+    proc = _run("bench_gyrostat_ensemble.py", "--quick")
+    _check(proc, "simulate_ensemble with wheels", "MRPFeedback compiled", "RotationPD, Python", "vs threads=1")
+
+
 def test_bench_field_quick():
     proc = _run("bench_field.py", "--quick")
     _check(proc, "us/point", "IGRF-14 n=13, compiled, batch", "centred dipole n=1, compiled, batch")

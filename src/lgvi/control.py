@@ -161,6 +161,16 @@ def map_to_wheels(torque_request: Any, axes: Any) -> np.ndarray:
     return -(np.linalg.pinv(G) @ L)
 
 
+def _wheel_map(axes: np.ndarray) -> np.ndarray:
+    """``map_to_wheels`` of the three body axes as columns (N, 3), the same numbers, ``cond`` once."""
+    G = np.asarray(axes, dtype=np.float64).T
+    if G.shape[1] >= 3:
+        M = G @ G.T
+        if np.linalg.cond(M) < 1e12:
+            return np.stack([-(G.T @ np.linalg.solve(M, e)) for e in np.eye(3)], axis=1)
+    return np.stack([map_to_wheels(e, axes) for e in np.eye(3)], axis=1)
+
+
 def _reference_callable(target: Callable[[float], Any], t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     out = target(t)
     if isinstance(out, tuple):
@@ -247,7 +257,7 @@ class MRPFeedback(Controller):
         else:
             self.axes, self.spin_inertia = wheels.axes.copy(), wheels.spin_inertia.copy()
         # (N, 3): torque request -> wheel motor torques (rwMotorTorque), one column per body axis
-        self.wheel_map = np.stack([map_to_wheels(e, self.axes) for e in np.eye(3)], axis=1)
+        self.wheel_map = _wheel_map(self.axes)
 
     def reset(self) -> None:
         self.int_sigma = np.zeros(3)

@@ -655,7 +655,9 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
                       order: int = 2, composition: str | None = None, threads: int | None = None,
                       client: Any = None, block_size: int | None = None,
                       out_dir: str | os.PathLike | None = None, resume: bool = False,
-                      progress: Any = False) -> EnsembleTrajectory | list[Path]:
+                      progress: Any = False, wheels: Any = None, controller: Any = None,
+                      control_period: Any = None, environment: Any = None,
+                      magnetorquers: Any = None) -> EnsembleTrajectory | list[Path] | Any:
     """Simulate ``B`` rigid bodies at once with the attitude LGVI, in parallel over cores.
 
     Body ``b`` follows bit for bit the trajectory of
@@ -717,6 +719,19 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
         ``True`` draws a ``tqdm`` progress bar, a callable is called as ``progress(done, total)``
         (steps of the whole ensemble in process; bodies of finished blocks with ``client`` or
         ``out_dir``).
+    wheels, controller : lgvi.ReactionWheels, lgvi.control.Controller, or sequences of B of them
+        Monte Carlo dispersions of spacecraft with reaction wheels and a control loop: one for
+        every member (each member gets its own copy) or one per member (wheel misalignment as
+        per-member ``axes``, initial wheel speeds as ``speed0``, gains as per-member
+        controllers). ``bodies`` disperses the inertia, ``R0``, ``Pi0``/``omega0`` the initial
+        state. ``control_period``, ``environment``, ``magnetorquers`` and ``torque`` (one
+        :class:`lgvi.torques.Compiled` model) are as in :func:`lgvi.simulate` and shared. Member
+        ``b`` equals ``lgvi.simulate`` with its inputs bit for bit; the members run through the
+        gyrostat's compiled loop in ``threads`` threads (it releases the GIL; a Python
+        controller takes it at its calls). Returns a
+        :class:`lgvi.systems.gyrostat_ensemble.GyrostatEnsemble` (``ens[b]``, stacked ``R``,
+        ``wheel_speed``, ..., and ``params``/``dispersions`` recording every member's inputs);
+        ``client``, ``out_dir``, ``resume``, ``block_size`` and ``progress`` are not taken.
 
     Returns
     -------
@@ -772,6 +787,23 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
     >>> bool(np.array_equal(ens.R[5], one.R)), ens.torque_model(5) == pd[5]
     (True, True)
     """
+    if any(x is not None for x in (wheels, controller, control_period, environment, magnetorquers)):
+        from .systems.gyrostat import gyrostat_options
+        from .systems.gyrostat_ensemble import simulate_gyrostat_ensemble
+
+        for name, value, default in (("client", client, None), ("out_dir", out_dir, None), ("resume", resume, False),
+                                     ("block_size", block_size, None), ("progress", progress, False)):
+            if value is not default and not (default is False and value is False):
+                raise ValueError(f"{name}={value!r} cannot be combined with wheels= or controller= in "
+                                 "simulate_ensemble (the members run in threads in this process)")
+        gyrostat_options(torque=torque, forcing=forcing, order=order, composition=composition, error_estimate=None)
+        R = _rotations(R0)
+        unique, ib = _bodies(bodies, len(R))
+        return simulate_gyrostat_ensemble([unique[i] for i in ib], R, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels,
+                                          controller=controller, control_period=control_period,
+                                          environment=environment, magnetorquers=magnetorquers, torque=torque,
+                                          threads=threads, method=method, tol=tol, max_iter=max_iter, alpha=alpha,
+                                          save_every=save_every, t0=t0, order=order, composition=composition)
     setup = _Setup(bodies, R0, Pi0, omega0, h=h, steps=steps, torque=torque, method=method, tol=tol,
                    max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0, forcing=forcing, order=order,
                    composition=composition, threads=threads)

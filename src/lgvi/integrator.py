@@ -197,6 +197,10 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
         * a torque model from :mod:`lgvi.torques` (or a sum of them), evaluated in compiled code.
           Its conservative part always uses the symmetric (variational) scheme, the rest follows
           ``forcing``; its potential is reported in :attr:`Trajectory.potential`.
+
+        With ``wheels=`` or ``controller=`` only one :class:`lgvi.torques.Compiled` model (e.g.
+        :class:`lgvi.environment.OrbitGravityGradient`, not depending on ``Pi``) is taken, in the
+        symmetric form inside the gyrostat's loop (``docs/gyrostat.md``).
     method : {"newton", "paper", "cayley"}
         Solver of the implicit equation, see :func:`lgvi.solve_implicit`.
     tol, max_iter, alpha
@@ -329,7 +333,7 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
                                  control_period=control_period, environment=environment, magnetorquers=magnetorquers,
                                  progress=progress, method=method, tol=tol, max_iter=max_iter, alpha=alpha,
                                  save_every=save_every, t0=t0, solver_record=solver_record, order=order,
-                                 composition=composition)
+                                 composition=composition, torque=torque)
     from .accuracy import check_options
 
     estimate, warn = check_options(error_estimate, error_warn, torque)

@@ -29,7 +29,7 @@ import math
 from .._jit import jit
 from .codes import NOT_CONVERGED, NOT_FINITE, OK, OVERFLOW, SINGULAR
 from .solvers import EPS, SERIES_ANGLE, expm1_entries
-from .stepping import momentum_step, predict_at, push_at, rotate
+from .stepping import momentum_step, predict_at, push_at, rotate, rotated_row
 
 # Taylor coefficients below SERIES_ANGLE, as in the rigid body's solver (:mod:`.solvers`)
 A1, A2, A3, A4 = -1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362880.0          # sin t / t
@@ -296,9 +296,8 @@ def mrp_feedback(cp, cs, t, R, w0, w1, w2, axes, wp, rho, cmd, tau):
             cmd[i] = cp[m] * L0 + cp[m + 1] * L1 + cp[m + 2] * L2
 
 
-@jit(_nrt=False)
-def run_gyro(JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cmd, tau, u_now, ctrl, cp, cs, spc, k0, n, kb, tol,
-             max_iter, save_every, per, R_out, Pi_out, rho_out, u_out, it_out, res_out, counts):
+def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cmd, tau, u_now, ctrl, cp, cs,
+               spc, k0, n, kb, tol, max_iter, save_every, per, R_out, Pi_out, rho_out, u_out, it_out, res_out, counts):
     """Steps ``k0 .. k0 + n - 1`` of the gyrostat in place on ``R``, ``Pi``, ``rho``, ``G``.
 
     Each step is the composition of substeps ``gam[i] h`` (``gam = [1]``: the second-order step;
@@ -310,6 +309,11 @@ def run_gyro(JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cmd, tau, u_now, ctr
     motor torques and the total wheel torques of the last step. Returns ``(status, k,
     iterations_total, residual_max, its, residual)`` (the last of the step that stopped the loop;
     on failure the state is that of the step's start only for a single substep).
+
+    With ``moment`` (not ``None``) the torque model's moment ``M = moment(t, R, Pi, up)`` is added to ``tau`` in
+    the variational (symmetric) form of a time-dependent potential: ``h^2/2 (tau + M_k)`` in the
+    implicit equation, ``Pi_{k+1} = F^T (Pi_k + h/2 (tau + M_k)) + h/2 (tau + M_{k+1})``, each
+    substep at its own times; a non-finite moment stops the run (``NOT_FINITE``).
     """
     N = rho.shape[0]
     d00 = JdB[0, 0]
@@ -327,6 +331,16 @@ def run_gyro(JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cmd, tau, u_now, ctr
     its = 0
     rn = 0.0
     nb = counts.shape[0]
+    m0 = 0.0
+    m1 = 0.0
+    m2 = 0.0
+    if moment is not None:
+        mm = moment(t0 + k0 * h, R, Pi, up)
+        m0 = float(mm[0])
+        m1 = float(mm[1])
+        m2 = float(mm[2])
+        if not (math.isfinite(m0) and math.isfinite(m1) and math.isfinite(m2)):
+            return NOT_FINITE, k0, 0, 0.0, 0, 0.0
     for k in range(k0, k0 + n):
         w0, w1, w2 = body_rate(JBi, Pi, axes, rho)
         if ctrl == 1 and k % spc == 0:
@@ -343,9 +357,17 @@ def run_gyro(JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cmd, tau, u_now, ctr
         ta2 = tau[2]
         its_k = 0
         rn_k = 0.0
+        cum = 0.0
         for sub in range(s):
             hs = gam[sub] * h
             hh = 0.5 * hs
+            f0 = ta0
+            f1 = ta1
+            f2 = ta2
+            if moment is not None:
+                f0 = ta0 + m0
+                f1 = ta1 + m1
+                f2 = ta2 + m2
             g0 = 0.0
             g1 = 0.0
             g2 = 0.0
@@ -361,22 +383,44 @@ def run_gyro(JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cmd, tau, u_now, ctr
             a12 = d12 - hh * g0
             a20 = d20 - hh * g1
             a21 = d21 + hh * g0
-            p0 = hs * (Pi[0] - g0) + hs * hh * ta0
-            p1 = hs * (Pi[1] - g1) + hs * hh * ta1
-            p2 = hs * (Pi[2] - g2) + hs * hh * ta2
+            p0 = hs * (Pi[0] - g0) + hs * hh * f0
+            p1 = hs * (Pi[1] - g1) + hs * hh * f1
+            p2 = hs * (Pi[2] - g2) + hs * hh * f2
             q0, q1, q2 = predict_at(G, sub)
             (x0, x1, x2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its,
              rn, st) = solve_shifted(d00, a01, a02, a10, d11, a12, a20, a21, d22, p0, p1, p2, q0, q1, q2, tol,
                                      max_iter)
             its_k += its
             it_sum += its
+            n0 = ta0
+            n1 = ta1
+            n2 = ta2
+            e0 = 0.0
+            e1 = 0.0
+            e2 = 0.0
+            if moment is not None and st == OK:
+                # the model's moment at the substep's end (R_k F, its time)
+                cum += gam[sub]
+                t_end = t0 + (k + 1) * h if sub == s - 1 else t0 + k * h + cum * h
+                for i in range(3):
+                    Rs[i, 0], Rs[i, 1], Rs[i, 2] = rotated_row(R[i, 0], R[i, 1], R[i, 2], E00, E01, E02, E10, E11,
+                                                               E12, E20, E21, E22)
+                mm = moment(t_end, Rs, Pi, up)
+                e0 = float(mm[0])
+                e1 = float(mm[1])
+                e2 = float(mm[2])
+                if not (math.isfinite(e0) and math.isfinite(e1) and math.isfinite(e2)):
+                    st = NOT_FINITE
+                n0 = ta0 + e0
+                n1 = ta1 + e1
+                n2 = ta2 + e2
             if st == OK:
-                b0 = Pi[0] + hh * ta0
-                b1 = Pi[1] + hh * ta1
-                b2 = Pi[2] + hh * ta2
+                b0 = Pi[0] + hh * f0
+                b1 = Pi[1] + hh * f1
+                b2 = Pi[2] + hh * f2
                 c0, c1, c2, l0, l1, l2 = momentum_step(b0, b1, b2, G[sub, 4, 0], G[sub, 4, 1], G[sub, 4, 2], E00,
-                                                       E01, E02, E10, E11, E12, E20, E21, E22, hh * ta0, hh * ta1,
-                                                       hh * ta2)
+                                                       E01, E02, E10, E11, E12, E20, E21, E22, hh * n0, hh * n1,
+                                                       hh * n2)
                 if not (math.isfinite(c0) and math.isfinite(c1) and math.isfinite(c2)):
                     st = OVERFLOW
             if st != OK:
@@ -393,6 +437,10 @@ def run_gyro(JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cmd, tau, u_now, ctr
             Pi[2] = c2
             for i in range(N):
                 rho[i] += hs * u_now[N + i]
+            if moment is not None:
+                m0 = e0
+                m1 = e1
+                m2 = e2
         its = its_k
         rn = rn_k
         if rn > rmax:
@@ -419,3 +467,10 @@ def run_gyro(JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cmd, tau, u_now, ctr
             for i in range(N):
                 rho_out[j, i] = rho[i]
     return OK, k0 + n, it_sum, rmax, its, rn
+
+
+#: :func:`gyro_steps` without a torque model (``moment=None``; cached on disk).
+run_gyro = jit(_nrt=False)(gyro_steps)
+#: :func:`gyro_steps` with a torque model ``moment(t, R, Pi, up)`` (an ``lgvi.torques.Compiled``, not
+#: depending on ``Pi``), specialised for it and compiled in memory.
+run_gyro_model = jit(cache=False)(gyro_steps)

@@ -319,7 +319,7 @@ class GyrostatRun:
                  controller: Any = None, control_period: Any = None, environment: Any = None,
                  magnetorquers: Any = None, method: str = "newton", tol: Any = 1e-14, max_iter: Any = 50,
                  alpha: Any = 1.0, save_every: Any = 1, t0: Any = 0.0, solver_record: str = "interval",
-                 order: Any = 2, composition: Any = None) -> None:
+                 order: Any = 2, composition: Any = None, torque: Any = None) -> None:
         from ..body import RigidBody
 
         self.body = body = body if isinstance(body, RigidBody) else RigidBody(body)
@@ -372,6 +372,8 @@ class GyrostatRun:
             raise ValueError("magnetorquers are driven by a controller's dipole: give a controller")
         self.environment = environment
         self.magnetorquers = magnetorquers
+        self.model = _torque_model(torque)
+        self.Rs = np.zeros((3, 3))
         self.cp = np.zeros(0)
         self.cs = np.zeros(5)
         self.ctrl = 0
@@ -395,7 +397,7 @@ class GyrostatRun:
             getattr(initial_guess, "py_func", initial_guess)(self.code, JB, g * self.h * (self.Pi - a.T @ self.wheel_momentum),
                                                              self.G[i, 0])
         # a body torque acted (the declaration of invariants is that of the run so far)
-        self.external = self.ctrl == 1 and n == 0
+        self.external = (self.ctrl == 1 and n == 0) or self.model is not None
         self.motors_off = controller is None and not wheels.has_friction
         self.k = 0
         self.counts = np.zeros(HIST_BINS, dtype=np.int64)
@@ -414,7 +416,8 @@ class GyrostatRun:
                      Field("wheel_torque", (n,), np.float64, GYROSTAT.records[2].doc)))
         self.meta: dict[str, Any] = {"system": "gyrostat", "method": "newton", "tol": self.tol,
                                      "max_iter": self.max_iter, "alpha": 1.0, "save_every": se,
-                                     "torque": "none" if controller is None else "controller",
+                                     "torque": ("none" if controller is None else "controller") if self.model is None
+                                     else repr(self.model),
                                      "forcing": "symmetric", "lgvi_version": __version__, "t0": self.t0, "order": self.comp.order,
                                      "solver_record": solver_record, "wheels": wheels.describe(),
                                      "controller": repr(controller) if controller is not None else None,
@@ -473,11 +476,14 @@ class GyrostatRun:
 
     # -------------------------------------------------------------- stepping
     def _kernel(self, k0: int, n: int, kb: int, R_out, Pi_out, rho_out, it_out, res_out, u_out) -> int:
-        from .._kernels.gyrostat_kernels import run_gyro
+        from .._kernels.gyrostat_kernels import run_gyro, run_gyro_model
 
         per = 1 if self.full else self.save_every
-        status, k, it_sum, rmax, its, rn = run_gyro(
-            self.JdB, self.JB_inv, self.h, self.gam, self.t0, self.R, self.Pi, self.wheel_momentum, self.G, self.wheels.axes,
+        kernel, moment, up = run_gyro, None, self.cp
+        if self.model is not None:
+            kernel, moment, up = run_gyro_model, self.model.moment_func, self.model.row()
+        status, k, it_sum, rmax, its, rn = kernel(
+            moment, up, self.Rs, self.JdB, self.JB_inv, self.h, self.gam, self.t0, self.R, self.Pi, self.wheel_momentum, self.G, self.wheels.axes,
             self.wp, self.cmd, self.tau, self.u_now, self.ctrl, self.cp, self.cs, self.spc, k0, n, kb, self.tol,
             self.max_iter, self.save_every, per, R_out, Pi_out, rho_out, u_out, it_out, res_out, self.counts)
         self.k = int(k)
@@ -567,7 +573,10 @@ def _mrp_params(ctrl: Any, wheels: ReactionWheels) -> np.ndarray:
     n = len(wheels)
     R_ref = np.eye(3) if ctrl.R_ref is None else ctrl.R_ref
     M = np.zeros((n, 3))
-    if n:
+    wm = getattr(ctrl, "wheel_map", None)      # set by MRPFeedback.setup from these axes: the same numbers
+    if n and isinstance(wm, np.ndarray) and wm.shape == (n, 3) and np.array_equal(ctrl.axes, wheels.axes):
+        M[:] = wm
+    elif n:
         for j in range(3):
             M[:, j] = map_to_wheels(np.eye(3)[j], wheels.axes)
     lim = ctrl.integral_limit if math.isfinite(ctrl.integral_limit) else 1e300
@@ -575,11 +584,24 @@ def _mrp_params(ctrl: Any, wheels: ReactionWheels) -> np.ndarray:
                            np.asarray(ctrl.J, dtype=np.float64).ravel(), M.ravel()])
 
 
+def _torque_model(torque: Any) -> Any:
+    """``torque=`` beside wheels or a controller: one :class:`lgvi.torques.Compiled` model (or ``None``)."""
+    if torque is None:
+        return None
+    if getattr(torque, "moment_func", None) is None:
+        raise ValueError("torque= with wheels= or controller= takes one lgvi.torques.Compiled model (e.g. "
+                         "lgvi.environment.OrbitGravityGradient), run inside the gyrostat's compiled loop; got "
+                         f"{type(torque).__name__}. Give other body torques through the controller (Command.torque)")
+    if torque.depends_on_momentum:
+        raise ValueError(f"torque= with wheels= or controller= must not depend on Pi (momentum_dependent=True): "
+                         f"got {torque!r}")
+    torque.row()                      # params (P,) for one body
+    return torque
+
+
 def gyrostat_options(*, torque: Any, forcing: Any, order: Any, composition: Any, error_estimate: Any) -> None:
     """Refuse the options of :func:`lgvi.simulate` that a run with wheels or a controller does not take."""
-    if torque is not None:
-        raise ValueError("torque= cannot be combined with wheels= or controller= yet: give body torques through "
-                         "the controller (Command.torque)")
+    _torque_model(torque)
     if forcing not in ("paper", "symmetric"):
         choice(forcing, "forcing", ("paper", "symmetric"))
     if error_estimate not in (False, None):

@@ -1,0 +1,219 @@
+"""Monte Carlo ensembles of the gyrostat: ``lgvi.simulate_ensemble(..., wheels=, controller=)``.
+
+Every member is one :class:`lgvi.systems.gyrostat.GyrostatRun`, driven through the gyrostat's
+compiled loop exactly as :func:`lgvi.simulate` drives it, so member ``b`` equals
+``lgvi.simulate(bodies[b], R0[b], ..., wheels=wheels[b], controller=controller[b])`` bit for bit.
+The members run in a pool of threads: the compiled loop releases the GIL (``nogil=True``), so
+members whose controller is compiled (:class:`lgvi.control.MRPFeedback` without an environment)
+step in parallel; a Python controller takes the GIL at each of its calls (the steps between
+calls still run in parallel). Everything that may differ per member (inertia, initial state,
+wheel axes, spin inertias, initial speeds, limits, the controller's numeric parameters) is
+recorded in ``params`` and, where it differs, in ``dispersions``.
+"""
+
+from __future__ import annotations
+
+import copy
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any, Sequence
+
+import numpy as np
+
+from .._validation import as_float_array, as_int
+from ..control import Controller
+from ..driver import MemorySink, drive
+from ..errors import ConvergenceError, TorqueError
+from .gyrostat import GyrostatRun, GyrostatTrajectory, ReactionWheels
+
+__all__ = ["GyrostatEnsemble", "simulate_gyrostat_ensemble"]
+
+
+@dataclass(frozen=True, eq=False)
+class GyrostatEnsemble:
+    """``B`` gyrostat runs (reaction wheels, a control loop) at the same ``M`` times.
+
+    Attributes
+    ----------
+    members : tuple of B :class:`lgvi.systems.gyrostat.GyrostatTrajectory`
+        Member ``b``'s run, the result of ``lgvi.simulate`` with its inputs (``ens[b]``).
+    params : dict
+        Every member's inputs that may be dispersed, name -> ``(B, ...)`` array: ``"inertia"``
+        (B, 3, 3) (wheels locked), ``"R0"`` (B, 3, 3), ``"Pi0"`` (B, 3) (total body momentum),
+        ``"wheels.axes"`` (B, N, 3), ``"wheels.spin_inertia"``, ``"wheels.speed0"``,
+        ``"wheels.max_torque"``, ... (B, N), and ``"controller.<name>"`` for the controller's
+        numeric attributes (``controller.K``, ``controller.P``, ... of
+        :class:`lgvi.control.MRPFeedback`).
+    meta : dict
+        The run's options and how the members ran (``"threads"``).
+
+    Stacked over members (computed on first access): ``t`` (M,), ``R`` (B, M, 3, 3), ``Pi``
+    (B, M, 3), ``omega`` (B, M, 3), ``wheel_momentum``, ``wheel_speed``, ``wheel_torque``
+    (B, M, N), ``spatial_momentum`` (B, M, 3); ``dispersions``: the entries of ``params`` that
+    differ between members.
+    """
+
+    members: tuple[GyrostatTrajectory, ...]
+    params: dict[str, np.ndarray]
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        for arr in self.params.values():
+            arr.flags.writeable = False
+
+    def __len__(self) -> int:
+        return len(self.members)
+
+    def __getitem__(self, b: int) -> GyrostatTrajectory:
+        return self.members[b]
+
+    def __repr__(self) -> str:
+        return (f"GyrostatEnsemble(members={len(self)}, samples={len(self.t)}, wheels={self.wheel_momentum.shape[-1]}, "
+                f"dispersions={sorted(self.dispersions)})")
+
+    @property
+    def dispersions(self) -> dict[str, np.ndarray]:
+        """The entries of :attr:`params` that differ between members, name -> ``(B, ...)``."""
+        return {k: v for k, v in self.params.items() if not np.array_equal(v, v[:1].repeat(len(v), axis=0))}
+
+    def _stack(self, name: str) -> np.ndarray:
+        out = np.stack([getattr(m, name) for m in self.members])
+        out.flags.writeable = False
+        return out
+
+    @cached_property
+    def t(self) -> np.ndarray:
+        return self.members[0].t
+
+    @cached_property
+    def R(self) -> np.ndarray:
+        return self._stack("R")
+
+    @cached_property
+    def Pi(self) -> np.ndarray:
+        return self._stack("Pi")
+
+    @cached_property
+    def omega(self) -> np.ndarray:
+        return self._stack("omega")
+
+    @cached_property
+    def wheel_momentum(self) -> np.ndarray:
+        return self._stack("wheel_momentum")
+
+    @cached_property
+    def wheel_speed(self) -> np.ndarray:
+        return self._stack("wheel_speed")
+
+    @cached_property
+    def wheel_torque(self) -> np.ndarray:
+        return self._stack("wheel_torque")
+
+    @cached_property
+    def spatial_momentum(self) -> np.ndarray:
+        return self._stack("spatial_momentum")
+
+
+def _per_member(value: Any, name: str, B: int, kind: type) -> list[Any]:
+    """``value`` for every member: one object (copied per member) or a sequence of ``B``."""
+    if isinstance(value, (list, tuple)):
+        if len(value) != B:
+            raise ValueError(f"{name} gives {len(value)} entries but R0 has {B} attitudes; give one for all or "
+                             "one per member")
+        for b, v in enumerate(value):
+            if not isinstance(v, kind):
+                raise TypeError(f"{name}[{b}] must be an {kind.__module__.replace('.systems.gyrostat', '')}."
+                                f"{kind.__name__}, got {type(v).__name__}")
+        items = list(value)
+    else:
+        if not isinstance(value, kind):
+            raise TypeError(f"{name} must be an lgvi {kind.__name__} or a sequence of B of them, got "
+                            f"{type(value).__name__}")
+        items = [value] * B
+    return [copy.deepcopy(v) for v in items]
+
+
+def _numeric(value: Any) -> np.ndarray | None:
+    if isinstance(value, (bool, np.bool_)) or value is None or callable(value):
+        return None
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        return None
+    return arr if arr.size <= 64 else None
+
+
+#: a controller's attributes that ``setup``/``reset`` derive from the run (not inputs)
+_RUN_STATE = frozenset({"body", "wheels", "J", "axes", "spin_inertia", "wheel_map", "int_sigma", "prior_time"})
+
+
+def _controller_params(ctrls: Sequence[Any]) -> dict[str, np.ndarray]:
+    """``controller.<name>``: the numeric public attributes every member's controller has, same shapes."""
+    out: dict[str, np.ndarray] = {}
+    names = [k for k in vars(ctrls[0]) if not k.startswith("_") and k not in _RUN_STATE]
+    for name in names:
+        vals = [_numeric(getattr(c, name, None)) for c in ctrls]
+        if all(v is not None and v.shape == vals[0].shape for v in vals):
+            out[f"controller.{name}"] = np.stack(vals)
+    return out
+
+
+def simulate_gyrostat_ensemble(bodies: Sequence[Any], R: np.ndarray, Pi0: Any = None, *, omega0: Any = None,
+                               h: Any, steps: Any, wheels: Any = None, controller: Any = None,
+                               control_period: Any = None, environment: Any = None, magnetorquers: Any = None,
+                               torque: Any = None, threads: Any = None, **options: Any) -> GyrostatEnsemble:
+    """:func:`lgvi.simulate_ensemble` with ``wheels=`` or ``controller=`` (see there); ``bodies`` (B
+    :class:`lgvi.RigidBody`) and ``R`` (B, 3, 3) rotations are validated by the caller."""
+    B = len(R)
+    if (Pi0 is None) == (omega0 is None):
+        raise ValueError("give the initial body angular momenta Pi0 (B, 3) or the angular velocities omega0 (B, 3), "
+                         "one of the two")
+    init = as_float_array(Pi0 if omega0 is None else omega0, "Pi0" if omega0 is None else "omega0", (B, 3))
+    wl = _per_member(wheels, "wheels", B, ReactionWheels) if wheels is not None else [None] * B
+    if wheels is not None:
+        n = {len(w) for w in wl}
+        if len(n) > 1:
+            raise ValueError(f"wheels must have the same number of wheels in every member, got {sorted(n)}")
+    cl = _per_member(controller, "controller", B, Controller) if controller is not None else [None] * B
+    ctrl_params = _controller_params(cl) if controller is not None else {}     # before setup
+    if threads is None:
+        threads = min(B, os.cpu_count() or 1)
+    threads = as_int(threads, "threads", minimum=1)
+    runs = []
+    for b in range(B):
+        kw = {"Pi0": init[b], "omega0": None} if omega0 is None else {"Pi0": None, "omega0": init[b]}
+        try:
+            runs.append(GyrostatRun(bodies[b], R[b], kw["Pi0"], omega0=kw["omega0"], h=h, steps=steps,
+                                    wheels=wl[b], controller=cl[b], control_period=control_period,
+                                    environment=environment, magnetorquers=magnetorquers, torque=torque, **options))
+        except (TypeError, ValueError) as exc:
+            raise type(exc)(f"member {b}: {exc}") from exc
+    params: dict[str, np.ndarray] = {
+        "inertia": np.stack([r.body.J for r in runs]),
+        "R0": R.copy(),
+        "Pi0": np.stack([r.Pi for r in runs]),
+    }
+    if wheels is not None:
+        for key in wl[0].describe():
+            params[f"wheels.{key}"] = np.stack([np.asarray(w.describe()[key], dtype=np.float64) for w in wl])
+    params.update(ctrl_params)
+
+    def one(b: int) -> GyrostatTrajectory:
+        try:
+            return drive(runs[b], MemorySink(runs[b]), False)
+        except (ConvergenceError, TorqueError) as exc:
+            exc.body = b
+            exc.args = (f"member {b}: {exc.args[0]}",) + exc.args[1:] if exc.args else exc.args
+            raise
+
+    if threads == 1 or B == 1:
+        members = [one(b) for b in range(B)]
+    else:
+        with ThreadPoolExecutor(max_workers=min(threads, B)) as pool:
+            members = list(pool.map(one, range(B)))
+    meta = dict(members[0].meta, members=B, threads=min(threads, B))
+    for key in ("wheels", "controller", "solver_summary", "invariants"):
+        meta.pop(key, None)
+    return GyrostatEnsemble(members=tuple(members), params=params, meta=meta)
