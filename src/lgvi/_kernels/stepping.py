@@ -31,7 +31,7 @@ import math
 
 from .._jit import jit
 from .codes import OVERFLOW
-from .solvers import METHOD_CAYLEY, OK, solve_call, solve_scalar
+from .solvers import METHOD_CAYLEY, METHOD_NEWTON, OK, solve_call, solve_scalar
 from .torque_kernels import model_moments, model_moments_s, momentum_diag
 
 
@@ -335,6 +335,17 @@ def run_chunk_cayley(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, sa
     """
     records = 1 if it_out.shape[0] == n else 2
     return free_steps(METHOD_CAYLEY, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_every, save_every, 0,
+                      R_out, Pi_out, records, it_out, res_out, hist, counts)
+
+
+@jit(_nrt=False)
+def run_chunk_newton(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_every,
+                     R_out, Pi_out, it_out, res_out, hist, counts):
+    """:func:`run_chunk` compiled for ``method == METHOD_NEWTON`` only (the argument is ignored):
+    ``simulate``'s default method, specialised as :func:`run_chunk_cayley` is (the same bits;
+    LLVM drops the other solvers' branches, which also shortens the first call's compilation)."""
+    records = 1 if it_out.shape[0] == n else 2
+    return free_steps(METHOD_NEWTON, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_every, save_every, 0,
                       R_out, Pi_out, records, it_out, res_out, hist, counts)
 
 
