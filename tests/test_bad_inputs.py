@@ -392,6 +392,77 @@ _ROWS += [
      lgvi.TorqueError, (r"controller saturated", r"step 5", r"\.trajectory")),
 ]
 
+# ---- issue 12: magnetic field, magnetorquers, orbits (lgvi.environment) ------------------------
+from lgvi import environment as env  # noqa: E402
+
+_TLE1 = "1 00005U 58002B   00179.78495062  .00000023  00000-0  28098-4 0  4753"
+_TLE2 = "2 00005  34.2682 348.7242 1859667 331.7664  19.3264 10.82419157413667"
+_ROWS += [
+    ("rods-axes-shape", lambda: lgvi.Magnetorquers(np.eye(2), 1.0), ValueError,
+     (r"\baxes\b", r"\(2, 2\)", r"shape \(N, 3\)")),
+    ("rods-axes-not-unit", lambda: lgvi.Magnetorquers([[1.0, 0, 0], [0, 2.0, 0]], 1.0), ValueError,
+     (r"\baxes\b", r"row 1 has norm 2\b", r"unit vectors")),
+    ("rods-axes-nan", lambda: lgvi.Magnetorquers([[NAN, 0, 0]], 1.0), ValueError, (r"\baxes\b", r"nan", r"finite")),
+    ("rods-max-dipole-zero", lambda: lgvi.Magnetorquers(np.eye(3), [1.0, 0.0, 1.0]), ValueError,
+     (r"\bmax_dipole\b", r"\[1\. 0\. 1\.\]", r"> 0")),
+    ("rods-max-dipole-count", lambda: lgvi.Magnetorquers(np.eye(3), [1.0, 1.0]), ValueError,
+     (r"\bmax_dipole\b", r"\(2,\)", r"one per rod")),
+    ("rods-dipole-shape", lambda: lgvi.Magnetorquers(np.eye(3), 1.0).torque([1.0, 2.0], [0, 0, 1e-5]), ValueError,
+     (r"\bdipole_cmd\b", r"\(2,\)", r"shape \(3,\)")),
+    ("rods-field-nan", lambda: lgvi.Magnetorquers(np.eye(3), 1.0).torque([1.0, 0, 0], [0, NAN, 1e-5]), ValueError,
+     (r"\bB_body\b", r"nan", r"finite")),
+    ("bdot-gain-negative", lambda: env.BDot(-1.0), ValueError, (r"\bgain\b", r"-1", r"positive")),
+    ("bdot-derivative", lambda: env.BDot(1.0, derivative="central"), ValueError,
+     (r"\bderivative\b", r"'central'", r"one of 'difference', 'rate'")),
+    ("dumping-gain-nan", lambda: env.MomentumDumping(NAN), ValueError, (r"\bgain\b", r"nan", r"finite")),
+    ("dumping-controller-type", lambda: env.MomentumDumping(1.0, controller=lambda *a: None), TypeError,
+     (r"\bcontroller\b", r"function", r"lgvi\.control\.Controller")),
+    ("kepler-a-negative", lambda: env.KeplerOrbit(-7e6), ValueError, (r"\ba\b", r"-7000000", r"positive")),
+    ("kepler-e-hyperbolic", lambda: env.KeplerOrbit(7e6, 1.0), ValueError, (r"\be\b", r"1\.0", r"0 <= e < 1")),
+    ("kepler-e-negative", lambda: env.KeplerOrbit(7e6, -0.1), ValueError, (r"\be\b", r"-0\.1", r"0 <= e < 1")),
+    ("kepler-inclination", lambda: env.KeplerOrbit(7e6, 0.0, 98.0), ValueError,
+     (r"\binclination\b", r"98", r"\[0, pi\] radians")),
+    ("kepler-raan-inf", lambda: env.KeplerOrbit(7e6, 0.0, 1.0, INF), ValueError, (r"\braan\b", r"inf", r"finite")),
+    ("circular-radius-zero", lambda: env.CircularOrbit(0.0), ValueError, (r"\bradius\b", r"0\.0", r"positive")),
+    ("j2-J2-nan", lambda: env.J2Orbit(7e6, J2=NAN), ValueError, (r"\bJ2\b", r"nan", r"finite")),
+    ("solve-kepler-e", lambda: env.solve_kepler([0.1], 1.5), ValueError, (r"\be\b", r"1\.5", r"0 <= e < 1")),
+    ("sgp4-line-type", lambda: env.SGP4Orbit(_TLE1, None), TypeError, (r"\bline2\b", r"NoneType", r"a TLE line")),
+    ("sgp4-line-swapped", lambda: env.SGP4Orbit(_TLE2, _TLE1), ValueError,
+     (r"\bline1\b", r"'2 00005", r"start with '1 '")),
+    ("orbit-env-orbit", lambda: env.OrbitEnvironment([7e6, 0, 0]), TypeError,
+     (r"\borbit\b", r"list", r"position_velocity")),
+    ("orbit-env-field", lambda: env.OrbitEnvironment(env.CircularOrbit(7e6), "IGRF"), TypeError,
+     (r"\bfield\b", r"str", r"IGRF, WMM, CentredDipole")),
+    ("orbit-env-no-epoch", lambda: env.OrbitEnvironment(env.CircularOrbit(7e6), env.CentredDipole()), ValueError,
+     (r"\bepoch\b", r"None|required", r"with a field")),
+    ("orbit-env-epoch-type", lambda: env.OrbitEnvironment(env.CircularOrbit(7e6), epoch="2026-01-01"), TypeError,
+     (r"\bepoch\b", r"'2026-01-01'", r"datetime")),
+    ("orbit-env-reference", lambda: env.OrbitEnvironment(env.CircularOrbit(7e6), reference="sun"), ValueError,
+     (r"\breference\b", r"'sun'", r"None or 'nadir'")),
+    ("orbit-env-epoch-outside-field", lambda: env.OrbitEnvironment(
+        env.CircularOrbit(7e6), env.SphericalHarmonicField([2025.0, 2030.0], np.ones((2, 2, 2)), np.ones((2, 2, 2))),
+        epoch=__import__("datetime").datetime(2040, 1, 1)), ValueError,
+     (r"\bepoch\b", r"2040-01-01", r"2025 <= year <= 2030")),
+    ("field-degree", lambda: env.SphericalHarmonicField([0.0, 1.0], np.ones((2, 3, 3)), np.ones((2, 3, 3)), degree=3),
+     ValueError, (r"\bdegree\b", r"\b3\b", r"<= 2")),
+    ("field-times", lambda: env.SphericalHarmonicField([1.0, 0.0], np.ones((2, 2, 2)), np.ones((2, 2, 2))),
+     ValueError, (r"\btimes\b", r"\[1\. 0\.\]", r"increasing")),
+    ("field-r-shape", lambda: env.CentredDipole().ecef([7e6, 0.0], 2026.0), ValueError,
+     (r"\br\b", r"\(2,\)", r"\(\.\.\., 3\)")),
+    ("field-r-centre", lambda: env.CentredDipole().ecef([0.0, 0.0, 0.0], 2026.0), ValueError,
+     (r"\br\b", r"\[0, 0, 0\]", r"singular")),
+    ("field-dipole-zero", lambda: env.CentredDipole(0.0, 0.0, 0.0), ValueError,
+     (r"g10, g11, h11", r"\b0\b", r"not all be zero")),
+    ("field-lat", lambda: env.geodetic_to_ecef(91.0, 0.0, 0.0), ValueError, (r"\blat\b", r"91", r"\[-90, 90\]")),
+    ("lvlh-parallel", lambda: env.lvlh_frame([7e6, 0, 0], [1.0, 0, 0]), ValueError,
+     (r"\br and v\b", r"r x v = 0", r"not be parallel")),
+    ("gg-orbit-duration", lambda: env.OrbitGravityGradient(env.CircularOrbit(7e6), BODY, duration=-1.0), ValueError,
+     (r"\bduration\b", r"-1", r"positive")),
+    ("gg-orbit-dt", lambda: env.OrbitGravityGradient(env.CircularOrbit(7e6), BODY, duration=10.0, dt=0.0),
+     ValueError, (r"\bdt\b", r"0\.0", r"positive")),
+    ("gg-orbit-inertia", lambda: env.OrbitGravityGradient(env.CircularOrbit(7e6), [1.0, -2.0, 3.0], duration=10.0),
+     ValueError, (r"\binertia\b", r"-2", r"positive definite")),
+]
 
 def orbit(**overrides: Any) -> lgvi.OrbitTrajectory:
     """``lgvi.simulate_orbit`` with sound defaults (issue 16); each row overrides what it breaks."""
@@ -400,6 +471,11 @@ def orbit(**overrides: Any) -> lgvi.OrbitTrajectory:
     kw.update(overrides)
     args = [kw.pop(k) for k in ("body", "mass", "x0", "v0", "R0")]
     return lgvi.simulate_orbit(*args, **kw)
+
+
+#: The unit tetrahedron and its outward faces (Polyhedron rows).
+_TET = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+_TET_FACES = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]
 
 
 def pair(**overrides: Any) -> lgvi.TwoBodyTrajectory:
@@ -443,7 +519,7 @@ _ROWS += [
     ("two-body-potential-unknown", lambda: pair(potential="order3"), ValueError,
      (r"\bpotential\b", r"'order3'", r"one of")),
     ("two-body-order4-needs-moments", lambda: pair(potential="order4"), ValueError,
-     (r"\bbody1\b", r"ndarray|list", r"Ellipsoid or lgvi\.PointMasses")),
+     (r"\bbody1\b", r"ndarray|list", r"Ellipsoid, lgvi\.Polyhedron or lgvi\.PointMasses")),
     ("two-body-points-needs-points", lambda: pair(body2=lgvi.Ellipsoid(1.0, 1.0, 1.0), potential="points",
                                                   body1=lgvi.PointMasses([1.0] * 4, np.eye(4, 3)), m1=None),
      ValueError,
@@ -468,6 +544,89 @@ _ROWS += [
      (r"PointMasses", r"2 masses and 3 positions", r"as many masses as positions")),
     ("point-masses-on-a-line", lambda: lgvi.PointMasses([1.0, 1.0], [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]]),
      ValueError, (r"\bpositions\b", r"\[0\.0, 2\.0, 2\.0\]", r"one line")),
+    # ---- Polyhedron (issue 16) ----------------------------------------------------------------
+    ("polyhedron-hole", lambda: lgvi.Polyhedron(np.vstack([_TET, [[0.3, 0.3, 0.3]]]), _TET_FACES[:3] + [[1, 2, 4]]),
+     ValueError, (r"\bfaces\b", r"edge \(1, 3\) of face 1", r"closed surface")),
+    ("polyhedron-flipped-face", lambda: lgvi.Polyhedron(_TET, _TET_FACES[:3] + [[1, 3, 2]]), ValueError,
+     (r"\bfaces\b", r"faces \[\d, 3\]", r"consistently oriented")),
+    ("polyhedron-inward", lambda: lgvi.Polyhedron(_TET, [f[::-1] for f in _TET_FACES]), ValueError,
+     (r"\bfaces\b", r"-0\.166667", r"oriented outward")),
+    ("polyhedron-degenerate-face", lambda: lgvi.Polyhedron([[0, 0, 0], [1, 0, 0], [2, 0, 0], [0, 1, 0]], _TET_FACES),
+     ValueError, (r"\bfaces\b", r"face 0 \(vertices \[0, 2, 1\]\) has area 0", r"degenerate")),
+    ("polyhedron-flat", lambda: lgvi.Polyhedron([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], _TET_FACES), ValueError,
+     (r"\bvertices and faces\b", r"got 0", r"positive volume")),
+    ("polyhedron-index", lambda: lgvi.Polyhedron(_TET, _TET_FACES[:3] + [[1, 2, 4]]), ValueError,
+     (r"\bfaces\b", r"index 4", r"0 <= index < 4")),
+    ("polyhedron-float-faces", lambda: lgvi.Polyhedron(_TET, np.array(_TET_FACES, dtype=float)), TypeError,
+     (r"\bfaces\b", r"float64", r"integer vertex indices")),
+    ("polyhedron-repeated-vertex", lambda: lgvi.Polyhedron(_TET, _TET_FACES[:3] + [[1, 1, 3]]), ValueError,
+     (r"\bfaces\b", r"face 3 is \[1, 1, 3\]", r"three distinct vertices")),
+    ("polyhedron-vertices-nan", lambda: lgvi.Polyhedron(np.vstack([_TET[:3], [[0.0, NAN, 1.0]]]), _TET_FACES),
+     ValueError, (r"\bvertices\b", r"nan", r"finite")),
+    ("polyhedron-mass-and-density", lambda: lgvi.Polyhedron(_TET, _TET_FACES, mass=1.0, density=2.0), ValueError,
+     (r"\bmass\b", r"density=2\.0", r"not both")),
+    ("polyhedron-density-negative", lambda: lgvi.Polyhedron(_TET, _TET_FACES, density=-2.0), ValueError,
+     (r"\bdensity\b", r"-2\.0", r"positive")),
+    ("polyhedron-no-mass", lambda: lgvi.Polyhedron(_TET, _TET_FACES).moments(), ValueError,
+     (r"\bmass\b", r"without mass or density", r"must be given")),
+    ("two-body-m1-not-the-polyhedron", lambda: pair(body1=lgvi.Polyhedron(_TET, _TET_FACES, mass=2.0), m1=3.0),
+     ValueError, (r"\bm1\b", r"3\.0", r"body1's mass \(2\.0")),
+]
+
+
+# ---- reaction wheels and controllers (issue 12) ------------------------------------------
+def _wheels(**kw: Any) -> lgvi.ReactionWheels:
+    return lgvi.ReactionWheels(np.eye(3), kw.pop("spin_inertia", 0.01), **kw)
+
+
+class _NanAt(lgvi.control.Controller):
+    """Wheel torques that turn NaN from t = 0.05."""
+
+    def command(self, t, R, omega, wheel_speed, env):
+        return lgvi.control.Command(wheel_torque=[0.001, NAN if t > 0.04 else 0.0, 0.0])
+
+
+_ROWS += [
+    ("wheels-axis-not-unit", lambda: lgvi.ReactionWheels([[1.0, 1.0, 0.0]], 0.01), ValueError,
+     (r"\baxes\b", r"\[1\.0, 1\.0, 0\.0\]", r"unit vectors")),
+    ("wheels-axes-shape", lambda: lgvi.ReactionWheels(np.ones((2, 2)), 0.01), ValueError,
+     (r"\baxes\b", r"shape \(2, 2\)", r"must have shape \(N, 3\)")),
+    ("wheels-spin-inertia-zero", lambda: _wheels(spin_inertia=[0.01, 0.0, 0.01]), ValueError,
+     (r"\bspin_inertia\b", r"wheel 1 has 0", r"> 0")),
+    ("wheels-spin-inertia-nan", lambda: _wheels(spin_inertia=NAN), ValueError,
+     (r"\bspin_inertia\b", r"nan", r"finite")),
+    ("wheels-speed0-shape", lambda: _wheels(speed0=[1.0, 2.0]), ValueError,
+     (r"\bspeed0\b", r"shape \(2,\)", r"scalar or have shape \(3,\)")),
+    ("wheels-max-torque-negative", lambda: _wheels(max_torque=-0.2), ValueError,
+     (r"\bmax_torque\b", r"-0\.2", r"> 0")),
+    ("wheels-min-torque-negative", lambda: _wheels(min_torque=-1e-3), ValueError,
+     (r"\bmin_torque\b", r"-0\.001", r">= 0")),
+    ("wheels-max-power-zero", lambda: _wheels(max_power=0.0), ValueError, (r"\bmax_power\b", r"has 0", r"> 0")),
+    ("wheels-max-speed-inf", lambda: _wheels(max_speed=INF), ValueError, (r"\bmax_speed\b", r"inf", r"finite")),
+    ("wheels-friction-key", lambda: _wheels(friction={"stribeck": 1.0}), ValueError,
+     (r"\bfriction\b", r"stribeck", r"unknown keys")),
+    ("wheels-friction-negative", lambda: _wheels(friction={"viscous": -1.0}), ValueError,
+     (r"friction\['viscous'\]", r"-1", r">= 0")),
+    ("wheels-bigger-than-body", lambda: sim(wheels=_wheels(spin_inertia=1.5)), ValueError,
+     (r"\bwheels\b", r"spin inertia 1\.5", r"not above")),
+    ("wheels-not-wheels", lambda: sim(wheels=np.eye(3)), TypeError,
+     (r"\bwheels\b", r"ndarray", r"lgvi\.ReactionWheels")),
+    ("wheels-with-torque", lambda: sim(wheels=_wheels(), torque=np.zeros((STEPS, 3))), ValueError,
+     (r"\btorque=", r"wheels=", r"cannot be combined")),
+    ("controller-not-controller", lambda: sim(controller=print, control_period=H), TypeError,
+     (r"\bcontroller\b", r"builtin_function_or_method", r"lgvi\.control\.Controller")),
+    ("controller-without-period", lambda: sim(controller=lgvi.control.MRPFeedback(1.0, 1.0)), ValueError,
+     (r"\bcontrol_period\b", r"controller", r"give")),
+    ("control-period-not-multiple", lambda: sim(controller=lgvi.control.MRPFeedback(1.0, 1.0), control_period=0.015),
+     ValueError, (r"\bcontrol_period\b", r"0\.015", r"multiple of \|h\|")),
+    ("control-period-negative", lambda: sim(controller=lgvi.control.MRPFeedback(1.0, 1.0), control_period=-0.1),
+     ValueError, (r"\bcontrol_period\b", r"-0\.1", r"positive")),
+    ("mrp-feedback-K-zero", lambda: lgvi.control.MRPFeedback(0.0, 1.0), ValueError,
+     (r"\bK\b", r"0\.0", r"positive")),
+    ("mrp-feedback-Ki-nan", lambda: lgvi.control.MRPFeedback(1.0, 1.0, Ki=NAN), ValueError,
+     (r"\bKi\b", r"nan", r"finite")),
+    ("controller-returns-nan", lambda: sim(wheels=_wheels(), controller=_NanAt(), control_period=H),
+     lgvi.TorqueError, (r"wheel_torque", r"nan", r"non-finite", r"step 5", r"\.trajectory")),
 ]
 
 CASES = [pytest.param(call, exc, patterns, id=name) for name, call, exc, patterns in _ROWS] + [

@@ -104,4 +104,23 @@ def test_bench_bodies_quick():
     """The two-body benchmark prints its cost table and its time-to-accuracy table against DOP853."""
     proc = _run("bench_bodies.py", "--quick")
     _check(proc, "Table 1", "steps/s", "order2", "order4", "Table 2", "lgvi order2", "scipy DOP853", "DOP853/lgvi")
+
+
+def test_bench_gyrostat_quick():
+    proc = _run("bench_gyrostat.py", "--quick")
+    _check(proc, "gyrostat step vs free body", "ns/step", "ratio", "free body", "4 wheels, motors off",
+           "MRPFeedback compiled", "Python controller")
+    assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
+def test_basilisk_rw_scenario_quick():
+    """Against the stored Basilisk fixture (no Basilisk needed)."""
+    proc = _run("basilisk_rw_scenario.py", "--quick")
+    _check(proc, "scenarioAttitudeFeedbackRW", "max |d sigma|", "Basilisk/lgvi", "Basilisk ExecuteSimulation")
+
+
+def test_bench_field_quick():
+    proc = _run("bench_field.py", "--quick")
+    _check(proc, "us/point", "IGRF-14 n=13, compiled, batch", "centred dipole n=1, compiled, batch")
     assert "Traceback" not in proc.stderr

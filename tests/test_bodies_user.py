@@ -8,7 +8,7 @@ import pytest
 import lgvi
 from lgvi.scenario import BodiesScenario, Scenario, ScenarioError
 
-ORBIT = {"orbit": {"inertia": [0.04, 0.06, 0.075], "mass": 1.0, "mu": 1.0, "position": [1.0, 0.0, 0.1],
+ORBIT = {"orbiting_body": {"inertia": [0.04, 0.06, 0.075], "mass": 1.0, "mu": 1.0, "position": [1.0, 0.0, 0.1],
                    "velocity": [0.0, 1.15, 0.05]},
          "initial": {"rotvec": [0.4, -0.3, 0.8], "omega": [0.3, -0.4, 1.3]},
          "integrator": {"h": 0.02, "steps": 100, "save_every": 5}}
@@ -30,7 +30,7 @@ def test_orbit_section_runs_the_same_as_the_call():
                                  Rotation.from_rotvec([0.4, -0.3, 0.8]).as_matrix(), omega0=[0.3, -0.4, 1.3], h=0.02,
                                  steps=100, mu=1.0, save_every=5)
     assert np.array_equal(traj.x, direct.x) and np.array_equal(traj.R, direct.R)
-    assert traj.meta["scenario_name"] == "scenario" and "[orbit]" in traj.meta["scenario"]
+    assert traj.meta["scenario_name"] == "scenario" and "[orbiting_body]" in traj.meta["scenario"]
 
 
 def test_two_body_section_runs():
@@ -43,12 +43,12 @@ def test_two_body_section_runs():
 
 
 @pytest.mark.parametrize("path,value,key,rule", [
-    (("orbit", "mass"), -1.0, r"orbit\.mass", "positive"),
-    (("orbit", "potential"), "order4", r"orbit\.potential", "one of"),
-    (("orbit", "radius"), 2.0, r"orbit\.radius", "only used with orbit.J2"),
-    (("orbit", "J2"), 1e-3, r"orbit\.radius", "equatorial radius"),
-    (("orbit", "mas"), 1.0, r"orbit\.mas", "did you mean 'mass'"),
-    (("orbit", "position"), [0.0, 0.0, 0.0], r"\borbit\b", r"\|x0\| > 0"),
+    (("orbiting_body", "mass"), -1.0, r"orbiting_body\.mass", "positive"),
+    (("orbiting_body", "potential"), "order4", r"orbiting_body\.potential", "one of"),
+    (("orbiting_body", "radius"), 2.0, r"orbiting_body\.radius", "only used with orbiting_body.J2"),
+    (("orbiting_body", "J2"), 1e-3, r"orbiting_body\.radius", "equatorial radius"),
+    (("orbiting_body", "mas"), 1.0, r"orbiting_body\.mas", "did you mean 'mass'"),
+    (("orbiting_body", "position"), [0.0, 0.0, 0.0], r"\borbiting_body\b", r"\|x0\| > 0"),
     (("initial", "omega"), None, r"initial", "exactly one of initial.omega or initial.Pi"),
     (("integrator", "save_every"), 3, r"integrator\.save_every", "divisor"),
 ])
@@ -73,7 +73,7 @@ def test_orbit_section_errors_name_the_key(path, value, key, rule):
     (lambda d: d["two_body"]["body2"]["points"].update(masses=[1.0]), r"two_body\.body2\.points",
      "as many masses as positions"),
     (lambda d: d.update(initial={"omega": [0, 0, 1]}), r"\binitial\b", r"\[two_body\.body1\]"),
-    (lambda d: d.update(orbit=ORBIT["orbit"]), None, "not both"),
+    (lambda d: d.update(orbiting_body=ORBIT["orbiting_body"]), None, "not both"),
 ])
 def test_two_body_section_errors_name_the_key(edit, key, rule):
     import copy

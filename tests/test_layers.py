@@ -49,7 +49,8 @@ CORE_RANKS: dict[str, int] = {
     "_version": 1, "errors": 1, "_validation": 1, "_untrusted": 1, "_files": 1, "so3": 1, "body": 1,
     # 2: models, registries, invariants, implicit solver, results
     "registry": 2, "torques": 2, "invariants": 2, "implicit": 2, "accuracy": 2, "trajectory": 2,
-    "discrete": 2,
+    "discrete": 2, "control": 2,
+    "environment": 2,
     # 3: systems and the driver
     "driver": 3, "systems": 3, "integrator": 3, "ensemble": 3, "modified": 3, "optimal": 3, "splitting": 3,
 }

@@ -23,6 +23,7 @@ import sys as _sys
 
 from . import _aliases  # noqa: F401  (installs the old names of moved modules: lgvi.exact, ...)
 from . import _jit  # noqa: F401  (imports Numba now; compiles nothing)
+from . import control as control
 from . import optimal as optimal
 from . import so3 as so3
 from . import torques as torques
@@ -33,6 +34,8 @@ from .body import jd_to_inertia as jd_to_inertia
 from .ensemble import EnsembleTrajectory as EnsembleTrajectory
 from .ensemble import load_ensemble as load_ensemble
 from .ensemble import simulate_ensemble as simulate_ensemble
+from . import environment as environment
+from .environment import Magnetorquers as Magnetorquers
 from .errors import AccuracyWarning as AccuracyWarning
 from .errors import AttitudeWarning as AttitudeWarning
 from .errors import ConvergenceError as ConvergenceError
@@ -50,8 +53,10 @@ from .systems.orbit import OrbitTrajectory as OrbitTrajectory
 from .systems.orbit import simulate_orbit as simulate_orbit
 from .systems.two_body import Ellipsoid as Ellipsoid
 from .systems.two_body import PointMasses as PointMasses
+from .systems.two_body import Polyhedron as Polyhedron
 from .systems.two_body import TwoBodyTrajectory as TwoBodyTrajectory
 from .systems.two_body import simulate_two_body as simulate_two_body
+from .systems.gyrostat import ReactionWheels as ReactionWheels
 from .trajectory import Trajectory as Trajectory
 from .trajectory import load as load
 from . import view as _view  # noqa: F401  (Jupyter's display of a Trajectory; plotly imported when used)
@@ -65,8 +70,11 @@ __all__ = [
     "Ellipsoid",
     "EnsembleTrajectory",
     "ImplicitSolution",
+    "Magnetorquers",
     "OrbitTrajectory",
     "PointMasses",
+    "Polyhedron",
+    "ReactionWheels",
     "RigidBody",
     "SimulationInterrupted",
     "StepResult",
@@ -74,6 +82,8 @@ __all__ = [
     "Trajectory",
     "TwoBodyTrajectory",
     "__version__",
+    "control",
+    "environment",
     "inertia_to_jd",
     "jd_to_inertia",
     "load",

@@ -159,7 +159,9 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
              alpha: float = 1.0, save_every: int = 1, t0: float = 0.0, forcing: str = "paper",
              order: int = 2, composition: str | None = None, progress: Any = False,
              error_estimate: Any = False, error_warn: float | None = 0.01,
-             solver_record: str = "interval", scheme: str | None = None) -> Trajectory:
+             solver_record: str = "interval", scheme: str | None = None, wheels: Any = None,
+             controller: Any = None, control_period: Any = None, environment: Any = None,
+             magnetorquers: Any = None) -> Trajectory:
     r"""Simulate the attitude of a rigid body with the Lie group variational integrator.
 
     Each step solves ``hat(h Pi_k) = F_k Jd - Jd F_k^T`` for ``F_k`` in SO(3), then sets
@@ -239,6 +241,21 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
         for potentials and other moments of the attitude and time; ``order`` 2, 4 or 6 and
         ``composition`` a name in :data:`lgvi.registry.SPLITTINGS`. The solver options are unused
         (no implicit equation), the record's iterations and residuals are zero.
+    wheels : lgvi.ReactionWheels, optional
+        Balanced reaction wheels (a gyrostat, ``docs/gyrostat.md``); ``body`` is then the
+        spacecraft with the wheels locked, ``Pi0`` the total body momentum. The result is a
+        :class:`lgvi.systems.gyrostat.GyrostatTrajectory` (``wheel_speed``, ``wheel_torque``,
+        ``wheel_momentum`` (M, N)). Not with ``torque`` or ``error_estimate``; ``order=4, 6``
+        compose the step, the wheel and controller torques held over each whole step.
+    controller : lgvi.control.Controller, optional
+        Called every ``control_period`` (zero-order hold); :class:`lgvi.control.MRPFeedback`
+        with a fixed target runs compiled, others from Python between compiled chunks.
+    control_period : float, optional
+        Seconds between controller calls, a positive multiple of ``|h|`` (with ``controller``).
+    environment : object with ``sample(t) -> dict``, optional
+        Sampled at the control rate and handed to the controller (see :mod:`lgvi.control`).
+    magnetorquers : object with ``torque(dipole, B_body) -> (3,)``, optional
+        Turns a controller's dipole into a body torque held over the control period.
 
     Returns
     -------
@@ -297,6 +314,22 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     >>> bool(np.abs(traj.energy - traj.energy[0]).max() < 1e-2 * traj.energy[0])
     True
     """
+    if wheels is not None or controller is not None or control_period is not None or environment is not None \
+            or magnetorquers is not None:   # the gyrostat and the control loop (lgvi.systems.gyrostat)
+        from .systems.gyrostat import gyrostat_options, simulate_gyrostat
+
+        if scheme is not None and scheme != "lgvi":
+            raise ValueError(f"scheme={scheme!r} cannot be combined with wheels=, controller=, "
+                             "environment= or magnetorquers=: reaction wheels and the control loop run "
+                             "with the LGVI (scheme=None)")
+
+        gyrostat_options(torque=torque, forcing=forcing, order=order, composition=composition,
+                         error_estimate=error_estimate)
+        return simulate_gyrostat(body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels, controller=controller,
+                                 control_period=control_period, environment=environment, magnetorquers=magnetorquers,
+                                 progress=progress, method=method, tol=tol, max_iter=max_iter, alpha=alpha,
+                                 save_every=save_every, t0=t0, solver_record=solver_record, order=order,
+                                 composition=composition)
     from .accuracy import check_options
 
     estimate, warn = check_options(error_estimate, error_warn, torque)

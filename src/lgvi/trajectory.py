@@ -241,6 +241,10 @@ class Trajectory:
         return Rotation.from_matrix(np.array(self.R))  # writable copy, as in quaternions()
 
     # ---------------------------------------------------------------- persistence
+    def _extra_arrays(self) -> dict[str, np.ndarray]:
+        """Arrays a subclass (another system's result, :data:`RESULT_TYPES`) saves too."""
+        return {}
+
     def save(self, path: str | os.PathLike) -> None:
         """Write to ``path`` (``.npz``, uncompressed, atomically); :func:`lgvi.load` reads it back exactly."""
         meta = dict(self.meta)
@@ -249,6 +253,7 @@ class Trajectory:
                       residual=self.residual, h=np.float64(self.h))
         if self.potential is not None:
             arrays["potential"] = self.potential
+        arrays.update(self._extra_arrays())
         header = json.dumps({"format": FORMAT, "meta": meta})
         from ._files import write_atomic  # a half-written file is never left under ``path``
 
@@ -256,6 +261,10 @@ class Trajectory:
 
 
 _FIELDS = ("t", "R", "Pi", "inertia", "iterations", "residual")
+
+#: Result classes of other systems by ``meta["system"]`` (each registers itself on import):
+#: ``(names of its extra arrays, factory(**fields) -> Trajectory)``; :func:`load` uses them.
+RESULT_TYPES: dict[str, tuple[tuple[str, ...], Any]] = {}
 
 
 def _check_arrays(fields: dict[str, np.ndarray], potential: np.ndarray | None) -> None:
@@ -303,11 +312,18 @@ def _read(path: str) -> tuple[dict[str, Any], dict[str, np.ndarray], np.ndarray 
         if missing:
             raise ValueError(f"{path} is not a complete lgvi trajectory: missing field(s) {', '.join(missing)}")
         fields = {k: data[k] for k in _FIELDS}
+        extra = RESULT_TYPES.get(str(header.get("meta", {}).get("system")), ((), None))[0]
+        for k in extra:
+            if k not in data.files:
+                raise ValueError(f"{path} is not a complete lgvi trajectory: missing field {k}")
+            if data[k].dtype.kind not in "iuf":
+                raise ValueError(f"field {k!r} must hold real numbers, got dtype {data[k].dtype}")
+            fields[k] = data[k]
         potential = data["potential"] if "potential" in data.files else None
         h_arr = data["h"]
     if h_arr.size != 1 or h_arr.dtype.kind not in "iuf":
         raise ValueError(f"field 'h' must be one real number, got shape {h_arr.shape}, dtype {h_arr.dtype}")
-    _check_arrays(fields, potential)
+    _check_arrays({k: fields[k] for k in _FIELDS}, potential)
     return header, fields, potential, float(h_arr.reshape(()))
 
 
@@ -329,7 +345,8 @@ def load(path: str | os.PathLike) -> Trajectory:
         raise (exc if path in str(exc) else ValueError(f"cannot read trajectory {path}: {exc}")) from exc
     except Exception as exc:  # OSError, EOFError, zipfile.BadZipFile and friends from truncated files
         raise ValueError(f"cannot read trajectory {path}: {type(exc).__name__}: {exc}") from exc
-    return Trajectory(h=h, potential=potential, meta=header.get("meta", {}), **fields)
+    factory = RESULT_TYPES.get(str(header.get("meta", {}).get("system")), ((), Trajectory))[1]
+    return factory(h=h, potential=potential, meta=header.get("meta", {}), **fields)
 
 
 #: Public name of the array checks (readers of stored results call it: lgvi.outputs, lgvi.streaming).

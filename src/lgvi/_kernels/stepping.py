@@ -406,15 +406,18 @@ def solve_warm(method, Jd, J_inv, p0, p1, p2, G, j, tol, max_iter, alpha, hist):
 
 
 @jit(inline="always")
-def variational_half(method, Jd, J_inv, hs, Rt, Pt, Mt, G, j, sym, tol, max_iter, alpha, hist):
-    """The implicit half of a forced substep from the state tuples ``Rt``, ``Pt``, ``Mt``.
+def forced_stage_s(method, Jd, J, J_inv, hs, t1, Rt, Pt, Mt, G, j, codes, params, D0, D1, D2, has_D, A, i_A, sym,
+                   v0, v1, v2, tol, max_iter, alpha, hist):
+    """One substep from the state ``Rt`` (the 9 entries of ``R``, row-major), ``Pt`` (``Pi``),
+    ``Mt`` (the cached moments ``P``, ``N``) and the history ``G[j]`` (this stage's, updated in
+    place on success). Tuples rather than 18 separate numbers: a call with more than 30
+    arguments compiles to a star-args call, which Numba cannot inline.
 
-    ``mu = Pi + hs/2 (P + N)`` (``Pi + hs/2 P`` with the paper's forcing), ``F`` from
-    ``hat(hs mu) = F Jd - Jd F^T`` warm-started from the history ``G[j]``, ``R1 = R F`` and
-    ``b = F^T mu``. Returns ``(its, rn, st, g, R1, b)`` with ``g`` the solution's coordinates,
-    which the caller pushes on ``G[j]`` once it accepts the substep; after a failure (``st``
-    not OK) ``R1`` and ``b`` are not a state. Shared by :func:`forced_stage_s` and the user's
-    loop (:mod:`.user_kernels`).
+    ``A[i_A]`` is the momentum matrix of this substep (see :func:`run_chunk_forced`).
+
+    ``v`` is an extra explicit moment at the end point added to ``Q`` (torque arrays in symmetric
+    mode; zero otherwise). Returns ``(iterations, residual, status, Rt, Pt, Mt)``, the new state;
+    on failure the state given, and ``G`` unchanged.
     """
     r00, r01, r02, r10, r11, r12, r20, r21, r22 = Rt
     pi0, pi1, pi2 = Pt
@@ -431,7 +434,8 @@ def variational_half(method, Jd, J_inv, hs, Rt, Pt, Mt, G, j, sym, tol, max_iter
     (g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its, rn,
      st) = solve_warm(method, Jd, J_inv, hs * m0, hs * m1, hs * m2, G, j, tol, max_iter, alpha, hist)
     if st != OK:
-        return its, rn, st, (g0, g1, g2), Rt, (m0, m1, m2)
+        return its, rn, st, Rt, Pt, Mt
+    push_at(G, j, g0, g1, g2)
     # R <- R (I + E)
     r00, r01, r02 = rotated_row(r00, r01, r02, E00, E01, E02, E10, E11, E12, E20, E21, E22)
     r10, r11, r12 = rotated_row(r10, r11, r12, E00, E01, E02, E10, E11, E12, E20, E21, E22)
@@ -440,70 +444,30 @@ def variational_half(method, Jd, J_inv, hs, Rt, Pt, Mt, G, j, sym, tol, max_iter
     b0 = m0 + (E00 * m0 + E10 * m1 + E20 * m2)
     b1 = m1 + (E01 * m0 + E11 * m1 + E21 * m2)
     b2 = m2 + (E02 * m0 + E12 * m1 + E22 * m2)
-    return its, rn, st, (g0, g1, g2), (r00, r01, r02, r10, r11, r12, r20, r21, r22), (b0, b1, b2)
-
-
-@jit(inline="always")
-def symmetric_momentum(b0, b1, b2, P0, P1, P2, Q0, Q1, Q2, hh, has_D, A, i_A):
-    """The symmetric momentum equation of a substep: ``b + hs/2 (P + Q)``, times the momentum
-    matrix ``A[i_A]`` when the model damps (``has_D``; see :func:`run_chunk_forced`)."""
-    b0 += hh * (P0 + Q0)
-    b1 += hh * (P1 + Q1)
-    b2 += hh * (P2 + Q2)
-    if has_D:
-        c0 = A[i_A, 0, 0] * b0 + A[i_A, 0, 1] * b1 + A[i_A, 0, 2] * b2
-        c1 = A[i_A, 1, 0] * b0 + A[i_A, 1, 1] * b1 + A[i_A, 1, 2] * b2
-        c2 = A[i_A, 2, 0] * b0 + A[i_A, 2, 1] * b1 + A[i_A, 2, 2] * b2
-        return c0, c1, c2
-    return b0, b1, b2
-
-
-@jit(inline="always")
-def minus_damping(Q0, Q1, Q2, D0, D1, D2, J_inv, b0, b1, b2):
-    """``Q - D J^-1 b``: the moments with the diagonal damping ``-D Omega`` at momentum ``b``."""
-    return (Q0 - D0 * (J_inv[0, 0] * b0 + J_inv[0, 1] * b1 + J_inv[0, 2] * b2),
-            Q1 - D1 * (J_inv[1, 0] * b0 + J_inv[1, 1] * b1 + J_inv[1, 2] * b2),
-            Q2 - D2 * (J_inv[2, 0] * b0 + J_inv[2, 1] * b1 + J_inv[2, 2] * b2))
-
-
-@jit(inline="always")
-def forced_stage_s(method, Jd, J, J_inv, hs, t1, Rt, Pt, Mt, G, j, codes, params, D0, D1, D2, has_D, A, i_A, sym,
-                   v0, v1, v2, tol, max_iter, alpha, hist):
-    """One substep from the state ``Rt`` (the 9 entries of ``R``, row-major), ``Pt`` (``Pi``),
-    ``Mt`` (the cached moments ``P``, ``N``) and the history ``G[j]`` (this stage's, updated in
-    place on success). Tuples rather than 18 separate numbers: a call with more than 30
-    arguments compiles to a star-args call, which Numba cannot inline.
-
-    ``A[i_A]`` is the momentum matrix of this substep (see :func:`run_chunk_forced`).
-
-    ``v`` is an extra explicit moment at the end point added to ``Q`` (torque arrays in symmetric
-    mode; zero otherwise). Returns ``(iterations, residual, status, Rt, Pt, Mt)``, the new state;
-    on failure the state given, and ``G`` unchanged.
-    """
-    its, rn, st, g, R1, bt = variational_half(method, Jd, J_inv, hs, Rt, Pt, Mt, G, j, sym, tol, max_iter, alpha,
-                                              hist)
-    if st != OK:
-        return its, rn, st, Rt, Pt, Mt
-    push_at(G, j, g[0], g[1], g[2])
-    r00, r01, r02, r10, r11, r12, r20, r21, r22 = R1
-    b0, b1, b2 = bt
-    N0 = Mt[3]
-    N1 = Mt[4]
-    N2 = Mt[5]
-    hh = 0.5 * hs
     P0, P1, P2, Q0, Q1, Q2 = model_moments_s(codes, params, J, t1, r00, r01, r02, r10, r11, r12, r20, r21, r22)
     Q0 += v0
     Q1 += v1
     Q2 += v2
     if sym:
-        b0, b1, b2 = symmetric_momentum(b0, b1, b2, P0, P1, P2, Q0, Q1, Q2, hh, has_D, A, i_A)
+        b0 += hh * (P0 + Q0)
+        b1 += hh * (P1 + Q1)
+        b2 += hh * (P2 + Q2)
+        if has_D:
+            c0 = A[i_A, 0, 0] * b0 + A[i_A, 0, 1] * b1 + A[i_A, 0, 2] * b2
+            c1 = A[i_A, 1, 0] * b0 + A[i_A, 1, 1] * b1 + A[i_A, 1, 2] * b2
+            c2 = A[i_A, 2, 0] * b0 + A[i_A, 2, 1] * b1 + A[i_A, 2, 2] * b2
+            b0 = c0
+            b1 = c1
+            b2 = c2
     else:
         b0 += hh * P0 + hs * N0
         b1 += hh * P1 + hs * N1
         b2 += hh * P2 + hs * N2
     if has_D:
-        Q0, Q1, Q2 = minus_damping(Q0, Q1, Q2, D0, D1, D2, J_inv, b0, b1, b2)
-    return its, rn, st, R1, (b0, b1, b2), (P0, P1, P2, Q0, Q1, Q2)
+        Q0 -= D0 * (J_inv[0, 0] * b0 + J_inv[0, 1] * b1 + J_inv[0, 2] * b2)
+        Q1 -= D1 * (J_inv[1, 0] * b0 + J_inv[1, 1] * b1 + J_inv[1, 2] * b2)
+        Q2 -= D2 * (J_inv[2, 0] * b0 + J_inv[2, 1] * b1 + J_inv[2, 2] * b2)
+    return (its, rn, st, (r00, r01, r02, r10, r11, r12, r20, r21, r22), (b0, b1, b2), (P0, P1, P2, Q0, Q1, Q2))
 
 
 @jit(inline="always")

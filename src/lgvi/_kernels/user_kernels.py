@@ -2,8 +2,7 @@
 
 :func:`run_chunk_user` is :func:`.stepping.run_chunk_forced` with one more moment: the user's
 ``moment(t, R, Pi, params)``, a ``numba.njit`` function passed as an argument, so Numba
-specialises the loop for it. Only the substep's moments differ (:func:`user_stage_s`; its
-implicit half is :func:`.stepping.variational_half`); the state tuples,
+specialises the loop for it. Only the substep differs (:func:`user_stage_s`); the state tuples,
 the per-step bookkeeping and the sample store are :func:`.stepping.load_state`,
 :func:`.stepping.stage_done`, :func:`.stepping.step_done` and :func:`.stepping.save_state`,
 written once for both loops. It is compiled without the on-disk cache (a user's function is not
@@ -24,8 +23,7 @@ import math
 from .._jit import jit
 from .codes import NOT_CONVERGED, OK
 from .solvers import EPS
-from .stepping import (load_state, minus_damping, push_at, save_state, stage_done, step_done, symmetric_momentum,
-                       variational_half)
+from .stepping import load_state, push_at, rotated_row, save_state, solve_warm, stage_done, step_done
 from .torque_kernels import model_moments, model_moments_s, momentum_diag
 
 
@@ -44,16 +42,29 @@ def user_moment(moment, up, Rs, Ps, t, Rt, p0, p1, p2):
 def user_stage_s(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, hs, t1, Rt, Pt, Mt, G, j, codes, params,
                  D0, D1, D2, has_D, A, i_A, sym, tol, max_iter, alpha, hist):
     """:func:`.stepping.forced_stage_s` with the user's moment added (see the module notes)."""
-    its, rn, st, g, R1, bt = variational_half(method, Jd, J_inv, hs, Rt, Pt, Mt, G, j, sym, tol, max_iter, alpha,
-                                              hist)
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = Rt
+    pi0, pi1, pi2 = Pt
+    P0, P1, P2, N0, N1, N2 = Mt
+    hh = 0.5 * hs
+    if sym:
+        m0 = pi0 + hh * (P0 + N0)
+        m1 = pi1 + hh * (P1 + N1)
+        m2 = pi2 + hh * (P2 + N2)
+    else:
+        m0 = pi0 + hh * P0
+        m1 = pi1 + hh * P1
+        m2 = pi2 + hh * P2
+    (g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its, rn,
+     st) = solve_warm(method, Jd, J_inv, hs * m0, hs * m1, hs * m2, G, j, tol, max_iter, alpha, hist)
     if st != OK:
         return its, rn, st, Rt, Pt, Mt
-    r00, r01, r02, r10, r11, r12, r20, r21, r22 = R1
-    b0, b1, b2 = bt
-    N0 = Mt[3]
-    N1 = Mt[4]
-    N2 = Mt[5]
-    hh = 0.5 * hs
+    r00, r01, r02 = rotated_row(r00, r01, r02, E00, E01, E02, E10, E11, E12, E20, E21, E22)
+    r10, r11, r12 = rotated_row(r10, r11, r12, E00, E01, E02, E10, E11, E12, E20, E21, E22)
+    r20, r21, r22 = rotated_row(r20, r21, r22, E00, E01, E02, E10, E11, E12, E20, E21, E22)
+    R1 = (r00, r01, r02, r10, r11, r12, r20, r21, r22)
+    b0 = m0 + (E00 * m0 + E10 * m1 + E20 * m2)
+    b1 = m1 + (E01 * m0 + E11 * m1 + E21 * m2)
+    b2 = m2 + (E02 * m0 + E12 * m1 + E22 * m2)
     P0, P1, P2, Q0, Q1, Q2 = model_moments_s(codes, params, J, t1, r00, r01, r02, r10, r11, r12, r20, r21, r22)
     u0 = 0.0
     u1 = 0.0
@@ -69,7 +80,16 @@ def user_stage_s(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, hs, t1, R
         Q1 += u1
         Q2 += u2
     if sym:
-        b0, b1, b2 = symmetric_momentum(b0, b1, b2, P0, P1, P2, Q0, Q1, Q2, hh, has_D, A, i_A)
+        b0 += hh * (P0 + Q0)
+        b1 += hh * (P1 + Q1)
+        b2 += hh * (P2 + Q2)
+        if has_D:
+            c0 = A[i_A, 0, 0] * b0 + A[i_A, 0, 1] * b1 + A[i_A, 0, 2] * b2
+            c1 = A[i_A, 1, 0] * b0 + A[i_A, 1, 1] * b1 + A[i_A, 1, 2] * b2
+            c2 = A[i_A, 2, 0] * b0 + A[i_A, 2, 1] * b1 + A[i_A, 2, 2] * b2
+            b0 = c0
+            b1 = c1
+            b2 = c2
         if mdep and not cons:
             # Pi = b + hs/2 N_user(Pi): fixed-point iteration (converged when the change is at the
             # tolerance or at round-off of the terms)
@@ -114,8 +134,10 @@ def user_stage_s(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, hs, t1, R
         Q1 += u1
         Q2 += u2
     if has_D:
-        Q0, Q1, Q2 = minus_damping(Q0, Q1, Q2, D0, D1, D2, J_inv, b0, b1, b2)
-    push_at(G, j, g[0], g[1], g[2])
+        Q0 -= D0 * (J_inv[0, 0] * b0 + J_inv[0, 1] * b1 + J_inv[0, 2] * b2)
+        Q1 -= D1 * (J_inv[1, 0] * b0 + J_inv[1, 1] * b1 + J_inv[1, 2] * b2)
+        Q2 -= D2 * (J_inv[2, 0] * b0 + J_inv[2, 1] * b1 + J_inv[2, 2] * b2)
+    push_at(G, j, g0, g1, g2)
     return its, rn, st, R1, (b0, b1, b2), (P0, P1, P2, Q0, Q1, Q2)
 
 

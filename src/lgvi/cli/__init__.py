@@ -203,7 +203,7 @@ def _load(path: str):
 
     sc = load_scenario(path)
     if isinstance(sc, BodiesScenario):   # issue 16: not run by the command line yet
-        raise ScenarioError(path, sc.kind, "the command line does not run [orbit] or [two_body] scenarios yet; "
+        raise ScenarioError(path, sc.kind, "the command line does not run [orbiting_body] or [two_body] scenarios yet; "
                             "run it from Python: lgvi.scenario.load_scenario(path).run()")
     return sc
 
@@ -676,6 +676,10 @@ def cmd_warmup(args: argparse.Namespace) -> int:
                                                              forcing="symmetric")))
     if "order" in params:
         jobs += [(f"simulate order={o}", dict(order=o)) for o in ORDERS if o != 2]
+    if "wheels" in params:   # the gyrostat's kernel (reaction wheels, compiled MRP feedback)
+        jobs.append(("simulate wheels + MRPFeedback", dict(wheels=lgvi.ReactionWheels(np.eye(3), 0.01),
+                                                            controller=lgvi.control.MRPFeedback(1.0, 1.0),
+                                                            control_period=0.01)))
     for name, kw in jobs:
         t0 = time.perf_counter()
         lgvi.simulate(body, np.eye(3), omega0=omega0, h=0.01, steps=20, **kw)

@@ -85,6 +85,21 @@ A complete example (every key shown; comments say which keys are alternatives)::
     target = { euler = { sequence = "ZYX", angles = [60.0, 0.0, 0.0], unit = "deg" } }
                                          # optional, any attitude form of [initial]; default I
 
+    [[wheel]]                            # reaction wheels (lgvi.ReactionWheels), one table each;
+    axis = [1.0, 0.0, 0.0]               # then [body] is the spacecraft with the wheels locked
+    spin_inertia = 0.08                  # [kg m^2]
+    speed0 = 10.0                        # optional, relative to the body [rad/s]
+    max_torque = 0.2                     # optional limits: [N m], max_power [W], max_speed [rad/s]
+    # min_torque, coulomb, viscous, omega_limit_cycle: optional (deadband, friction)
+
+    [controller]                         # a control loop (lgvi.control), held between calls
+    type = "mrp_feedback"                # or "rotation_pd" (kp, kd, error = "rotation"/"quaternion")
+    K = 3.5                              # Basilisk's mrpFeedback gains (Ki, integral_limit optional)
+    P = 30.0
+    period = 0.1                         # [s], a multiple of integrator.h
+    # target = { ... }                   # optional, any attitude form of [initial]; default I
+    # [orbit], [field], [[magnetorquer]] and type = "bdot": see lgvi.io.scenario_space
+
     [output]
     formats = ["npz", "csv"]             # any of "npz" (default), "csv", "netcdf"
     plots = true                         # write figures with ``lgvi run`` (default true)
@@ -132,6 +147,7 @@ from typing import Any
 
 import numpy as np
 
+from . import scenario_space
 from .._untrusted import name_problem
 from .._version import __version__
 from ..registry import COMPOSITIONS, FORCINGS, ORDERS, SCHEMES, SPLITTINGS, method_names
@@ -146,7 +162,8 @@ ERROR_ESTIMATES = (True, False, "richardson")
 QUAT_NORM_TOL = 1e-3
 DURATION_RTOL = 1e-9
 
-_TOP_KEYS = ("name", "description", "body", "initial", "integrator", "torque", "output")
+_TOP_KEYS = ("name", "description", "body", "initial", "integrator", "torque", "wheel", "controller", "output")
+_TOP_KEYS += ("orbit", "field", "magnetorquer")         # lgvi.io.scenario_space (issue 12)
 _ATTITUDE_KEYS = ("matrix", "quat_xyzw", "quat_wxyz", "euler", "rotvec")
 #: type: {key: (kind, required)}, read from the registered torque models (lgvi.torques); kinds:
 #: number, positive (number > 0), vector, gain (number | 3 numbers), attitude
@@ -454,6 +471,103 @@ def _torque(c: _Checker, entries: Any) -> tuple[Any, tuple[dict[str, Any], ...]]
 
 
 # ------------------------------------------------------------------------------------ scenario
+_WHEEL_KEYS = {"axis": "vector", "spin_inertia": "positive", "speed0": "number", "max_torque": "positive",
+               "min_torque": "number", "max_power": "positive", "max_speed": "positive", "coulomb": "number",
+               "viscous": "number", "omega_limit_cycle": "positive"}
+_CONTROLLERS = {"mrp_feedback": ("K", "P", "Ki", "integral_limit"), "rotation_pd": ("kp", "kd", "error")}
+_CONTROLLERS["bdot"] = scenario_space.BDOT_KEYS
+
+
+def _wheels(c: _Checker, entries: Any, body: Any) -> Any:
+    """The ``[[wheel]]`` tables: one :class:`lgvi.ReactionWheels` (issue 12)."""
+    from ..systems.gyrostat import ReactionWheels
+
+    if isinstance(entries, dict):
+        raise c.error("wheel", "expected an array of tables: write [[wheel]] (double brackets) for each wheel")
+    if not isinstance(entries, list) or not entries:
+        raise c.expected("wheel", "an array of tables ([[wheel]] sections)", entries)
+    cols: dict[str, list[float]] = {k: [] for k in _WHEEL_KEYS}
+    for i, entry in enumerate(entries):
+        key = f"wheel[{i}]"
+        c.table(entry, key, tuple(_WHEEL_KEYS))
+        for name in ("axis", "spin_inertia"):
+            if name not in entry:
+                raise c.expected(f"{key}.{name}", "an array of 3 numbers" if name == "axis" else "a positive number")
+        for name, what in _WHEEL_KEYS.items():
+            path = f"{key}.{name}"
+            if name not in entry:
+                cols[name].append(np.nan)
+            elif what == "vector":
+                cols[name].append(c.vector(entry[name], path))
+            else:
+                cols[name].append(c.number(entry[name], path, positive=what == "positive"))
+    n = len(entries)
+
+    def col(name: str, default: Any) -> Any:
+        v = np.array(cols[name], dtype=float)
+        if np.all(np.isnan(v)):
+            return default
+        return np.where(np.isnan(v), np.nan if default is None else default, v)
+
+    limits = {}
+    for name in ("max_torque", "max_power", "max_speed"):
+        v = col(name, None)
+        if v is not None and np.any(np.isnan(v)):
+            raise c.error("wheel", f"give {name} for every wheel or for none (wheel "
+                          f"{int(np.argmax(np.isnan(v)))} has none)")
+        limits[name] = v
+    friction = {k: col(k, d) for k, d in (("coulomb", 0.0), ("viscous", 0.0), ("omega_limit_cycle", 1e-4))}
+    try:
+        wheels = ReactionWheels(np.array(cols["axis"]).reshape(n, 3), np.array(cols["spin_inertia"]),
+                                speed0=col("speed0", 0.0), min_torque=col("min_torque", 0.0), friction=friction,
+                                **limits)
+        wheels.hub_inertia(body)
+    except (ValueError, TypeError) as exc:
+        raise c.error("wheel", f"invalid wheels: {exc}") from None
+    return wheels
+
+
+def _controller(c: _Checker, tbl: Any, h: float) -> tuple[Any, float]:
+    """The ``[controller]`` table: a controller of :mod:`lgvi.control` and its period (issue 12)."""
+    from .. import control
+
+    if not isinstance(tbl, dict) or "type" not in tbl:
+        raise c.expected("controller.type", "one of " + ", ".join(f'"{t}"' for t in _CONTROLLERS))
+    kind = c.string(tbl["type"], "controller.type", tuple(_CONTROLLERS))
+    tbl = c.table(tbl, "controller", ("type", "period", "target") + _CONTROLLERS[kind])
+    if "period" not in tbl:
+        raise c.expected("controller.period", "a positive number (seconds, a multiple of integrator.h)")
+    period = c.number(tbl["period"], "controller.period", positive=True)
+    target = _attitude(c, c.table(tbl["target"], "controller.target", _ATTITUDE_KEYS),
+                       "controller.target") if "target" in tbl else None
+    try:
+        if kind == "mrp_feedback":
+            for name in ("K", "P"):
+                if name not in tbl:
+                    raise c.expected(f"controller.{name}", "a positive number")
+            opt = {k: c.number(tbl[k], f"controller.{k}", positive=True) for k in ("Ki", "integral_limit") if k in tbl}
+            ctrl = control.MRPFeedback(c.number(tbl["K"], "controller.K"), c.number(tbl["P"], "controller.P"),
+                                       target=target, **opt)
+        elif kind == "bdot":
+            ctrl = scenario_space.bdot(c, tbl)
+        else:
+            for name in ("kp", "kd"):
+                if name not in tbl:
+                    raise c.expected(f"controller.{name}", "a positive number")
+            ctrl = control.RotationPD(c.number(tbl["kp"], "controller.kp"), c.number(tbl["kd"], "controller.kd"),
+                                      target=target, error=c.string(tbl.get("error", "rotation"), "controller.error",
+                                                                    ("rotation", "quaternion")))
+    except ValueError as exc:
+        if isinstance(exc, ScenarioError):
+            raise
+        raise c.error("controller", f"invalid {kind} controller: {exc}") from None
+    ratio = period / abs(h)
+    if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio) or round(ratio) < 1:
+        raise c.error("controller.period", f"expected a positive multiple of |integrator.h| = {abs(h)!r}; "
+                      f"got {period!r} (ratio {ratio!r})")
+    return ctrl, period
+
+
 @dataclass(frozen=True, eq=False)
 class Scenario:
     """A checked, ready-to-run scenario (see the module docstring for the file format).
@@ -515,6 +629,11 @@ class Scenario:
     text: str = field(default="", repr=False)
     composition: str | None = None
     scheme: str | None = None
+    wheels: Any = None
+    controller: Any = None
+    control_period: float | None = None
+    environment: Any = None
+    magnetorquers: Any = None
 
     @property
     def duration(self) -> float:
@@ -550,7 +669,7 @@ class Scenario:
             For any invalid, missing or unknown key.
         """
         c = _Checker(source)
-        if isinstance(d, dict) and ("orbit" in d or "two_body" in d):     # lgvi.simulate_orbit / simulate_two_body
+        if isinstance(d, dict) and ("orbiting_body" in d or "two_body" in d):     # lgvi.simulate_orbit / simulate_two_body
             return BodiesScenario.from_dict(d, source, text=text)  # type: ignore[return-value]
         d = c.table(d, "", _TOP_KEYS)
         for req in ("body", "initial", "integrator"):
@@ -640,6 +759,12 @@ class Scenario:
                               "error_estimate = true to [integrator], or remove error_warn")
 
         torque, spec = _torque(c, d["torque"]) if "torque" in d else (None, ())
+        wheels = _wheels(c, d["wheel"], body) if "wheel" in d else None
+        controller, control_period = _controller(c, d["controller"], h) if "controller" in d else (None, None)
+        environment = scenario_space.environment(c, d)
+        rods = scenario_space.magnetorquers(c, d["magnetorquer"]) if "magnetorquer" in d else None
+        if wheels is not None and "omega" in init:   # Pi0 is the total momentum: J omega + G diag(Js) speed0
+            Pi0 = Pi0 + wheels.axes.T @ (wheels.spin_inertia * wheels.speed0)
 
         out = c.table(d.get("output", {}), "output", ("formats", "plots"))
         formats: tuple[str, ...] = ("npz",)
@@ -656,7 +781,8 @@ class Scenario:
                    torque_spec=spec, forcing=forcing, order=order, method=method, tol=tol, max_iter=max_iter,
                    alpha=alpha, save_every=save_every, error_estimate=error_estimate, error_warn=error_warn,
                    formats=formats, plots=plots, source=source, composition=composition, scheme=scheme,
-                   text=to_toml(d) if text is None else text)
+                   text=to_toml(d) if text is None else text, wheels=wheels, controller=controller,
+                   control_period=control_period, environment=environment, magnetorquers=rods)
 
     def simulate_kwargs(self) -> dict[str, Any]:
         """Keyword arguments of :func:`lgvi.simulate` for this scenario (after body, R0, Pi0)."""
@@ -670,6 +796,14 @@ class Scenario:
             kw["composition"] = self.composition
         if self.scheme is not None:
             kw["scheme"] = self.scheme
+        if self.wheels is not None:
+            kw["wheels"] = self.wheels
+        if self.controller is not None:
+            kw.update(controller=self.controller, control_period=self.control_period)
+        if self.environment is not None:
+            kw["environment"] = self.environment
+        if self.magnetorquers is not None:
+            kw["magnetorquers"] = self.magnetorquers
         return kw
 
     def run(self, progress: bool = False):
@@ -717,6 +851,12 @@ class Scenario:
         """
         from .streaming import read_stream, simulate_stream
 
+        if self.wheels is not None or self.controller is not None or self.environment is not None:
+            # no stream format for the gyrostat yet: the run is kept in memory (it is fast)
+            if resume:
+                raise ScenarioError(self.source, None, "resume: runs with [[wheel]] or [controller] are not "
+                                    "streamed to disk, so there is nothing to resume; run it again")
+            return self.run(progress=progress)
         try:
             simulate_stream(folder, self.body, self.R0, self.Pi0, progress=progress, resume=resume,
                             chunk_steps=chunk_steps, meta={"scenario_name": self.name},
@@ -812,7 +952,10 @@ def to_toml(d: dict[str, Any]) -> str:
 
 
 # ------------------------------------------------------------------------------------ bodies in orbit, two bodies
-#: The sections of a scenario of lgvi.simulate_orbit ([orbit]) or lgvi.simulate_two_body ([two_body]).
+#: The sections of a scenario of lgvi.simulate_orbit ([orbiting_body]) or lgvi.simulate_two_body ([two_body]),
+#: and the system each runs. (A spacecraft scenario's [orbit] is the orbit that drives its environment:
+#: lgvi.io.scenario_space.)
+_BODIES_SECTIONS = {"orbiting_body": "orbit", "two_body": "two_body"}
 _BODIES_TOP = ("name", "description", "initial", "integrator", "output")
 _BODIES_INTEGRATOR = ("h", "steps", "duration", "save_every", "tol", "max_iter")
 
@@ -888,10 +1031,10 @@ def _position(c: _Checker, value: Any, key: str) -> np.ndarray:
 class BodiesScenario:
     """A checked scenario of a body in orbit or of two bodies.
 
-    An ``[orbit]`` section runs :func:`lgvi.simulate_orbit`, a ``[two_body]`` section
+    An ``[orbiting_body]`` section runs :func:`lgvi.simulate_orbit`, a ``[two_body]`` section
     :func:`lgvi.simulate_two_body` (``lgvi run`` does not run them yet). The schema::
 
-        [orbit]                              # a rigid body in a central field
+        [orbiting_body]                      # a rigid body in a central field
         inertia = [1.0, 2.0, 3.0]            # or matrix = [[...], [...], [...]]  [kg m^2]
         mass = 10.0                          # [kg]
         mu = 3.986004418e14                  # G M of the central body [m^3/s^2]
@@ -938,11 +1081,12 @@ class BodiesScenario:
     @classmethod
     def from_dict(cls, d: dict[str, Any], source: str = "<dict>", *, text: str | None = None) -> "BodiesScenario":
         c = _Checker(source)
-        kinds = [k for k in ("orbit", "two_body") if k in d]
-        if len(kinds) != 1:
-            raise c.error(None, "a scenario describes one system: [orbit] or [two_body], not both")
-        kind = kinds[0]
-        d = c.table(d, "", _BODIES_TOP + (kind,))
+        sections = [k for k in _BODIES_SECTIONS if k in d]
+        if len(sections) != 1:
+            raise c.error(None, "a scenario describes one system: [orbiting_body] or [two_body], not both")
+        section = sections[0]
+        kind = _BODIES_SECTIONS[section]
+        d = c.table(d, "", _BODIES_TOP + (section,))
         if "integrator" not in d:
             raise c.error("integrator", "missing; expected an [integrator] table")
         name = c.string(d.get("name", Path(source).stem if not source.startswith("<") else "scenario"), "name")
@@ -962,28 +1106,28 @@ class BodiesScenario:
             kw["max_iter"] = c.integer(integ["max_iter"], "integrator.max_iter", minimum=1)
         c.table(d.get("output", {}), "output", ("formats", "plots"))
         if kind == "orbit":
-            o = c.table(d[kind], "orbit", ("inertia", "matrix", "mass", "mu", "position", "velocity", "potential",
+            o = c.table(d[section], "orbiting_body", ("inertia", "matrix", "mass", "mu", "position", "velocity", "potential",
                                            "J2", "radius"))
             for req in ("mass", "mu", "position", "velocity"):
                 if req not in o:
-                    raise c.expected(f"orbit.{req}", "a number" if req in ("mass", "mu") else "an array of 3 numbers")
-            body = _inertia_or_shape(c, o, "orbit", shapes=False)
+                    raise c.expected(f"orbiting_body.{req}", "a number" if req in ("mass", "mu") else "an array of 3 numbers")
+            body = _inertia_or_shape(c, o, "orbiting_body", shapes=False)
             init = c.table(d.get("initial", {}), "initial", _ATTITUDE_KEYS + ("omega", "Pi"))
             spin = _spin(c, init, "initial")
-            args = (body, c.number(o["mass"], "orbit.mass", positive=True), c.vector(o["position"], "orbit.position"),
-                    c.vector(o["velocity"], "orbit.velocity"), spin["R"])
-            kw.update(mu=c.number(o["mu"], "orbit.mu", positive=True),
-                      potential=c.string(o.get("potential", "order2"), "orbit.potential", ("order2", "point")))
+            args = (body, c.number(o["mass"], "orbiting_body.mass", positive=True), c.vector(o["position"], "orbiting_body.position"),
+                    c.vector(o["velocity"], "orbiting_body.velocity"), spin["R"])
+            kw.update(mu=c.number(o["mu"], "orbiting_body.mu", positive=True),
+                      potential=c.string(o.get("potential", "order2"), "orbiting_body.potential", ("order2", "point")))
             kw["Pi0" if "Pi" in spin else "omega0"] = spin.get("Pi", spin.get("omega"))
             if "J2" in o:
-                kw["J2"] = c.number(o["J2"], "orbit.J2")
+                kw["J2"] = c.number(o["J2"], "orbiting_body.J2")
                 if "radius" not in o:
-                    raise c.expected("orbit.radius", "the central body's equatorial radius (a positive number) "
-                                     "with orbit.J2")
+                    raise c.expected("orbiting_body.radius", "the central body's equatorial radius (a positive number) "
+                                     "with orbiting_body.J2")
             if "radius" in o:
                 if "J2" not in o:
-                    raise c.error("orbit.radius", "only used with orbit.J2; add J2 or remove radius")
-                kw["radius"] = c.number(o["radius"], "orbit.radius", positive=True)
+                    raise c.error("orbiting_body.radius", "only used with orbiting_body.J2; add J2 or remove radius")
+                kw["radius"] = c.number(o["radius"], "orbiting_body.radius", positive=True)
         else:
             if "initial" in d:
                 raise c.error("initial", "a [two_body] scenario gives each body's attitude and spin in "
@@ -1017,7 +1161,7 @@ class BodiesScenario:
         try:
             sc._run(check_only=True)
         except (ValueError, TypeError) as exc:
-            raise c.error(kind, str(exc)) from None
+            raise c.error(section, str(exc)) from None
         return sc
 
     def _run(self, check_only: bool = False, progress: Any = False):

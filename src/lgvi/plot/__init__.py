@@ -54,6 +54,7 @@ FIGURE_PIXELS: dict[str, tuple[int, int]] = {
     "iterations": (800, 500),
     "polhode": (800, 700),
     "comparison": (1000, 700),
+    "wheels": (800, 500),
 }
 
 #: Errors below this are drawn at this value on the logarithmic axes (an exact zero has no log).
@@ -463,6 +464,42 @@ def rates(traj: Trajectory, axes: Sequence[Axes] | None = None, *, max_points: i
         ax.legend(loc="upper right", fontsize="small", ncols=3, framealpha=0.85)
     ax_w.set_title(r"Body angular velocity $\omega = J^{-1}\Pi$ and body angular momentum $\Pi$")
     ax_p.set_xlabel(_UNITS["t"])
+    return fig
+
+
+def wheels(traj: Any, axes: Sequence[Axes] | None = None, *, max_points: int = MAX_POINTS) -> Figure:
+    """Reaction wheel speeds relative to the body (top) and applied motor torques (bottom).
+
+    Parameters
+    ----------
+    traj : lgvi.systems.gyrostat.GyrostatTrajectory
+        A run with ``wheels=`` (``wheel_speed`` and ``wheel_torque``, (M, N)).
+    axes : two matplotlib Axes, optional
+    max_points : int
+        Most points per curve.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    _check_traj(traj, "wheels")
+    if getattr(traj, "wheel_speed", None) is None:
+        raise TypeError(f"wheels: expected a trajectory with reaction wheels (simulate(..., wheels=...)), got "
+                        f"{type(traj).__name__}")
+    fig, (ax_s, ax_u) = _axes_list(axes, 2, "wheels")
+    t = np.asarray(traj.t)
+    n = np.asarray(traj.wheel_speed).shape[1]
+    for ax, data, label in ((ax_s, traj.wheel_speed, "wheel speed (rad/s)"),
+                            (ax_u, traj.wheel_torque, "motor torque (N m)")):
+        for i in range(n):
+            tt, yy = _thin_minmax(t, np.asarray(data)[:, i], max_points)
+            ax.plot(tt, yy, lw=1.2, label=f"wheel {i + 1}")
+        ax.set_ylabel(label)
+        ax.grid(True, alpha=0.3)
+        if n:
+            ax.legend(loc="upper right", fontsize="small", ncols=min(n, 4), framealpha=0.85)
+    ax_s.set_title("Reaction wheels: speed relative to the body and applied motor torque")
+    ax_u.set_xlabel(_UNITS["t"])
     return fig
 
 
@@ -1016,7 +1053,8 @@ def save_figures(traj: Trajectory, outdir: str | os.PathLike, *, prefix: str = "
 
     Files ``{prefix}attitude.png``, ``rates.png``, ``conservation.png``, ``iterations.png``
     (only for runs with a per-step solver record, see :func:`has_solver_record`) and
-    ``polhode.png`` in ``outdir`` (created if needed).
+    ``polhode.png`` in ``outdir`` (created if needed), and ``wheels.png`` for a run with
+    reaction wheels.
 
     Parameters
     ----------
@@ -1042,6 +1080,8 @@ def save_figures(traj: Trajectory, outdir: str | os.PathLike, *, prefix: str = "
             continue
         fig = _attitude_panels(traj) if name == "attitude" else makers[name](traj)
         written.append(_save(fig, out / f"{prefix}{name}.png"))
+    if getattr(traj, "wheel_speed", None) is not None:     # a run with reaction wheels
+        written.append(_save(wheels(traj), out / f"{prefix}wheels.png"))
     return written
 
 
@@ -1264,4 +1304,5 @@ __all__ = [
     "save_comparison",
     "save_figures",
     "two_body",
+    "wheels",
 ]

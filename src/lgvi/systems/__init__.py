@@ -10,6 +10,9 @@ the same for every system.
 The systems: the rigid body (:mod:`lgvi.systems.rigid_body`), a rigid body in a central field
 (:mod:`lgvi.systems.orbit`) and two rigid bodies in mutual gravity (:mod:`lgvi.systems.two_body`);
 another is a new module plus a :func:`register` call.
+The systems: the rigid body (:mod:`lgvi.systems.rigid_body`) and the gyrostat, a body with
+reaction wheels (:mod:`lgvi.systems.gyrostat`); a body in orbit or two bodies are each a new
+module plus a :func:`register` call.
 """
 
 from __future__ import annotations
@@ -110,5 +113,6 @@ def provide_run(system: System, factory: Callable[..., Any]) -> None:
 from . import rigid_body as rigid_body  # noqa: E402  (registers the rigid body)
 from . import orbit as orbit  # noqa: E402  (a body in a central field)
 from . import two_body as two_body  # noqa: E402  (two bodies in mutual gravity)
+from . import gyrostat as gyrostat  # noqa: E402  (registers the gyrostat: reaction wheels)
 
 __all__ = ["Field", "RUNS", "SYSTEMS", "System", "provide_run", "register"]

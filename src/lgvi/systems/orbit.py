@@ -77,7 +77,7 @@ ORBIT = register(System(
     records=_RECORDS,
     kernels=_kernels,
     results=("t", "x", "p", "R", "Pi", "iterations", "residual", "h", "meta"),
-    scenario_section="orbit",
+    scenario_section="orbiting_body",
     run_factory=None,
     invariants=_invariants,
 ))

@@ -8,7 +8,8 @@ Engrg. 196, 2007) in inertial coordinates: each body's orbit by the explicit var
 * ``"order2"``: truncated at second order in the bodies' size over their distance (MacCullagh:
   the point-mass term and each body's second moments in the other's point-mass field);
 * ``"order4"``: through fourth order (third and fourth moments of each body and the cross term of
-  the two second moments); bodies given as :class:`Ellipsoid` or :class:`PointMasses`;
+  the two second moments); bodies given as :class:`Ellipsoid`, :class:`Polyhedron` or
+  :class:`PointMasses`;
 * ``"points"``: exact for bodies made of point masses (:class:`PointMasses`), the pairwise sum.
 
 Invariants: total linear momentum ``p1 + p2`` and total angular momentum
@@ -99,6 +100,168 @@ class Ellipsoid:
         return S, np.zeros((3, 3, 3)), T4
 
 
+def _simplex_weights(n: int) -> np.ndarray:
+    """``W[i1..in] = E[l_i1 ... l_in]`` (3,)*n for barycentric coordinates ``l`` uniform on a
+    tetrahedron (``E[prod l^k] = 3! prod k! / (n + 3)!``), over the three vertices other than the apex."""
+    from math import factorial
+
+    W = np.zeros((3,) * n)
+    for idx in np.ndindex(*W.shape):
+        counts = np.bincount(np.array(idx, dtype=np.int64), minlength=3)
+        W[idx] = 6.0 * np.prod([factorial(int(k)) for k in counts]) / factorial(n + 3)
+    return W
+
+
+def _cone_moments(P: np.ndarray, vol: np.ndarray, n: int) -> np.ndarray:
+    """``sum_t int_{tet(0, P_t)} x^(n) dV`` (3,)*n: the tetrahedra from the origin to the faces ``P`` (m, 3, 3)
+    with signed volumes ``vol`` (m,), exactly (the monomials' means over a tetrahedron)."""
+    from itertools import permutations
+
+    verts, coords = "abcd"[:n], "ijkl"[:n]
+    Y = vol.reshape((-1,) + (1,) * n) * _simplex_weights(n)          # (m, 3, ..., 3)
+    for k in range(n - 1, -1, -1):                                    # one vertex index at a time
+        sub = verts[:k + 1] + coords[k + 1:]
+        Y = np.einsum(f"t{sub},t{verts[k]}{coords[k]}->t{sub[:k]}{coords[k]}{coords[k + 1:]}", Y, P)
+    M = Y.sum(axis=0)
+    perms = list(permutations(range(n)))
+    M = sum(np.transpose(M, p) for p in perms) / len(perms)
+    for idx in np.ndindex(*M.shape):             # symmetric to the last bit
+        M[idx] = M[tuple(sorted(idx))]
+    return M
+
+
+class Polyhedron:
+    """A solid homogeneous polyhedron: a closed triangle mesh, its faces oriented outward.
+
+    Its volume, centre of mass, inertia and its mass moments through fourth order are exact (the
+    monomials integrated over the tetrahedra from the centre of mass to the faces, see
+    ``docs/orbit.md``). The body frame is the mesh's frame moved to the centre of mass (the axes are
+    not turned to the principal axes).
+
+    Parameters
+    ----------
+    vertices : (n, 3) array_like
+        Vertex positions (any origin: the centre of mass is found); vertices used by no face are ignored.
+    faces : (m, 3) array_like of int
+        Triangles as vertex indices, counter-clockwise seen from outside. The surface must be closed and
+        consistently oriented (every edge used by exactly two faces, once in each direction), with no
+        zero-area face, enclosing a positive volume. Self-intersection is not checked.
+    mass, density : float, optional
+        At most one, ``> 0``: the mass, or the density (then ``mass = density * volume``). With neither,
+        the mass is given to :func:`simulate_two_body` (``m1``/``m2``), as for :class:`Ellipsoid`.
+
+    Attributes
+    ----------
+    vertices : (n, 3) ndarray
+        As given (float64).
+    faces : (m, 3) ndarray of int64
+        As given.
+    volume : float
+        The enclosed volume.
+    center_of_mass : (3,) ndarray
+        In the frame of ``vertices``.
+    mass : float or None
+        From ``mass`` or ``density`` (``None`` with neither).
+
+    Examples
+    --------
+    >>> import numpy as np, lgvi
+    >>> tet = lgvi.Polyhedron(np.eye(4, 3, -1), [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], density=6.0)
+    >>> round(tet.volume, 12), tet.center_of_mass.tolist()
+    (0.166666666667, [0.25, 0.25, 0.25])
+    """
+
+    def __init__(self, vertices: Any, faces: Any, *, mass: Any = None, density: Any = None) -> None:
+        V = as_float_array(vertices, "vertices", (None, 3))
+        F = np.asarray(faces)
+        if F.dtype == object or not (np.issubdtype(F.dtype, np.integer) and F.dtype != np.bool_):
+            raise TypeError(f"faces must be an array of integer vertex indices, got dtype {F.dtype}")
+        if F.ndim != 2 or F.shape[1] != 3 or len(F) < 4:
+            raise ValueError(f"faces must have shape (m, 3) with m >= 4 triangles (a closed surface), got shape "
+                             f"{F.shape}")
+        F = F.astype(np.int64)
+        n = len(V)
+        if F.min() < 0 or F.max() >= n:
+            bad = int(F[(F < 0) | (F >= n)][0])
+            raise ValueError(f"faces must index the {n} vertices (0 <= index < {n}), got index {bad}")
+        same = (F[:, 0] == F[:, 1]) | (F[:, 1] == F[:, 2]) | (F[:, 2] == F[:, 0])
+        if same.any():
+            k = int(np.argmax(same))
+            raise ValueError(f"faces must be triangles of three distinct vertices, face {k} is {F[k].tolist()}")
+        # closed and consistently oriented: every directed edge once, and its reverse once
+        e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+        key = e[:, 0] * n + e[:, 1]
+        uniq, counts = np.unique(key, return_counts=True)
+        if (counts > 1).any():
+            i, j = divmod(int(uniq[np.argmax(counts > 1)]), n)
+            fs = np.nonzero(key == i * n + j)[0] % len(F)
+            raise ValueError(f"faces must be consistently oriented (every edge used once in each direction): "
+                             f"edge ({i}, {j}) is used in the same direction by faces {sorted(fs.tolist())} "
+                             "(a flipped face, or more than two faces on an edge)")
+        missing = ~np.isin(e[:, 1] * n + e[:, 0], uniq)
+        if missing.any():
+            a = int(np.argmax(missing))
+            raise ValueError(f"faces must form a closed surface (every edge used once in each direction): edge "
+                             f"({int(e[a, 0])}, {int(e[a, 1])}) of face {a % len(F)} has no face using "
+                             f"({int(e[a, 1])}, {int(e[a, 0])}) (a hole, or a flipped neighbour)")
+        used = np.unique(F)
+        ref = V[used].mean(axis=0)
+        size = float(np.linalg.norm(V[used].max(axis=0) - V[used].min(axis=0)))
+        P = V[F] - ref
+        area = 0.5 * np.linalg.norm(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), axis=1)
+        if not area.min() > 1e-12 * size ** 2:
+            k = int(np.argmin(area))
+            raise ValueError(f"faces must not be degenerate: face {k} (vertices {F[k].tolist()}) has area "
+                             f"{area[k]:.3g} (its vertices are collinear or coincide)")
+        vol = np.linalg.det(P) / 6.0
+        volume = float(vol.sum())
+        if volume < 0.0 and abs(volume) > 1e-12 * size ** 3:
+            raise ValueError(f"faces must be oriented outward (counter-clockwise seen from outside): the enclosed "
+                             f"signed volume is {volume:.6g} < 0 (reverse every face's vertex order)")
+        if not volume > 1e-12 * size ** 3:
+            raise ValueError(f"vertices and faces must enclose a positive volume, got {volume:.3g} (a flat mesh)")
+        com = ref + _cone_moments(P, vol, 1) / volume
+        if mass is not None and density is not None:
+            raise ValueError(f"give mass or density of the Polyhedron, not both (got mass={mass!r}, "
+                             f"density={density!r})")
+        if mass is not None:
+            m = positive_number(mass, "mass")
+        elif density is not None:
+            m = positive_number(density, "density") * volume
+        else:
+            m = None
+        P = V[F] - com                 # the tetrahedra from the centre of mass
+        vol = np.linalg.det(P) / 6.0
+        self.vertices = V
+        self.faces = F
+        self.volume = float(vol.sum())
+        self.center_of_mass = com
+        self.mass = m
+        self._unit = tuple(_cone_moments(P, vol, k) / self.volume for k in (2, 3, 4))
+
+    def _mass(self, mass: Any) -> float:
+        if mass is None:
+            if self.mass is None:
+                raise ValueError("mass must be given: this Polyhedron was made without mass or density")
+            return self.mass
+        return positive_number(mass, "mass")
+
+    def moments(self, mass: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(S (3,3), T3 (3,3,3), T4 (3,3,3,3))`` about the centre of mass (``int r r^T dm`` and the third,
+        fourth moments) for ``mass`` (default: the Polyhedron's own)."""
+        m = self._mass(mass)
+        return tuple(m * t for t in self._unit)  # type: ignore[return-value]
+
+    def inertia(self, mass: float | None = None) -> np.ndarray:
+        """The inertia (3, 3) about the centre of mass, ``tr(S) I - S``."""
+        S = self.moments(mass)[0]
+        return np.trace(S) * np.eye(3) - S
+
+    def __repr__(self) -> str:
+        mass = "" if self.mass is None else f", mass={self.mass:.6g}"
+        return f"Polyhedron({len(self.faces)} faces, volume={self.volume:.6g}{mass})"
+
+
 @dataclass(frozen=True, eq=False)
 class PointMasses:
     """A rigid body made of point masses ``masses`` (n,) at ``positions`` (n, 3) in its body frame.
@@ -151,9 +314,15 @@ class Moments:
                 raise ValueError(f"{mname} must be the sum of {name}'s point masses ({body.mass!r}) or None, got {mass!r}")
             S, T3, T4 = body.moments()
             self.points = body
+        elif isinstance(body, Polyhedron) and body.mass is not None:
+            self.mass = body.mass if mass is None else positive_number(mass, mname)
+            if abs(self.mass - body.mass) > 1e-12 * body.mass:
+                raise ValueError(f"{mname} must be {name}'s mass ({body.mass!r}, from its mass or density) or None, "
+                                 f"got {mass!r}")
+            S, T3, T4 = body.moments()
         else:
             self.mass = positive_number(mass, mname)
-            if isinstance(body, Ellipsoid):
+            if isinstance(body, (Ellipsoid, Polyhedron)):
                 S, T3, T4 = body.moments(self.mass)
             else:
                 if potential == "points":
@@ -161,7 +330,7 @@ class Moments:
                                      f"got {type(body).__name__}")
                 if potential == "order4":
                     raise ValueError(f"potential='order4' needs the third and fourth moments of {name}: give it as "
-                                     f"lgvi.Ellipsoid or lgvi.PointMasses, got {type(body).__name__}")
+                                     f"lgvi.Ellipsoid, lgvi.Polyhedron or lgvi.PointMasses, got {type(body).__name__}")
                 J = RigidBody(body).J
                 S = np.trace(J) / 2.0 * np.eye(3) - J
                 T3 = np.zeros((3, 3, 3))
@@ -518,11 +687,13 @@ def simulate_two_body(body1: Any, body2: Any, m1: float | None, m2: float | None
 
     Parameters
     ----------
-    body1, body2 : RigidBody, array_like, Ellipsoid or PointMasses
+    body1, body2 : RigidBody, array_like, Ellipsoid, Polyhedron or PointMasses
         The bodies: an inertia (``(3,)`` or ``(3, 3)``, about the centre of mass), an
-        :class:`Ellipsoid` (homogeneous; its moments scale with the mass) or :class:`PointMasses`.
+        :class:`Ellipsoid` or :class:`Polyhedron` (homogeneous; its moments scale with the mass) or
+        :class:`PointMasses`.
     m1, m2 : float or None
-        Masses, ``> 0`` (``None`` for :class:`PointMasses`: the sum of the points).
+        Masses, ``> 0`` (``None`` for :class:`PointMasses`: the sum of the points; for a
+        :class:`Polyhedron` made with ``mass`` or ``density``: that mass).
     x0 : (3,) or (2, 3) array_like
         The relative position ``x2 - x1`` (then the centre of mass is at the origin) or both
         centres of mass.
@@ -573,5 +744,5 @@ def _provide() -> None:
 
 _provide()
 
-__all__ = ["Ellipsoid", "Moments", "PointMasses", "TWO_BODY", "TwoBodyRun", "TwoBodyTrajectory", "mutual_force",
-           "mutual_potential", "simulate_two_body", "two_body_equations"]
+__all__ = ["Ellipsoid", "Moments", "PointMasses", "Polyhedron", "TWO_BODY", "TwoBodyRun", "TwoBodyTrajectory",
+           "mutual_force", "mutual_potential", "simulate_two_body", "two_body_equations"]

@@ -1,0 +1,133 @@
+"""Geomagnetic field kernels: a Schmidt semi-normalised spherical-harmonic synthesis.
+
+The internal field of degree ``N`` has the potential (geocentric spherical coordinates
+``r``, colatitude ``theta``, east longitude ``phi``, reference radius ``a``)
+
+``V = a sum_{n=1..N} (a/r)^(n+1) sum_{m=0..n} (g_nm cos(m phi) + h_nm sin(m phi)) P_n^m(cos theta)``
+
+with ``P_n^m`` the Schmidt semi-normalised associated Legendre functions, and ``B = -grad V``:
+
+``B_r = sum (n+1) (a/r)^(n+2) sum (g cos + h sin) P``,
+``B_theta = -sum (a/r)^(n+2) sum (g cos + h sin) dP/dtheta``,
+``B_phi = sum (a/r)^(n+2) sum m (g sin - h cos) P / sin(theta)``.
+
+The functions follow the recursions (``c = cos theta``, ``s = sin theta``)
+``P_0^0 = 1``, ``P_1^1 = s``, ``P_n^n = sqrt((2n-1)/(2n)) s P_{n-1}^{n-1}`` (n >= 2) and, for
+``n > m``, ``P_n^m = ((2n-1) c P_{n-1}^m - sqrt((n-1)^2 - m^2) P_{n-2}^m) / sqrt(n^2 - m^2)``.
+``P_n^m / s`` (m >= 1) obeys the same recursions from ``P_1^1 / s = 1``, so ``B_phi`` is
+evaluated without a division by ``sin theta`` and is finite on the poles.
+
+Coefficients ``g``, ``h`` are (N+1, N+1) arrays indexed ``[n, m]``; the scratch arrays ``P``,
+``dP``, ``Q`` have the same shape, so the kernels allocate nothing.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .._jit import jit
+
+
+@jit(inline="always")
+def sh_field_ecef(x, y, z, g, h, nmax, a, P, dP, Q):
+    """Field of the expansion ``(g, h)`` at the Earth-fixed point ``(x, y, z)`` (same unit as ``a``).
+
+    Returns ``(bx, by, bz)`` in Earth-fixed Cartesian components, in the unit of ``g`` and ``h``.
+    """
+    rho2 = x * x + y * y
+    r = math.sqrt(rho2 + z * z)
+    rho = math.sqrt(rho2)
+    c = z / r
+    s = rho / r
+    if rho > 0.0:
+        cp = x / rho
+        sp = y / rho
+    else:
+        cp = 1.0
+        sp = 0.0
+    # Legendre functions, their theta derivatives and P/sin(theta)
+    P[0, 0] = 1.0
+    dP[0, 0] = 0.0
+    Q[0, 0] = 0.0
+    for n in range(1, nmax + 1):
+        if n == 1:
+            P[1, 1] = s
+            dP[1, 1] = c
+            Q[1, 1] = 1.0
+        else:
+            k = math.sqrt((2.0 * n - 1.0) / (2.0 * n))
+            P[n, n] = k * s * P[n - 1, n - 1]
+            dP[n, n] = k * (c * P[n - 1, n - 1] + s * dP[n - 1, n - 1])
+            Q[n, n] = k * s * Q[n - 1, n - 1]
+        for m in range(0, n):
+            d = math.sqrt(float(n * n - m * m))
+            e = (2.0 * n - 1.0) / d
+            if n - 2 >= m:
+                f = math.sqrt(float((n - 1) * (n - 1) - m * m)) / d
+                P[n, m] = e * c * P[n - 1, m] - f * P[n - 2, m]
+                dP[n, m] = e * (c * dP[n - 1, m] - s * P[n - 1, m]) - f * dP[n - 2, m]
+                Q[n, m] = e * c * Q[n - 1, m] - f * Q[n - 2, m]
+            else:
+                P[n, m] = e * c * P[n - 1, m]
+                dP[n, m] = e * (c * dP[n - 1, m] - s * P[n - 1, m])
+                Q[n, m] = e * c * Q[n - 1, m]
+    br = 0.0
+    bt = 0.0
+    bp = 0.0
+    ar = a / r
+    arn = ar * ar            # (a/r)^(n+2) at n = 0
+    for n in range(1, nmax + 1):
+        arn *= ar
+        sr = 0.0
+        st = 0.0
+        sph = 0.0
+        cm = 1.0             # cos(m phi), sin(m phi) by the angle-sum recursion
+        sm = 0.0
+        for m in range(0, n + 1):
+            gc = g[n, m] * cm + h[n, m] * sm
+            sr += gc * P[n, m]
+            st += gc * dP[n, m]
+            sph += m * (g[n, m] * sm - h[n, m] * cm) * Q[n, m]
+            cm, sm = cm * cp - sm * sp, sm * cp + cm * sp
+        br += (n + 1.0) * arn * sr
+        bt -= arn * st
+        bp += arn * sph
+    # spherical (r, theta, phi) unit vectors to Earth-fixed Cartesian
+    bx = (br * s + bt * c) * cp - bp * sp
+    by = (br * s + bt * c) * sp + bp * cp
+    bz = br * c - bt * s
+    return bx, by, bz
+
+
+@jit(_nrt=False)
+def sh_field_many(xyz, g, h, nmax, a, P, dP, Q, out):
+    """``out[i] = field(xyz[i])`` for (K, 3) Earth-fixed points (see :func:`sh_field_ecef`)."""
+    for i in range(xyz.shape[0]):
+        bx, by, bz = sh_field_ecef(xyz[i, 0], xyz[i, 1], xyz[i, 2], g, h, nmax, a, P, dP, Q)
+        out[i, 0] = bx
+        out[i, 1] = by
+        out[i, 2] = bz
+
+
+@jit(_nrt=False)
+def sh_field_one(x, y, z, g, h, nmax, a, P, dP, Q):
+    """One point (a Python-callable wrapper of :func:`sh_field_ecef`)."""
+    return sh_field_ecef(x, y, z, g, h, nmax, a, P, dP, Q)
+
+
+@jit(_nrt=False)
+def sh_coefficients_at(times, G, H, year, g, h):
+    """Coefficients at ``year`` linearly interpolated between the epochs ``times`` (T,).
+
+    ``G``, ``H`` are (T, N+1, N+1); before the first or after the last epoch the first or last
+    interval's line is extended. Writes ``g``, ``h`` (N+1, N+1) in place.
+    """
+    T = times.shape[0]
+    j = 0
+    while j < T - 2 and year >= times[j + 1]:
+        j += 1
+    w = (year - times[j]) / (times[j + 1] - times[j])
+    for n in range(G.shape[1]):
+        for m in range(G.shape[2]):
+            g[n, m] = G[j, n, m] + w * (G[j + 1, n, m] - G[j, n, m])
+            h[n, m] = H[j, n, m] + w * (H[j + 1, n, m] - H[j, n, m])

@@ -1,0 +1,25 @@
+"""The spacecraft's environment: geomagnetic field models, orbits and the environment they drive.
+
+* :mod:`lgvi.environment.field`: centred dipole, IGRF-14, WMM (compiled spherical harmonics);
+* :mod:`lgvi.environment.orbits`: circular, Kepler, J2-secular and SGP4 orbits, LVLH helpers,
+  :class:`OrbitEnvironment` (what a controller reads: position, velocity, inertial field);
+* :mod:`lgvi.environment.gravity`: the gravity-gradient moment along any of these orbits,
+  compiled (:class:`OrbitGravityGradient`);
+* :mod:`lgvi.environment.actuators`: magnetorquer rods (:class:`lgvi.Magnetorquers`);
+* :mod:`lgvi.environment.bdot`: B-dot detumbling and magnetic momentum dumping.
+"""
+
+from __future__ import annotations
+
+from .actuators import Magnetorquers
+from .bdot import BDot, MomentumDumping
+from .field import (CentredDipole, IGRF, WMM, SphericalHarmonicField, decimal_year, geodetic_to_ecef,
+                    ned_frame)
+from .gravity import OrbitGravityGradient
+from .orbits import (CircularOrbit, J2Orbit, KeplerOrbit, Orbit, OrbitEnvironment, SGP4Orbit, gmst, lvlh_frame,
+                     nadir_reference, solve_kepler)
+
+__all__ = ["CentredDipole", "IGRF", "WMM", "SphericalHarmonicField", "decimal_year", "geodetic_to_ecef",
+           "ned_frame", "CircularOrbit", "J2Orbit", "KeplerOrbit", "Orbit", "OrbitEnvironment", "SGP4Orbit",
+           "gmst", "lvlh_frame", "nadir_reference", "solve_kepler", "OrbitGravityGradient", "Magnetorquers",
+           "BDot", "MomentumDumping"]

@@ -1,0 +1,598 @@
+"""The gyrostat: a rigid body with balanced reaction wheels, ``(R, Pi, rho)`` (``docs/gyrostat.md``).
+
+``lgvi.simulate(body, R0, omega0=..., h=..., steps=..., wheels=lgvi.ReactionWheels(...),
+controller=..., control_period=...)`` runs this system. ``body`` is the whole spacecraft with the
+wheels locked (Basilisk's convention for balanced wheels); ``Pi`` is the total body angular
+momentum (hub plus wheels) and ``rho_i`` the absolute axial momentum of wheel ``i``. The step is
+the LGVI of the discrete Routhian of the cyclic wheel angles: the implicit equation keeps its form
+with the shifted, non-symmetric matrix ``Jd_B + h/2 hat(G rho_bar)`` (compiled kernel:
+:mod:`lgvi._kernels.gyrostat_kernels`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+
+from .._validation import as_float, as_float_array, as_int, as_rotation, choice
+from .._version import __version__
+from ..control import Command, Controller
+from ..driver import MemorySink, check_memory, drive, run_solver_options, sample_times, time_grid
+from ..errors import ConvergenceError, TorqueError
+from ..invariants import BOUNDED, EXACT
+from ..trajectory import HIST_BINS, RESULT_TYPES, Trajectory, freeze_arrays, summary_dict
+from . import Field, System, register
+
+#: Steps per compiled call when no Python controller needs the loop back sooner.
+CHUNK_STEPS = 1 << 16
+#: Default speed (rad/s) below which wheel friction is linear through zero (Basilisk's omegaLimitCycle).
+OMEGA_LIMIT_CYCLE = 1e-4
+#: Tolerance on the norm of a wheel axis.
+AXIS_TOL = 1e-6
+
+
+def _per_wheel(value: Any, name: str, n: int, *, minimum: float | None = None, strict: bool = False,
+               none: float | None = None) -> np.ndarray:
+    """A scalar or (N,) array of finite floats, checked against ``minimum`` (``strict``: above)."""
+    if value is None:
+        return np.full(n, np.nan if none is None else none)
+    arr = as_float_array(value, name)
+    if arr.ndim == 0:
+        arr = np.full(n, float(arr))
+    elif arr.shape != (n,):
+        raise ValueError(f"{name} must be a scalar or have shape ({n},) (one per wheel), got shape {arr.shape}")
+    if minimum is not None:
+        bad = arr <= minimum if strict else arr < minimum
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            rule = f"> {minimum:g}" if strict else f">= {minimum:g}"
+            raise ValueError(f"{name} must be {rule} for every wheel; wheel {i} has {arr[i]:g}")
+    return arr.copy()
+
+
+class ReactionWheels:
+    """Balanced reaction wheels in the body, for ``lgvi.simulate(..., wheels=...)``.
+
+    Parameters
+    ----------
+    axes : (N, 3) array_like
+        Spin axes in the body frame, unit vectors (to 1e-6; stored normalised).
+    spin_inertia : float or (N,) array_like
+        Axial moments of inertia ``Js``, kg m^2 (> 0).
+    speed0 : float or (N,) array_like
+        Initial wheel speeds relative to the body, rad/s.
+    max_torque : float or (N,) array_like, optional
+        Motor torque limit, N m (> 0); ``None``: none.
+    min_torque : float or (N,) array_like
+        Deadband: requests below this magnitude give no torque, N m (>= 0).
+    max_power : float or (N,) array_like, optional
+        Motor power limit ``|u Omega|``, W (> 0); ``None``: none.
+    max_speed : float or (N,) array_like, optional
+        Speed limit, rad/s (> 0): a torque that would spin a wheel at or beyond it is refused.
+    friction : dict, optional
+        ``{"coulomb": N m, "viscous": N m s, "omega_limit_cycle": rad/s}`` (each a scalar or (N,),
+        all >= 0; the last > 0, default 1e-4): friction ``-(coulomb sign(Omega) + viscous Omega)``,
+        linear through zero below ``omega_limit_cycle`` (Basilisk's model without Stribeck).
+
+    Notes
+    -----
+    The saturation follows Basilisk's ``reactionWheelStateEffector``, in its order: torque limit,
+    deadband, power limit (``|u| = max_power / |Omega|``), speed limit (no torque with
+    ``Omega u >= 0`` once ``|Omega| >= max_speed``). lgvi applies it at every step with the speed
+    at the step's start (Basilisk: at each of its task updates).
+    """
+
+    def __init__(self, axes: Any, spin_inertia: Any, *, speed0: Any = 0.0, max_torque: Any = None,
+                 min_torque: Any = 0.0, max_power: Any = None, max_speed: Any = None, friction: Any = None) -> None:
+        a = as_float_array(axes, "axes")
+        if a.ndim == 1 and a.shape == (3,):
+            a = a[None, :]
+        if a.ndim != 2 or a.shape[1] != 3:
+            raise ValueError(f"axes must have shape (N, 3) (one unit vector per wheel), got shape {a.shape}")
+        n = a.shape[0]
+        norms = np.linalg.norm(a, axis=1)
+        bad = np.abs(norms - 1.0) > AXIS_TOL
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            raise ValueError(f"axes must be unit vectors (to {AXIS_TOL:g}); axis {i} {a[i].tolist()} has norm "
+                             f"{norms[i]:.9g}: divide it by its norm")
+        self.axes = a / norms[:, None] if n else a.reshape(0, 3)
+        self.spin_inertia = _per_wheel(spin_inertia, "spin_inertia", n, minimum=0.0, strict=True)
+        self.speed0 = _per_wheel(speed0, "speed0", n)
+        self.max_torque = _per_wheel(max_torque, "max_torque", n, minimum=0.0, strict=True, none=0.0)
+        self.min_torque = _per_wheel(min_torque, "min_torque", n, minimum=0.0)
+        self.max_power = _per_wheel(max_power, "max_power", n, minimum=0.0, strict=True, none=0.0)
+        self.max_speed = _per_wheel(max_speed, "max_speed", n, minimum=0.0, strict=True, none=0.0)
+        if friction is None:
+            friction = {}
+        if not isinstance(friction, dict):
+            raise TypeError(f"friction must be a dict with keys 'coulomb', 'viscous', 'omega_limit_cycle' or None, "
+                            f"got {type(friction).__name__}")
+        unknown = set(friction) - {"coulomb", "viscous", "omega_limit_cycle"}
+        if unknown:
+            raise ValueError(f"friction has unknown keys {sorted(unknown)}; known: 'coulomb', 'viscous', "
+                             "'omega_limit_cycle'")
+        self.coulomb = _per_wheel(friction.get("coulomb", 0.0), "friction['coulomb']", n, minimum=0.0)
+        self.viscous = _per_wheel(friction.get("viscous", 0.0), "friction['viscous']", n, minimum=0.0)
+        self.omega_limit_cycle = _per_wheel(friction.get("omega_limit_cycle", OMEGA_LIMIT_CYCLE),
+                                            "friction['omega_limit_cycle']", n, minimum=0.0, strict=True)
+
+    def __len__(self) -> int:
+        return int(self.axes.shape[0])
+
+    @property
+    def G(self) -> np.ndarray:
+        """(3, N) the axes as columns."""
+        return self.axes.T.copy()
+
+    @property
+    def has_friction(self) -> bool:
+        return bool(np.any(self.coulomb) or np.any(self.viscous))
+
+    def params(self) -> np.ndarray:
+        """(N, 8) rows for the kernel (:mod:`lgvi._kernels.gyrostat_kernels`)."""
+        return np.ascontiguousarray(np.stack([self.spin_inertia, self.max_torque, self.min_torque, self.max_power,
+                                              self.max_speed, self.coulomb, self.viscous, self.omega_limit_cycle],
+                                             axis=1).reshape(len(self), 8))
+
+    def hub_inertia(self, body: Any) -> np.ndarray:
+        """``J_B = J - G diag(Js) G^T`` (3, 3): the body's inertia without the wheels' axial part.
+
+        Raises ``ValueError`` when the wheels do not fit the body: the locked inertia along an
+        axis not above that wheel's spin inertia, or ``J_B`` not positive definite.
+        """
+        J = np.asarray(body.J, dtype=np.float64)
+        for i in range(len(self)):
+            along = float(self.axes[i] @ J @ self.axes[i])
+            if not along > self.spin_inertia[i]:
+                raise ValueError(f"wheels inconsistent with the body: the body's (locked) inertia along wheel {i}'s "
+                                 f"axis is {along:.6g} kg m^2, not above the wheel's spin inertia "
+                                 f"{self.spin_inertia[i]:.6g}; the body's inertia must include the wheels")
+        if len(self) == 0:
+            JB = J.copy()
+        else:
+            JB = J - (self.axes.T * self.spin_inertia) @ self.axes
+            JB = 0.5 * (JB + JB.T)
+        lam = np.linalg.eigvalsh(JB)
+        if not lam[0] > 1e-12 * lam[-1]:
+            raise ValueError(f"wheels inconsistent with the body: J - G diag(spin_inertia) G^T is not positive "
+                             f"definite (eigenvalues {lam.tolist()}); the body's inertia must include the wheels")
+        return JB
+
+    def describe(self) -> dict[str, Any]:
+        """JSON-serialisable parameters (kept in ``meta["wheels"]``)."""
+        out = {"axes": self.axes.tolist(), "spin_inertia": self.spin_inertia.tolist(),
+               "speed0": self.speed0.tolist()}
+        for name in ("max_torque", "min_torque", "max_power", "max_speed", "coulomb", "viscous", "omega_limit_cycle"):
+            out[name] = getattr(self, name).tolist()
+        return out
+
+    def __repr__(self) -> str:
+        return f"ReactionWheels(N={len(self)}, spin_inertia={self.spin_inertia.tolist()})"
+
+
+# ------------------------------------------------------------------------------------------------
+# the system declaration
+# ------------------------------------------------------------------------------------------------
+def _invariants(spec: Any = None) -> dict[str, dict[str, Any]]:
+    """The gyrostat's invariants: total momentum and ``|Pi|`` exact without external torque, under any
+    wheel torques; the energy bounded with the motors off and no friction (``spec``: the run)."""
+    if spec is not None and getattr(spec, "external", False):
+        return {}
+    out = {"spatial_momentum": {"kind": EXACT}, "spatial_momentum_e3": {"kind": EXACT}, "casimir": {"kind": EXACT}}
+    if spec is None or getattr(spec, "motors_off", True):
+        out["energy"] = {"kind": BOUNDED}
+    return out
+
+
+def _kernels() -> dict[str, Any]:
+    from .._kernels import gyrostat_kernels
+
+    return {"run_gyro": gyrostat_kernels.run_gyro}
+
+
+GYROSTAT = register(System(
+    name="gyrostat",
+    doc="a rigid body with balanced reaction wheels: R (3, 3), total body momentum Pi (3,), wheel momenta rho (N,)",
+    state=(Field("R", (3, 3), doc="attitude, body to inertial"),
+           Field("Pi", (3,), doc="total body angular momentum (hub plus wheels)"),
+           Field("wheel_momentum", (0,), doc="absolute axial wheel momenta rho (N,)")),
+    records=(Field("iterations", (), np.int32, "solver iterations per step"),
+             Field("residual", (), np.float64, "final solver residual per step"),
+             Field("wheel_torque", (0,), np.float64, "motor torque held from the entry's first step (N,)")),
+    kernels=_kernels,
+    results=("t", "R", "Pi", "wheel_momentum", "wheel_speed", "wheel_torque", "inertia", "iterations", "residual",
+             "h", "meta"),
+    scenario_section="wheel",
+    run_factory=None,
+    invariants=_invariants,
+))
+
+
+@dataclass(frozen=True, eq=False)
+class GyrostatTrajectory(Trajectory):
+    """A :class:`lgvi.Trajectory` of a body with reaction wheels.
+
+    Extra attributes
+    ----------------
+    wheel_momentum : (M, N) ndarray
+        Absolute axial wheel momenta ``rho_i = Js_i (a_i . omega + wheel_speed_i)``.
+    wheel_torque : (M, N) ndarray
+        Motor torque applied from each sample on (after saturation; the last sample repeats the
+        last step's), N m.
+    wheel_axes : (N, 3) ndarray, spin_inertia : (N,) ndarray
+        The wheels.
+
+    ``Pi`` is the total body momentum (hub plus wheels), so ``spatial_momentum = R Pi`` includes
+    the wheels; ``inertia`` is the locked inertia ``J``; ``omega = J_B^-1 (Pi - G rho)``;
+    ``wheel_speed`` (M, N) relative to the body; ``energy`` the kinetic energy of hub and wheels.
+    """
+
+    wheel_momentum: np.ndarray | None = None
+    wheel_torque: np.ndarray | None = None
+    wheel_axes: np.ndarray | None = None
+    spin_inertia: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        freeze_arrays(self, ("wheel_momentum", "wheel_torque", "wheel_axes", "spin_inertia"))
+
+    @cached_property
+    def hub_inertia(self) -> np.ndarray:
+        """(3, 3) ``J_B = J - G diag(Js) G^T``."""
+        return self.inertia - (self.wheel_axes.T * self.spin_inertia) @ self.wheel_axes
+
+    @cached_property
+    def omega(self) -> np.ndarray:
+        """(M, 3) body angular velocity ``J_B^-1 (Pi - G rho)``."""
+        return np.linalg.solve(self.hub_inertia, (self.Pi - self.wheel_momentum @ self.wheel_axes).T).T
+
+    @cached_property
+    def wheel_speed(self) -> np.ndarray:
+        """(M, N) wheel speeds relative to the body, rad/s."""
+        return self.wheel_momentum / self.spin_inertia - self.omega @ self.wheel_axes.T
+
+    @cached_property
+    def kinetic_energy(self) -> np.ndarray:
+        """(M,) ``1/2 omega . J_B omega + sum rho^2 / (2 Js)``."""
+        w = self.omega
+        return (0.5 * np.einsum("ij,jk,ik->i", w, self.hub_inertia, w)
+                + 0.5 * np.sum(self.wheel_momentum ** 2 / self.spin_inertia, axis=1))
+
+    def __repr__(self) -> str:
+        return "Gyrostat" + super().__repr__() + f" with {self.wheel_axes.shape[0]} wheels"
+
+    def _extra_arrays(self) -> dict[str, np.ndarray]:
+        return {"wheel_momentum": self.wheel_momentum, "wheel_torque": self.wheel_torque,
+                "wheel_axes": self.wheel_axes, "spin_inertia": self.spin_inertia}
+
+
+def _from_file(**fields: Any) -> GyrostatTrajectory:
+    """A :class:`GyrostatTrajectory` read by :func:`lgvi.load` (shapes checked)."""
+    M = len(fields["t"])
+    n = fields["spin_inertia"].shape[0] if fields["spin_inertia"].ndim == 1 else -1
+    want = {"wheel_momentum": (M, n), "wheel_torque": (M, n), "wheel_axes": (n, 3), "spin_inertia": (n,)}
+    for name, shape in want.items():
+        if fields[name].shape != shape:
+            raise ValueError(f"field {name!r} must have shape {shape} (M = {M} samples, N = {n} wheels), got shape "
+                             f"{fields[name].shape}")
+    return GyrostatTrajectory(**fields)
+
+
+RESULT_TYPES["gyrostat"] = (("wheel_momentum", "wheel_torque", "wheel_axes", "spin_inertia"), _from_file)
+
+
+# ------------------------------------------------------------------------------------------------
+# the run
+# ------------------------------------------------------------------------------------------------
+_NO_WHEELS = None
+
+
+def _controller_period(controller: Any, control_period: Any, h: float) -> int:
+    """Steps per control period (``control_period`` a positive multiple of ``|h|``)."""
+    if control_period is None:
+        if controller is None:
+            return 1
+        raise ValueError("give control_period (seconds, a multiple of h) with a controller")
+    if controller is None:
+        raise ValueError("control_period is given without a controller")
+    cp = as_float(control_period, "control_period", positive=True)
+    ratio = cp / abs(h)
+    m = int(round(ratio))
+    if m < 1 or abs(ratio - m) > 1e-9 * max(1.0, ratio):
+        raise ValueError(f"control_period must be a positive multiple of |h|; got control_period={cp:g}, "
+                         f"h={h:g} (ratio {ratio:.12g})")
+    return m
+
+
+class GyrostatRun:
+    """One validated run of the gyrostat, driven by :func:`lgvi.driver.drive`."""
+
+    label = "simulation"
+
+    def __init__(self, body: Any, R0: Any, Pi0: Any, *, omega0: Any, h: Any, steps: Any, wheels: Any,
+                 controller: Any = None, control_period: Any = None, environment: Any = None,
+                 magnetorquers: Any = None, method: str = "newton", tol: Any = 1e-14, max_iter: Any = 50,
+                 alpha: Any = 1.0, save_every: Any = 1, t0: Any = 0.0, solver_record: str = "interval",
+                 order: Any = 2, composition: Any = None) -> None:
+        from ..body import RigidBody
+
+        self.body = body = body if isinstance(body, RigidBody) else RigidBody(body)
+        if wheels is None:
+            wheels = ReactionWheels(np.zeros((0, 3)), np.zeros(0))
+        if not isinstance(wheels, ReactionWheels):
+            raise TypeError(f"wheels must be an lgvi.ReactionWheels, got {type(wheels).__name__}")
+        self.wheels = wheels
+        if method != "newton":
+            choice(method, "method", ("newton",))
+        self.code, self.tol, self.max_iter, self.alpha = run_solver_options(method, tol, max_iter, alpha)
+        if self.alpha != 1.0:
+            raise ValueError(f"alpha must be 1.0 with wheels or a controller (exact Newton), got {self.alpha:g}")
+        self.R = as_rotation(R0, "R0").copy()
+        self.h, self.t0, self.steps, self.save_every = time_grid(h, t0, steps, save_every)
+        choice(solver_record, "solver_record", ("interval", "full"))
+        self.full = solver_record == "full"
+        check_memory(self.steps, self.save_every, self.full)
+        n = len(wheels)
+        self.N = n
+        self.JB = JB = wheels.hub_inertia(body)
+        self.JB_inv = np.linalg.inv(JB)
+        self.JdB = body.Jd.copy() if n == 0 else np.trace(JB) / 2.0 * np.eye(3) - JB
+        a, Js = wheels.axes, wheels.spin_inertia
+        # initial state: Pi = J_B omega + G rho, rho = Js (a . omega + speed0)
+        if Pi0 is None and omega0 is None:
+            raise ValueError("give the initial body angular momentum Pi0 (3,) or the angular velocity omega0 (3,)")
+        if Pi0 is not None and omega0 is not None:
+            raise ValueError("give either Pi0 or omega0, not both")
+        if omega0 is not None:
+            w = as_float_array(omega0, "omega0", (3,))
+        else:
+            Pi = as_float_array(Pi0, "Pi0", (3,))
+            w = np.linalg.solve(body.J, Pi - a.T @ (Js * wheels.speed0))
+        self.wheel_momentum = Js * (a @ w + wheels.speed0)
+        self.Pi = JB @ w + a.T @ self.wheel_momentum if omega0 is not None else as_float_array(Pi0, "Pi0", (3,)).copy()
+        # controller, environment, magnetorquers
+        if controller is not None and not isinstance(controller, Controller):
+            raise TypeError(f"controller must be an lgvi.control.Controller, got {type(controller).__name__}")
+        self.spc = _controller_period(controller, control_period, self.h)
+        self.controller = controller
+        if environment is not None and not callable(getattr(environment, "sample", None)):
+            raise TypeError(f"environment must have a method sample(t) -> dict, got {type(environment).__name__}")
+        if magnetorquers is not None and not callable(getattr(magnetorquers, "torque", None)):
+            raise TypeError("magnetorquers must have a method torque(dipole, B_body) -> (3,), got "
+                            f"{type(magnetorquers).__name__}")
+        if environment is not None and controller is None:
+            raise ValueError("environment is sampled for a controller (at its control rate): give a controller")
+        if magnetorquers is not None and controller is None:
+            raise ValueError("magnetorquers are driven by a controller's dipole: give a controller")
+        self.environment = environment
+        self.magnetorquers = magnetorquers
+        self.cp = np.zeros(0)
+        self.cs = np.zeros(5)
+        self.ctrl = 0
+        if controller is not None:
+            controller.setup(body, wheels if n else None)
+            controller.reset()
+            if getattr(controller, "compiled", False) and environment is None and magnetorquers is None:
+                self.ctrl = 1
+                self.cp = _mrp_params(controller, wheels)
+        self.python_controller = controller is not None and self.ctrl == 0
+        self.cmd = np.zeros(n)
+        self.tau = np.zeros(3)
+        self.u_now = np.zeros(2 * n)
+        from ..registry import composition_for
+        from .._kernels.solvers import initial_guess   # cold start from the linearisation (as the rigid body)
+
+        self.comp = composition_for(order, composition)
+        self.gam = self.comp.arrays()[0]
+        self.G = np.zeros((len(self.gam), 5, 3))
+        for i, g in enumerate(self.gam):
+            getattr(initial_guess, "py_func", initial_guess)(self.code, JB, g * self.h * (self.Pi - a.T @ self.wheel_momentum),
+                                                             self.G[i, 0])
+        # a body torque acted (the declaration of invariants is that of the run so far)
+        self.external = self.ctrl == 1 and n == 0
+        self.motors_off = controller is None and not wheels.has_friction
+        self.k = 0
+        self.counts = np.zeros(HIST_BINS, dtype=np.int64)
+        self.it_total = 0
+        self.res_max = 0.0
+        self.last_its = 0
+        self.last_res = 0.0
+        se = self.save_every
+        base = CHUNK_STEPS if not self.python_controller else max(CHUNK_STEPS, self.spc)
+        self.chunk = max(1, base // se) * se
+        self.wp = wheels.params()
+        self.system = dataclasses.replace(
+            GYROSTAT,
+            state=(GYROSTAT.state[0], GYROSTAT.state[1], Field("wheel_momentum", (n,), doc=GYROSTAT.state[2].doc)),
+            records=(GYROSTAT.records[0], GYROSTAT.records[1],
+                     Field("wheel_torque", (n,), np.float64, GYROSTAT.records[2].doc)))
+        self.meta: dict[str, Any] = {"system": "gyrostat", "method": "newton", "tol": self.tol,
+                                     "max_iter": self.max_iter, "alpha": 1.0, "save_every": se,
+                                     "torque": "none" if controller is None else "controller",
+                                     "forcing": "symmetric", "lgvi_version": __version__, "t0": self.t0, "order": self.comp.order,
+                                     "solver_record": solver_record, "wheels": wheels.describe(),
+                                     "controller": repr(controller) if controller is not None else None,
+                                     "control_period": None if controller is None else self.spc * abs(self.h),
+                                     "invariants": _invariants(self)}
+        if self.comp.order != 2:
+            self.meta["composition"] = self.comp.name
+        self.meta["torque_model"] = (f"the gyrostat ({n} reaction wheels"
+                                     + (f", {controller!r} every {self.spc * abs(self.h):g} s)" if controller is not None
+                                        else ")"))
+
+    # -------------------------------------------------------------- results
+    def times(self, j0: int, j1: int) -> np.ndarray:
+        return sample_times(self.t0, self.h * self.save_every, j0, j1)
+
+    def summary(self) -> dict[str, Any]:
+        return summary_dict(self.counts, self.it_total, self.res_max)
+
+    def trajectory(self, t, R_out, Pi_out, rho_out, it_out, res_out, u_out, partial: bool = False) -> GyrostatTrajectory:
+        meta = dict(self.meta, partial=True) if partial else dict(self.meta)
+        meta["solver_summary"] = self.summary()
+        meta["invariants"] = _invariants(self)
+        M = len(t)
+        se = self.save_every
+        rec = u_out if not self.full or se == 1 else u_out[::se]
+        wt = np.empty((M, self.N))
+        m = min(len(rec), M - 1)
+        wt[:m] = rec[:m]
+        if M > m:
+            wt[m:] = rec[m - 1] if m > 0 else self.u_now[:self.N]
+        return GyrostatTrajectory(t=t, R=R_out, Pi=Pi_out, inertia=self.body.J.copy(), iterations=it_out,
+                                  residual=res_out, h=self.h, potential=None, meta=meta, wheel_momentum=rho_out,
+                                  wheel_torque=wt, wheel_axes=self.wheels.axes.copy(),
+                                  spin_inertia=self.wheels.spin_inertia.copy())
+
+    def failure(self, status: int, residual: float, iterations: int, trajectory: Any, where: str = "") -> ConvergenceError:
+        from ..implicit import failure_message
+
+        k = self.k
+        t_fail = self.t0 + k * self.h
+        hnorm = abs(self.h) * float(np.linalg.norm(self.Pi))
+        msg = (f"step {k} (t = {t_fail:g}) failed: "
+               + failure_message(status, residual, iterations, hnorm, self.tol, self.code, 1.0)
+               + f" The run up to step {k} is in .trajectory." + where)
+        return ConvergenceError(msg, residual=residual, iterations=iterations, step=k, time=t_fail,
+                                trajectory=trajectory)
+
+    def state(self) -> dict[str, Any]:
+        return {"k": self.k, "R": self.R.copy(), "Pi": self.Pi.copy(), "wheel_momentum": self.wheel_momentum.copy(),
+                "G": self.G.copy(), "cmd": self.cmd.copy(), "tau": self.tau.copy(), "cs": self.cs.copy()}
+
+    def load_state(self, st: dict[str, Any]) -> None:
+        self.k = int(st["k"])
+        for name in ("R", "Pi", "wheel_momentum", "G", "cmd", "tau", "cs"):
+            getattr(self, name)[...] = np.asarray(st[name], dtype=np.float64)
+
+    # -------------------------------------------------------------- stepping
+    def _kernel(self, k0: int, n: int, kb: int, R_out, Pi_out, rho_out, it_out, res_out, u_out) -> int:
+        from .._kernels.gyrostat_kernels import run_gyro
+
+        per = 1 if self.full else self.save_every
+        status, k, it_sum, rmax, its, rn = run_gyro(
+            self.JdB, self.JB_inv, self.h, self.gam, self.t0, self.R, self.Pi, self.wheel_momentum, self.G, self.wheels.axes,
+            self.wp, self.cmd, self.tau, self.u_now, self.ctrl, self.cp, self.cs, self.spc, k0, n, kb, self.tol,
+            self.max_iter, self.save_every, per, R_out, Pi_out, rho_out, u_out, it_out, res_out, self.counts)
+        self.k = int(k)
+        self.it_total += int(it_sum) - (int(its) if status != 0 else 0)
+        self.res_max = max(self.res_max, float(rmax))
+        self.last_its, self.last_res = int(its), float(rn)
+        return int(status)
+
+    def advance(self, n: int, R_out, Pi_out, rho_out, it_out, res_out, u_out, partial) -> int:
+        kb = self.k
+        end = kb + n
+        if not self.python_controller:
+            return self._kernel(kb, n, kb, R_out, Pi_out, rho_out, it_out, res_out, u_out)
+        while self.k < end:
+            k = self.k
+            if k % self.spc == 0:
+                self._call_controller(k, partial)
+            m = min(end, (k // self.spc + 1) * self.spc) - k
+            status = self._kernel(k, m, kb, R_out, Pi_out, rho_out, it_out, res_out, u_out)
+            if status != 0:
+                return status
+        return 0
+
+    def _call_controller(self, k: int, partial) -> None:
+        t = self.t0 + k * self.h
+        R = self.R.copy()
+        rho = self.wheel_momentum
+        a, Js = self.wheels.axes, self.wheels.spin_inertia
+        w = self.JB_inv @ (self.Pi - a.T @ rho)
+        speed = rho / Js - a @ w
+        try:
+            env: dict[str, Any] = {}
+            if self.environment is not None:
+                env = dict(self.environment.sample(t))
+                if "B_inertial" in env and "B_body" not in env:
+                    env["B_body"] = R.T @ np.asarray(env["B_inertial"], dtype=np.float64)
+            cmd = self.controller.command(t, R, w, speed, env)
+            tau, wheel, dipole = _check_command(cmd, self.N, k, t)
+            if dipole is not None:
+                if self.magnetorquers is None:
+                    raise TorqueError("the controller returned a dipole but simulate(..., magnetorquers=) was not given")
+                if "B_body" not in env:
+                    raise TorqueError("the controller returned a dipole but the environment gives no magnetic field "
+                                      "('B_body' or 'B_inertial')")
+                m_tau = np.asarray(self.magnetorquers.torque(dipole, np.asarray(env["B_body"], dtype=np.float64)),
+                                   dtype=np.float64)
+                if m_tau.shape != (3,) or not np.all(np.isfinite(m_tau)):
+                    raise TorqueError(f"magnetorquers.torque returned {m_tau!r}, not 3 finite numbers")
+                tau = m_tau if tau is None else tau + m_tau
+        except KeyboardInterrupt:
+            raise
+        except Exception as exc:
+            err = exc if isinstance(exc, TorqueError) else None
+            msg = str(err) if err is not None else f"the controller raised {type(exc).__name__}: {exc}"
+            raise TorqueError(f"at step {k} (t = {t:g}): {msg}. The run up to step {k} is in .trajectory.",
+                              step=k, time=t, trajectory=partial(k)) from exc
+        self.tau[:] = 0.0 if tau is None else tau
+        if np.any(self.tau):
+            self.external = True
+        self.cmd[:] = 0.0 if wheel is None else wheel
+
+
+def _check_command(cmd: Any, n: int, k: int, t: float) -> tuple[Any, Any, Any]:
+    if not isinstance(cmd, Command):
+        raise TorqueError(f"controller.command must return an lgvi.control.Command, got {type(cmd).__name__}")
+    out = []
+    for name, shape in (("torque", (3,)), ("wheel_torque", (n,)), ("dipole", (3,))):
+        v = getattr(cmd, name)
+        if v is None:
+            out.append(None)
+            continue
+        arr = np.asarray(v, dtype=np.float64)
+        if arr.shape != shape:
+            raise TorqueError(f"Command.{name} must have shape {shape}, got {arr.shape}")
+        if not np.all(np.isfinite(arr)):
+            raise TorqueError(f"the controller returned a non-finite Command.{name} {arr.tolist()}")
+        if name == "wheel_torque" and n == 0:
+            raise TorqueError("the controller returned wheel torques but the run has no wheels")
+        out.append(arr.copy())
+    return out[0], out[1], out[2]
+
+
+def _mrp_params(ctrl: Any, wheels: ReactionWheels) -> np.ndarray:
+    """The ``cp`` vector of the compiled MRP feedback (:data:`lgvi._kernels.gyrostat_kernels.CP_MAP`)."""
+    from ..control import map_to_wheels
+
+    n = len(wheels)
+    R_ref = np.eye(3) if ctrl.R_ref is None else ctrl.R_ref
+    M = np.zeros((n, 3))
+    if n:
+        for j in range(3):
+            M[:, j] = map_to_wheels(np.eye(3)[j], wheels.axes)
+    lim = ctrl.integral_limit if math.isfinite(ctrl.integral_limit) else 1e300
+    return np.concatenate([[ctrl.K, ctrl.P, 0.0 if ctrl.Ki is None else ctrl.Ki, lim], R_ref.ravel(), np.zeros(6),
+                           np.asarray(ctrl.J, dtype=np.float64).ravel(), M.ravel()])
+
+
+def gyrostat_options(*, torque: Any, forcing: Any, order: Any, composition: Any, error_estimate: Any) -> None:
+    """Refuse the options of :func:`lgvi.simulate` that a run with wheels or a controller does not take."""
+    if torque is not None:
+        raise ValueError("torque= cannot be combined with wheels= or controller= yet: give body torques through "
+                         "the controller (Command.torque)")
+    if forcing not in ("paper", "symmetric"):
+        choice(forcing, "forcing", ("paper", "symmetric"))
+    if error_estimate not in (False, None):
+        raise ValueError("error_estimate is not available with wheels= or controller= yet")
+
+
+def simulate_gyrostat(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: Any, steps: Any,
+                      wheels: Any = None, controller: Any = None, control_period: Any = None, environment: Any = None,
+                      magnetorquers: Any = None, progress: Any = False, **options: Any) -> GyrostatTrajectory:
+    """:func:`lgvi.simulate` with wheels or a controller (see there); returns a :class:`GyrostatTrajectory`."""
+    run = GyrostatRun(body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels, controller=controller,
+                      control_period=control_period, environment=environment, magnetorquers=magnetorquers, **options)
+    return drive(run, MemorySink(run), progress)
+
+
+__all__ = ["GYROSTAT", "GyrostatRun", "GyrostatTrajectory", "ReactionWheels", "gyrostat_options", "simulate_gyrostat"]
