@@ -409,7 +409,7 @@ def test_editing_any_kernel_file_invalidates_every_cached_kernel(tmp_path):
         import numpy as np, lgvi
         from lgvi._kernels import stepping
         lgvi.simulate([1.0, 2.0, 3.0], np.eye(3), [0.3, 2.0, 0.6], h=0.01, steps=10)
-        stats = stepping.run_chunk.stats
+        stats = stepping.run_chunk_newton.stats     # the kernel of the default method
         print(sum(stats.cache_hits.values()), sum(stats.cache_misses.values()))
         """)
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from lgvi._kernels.codes import METHOD_CAYLEY, METHOD_NEWTON, METHOD_PAPER, OK, OVERFLOW
-from lgvi._kernels.stepping import lgvi_step, run_chunk, run_chunk_cayley
+from lgvi._kernels.stepping import lgvi_step, run_chunk, run_chunk_cayley, run_chunk_newton
 
 NO_HIST = np.zeros(0)
 
@@ -65,7 +65,7 @@ def test_chunk_loop_is_the_single_step_bit_for_bit(code, torque, full_body, R0):
     Pi0 = full_body.J @ np.array([0.3, 1.0, 0.2])
     U = 0.3 * np.random.default_rng(5).standard_normal((n, 3)) if torque else np.zeros((0, 3))
     Rs, Ps, its, res, G = _by_single_steps(full_body, code, h, R0, Pi0, U, n)
-    kernels = [run_chunk] + ([run_chunk_cayley] if code == METHOD_CAYLEY else [])
+    kernels = [run_chunk] + {METHOD_CAYLEY: [run_chunk_cayley], METHOD_NEWTON: [run_chunk_newton]}.get(code, [])
     for kernel in kernels:
         for chunk, save_every in ((n, 1), (48, 1), (60, 3), (240, 8)):
             R_out, Pi_out, it_c, res_c, G_c, R_end, Pi_end = _by_chunks(kernel, full_body, code, h, R0, Pi0, U, n,

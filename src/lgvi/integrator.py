@@ -527,14 +527,15 @@ class Run:
         ``it_out``, ``res_out`` hold ``n`` entries (a record per step) or ``n // save_every``
         (per saved interval); the histogram and totals of the solver are updated either way.
         """
-        from ._kernels.stepping import METHOD_CAYLEY, run_chunk, run_chunk_cayley, run_chunk_forced
+        from ._kernels.stepping import (METHOD_CAYLEY, METHOD_NEWTON, run_chunk, run_chunk_cayley, run_chunk_forced,
+                                        run_chunk_newton)
 
         body = self.body
         if self.func is not None:
             runner = _run_callable if self.legacy else _run_callable_symmetric
             status, self.k = runner(self, n, R_out, Pi_out, it_out, res_out, partial)
         elif self.legacy:
-            kernel = run_chunk_cayley if self.code == METHOD_CAYLEY else run_chunk
+            kernel = {METHOD_CAYLEY: run_chunk_cayley, METHOD_NEWTON: run_chunk_newton}.get(self.code, run_chunk)
             status, self.k, *tot = kernel(self.code, body.Jd, self.h, self.R, self.Pi, self.G, self.U, self.k, n,
                                           self.tol, self.max_iter, self.alpha, self.save_every, R_out, Pi_out,
                                           it_out, res_out, _NO_HIST, self.counts)

@@ -147,8 +147,10 @@ def run_free_parallel(method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, 
     """Every running body (``status[b] == OK``) through steps ``k0 .. k0+n-1``, bodies in parallel."""
     for b in numba.prange(R.shape[0]):
         if status[b] == OK:
-            advance_free(b, method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out,
-                         its, res, status, fail_step, fail_res, fail_its, hist)
+            # np.int64: the prange index is uint64 in the compiled loop body but int64 when Numba
+            # first types the loop, so a bare ``b`` compiles the per-body kernel twice
+            advance_free(np.int64(b), method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, save_every, R_out,
+                         Pi_out, its, res, status, fail_step, fail_res, fail_its, hist)
 
 
 @jit
@@ -168,9 +170,9 @@ def run_forced_parallel(method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi,
     """Every running body through steps ``k0 .. k0+n-1`` of the forced/composed scheme, in parallel."""
     for b in numba.prange(R.shape[0]):
         if status[b] == OK:
-            advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, S, codes, params, sym,
-                           k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out, its, res, status, fail_step,
-                           fail_res, fail_its, hist)
+            advance_forced(np.int64(b), method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, S, codes, params,
+                           sym, k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out, its, res, status, fail_step,
+                           fail_res, fail_its, hist)      # np.int64: see run_free_parallel
 
 
 @jit
@@ -504,8 +506,8 @@ def run_lockstep_parallel(X, Jd, ib, method, h, k0, n, tol, max_iter, alpha, sav
                           status, fail_step, fail_res, fail_its, hist):
     """Every group through steps ``k0 .. k0+n-1`` (free body, Cayley), groups in parallel."""
     for gi in numba.prange(X.shape[0]):
-        advance_group(gi, X, Jd, ib, method, h, k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out, its, res,
-                      status, fail_step, fail_res, fail_its, hist)
+        advance_group(np.int64(gi), X, Jd, ib, method, h, k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out,
+                      its, res, status, fail_step, fail_res, fail_its, hist)      # np.int64: see run_free_parallel
 
 
 @jit

@@ -248,6 +248,18 @@ def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, t
         it += 1
 
 
+@jit(_nrt=False)
+def solve_call(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, tol, max_iter, alpha, hist, eager):
+    """:func:`solve_scalar` as a function of its own (not inlined at Numba's level; LLVM decides).
+
+    The forced loops call the solver through this: an ``inline="always"`` helper is copied into
+    every caller at Numba's IR level, and the copy costs time that grows with the size of the
+    caller (most of the first call's compilation). The arithmetic is the same, bit for bit.
+    """
+    return solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, tol, max_iter, alpha, hist,
+                        eager)
+
+
 @jit
 def solve_implicit_kernel(method, Jd, hPi, g, tol, max_iter, alpha, E, hist):
     """Array wrapper of :func:`solve_scalar`: ``g`` (3,) in/out, ``E`` (3,3) out, ``hist`` (n,) out.

@@ -31,7 +31,7 @@ import math
 
 from .._jit import jit
 from .codes import OVERFLOW
-from .solvers import METHOD_CAYLEY, OK, solve_scalar
+from .solvers import METHOD_CAYLEY, METHOD_NEWTON, OK, solve_call, solve_scalar
 from .torque_kernels import model_moments, model_moments_s, momentum_diag
 
 
@@ -338,6 +338,17 @@ def run_chunk_cayley(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, sa
                       R_out, Pi_out, records, it_out, res_out, hist, counts)
 
 
+@jit(_nrt=False)
+def run_chunk_newton(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_every,
+                     R_out, Pi_out, it_out, res_out, hist, counts):
+    """:func:`run_chunk` compiled for ``method == METHOD_NEWTON`` only (the argument is ignored):
+    ``simulate``'s default method, specialised as :func:`run_chunk_cayley` is (the same bits;
+    LLVM drops the other solvers' branches, which also shortens the first call's compilation)."""
+    records = 1 if it_out.shape[0] == n else 2
+    return free_steps(METHOD_NEWTON, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_every, save_every, 0,
+                      R_out, Pi_out, records, it_out, res_out, hist, counts)
+
+
 # ------------------------------------------------------------------------------------------------
 # Forced steps: potentials (variational), paper or symmetric forcing, and compositions
 # ------------------------------------------------------------------------------------------------
@@ -385,8 +396,8 @@ def solve_warm(method, Jd, J_inv, p0, p1, p2, G, j, tol, max_iter, alpha, hist):
             q0 = c * (J_inv[0, 0] * p0 + J_inv[0, 1] * p1 + J_inv[0, 2] * p2)
             q1 = c * (J_inv[1, 0] * p0 + J_inv[1, 1] * p1 + J_inv[1, 2] * p2)
             q2 = c * (J_inv[2, 0] * p0 + J_inv[2, 1] * p1 + J_inv[2, 2] * p2)
-        res = solve_scalar(method, Jd[0, 0], Jd[0, 1], Jd[0, 2], Jd[1, 1], Jd[1, 2], Jd[2, 2],
-                           p0, p1, p2, q0, q1, q2, tol, max_iter, alpha, hist, attempt == 0)
+        res = solve_call(method, Jd[0, 0], Jd[0, 1], Jd[0, 2], Jd[1, 1], Jd[1, 2], Jd[2, 2],
+                         p0, p1, p2, q0, q1, q2, tol, max_iter, alpha, hist, attempt == 0)
         spent += res[12]
         if res[14] == OK:
             break

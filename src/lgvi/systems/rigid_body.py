@@ -24,7 +24,9 @@ def momentum_matrices(body: Any, codes: np.ndarray, params: np.ndarray, hs: np.n
     """``(I + hs/2 D J^-1)^-1`` per substep: the symmetric momentum equation of damped models."""
     from .._kernels.torque_kernels import momentum_diag
 
-    D = np.array(momentum_diag(codes, params))
+    # the kernel's Python source (the same sums in the same order, so the same bits): no compiled
+    # function loaded, or compiled cold, for three numbers on a run's first call
+    D = np.array(getattr(momentum_diag, "py_func", momentum_diag)(codes, params), dtype=np.float64)
     A = np.tile(np.eye(3), (len(hs), 1, 1))
     if not sym or not np.any(D):
         return A
@@ -45,6 +47,7 @@ def _kernels() -> dict[str, Any]:
     from .._kernels import ensemble_kernels, stepping
 
     return {"run_chunk": stepping.run_chunk, "run_chunk_cayley": stepping.run_chunk_cayley,
+            "run_chunk_newton": stepping.run_chunk_newton,
             "run_chunk_forced": stepping.run_chunk_forced, "lgvi_step": stepping.lgvi_step,
             "shifted_step": stepping.shifted_step, "run_free_parallel": ensemble_kernels.run_free_parallel,
             "run_forced_parallel": ensemble_kernels.run_forced_parallel}
