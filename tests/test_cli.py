@@ -157,6 +157,19 @@ def test_run_no_plots_and_scenario_formats(capsys, tmp_path):
     assert names == {"trajectory.csv", "trajectory.meta.json", "scenario.toml", "summary.txt", "summary.json"}
 
 
+def test_run_summary_names_the_splitting(capsys, tmp_path):
+    """A splitting run has no implicit solve and no forcing: its summary says which splitting ran."""
+    p = tmp_path / "s.toml"
+    p.write_text(SCENARIO.replace("save_every = 5", 'save_every = 5\nscheme = "splitting"\norder = 4')
+                 + "\n[output]\nplots = false\n")
+    code, out, err = run(capsys, "run", p, "-o", tmp_path / "o")
+    assert code == 0, err
+    summary = (tmp_path / "o" / "summary.txt").read_text()
+    assert "integrator:    splitting aba84, order 4" in summary and "forcing" not in summary
+    data = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert data["scheme"] == "splitting" and data["composition"] == "aba84"
+
+
 def test_run_scenario_without_plots(capsys, tmp_path):
     p = tmp_path / "s.toml"
     p.write_text(SCENARIO + "\n[output]\nplots = false\n")

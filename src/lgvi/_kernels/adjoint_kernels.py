@@ -38,6 +38,29 @@ def matvec(A, x0, x1, x2):
 
 
 @jit(inline="always")
+def store_step(F, R, k, E):
+    """``F[k] = I + E`` and ``R[k+1] = R[k] F[k]`` (with ``E = F - I``, the solver's form, added last
+    so the identity part is exact)."""
+    E00, E01, E02, E10, E11, E12, E20, E21, E22 = E
+    F[k, 0, 0] = 1.0 + E00
+    F[k, 0, 1] = E01
+    F[k, 0, 2] = E02
+    F[k, 1, 0] = E10
+    F[k, 1, 1] = 1.0 + E11
+    F[k, 1, 2] = E12
+    F[k, 2, 0] = E20
+    F[k, 2, 1] = E21
+    F[k, 2, 2] = 1.0 + E22
+    for i in range(3):
+        a0 = R[k, i, 0]
+        a1 = R[k, i, 1]
+        a2 = R[k, i, 2]
+        R[k + 1, i, 0] = a0 + (a0 * E00 + a1 * E10 + a2 * E20)
+        R[k + 1, i, 1] = a1 + (a0 * E01 + a1 * E11 + a2 * E21)
+        R[k + 1, i, 2] = a2 + (a0 * E02 + a1 * E12 + a2 * E22)
+
+
+@jit(inline="always")
 def potential_moment(codes, params, J, t, R, k):
     """Potential moment ``P`` (3 numbers) of the conservative terms at ``(t, R[k])``."""
     P0 = 0.0
@@ -189,22 +212,7 @@ def forward_run(Jd, J, J_inv, h, t0, R, Pi, F, P, U, sym, codes, params, tol, ma
         z0, z1, z2 = q0, q1, q2
         q0, q1, q2 = g0, g1, g2
         g0, g1, g2 = n0, n1, n2
-        F[k, 0, 0] = 1.0 + E00
-        F[k, 0, 1] = E01
-        F[k, 0, 2] = E02
-        F[k, 1, 0] = E10
-        F[k, 1, 1] = 1.0 + E11
-        F[k, 1, 2] = E12
-        F[k, 2, 0] = E20
-        F[k, 2, 1] = E21
-        F[k, 2, 2] = 1.0 + E22
-        for i in range(3):
-            a0 = R[k, i, 0]
-            a1 = R[k, i, 1]
-            a2 = R[k, i, 2]
-            R[k + 1, i, 0] = a0 + (a0 * E00 + a1 * E10 + a2 * E20)
-            R[k + 1, i, 1] = a1 + (a0 * E01 + a1 * E11 + a2 * E21)
-            R[k + 1, i, 2] = a2 + (a0 * E02 + a1 * E12 + a2 * E22)
+        store_step(F, R, k, (E00, E01, E02, E10, E11, E12, E20, E21, E22))
         P[k + 1, 0], P[k + 1, 1], P[k + 1, 2] = potential_moment(codes, params, J, t0 + (k + 1) * h, R, k + 1)
         b0 = m0 + (E00 * m0 + E10 * m1 + E20 * m2)
         b1 = m1 + (E01 * m0 + E11 * m1 + E21 * m2)
@@ -443,22 +451,7 @@ def shoot_run(Jd, J, J_inv, h, t0, lam0, umax, R, Pi, F, P, U, codes, params, to
         res[k] = rn
         if st != OK:
             return st, k
-        F[k, 0, 0] = 1.0 + E00
-        F[k, 0, 1] = E01
-        F[k, 0, 2] = E02
-        F[k, 1, 0] = E10
-        F[k, 1, 1] = 1.0 + E11
-        F[k, 1, 2] = E12
-        F[k, 2, 0] = E20
-        F[k, 2, 1] = E21
-        F[k, 2, 2] = 1.0 + E22
-        for i in range(3):
-            a0 = R[k, i, 0]
-            a1 = R[k, i, 1]
-            a2 = R[k, i, 2]
-            R[k + 1, i, 0] = a0 + (a0 * E00 + a1 * E10 + a2 * E20)
-            R[k + 1, i, 1] = a1 + (a0 * E01 + a1 * E11 + a2 * E21)
-            R[k + 1, i, 2] = a2 + (a0 * E02 + a1 * E12 + a2 * E22)
+        store_step(F, R, k, (E00, E01, E02, E10, E11, E12, E20, E21, E22))
         P[k + 1, 0], P[k + 1, 1], P[k + 1, 2] = potential_moment(codes, params, J, t0 + (k + 1) * h, R, k + 1)
         # lam_R+' = F^T (lam_R - G_k^T (h/2 lam_P))
         e0, e1, e2, et = potential_adjoint(codes, params, J, t0 + k * h, R, k, hh * lP0, hh * lP1, hh * lP2, gJ, 0,

@@ -271,6 +271,8 @@ def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], 
         "t_start": float(traj.t[0]),
         "t_end": float(traj.t[-1]),
         "method": scenario.method,
+        "scheme": traj.meta.get("scheme"),            # "splitting": no implicit solve, no forcing
+        "composition": traj.meta.get("composition"),
         "forcing": traj.meta.get("forcing", scenario.forcing),
         "order": traj.meta.get("order", scenario.order),
         "torque": [s["type"] for s in scenario.torque_spec],
@@ -295,8 +297,10 @@ def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], 
         f"status:        {status}{': ' + message if message else ''}",
         f"steps:         {steps_done} of {scenario.steps}, h = {scenario.h:g} s, t = {data['t_start']:g} .. "
         f"{data['t_end']:g} s, {data['samples']} saved states (every {scenario.save_every})",
-        f"integrator:    method {scenario.method}, forcing {data['forcing']}, order {data['order']}, "
-        f"torque {' + '.join(data['torque']) or 'none'}",
+        (f"integrator:    splitting {data['composition']}, order {data['order']}, "
+         if data["scheme"] == "splitting" else
+         f"integrator:    method {scenario.method}, forcing {data['forcing']}, order {data['order']}, ")
+        + f"torque {' + '.join(data['torque']) or 'none'}",
         f"wall time:     {wall:.4g} s ({rate} steps/s)"
         + ("" if kernel_load is None else f"; kernel load/compile before it {kernel_load:.3g} s"),
         f"solver:        mean {data['iterations_mean'] if data['iterations_mean'] is None else round(data['iterations_mean'], 3)}"
