@@ -124,3 +124,16 @@ def test_make_figures_script(tmp_path):
     for png in pngs:
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         assert png.stat().st_size < 150_000, f"{png.name} is {png.stat().st_size} bytes (limit 150 KB)"
+
+
+def test_quick_start_is_the_two_commands():
+    """The README opens with a Quick start of exactly two commands, each doing its own set-up: one
+    runs the default scenario, one the tests (CI's `.ci/run` is the second)."""
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    head, _, rest = readme.partition("\n## Quick start\n")
+    assert rest and head.count("\n## ") == 0, "Quick start must be the README's first section"
+    block = re.search(r"```bash\n(.*?)```", rest, flags=re.S)
+    assert block and rest.index("```bash") < rest.find("\n## "), "Quick start has no bash block"
+    commands = [line.split("#")[0].strip() for line in block.group(1).splitlines() if line.split("#")[0].strip()]
+    assert commands == ["make demo", "make test"]
+    assert "make test" in (ROOT / ".ci" / "run").read_text(encoding="utf-8")
