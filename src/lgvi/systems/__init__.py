@@ -22,6 +22,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ..errors import ConvergenceError
+
 
 @dataclass(frozen=True)
 class Field:
@@ -110,9 +112,33 @@ def provide_run(system: System, factory: Callable[..., Any]) -> None:
     RUNS[system.name] = factory
 
 
+class CarriedState:
+    """Base of a run whose state between chunks is the step count ``k`` and the float arrays
+    named in :attr:`CARRIED`: its ``state()`` copies them and ``load_state()`` writes them back in
+    place (so a run continued from a saved state is bit for bit the uninterrupted run), and
+    ``step_failure`` words the :class:`lgvi.ConvergenceError` of a failed step."""
+
+    #: Names of the arrays the compiled kernel carries from step to step.
+    CARRIED: tuple[str, ...] = ()
+
+    def state(self) -> dict[str, Any]:
+        return {"k": self.k, **{key: getattr(self, key).copy() for key in self.CARRIED}}
+
+    def load_state(self, st: dict[str, Any]) -> None:
+        self.k = int(st["k"])
+        for key in self.CARRIED:
+            getattr(self, key)[...] = np.asarray(st[key], dtype=np.float64)
+
+    def step_failure(self, what: str, residual: float, iterations: int, trajectory: Any, where: str) -> Exception:
+        t = self.t0 + self.k * self.h
+        return ConvergenceError(f"{self.system.name.replace('_', '-')} step {self.k} (t = {t:g}) failed: {what}; "
+                                f"try a smaller step h{where}", residual=float(residual),
+                                iterations=int(iterations), step=self.k, time=t, trajectory=trajectory)
+
+
 from . import rigid_body as rigid_body  # noqa: E402  (registers the rigid body)
 from . import orbit as orbit  # noqa: E402  (a body in a central field)
 from . import two_body as two_body  # noqa: E402  (two bodies in mutual gravity)
 from . import gyrostat as gyrostat  # noqa: E402  (registers the gyrostat: reaction wheels)
 
-__all__ = ["Field", "RUNS", "SYSTEMS", "System", "provide_run", "register"]
+__all__ = ["CarriedState", "Field", "RUNS", "SYSTEMS", "System", "provide_run", "register"]

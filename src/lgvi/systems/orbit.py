@@ -29,9 +29,8 @@ from .._validation import as_float, as_float_array, as_rotation, choice
 from .._version import __version__
 from ..body import RigidBody
 from ..driver import MemorySink, Progress, check_memory, drive, initial_momentum, sample_times, time_grid
-from ..errors import ConvergenceError
 from ..invariants import BOUNDED, EXACT
-from . import Field, System, register
+from . import CarriedState, Field, System, register
 
 #: Steps per compiled call (progress and Ctrl-C between chunks).
 CHUNK_STEPS = 1 << 18
@@ -287,10 +286,11 @@ def extra_torque(torque: Any, steps: int, name: str = "torque") -> np.ndarray:
     return as_float_array(torque, name, (steps + 1, 3)).copy()
 
 
-class OrbitRun:
+class OrbitRun(CarriedState):
     """One validated run of :func:`simulate_orbit` (driven by :func:`lgvi.driver.drive`)."""
 
     system = ORBIT
+    CARRIED = ('x', 'p', 'R', 'Pi', 'G', 'C')
     full = False          # records: the largest per saved interval
     label = "orbit simulation"
 
@@ -362,23 +362,11 @@ class OrbitRun:
         return int(status)
 
     def failure(self, status: int, residual: float, iterations: int, trajectory: Any, where: str = "") -> Exception:
-        t = self.t0 + self.k * self.h
         what = {OVERFLOW: "the momentum after the step is not finite",
                 NOT_FINITE: "the state became non-finite (the body reached the centre, or the step is far too large)",
                 }.get(status, f"the attitude equation was not solved (status {status}, residual {residual:.3e}, "
                               f"{iterations} iterations)")
-        return ConvergenceError(f"orbit step {self.k} (t = {t:g}) failed: {what}; try a smaller step h{where}",
-                                residual=float(residual), iterations=int(iterations), step=self.k, time=t,
-                                trajectory=trajectory)
-
-    def state(self) -> dict[str, Any]:
-        return {"k": self.k, "x": self.x.copy(), "p": self.p.copy(), "R": self.R.copy(), "Pi": self.Pi.copy(),
-                "G": self.G.copy(), "C": self.C.copy()}
-
-    def load_state(self, st: dict[str, Any]) -> None:
-        self.k = int(st["k"])
-        for key in ("x", "p", "R", "Pi", "G", "C"):
-            getattr(self, key)[...] = np.asarray(st[key], dtype=np.float64)
+        return self.step_failure(what, residual, iterations, trajectory, where)
 
     def trajectory(self, t, x, p, R, Pi, it, res, partial: bool = False) -> OrbitTrajectory:
         meta = dict(self.meta, partial=True) if partial else dict(self.meta)

@@ -30,9 +30,8 @@ from .._validation import as_float, as_float_array, as_rotation, choice
 from .._version import __version__
 from ..body import RigidBody
 from ..driver import MemorySink, Progress, check_memory, drive, initial_momentum, sample_times, time_grid
-from ..errors import ConvergenceError
 from ..invariants import BOUNDED, EXACT
-from . import Field, System, register
+from . import CarriedState, Field, System, register
 from .orbit import load_result_npz, positive_number, save_result_npz
 
 CHUNK_STEPS = 1 << 18
@@ -572,10 +571,11 @@ def _pair(value: Any, name: str, m1: float, m2: float) -> np.ndarray:
     return as_float_array(value, name, (2, 3)).copy()
 
 
-class TwoBodyRun:
+class TwoBodyRun(CarriedState):
     """One validated run of :func:`simulate_two_body` (driven by :func:`lgvi.driver.drive`)."""
 
     system = TWO_BODY
+    CARRIED = ('x', 'p', 'R', 'Pi', 'Gh', 'C')
     full = False
     label = "two-body simulation"
 
@@ -648,23 +648,11 @@ class TwoBodyRun:
         return int(status)
 
     def failure(self, status: int, residual: float, iterations: int, trajectory: Any, where: str = "") -> Exception:
-        t = self.t0 + self.k * self.h
         what = {OVERFLOW: "the state after the step is not finite (the bodies collided, or the step is far too large)",
                 NOT_FINITE: "the positions became non-finite",
                 }.get(status, f"an attitude equation was not solved (status {status}, residual {residual:.3e}, "
                               f"{iterations} iterations)")
-        return ConvergenceError(f"two-body step {self.k} (t = {t:g}) failed: {what}; try a smaller step h{where}",
-                                residual=float(residual), iterations=int(iterations), step=self.k, time=t,
-                                trajectory=trajectory)
-
-    def state(self) -> dict[str, Any]:
-        return {"k": self.k, "x": self.x.copy(), "p": self.p.copy(), "R": self.R.copy(), "Pi": self.Pi.copy(),
-                "Gh": self.Gh.copy(), "C": self.C.copy()}
-
-    def load_state(self, st: dict[str, Any]) -> None:
-        self.k = int(st["k"])
-        for key in ("x", "p", "R", "Pi", "Gh", "C"):
-            getattr(self, key)[...] = np.asarray(st[key], dtype=np.float64)
+        return self.step_failure(what, residual, iterations, trajectory, where)
 
     def trajectory(self, t, x, p, R, Pi, it, res, partial: bool = False) -> TwoBodyTrajectory:
         meta = dict(self.meta, partial=True) if partial else dict(self.meta)
