@@ -263,3 +263,24 @@ def test_system_streams_zero_steps_and_bad_names(tmp_path):
     path.write_text(json.dumps(manifest))
     with pytest.raises(ValueError, match="'planet', which has no stream format"):
         read_stream(tmp_path / "z")
+
+
+def test_scenario_with_wheels_streams_and_resumes_like_the_run_in_memory(tmp_path):
+    """``lgvi run`` streams [[wheel]] scenarios (Scenario.run_stream): --resume finishes them bit for bit."""
+    from pathlib import Path
+
+    from lgvi.io.scenario import load_scenario
+
+    sc = load_scenario(Path(__file__).resolve().parents[1] / "examples" / "wheel_slew.toml")
+    ref = sc.run()
+
+    def interrupt(k, n):
+        if k >= 2000:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        sc.run_stream(tmp_path / "stream", chunk_steps=1000, progress=interrupt)
+    assert len(read_manifest(tmp_path / "stream")["chunks"]) == 2
+    got = sc.run_stream(tmp_path / "stream", chunk_steps=1000, resume=True)
+    same_gyro(got, ref)
+    assert got.meta["scenario_name"] == "wheel_slew"
