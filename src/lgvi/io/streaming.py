@@ -9,6 +9,11 @@ A stream is a folder::
       chunk-000001.npz
       ...
 
+The chunks of another system (``meta["system"]``: the gyrostat, a body in orbit, two bodies) hold
+``t`` and its declared state and record fields by name (:class:`lgvi.systems.System`: ``state``,
+``records``), and :func:`read_stream` returns its result type through its ``from_stream``
+(:func:`simulate_stream` with ``wheels=``, :func:`stream_system`).
+
 Every chunk file is written to a temporary name, flushed to disk and renamed into place, and only
 then is the manifest (also written by rename) updated to list it. A rename is atomic, so after a
 crash at any point the folder holds a consistent manifest that lists only complete chunks;
@@ -302,8 +307,10 @@ def _read_system(folder: str | os.PathLike, manifest: dict[str, Any], meta: dict
 _SUMMARY_FIELDS = ("iteration_counts", "iterations_total", "residual_max", "iterations_max")
 
 
-def read_stream(folder: str | os.PathLike) -> Trajectory:
-    """Read every complete chunk of a stream folder as one :class:`Trajectory`.
+def read_stream(folder: str | os.PathLike) -> Any:
+    """Read every complete chunk of a stream folder as one :class:`Trajectory` (or, for another
+    system, its result type: :class:`lgvi.systems.gyrostat.GyrostatTrajectory`,
+    :class:`lgvi.OrbitTrajectory`, :class:`lgvi.TwoBodyTrajectory`, through ``System.from_stream``).
 
     The first chunk holds the initial sample; chunks not listed in the manifest (a crash while
     writing them) are ignored.

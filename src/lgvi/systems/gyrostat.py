@@ -632,7 +632,9 @@ def _from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state: dic
         if arrays[name].shape != shape:
             raise ValueError(f"field {name!r} must have shape {shape} (M = {M} samples, N = {n} wheels), got "
                              f"{arrays[name].shape}")
-    u = arrays["wheel_torque"].reshape(-1, n)
+    u = arrays["wheel_torque"]
+    if u.ndim != 2 or u.shape[1] != n:
+        raise ValueError(f"field 'wheel_torque' must have shape (entries, {n}) (N = {n} wheels), got {u.shape}")
     full, se = meta.get("solver_record") == "full", int(meta["save_every"])
     out = dict(meta)
     out["solver_summary"] = summary_dict(np.asarray(state["counts"], dtype=np.int64), int(state["it_total"]),
