@@ -81,6 +81,11 @@ class Forgetful(Controller):
         return Command(wheel_torque=np.full(len(wheel_speed), 1e-3 * (self.calls % 3 - 1)))
 
 
+def profile(t):
+    """A slowly turning reference attitude (a callable target: MRPFeedback runs in Python)."""
+    return lgvi.so3.exp([0.0, 0.001 * t, 0.0])
+
+
 GYRO_RUNS = {
     # the compiled MRP feedback with its integral; the control period (7 steps) does not divide a chunk
     "mrp-integral": lambda: dict(wheels=wheels(), controller=MRPFeedback(0.5, 2.0, Ki=0.01, integral_limit=0.2,
@@ -91,10 +96,9 @@ GYRO_RUNS = {
                                            control_period=0.14, save_every=5, steps=3000, h=0.02,
                                            solver_record="full"),
     # MRPFeedback with a reference profile runs in Python; its integral is saved by lgvi
-    "mrp-profile": lambda: dict(wheels=wheels(), controller=MRPFeedback(0.5, 2.0, Ki=0.01,
-                                                                         target=lambda t: lgvi.so3.exp([0, 0.001 * t, 0])),
+    "mrp-profile": lambda: dict(wheels=wheels(), controller=MRPFeedback(0.5, 2.0, Ki=0.01, target=profile),
                                 control_period=0.1, save_every=5, steps=3000, h=0.02),
-    # no wheels: the compiled law's torque acts on the body (the declared invariants change in the run)
+    # no wheels: the compiled law's torque acts on the body (no invariant is declared)
     "mrp-no-wheels": lambda: dict(controller=MRPFeedback(0.5, 2.0, Ki=0.01, target=R_REF), control_period=0.06,
                                   save_every=5, steps=3000, h=0.02),
     # free wheels with friction, no controller, fourth order

@@ -293,10 +293,9 @@ def system_arrays(folder: str | os.PathLike) -> tuple[dict[str, Any], dict[str, 
     return manifest, arrays
 
 
-def _read_system(folder: str | os.PathLike, manifest: dict[str, Any], meta: dict[str, Any]) -> Any:
+def _read_system(folder: str | os.PathLike, meta: dict[str, Any]) -> Any:
     """:func:`read_stream` of a system other than the rigid body: its ``from_stream`` result."""
-    mpath = Path(folder) / MANIFEST
-    system = _stream_system(meta, mpath)
+    system = _stream_system(meta, Path(folder) / MANIFEST)
     manifest, arrays = system_arrays(folder)
     state = manifest.get("state")
     meta = dict(manifest["meta"], complete=manifest.get("complete", False))
@@ -304,6 +303,8 @@ def _read_system(folder: str | os.PathLike, manifest: dict[str, Any], meta: dict
         return system.from_stream(meta, arrays, state if isinstance(state, dict) else {})
     except (KeyError, TypeError, ValueError) as exc:
         raise ValueError(f"the stream {folder} ({system.name}) is damaged: {type(exc).__name__}: {exc}") from exc
+
+
 _SUMMARY_FIELDS = ("iteration_counts", "iterations_total", "residual_max", "iterations_max")
 
 
@@ -328,7 +329,7 @@ def read_stream(folder: str | os.PathLike) -> Any:
     if not isinstance(chunks, list) or not isinstance(meta, dict):
         raise ValueError(f"{mpath} is damaged: 'chunks' must be a list and 'meta' an object")
     if meta.get("system", "rigid_body") != "rigid_body":
-        return _read_system(folder, manifest, meta)
+        return _read_system(folder, meta)
     try:
         inertia = np.asarray(meta["inertia"], dtype=np.float64)
         h = float(meta["h"])
@@ -668,5 +669,5 @@ def _check_resume(old: dict[str, Any], new: dict[str, Any], folder: Path) -> Non
                          f"{new.get(k)!r}; a stream resumes only the same run (differences: {', '.join(diff)})")
 
 
-__all__ = ["StreamSink", "StreamWriter", "read_manifest", "read_stream", "simulate_stream", "stream_run", "stream_system",
-           "system_arrays"]
+__all__ = ["StreamSink", "StreamWriter", "read_manifest", "read_stream", "simulate_stream", "stream_run",
+           "stream_system", "system_arrays"]
