@@ -851,13 +851,7 @@ class Scenario:
         """
         from .streaming import read_stream, simulate_stream
 
-        if self.wheels is not None or self.controller is not None or self.environment is not None:
-            # no stream format for the gyrostat yet: the run is kept in memory (it is fast)
-            if resume:
-                raise ScenarioError(self.source, None, "resume: runs with [[wheel]] or [controller] are not "
-                                    "streamed to disk, so there is nothing to resume; run it again")
-            return self.run(progress=progress)
-        try:
+        try:   # with [[wheel]] or [controller]: the gyrostat's stream (wheel fields, controller state)
             simulate_stream(folder, self.body, self.R0, self.Pi0, progress=progress, resume=resume,
                             chunk_steps=chunk_steps, meta={"scenario_name": self.name},
                             solver_record=solver_record, **self.simulate_kwargs())
