@@ -55,6 +55,8 @@ FIGURE_PIXELS: dict[str, tuple[int, int]] = {
     "polhode": (800, 700),
     "comparison": (1000, 700),
     "wheels": (800, 500),
+    "orbit": (800, 650),
+    "two_body": (800, 650),
 }
 
 #: Errors below this are drawn at this value on the logarithmic axes (an exact zero has no log).
@@ -1067,7 +1069,15 @@ def save_figures(traj: Trajectory, outdir: str | os.PathLike, *, prefix: str = "
     -------
     list of pathlib.Path
         The files written, in the order above.
+
+    A result of :func:`lgvi.simulate_orbit` gets ``{prefix}orbit.png`` (:func:`orbit`), one of
+    :func:`lgvi.simulate_two_body` ``{prefix}two_body.png`` (:func:`two_body`).
     """
+    system = (getattr(traj, "meta", None) or {}).get("system")
+    if system in _SYSTEM_FIGURES and hasattr(traj, "x"):      # a body in orbit, two bodies
+        out = Path(outdir)
+        out.mkdir(parents=True, exist_ok=True)
+        return [_save(_SYSTEM_FIGURES[system](traj), out / f"{prefix}{system}.png")]
     _check_traj(traj, "save_figures")
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
@@ -1203,7 +1213,7 @@ def _invariant_errors(ax: Axes, traj: Any, keys: Sequence[str]) -> None:
     _style_log(ax)
     ax.set_xlabel("time $t$")
     ax.set_ylabel("relative change")
-    ax.legend(fontsize=7, loc="lower right")
+    ax.legend(fontsize=7, loc="best")         # not over a curve at the floor (an exact zero)
 
 
 def orbit(traj: Any) -> Figure:
@@ -1244,7 +1254,8 @@ def orbit(traj: Any) -> Figure:
     keys = [k for k in ("angular_momentum", "angular_momentum_e3", "energy") if k in traj.meta.get("invariants", {})]
     _invariant_errors(d, traj, keys or ["angular_momentum", "energy"])
     d.set_title("invariants", fontsize=9)
-    fig.suptitle(f"body in a central field ({traj.meta.get('potential', '')} potential)", fontsize=10)
+    fig.suptitle(f"body in a central field ({traj.meta.get('potential', '')} potential"
+                 + (f", J2 = {traj.meta['J2']:g})" if traj.meta.get("J2") else ")"), fontsize=10)
     return fig
 
 
@@ -1282,6 +1293,10 @@ def two_body(traj: Any) -> Figure:
     d.set_title("invariants", fontsize=9)
     fig.suptitle(f"two bodies ({traj.meta.get('potential', '')} mutual potential)", fontsize=10)
     return fig
+
+
+#: The figure of each other system's result, by ``meta["system"]`` (:func:`save_figures`).
+_SYSTEM_FIGURES: dict[str, Callable[[Any], Any]] = {"orbit": orbit, "two_body": two_body}
 
 
 __all__ = [
