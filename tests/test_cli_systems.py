@@ -352,14 +352,30 @@ def test_error_estimate_with_wheels_tracks_the_true_error(h):
     assert np.array_equal(plain.R, traj.R) and np.array_equal(plain.wheel_momentum, traj.wheel_momentum)
 
 
-def test_error_estimate_with_wheels_uses_copies_of_a_stateful_controller():
-    # an integral term: a controller shared between the run and the shadow run would carry its
-    # integral from one into the other; the shadow's copy starts from the state given
-    ctrl = lgvi.control.MRPFeedback(K=3.5, P=30.0, Ki=0.01)
+class _Pulse(lgvi.control.Controller):
+    """A wheel torque pulse over the first 20 calls: a controller with its own state."""
+
+    def __init__(self) -> None:
+        self.calls = 0
+
+    def command(self, t, R, omega, wheel_speed, env):
+        self.calls += 1
+        return lgvi.control.Command(wheel_torque=[0.05, -0.02, 0.0] if self.calls <= 20 else [0.0, 0.0, 0.0])
+
+
+def test_error_estimate_with_wheels_runs_the_shadow_with_a_copy_of_the_controller():
+    # a controller shared by the run and the shadow run would start the shadow with the run's
+    # state (here: the pulse over), and the estimate would measure that, not the step's error
     J = np.diag([900.0, 800.0, 600.0])
-    wheels = lgvi.ReactionWheels(np.eye(3), 0.08, max_torque=0.2)
-    kw = dict(omega0=[0.01, -0.02, 0.03], h=0.2, steps=300, wheels=wheels, control_period=0.2)
-    a = lgvi.simulate(J, np.eye(3), controller=ctrl, error_estimate=True, **kw)
-    b = lgvi.simulate(J, np.eye(3), controller=lgvi.control.MRPFeedback(K=3.5, P=30.0, Ki=0.01), **kw)
+    kw = dict(omega0=[0.01, -0.02, 0.03], h=0.2, steps=300, control_period=0.2)
+    wheels = lgvi.ReactionWheels(np.eye(3), 0.08)
+    a = lgvi.simulate(J, np.eye(3), wheels=wheels, controller=_Pulse(), error_estimate=True, **kw)
+    b = lgvi.simulate(J, np.eye(3), wheels=wheels, controller=_Pulse(), **kw)
     assert np.array_equal(a.R, b.R)
-    assert a.error_estimate.attitude < 1e-3
+    half = lgvi.simulate(J, np.eye(3), wheels=wheels, controller=_Pulse(), **dict(kw, h=0.1, steps=600,
+                                                                                    control_period=0.2))
+    from lgvi.accuracy import geodesic_distance
+
+    assert a.error_estimate.attitude == pytest.approx(4.0 / 3.0 * float(geodesic_distance(a.R[-1], half.R[-1])),
+                                                      rel=1e-12)
+    assert a.error_estimate.attitude < 1e-4

@@ -7,7 +7,9 @@ command                                            what it does
                                                    with ``-o`` also the trajectory and figures
 ``lgvi run SCENARIO.toml [-o DIR]``                runs a scenario file (:mod:`lgvi.scenario`); writes the
 ``[--no-plots] [--format npz,csv,netcdf]``         trajectory, ``summary.txt``/``summary.json``, the scenario,
-                                                   the figures and ``report.html``
+                                                   the figures and ``report.html``; an ``[orbiting_body]`` or
+                                                   ``[two_body]`` scenario: the npz, summaries (the system's
+                                                   declared invariants) and its figure
 ``lgvi compare SCENARIO.toml --with rk4,rk45``     the same problem through the baselines (``rk4``, ``rk45``,
 ``[-o DIR]``                                       ``dop853``): a table of conservation errors and wall times,
                                                    and with ``-o`` overlaid figures
