@@ -173,6 +173,8 @@ def test_run_writes_a_summary_of_the_declared_invariants(capsys, tmp_path, text,
     assert (width, height) == (800, 650)
     code, _, err = run(capsys, "plot", out_dir / "trajectory.npz", "--animate")
     assert code == 2 and "--animate" in err
+    code, _, err = run(capsys, "view", out_dir / "trajectory.npz", "-o", tmp_path / "page.html")
+    assert code == 2 and "lgvi view" in err and system in err and not (tmp_path / "page.html").exists()
 
 
 @pytest.mark.parametrize("example", ["orbit_attitude.toml", "binary_asteroid.toml"])

@@ -914,6 +914,10 @@ def cmd_view(args: argparse.Namespace) -> int:
     from .. import view
 
     traj = _read(args.trajectory)
+    if hasattr(traj, "members") or hasattr(traj, "x"):
+        raise UsageError(f"{args.trajectory}: lgvi view shows one rigid body's run; this file holds "
+                         f"{'an ensemble' if hasattr(traj, 'members') else 'a ' + str(traj.meta.get('system')) + ' result'} "
+                         "(lgvi info describes it, lgvi plot draws its figure)")
     out = Path(args.output) if args.output else Path(args.trajectory).with_suffix(".html")
     if args.max_frames < 2:
         raise UsageError(f"--max-frames must be an integer >= 2, got {args.max_frames}")

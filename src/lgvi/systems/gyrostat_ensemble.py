@@ -27,7 +27,7 @@ from .._validation import as_float_array, as_int
 from ..control import Controller
 from ..driver import MemorySink, drive
 from ..errors import ConvergenceError, TorqueError
-from .gyrostat import GyrostatRun, GyrostatTrajectory, ReactionWheels, _from_file
+from .gyrostat import GyrostatRun, GyrostatTrajectory, ReactionWheels
 
 __all__ = ["FORMAT", "GyrostatEnsemble", "simulate_gyrostat_ensemble"]
 
@@ -179,7 +179,9 @@ class GyrostatEnsemble:
 def _read(path: str) -> GyrostatEnsemble:
     """The ensemble in ``path`` (checked: see :meth:`GyrostatEnsemble.load`)."""
     from .._untrusted import check_npz
-    from ..trajectory import check_arrays
+    from ..trajectory import RESULT_TYPES, check_arrays
+
+    from_file = RESULT_TYPES["gyrostat"][1]          # a member as lgvi.load reads one (shapes checked)
 
     with open(path, "rb") as fh:
         if fh.read(2) != b"PK":
@@ -224,7 +226,7 @@ def _read(path: str) -> GyrostatEnsemble:
             for k in ("wheel_momentum", "wheel_torque", "wheel_axes", "spin_inertia"):
                 if fields[k].dtype.kind not in "iuf":
                     raise ValueError(f"field {k!r} must hold real numbers, got dtype {fields[k].dtype}")
-            members.append(_from_file(h=float(h.reshape(())), potential=pot, meta=metas[b], **fields))
+            members.append(from_file(h=float(h.reshape(())), potential=pot, meta=metas[b], **fields))
         except ValueError as exc:
             raise ValueError(f"member {b}: {exc}") from None
     return GyrostatEnsemble(members=tuple(members), params=params, meta=meta)
