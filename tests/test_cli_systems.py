@@ -130,6 +130,8 @@ def test_run_writes_a_summary_of_the_declared_invariants(capsys, tmp_path, text,
     summary = (out_dir / "summary.txt").read_text()
     rows = summary_rows(summary)
     assert set(rows) == {QUANTITIES[k].name for k in declared}, rows
+    # the body's own spin momentum is exchanged with the orbit: listed, marked as not conserved
+    assert re.search(r"spatial momentum R Pi\s+not an invariant here", summary)
     E = traj.energy
     L = np.cross(traj.x, traj.p)
     L = (L.sum(axis=1) if L.ndim == 3 else L) + np.einsum("k...ij,k...j->k...i", traj.R, traj.Pi).reshape(

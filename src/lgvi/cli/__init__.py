@@ -493,6 +493,7 @@ def _system_conservation_lines(traj, decl, drifts: dict[str, Any]) -> list[str]:
         q = QUANTITIES[k]
         change = (f"abs {drifts[q.abs_key]:.3e}   " if q.abs_key else "") + f"rel {_fmt_drift(drifts[q.rel_key])}"
         lines.append(f"  {q.name:<50} {change}   {KIND_TEXT[decl.kind(k)]}")
+    lines += [f"  {QUANTITIES[k].name:<50} not an invariant here" for k in decl.not_invariants()]
     lines.append(f"  {'|R^T R - I|':<50} max {drifts['orthogonality_max']:.3e}")
     return lines
 
@@ -865,6 +866,8 @@ def _info_system(path: str, traj) -> int:
             print(f"    {q.name} " + (f"abs {d[q.abs_key]:.3e}, " if q.abs_key else "")
                   + f"rel {_fmt_drift(d[q.rel_key])} ({KIND_TEXT[decl.kind(k)]})")
         print(f"    |R^T R - I| max {orthogonality_max(traj):.3e}")
+        if decl.not_invariants():
+            print(f"    not invariants here: {', '.join(QUANTITIES[k].name for k in decl.not_invariants())}")
     meta.pop("invariants", None)        # printed above
     _print_meta(meta)
     return 0

@@ -1211,7 +1211,7 @@ def _invariant_errors(ax: Axes, traj: Any, keys: Sequence[str]) -> None:
         ax.plot(traj.t, np.maximum(err, ERROR_FLOOR), lw=1.0,
                 label=f"{q.tex} ({kind}){'' if rel else ', absolute'}")
     _style_log(ax)
-    ax.set_xlabel("time $t$")
+    ax.set_xlabel(_UNITS["t"])
     ax.set_ylabel("relative change")
     ax.legend(fontsize=7, loc="best")         # not over a curve at the floor (an exact zero)
 
@@ -1242,14 +1242,14 @@ def orbit(traj: Any) -> Figure:
     radial = x / np.linalg.norm(x, axis=1, keepdims=True)
     cosang = np.clip(np.einsum("ki,ki->k", np.asarray(traj.R)[:, :, k], radial), -1.0, 1.0)
     b.plot(traj.t, np.degrees(np.arccos(cosang)), lw=0.8, color="tab:red")
-    b.set_xlabel("time $t$")
+    b.set_xlabel(_UNITS["t"])
     b.set_ylabel("deg")
     b.set_title(f"long axis (body {k + 1}) from the local vertical", fontsize=9)
     w = traj.omega
     for i in range(3):
         c.plot(traj.t, w[:, i], lw=0.8, color=_COMPONENT_COLORS[i], label=f"$\\omega_{i + 1}$")
-    c.set_xlabel("time $t$")
-    c.set_ylabel("body rate")
+    c.set_xlabel(_UNITS["t"])
+    c.set_ylabel(f"body rate ({_UNITS['omega']})")
     c.legend(fontsize=7)
     keys = [k for k in ("angular_momentum", "angular_momentum_e3", "energy") if k in traj.meta.get("invariants", {})]
     _invariant_errors(d, traj, keys or ["angular_momentum", "energy"])
@@ -1277,7 +1277,7 @@ def two_body(traj: Any) -> Figure:
     a.set_title("mutual orbit", fontsize=9)
     a.legend(fontsize=7, loc="upper right")
     b.plot(traj.t, traj.distance, lw=0.8, color="0.3")
-    b.set_xlabel("time $t$")
+    b.set_xlabel(_UNITS["t"])
     b.set_ylabel("$|x_2 - x_1|$")
     b.set_title("distance", fontsize=9)
     w = traj.omega
@@ -1285,8 +1285,8 @@ def two_body(traj: Any) -> Figure:
         for i in range(3):
             c.plot(traj.t, w[:, body, i], style, lw=0.8, color=_COMPONENT_COLORS[i],
                    label=f"body {body + 1} $\\omega_{i + 1}$")
-    c.set_xlabel("time $t$")
-    c.set_ylabel("body rate")
+    c.set_xlabel(_UNITS["t"])
+    c.set_ylabel(f"body rate ({_UNITS['omega']})")
     c.set_title("spins (body 1 solid, body 2 dashed)", fontsize=9)
     c.legend(fontsize=6, ncol=2)
     _invariant_errors(d, traj, ["linear_momentum", "angular_momentum", "energy"])
