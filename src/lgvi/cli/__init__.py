@@ -875,7 +875,7 @@ def _info_system(path: str, traj) -> int:
 
 def _info_ensemble(path: str, ens) -> int:
     """``lgvi info`` of a gyrostat ensemble (:meth:`lgvi.systems.gyrostat_ensemble.GyrostatEnsemble.save`)."""
-    from ..invariants import KIND_TEXT, QUANTITIES, declared, drifts as invariant_drifts
+    from ..invariants import KIND_TEXT, QUANTITIES, Declaration, declared, drifts as invariant_drifts
 
     B, M = len(ens), len(ens.t)
     print(f"{path}: {ens!r}")
@@ -887,7 +887,10 @@ def _info_ensemble(path: str, ens) -> int:
     disp = ens.dispersions
     print(f"  dispersed   {', '.join(sorted(disp)) if disp else 'nothing (every member has the same inputs)'}")
     if M:
-        decl = declared(ens.members[0])
+        first = declared(ens.members[0])          # the members' controllers may differ: not named here
+        n = ens.wheel_momentum.shape[-1]
+        decl = Declaration(first.entries, f"each member (a gyrostat with {n} reaction wheels"
+                           + (", its controller)" if ens.meta.get("torque") == "controller" else ")"), first.recorded)
         print(f"  conservation (largest change over the run, worst member; {decl.note()})")
         per = [invariant_drifts(m, declared(m)) for m in ens.members]
         for k in decl.quantities():
