@@ -707,17 +707,48 @@ def gyrostat_options(*, torque: Any, forcing: Any, order: Any, composition: Any,
     _torque_model(torque)
     if forcing not in ("paper", "symmetric"):
         choice(forcing, "forcing", ("paper", "symmetric"))
-    if error_estimate not in (False, None):
-        raise ValueError("error_estimate is not available with wheels= or controller= yet")
+    from ..accuracy import check_options
+
+    check_options(error_estimate, 0.01, None)      # True or "richardson": the shadow run of simulate_gyrostat
 
 
 def simulate_gyrostat(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: Any, steps: Any,
                       wheels: Any = None, controller: Any = None, control_period: Any = None, environment: Any = None,
-                      magnetorquers: Any = None, progress: Any = False, **options: Any) -> GyrostatTrajectory:
-    """:func:`lgvi.simulate` with wheels or a controller (see there); returns a :class:`GyrostatTrajectory`."""
+                      magnetorquers: Any = None, progress: Any = False, error_estimate: Any = False,
+                      error_warn: Any = 0.01, **options: Any) -> GyrostatTrajectory:
+    """:func:`lgvi.simulate` with wheels or a controller (see there); returns a :class:`GyrostatTrajectory`.
+
+    With ``error_estimate``, the same run again at ``h/2`` (:func:`lgvi.accuracy.with_estimate`):
+    the controller, environment, magnetorquers and torque of that shadow run are copies of the
+    ones given, taken before the run changes them, and ``control_period`` must be a multiple of
+    ``h/2`` (it is whenever it is one of ``h``); the order is the composition's, 1 with wheel
+    friction (first order in the friction torque).
+    """
+    import copy
+
+    from ..accuracy import check_options, with_estimate
+
+    estimate, warn = check_options(error_estimate, error_warn, None)
+    if estimate:
+        if control_period is not None:
+            cp, half = as_float(control_period, "control_period", positive=True), abs(as_float(h, "h")) / 2.0
+            ratio = cp / half if half > 0 else float("inf")
+            if not np.isfinite(ratio) or abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio) or round(ratio) < 1:
+                raise ValueError(f"error_estimate: control_period must be a multiple of h/2 (the shadow run steps at "
+                                 f"h/2); got control_period={cp:g}, h={float(h):g}")
+        shadow_inputs = copy.deepcopy((wheels, controller, environment, magnetorquers, options.get("torque")))
     run = GyrostatRun(body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels, controller=controller,
                       control_period=control_period, environment=environment, magnetorquers=magnetorquers, **options)
-    return drive(run, MemorySink(run), progress)
+    traj = drive(run, MemorySink(run), progress)
+    if not estimate:
+        return traj
+    wl, ctrl, env, mtq, torque = shadow_inputs
+    kw = {k: v for k, v in options.items() if k not in ("save_every", "t0", "solver_record", "torque")}
+    kw.update(body=run.body, R0=R0, Pi0=Pi0, omega0=omega0, h=run.h, steps=run.steps, wheels=wl, controller=ctrl,
+              control_period=control_period, environment=env, magnetorquers=mtq, torque=torque,
+              save_every=run.save_every, t0=run.t0, progress=progress, scheme="lgvi", forcing="symmetric")
+    return with_estimate(traj, kw, warn=warn, stacklevel=3,
+                         order=1 if run.wheels.has_friction else run.comp.order)
 
 
 __all__ = ["GYROSTAT", "GyrostatRun", "GyrostatTrajectory", "ReactionWheels", "controller_state", "gyrostat_options",
