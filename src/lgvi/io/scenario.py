@@ -1194,8 +1194,25 @@ class BodiesScenario:
     def run(self, progress: Any = False):
         """Simulate (:func:`lgvi.simulate_orbit` or :func:`lgvi.simulate_two_body`); the result's
         ``meta`` holds the scenario text, name and source."""
+        return self._attached(lambda: self._run(progress=progress))
+
+    def run_stream(self, folder, *, resume: bool = False, progress: Any = False, chunk_steps: int | None = None):
+        """Simulate into a crash-safe stream folder (:func:`lgvi.io.streaming.stream_system`) and read
+        it back; ``resume=True`` continues an interrupted or killed run bit for bit. Returns what
+        :meth:`run` returns, equal to it bit for bit."""
+        from .streaming import read_stream, stream_system
+
+        def go():
+            stream_system(folder, self.kind, *self.args, progress=progress, resume=resume, chunk_steps=chunk_steps,
+                          meta={"scenario_name": self.name}, h=self.h, steps=self.steps, save_every=self.save_every,
+                          **self.kwargs)
+            return read_stream(folder)
+
+        return self._attached(go)
+
+    def _attached(self, go: Any):
         try:
-            traj = self._run(progress=progress)
+            traj = go()
         except (KeyboardInterrupt, RuntimeError) as exc:
             part = getattr(exc, "trajectory", None)
             if part is not None:
