@@ -150,7 +150,10 @@ class SplittingRun(Run):
                                 step=k, time=t_fail, trajectory=trajectory)
 
     def advance(self, n: int, R_out, Pi_out, it_out, res_out, partial) -> int:
-        from ._kernels.splitting_kernels import run_split, run_split_user
+        from ._kernels.splitting_kernels import run_axes, run_axes_user, run_split, run_split_user
+
+        if self.split.base == "axes":
+            run_split, run_split_user = run_axes, run_axes_user
 
         args = (self.I, self.ax, self.symax, self.Pax, self.diag, self.body.J, self.drift, self.weight, self.node,
                 self.h, self.t0, self.R, self.Pi, self.codes, self.params, self.k, n, self.save_every, R_out, Pi_out,
