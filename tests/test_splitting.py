@@ -179,6 +179,8 @@ def test_axis_compositions_have_their_order(name):
     slope = np.polyfit(np.log(hs), np.log(errs), 1)[0]
     assert slope == pytest.approx(sp.order + 1, abs=0.3), errs
     assert sum(sp.weights) == pytest.approx(1.0, abs=1e-15)
+    for k in range(3, sp.order, 2):                  # the power sums of the one-bracket terms
+        assert abs(float(np.sum(np.array(sp.weights) ** k))) < 1e-14, k
     assert np.allclose(sp.weights, sp.weights[::-1], atol=0) and sp.eps_orders == (sp.order, sp.order)
     starts = np.cumsum((0.0,) + sp.weights[:-1])
     assert np.allclose(sp.nodes, starts + 0.5 * np.array(sp.weights), atol=1e-15)
