@@ -158,7 +158,7 @@ def _axes_step(sp, mats, h):
     out = np.eye(A.shape[0])
     for g in sp.weights:
         t = g * h
-        for X, tau in ((A, t / 2), (B, t / 2), (C, t / 2), (D, t), (C, t / 2), (B, t / 2), (A, t / 2)):
+        for X, tau in ((D, t / 2), (A, t / 2), (B, t / 2), (C, t), (B, t / 2), (A, t / 2), (D, t / 2)):
             out = expm(tau * X) @ out
     return out
 
@@ -182,8 +182,7 @@ def test_axis_compositions_have_their_order(name):
     for k in range(3, sp.order, 2):                  # the power sums of the one-bracket terms
         assert abs(float(np.sum(np.array(sp.weights) ** k))) < 1e-14, k
     assert np.allclose(sp.weights, sp.weights[::-1], atol=0) and sp.eps_orders == (sp.order, sp.order)
-    starts = np.cumsum((0.0,) + sp.weights[:-1])
-    assert np.allclose(sp.nodes, starts + 0.5 * np.array(sp.weights), atol=1e-15)
+    assert np.allclose(sp.nodes, np.cumsum(sp.weights), atol=1e-15) and sp.nodes[-1] == pytest.approx(1.0, abs=1e-15)
 
 
 @pytest.mark.parametrize("name", ["strang", "saba3", "bab64", "aba84", "aba84-tj6", "axes-suzuki4", "axes-kl6",
@@ -230,7 +229,9 @@ def test_structure_so3_momentum_and_energy(order, name):
     tr = lgvi.simulate(TOP, np.eye(3), omega0=4.14 * np.ones(3), h=0.01, steps=2000, torque=HANGING,
                        scheme="splitting", order=order, composition=name)
     orth = np.abs(np.einsum("kji,kjl->kil", tr.R, tr.R) - np.eye(3)).max()
-    assert orth < 1e-13
+    # round-off walks: 5 flows a step (aba84), 25 or 75 rotations (axes-suzuki4, axes-kl8): 150000
+    # rotations in 2000 steps of axes-kl8, sqrt(150000) * 2.2e-16 ~ 1e-13
+    assert orth < (1e-13 if order == 4 else 5e-13)
     vertical = tr.spatial_momentum[:, 2]
     assert np.abs(vertical - vertical[0]).max() < 1e-13 * np.linalg.norm(tr.Pi[0])
     dE = np.abs(tr.energy - tr.energy[0])
@@ -382,13 +383,13 @@ def test_scenario_chooses_an_axis_splitting():
 
 
 def test_axis_splitting_save_every_and_stream(tmp_path):
-    """Saving every 10th step flushes the pending rotation only there: the same states to
-    round-off as saving every step; streamed in chunks, the same bits as in memory."""
+    """Saving every 10th step gives the same states as saving every step (the step leaves nothing
+    pending); streamed in chunks, the same bits as in memory."""
     from lgvi.io.streaming import read_stream
 
     kw = dict(omega0=4.14 * np.ones(3), torque=HANGING, scheme="splitting", order=8, h=0.01, steps=400)
     a = lgvi.simulate(TOP, np.eye(3), **kw)
     b = lgvi.simulate(TOP, np.eye(3), save_every=10, **kw)
-    assert np.abs(a.R[::10] - b.R).max() < 1e-12 and a.meta["composition"] == "axes-kl8"
+    assert np.array_equal(a.R[::10], b.R) and a.meta["composition"] == "axes-kl8"
     lgvi.simulate_stream(tmp_path / "s", TOP, np.eye(3), chunk_steps=100, save_every=10, **kw)
     assert np.array_equal(read_stream(tmp_path / "s").R, b.R)

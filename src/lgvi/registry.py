@@ -186,9 +186,9 @@ class Splitting:
 
     ``base="axes"``: the free body is not flowed exactly but split further into the three
     rotations about the principal axes (one sine and cosine each); stage ``i`` is the symmetric
-    Strang step ``T_a T_b T_c U T_c T_b T_a`` of the length ``weights[i] h`` with its kick at the
-    fraction ``nodes[i]`` (the stage's midpoint), and ``eps_orders = (order, order)``: the error
-    has no factor ``eps``.
+    Strang step ``U T_a T_b T_c T_b T_a U`` of the length ``weights[i] h``, ending at the fraction
+    ``nodes[i]`` of the step (its half kicks at its two ends), and ``eps_orders = (order, order)``:
+    the error has no factor ``eps``.
     """
 
     name: str
@@ -260,9 +260,8 @@ _ABA84 = Splitting("aba84", 4, (8, 4), _ABA84_NODES, _ABA84_WEIGHTS,
 
 def _axes(name: str, order: int, gammas: tuple[float, ...], source: str) -> "Splitting":
     """A symmetric composition ``S(g_1 h) ... S(g_s h)`` of the axis splitting's Strang step ``S``
-    (``base="axes"``); kick ``i`` at the midpoint of its stage."""
-    starts = np.concatenate([[0.0], np.cumsum(gammas)[:-1]])
-    nodes = tuple(float(a + 0.5 * g) for a, g in zip(starts, gammas))
+    (``base="axes"``); ``nodes``: where each stage ends (its last half kick)."""
+    nodes = tuple(float(c) for c in np.cumsum(gammas))
     return Splitting(name, order, (order, order), nodes, tuple(float(g) for g in gammas), source, base="axes")
 
 
@@ -292,7 +291,7 @@ SPLITTINGS: dict[str, Splitting] = {
         _ABA84,
         _splitting_triple_jump(_ABA84, "aba84-tj6"),
         _axes("axes-strang", 2, (1.0,), "rotations about the principal axes and the kick: Strang's "
-              "T_a T_b T_c U T_c T_b T_a (McLachlan 1993; Touma and Wisdom 1994)"),
+              "U T_a T_b T_c T_b T_a U (McLachlan 1993; Touma and Wisdom 1994)"),
         _axes("axes-suzuki4", 4, _SUZUKI5, "Suzuki's 5-stage composition (1990) of axes-strang"),
         _axes("axes-kl6", 6, _KL9, "Kahan and Li's s9odr6a (1997, Math. Comp. 66, 1089) of axes-strang"),
         _axes("axes-kl8", 8, _KL15, "Kahan and Li's s15odr8 (1997) of axes-strang"),

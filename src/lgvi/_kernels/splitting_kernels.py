@@ -560,10 +560,10 @@ def axis_flow(I, i, R, Pi, tau):
 def axes_steps(moment, up, user, I, ax, Pax, diag, J, weight, node, h, t0, R, Pi, codes, params, k0, n, save_every,
                R_out, Pi_out, ws, Rb, Pb, Rs, Ps):
     """Steps ``k0 .. k0+n-1`` of an axis splitting (``base="axes"``): per step, the stages
-    ``T_a(g/2) T_b(g/2) T_c(g/2) U(g) T_c(g/2) T_b(g/2) T_a(g/2)`` with ``g = weight[i] h``, the kick at
-    ``t0 + (k + node[i]) h``, ``(a, b, c) = ax`` (smallest, middle, largest moment; ``T_i`` the
-    rotation about principal axis ``i``); the last ``T_a`` of a stage and the first of the next are one
-    rotation, except at saved samples. Returns ``(status, k)``."""
+    ``U(g/2) T_a(g/2) T_b(g/2) T_c(g) T_b(g/2) T_a(g/2) U(g/2)`` with ``g = weight[i] h``, ``(a, b, c) = ax``
+    (smallest, middle, largest moment; ``T_i`` the rotation about principal axis ``i``) and the kicks
+    at the stage's ends (``t0 + k h`` and ``t0 + (k + node[i]) h``); the kicks between two stages of a
+    step are one. Returns ``(status, k)``."""
     s = weight.shape[0]
     oa = ax[0]
     ob = ax[1]
@@ -572,7 +572,6 @@ def axes_steps(moment, up, user, I, ax, Pax, diag, J, weight, node, h, t0, R, Pi
         _to_frame(R, Pi, Pax, True, ws)
     countdown = save_every
     jout = 0
-    pend = 0.0
     status = OK
     kend = k0 + n
     for k in range(k0, k0 + n):
@@ -580,20 +579,17 @@ def axes_steps(moment, up, user, I, ax, Pax, diag, J, weight, node, h, t0, R, Pi
             Pb[i] = Pi[i]
             for j in range(3):
                 Rb[i, j] = R[i, j]
-        pend_b = pend
+        kick(moment, up, user, diag, Pax, J, codes, params, t0 + k * h, 0.5 * weight[0] * h, R, Pi, Rs, Ps)
         for i in range(s):
-            half = 0.5 * weight[i] * h
-            axis_flow(I, oa, R, Pi, pend + half)
-            axis_flow(I, ob, R, Pi, half)
-            axis_flow(I, oc, R, Pi, half)
-            kick(moment, up, user, diag, Pax, J, codes, params, t0 + (k + node[i]) * h, weight[i] * h, R, Pi, Rs, Ps)
-            axis_flow(I, oc, R, Pi, half)
-            axis_flow(I, ob, R, Pi, half)
-            pend = half
+            g = weight[i] * h
+            axis_flow(I, oa, R, Pi, 0.5 * g)
+            axis_flow(I, ob, R, Pi, 0.5 * g)
+            axis_flow(I, oc, R, Pi, g)
+            axis_flow(I, ob, R, Pi, 0.5 * g)
+            axis_flow(I, oa, R, Pi, 0.5 * g)
+            hb = 0.5 * (weight[i] + weight[i + 1]) * h if i + 1 < s else 0.5 * g
+            kick(moment, up, user, diag, Pax, J, codes, params, t0 + (k + node[i]) * h, hb, R, Pi, Rs, Ps)
         countdown -= 1
-        if countdown == 0:
-            axis_flow(I, oa, R, Pi, pend)
-            pend = 0.0
         ok = math.isfinite(Pi[0]) and math.isfinite(Pi[1]) and math.isfinite(Pi[2])
         for i in range(3):
             for j in range(3):
@@ -603,7 +599,6 @@ def axes_steps(moment, up, user, I, ax, Pax, diag, J, weight, node, h, t0, R, Pi
                 Pi[i] = Pb[i]
                 for j in range(3):
                     R[i, j] = Rb[i, j]
-            axis_flow(I, oa, R, Pi, pend_b)
             status = OVERFLOW
             kend = k
             break
