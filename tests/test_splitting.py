@@ -380,6 +380,16 @@ def test_scenario_chooses_an_axis_splitting():
                            scheme="splitting", order=8)
     assert sc.order == 8 and tr.meta["composition"] == "axes-kl8" and tr.meta["order"] == 8
     assert np.array_equal(tr.R, direct.R)
+    del d["integrator"]["composition"]                  # order = 8 alone picks the default splitting
+    d["integrator"]["order"] = 8
+    assert np.array_equal(Scenario.from_dict(d).run().R, direct.R)
+    d["integrator"]["order"] = 10
+    with pytest.raises(ValueError, match=r"integrator\.order.*2, 4, 6, 8"):
+        Scenario.from_dict(d)
+    d["integrator"].pop("scheme")                       # the LGVI compositions stop at order 6
+    d["integrator"]["order"] = 8
+    with pytest.raises(ValueError, match=r"integrator\.order.*2, 4, 6\b"):
+        Scenario.from_dict(d)
 
 
 def test_axis_splitting_save_every_and_stream(tmp_path):

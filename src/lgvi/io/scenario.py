@@ -150,7 +150,7 @@ import numpy as np
 from . import scenario_space
 from .._untrusted import name_problem
 from .._version import __version__
-from ..registry import COMPOSITIONS, FORCINGS, ORDERS, SCHEMES, SPLITTINGS, method_names
+from ..registry import COMPOSITIONS, DEFAULT_SPLITTING, FORCINGS, ORDERS, SCHEMES, SPLITTINGS, method_names
 from ..torques import TORQUE_MODELS
 
 __all__ = ["BodiesScenario", "Scenario", "ScenarioError", "load_scenario", "to_toml"]
@@ -726,13 +726,15 @@ class Scenario:
         if not 0.0 < alpha <= 1.0:
             raise c.error("integrator.alpha", f"expected a number in (0, 1], got {alpha!r}")
         forcing = c.string(integ["forcing"], "integrator.forcing", FORCINGS) if "forcing" in integ else None
+        scheme = c.string(integ["scheme"], "integrator.scheme", SCHEMES) if "scheme" in integ else None
         order = None
         if "order" in integ:
             order = integ["order"]
-            if isinstance(order, bool) or order not in ORDERS or not isinstance(order, int):
-                raise c.expected("integrator.order", "one of " + ", ".join(str(o) for o in ORDERS), order)
+            orders = tuple(sorted(DEFAULT_SPLITTING)) if scheme == "splitting" else ORDERS
+            if isinstance(order, bool) or order not in orders or not isinstance(order, int):
+                raise c.expected("integrator.order", "one of " + ", ".join(str(o) for o in orders)
+                                 + (' (scheme = "splitting")' if scheme == "splitting" else ""), order)
         composition = None
-        scheme = c.string(integ["scheme"], "integrator.scheme", SCHEMES) if "scheme" in integ else None
         comps = SPLITTINGS if scheme == "splitting" else COMPOSITIONS
         if "composition" in integ:
             composition = c.string(integ["composition"], "integrator.composition", tuple(comps))
