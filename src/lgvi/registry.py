@@ -8,8 +8,8 @@ re-declares them (see ``docs/architecture.md``):
 * :data:`FORCINGS`: treatments of the non-conservative moment;
 * :data:`COMPOSITIONS` and :data:`DEFAULT_COMPOSITION`: symmetric compositions of the symmetric
   step (:data:`ORDERS` follows from them);
-* :data:`SPLITTINGS` and :data:`DEFAULT_SPLITTING`: splitting methods (exact free-body flows, or rotations about the principal axes, and
-  kicks) of ``scheme="splitting"``;
+* :data:`SPLITTINGS` and :data:`DEFAULT_SPLITTING`: splitting methods (exact free-body flows, or
+  rotations about the principal axes, and kicks) of ``scheme="splitting"``;
 * :data:`TORQUE_MODELS`: the torque models by scenario key, each class registered by
   :class:`lgvi.torques.TorqueModel` itself when it is defined (``key = "..."``);
 * :data:`lgvi.systems.SYSTEMS`: the dynamical systems the driver runs.
