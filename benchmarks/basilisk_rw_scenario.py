@@ -21,7 +21,9 @@ at h = 0.1 s, falling as h^2; adding the wheels' transverse inertia, masses and 
 centre of mass, :func:`locked_inertia`, leaves 3.6e-3). The attitude does not depend on the orbit
 (Basilisk applies no gravity torque here). The fixture ``basilisk_rw_scenario.npz`` beside this script keeps every 10th
 sample (1 s) of Basilisk's ``sigma_BN``, ``omega_BN_B`` and wheel speeds, and Basilisk's wall
-time of ``ExecuteSimulation()`` when it was written.
+time of ``ExecuteSimulation()`` when it was written; ``basilisk_rw_scenario_ki.npz`` (written by
+``--write-ki-fixture``) the same with ``mrpFeedback``'s integral term on (``Ki = 2e-4``, integral
+limit ``2 / Ki * 0.1``, as Basilisk's example sets it).
 """
 
 from __future__ import annotations
@@ -38,6 +40,8 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 FIXTURE = HERE / "basilisk_rw_scenario.npz"
+#: The same scenario with ``mrpFeedback``'s integral term on (``KI``, limit ``2 / KI * 0.1``).
+FIXTURE_KI = HERE / "basilisk_rw_scenario_ki.npz"
 
 HUB_INERTIA = np.diag([900.0, 800.0, 600.0])
 HUB_MASS = 750.0
@@ -52,6 +56,7 @@ SIGMA0 = np.array([0.1, 0.2, -0.3])
 OMEGA0 = np.array([0.001, -0.01, 0.03])
 K, P, U_MAX = 3.5, 30.0, 0.2
 DT, T_END, DECIMATE = 0.1, 600.0, 10
+KI = 0.0002
 
 
 def locked_inertia() -> np.ndarray:
@@ -71,8 +76,11 @@ def locked_inertia() -> np.ndarray:
 # ------------------------------------------------------------------------------------------------
 # Basilisk
 # ------------------------------------------------------------------------------------------------
-def run_basilisk(dt: float = DT) -> dict:
-    """Basilisk's scenario; returns the logged arrays (every task step) and the wall time."""
+def run_basilisk(dt: float = DT, ki: float | None = None) -> dict:
+    """Basilisk's scenario; returns the logged arrays (every task step) and the wall time.
+
+    ``ki``: the integral gain of ``mrpFeedback`` (integral limit ``2 / ki * 0.1`` as Basilisk's
+    example), ``None``: off (the scenario's default)."""
     from Basilisk.architecture import messaging
     from Basilisk.fswAlgorithms import attTrackingError, inertial3D, mrpFeedback, rwMotorTorque
     from Basilisk.simulation import reactionWheelStateEffector, simpleNav, spacecraft
@@ -108,7 +116,7 @@ def run_basilisk(dt: float = DT) -> dict:
     sim.AddModelToTask("simTask", err)
     ctrl = mrpFeedback.mrpFeedback()
     sim.AddModelToTask("simTask", ctrl)
-    ctrl.K, ctrl.Ki, ctrl.P = K, -1.0, P
+    ctrl.K, ctrl.Ki, ctrl.P = K, (-1.0 if ki is None else ki), P
     ctrl.integralLimit = 2.0 / ctrl.Ki * 0.1
     mt = rwMotorTorque.rwMotorTorque()
     sim.AddModelToTask("simTask", mt)
@@ -149,12 +157,13 @@ def run_basilisk(dt: float = DT) -> dict:
             "wheel_torque": np.array(torque_log.motorTorque)[:, :n], "wall": wall}
 
 
-def basilisk_in(python: str | None) -> dict:
+def basilisk_in(python: str | None, ki: float | None = None) -> dict:
     """:func:`run_basilisk` here, or with another interpreter (a venv with ``bsk``)."""
     if python is None:
-        return run_basilisk()
+        return run_basilisk(ki=ki)
     out = Path(os.environ.get("TMPDIR", "/tmp")) / f"lgvi_bsk_rw_{os.getpid()}.npz"
-    subprocess.run([python, str(Path(__file__).resolve()), "--basilisk-only", str(out)], check=True)
+    extra = [] if ki is None else ["--ki", repr(ki)]
+    subprocess.run([python, str(Path(__file__).resolve()), "--basilisk-only", str(out)] + extra, check=True)
     with np.load(out) as z:
         d = {k: z[k] for k in z.files}
     out.unlink()
@@ -165,8 +174,10 @@ def basilisk_in(python: str | None) -> dict:
 # ------------------------------------------------------------------------------------------------
 # lgvi
 # ------------------------------------------------------------------------------------------------
-def run_lgvi(h: float = DT, save_every: int | None = None, order: int = 2):
-    """lgvi on the scenario at step ``h`` (a divisor of 0.1 s); samples every ``DT * DECIMATE`` by default."""
+def run_lgvi(h: float = DT, save_every: int | None = None, order: int = 2, composition: str | None = None,
+             ki: float | None = None):
+    """lgvi on the scenario at step ``h`` (a divisor of 0.1 s); samples every ``DT * DECIMATE`` by default.
+    ``ki``: the integral gain (limit ``2 / ki * 0.1``), ``None``: off."""
     import lgvi
     from lgvi.control import MRPFeedback, matrix_from_mrp
 
@@ -175,8 +186,9 @@ def run_lgvi(h: float = DT, save_every: int | None = None, order: int = 2):
     wheels = lgvi.ReactionWheels(WHEEL_AXES, JS, speed0=SPEED0, max_torque=U_MAX, max_speed=OMEGA_MAX)
     body = lgvi.RigidBody(HUB_INERTIA)
     return lgvi.simulate(body, matrix_from_mrp(SIGMA0), omega0=OMEGA0, h=h, steps=steps, wheels=wheels,
-                         controller=MRPFeedback(K, P, inertia=HUB_INERTIA), control_period=DT, save_every=se,
-                         order=order)
+                         controller=MRPFeedback(K, P, Ki=ki, integral_limit=None if ki is None else 2.0 / ki * 0.1,
+                                                inertia=HUB_INERTIA),
+                         control_period=DT, save_every=se, order=order, composition=composition)
 
 
 def differences(traj, fix) -> tuple[float, float, float]:
@@ -198,25 +210,33 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--write-fixture", action="store_true", help="run Basilisk and write the fixture")
     ap.add_argument("--bsk-python", default=None, help="a Python with Basilisk (bsk) installed")
     ap.add_argument("--basilisk-only", default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--ki", type=float, default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--write-ki-fixture", action="store_true",
+                    help=f"run Basilisk with the integral term (Ki = {KI:g}) and write {FIXTURE_KI.name}")
     ap.add_argument("--repeat", type=int, default=9, help="timing repetitions for lgvi (median)")
     ap.add_argument("--quick", action="store_true", help="one repetition, three rows (for the tests)")
     args = ap.parse_args(argv)
     if args.basilisk_only:
-        d = run_basilisk()
+        d = run_basilisk(ki=args.ki)
         np.savez(args.basilisk_only, **d)
         return 0
-    if args.write_fixture:
-        d = basilisk_in(args.bsk_python)
+    if args.write_fixture or args.write_ki_fixture:
+        ki = KI if args.write_ki_fixture else None
+        path = FIXTURE_KI if args.write_ki_fixture else FIXTURE
+        d = basilisk_in(args.bsk_python, ki)
         sl = slice(None, None, DECIMATE)
         from importlib.metadata import version as _v
         try:
             bsk = _v("bsk")
         except Exception:
             bsk = "unknown"
-        np.savez_compressed(FIXTURE, t=d["t"][sl], sigma=d["sigma"][sl], omega=d["omega"][sl],
+        info = {"bsk": bsk, "dt": DT, "T": T_END, "decimate": DECIMATE}
+        if ki is not None:
+            info.update(Ki=ki, integralLimit=2.0 / ki * 0.1)
+        np.savez_compressed(path, t=d["t"][sl], sigma=d["sigma"][sl], omega=d["omega"][sl],
                             wheel_speed=d["wheel_speed"][sl], wheel_torque=d["wheel_torque"][sl],
-                            wall=d["wall"], info=json.dumps({"bsk": bsk, "dt": DT, "T": T_END, "decimate": DECIMATE}))
-        print(f"wrote {FIXTURE} ({FIXTURE.stat().st_size} bytes); Basilisk ExecuteSimulation {d['wall']:.3f} s")
+                            wall=d["wall"], info=json.dumps(info))
+        print(f"wrote {path} ({path.stat().st_size} bytes); Basilisk ExecuteSimulation {d['wall']:.3f} s")
         return 0
     fix = np.load(FIXTURE)
     bsk = basilisk_in(args.bsk_python) if (args.bsk_python or _have_basilisk()) and not args.quick else None
@@ -255,6 +275,10 @@ def main(argv: list[str] | None = None) -> int:
               f"{ref_wall / wall:13.0f}x   (fastest {min(ts) * 1e3:.2f} ms: {ref_wall / min(ts):.0f}x)")
     print("(the differences fall as h^2 at order 2 towards Basilisk's own RK4 error; order 4 and 6 compose the "
           "step with the wheel torques held over it)")
+    fix_ki = np.load(FIXTURE_KI)
+    ds, dw, dv = differences(run_lgvi(DT, ki=KI), fix_ki)
+    print(f"with the integral term (Ki = {KI:g}, fixture {FIXTURE_KI.name}), h = 0.1, order 2: max |d sigma| = "
+          f"{ds:.3e}, max |d omega| = {dw:.3e}, max |d speed| = {dv:.3e}")
     print(f"lgvi simulate (h = 0.1 s, compiled MRPFeedback): {lg * 1e3:.2f} ms (median of {args.repeat})")
     if bsk is not None:
         print(f"Basilisk ExecuteSimulation (this run): {bsk['wall'] * 1e3:.1f} ms; ratio Basilisk / lgvi = "

@@ -195,8 +195,9 @@ class MRPFeedback(Controller):
               + J (omega x omega_r - domega_r))
 
     with the integral term ``z = int_sigma + J dw``, ``int_sigma`` the sum of ``K sigma dt`` over
-    the calls (``dt`` the time since the last call, 0 at the first), each component clipped to
-    ``integral_limit``; ``z = 0`` without ``Ki``. With wheels the request is mapped to wheel motor
+    the calls (``dt`` the time since the last call, 0 at the first and, as in Basilisk, at the call
+    after one at ``t = 0``: Basilisk's prior call time 0 means "no prior call"), each component
+    clipped to ``integral_limit``; ``z = 0`` without ``Ki``. With wheels the request is mapped to wheel motor
     torques by :func:`map_to_wheels` (``rwMotorTorque``) and the wheels' saturation applies;
     without wheels it is applied as a body torque.
 
@@ -293,7 +294,8 @@ class MRPFeedback(Controller):
         w_r = BN @ w_ref_N
         dw_r = BN @ dw_ref_N
         dw = omega - w_r
-        dt = 0.0 if self.prior_time is None else t - self.prior_time
+        # Basilisk's mrpFeedback takes a prior call time of 0 for "no prior call": dt = 0 then too
+        dt = 0.0 if self.prior_time is None or self.prior_time == 0.0 else t - self.prior_time
         self.prior_time = t
         J = self.J
         z = np.zeros(3)

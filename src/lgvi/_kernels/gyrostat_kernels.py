@@ -252,7 +252,8 @@ def mrp_feedback(cp, cs, t, R, w0, w1, w2, axes, wp, rho, cmd, tau):
     z1 = 0.0
     z2 = 0.0
     if Ki > 0.0:
-        dt = t - cs[3] if cs[4] > 0.0 else 0.0
+        # no prior call, or one at t = 0 (Basilisk's mrpFeedback: prior time 0 is "none"): dt = 0
+        dt = t - cs[3] if cs[4] > 0.0 and cs[3] != 0.0 else 0.0
         lim = cp[CP_LIM]
         cs[0] = min(max(cs[0] + K * dt * s0, -lim), lim)
         cs[1] = min(max(cs[1] + K * dt * s1, -lim), lim)
