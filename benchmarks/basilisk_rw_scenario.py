@@ -175,13 +175,13 @@ def basilisk_in(python: str | None, ki: float | None = None) -> dict:
 # lgvi
 # ------------------------------------------------------------------------------------------------
 def run_lgvi(h: float = DT, save_every: int | None = None, order: int = 2, composition: str | None = None,
-             ki: float | None = None):
+             ki: float | None = None, steps: int | None = None):
     """lgvi on the scenario at step ``h`` (a divisor of 0.1 s); samples every ``DT * DECIMATE`` by default.
-    ``ki``: the integral gain (limit ``2 / ki * 0.1``), ``None``: off."""
+    ``ki``: the integral gain (limit ``2 / ki * 0.1``), ``None``: off; ``steps``: fewer than the 600 s."""
     import lgvi
     from lgvi.control import MRPFeedback, matrix_from_mrp
 
-    steps = int(round(T_END / h))
+    steps = int(round(T_END / h)) if steps is None else steps
     se = save_every if save_every is not None else int(round(DT * DECIMATE / h))
     wheels = lgvi.ReactionWheels(WHEEL_AXES, JS, speed0=SPEED0, max_torque=U_MAX, max_speed=OMEGA_MAX)
     body = lgvi.RigidBody(HUB_INERTIA)
@@ -249,11 +249,11 @@ def main(argv: list[str] | None = None) -> int:
     lg = float(np.median(walls))
     print("Basilisk scenarioAttitudeFeedbackRW, 600 s at 0.1 s (machine shared with other jobs: medians)")
     ref_wall = bsk["wall"] if bsk is not None else float(fix["wall"])
-    print(f"{'h':>8} {'order':>5} {'max |d sigma|':>14} {'max |d omega|':>14} {'max |d speed|':>14} {'err vs ref':>12} "
+    print(f"{'h':>8} {'order':>9} {'max |d sigma|':>14} {'max |d omega|':>14} {'max |d speed|':>14} {'err vs ref':>12} "
           f"{'lgvi ms':>9} {'Basilisk/lgvi':>14}")
-    rows = [(DT / sub, 2) for sub in (1, 2, 4, 8, 16)] + [(DT, 4), (DT, 6)]
+    rows = [(DT / sub, 2, None) for sub in (1, 2, 4, 8, 16)] + [(DT, 4, None), (DT, 4, "yoshida4"), (DT, 6, None)]
     if args.quick:
-        args.repeat, rows = 1, [(DT, 2), (DT / 2, 2), (DT, 4)]
+        args.repeat, rows = 1, [(DT, 2, None), (DT / 2, 2, None), (DT, 4, None)]
     # a converged reference (order 6 at h = 0.1/16: changes below 2e-13 from h = 0.1/32) for the accuracy
     # of both: Basilisk's RK4 at 0.1 s and each lgvi row, largest MRP difference over the 1 s samples
     from lgvi.control import mrp_from_matrix
@@ -261,17 +261,18 @@ def main(argv: list[str] | None = None) -> int:
     sig_ref = mrp_from_matrix(run_lgvi(DT / 16, order=6).R)
     print(f"Basilisk RK4 at 0.1 s: max |sigma - sigma_ref| = {np.abs(fix['sigma'] - sig_ref).max():.2e} "
           "(the reference: lgvi order 6 at h = 0.1/16)")
-    for h, order in rows:
-        traj = run_lgvi(h, order=order)
+    for h, order, comp in rows:
+        traj = run_lgvi(h, order=order, composition=comp)
         ds, dw, dv = differences(traj, fix)
         err = np.abs(mrp_from_matrix(traj.R) - sig_ref).max()
         ts = []
         for _ in range(args.repeat):
             t0 = time.perf_counter()
-            run_lgvi(h, order=order)
+            run_lgvi(h, order=order, composition=comp)
             ts.append(time.perf_counter() - t0)
         wall = float(np.median(ts))
-        print(f"{h:8.4f} {order:5d} {ds:14.3e} {dw:14.3e} {dv:14.3e} {err:12.2e} {wall * 1e3:9.2f} "
+        name = str(order) if comp is None else f"{order} {comp[:7]}"
+        print(f"{h:8.4f} {name:>9} {ds:14.3e} {dw:14.3e} {dv:14.3e} {err:12.2e} {wall * 1e3:9.2f} "
               f"{ref_wall / wall:13.0f}x   (fastest {min(ts) * 1e3:.2f} ms: {ref_wall / min(ts):.0f}x)")
     print("(the differences fall as h^2 at order 2 towards Basilisk's own RK4 error; order 4 and 6 compose the "
           "step with the wheel torques held over it)")
@@ -280,6 +281,13 @@ def main(argv: list[str] | None = None) -> int:
     print(f"with the integral term (Ki = {KI:g}, fixture {FIXTURE_KI.name}), h = 0.1, order 2: max |d sigma| = "
           f"{ds:.3e}, max |d omega| = {dw:.3e}, max |d speed| = {dv:.3e}")
     print(f"lgvi simulate (h = 0.1 s, compiled MRPFeedback): {lg * 1e3:.2f} ms (median of {args.repeat})")
+    fixed = []
+    for _ in range(max(args.repeat, 5)):
+        t0 = time.perf_counter()
+        run_lgvi(DT, save_every=10, order=4, steps=10)
+        fixed.append(time.perf_counter() - t0)
+    print(f"of which fixed per call (the same call for 10 steps, order 4: set-up, checks, result): "
+          f"{np.median(fixed) * 1e3:.2f} ms")
     if bsk is not None:
         print(f"Basilisk ExecuteSimulation (this run): {bsk['wall'] * 1e3:.1f} ms; ratio Basilisk / lgvi = "
               f"{bsk['wall'] / lg:.0f}x")

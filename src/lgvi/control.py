@@ -161,8 +161,24 @@ def map_to_wheels(torque_request: Any, axes: Any) -> np.ndarray:
     return -(np.linalg.pinv(G) @ L)
 
 
+_WHEEL_MAPS: dict[bytes, np.ndarray] = {}
+
+
 def _wheel_map(axes: np.ndarray) -> np.ndarray:
-    """``map_to_wheels`` of the three body axes as columns (N, 3), the same numbers, ``cond`` once."""
+    """``map_to_wheels`` of the three body axes as columns (N, 3), the same numbers, ``cond`` once;
+    remembered for the last few sets of axes (a new copy each call)."""
+    a = np.ascontiguousarray(axes, dtype=np.float64)
+    key = a.shape[0].to_bytes(4, "little") + a.tobytes()
+    hit = _WHEEL_MAPS.get(key)
+    if hit is None:
+        hit = _wheel_map_of(a)
+        if len(_WHEEL_MAPS) >= 8:
+            _WHEEL_MAPS.pop(next(iter(_WHEEL_MAPS)))
+        _WHEEL_MAPS[key] = hit
+    return hit.copy()
+
+
+def _wheel_map_of(axes: np.ndarray) -> np.ndarray:
     G = np.asarray(axes, dtype=np.float64).T
     if G.shape[1] >= 3:
         M = G @ G.T
