@@ -342,10 +342,19 @@ def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cm
         m2 = float(mm[2])
         if not (math.isfinite(m0) and math.isfinite(m1) and math.isfinite(m2)):
             return NOT_FINITE, k0, 0, 0.0, 0, 0.0
+    # counters instead of a division per step: k % spc, (k - kb) // per, (k - kb) % per, (k + 1 - kb) % save_every
+    c_ctl = k0 % spc
+    e = (k0 - kb) // per
+    c_rec = (k0 - kb) % per
+    c_save = (k0 + 1 - kb) % save_every
+    j = (k0 - kb) // save_every - 1              # the last sample written before k0
     for k in range(k0, k0 + n):
         w0, w1, w2 = body_rate(JBi, Pi, axes, rho)
-        if ctrl == 1 and k % spc == 0:
+        if ctrl == 1 and c_ctl == 0:
             mrp_feedback(cp, cs, t0 + k * h, R, w0, w1, w2, axes, wp, rho, cmd, tau)
+        c_ctl += 1
+        if c_ctl == spc:
+            c_ctl = 0
         # wheel torques: saturated motor command plus friction, held over the step
         for i in range(N):
             js = wp[i, W_JS]
@@ -448,8 +457,7 @@ def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cm
             rmax = rn
         counts[its if its < nb else nb - 1] += 1
         # records: the largest per entry; the motor torque at the entry's first step
-        e = (k - kb) // per
-        if (k - kb) % per == 0:
+        if c_rec == 0:
             it_out[e] = its
             res_out[e] = rn
             for i in range(N):
@@ -459,14 +467,21 @@ def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cm
                 it_out[e] = its
             if rn > res_out[e]:
                 res_out[e] = rn
-        if (k + 1 - kb) % save_every == 0:
-            j = (k + 1 - kb) // save_every - 1
+        c_rec += 1
+        if c_rec == per:
+            c_rec = 0
+            e += 1
+        if c_save == 0:
+            j += 1
             for a in range(3):
                 Pi_out[j, a] = Pi[a]
                 for b in range(3):
                     R_out[j, a, b] = R[a, b]
             for i in range(N):
                 rho_out[j, i] = rho[i]
+        c_save += 1
+        if c_save == save_every:
+            c_save = 0
     return OK, k0 + n, it_sum, rmax, its, rn
 
 
