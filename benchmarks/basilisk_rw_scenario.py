@@ -154,7 +154,8 @@ def run_basilisk(dt: float = DT, ki: float | None = None) -> dict:
     n = len(WHEEL_AXES)
     return {"t": state_log.times() * 1e-9, "sigma": np.array(state_log.sigma_BN),
             "omega": np.array(state_log.omega_BN_B), "wheel_speed": np.array(speed_log.wheelSpeeds)[:, :n],
-            "wheel_torque": np.array(torque_log.motorTorque)[:, :n], "wall": wall, "cpu": cpu}
+            "wheel_torque": np.array(torque_log.motorTorque)[:, :n], "wall": wall, "cpu": cpu,
+            "bsk": _bsk_version()}
 
 
 def basilisk_repeated(ki: float | None = None, repeat: int = 1) -> dict:
@@ -178,6 +179,7 @@ def basilisk_in(python: str | None, ki: float | None = None, repeat: int = 1) ->
     out.unlink()
     d["wall"] = float(d["wall"])
     d["cpu"] = float(d["cpu"])
+    d["bsk"] = str(d["bsk"])
     return d
 
 
@@ -236,11 +238,7 @@ def main(argv: list[str] | None = None) -> int:
         path = FIXTURE_KI if args.write_ki_fixture else FIXTURE
         d = basilisk_in(args.bsk_python, ki, 1)
         sl = slice(None, None, DECIMATE)
-        from importlib.metadata import version as _v
-        try:
-            bsk = _v("bsk")
-        except Exception:
-            bsk = "unknown"
+        bsk = str(d.get("bsk", "unknown"))         # the version of the interpreter that ran Basilisk
         info = {"bsk": bsk, "dt": DT, "T": T_END, "decimate": DECIMATE}
         if ki is not None:
             info.update(Ki=ki, integralLimit=2.0 / ki * 0.1)
@@ -311,6 +309,15 @@ def main(argv: list[str] | None = None) -> int:
         print(f"Basilisk ExecuteSimulation (fixture, another run): {float(fix['wall']) * 1e3:.1f} ms; ratio = "
               f"{float(fix['wall']) / lg:.0f}x (give --bsk-python for a same-run figure)")
     return 0
+
+
+def _bsk_version() -> str:
+    from importlib.metadata import version
+
+    try:
+        return version("bsk")
+    except Exception:
+        return "unknown"
 
 
 def _have_basilisk() -> bool:
