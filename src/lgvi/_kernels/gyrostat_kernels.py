@@ -68,16 +68,13 @@ def solve_shifted(a00, a01, a02, a10, a11, a12, a20, a21, a22, p0, p1, p2, g0, g
             a = 2.0 * sh * ch / t
             b = 2.0 * sh * sh / t2
         E00, E01, E02, E10, E11, E12, E20, E21, E22 = expm1_entries(g0, g1, g2, a, b)
-        # X = E A
-        x00 = E00 * a00 + E01 * a10 + E02 * a20
+        # X = E A: the residual needs the off-diagonal entries only (the diagonal after the test)
         x01 = E00 * a01 + E01 * a11 + E02 * a21
         x02 = E00 * a02 + E01 * a12 + E02 * a22
         x10 = E10 * a00 + E11 * a10 + E12 * a20
-        x11 = E10 * a01 + E11 * a11 + E12 * a21
         x12 = E10 * a02 + E11 * a12 + E12 * a22
         x20 = E20 * a00 + E21 * a10 + E22 * a20
         x21 = E20 * a01 + E21 * a11 + E22 * a21
-        x22 = E20 * a02 + E21 * a12 + E22 * a22
         r0 = (x21 - x12) - p0
         r1 = (x02 - x20) - p1
         r2 = (x10 - x01) - p2
@@ -91,6 +88,9 @@ def solve_shifted(a00, a01, a02, a10, a11, a12, a20, a21, a22, p0, p1, p2, g0, g
         if it >= max_iter:
             return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), NOT_CONVERGED
         # M = tr(B) I - B, B = A + X
+        x00 = E00 * a00 + E01 * a10 + E02 * a20
+        x11 = E10 * a01 + E11 * a11 + E12 * a21
+        x22 = E20 * a02 + E21 * a12 + E22 * a22
         tb = tr + x00 + x11 + x22
         m00 = tb - a00 - x00
         m01 = -a01 - x01
