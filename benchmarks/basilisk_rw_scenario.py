@@ -248,7 +248,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wrote {path} ({path.stat().st_size} bytes); Basilisk ExecuteSimulation {d['wall']:.3f} s")
         return 0
     fix = np.load(FIXTURE)
-    bsk = basilisk_in(args.bsk_python, None, args.bsk_repeat) if (args.bsk_python or _have_basilisk()) and not args.quick else None
+    with_bsk = (args.bsk_python or _have_basilisk()) and not args.quick
+    bsk = basilisk_in(args.bsk_python, None, args.bsk_repeat) if with_bsk else None
     run_lgvi()  # compile / load the kernels
     walls = []
     for _ in range(args.repeat):
