@@ -70,10 +70,11 @@ def test_asymmetric_slew_with_a_torque_bound_agrees_with_slsqp():
 
 @needs_casadi
 def test_minimum_time_half_turn_agrees_with_slsqp():
-    args = (SPHERE, np.eye(3), so3.exp([np.pi, 0.0, 0.0]), 3.6, 30)
-    ip = transfer(*args, cost="time", max_torque=1.0, method="ipopt")
-    sq = transfer(*args, cost="time", max_torque=1.0)
-    assert abs(ip.T - sq.T) < 1e-8 * sq.T, (ip.T, sq.T)
+    # SLSQP's T for this request (test_optimal.py runs it): 3.2366991109087895; IPOPT needs ~800
+    # iterations here (bang-bang controls: every bound active somewhere), so SLSQP is not rerun
+    ip = transfer(SPHERE, np.eye(3), so3.exp([np.pi, 0.0, 0.0]), 3.6, 30, cost="time", max_torque=1.0,
+                  method="ipopt")
+    assert abs(ip.T - 3.2366991109087895) < 1e-8 * ip.T, ip.T
     assert ip.cost == ip.T and ip.violation["torque_bound"] == 0.0
     assert (np.abs(np.abs(ip.u) - 1.0) < 1e-6).mean() > 0.9                          # bang-bang
     assert sorted(int(np.sum(np.diff(np.sign(ip.u[:, i])) != 0)) for i in range(3)) == [1, 2, 2]

@@ -113,6 +113,8 @@ def solve(fun, grad, cons, cjac, x0: np.ndarray, lb: np.ndarray | None, ub: np.n
         Box bounds (``None``: free).
     tol, constraint_tol, maxiter
         IPOPT's ``tol`` (scaled KKT error), ``constr_viol_tol`` and ``max_iter``.
+    m : int
+        Number of constraints.
 
     Returns
     -------
@@ -132,9 +134,9 @@ def solve(fun, grad, cons, cjac, x0: np.ndarray, lb: np.ndarray | None, ub: np.n
         "ipopt.hessian_approximation": "limited-memory",
         "ipopt.tol": tol,
         "ipopt.constr_viol_tol": constraint_tol,
-        # stop early only at the requested accuracy (IPOPT's default accepts 1e-6 after 15 iterations)
-        "ipopt.acceptable_tol": tol,
-        "ipopt.acceptable_constr_viol_tol": constraint_tol,
+        # no "acceptable level" exit (IPOPT's default accepts a KKT error of 1e-6 after 15 stalled
+        # iterations): it stops at tol or fails at max_iter
+        "ipopt.acceptable_iter": 0,
         "ipopt.max_iter": maxiter,
         # the box is hard (|u_i| <= max_torque_i exactly): IPOPT relaxes bounds by 1e-8 by default
         "ipopt.bound_relax_factor": 0.0,

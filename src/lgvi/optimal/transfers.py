@@ -2,9 +2,10 @@
 
 The controls ``u_k`` (and, for ``cost="time"``, the final time ``T`` with ``h = T / N``) are the
 variables of a nonlinear program; the terminal attitude and rate are equality constraints
-``vee(log(Rf^T R_N)) = 0`` and ``J^-1 Pi_N - omega_f = 0``; SciPy's SLSQP (or trust-constr)
-solves it with the cost gradient and the constraint Jacobian from one reverse pass of the
-discrete adjoint (:mod:`lgvi.optimal.adjoint`, seven seeds at once).
+``vee(log(Rf^T R_N)) = 0`` and ``J^-1 Pi_N - omega_f = 0``; SciPy's SLSQP (or trust-constr, or
+IPOPT through CasADi for large ``N``: :mod:`lgvi.optimal._ipopt`) solves it with the cost gradient
+and the constraint Jacobian from one reverse pass of the discrete adjoint
+(:mod:`lgvi.optimal.adjoint`, seven seeds at once).
 """
 
 from __future__ import annotations
