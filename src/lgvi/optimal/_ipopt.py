@@ -60,7 +60,7 @@ def _callbacks(ca):
             x = np.asarray(arg[0], dtype=np.float64).reshape(-1)
             return [ca.DM(np.asarray(self._jac(x), dtype=np.float64).reshape(self._m, self._n))]
 
-    class Function(ca.Callback):
+    class WithJacobian(ca.Callback):
         """``x -> f(x)`` (``m`` values) with the exact Jacobian ``jac(x)`` (``(m, n)``)."""
 
         def __init__(self, name: str, n: int, m: int, fun: Callable[[np.ndarray], np.ndarray],
@@ -94,7 +94,7 @@ def _callbacks(ca):
         def get_jacobian(self, name, inames, onames, opts):
             return self.jacobian_callback
 
-    return Function
+    return WithJacobian
 
 
 def solve(fun, grad, cons, cjac, x0: np.ndarray, lb: np.ndarray | None, ub: np.ndarray | None, m: int,
@@ -125,10 +125,10 @@ def solve(fun, grad, cons, cjac, x0: np.ndarray, lb: np.ndarray | None, ub: np.n
     from scipy.optimize import OptimizeResult
 
     ca = require_casadi()
-    Function = _callbacks(ca)
+    WithJacobian = _callbacks(ca)
     n = x0.size
-    f_cb = Function("lgvi_cost", n, 1, lambda x: fun(x), lambda x: np.asarray(grad(x)).reshape(1, n))
-    g_cb = Function("lgvi_terminal", n, m, cons, cjac)
+    f_cb = WithJacobian("lgvi_cost", n, 1, lambda x: fun(x), lambda x: np.asarray(grad(x)).reshape(1, n))
+    g_cb = WithJacobian("lgvi_terminal", n, m, cons, cjac)
     x = ca.MX.sym("x", n)
     opts = {
         "ipopt.hessian_approximation": "limited-memory",
