@@ -100,6 +100,13 @@ def test_bench_adjoint_quick():
 
 
 @pytest.mark.slow
+def test_bench_transfer_quick():
+    proc = _run("bench_transfer.py", "--quick")
+    _check(proc, "transfer: asymmetric slew", "time/ipopt", "SLSQP")
+    assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
 def test_bench_bodies_quick():
     """The two-body benchmark prints its cost table and its time-to-accuracy table against DOP853."""
     proc = _run("bench_bodies.py", "--quick")

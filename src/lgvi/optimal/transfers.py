@@ -2,9 +2,10 @@
 
 The controls ``u_k`` (and, for ``cost="time"``, the final time ``T`` with ``h = T / N``) are the
 variables of a nonlinear program; the terminal attitude and rate are equality constraints
-``vee(log(Rf^T R_N)) = 0`` and ``J^-1 Pi_N - omega_f = 0``; SciPy's SLSQP (or trust-constr)
-solves it with the cost gradient and the constraint Jacobian from one reverse pass of the
-discrete adjoint (:mod:`lgvi.optimal.adjoint`, seven seeds at once).
+``vee(log(Rf^T R_N)) = 0`` and ``J^-1 Pi_N - omega_f = 0``; SciPy's SLSQP (or trust-constr, or
+IPOPT through CasADi for large ``N``: :mod:`lgvi.optimal._ipopt`) solves it with the cost gradient
+and the constraint Jacobian from one reverse pass of the discrete adjoint
+(:mod:`lgvi.optimal.adjoint`, seven seeds at once).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from .adjoint import as_body, potential_encoding, reverse, rollout
 __all__ = ["InfeasibleTransferError", "TransferError", "TransferResult", "reachable_angle", "transfer"]
 
 COSTS = ("energy", "time")
-METHODS = ("SLSQP", "trust-constr", "indirect")
+METHODS = ("SLSQP", "trust-constr", "indirect", "ipopt")
 
 
 @dataclass(frozen=True)
@@ -137,8 +138,10 @@ def transfer(body: Any, R0: Any, Rf: Any, T: Any, N: Any, *, omega0: Any = 0, om
         Potential moments acting besides the controls (gravity, gravity gradient).
     forcing : {"paper", "symmetric"}
         The LGVI's treatment of the controls; ``"symmetric"`` uses ``N + 1`` controls ``u_0..u_N``.
-    method : {"SLSQP", "trust-constr", "indirect"}
-        SciPy's solver for the direct method, or ``"indirect"``: the discrete necessary conditions
+    method : {"SLSQP", "trust-constr", "indirect", "ipopt"}
+        SciPy's solver for the direct method; ``"ipopt"``: IPOPT through CasADi for the same direct
+        method (exact adjoint gradients, limited-memory Hessian; linear cost per iteration in ``N``,
+        for large ``N``; needs ``pip install lgvi[ipopt]``); or ``"indirect"``: the discrete necessary conditions
         integrated forwards from the initial multipliers (``cost="energy"``, the paper's
         forcing), with SciPy's ``root`` on the six initial multipliers to meet the terminal
         conditions (the shooting is sensitive: for short manoeuvres and moderate ``N``).
@@ -156,6 +159,8 @@ def transfer(body: Any, R0: Any, Rf: Any, T: Any, N: Any, *, omega0: Any = 0, om
     InfeasibleTransferError
         When ``T`` is too short for ``max_torque`` (checked before solving, with the bound of
         :func:`reachable_angle`) or for ``cost="time"`` without ``max_torque``.
+    ImportError
+        For ``method="ipopt"`` without CasADi (``pip install lgvi[ipopt]``).
     TransferError
         When the solver fails or the terminal constraints are violated by more than
         ``constraint_tol``; ``err.best`` holds the best iterate, ``err.violation`` the violation.
@@ -171,6 +176,9 @@ def transfer(body: Any, R0: Any, Rf: Any, T: Any, N: Any, *, omega0: Any = 0, om
     wf = _rate(omegaf, "omegaf")
     cost = choice(cost, "cost", COSTS)
     method = choice(method, "method", METHODS)
+    if method == "ipopt":
+        from ._ipopt import require_casadi
+        require_casadi()
     forcing = choice(forcing, "forcing", ("paper", "symmetric"))
     sym = forcing == "symmetric"
     potential_encoding(torque)        # validates torque
@@ -296,7 +304,11 @@ def transfer(body: Any, R0: Any, Rf: Any, T: Any, N: Any, *, omega0: Any = 0, om
     def cjac(x):
         return evaluate(x)[2]
 
-    if method == "SLSQP":
+    if method == "ipopt":
+        from . import _ipopt
+        res = _ipopt.solve(fun, grad, cons, cjac, x0, None if bounds is None else bounds.lb,
+                           None if bounds is None else bounds.ub, 6, tol, constraint_tol, maxiter)
+    elif method == "SLSQP":
         res = optimize.minimize(fun, x0, jac=grad, method="SLSQP", bounds=bounds,
                                 constraints=[{"type": "eq", "fun": cons, "jac": cjac}],
                                 options={"ftol": tol, "maxiter": maxiter})
