@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import types
 import warnings
 from typing import Any, Callable
 
@@ -117,4 +118,26 @@ jit = _decorator({})
 #: Parallel variant, for kernels with a ``numba.prange`` loop over independent bodies.
 jit_parallel = _decorator({"parallel": True})
 
-__all__ = ["CACHE", "jit", "jit_parallel"]
+
+
+def jit_copy(func: Callable, name: str, doc: str, **kwargs: Any) -> Callable:
+    """Compile the Python source of the ``inline="always"`` helper ``func`` again as a function of its
+    own named ``name`` (``@jit(**kwargs)``): the same arithmetic, bit for bit, callable without
+    inlining.
+
+    Inlining at Numba's level runs the helper's front end again at every call site and deep-copies
+    its IR, block by block, with all its variables (a cost that grows with the square of the
+    helper's size); a wrapper ``def f_call(...): return f(...)`` pays that copy once more. The copy
+    made here is compiled from the source directly, so a large helper costs one front end and no
+    IR copy. The copy has its own name, so Numba's cache keeps it apart from ``func``.
+    """
+    py = getattr(func, "py_func", func)
+    copy = types.FunctionType(py.__code__, py.__globals__, name, py.__defaults__, py.__closure__)
+    copy.__qualname__ = name
+    copy.__module__ = py.__module__
+    copy.__kwdefaults__ = py.__kwdefaults__
+    copy.__doc__ = doc
+    return jit(**kwargs)(copy)
+
+
+__all__ = ["CACHE", "jit", "jit_copy", "jit_parallel"]

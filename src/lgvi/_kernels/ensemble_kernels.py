@@ -2,7 +2,7 @@
 
 Each body runs exactly the per-step code of :func:`lgvi.simulate` on its own state: the free
 body at order 2 runs :func:`.stepping.free_steps` (the loop of :func:`.stepping.run_chunk`), every
-other scheme calls :func:`.stepping.forced_stage` per substep (as
+other scheme calls :func:`.stepping.forced_stage_s` per substep (as
 :func:`.stepping.run_chunk_forced` does), with the same arguments in the same order. With IEEE
 arithmetic (``fastmath`` is never on) a body of the ensemble therefore follows bit for bit the
 trajectory ``simulate`` gives it, whichever thread runs it and however the steps are chunked.
@@ -46,7 +46,7 @@ import numpy as np
 from .._jit import jit, jit_parallel
 from .codes import OK
 from .solvers import CHEBYSHEV_MIN, initial_guess
-from .stepping import forced_stage, free_steps, init_moments, lgvi_step, store
+from .stepping import forced_stage_s, free_steps, init_moments, lgvi_step, load_state, save_state, store
 from .torque_kernels import momentum_diag
 
 
@@ -57,13 +57,18 @@ def init_histories(method, J, ib, hs, Pi, G):
     ``G`` (B,s,5,3) must be zero on entry (no valid history). The same values as
     ``integrator._solver_state(method, body, hs[i], Pi[b])``.
     """
-    hPi = np.empty(3)
     for b in range(Pi.shape[0]):
         for i in range(hs.shape[0]):
+            # h Pi in the (still zero) history row 1, not in an array of its own: no allocation, so
+            # the first call compiles no array constructor
+            hPi = G[b, i, 1]
             hPi[0] = hs[i] * Pi[b, 0]
             hPi[1] = hs[i] * Pi[b, 1]
             hPi[2] = hs[i] * Pi[b, 2]
             initial_guess(method, J[ib[b]], hPi, G[b, i, 0])
+            hPi[0] = 0.0
+            hPi[1] = 0.0
+            hPi[2] = 0.0
 
 
 @jit(_nrt=False)
@@ -114,12 +119,16 @@ def advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G
     countdown = save_every - k0 % save_every
     it_sum = its[b]
     rmax = res[b]
+    # the state in local tuples, as in run_chunk_forced; forced_stage_s is inlined here directly (not
+    # through forced_stage, whose copy of it would be copied once more: compile time)
+    Rt, Pt, Mt = load_state(Rb, Pib, Sb)
     for k in range(k0, k0 + n):
         failed = False
         for i in range(s):
             t1 = t0 + (k + cum[i + 1]) * h
-            it, rn, st = forced_stage(method, Jdb, Jb, Jib, gam[i] * h, t1, Rb, Pib, Gb, i, Sb, codes, pb,
-                                      D0, D1, D2, has_D, Ab, i, sym, 0.0, 0.0, 0.0, tol, max_iter, alpha, hist)
+            it, rn, st, Rt, Pt, Mt = forced_stage_s(method, Jdb, Jb, Jib, gam[i] * h, t1, Rt, Pt, Mt, Gb, i, codes,
+                                                    pb, D0, D1, D2, has_D, Ab, i, sym, 0.0, 0.0, 0.0, tol, max_iter,
+                                                    alpha, hist)
             it_sum += it
             if st != OK:
                 status[b] = st
@@ -135,8 +144,10 @@ def advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G
         countdown -= 1
         if countdown == 0:
             countdown = save_every
+            save_state(Rb, Pib, Sb, Rt, Pt, Mt)
             store(R_out[b], Pi_out[b], j, Rb, Pib)
             j += 1
+    save_state(Rb, Pib, Sb, Rt, Pt, Mt)
     its[b] = it_sum
     res[b] = rmax
 

@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import math
 
-from .._jit import jit
+from .._jit import jit, jit_copy
 from .codes import METHOD_CAYLEY, METHOD_NEWTON, METHOD_PAPER, NOT_CONVERGED, NOT_FINITE, OK, SINGULAR
 
 __all__ = ["METHOD_CAYLEY", "METHOD_NEWTON", "METHOD_PAPER", "NOT_CONVERGED", "NOT_FINITE", "OK", "SINGULAR",
@@ -248,16 +248,15 @@ def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, t
         it += 1
 
 
-@jit(_nrt=False)
-def solve_call(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, tol, max_iter, alpha, hist, eager):
-    """:func:`solve_scalar` as a function of its own (not inlined at Numba's level; LLVM decides).
-
-    The forced loops call the solver through this: an ``inline="always"`` helper is copied into
-    every caller at Numba's IR level, and the copy costs time that grows with the size of the
-    caller (most of the first call's compilation). The arithmetic is the same, bit for bit.
-    """
-    return solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, tol, max_iter, alpha, hist,
-                        eager)
+#: :func:`solve_scalar` as a function of its own (not inlined at Numba's level; LLVM decides), with
+#: the same arguments (``eager`` given). The forced loops call the solver through this: an
+#: ``inline="always"`` helper is copied into every caller at Numba's IR level, and the copy costs
+#: time that grows with the size of the caller (most of the first call's compilation). Compiled
+#: from :func:`solve_scalar`'s source itself (:func:`.._jit.jit_copy`), not as a wrapper that
+#: inlines it, so the solver's IR is built once and never copied. The arithmetic is the same, bit
+#: for bit.
+solve_call = jit_copy(solve_scalar, "solve_call", "solve_scalar compiled as a function of its own (see the "
+                      "module's solve_call).", _nrt=False)
 
 
 @jit

@@ -32,7 +32,7 @@ import math
 from .._jit import jit
 from .codes import OVERFLOW
 from .solvers import METHOD_CAYLEY, METHOD_NEWTON, OK, solve_call, solve_scalar
-from .torque_kernels import model_moments, model_moments_s, momentum_diag
+from .torque_kernels import model_moments_s, momentum_diag
 
 
 @jit(inline="always")
@@ -573,7 +573,9 @@ def step_done(k, k0, status, its_sum, rmax, rn, Rt, Pt, book, per_step, save_eve
 @jit
 def init_moments(codes, params, J, J_inv, t, R, Pi, S, v0, v1, v2):
     """Fill the moment cache ``S`` at the state ``(t, R, Pi)`` (``v`` an extra explicit moment)."""
-    P0, P1, P2, Q0, Q1, Q2 = model_moments(codes, params, J, t, R)
+    # model_moments_s, not model_moments: one level of inlining less (see _jit.jit_copy)
+    P0, P1, P2, Q0, Q1, Q2 = model_moments_s(codes, params, J, t, R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1],
+                                             R[1, 2], R[2, 0], R[2, 1], R[2, 2])
     D0, D1, D2 = momentum_diag(codes, params)
     S[0] = P0
     S[1] = P1
