@@ -18,8 +18,8 @@ The user's moment goes into the conservative part ``P`` when the model has a pot
 momentum equation ``Pi = b + hs/2 (P + N(Pi))`` implicit; it is solved by fixed-point
 iteration (``NOT_CONVERGED`` when it does not converge in ``max_iter`` evaluations).
 The user's function receives ``R`` and ``Pi`` in the scratch arrays ``Rs`` (3,3), ``Ps`` (3,);
-a moment declared independent of ``Pi`` receives the end point's ``Pi`` before its own
-contribution is added.
+a moment declared independent of ``Pi`` is evaluated once, at ``Pi = F^T mu`` (``+ hs N_k``
+with the paper forcing: the built-in substep's momentum before the user's moment is added).
 """
 
 from __future__ import annotations
