@@ -13,7 +13,8 @@ runs bodies in SIMD lockstep groups, ``newton`` the per-body kernel), and the he
 ``h``, five solves), and the same top with the user's compiled gravity
 (:class:`lgvi.torques.Compiled`, per-body ``params`` (B, 3), all rows equal: the same motion bit
 for bit; its bodies go one compiled call each through :func:`lgvi.simulate`'s loop, split over a
-pool of threads); each on 1 thread and on ``--threads`` (default: all of Numba's threads).
+pool of threads; not with ``--quick``: compiling the user's loop takes seconds); each on 1 thread
+and on ``--threads`` (default: all of Numba's threads).
 
 Every figure is the median of ``--repeat`` timed runs after an untimed warm-up (compilation
 excluded), the configurations interleaved repeat by repeat so that changes in the machine's load
@@ -34,10 +35,10 @@ import resource
 import statistics
 import time
 
-import numba
 import numpy as np
 
 import lgvi
+from bench_torques import user_gravity, user_gravity_potential   # the user's compiled gravity (this folder)
 from lgvi.torques import Compiled, UniformGravity
 
 J = (1.0, 2.0, 3.0)
@@ -46,17 +47,6 @@ H = 0.01
 TOP = lgvi.RigidBody([0.13, 0.28, 0.17])
 GRAVITY = UniformGravity(1.0, [0.0, 0.0, 0.3])
 USER = "heavy top, order 4, Compiled"
-
-
-@numba.njit
-def user_gravity(t, R, Pi, p):
-    # (R^T e3) x p with p = mass g com: UniformGravity's moment
-    return (R[2, 1] * p[2] - R[2, 2] * p[1], R[2, 2] * p[0] - R[2, 0] * p[2], R[2, 0] * p[1] - R[2, 1] * p[0])
-
-
-@numba.njit
-def user_gravity_potential(t, R, p):
-    return R[2, 0] * p[0] + R[2, 1] * p[1] + R[2, 2] * p[2]
 
 
 def user_top(bodies: int | None) -> Compiled:
@@ -106,8 +96,9 @@ def main(argv: list[str] | None = None) -> int:
         "free body, cayley": (dict(bodies=body, R0=R0, omega0=w0, method="cayley"), steps),
         "free body, newton": (dict(bodies=body, R0=R0, omega0=w0, method="newton"), steps),
         "heavy top, order 4": (dict(bodies=TOP, R0=R0_top, omega0=w0_top, torque=GRAVITY, order=4), top_steps),
-        USER: (dict(bodies=TOP, R0=R0_top, omega0=w0_top, torque=user_top(B), order=4), top_steps),
     }
+    if not args.quick:
+        cases[USER] = (dict(bodies=TOP, R0=R0_top, omega0=w0_top, torque=user_top(B), order=4), top_steps)
 
     others: list[float] = []
 
@@ -136,7 +127,7 @@ def main(argv: list[str] | None = None) -> int:
         kw, n = cases[case]
         total = B * n
         extra = {k: v for k, v in kw.items() if k not in ("bodies", "R0", "omega0")}
-        if c == USER:
+        if case == USER:
             extra["torque"] = user_top(None)
         return timed(lambda: lgvi.simulate(kw["bodies"], kw["R0"][0], omega0=kw["omega0"][0], h=H, steps=total,
                                            save_every=total, **extra))
@@ -185,9 +176,10 @@ def main(argv: list[str] | None = None) -> int:
               f"{cores(c, 'simulate'):>10.2f}")
     best = rate("free body, cayley", many)
     scaling = best / rate("free body, cayley", 1)
-    user = statistics.median(a / b for (a, _), (b, _) in zip(times[(USER, many)], times[(USER, 1)]))
-    print(f"{USER}: {many} threads / 1 = {1 / user:.2f}x (median of the per-repeat ratios); vs the built-in "
-          f"UniformGravity row on {many} threads: {rate(USER, many) / rate('heavy top, order 4', many):.2f}x")
+    if USER in cases:
+        user = statistics.median(a / b for (a, _), (b, _) in zip(times[(USER, many)], times[(USER, 1)]))
+        print(f"{USER}: {many} threads / 1 = {1 / user:.2f}x (median of the per-repeat ratios); vs the built-in "
+              f"UniformGravity row on {many} threads: {rate(USER, many) / rate('heavy top, order 4', many):.2f}x")
     print(f"targets: {many} threads / 1 >= 1.8x on 2 cores (cayley: {scaling:.2f}x); >= 2e7 body-steps/s in "
           f"total for the free body (cayley: {best:.3g}, {best / 2e7:.2f} of it)")
     print("'cores used' is the CPU time of all the process's threads over the wall time: below the thread count, "
