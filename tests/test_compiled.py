@@ -232,3 +232,26 @@ def test_ensemble_threads_report_the_first_failed_body():
                                                                                             params=rows[0]))
     m = e.R.shape[1]
     assert m == err.step + 1 and np.array_equal(e.R[4], s.R[:m]) and np.all(np.isfinite(e.Pi))
+
+
+@pytest.mark.parametrize("threads", [None, 2])
+def test_momentum_equation_that_does_not_converge_stops_the_run(threads):
+    # Pi = b - hs/2 c Pi by fixed-point iteration diverges when hs c / 2 > 1 (here 3 from t = 0.5 on):
+    # the run stops with the partial trajectory, each saved state finite
+    @numba.njit
+    def late_stiff(t, R, Pi, p):
+        c = p[0] if t > 0.5 else 0.1
+        return (-c * Pi[0], -c * Pi[1], -c * Pi[2])
+
+    model = Compiled(late_stiff, params=[300.0], momentum_dependent=True)
+    with pytest.raises(ConvergenceError, match="did not reach the tolerance") as info:
+        if threads is None:
+            run(model, forcing="symmetric")
+        else:
+            lgvi.simulate_ensemble(lgvi.RigidBody(J), np.stack([R0] * 3), omega0=np.stack([OMEGA0] * 3), h=0.02,
+                                   steps=300, forcing="symmetric", threads=threads,
+                                   torque=Compiled(late_stiff, params=[[300.0], [300.0], [300.0]],
+                                                   momentum_dependent=True))
+    assert info.value.step == 25
+    traj = info.value.trajectory
+    assert np.all(np.isfinite(traj.Pi)) and np.all(np.isfinite(traj.R))
