@@ -10,7 +10,7 @@ and the sample store are :func:`.stepping.load_state`, :func:`.stepping.stage_do
 is compiled without the on-disk cache (a user's function is not importable by a later process) and
 with reference counting on (the user's function may return a new array; a loop without reference
 counting would leak it). (Calling the built-in substep as a separate compiled function, cached on
-disk, halves the compile time of a user's loop but makes a step about 1.6 times slower: it stays
+disk, halves the compile time of a user's loop but makes a step 1.5 to 1.9 times slower: it stays
 inlined.)
 
 The user's moment goes into the conservative part ``P`` when the model has a potential, into
