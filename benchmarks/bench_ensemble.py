@@ -10,7 +10,11 @@ attitudes by 2 degrees per body, ``h = 0.01``, ``tol = 1e-14``, saved sparsely
 (``save_every = steps``: the first and last state of each body). Rows: the solver (``cayley``
 runs bodies in SIMD lockstep groups, ``newton`` the per-body kernel), and the heavy top
 (``UniformGravity``) at order 4 for the forced kernel (a step is one composed step of size
-``h``, five solves); each on 1 thread and on ``--threads`` (default: all of Numba's threads).
+``h``, five solves), and the same top with the user's compiled gravity
+(:class:`lgvi.torques.Compiled`, per-body ``params`` (B, 3), all rows equal: the same motion bit
+for bit; its bodies go one compiled call each through :func:`lgvi.simulate`'s loop, split over a
+pool of threads; not with ``--quick``: compiling the user's loop takes seconds); each on 1 thread
+and on ``--threads`` (default: all of Numba's threads).
 
 Every figure is the median of ``--repeat`` timed runs after an untimed warm-up (compilation
 excluded), the configurations interleaved repeat by repeat so that changes in the machine's load
@@ -34,13 +38,22 @@ import time
 import numpy as np
 
 import lgvi
-from lgvi.torques import UniformGravity
+from bench_torques import user_gravity, user_gravity_potential   # the user's compiled gravity (this folder)
+from lgvi.torques import Compiled, UniformGravity
 
 J = (1.0, 2.0, 3.0)
 OMEGA0 = (0.3, 1.0, 0.2)
 H = 0.01
 TOP = lgvi.RigidBody([0.13, 0.28, 0.17])
 GRAVITY = UniformGravity(1.0, [0.0, 0.0, 0.3])
+USER = "heavy top, order 4, Compiled"
+
+
+def user_top(bodies: int | None) -> Compiled:
+    """The user's compiled gravity: params (bodies, 3), all rows GRAVITY's, or (3,) when ``bodies`` is None."""
+    p = GRAVITY.mass * GRAVITY.g * GRAVITY.com
+    return Compiled(user_gravity, potential=user_gravity_potential,
+                    params=p if bodies is None else np.tile(p, (bodies, 1)))
 
 
 def initial(bodies: int, top: bool = False) -> tuple[np.ndarray, np.ndarray]:
@@ -84,6 +97,8 @@ def main(argv: list[str] | None = None) -> int:
         "free body, newton": (dict(bodies=body, R0=R0, omega0=w0, method="newton"), steps),
         "heavy top, order 4": (dict(bodies=TOP, R0=R0_top, omega0=w0_top, torque=GRAVITY, order=4), top_steps),
     }
+    if not args.quick:
+        cases[USER] = (dict(bodies=TOP, R0=R0_top, omega0=w0_top, torque=user_top(B), order=4), top_steps)
 
     others: list[float] = []
 
@@ -112,6 +127,8 @@ def main(argv: list[str] | None = None) -> int:
         kw, n = cases[case]
         total = B * n
         extra = {k: v for k, v in kw.items() if k not in ("bodies", "R0", "omega0")}
+        if case == USER:
+            extra["torque"] = user_top(None)
         return timed(lambda: lgvi.simulate(kw["bodies"], kw["R0"][0], omega0=kw["omega0"][0], h=H, steps=total,
                                            save_every=total, **extra))
 
@@ -119,6 +136,8 @@ def main(argv: list[str] | None = None) -> int:
     for c, th in configs:                                  # warm-up: compile or load every kernel
         kw, _ = cases[c]
         small = dict(kw, R0=kw["R0"][:16], omega0=kw["omega0"][:16])
+        if c == USER:
+            small["torque"] = user_top(None if th == "simulate" else 16)
         extra = {k: v for k, v in small.items() if k not in ("bodies", "R0", "omega0")}
         if th == "simulate":
             lgvi.simulate(small["bodies"], small["R0"][0], omega0=small["omega0"][0], h=H, steps=10, **extra)
@@ -142,7 +161,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"machine: {os.cpu_count()} cores, Numba threading layer {numba.threading_layer()}, "
           f"load average {load0[0]:.2f} before, {load1[0]:.2f} after (1 min)")
     many = threads[-1]
-    head = (f"{'case':<30} {'threads':>7} {'body-steps/s':>13} {'us/body-step':>12} "
+    head = (f"{'case':<39} {'threads':>7} {'body-steps/s':>13} {'us/body-step':>12} "
             f"{f'{many} threads / 1':>16} {'vs simulate':>11} {'cores used':>10}")
     print(head)
     print("-" * len(head))
@@ -151,12 +170,16 @@ def main(argv: list[str] | None = None) -> int:
         for th in threads:
             r = rate(c, th)
             scale = f"{r / rate(c, 1):.2f}x" if th != 1 else ""
-            print(f"{c:<30} {th:>7} {r:>13.3g} {1e6 / r:>12.4f} {scale:>16} {r / single:>10.2f}x "
+            print(f"{c:<39} {th:>7} {r:>13.3g} {1e6 / r:>12.4f} {scale:>16} {r / single:>10.2f}x "
                   f"{cores(c, th):>10.2f}")
-        print(f"{c + ' (simulate)':<30} {1:>7} {single:>13.3g} {1e6 / single:>12.4f} {'':>16} {'1.00x':>11} "
+        print(f"{c + ' (simulate)':<39} {1:>7} {single:>13.3g} {1e6 / single:>12.4f} {'':>16} {'1.00x':>11} "
               f"{cores(c, 'simulate'):>10.2f}")
     best = rate("free body, cayley", many)
     scaling = best / rate("free body, cayley", 1)
+    if USER in cases:
+        user = statistics.median(a / b for (a, _), (b, _) in zip(times[(USER, many)], times[(USER, 1)]))
+        print(f"{USER}: {many} threads / 1 = {1 / user:.2f}x (median of the per-repeat ratios); vs the built-in "
+              f"UniformGravity row on {many} threads: {rate(USER, many) / rate('heavy top, order 4', many):.2f}x")
     print(f"targets: {many} threads / 1 >= 1.8x on 2 cores (cayley: {scaling:.2f}x); >= 2e7 body-steps/s in "
           f"total for the free body (cayley: {best:.3g}, {best / 2e7:.2f} of it)")
     print("'cores used' is the CPU time of all the process's threads over the wall time: below the thread count, "

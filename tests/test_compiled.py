@@ -99,14 +99,15 @@ def test_momentum_dependent_damping_symmetric_to_the_tolerance(order):
     assert np.linalg.norm(b.Pi[-1]) < 0.9 * np.linalg.norm(b.Pi[0])      # it does damp
 
 
+@pytest.mark.parametrize("threads", [1, 2])
 @pytest.mark.parametrize("forcing, order", [("paper", 2), ("symmetric", 4)])
-def test_ensemble_per_body_params_equal_single_runs(forcing, order):
+def test_ensemble_per_body_params_equal_single_runs(forcing, order, threads):
     base = GRAVITY.mass * GRAVITY.g * GRAVITY.com
     rows = np.array([base, 0.5 * base, [0.2, -0.4, 1.0]])
     R0s = np.stack([R0, lgvi.so3.exp([0.1, 0.2, 0.3]), np.eye(3)])
     w0 = np.stack([OMEGA0, -OMEGA0, [0.3, 0.2, 0.1]])
     kw = {"h": 0.02, "steps": 300, "save_every": 3, "forcing": forcing, "order": order}
-    e = lgvi.simulate_ensemble(lgvi.RigidBody(J), R0s, omega0=w0, torque=user_gravity(rows), **kw)
+    e = lgvi.simulate_ensemble(lgvi.RigidBody(J), R0s, omega0=w0, torque=user_gravity(rows), threads=threads, **kw)
     for b in range(3):
         s = lgvi.simulate(lgvi.RigidBody(J), R0s[b], omega0=w0[b], torque=user_gravity(rows[b]), **kw)
         assert np.array_equal(e.R[b], s.R)
@@ -186,3 +187,71 @@ def test_ensemble_blocks_keep_each_body_its_row(tmp_path):
     # the per-body rows are recorded with the ensemble (issue 11 part 6), through the block files
     np.testing.assert_array_equal(e.model_params["params"], rows)
     assert list(e.dispersions) == ["params"] and e[2].meta["model_params"]["params"] == rows[2].tolist()
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_ensemble_threads_keep_each_body_its_row(threads):
+    # more bodies than threads, split into groups of 3 and 2: members equal the single runs
+    base = GRAVITY.mass * GRAVITY.g * GRAVITY.com
+    rng = np.random.default_rng(3)
+    B = 5
+    rows = base * (1.0 + 0.3 * rng.normal(size=(B, 3)))
+    R0s = lgvi.so3.exp(0.5 * rng.normal(size=(B, 3)))
+    w0 = OMEGA0 * (1.0 + 0.2 * rng.normal(size=(B, 3)))
+    kw = {"h": 0.02, "steps": 200, "save_every": 2, "forcing": "symmetric", "order": 4}
+    e = lgvi.simulate_ensemble(lgvi.RigidBody(J), R0s, omega0=w0, torque=user_gravity(rows), threads=threads, **kw)
+    for b in range(B):
+        s = lgvi.simulate(lgvi.RigidBody(J), R0s[b], omega0=w0[b], torque=user_gravity(rows[b]), **kw)
+        assert np.array_equal(e.R[b], s.R)
+        assert np.array_equal(e.Pi[b], s.Pi)
+        assert np.array_equal(e.potential[b], s.potential)
+
+
+@numba.njit
+def blows_up_late(t, R, Pi, p):
+    # a body whose row has p[0] > 0 gets a non-finite moment from t = p[0] on
+    return (np.inf if p[0] > 0.0 and t >= p[0] else 0.0, 0.0, 0.0)
+
+
+def test_ensemble_threads_report_the_first_failed_body():
+    # bodies 1 and 3 fail (at t = 1.5 and 1.0), in different threads: the error names body 3 and
+    # the partial ensemble holds every body up to its step
+    rows = np.array([[0.0], [1.5], [0.0], [1.0], [0.0]])
+    R0s = np.stack([R0] * 5)
+    w0 = np.stack([OMEGA0] * 5)
+    with pytest.raises(ConvergenceError) as info:
+        lgvi.simulate_ensemble(lgvi.RigidBody(J), R0s, omega0=w0, h=0.02, steps=200, threads=2,
+                               torque=Compiled(blows_up_late, params=rows))
+    err = info.value
+    with pytest.raises(ConvergenceError) as single:
+        lgvi.simulate(lgvi.RigidBody(J), R0, omega0=OMEGA0, h=0.02, steps=200, torque=Compiled(blows_up_late,
+                                                                                            params=rows[3]))
+    assert err.body == 3 and err.step == single.value.step and 0 < err.step < 200
+    e = err.trajectory
+    s = lgvi.simulate(lgvi.RigidBody(J), R0, omega0=OMEGA0, h=0.02, steps=200, torque=Compiled(blows_up_late,
+                                                                                            params=rows[0]))
+    m = e.R.shape[1]
+    assert m == err.step + 1 and np.array_equal(e.R[4], s.R[:m]) and np.all(np.isfinite(e.Pi))
+
+
+@pytest.mark.parametrize("threads", [None, 2])
+def test_momentum_equation_that_does_not_converge_stops_the_run(threads):
+    # Pi = b - hs/2 c Pi by fixed-point iteration diverges when hs c / 2 > 1 (here 3 from t = 0.5 on):
+    # the run stops with the partial trajectory, each saved state finite
+    @numba.njit
+    def late_stiff(t, R, Pi, p):
+        c = p[0] if t > 0.5 else 0.1
+        return (-c * Pi[0], -c * Pi[1], -c * Pi[2])
+
+    model = Compiled(late_stiff, params=[300.0], momentum_dependent=True)
+    with pytest.raises(ConvergenceError, match="did not reach the tolerance") as info:
+        if threads is None:
+            run(model, forcing="symmetric")
+        else:
+            lgvi.simulate_ensemble(lgvi.RigidBody(J), np.stack([R0] * 3), omega0=np.stack([OMEGA0] * 3), h=0.02,
+                                   steps=300, forcing="symmetric", threads=threads,
+                                   torque=Compiled(late_stiff, params=[[300.0], [300.0], [300.0]],
+                                                   momentum_dependent=True))
+    assert info.value.step == 25
+    traj = info.value.trajectory
+    assert np.all(np.isfinite(traj.Pi)) and np.all(np.isfinite(traj.R))

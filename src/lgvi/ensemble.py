@@ -14,6 +14,7 @@ import hashlib
 import json
 import math
 import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -688,8 +689,9 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
         ``ens.dispersions``), ``ens.torque_model(b)`` rebuilds body ``b``'s model, and body ``b``
         equals ``lgvi.simulate(..., torque=torque[b])`` bit for bit. A
         :class:`lgvi.torques.Compiled` model takes per-body parameters as ``params`` (B, P)
-        instead (recorded as ``model_params["params"]``). Python callables and torque arrays are
-        refused (``TypeError``): they cannot run inside the compiled parallel kernel.
+        instead (recorded as ``model_params["params"]``; its bodies run through the compiled loop
+        of :func:`lgvi.simulate`, split over ``threads`` threads). Python callables and torque
+        arrays are refused (``TypeError``): they cannot run inside the compiled parallel kernel.
     threads : int, optional
         Threads of this call (default: Numba's current number, all cores unless changed; at most
         ``numba.config.NUMBA_NUM_THREADS``). ``threads=1`` runs a serial kernel. With ``client``
@@ -888,6 +890,12 @@ class _LocalRun:
         self.fail_res = np.zeros(B)
         self.fail_its = np.zeros(B, dtype=np.int64)
         self.chunk = max(1, CHUNK_BODY_STEPS // (B * stages))
+        # a user's compiled model (lgvi.torques.Compiled) runs its bodies in a pool of this many threads
+        self.user_threads = 1
+        if parallel and getattr(s.model, "moment_func", None) is not None:
+            import numba
+
+            self.user_threads = numba.get_num_threads()
         # the free body with Cayley runs LANES bodies in lockstep (SIMD), the same values bit for bit
         self.lockstep = s.legacy and s.code == METHOD_CAYLEY
         if self.lockstep:
@@ -895,29 +903,43 @@ class _LocalRun:
             ek.pack_groups(self.R, self.Pi, self.G, self.Jd, s.ib, self.status, self.its, self.res, self.X)
 
     def _advance_user(self, n: int, R_out: np.ndarray, Pi_out: np.ndarray) -> None:
-        """Steps ``k .. k + n - 1`` of a user's compiled model, body after body (one compiled call each,
-        with the body's parameter row), the same loop and values as :func:`lgvi.simulate`."""
+        """Steps ``k .. k + n - 1`` of a user's compiled model: one compiled call per body, with the
+        body's parameter row, the same loop and values as :func:`lgvi.simulate`. The bodies are split
+        into ``threads`` contiguous groups run in a pool of threads (the compiled loop releases the
+        GIL; each thread has its own scratch arrays and each body its own state, so the numbers do not
+        depend on the threads)."""
         from ._kernels.user_kernels import run_chunk_user
 
         s, k, se = self.s, self.k, self.save_every
         m = s.model
         gidx = np.arange(self.G.shape[1], dtype=np.int64)
-        Rs, Ps, it_buf, res_buf = np.zeros((3, 3)), np.zeros(3), np.zeros(n, np.int32), np.zeros(n)
         j0 = k // se + 1
         counts = np.zeros(0, dtype=np.int64)
-        for b in range(len(s)):
-            if self.status[b] != OK:
-                continue
-            q = s.ib[b]
-            st, kend, it_total, rmax, its, rn = run_chunk_user(
-                m.moment_func, m.row(getattr(s, "body0", 0) + b), Rs, Ps, m.conservative, m.depends_on_momentum,
-                s.code, self.Jd[q], self.J[q], self.J_inv[q], s.h, s.t0, s.gam, s.cum, self.A[self.ia[b]], self.R[b],
-                self.Pi[b], self.G[b], gidx, self.S[b], s.codes, s.params, int(s.sym), k, n, s.tol, s.max_iter,
-                s.alpha, se, se - k % se, R_out[b, j0:], Pi_out[b, j0:], it_buf, res_buf, _NO_HIST, counts)
-            self.its[b] += it_total
-            self.res[b] = max(self.res[b], rmax)
-            if st != OK:
-                self.status[b], self.fail_step[b], self.fail_res[b], self.fail_its[b] = st, kend, rn, its
+        body0 = getattr(s, "body0", 0)
+
+        def bodies(group: np.ndarray) -> None:
+            Rs, Ps, it_buf, res_buf = np.zeros((3, 3)), np.zeros(3), np.zeros(n, np.int32), np.zeros(n)
+            for b in group:
+                if self.status[b] != OK:
+                    continue
+                q = s.ib[b]
+                st, kend, it_total, rmax, its, rn = run_chunk_user(
+                    m.moment_func, m.row(body0 + b), Rs, Ps, m.conservative, m.depends_on_momentum, s.code,
+                    self.Jd[q], self.J[q], self.J_inv[q], s.h, s.t0, s.gam, s.cum, self.A[self.ia[b]], self.R[b],
+                    self.Pi[b], self.G[b], gidx, self.S[b], s.codes, s.params, int(s.sym), k, n, s.tol, s.max_iter,
+                    s.alpha, se, se - k % se, R_out[b, j0:], Pi_out[b, j0:], it_buf, res_buf, _NO_HIST, counts)
+                self.its[b] += it_total
+                self.res[b] = max(self.res[b], rmax)
+                if st != OK:
+                    self.status[b], self.fail_step[b], self.fail_res[b], self.fail_its[b] = st, kend, rn, its
+
+        B = len(s)
+        workers = min(self.user_threads, B)
+        if workers <= 1:
+            bodies(np.arange(B))
+            return
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            list(pool.map(bodies, np.array_split(np.arange(B), workers)))
 
     def advance(self, n: int, R_out: np.ndarray, Pi_out: np.ndarray, partial: Any) -> int:
         """Steps ``k .. k + n - 1`` of every body; on a failure ``k`` is the first failed step."""
