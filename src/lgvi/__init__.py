@@ -47,6 +47,8 @@ from .integrator import StepResult as StepResult
 from .integrator import simulate as simulate
 from .integrator import step as step
 from .modified import simulate_modified as simulate_modified
+from .system_ensembles import SystemEnsemble as SystemEnsemble
+from .system_ensembles import simulate_members as simulate_members
 from .io import streaming as streaming  # the old name lgvi.streaming (imported here anyway)
 from .io.streaming import simulate_stream as simulate_stream
 from .systems.orbit import OrbitTrajectory as OrbitTrajectory
@@ -78,6 +80,7 @@ __all__ = [
     "RigidBody",
     "SimulationInterrupted",
     "StepResult",
+    "SystemEnsemble",
     "TorqueError",
     "Trajectory",
     "TwoBodyTrajectory",
@@ -91,6 +94,7 @@ __all__ = [
     "optimal",
     "simulate",
     "simulate_ensemble",
+    "simulate_members",
     "simulate_modified",
     "simulate_orbit",
     "simulate_stream",
