@@ -24,7 +24,7 @@ import numpy as np
 
 from .driver import MemorySink, Progress, drive
 from .errors import SimulationInterrupted
-from .systems import SYSTEMS, System
+from .systems import RUNS, SYSTEMS, System
 
 
 class SystemEnsemble:
@@ -95,11 +95,16 @@ class _Stopped(Exception):
 
 
 def _system(system: Any) -> System:
-    if isinstance(system, System):
-        return system
-    if not isinstance(system, str) or system not in SYSTEMS:
-        raise ValueError(f"system must be one of {sorted(SYSTEMS)} (lgvi.systems.SYSTEMS), got {system!r}")
-    return SYSTEMS[system]
+    if not isinstance(system, System):
+        if not isinstance(system, str) or system not in SYSTEMS:
+            raise ValueError(f"system must be one of {sorted(SYSTEMS)} (lgvi.systems.SYSTEMS), got {system!r}")
+        system = SYSTEMS[system]
+    if system.run_factory is None and system.name not in RUNS:
+        raise ValueError(f"the system {system.name!r} provides no run factory (SYSTEMS[{system.name!r}].run), so "
+                         "simulate_members cannot build its members"
+                         + ("; run its ensembles with lgvi.simulate_ensemble(..., wheels=...)"
+                            if system.name == "gyrostat" else ""))
+    return system
 
 
 def _split(member: Any, b: int) -> tuple[tuple[Any, ...], dict[str, Any]]:
@@ -263,7 +268,9 @@ def simulate_members(system: Any, members: Sequence[Any], *, threads: int | None
     Parameters
     ----------
     system : str or lgvi.systems.System
-        A registered system (``"orbit"``, ``"two_body"``, ``"gyrostat"``, ``"rigid_body"``).
+        A registered system with a run factory (``SYSTEMS[name].run``): ``"orbit"``, ``"two_body"``;
+        also ``"rigid_body"``, whose run is the low-level :class:`lgvi.integrator.Run` (every
+        option by name; :func:`lgvi.simulate_ensemble` is its better path).
     members : sequence
         One entry per run: a dict of the keyword arguments of the system's run (those of
         :func:`lgvi.simulate_orbit` / :func:`lgvi.simulate_two_body`, which take every argument by
