@@ -59,14 +59,27 @@ def test_two_body_members_bit_for_bit(threads):
     assert ens.Pi.shape == (3, 21, 2, 3)
 
 
-def test_dask_client_same_as_single_runs():
+def test_dask_client_same_as_single_runs(monkeypatch):
     distributed = pytest.importorskip("dask.distributed")
-    members = _orbit_members(2)
+    members = _orbit_members(3)
+    seen = []
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
                                   dashboard_address=":0") as cluster, distributed.Client(cluster) as client:
-        ens = simulate_members("orbit", members, client=client)
-    for b, kw in enumerate(members):
-        _same(ens[b], lgvi.simulate_orbit(**kw), ORBIT_FIELDS)
+        ens = simulate_members("orbit", members, client=client, progress=lambda done, total: seen.append((done, total)))
+        for b, kw in enumerate(members):
+            _same(ens[b], lgvi.simulate_orbit(**kw), ORBIT_FIELDS)
+        assert seen[-1] == (3, 3)
+        real = OrbitRun.advance
+
+        def advance(self, *a):
+            if self.x[0] > 7090.0:          # member 2 fails on its worker
+                raise ConvergenceError("orbit step failed", step=self.k)
+            return real(self, *a)
+
+        monkeypatch.setattr(OrbitRun, "advance", advance)
+        with pytest.raises(ConvergenceError, match=r"^member 2: orbit step failed") as info:
+            simulate_members("orbit", members, client=client)
+    assert info.value.member == 2 and sorted(info.value.members) == [0, 1]
 
 
 def test_bad_member_names_its_index():
@@ -119,12 +132,28 @@ def test_ctrl_c_keeps_the_finished_members(monkeypatch, threads):
         return real(self, *a)
 
     monkeypatch.setattr(OrbitRun, "advance", advance)
+    monkeypatch.setattr(lgvi.systems.orbit, "CHUNK_STEPS", 8)     # 15 chunks a member: stops between them
     members = _orbit_members()
     with pytest.raises(lgvi.SimulationInterrupted, match="members finished") as info:
         simulate_members("orbit", members, threads=threads)
     done = info.value.members
-    assert 1 not in done and 2 not in done
+    assert 1 not in done
     if threads == 1:
         assert sorted(done) == [0]
     for b, traj in done.items():
+        _same(traj, lgvi.simulate_orbit(**members[b]), ORBIT_FIELDS)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_real_convergence_failure_keeps_the_members_run(threads):
+    members = _orbit_members()
+    members[1].update(max_iter=1, tol=1e-300, omega0=[0.5, 0.3, 1.0])   # cannot converge in one iteration
+    with pytest.raises(ConvergenceError, match=r"^member 1: orbit step 0 ") as info:
+        simulate_members("orbit", members, threads=threads)
+    err = info.value
+    assert err.member == 1 and err.step == 0 and isinstance(err.trajectory, lgvi.OrbitTrajectory)
+    assert 1 not in err.members
+    if threads == 1:
+        assert sorted(err.members) == [0]
+    for b, traj in err.members.items():
         _same(traj, lgvi.simulate_orbit(**members[b]), ORBIT_FIELDS)

@@ -177,8 +177,8 @@ def _run_serial(runs: list, bar: Progress) -> list[Any]:
 def _run_threads(runs: list, threads: int, bar: Progress) -> list[Any]:
     stop = threading.Event()
 
-    def check(k: int, steps: int) -> None:
-        if stop.is_set():
+    def check(k: int, steps: int) -> None:   # between chunks; a member whose last chunk is done is kept
+        if stop.is_set() and k < steps:
             raise _Stopped
 
     def one(run: Any) -> Any:
