@@ -1,4 +1,4 @@
-"""Compiled right-hand side and fixed-step RK4 loop of the classical baselines.
+"""Compiled right-hand side and fixed-step RK4 chunk of the classical baselines.
 
 The ODE is Euler's equations with quaternion kinematics, on ``y = (q, Pi)`` with ``q = (x, y, z, w)``
 scalar-last (body to inertial, Hamilton product) and ``Pi`` the body angular momentum:
@@ -74,12 +74,15 @@ def rhs(t, y, J, J_inv, codes, params, D):
 
 
 @jit
-def rk4_run(h, t0, q, Pi, J, J_inv, codes, params, D, k0, n, save_every, normalize, q_out, Pi_out):
-    """Advance ``n`` classic RK4 steps ``k0 .. k0+n-1`` in place on ``q`` (4,) and ``Pi`` (3,).
+def rk4_chunk(h, t0, q, Pi, J, J_inv, codes, params, D, k0, n, save_every, normalize, q_out, Pi_out):
+    """Advance ``n`` classic RK4 steps ``k0 .. k0+n-1`` in place on ``q`` (4,) and ``Pi`` (3,): one
+    chunk of :func:`lgvi.driver.drive`.
 
-    Step ``k`` starts at ``t0 + k h``. After step ``k`` the state is saved at index
-    ``(k + 1) // save_every`` of ``q_out``/``Pi_out`` when ``(k + 1) % save_every == 0``. With
-    ``normalize`` the quaternion is rescaled to unit length after every step. Returns ``k0 + n``.
+    Step ``k`` starts at ``t0 + k h``. ``k0`` and ``n`` are multiples of ``save_every``; the chunk's
+    samples go to its own buffers ``q_out`` (n // save_every, 4) and ``Pi_out`` (n // save_every, 3):
+    after the chunk's step ``i`` (``i = 0 .. n-1``) the state is saved at index
+    ``(i + 1) // save_every - 1`` when ``(i + 1) % save_every == 0``. With ``normalize`` the
+    quaternion is rescaled to unit length after every step. Returns ``k0 + n``.
     """
     Rs = np.empty((3, 3))
     h2 = 0.5 * h
@@ -91,8 +94,8 @@ def rk4_run(h, t0, q, Pi, J, J_inv, codes, params, D, k0, n, save_every, normali
     p0 = Pi[0]
     p1 = Pi[1]
     p2 = Pi[2]
-    for k in range(k0, k0 + n):
-        t = t0 + k * h
+    for i in range(n):
+        t = t0 + (k0 + i) * h
         a0, a1, a2, a3, a4, a5, a6 = rhs_scalar(t, x, y, z, w, p0, p1, p2, J, J_inv, codes, params, D, Rs)
         b0, b1, b2, b3, b4, b5, b6 = rhs_scalar(t + h2, x + h2 * a0, y + h2 * a1, z + h2 * a2, w + h2 * a3,
                                                 p0 + h2 * a4, p1 + h2 * a5, p2 + h2 * a6,
@@ -116,8 +119,8 @@ def rk4_run(h, t0, q, Pi, J, J_inv, codes, params, D, k0, n, save_every, normali
             y *= s
             z *= s
             w *= s
-        if (k + 1) % save_every == 0:
-            j = (k + 1) // save_every
+        if (i + 1) % save_every == 0:
+            j = (i + 1) // save_every - 1
             q_out[j, 0] = x
             q_out[j, 1] = y
             q_out[j, 2] = z
