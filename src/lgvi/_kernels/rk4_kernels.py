@@ -79,10 +79,11 @@ def rk4_chunk(h, t0, q, Pi, J, J_inv, codes, params, D, k0, n, save_every, norma
     chunk of :func:`lgvi.driver.drive`.
 
     Step ``k`` starts at ``t0 + k h``. ``k0`` and ``n`` are multiples of ``save_every``; the chunk's
-    samples go to its own buffers ``q_out`` (n // save_every, 4) and ``Pi_out`` (n // save_every, 3):
-    after the chunk's step ``i`` (``i = 0 .. n-1``) the state is saved at index
-    ``(i + 1) // save_every - 1`` when ``(i + 1) % save_every == 0``. With ``normalize`` the
-    quaternion is rescaled to unit length after every step. Returns ``k0 + n``.
+    samples go to its own buffers ``q_out`` (n // save_every, 4) and ``Pi_out`` (n // save_every, 3),
+    from index 0: the state after step ``k`` is the chunk's next sample when
+    ``(k + 1) % save_every == 0`` (a running index: cheaper in the loop than computing it from
+    ``k``). With ``normalize`` the quaternion is rescaled to unit length after every step.
+    Returns ``k0 + n``.
     """
     Rs = np.empty((3, 3))
     h2 = 0.5 * h
@@ -94,8 +95,9 @@ def rk4_chunk(h, t0, q, Pi, J, J_inv, codes, params, D, k0, n, save_every, norma
     p0 = Pi[0]
     p1 = Pi[1]
     p2 = Pi[2]
-    for i in range(n):
-        t = t0 + (k0 + i) * h
+    j = 0                                   # the chunk's next sample
+    for k in range(k0, k0 + n):
+        t = t0 + k * h
         a0, a1, a2, a3, a4, a5, a6 = rhs_scalar(t, x, y, z, w, p0, p1, p2, J, J_inv, codes, params, D, Rs)
         b0, b1, b2, b3, b4, b5, b6 = rhs_scalar(t + h2, x + h2 * a0, y + h2 * a1, z + h2 * a2, w + h2 * a3,
                                                 p0 + h2 * a4, p1 + h2 * a5, p2 + h2 * a6,
@@ -119,8 +121,7 @@ def rk4_chunk(h, t0, q, Pi, J, J_inv, codes, params, D, k0, n, save_every, norma
             y *= s
             z *= s
             w *= s
-        if (i + 1) % save_every == 0:
-            j = (i + 1) // save_every - 1
+        if (k + 1) % save_every == 0:
             q_out[j, 0] = x
             q_out[j, 1] = y
             q_out[j, 2] = z
@@ -128,6 +129,7 @@ def rk4_chunk(h, t0, q, Pi, J, J_inv, codes, params, D, k0, n, save_every, norma
             Pi_out[j, 0] = p0
             Pi_out[j, 1] = p1
             Pi_out[j, 2] = p2
+            j += 1
     q[0] = x
     q[1] = y
     q[2] = z

@@ -335,7 +335,7 @@ class RK4Run:
             self.k = _rk.rk4_chunk(self.h, self.t0, self.q, self.Pi, self.J, self.J_inv, tq.codes, tq.params, tq.D,
                                    self.k, n, self.save_every, self.normalize, q_out, Pi_out)
             return OK
-        f, y, h, t0, se = self.f, self.y, self.h, self.t0, self.save_every
+        f, y, h, t0, se, normalize = self.f, self.y, self.h, self.t0, self.save_every, self.normalize
         h2, h6 = 0.5 * h, h / 6.0
         k0 = self.k
         for i in range(n):
@@ -353,13 +353,13 @@ class RK4Run:
                 exc.trajectory = partial(k)
                 raise
             y = y + h6 * (k1 + 2.0 * (k2 + k3) + k4)
-            if self.normalize:
+            if normalize:
                 y[:4] /= np.sqrt(y[:4] @ y[:4])
             if (i + 1) % se == 0:
                 j = (i + 1) // se - 1
                 q_out[j] = y[:4]
                 Pi_out[j] = y[4:]
-            self.y = y
+        self.y = y
         self.k = k0 + n
         return OK
 
