@@ -627,7 +627,32 @@ _ROWS += [
      (r"\bKi\b", r"nan", r"finite")),
     ("controller-returns-nan", lambda: sim(wheels=_wheels(), controller=_NanAt(), control_period=H),
      lgvi.TorqueError, (r"wheel_torque", r"nan", r"non-finite", r"step 5", r"\.trajectory")),
+    # the error estimate with wheels (issue 11): the shadow run at h/2
+    ("wheels-error-estimate-bad", lambda: sim(wheels=_wheels(), error_estimate="rk"), ValueError,
+     (r"\berror_estimate\b", r"'rk'", r"False, True or 'richardson'")),
+    ("wheels-error-estimate-type", lambda: sim(wheels=_wheels(), error_estimate=2), TypeError,
+     (r"\berror_estimate\b", r"\b2\b", r"of type int")),
+    ("wheels-error-warn-negative", lambda: sim(wheels=_wheels(), error_estimate=True, error_warn=-1.0), ValueError,
+     (r"\berror_warn\b", r"-1", r"positive")),
+    ("wheels-error-estimate-period-half-h", lambda: sim(controller=lgvi.control.MRPFeedback(1.0, 1.0), wheels=_wheels(),
+                                                        control_period=0.0125, error_estimate=True), ValueError,
+     (r"\bcontrol_period\b", r"0\.0125", r"multiple of h/2")),
+    ("gyrostat-ensemble-load-not-npz", lambda: _load_ensemble_text(), ValueError,
+     (r"ensemble\.npz", r"not an \.npz")),
 ]
+
+
+def _load_ensemble_text() -> Any:
+    import os
+    import tempfile
+
+    from lgvi.systems.gyrostat_ensemble import GyrostatEnsemble
+
+    with tempfile.TemporaryDirectory() as d:
+        path = os.path.join(d, "ensemble.npz")
+        with open(path, "w") as fh:
+            fh.write("not a zip")
+        return GyrostatEnsemble.load(path)
 
 CASES = [pytest.param(call, exc, patterns, id=name) for name, call, exc, patterns in _ROWS] + [
     pytest.param(call, exc, patterns, id=name, marks=pytest.mark.xfail(strict=True, reason=reason))

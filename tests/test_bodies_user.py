@@ -105,12 +105,13 @@ def test_figures_have_their_panels(tmp_path):
     assert (tmp_path / "two_body.png").read_bytes()[:4] == b"\x89PNG"
 
 
-def test_command_line_refuses_them_clearly(tmp_path, capsys):
+def test_compare_refuses_them_clearly(tmp_path, capsys):
+    # lgvi run runs them (tests/test_cli_systems.py); the baselines of lgvi compare are single bodies
     from pathlib import Path
 
     from lgvi import cli
 
     path = Path(__file__).resolve().parents[1] / "examples" / "binary_asteroid.toml"
-    assert cli.main(["run", str(path), "-o", str(tmp_path / "out")]) == 2
+    assert cli.main(["compare", str(path), "-o", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
-    assert "two_body" in err and "load_scenario(path).run()" in err
+    assert "two_body" in err and "lgvi run" in err

@@ -243,7 +243,7 @@ def provide_simulate(simulate: Any) -> None:
 
 
 def with_estimate(traj: Any, args: dict[str, Any], *, warn: float | None = DEFAULT_WARN,
-                  stacklevel: int = 2) -> Any:
+                  stacklevel: int = 2, order: int | None = None) -> Any:
     """``traj`` with ``meta["error_estimate"]`` from a shadow run of :func:`lgvi.simulate` at ``h/2``.
 
     Parameters
@@ -258,6 +258,9 @@ def with_estimate(traj: Any, args: dict[str, Any], *, warn: float | None = DEFAU
         Emit :class:`lgvi.AccuracyWarning` when the estimated final attitude error exceeds it.
     stacklevel : int
         Passed to :func:`warnings.warn` (counted from the caller of this function).
+    order : int, optional
+        The scheme's order ``p`` when the arguments do not tell it (the gyrostat's: 1 with wheel
+        friction); default from ``order``, ``torque`` and ``forcing``.
 
     Raises
     ------
@@ -269,9 +272,10 @@ def with_estimate(traj: Any, args: dict[str, Any], *, warn: float | None = DEFAU
     kw.update(h=float(kw["h"]) / 2.0, steps=2 * int(kw["steps"]), save_every=2 * int(kw.get("save_every", 1)))
     if kw.get("progress") is not True:
         kw["progress"] = False
-    order = int(kw.get("order", 2))
+    p = int(kw.get("order", 2))
     if kw.get("scheme") in (None, "lgvi"):          # the splitting's order is order= for every moment
-        order = scheme_order(kw.get("torque"), kw.get("forcing", "paper"), order)
+        p = scheme_order(kw.get("torque"), kw.get("forcing", "paper"), p)
+    order = p if order is None else int(order)
     t0 = time.perf_counter()
     try:
         shadow = simulate(**kw)

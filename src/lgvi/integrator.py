@@ -250,7 +250,7 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
         Balanced reaction wheels (a gyrostat, ``docs/gyrostat.md``); ``body`` is then the
         spacecraft with the wheels locked, ``Pi0`` the total body momentum. The result is a
         :class:`lgvi.systems.gyrostat.GyrostatTrajectory` (``wheel_speed``, ``wheel_torque``,
-        ``wheel_momentum`` (M, N)). Not with ``torque`` or ``error_estimate``; ``order=4, 6``
+        ``wheel_momentum`` (M, N)). ``error_estimate`` as above; ``order=4, 6``
         compose the step, the wheel and controller torques held over each whole step.
     controller : lgvi.control.Controller, optional
         Called every ``control_period`` (zero-order hold); :class:`lgvi.control.MRPFeedback`
@@ -334,7 +334,8 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
                                  control_period=control_period, environment=environment, magnetorquers=magnetorquers,
                                  progress=progress, method=method, tol=tol, max_iter=max_iter, alpha=alpha,
                                  save_every=save_every, t0=t0, solver_record=solver_record, order=order,
-                                 composition=composition, torque=torque)
+                                 composition=composition, torque=torque, error_estimate=error_estimate,
+                                 error_warn=error_warn)
     from .accuracy import check_options
 
     estimate, warn = check_options(error_estimate, error_warn, torque)

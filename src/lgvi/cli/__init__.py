@@ -7,7 +7,9 @@ command                                            what it does
                                                    with ``-o`` also the trajectory and figures
 ``lgvi run SCENARIO.toml [-o DIR]``                runs a scenario file (:mod:`lgvi.scenario`); writes the
 ``[--no-plots] [--format npz,csv,netcdf]``         trajectory, ``summary.txt``/``summary.json``, the scenario,
-                                                   the figures and ``report.html``
+                                                   the figures and ``report.html``; an ``[orbiting_body]`` or
+                                                   ``[two_body]`` scenario: the npz, summaries (the system's
+                                                   declared invariants) and its figure
 ``lgvi compare SCENARIO.toml --with rk4,rk45``     the same problem through the baselines (``rk4``, ``rk45``,
 ``[-o DIR]``                                       ``dop853``): a table of conservation errors and wall times,
                                                    and with ``-o`` overlaid figures
@@ -198,13 +200,15 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 
 # ------------------------------------------------------------------------------------ run
-def _load(path: str):
+def _load(path: str, *, systems: bool = False):
+    """The checked scenario of ``path``; ``systems``: also ``[orbiting_body]`` and ``[two_body]``
+    scenarios (``lgvi run``; ``lgvi compare``'s baselines integrate a single body only)."""
     from ..io.scenario import BodiesScenario, ScenarioError, load_scenario
 
     sc = load_scenario(path)
-    if isinstance(sc, BodiesScenario):   # issue 16: not run by the command line yet
-        raise ScenarioError(path, sc.kind, "the command line does not run [orbiting_body] or [two_body] scenarios yet; "
-                            "run it from Python: lgvi.scenario.load_scenario(path).run()")
+    if isinstance(sc, BodiesScenario) and not systems:
+        raise ScenarioError(path, sc.kind, "lgvi compare runs the baselines of a single rigid body; an "
+                            "[orbiting_body] or [two_body] scenario runs with lgvi run")
     return sc
 
 
@@ -388,8 +392,11 @@ def _warm(scenario, baselines: tuple[str, ...] = ()) -> float:
 
 def cmd_run(args: argparse.Namespace) -> int:
     from ..errors import AccuracyWarning, ConvergenceError, SimulationInterrupted, TorqueError
+    from ..io.scenario import BodiesScenario
 
-    scenario = _load(args.scenario)
+    scenario = _load(args.scenario, systems=True)
+    if isinstance(scenario, BodiesScenario):    # a body in orbit, two bodies (lgvi.systems)
+        return _run_system(args, scenario)
     formats = _parse_formats(args.format, scenario.formats)
     plots = scenario.plots and not args.no_plots
     outdir = Path(args.output) if args.output else _default_outdir(scenario)
@@ -453,6 +460,188 @@ def cmd_run(args: argparse.Namespace) -> int:
         if est.exceeds:
             _err(f"warning: the estimated final attitude error {est.attitude:.3g} rad exceeds error_warn = "
                  f"{est.warn:g} rad; {est.advice(toml=True)} (see summary.txt)")
+    return 0
+
+
+# ------------------------------------------------------------------------------------ run: other systems
+_SYSTEM_NAMES = {"orbit": "a rigid body in a central field (lgvi.simulate_orbit)",
+                 "two_body": "two rigid bodies in mutual gravity (lgvi.simulate_two_body)"}
+
+
+def _system_declaration(traj):
+    """The declared invariants of an orbit or two-body result (:func:`lgvi.invariants.declared`),
+    named after its system."""
+    from ..invariants import Declaration, declared
+
+    meta = traj.meta
+    if meta.get("system") == "orbit":
+        what = f"a body in a central field ({meta.get('potential', '?')} potential" + (", J2)" if meta.get("J2") else ")")
+        if meta.get("torque") not in (None, "none"):
+            what += f" under an extra torque ({meta['torque']})"
+    else:
+        what = f"two bodies in mutual gravity ({meta.get('potential', '?')} potential)"
+    decl = declared(traj)
+    return Declaration(decl.entries, what, decl.recorded)
+
+
+def _system_conservation_lines(traj, decl, drifts: dict[str, Any]) -> list[str]:
+    """The conservation block of an orbit or two-body run's ``summary.txt``."""
+    from ..invariants import KIND_TEXT, QUANTITIES
+
+    lines = [f"conservation (largest change over the run; {decl.note()}):"]
+    for k in decl.quantities():
+        q = QUANTITIES[k]
+        change = (f"abs {drifts[q.abs_key]:.3e}   " if q.abs_key else "") + f"rel {_fmt_drift(drifts[q.rel_key])}"
+        lines.append(f"  {q.name:<50} {change}   {KIND_TEXT[decl.kind(k)]}")
+    lines += [f"  {QUANTITIES[k].name:<50} not an invariant here" for k in decl.not_invariants()]
+    lines.append(f"  {'|R^T R - I|':<50} max {drifts['orthogonality_max']:.3e}")
+    return lines
+
+
+def _system_lines(traj) -> list[str]:
+    """What was simulated: the orbit's or the pair's parameters and range."""
+    meta = traj.meta
+    if meta.get("system") == "orbit":
+        r = np.linalg.norm(np.asarray(traj.x), axis=1)
+        J2 = f", J2 = {meta['J2']:g} (radius {meta['radius']:g} m)" if meta.get("J2") else ""
+        return [f"system:        {_SYSTEM_NAMES['orbit']}: mass {traj.mass:g} kg, mu = {traj.mu:g} m^3/s^2, "
+                f"{meta.get('potential')} potential{J2}",
+                f"orbit:         |x| from {r.min():.6g} to {r.max():.6g} m"]
+    d = np.asarray(traj.distance)
+    return [f"system:        {_SYSTEM_NAMES['two_body']}: masses {traj.masses[0]:g} and {traj.masses[1]:g} kg, "
+            f"G = {traj.G:g}, {meta.get('potential')} mutual potential",
+            f"distance:      |x2 - x1| from {d.min():.6g} to {d.max():.6g} m"]
+
+
+def write_system_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], *, status: str = "complete",
+                         message: str = "", kernel_load: float | None = None) -> tuple[Path, Path]:
+    """``summary.json`` and ``summary.txt`` of an ``[orbiting_body]`` or ``[two_body]`` run: the
+    system, the declared invariants (:mod:`lgvi.invariants`) with their kinds and largest changes,
+    wall time, solver record, scenario text, versions."""
+    import lgvi
+
+    from ..invariants import drifts as invariant_drifts
+    from ..io.outputs import orthogonality_max
+
+    decl = _system_declaration(traj)
+    drifts = invariant_drifts(traj, decl) if len(traj.t) else {}
+    drifts["orthogonality_max"] = orthogonality_max(traj)
+    steps_done = (len(traj.t) - 1) * scenario.save_every if len(traj.t) else 0
+    its, res = np.asarray(traj.iterations), np.asarray(traj.residual)
+    data: dict[str, Any] = {
+        "status": status, "message": message, "system": traj.meta.get("system"),
+        "scenario_name": scenario.name, "description": scenario.description, "scenario_source": scenario.source,
+        "lgvi_version": lgvi.__version__, "python": platform.python_version(), "numpy": np.__version__,
+        "steps_requested": scenario.steps, "steps": steps_done, "samples": len(traj.t), "h": scenario.h,
+        "t_start": float(traj.t[0]) if len(traj.t) else None, "t_end": float(traj.t[-1]) if len(traj.t) else None,
+        "method": traj.meta.get("method"), "potential": traj.meta.get("potential"),
+        "wall_time_s": wall, "steps_per_s": steps_done / wall if wall > 0 else None, "kernel_load_s": kernel_load,
+        "iterations_max": int(its.max()) if its.size else None,
+        "iterations_interval_mean": float(its.mean()) if its.size else None,
+        "residual_max": float(res.max()) if res.size else None,
+        "drifts": drifts, "invariants": decl.labels(), "files": [p.name for p in files], "scenario": scenario.text,
+    }
+    js = outdir / "summary.json"
+    js.write_text(json.dumps(data, indent=2) + "\n")
+    rate = "n/a" if data["steps_per_s"] is None else f"{data['steps_per_s']:.4g}"
+    times = (f", t = {data['t_start']:g} .. {data['t_end']:g} s" if len(traj.t) else "")
+    lines = [
+        f"lgvi {lgvi.__version__} run of scenario {scenario.name!r} ({scenario.source})",
+        *([f"  {scenario.description}"] if scenario.description else []),
+        f"status:        {status}{': ' + message if message else ''}",
+        *_system_lines(traj),
+        f"steps:         {steps_done} of {scenario.steps}, h = {scenario.h:g} s{times}, {data['samples']} saved "
+        f"states (every {scenario.save_every})",
+        f"integrator:    {traj.meta.get('method')} coordinates, tol {traj.meta.get('tol')}",
+        f"wall time:     {wall:.4g} s ({rate} steps/s)"
+        + ("" if kernel_load is None else f"; kernel load/compile before it {kernel_load:.3g} s"),
+        ("solver:        largest iterations per saved interval: mean "
+         f"{data['iterations_interval_mean']:.3f}, max {data['iterations_max']}; max final residual (absolute) "
+         f"{data['residual_max']:.3e}"
+         if its.size else "solver:        no steps recorded"),
+        *(_system_conservation_lines(traj, decl, drifts) if len(traj.t) else []),
+        f"files:         {', '.join(data['files'])}",
+        "",
+        "scenario:",
+        *("  " + line for line in scenario.text.rstrip("\n").splitlines()),
+        "",
+    ]
+    txt = outdir / "summary.txt"
+    txt.write_text("\n".join(lines))
+    return txt, js
+
+
+def _write_system_results(traj, scenario, outdir: Path, plots: bool, wall: float, *, status: str = "complete",
+                          message: str = "", kernel_load: float | None = None) -> list[Path]:
+    outdir.mkdir(parents=True, exist_ok=True)
+    traj.save(outdir / "trajectory.npz")
+    files = [outdir / "trajectory.npz"]
+    (outdir / "scenario.toml").write_text(scenario.text)
+    files.append(outdir / "scenario.toml")
+    if plots:
+        files += _save_figures(traj, outdir)
+    txt, js = write_system_summary(outdir, traj, scenario, wall, files, status=status, message=message,
+                                   kernel_load=kernel_load)
+    return files + [txt, js]
+
+
+def _run_system(args: argparse.Namespace, scenario) -> int:
+    """``lgvi run`` of an ``[orbiting_body]`` or ``[two_body]`` scenario (in memory: no stream
+    folder, so no ``--resume``)."""
+    from dataclasses import replace
+
+    from ..errors import ConvergenceError, SimulationInterrupted, TorqueError
+
+    if args.resume:
+        raise UsageError(f"--resume: {scenario.source} is an [{'orbiting_body' if scenario.kind == 'orbit' else 'two_body'}] "
+                         "scenario, which runs in memory (no stream folder to resume from)")
+    formats = _parse_formats(args.format, scenario.formats)
+    if formats != ("npz",):
+        raise UsageError(f"--format: the results of an [orbiting_body] or [two_body] scenario are saved as npz "
+                         f"only; got {args.format!r}")
+    plots = scenario.plots and not args.no_plots
+    outdir = Path(args.output) if args.output else _default_outdir(scenario)
+    _check_outdir(outdir)
+    t_load = time.perf_counter()
+    if scenario.steps:   # load (or compile) the kernels, so that the timing excludes it
+        try:
+            replace(scenario, steps=scenario.save_every).run()
+        except Exception:  # noqa: BLE001 - the real run reports any problem
+            pass
+    t_load = time.perf_counter() - t_load
+    loud = scenario.steps >= ANNOUNCE_STEPS
+    if loud:
+        print(f"lgvi run: {scenario.name}: {scenario.steps} steps of h = {scenario.h:g} s ({scenario.kind}) ...",
+              file=sys.stderr, flush=True)
+    t0 = time.perf_counter()
+    try:
+        traj = scenario.run(progress=True)
+    except SimulationInterrupted as exc:
+        part = exc.trajectory
+        if part is not None and len(part.t):
+            files = _write_system_results(part, scenario, outdir, False, time.perf_counter() - t0,
+                                          status="interrupted", message=str(exc))
+            _err(f"interrupted: {exc}; the {(len(part.t) - 1) * scenario.save_every} steps computed are written to "
+                 f"{outdir} ({', '.join(p.name for p in files)})")
+        else:
+            _err(f"interrupted: {exc}")
+        return 130
+    except (ConvergenceError, TorqueError) as exc:
+        part = getattr(exc, "trajectory", None)
+        msg = f"{type(exc).__name__}: {exc}"
+        if part is not None and len(part.t):
+            _write_system_results(part, scenario, outdir, False, time.perf_counter() - t0, status="failed",
+                                  message=str(exc))
+            msg += f" (the part computed is written to {outdir})"
+        raise RunFailure(msg) from None
+    wall = time.perf_counter() - t0
+    if loud:
+        rate = scenario.steps / wall if wall > 0 else float("inf")
+        print(f"lgvi run: {scenario.name}: done in {wall:.3g} s ({rate:.3g} steps/s)", file=sys.stderr, flush=True)
+    files = _write_system_results(traj, scenario, outdir, plots, wall, kernel_load=t_load)
+    print(f"{scenario.name}: {scenario.steps} steps in {wall:.3g} s; wrote {len(files)} files to {outdir}")
+    for p in files:
+        print(f"  {p.name}")
     return 0
 
 
@@ -565,6 +754,12 @@ def _read(path: str):
 
 def cmd_plot(args: argparse.Namespace) -> int:
     traj = _read(args.trajectory)
+    if hasattr(traj, "members"):
+        raise UsageError(f"{args.trajectory} holds an ensemble of {len(traj)} runs; lgvi plot draws one run "
+                         "(lgvi info describes the ensemble)")
+    if args.animate and hasattr(traj, "x"):
+        raise UsageError(f"--animate: {args.trajectory} is a {traj.meta.get('system')} result; the animation "
+                         "shows one rigid body")
     outdir = Path(args.output) if args.output else Path(args.trajectory).resolve().parent
     try:
         plot = importlib.import_module("lgvi.plot")
@@ -584,6 +779,10 @@ def cmd_info(args: argparse.Namespace) -> int:
     from ..io.outputs import conservation_drifts
 
     traj = _read(args.trajectory)
+    if hasattr(traj, "members"):                    # a gyrostat ensemble
+        return _info_ensemble(args.trajectory, traj)
+    if hasattr(traj, "x"):                          # a body in orbit, two bodies
+        return _info_system(args.trajectory, traj)
     meta = dict(traj.meta)
     scenario_text = meta.pop("scenario", None)
     meta.pop("solver_summary", None)  # printed on the solver lines
@@ -627,6 +826,85 @@ def cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
+def _print_meta(meta: dict[str, Any]) -> None:
+    scenario_text = meta.pop("scenario", None)
+    print("  metadata")
+    for k in sorted(meta):
+        print(f"    {k:<16} {meta[k]}")
+    if scenario_text:
+        print("  scenario")
+        for line in str(scenario_text).rstrip("\n").splitlines():
+            print(f"    {line}")
+
+
+def _info_system(path: str, traj) -> int:
+    """``lgvi info`` of a result of :func:`lgvi.simulate_orbit` or :func:`lgvi.simulate_two_body`."""
+    from ..invariants import KIND_TEXT, QUANTITIES, drifts as invariant_drifts
+    from ..io.outputs import orthogonality_max
+
+    meta = dict(traj.meta)
+    system = meta.get("system")
+    print(f"{path}: {_SYSTEM_NAMES.get(system, system)}")
+    print(f"  samples     {len(traj.t)}  (x {tuple(traj.x.shape)}, p {tuple(traj.p.shape)}, R {tuple(traj.R.shape)}, "
+          f"Pi {tuple(traj.Pi.shape)})")
+    print(f"  steps       {max(len(traj.t) - 1, 0) * int(meta.get('save_every', 1))}, h = {traj.h:g}")
+    if len(traj.t):
+        print(f"  time        {traj.t[0]:g} .. {traj.t[-1]:g} s")
+    for line in _system_lines(traj) if len(traj.t) else []:
+        name, _, rest = line.partition(":")
+        print(f"  {name:<11} {rest.strip()}")
+    its, res = np.asarray(traj.iterations), np.asarray(traj.residual)
+    if its.size:
+        print(f"  solver      largest iterations per saved interval: mean {its.mean():.3f}, max {int(its.max())}; "
+              f"max final residual (absolute) {float(res.max()):.3e}")
+    if len(traj.t):
+        decl = _system_declaration(traj)
+        d = invariant_drifts(traj, decl)
+        print(f"  conservation (largest change over the run; {decl.note()})")
+        for k in decl.quantities():
+            q = QUANTITIES[k]
+            print(f"    {q.name} " + (f"abs {d[q.abs_key]:.3e}, " if q.abs_key else "")
+                  + f"rel {_fmt_drift(d[q.rel_key])} ({KIND_TEXT[decl.kind(k)]})")
+        print(f"    |R^T R - I| max {orthogonality_max(traj):.3e}")
+        if decl.not_invariants():
+            print(f"    not invariants here: {', '.join(QUANTITIES[k].name for k in decl.not_invariants())}")
+    meta.pop("invariants", None)        # printed above
+    _print_meta(meta)
+    return 0
+
+
+def _info_ensemble(path: str, ens) -> int:
+    """``lgvi info`` of a gyrostat ensemble (:meth:`lgvi.systems.gyrostat_ensemble.GyrostatEnsemble.save`)."""
+    from ..invariants import KIND_TEXT, QUANTITIES, Declaration, declared, drifts as invariant_drifts
+
+    B, M = len(ens), len(ens.t)
+    print(f"{path}: {ens!r}")
+    print(f"  members     {B}, {M} samples each (R {tuple(ens.R.shape)}, wheel_momentum "
+          f"{tuple(ens.wheel_momentum.shape)})")
+    if M:
+        print(f"  time        {ens.t[0]:g} .. {ens.t[-1]:g} s, h = {ens.members[0].h:g}")
+    print(f"  params      {', '.join(sorted(ens.params))}")
+    disp = ens.dispersions
+    print(f"  dispersed   {', '.join(sorted(disp)) if disp else 'nothing (every member has the same inputs)'}")
+    if M:
+        first = declared(ens.members[0])          # the members' controllers may differ: not named here
+        n = ens.wheel_momentum.shape[-1]
+        decl = Declaration(first.entries, f"each member (a gyrostat with {n} reaction wheels"
+                           + (", its controller)" if ens.meta.get("torque") == "controller" else ")"), first.recorded)
+        print(f"  conservation (largest change over the run, worst member; {decl.note()})")
+        per = [invariant_drifts(m, declared(m)) for m in ens.members]
+        for k in decl.quantities():
+            q = QUANTITIES[k]
+            vals = [p[q.rel_key] for p in per if p.get(q.rel_key) is not None]
+            worst = max(vals) if vals else None
+            print(f"    {q.name} rel {_fmt_drift(worst)} ({KIND_TEXT[decl.kind(k)]})")
+        print(f"    |R^T R - I| max {max(float(np.max(m.orthogonality_error)) for m in ens.members):.3e}")
+        if decl.not_invariants():
+            print(f"    not invariants here: {', '.join(QUANTITIES[k].name for k in decl.not_invariants())}")
+    _print_meta(dict(ens.meta))
+    return 0
+
+
 def _save_report(traj, outdir: Path, summary: dict[str, Any]) -> list[Path]:
     """``report.html`` (:mod:`lgvi.view`), or nothing (with a note on stderr) without plotly."""
     from .. import view
@@ -642,6 +920,10 @@ def cmd_view(args: argparse.Namespace) -> int:
     from .. import view
 
     traj = _read(args.trajectory)
+    if hasattr(traj, "members") or hasattr(traj, "x"):
+        raise UsageError(f"{args.trajectory}: lgvi view shows one rigid body's run; this file holds "
+                         f"{'an ensemble' if hasattr(traj, 'members') else 'a ' + str(traj.meta.get('system')) + ' result'} "
+                         "(lgvi info describes it, lgvi plot draws its figure)")
     out = Path(args.output) if args.output else Path(args.trajectory).with_suffix(".html")
     if args.max_frames < 2:
         raise UsageError(f"--max-frames must be an integer >= 2, got {args.max_frames}")

@@ -42,6 +42,7 @@ from ..trajectory import Trajectory, check_arrays as _check_arrays, load
 __all__ = [
     "CSV_COLUMNS",
     "conservation_drifts",
+    "orthogonality_max",
     "read_csv",
     "read_netcdf",
     "read_trajectory",
@@ -325,15 +326,46 @@ def read_netcdf(path: str | os.PathLike) -> Trajectory:
 
 
 # ------------------------------------------------------------------------------------ any
-def read_trajectory(path: str | os.PathLike) -> Trajectory:
-    """Read a trajectory by its extension: ``.npz`` (:func:`lgvi.load`), ``.csv``, ``.nc``."""
+def _npz_format(path: str | os.PathLike) -> str | None:
+    """The ``format`` of an lgvi ``.npz`` result's header, ``None`` when it cannot be told (then
+    :func:`lgvi.load` reads the file and says what is wrong with it)."""
+    from .._untrusted import check_npz
+
+    try:
+        with open(path, "rb") as fh:
+            if fh.read(2) != b"PK":
+                return None
+        check_npz(os.fspath(path))        # no object arrays, no declared size beyond the file's bytes
+        with np.load(path, allow_pickle=False) as data:
+            if "__lgvi__" not in data.files:
+                return None
+            header = json.loads(str(data["__lgvi__"]))
+    except Exception:  # noqa: BLE001 - lgvi.load reports the problem
+        return None
+    fmt = header.get("format") if isinstance(header, dict) else None
+    return fmt if isinstance(fmt, str) else None
+
+
+def _npz_readers() -> dict[str, Any]:
+    """Readers of the ``.npz`` results of other systems, by the format in their header."""
+    from ..systems import gyrostat_ensemble, orbit, two_body
+
+    return {orbit.FORMAT: orbit.OrbitTrajectory.load, two_body.FORMAT: two_body.TwoBodyTrajectory.load,
+            gyrostat_ensemble.FORMAT: gyrostat_ensemble.GyrostatEnsemble.load}
+
+
+def read_trajectory(path: str | os.PathLike) -> Any:
+    """Read a trajectory by its extension: ``.npz`` (:func:`lgvi.load`; the results of
+    :func:`lgvi.simulate_orbit`, :func:`lgvi.simulate_two_body` and gyrostat ensembles by the
+    format in their header), ``.csv``, ``.nc``."""
     suffix = Path(path).suffix.lower()
     if suffix == ".csv":
         return read_csv(path)
     if suffix in (".nc", ".nc4", ".netcdf"):
         return read_netcdf(path)
     if suffix == ".npz":
-        return load(path)
+        reader = _npz_readers().get(_npz_format(path))
+        return reader(path) if reader is not None else load(path)
     raise ValueError(f"{path}: unknown trajectory file type {suffix!r}; expected .npz, .csv or .nc")
 
 
@@ -349,6 +381,8 @@ def write_trajectory(traj: Trajectory, outdir: str | os.PathLike, formats: Itera
     for fmt in formats:
         if fmt not in EXTENSIONS:
             raise ValueError(f"unknown output format {fmt!r}; expected one of {', '.join(EXTENSIONS)}")
+        if fmt != "npz" and not isinstance(traj, Trajectory):
+            raise ValueError(f"output format {fmt!r}: a {type(traj).__name__} is saved as npz only")
         p = outdir / (stem + EXTENSIONS[fmt])
         if fmt == "npz":
             traj.save(p)
@@ -391,5 +425,16 @@ def conservation_drifts(traj: Trajectory, invariants: Any = None) -> dict[str, f
 
     decl = invariants if invariants is not None else declared(traj)
     out = drifts(traj, decl)
-    out["orthogonality_max"] = float(np.max(traj.orthogonality_error))
+    out["orthogonality_max"] = orthogonality_max(traj)
     return out
+
+
+def orthogonality_max(traj: Any) -> float:
+    """``max |R^T R - I|_F`` over the samples (and the bodies, for results with several)."""
+    if hasattr(traj, "orthogonality_error"):
+        return float(np.max(traj.orthogonality_error))
+    R = np.asarray(traj.R, dtype=np.float64).reshape(-1, 3, 3)
+    if not len(R):
+        return 0.0
+    err = np.einsum("kji,kjl->kil", R, R) - np.eye(3)
+    return float(np.max(np.linalg.norm(err, axis=(1, 2))))

@@ -851,13 +851,7 @@ class Scenario:
         """
         from .streaming import read_stream, simulate_stream
 
-        if self.wheels is not None or self.controller is not None or self.environment is not None:
-            # no stream format for the gyrostat yet: the run is kept in memory (it is fast)
-            if resume:
-                raise ScenarioError(self.source, None, "resume: runs with [[wheel]] or [controller] are not "
-                                    "streamed to disk, so there is nothing to resume; run it again")
-            return self.run(progress=progress)
-        try:
+        try:   # with [[wheel]] or [controller]: the gyrostat's stream (wheel fields, controller state)
             simulate_stream(folder, self.body, self.R0, self.Pi0, progress=progress, resume=resume,
                             chunk_steps=chunk_steps, meta={"scenario_name": self.name},
                             solver_record=solver_record, **self.simulate_kwargs())
@@ -1032,7 +1026,8 @@ class BodiesScenario:
     """A checked scenario of a body in orbit or of two bodies.
 
     An ``[orbiting_body]`` section runs :func:`lgvi.simulate_orbit`, a ``[two_body]`` section
-    :func:`lgvi.simulate_two_body` (``lgvi run`` does not run them yet). The schema::
+    :func:`lgvi.simulate_two_body` (``lgvi run`` runs both; ``[output]`` takes ``formats = ["npz"]``,
+    the only format of their results, and ``plots``). The schema::
 
         [orbiting_body]                      # a rigid body in a central field
         inertia = [1.0, 2.0, 3.0]            # or matrix = [[...], [...], [...]]  [kg m^2]
@@ -1068,6 +1063,8 @@ class BodiesScenario:
     save_every: int = 1
     source: str = "<dict>"
     text: str = field(default="", repr=False)
+    formats: tuple[str, ...] = ("npz",)
+    plots: bool = True
 
     def __repr__(self) -> str:
         return (f"BodiesScenario(kind={self.kind!r}, name={self.name!r}, steps={self.steps}, h={self.h:g}, "
@@ -1104,7 +1101,17 @@ class BodiesScenario:
             kw["tol"] = c.number(integ["tol"], "integrator.tol", nonnegative=True)
         if "max_iter" in integ:
             kw["max_iter"] = c.integer(integ["max_iter"], "integrator.max_iter", minimum=1)
-        c.table(d.get("output", {}), "output", ("formats", "plots"))
+        out = c.table(d.get("output", {}), "output", ("formats", "plots"))
+        formats: tuple[str, ...] = ("npz",)      # the results of these systems are saved as npz only
+        if "formats" in out:
+            raw = out["formats"]
+            if not isinstance(raw, list) or not raw:
+                raise c.expected("output.formats", 'a non-empty array holding "npz"', raw)
+            for i, f in enumerate(raw):
+                if c.string(f, f"output.formats[{i}]") != "npz":
+                    raise c.error(f"output.formats[{i}]", f"the result of an [{section}] scenario is saved as npz "
+                                  f"only; got {f!r}")
+        plots = c.boolean(out.get("plots", True), "output.plots")
         if kind == "orbit":
             o = c.table(d[section], "orbiting_body", ("inertia", "matrix", "mass", "mu", "position", "velocity", "potential",
                                            "J2", "radius"))
@@ -1157,7 +1164,8 @@ class BodiesScenario:
             for i, (_, spin) in enumerate(bodies, 1):
                 kw[f"Pi{i}_0" if "Pi" in spin else f"omega{i}_0"] = spin.get("Pi", spin.get("omega"))
         sc = cls(kind=kind, name=name, description=description, args=args, kwargs=kw, h=h, steps=steps,
-                 save_every=save_every, source=source, text=to_toml(d) if text is None else text)
+                 save_every=save_every, source=source, text=to_toml(d) if text is None else text,
+                 formats=formats, plots=plots)
         try:
             sc._run(check_only=True)
         except (ValueError, TypeError) as exc:

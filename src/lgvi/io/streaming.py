@@ -9,6 +9,11 @@ A stream is a folder::
       chunk-000001.npz
       ...
 
+The chunks of another system (``meta["system"]``: the gyrostat, a body in orbit, two bodies) hold
+``t`` and its declared state and record fields by name (:class:`lgvi.systems.System`: ``state``,
+``records``), and :func:`read_stream` returns its result type through its ``from_stream``
+(:func:`simulate_stream` with ``wheels=``, :func:`stream_system`).
+
 Every chunk file is written to a temporary name, flushed to disk and renamed into place, and only
 then is the manifest (also written by rename) updated to list it. A rename is atomic, so after a
 crash at any point the folder holds a consistent manifest that lists only complete chunks;
@@ -128,10 +133,6 @@ class StreamWriter:
         the state after it. ``summary`` (as :func:`lgvi.trajectory.summary_dict`): the solver's
         totals over the chunk's steps, stored as the arrays ``iteration_counts`` (histogram),
         ``iterations_total``, ``residual_max`` and ``iterations_max``."""
-        if not self.lock.held:
-            raise ValueError(f"this writer of the stream {self.folder} is closed; open a new one (resume=True)")
-        index = len(self.manifest["chunks"])
-        name = f"chunk-{index:06d}.npz"
         arrays = dict(t=t, R=R, Pi=Pi, iterations=iterations, residual=residual)
         if potential is not None:
             arrays["potential"] = potential
@@ -140,8 +141,19 @@ class StreamWriter:
                           iterations_total=np.int64(summary["iterations_total"]),
                           residual_max=np.float64(summary["residual_max"]),
                           iterations_max=np.int64(summary["iterations_max"]))
-        self._write(name, lambda fh: np.savez(fh, **arrays), "the stream chunk", index)
         steps = int(np.sum(summary["histogram"])) if summary is not None else int(len(iterations))
+        return self.append_arrays(arrays, state=state, steps=steps)
+
+    def append_arrays(self, arrays: dict[str, np.ndarray], *, state: dict[str, Any], steps: int) -> Path:
+        """Write one chunk of any system: ``arrays`` by field name (``t`` (m,), the system's state
+        fields (m, ...) and records), ``steps`` the steps it covers and ``state`` (JSON-serialisable
+        after ``tolist``) the run's state after it."""
+        if not self.lock.held:
+            raise ValueError(f"this writer of the stream {self.folder} is closed; open a new one (resume=True)")
+        index = len(self.manifest["chunks"])
+        name = f"chunk-{index:06d}.npz"
+        t = arrays["t"]
+        self._write(name, lambda fh: np.savez(fh, **arrays), "the stream chunk", index)
         before = dict(self.manifest, chunks=list(self.manifest["chunks"]))
         self.manifest["chunks"].append({"file": name, "samples": int(len(t)), "steps": steps})
         self.manifest["state"] = {key: (np.asarray(val).tolist() if isinstance(val, np.ndarray) else val)
@@ -213,11 +225,93 @@ def read_manifest(folder: str | os.PathLike) -> dict[str, Any]:
 
 
 _CHUNK_FIELDS = ("t", "R", "Pi", "iterations", "residual")
+
+
+def _chunk_file(folder: str | os.PathLike, mpath: Path, i: int, entry: Any) -> Path:
+    """The path of chunk ``i`` listed as ``entry`` (a plain file name inside the folder, checked)."""
+    name = entry.get("file") if isinstance(entry, dict) else None
+    if not isinstance(name, str) or not name or Path(name).name != name or name.startswith("."):
+        raise ValueError(f"{mpath} is damaged: chunk {i} must name a file in the stream folder, got {entry!r}")
+    path = Path(folder) / name
+    if not inside(folder, path):
+        raise ValueError(f"{mpath}: chunk {i} ({name}) is a symbolic link to {os.path.realpath(path)}, outside "
+                         "the stream folder; it is not followed")
+    if path.exists() and not path.is_file():  # a FIFO or a device would block or never end
+        raise ValueError(f"{mpath}: chunk {i} ({name}) is not a regular file")
+    return path
+
+
+def _stream_system(meta: dict[str, Any], mpath: Path) -> Any:
+    """The :class:`lgvi.systems.System` a stream's ``meta["system"]`` names (one with a stream format)."""
+    from ..systems import SYSTEMS
+
+    name = meta.get("system", "rigid_body")
+    system = SYSTEMS.get(name) if isinstance(name, str) else None
+    if system is None or (system.from_stream is None and name != "rigid_body"):
+        streamable = sorted(k for k, v in SYSTEMS.items() if v.from_stream is not None or k == "rigid_body")
+        raise ValueError(f"{mpath}: meta names the system {str(name)[:80]!r}, which has no stream format "
+                         f"(streamable: {', '.join(streamable)})")
+    return system
+
+
+def system_arrays(folder: str | os.PathLike) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """``(manifest, arrays)`` of a stream of any system: the complete chunks' arrays concatenated by
+    field name (``t``, the system's ``state`` and ``records`` fields), checked to fit together."""
+    manifest = read_manifest(folder)
+    mpath = Path(folder) / MANIFEST
+    chunks, meta = manifest.get("chunks"), manifest.get("meta")
+    if not isinstance(chunks, list) or not isinstance(meta, dict):
+        raise ValueError(f"{mpath} is damaged: 'chunks' must be a list and 'meta' an object")
+    system = _stream_system(meta, mpath)
+    names = ("t",) + tuple(f.name for f in system.state) + tuple(f.name for f in system.records)
+    parts: dict[str, list[np.ndarray]] = {k: [] for k in names}
+    for i, entry in enumerate(chunks):
+        path = _chunk_file(folder, mpath, i, entry)
+        try:
+            check_npz(path)
+            with np.load(path, allow_pickle=False) as data:
+                missing = [k for k in names if k not in data.files]
+                if missing:
+                    raise ValueError(f"missing field(s) {', '.join(missing)}")
+                for key in names:
+                    parts[key].append(data[key])
+        except MemoryError:
+            raise
+        except Exception as exc:  # OSError, EOFError, zipfile.BadZipFile, numpy's ValueErrors, ...
+            raise ValueError(f"cannot read stream chunk {path}: {type(exc).__name__}: {exc}") from exc
+    if not parts["t"]:
+        raise ValueError(f"{folder} holds no complete chunk yet")
+    try:
+        arrays = {k: np.concatenate(v) for k, v in parts.items()}
+    except ValueError as exc:
+        raise ValueError(f"the chunks of the stream {folder} do not fit together: {exc}") from exc
+    M = len(arrays["t"])
+    for f in system.state:
+        if len(arrays[f.name]) != M:
+            raise ValueError(f"the chunks of the stream {folder} do not fit together: {len(arrays[f.name])} samples "
+                             f"of {f.name!r}, {M} times")
+    return manifest, arrays
+
+
+def _read_system(folder: str | os.PathLike, meta: dict[str, Any]) -> Any:
+    """:func:`read_stream` of a system other than the rigid body: its ``from_stream`` result."""
+    system = _stream_system(meta, Path(folder) / MANIFEST)
+    manifest, arrays = system_arrays(folder)
+    state = manifest.get("state")
+    meta = dict(manifest["meta"], complete=manifest.get("complete", False))
+    try:
+        return system.from_stream(meta, arrays, state if isinstance(state, dict) else {})
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"the stream {folder} ({system.name}) is damaged: {type(exc).__name__}: {exc}") from exc
+
+
 _SUMMARY_FIELDS = ("iteration_counts", "iterations_total", "residual_max", "iterations_max")
 
 
-def read_stream(folder: str | os.PathLike) -> Trajectory:
-    """Read every complete chunk of a stream folder as one :class:`Trajectory`.
+def read_stream(folder: str | os.PathLike) -> Any:
+    """Read every complete chunk of a stream folder as one :class:`Trajectory` (or, for another
+    system, its result type: :class:`lgvi.systems.gyrostat.GyrostatTrajectory`,
+    :class:`lgvi.OrbitTrajectory`, :class:`lgvi.TwoBodyTrajectory`, through ``System.from_stream``).
 
     The first chunk holds the initial sample; chunks not listed in the manifest (a crash while
     writing them) are ignored.
@@ -234,6 +328,8 @@ def read_stream(folder: str | os.PathLike) -> Trajectory:
     meta = manifest.get("meta")
     if not isinstance(chunks, list) or not isinstance(meta, dict):
         raise ValueError(f"{mpath} is damaged: 'chunks' must be a list and 'meta' an object")
+    if meta.get("system", "rigid_body") != "rigid_body":
+        return _read_system(folder, meta)
     try:
         inertia = np.asarray(meta["inertia"], dtype=np.float64)
         h = float(meta["h"])
@@ -243,15 +339,7 @@ def read_stream(folder: str | os.PathLike) -> Trajectory:
     parts: dict[str, list[np.ndarray]] = {k: [] for k in _CHUNK_FIELDS + ("potential",)}
     summaries: list[dict[str, Any] | None] = []
     for i, entry in enumerate(chunks):
-        name = entry.get("file") if isinstance(entry, dict) else None
-        if not isinstance(name, str) or not name or Path(name).name != name or name.startswith("."):
-            raise ValueError(f"{mpath} is damaged: chunk {i} must name a file in the stream folder, got {entry!r}")
-        path = Path(folder) / name
-        if not inside(folder, path):
-            raise ValueError(f"{mpath}: chunk {i} ({name}) is a symbolic link to {os.path.realpath(path)}, outside "
-                             "the stream folder; it is not followed")
-        if path.exists() and not path.is_file():  # a FIFO or a device would block or never end
-            raise ValueError(f"{mpath}: chunk {i} ({name}) is not a regular file")
+        path = _chunk_file(folder, mpath, i, entry)
         try:
             check_npz(path)
             with np.load(path, allow_pickle=False) as data:
@@ -305,7 +393,8 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
                     forcing: str = "paper", order: int = 2, composition: str | None = None,
                     progress: Any = False, resume: bool = False, chunk_steps: int | None = None,
                     meta: dict[str, Any] | None = None, solver_record: str = "interval",
-                    scheme: str | None = None) -> Path:
+                    scheme: str | None = None, wheels: Any = None, controller: Any = None,
+                    control_period: Any = None, environment: Any = None, magnetorquers: Any = None) -> Path:
     """Run :func:`simulate` straight to a crash-safe stream folder, in bounded memory.
 
     The run goes in chunks of ``chunk_steps`` steps (a multiple of ``save_every``); each chunk's
@@ -330,6 +419,13 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
         Steps per chunk (default: about 2^18, rounded to a multiple of ``save_every``).
     meta : dict, optional
         Extra JSON-serialisable metadata stored with the stream (e.g. the scenario text).
+    wheels, controller, control_period, environment, magnetorquers
+        As in :func:`simulate`: a body with reaction wheels or a control loop (the gyrostat,
+        :mod:`lgvi.systems.gyrostat`). Its chunks hold ``wheel_momentum`` and the records
+        ``wheel_torque``; :func:`read_stream` returns the :class:`GyrostatTrajectory`; ``resume``
+        restores the held command, the compiled MRP feedback's integral and a known Python
+        controller's state (:func:`lgvi.systems.gyrostat.controller_state`; another Python
+        controller's run is refused on resume, since its state cannot be restored).
 
     Returns
     -------
@@ -349,6 +445,19 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
     """
     from ..integrator import Run
 
+    if wheels is not None or controller is not None or control_period is not None or environment is not None \
+            or magnetorquers is not None:   # the gyrostat (lgvi.systems.gyrostat)
+        from ..systems.gyrostat import GyrostatRun, gyrostat_options
+
+        if scheme is not None and scheme != "lgvi":
+            raise ValueError(f"scheme={scheme!r} cannot be combined with wheels=, controller=, environment= or "
+                             "magnetorquers=: reaction wheels and the control loop run with the LGVI (scheme=None)")
+        gyrostat_options(torque=torque, forcing=forcing, order=order, composition=composition, error_estimate=None)
+        run = GyrostatRun(body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels, controller=controller,
+                          control_period=control_period, environment=environment, magnetorquers=magnetorquers,
+                          method=method, tol=tol, max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0,
+                          solver_record=solver_record, order=order, composition=composition, torque=torque)
+        return stream_run(folder, run, resume=resume, progress=progress, chunk_steps=chunk_steps, meta=meta)
     if scheme is not None and scheme != "lgvi":
         from .._validation import choice
         from ..registry import SCHEMES
@@ -375,6 +484,85 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
     return folder
 
 
+def stream_system(folder: str | os.PathLike, system: str, *args: Any, progress: Any = False, resume: bool = False,
+                  chunk_steps: int | None = None, meta: dict[str, Any] | None = None, **kwargs: Any) -> Path:
+    """Run any streamable system (``lgvi.systems.SYSTEMS[system]``) to a crash-safe stream folder.
+
+    ``args`` and ``kwargs`` are those of the system's run: ``"orbit"`` takes the arguments of
+    :func:`lgvi.simulate_orbit`, ``"two_body"`` those of :func:`lgvi.simulate_two_body` (without
+    ``progress``), ``"gyrostat"`` those of :func:`simulate` with ``wheels=`` (or use
+    :func:`simulate_stream` with ``wheels=``). ``progress``, ``resume``, ``chunk_steps``, ``meta`` as
+    in :func:`simulate_stream`: chunks of the system's state fields and records, ``resume=True``
+    continues bit for bit (a run with other arguments is refused, naming them), and
+    :func:`read_stream` returns the system's result (e.g. :class:`lgvi.OrbitTrajectory`), equal bit
+    for bit to the run in memory.
+
+    Returns
+    -------
+    pathlib.Path
+        The folder.
+
+    Examples
+    --------
+    >>> import numpy as np, lgvi, tempfile, pathlib
+    >>> from lgvi.io.streaming import read_stream, stream_system
+    >>> folder = pathlib.Path(tempfile.mkdtemp()) / "orbit"
+    >>> _ = stream_system(folder, "orbit", [1.0, 2.0, 3.0], 10.0, [7000.0, 0, 0], [0, 7.546, 0], np.eye(3),
+    ...                   omega0=[0, 0, 1e-3], h=10.0, steps=600, mu=398600.4418, save_every=10, chunk_steps=200)
+    >>> type(read_stream(folder)).__name__, read_stream(folder).x.shape
+    ('OrbitTrajectory', (61, 3))
+    """
+    from .._validation import choice
+    from ..driver import Progress
+    from ..systems import SYSTEMS
+
+    streamable = tuple(k for k, v in SYSTEMS.items() if v.from_stream is not None)
+    choice(system, "system", streamable)
+    Progress(progress, 0)   # validates progress before any work
+    run = SYSTEMS[system].run(*args, **kwargs)
+    return stream_run(folder, run, resume=resume, progress=progress, chunk_steps=chunk_steps, meta=meta)
+
+
+def stream_run(folder: str | os.PathLike, run: Any, *, resume: bool = False, progress: Any = False,
+               chunk_steps: int | None = None, meta: dict[str, Any] | None = None) -> Path:
+    """Drive a validated run of a streamable system (its ``system.from_stream`` set, with
+    ``stream_meta()``, ``state()`` and ``load_state()``) into the stream folder ``folder``."""
+    if chunk_steps is not None:
+        run.chunk = max(1, as_int(chunk_steps, "chunk_steps", minimum=1) // run.save_every) * run.save_every
+    stream_meta = json.loads(json.dumps(dict(run.stream_meta(), **(meta or {}))))
+    folder = Path(folder)
+    ignore = {"lgvi_version", *(meta or {})}
+    writer = StreamWriter(folder, stream_meta, resume=resume,
+                          check=lambda manifest: _check_resume_system(manifest["meta"], stream_meta, folder, ignore))
+    if resume and writer.state is not None:
+        try:
+            run.load_state(writer.state)
+        except BaseException:
+            writer.release()
+            raise
+        if writer.manifest.get("complete") and run.k == run.steps:
+            writer.release()
+            return folder
+    sink = StreamSink(run, writer, folder)
+    with writer:
+        drive(run, sink, progress)  # lgvi.driver: chunks, progress, Ctrl-C, failures
+    return folder
+
+
+def _check_resume_system(old: dict[str, Any], new: dict[str, Any], folder: Path, ignore: set[str]) -> None:
+    """Refuse to continue a stream of another run: every key of the run's metadata must agree."""
+    diff = [k for k in sorted(set(old) | set(new)) if k not in ignore and k != "complete" and old.get(k) != new.get(k)]
+    if diff:
+        k = diff[0]
+
+        def show(v: Any) -> str:
+            text = repr(v)
+            return text if len(text) <= 200 else text[:200] + "..."
+
+        raise ValueError(f"resume: the stream in {folder} was started with {k}={show(old.get(k))}, now {k}="
+                         f"{show(new.get(k))}; a stream resumes only the same run (differences: {', '.join(diff)})")
+
+
 class StreamSink:
     """A sink of :func:`lgvi.driver.drive` that writes every chunk to a stream folder as soon as it is
     done (bounded memory: one chunk's buffers), for any system whose run has ``state()``.
@@ -395,21 +583,27 @@ class StreamSink:
         self.per = record_every(run)
         self.records = [f.zeros(run.chunk // self.per) for f in run.system.records]
         self.chunk_start: dict[str, Any] = {}
+        #: a system with its own stream format (``system.from_stream``); else the rigid body's
+        self.generic = run.system.from_stream is not None
         if run.k == 0 and not writer.manifest["chunks"] and run.steps == 0:
             self._append(run.times(0, 1), [getattr(run, f.name)[None].copy() for f in run.system.state],
-                         [f.zeros(0) for f in run.system.records])
+                         [f.zeros(0) for f in run.system.records], 0)
 
-    def _append(self, t: np.ndarray, state: list[np.ndarray], records: list[np.ndarray]) -> None:
+    def _append(self, t: np.ndarray, state: list[np.ndarray], records: list[np.ndarray], steps: int) -> None:
         run = self.run
         fields = {f.name: a for f, a in zip(run.system.state, state)}
         fields.update({f.name: a for f, a in zip(run.system.records, records)})
+        if self.generic:
+            self.writer.append_arrays(dict(t=t, **fields), state=run.state(), steps=steps)
+            return
         self.writer.append(t=t, **fields, state=run.state(), potential=run.potential(t, fields["R"]),
                            summary=run.chunk_summary())
 
     def buffers(self, k0: int, n: int) -> list[np.ndarray]:
         run = self.run
         self.chunk_start = dict(k0=k0, **{f.name: getattr(run, f.name).copy() for f in run.system.state})
-        run.new_chunk()
+        if not self.generic:
+            run.new_chunk()
         m = n // self.se
         return [b[:m] for b in self.state] + [r[:n // self.per] for r in self.records]
 
@@ -417,11 +611,15 @@ class StreamSink:
         """The complete chunks on disk plus the steps of the current chunk up to ``k_done``."""
         run, se, start = self.run, self.se, self.chunk_start
         names = [f.name for f in run.system.state] + [f.name for f in run.system.records]
-        summary = run.chunk_summary()
+        summary = None if self.generic else run.chunk_summary()
         try:
-            done = read_stream(self.folder)
-            parts = [(done.t, *(getattr(done, name) for name in names))]
-            summary = merge_summaries(done.solver_summary, summary)
+            if self.generic:    # the raw chunk arrays (records, not the result's fields)
+                _, done_arrays = system_arrays(self.folder)
+                parts = [tuple(done_arrays[name] for name in ["t"] + names)]
+            else:
+                done = read_stream(self.folder)
+                parts = [(done.t, *(getattr(done, name) for name in names))]
+                summary = merge_summaries(done.solver_summary, summary)
         except ValueError:  # no complete chunk yet
             parts = [(run.times(0, 1), *(start[f.name][None] for f in run.system.state),
                       *(f.zeros(0) for f in run.system.records))]
@@ -432,6 +630,8 @@ class StreamSink:
             r = (k_done - k0) // self.per
             parts.append((run.times(j0, j0 + m), *(b[:m] for b in self.state), *(a[:r] for a in self.records)))
         t, *arrays = (np.concatenate(a) for a in zip(*parts))
+        if self.generic:
+            return run.trajectory(t, *arrays, partial=True)
         return run.trajectory(t, *arrays, partial=True, summary=summary)
 
     def failed(self, k0: int, k: int) -> tuple[float, int]:
@@ -447,7 +647,7 @@ class StreamSink:
         if k0 == 0:
             t = np.concatenate([run.times(0, 1), t])
             state = [np.concatenate([self.chunk_start[f.name][None], b]) for f, b in zip(run.system.state, state)]
-        self._append(t, state, [r[:n // self.per] for r in self.records])
+        self._append(t, state, [r[:n // self.per] for r in self.records], n)
 
     def interrupt(self, k: int) -> Trajectory:
         self.writer.close(complete=False)
@@ -469,4 +669,5 @@ def _check_resume(old: dict[str, Any], new: dict[str, Any], folder: Path) -> Non
                          f"{new.get(k)!r}; a stream resumes only the same run (differences: {', '.join(diff)})")
 
 
-__all__ = ["StreamSink", "StreamWriter", "read_manifest", "read_stream", "simulate_stream"]
+__all__ = ["StreamSink", "StreamWriter", "read_manifest", "read_stream", "simulate_stream", "stream_run",
+           "stream_system", "system_arrays"]

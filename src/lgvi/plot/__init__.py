@@ -55,6 +55,8 @@ FIGURE_PIXELS: dict[str, tuple[int, int]] = {
     "polhode": (800, 700),
     "comparison": (1000, 700),
     "wheels": (800, 500),
+    "orbit": (800, 650),
+    "two_body": (800, 650),
 }
 
 #: Errors below this are drawn at this value on the logarithmic axes (an exact zero has no log).
@@ -1067,7 +1069,15 @@ def save_figures(traj: Trajectory, outdir: str | os.PathLike, *, prefix: str = "
     -------
     list of pathlib.Path
         The files written, in the order above.
+
+    A result of :func:`lgvi.simulate_orbit` gets ``{prefix}orbit.png`` (:func:`orbit`), one of
+    :func:`lgvi.simulate_two_body` ``{prefix}two_body.png`` (:func:`two_body`).
     """
+    system = (getattr(traj, "meta", None) or {}).get("system")
+    if system in _SYSTEM_FIGURES and hasattr(traj, "x"):      # a body in orbit, two bodies
+        out = Path(outdir)
+        out.mkdir(parents=True, exist_ok=True)
+        return [_save(_SYSTEM_FIGURES[system](traj), out / f"{prefix}{system}.png")]
     _check_traj(traj, "save_figures")
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
@@ -1201,9 +1211,9 @@ def _invariant_errors(ax: Axes, traj: Any, keys: Sequence[str]) -> None:
         ax.plot(traj.t, np.maximum(err, ERROR_FLOOR), lw=1.0,
                 label=f"{q.tex} ({kind}){'' if rel else ', absolute'}")
     _style_log(ax)
-    ax.set_xlabel("time $t$")
+    ax.set_xlabel(_UNITS["t"])
     ax.set_ylabel("relative change")
-    ax.legend(fontsize=7, loc="lower right")
+    ax.legend(fontsize=7, loc="best")         # not over a curve at the floor (an exact zero)
 
 
 def orbit(traj: Any) -> Figure:
@@ -1232,19 +1242,20 @@ def orbit(traj: Any) -> Figure:
     radial = x / np.linalg.norm(x, axis=1, keepdims=True)
     cosang = np.clip(np.einsum("ki,ki->k", np.asarray(traj.R)[:, :, k], radial), -1.0, 1.0)
     b.plot(traj.t, np.degrees(np.arccos(cosang)), lw=0.8, color="tab:red")
-    b.set_xlabel("time $t$")
+    b.set_xlabel(_UNITS["t"])
     b.set_ylabel("deg")
     b.set_title(f"long axis (body {k + 1}) from the local vertical", fontsize=9)
     w = traj.omega
     for i in range(3):
         c.plot(traj.t, w[:, i], lw=0.8, color=_COMPONENT_COLORS[i], label=f"$\\omega_{i + 1}$")
-    c.set_xlabel("time $t$")
-    c.set_ylabel("body rate")
+    c.set_xlabel(_UNITS["t"])
+    c.set_ylabel(f"body rate ({_UNITS['omega']})")
     c.legend(fontsize=7)
     keys = [k for k in ("angular_momentum", "angular_momentum_e3", "energy") if k in traj.meta.get("invariants", {})]
     _invariant_errors(d, traj, keys or ["angular_momentum", "energy"])
     d.set_title("invariants", fontsize=9)
-    fig.suptitle(f"body in a central field ({traj.meta.get('potential', '')} potential)", fontsize=10)
+    fig.suptitle(f"body in a central field ({traj.meta.get('potential', '')} potential"
+                 + (f", J2 = {traj.meta['J2']:g})" if traj.meta.get("J2") else ")"), fontsize=10)
     return fig
 
 
@@ -1266,7 +1277,7 @@ def two_body(traj: Any) -> Figure:
     a.set_title("mutual orbit", fontsize=9)
     a.legend(fontsize=7, loc="upper right")
     b.plot(traj.t, traj.distance, lw=0.8, color="0.3")
-    b.set_xlabel("time $t$")
+    b.set_xlabel(_UNITS["t"])
     b.set_ylabel("$|x_2 - x_1|$")
     b.set_title("distance", fontsize=9)
     w = traj.omega
@@ -1274,14 +1285,18 @@ def two_body(traj: Any) -> Figure:
         for i in range(3):
             c.plot(traj.t, w[:, body, i], style, lw=0.8, color=_COMPONENT_COLORS[i],
                    label=f"body {body + 1} $\\omega_{i + 1}$")
-    c.set_xlabel("time $t$")
-    c.set_ylabel("body rate")
+    c.set_xlabel(_UNITS["t"])
+    c.set_ylabel(f"body rate ({_UNITS['omega']})")
     c.set_title("spins (body 1 solid, body 2 dashed)", fontsize=9)
     c.legend(fontsize=6, ncol=2)
     _invariant_errors(d, traj, ["linear_momentum", "angular_momentum", "energy"])
     d.set_title("invariants", fontsize=9)
     fig.suptitle(f"two bodies ({traj.meta.get('potential', '')} mutual potential)", fontsize=10)
     return fig
+
+
+#: The figure of each other system's result, by ``meta["system"]`` (:func:`save_figures`).
+_SYSTEM_FIGURES: dict[str, Callable[[Any], Any]] = {"orbit": orbit, "two_body": two_body}
 
 
 __all__ = [

@@ -72,6 +72,15 @@ class System:
     invariants : callable
         ``invariants(torque) -> dict``: the declaration (:mod:`lgvi.invariants`) of a run of this
         system under ``torque``.
+    from_stream : callable or None
+        ``from_stream(meta, arrays, state) -> result``: the result object of a stream folder
+        (:mod:`lgvi.io.streaming`) from its metadata (the run's ``stream_meta()``), the
+        concatenated chunk arrays by field name (``t``, the ``state`` and ``records`` fields) and
+        the resume state after the last complete chunk; ``None``: the system is not streamed
+        (the rigid body's stream format predates the seam and is read by the stream module).
+        A streamable run also has ``stream_meta()`` (JSON-serialisable: everything the result
+        needs and everything that identifies the run, compared on resume) and its ``state()``
+        carries everything the next step needs, JSON-serialisable.
     """
 
     name: str
@@ -83,6 +92,7 @@ class System:
     scenario_section: str
     run_factory: Callable[..., Any] | None
     invariants: Callable[[Any], dict[str, dict[str, Any]]]
+    from_stream: Callable[[dict[str, Any], dict[str, np.ndarray], dict[str, Any]], Any] | None = None
 
     def run(self, *args: Any, **kwargs: Any) -> Any:
         """A validated run of this system (see ``run_factory``)."""

@@ -211,6 +211,7 @@ GYROSTAT = register(System(
     scenario_section="wheel",
     run_factory=None,
     invariants=_invariants,
+    from_stream=lambda meta, arrays, state: _from_stream(meta, arrays, state),
 ))
 
 
@@ -356,6 +357,7 @@ class GyrostatRun:
             w = np.linalg.solve(body.J, Pi - a.T @ (Js * wheels.speed0))
         self.wheel_momentum = Js * (a @ w + wheels.speed0)
         self.Pi = JB @ w + a.T @ self.wheel_momentum if omega0 is not None else as_float_array(Pi0, "Pi0", (3,)).copy()
+        self.R0, self.Pi0, self.rho0 = self.R.copy(), self.Pi.copy(), self.wheel_momentum.copy()
         # controller, environment, magnetorquers
         if controller is not None and not isinstance(controller, Controller):
             raise TypeError(f"controller must be an lgvi.control.Controller, got {type(controller).__name__}")
@@ -440,14 +442,7 @@ class GyrostatRun:
         meta = dict(self.meta, partial=True) if partial else dict(self.meta)
         meta["solver_summary"] = self.summary()
         meta["invariants"] = _invariants(self)
-        M = len(t)
-        se = self.save_every
-        rec = u_out if not self.full or se == 1 else u_out[::se]
-        wt = np.empty((M, self.N))
-        m = min(len(rec), M - 1)
-        wt[:m] = rec[:m]
-        if M > m:
-            wt[m:] = rec[m - 1] if m > 0 else self.u_now[:self.N]
+        wt = _wheel_torque_samples(len(t), u_out, self.full, self.save_every, self.u_now[:self.N])
         return GyrostatTrajectory(t=t, R=R_out, Pi=Pi_out, inertia=self.body.J.copy(), iterations=it_out,
                                   residual=res_out, h=self.h, potential=None, meta=meta, wheel_momentum=rho_out,
                                   wheel_torque=wt, wheel_axes=self.wheels.axes.copy(),
@@ -466,13 +461,50 @@ class GyrostatRun:
                                 trajectory=trajectory)
 
     def state(self) -> dict[str, Any]:
-        return {"k": self.k, "R": self.R.copy(), "Pi": self.Pi.copy(), "wheel_momentum": self.wheel_momentum.copy(),
-                "G": self.G.copy(), "cmd": self.cmd.copy(), "tau": self.tau.copy(), "cs": self.cs.copy()}
+        """Everything the next step needs: the state, the solver history ``G``, the held command
+        (``cmd``, ``tau``: the zero-order hold, whose phase is ``k % spc``), the compiled MRP
+        feedback's integral and last time (``cs``), the solver's totals, whether a body torque
+        acted (``external``) and a Python controller's own state (``controller``: ``None`` when
+        it cannot be saved, see :func:`controller_state`)."""
+        st: dict[str, Any] = {"k": self.k, "R": self.R.copy(), "Pi": self.Pi.copy(),
+                              "wheel_momentum": self.wheel_momentum.copy(), "G": self.G.copy(), "cmd": self.cmd.copy(),
+                              "tau": self.tau.copy(), "cs": self.cs.copy(), "counts": self.counts.copy(),
+                              "it_total": self.it_total, "res_max": self.res_max, "external": bool(self.external)}
+        if self.python_controller:
+            st["controller"] = controller_state(self.controller)
+        return st
 
     def load_state(self, st: dict[str, Any]) -> None:
+        """Continue from ``st`` (:meth:`state`); a Python controller whose state was not saved is refused."""
+        if self.python_controller:
+            saved = st.get("controller")
+            if saved is None:
+                raise ValueError(f"resume: the run's Python controller {self.controller!r} keeps state that lgvi "
+                                 "cannot save (give its class state() -> dict and load_state(dict) methods), so it "
+                                 "cannot be continued bit for bit; run it again from the start")
+            load_controller_state(self.controller, saved)
         self.k = int(st["k"])
         for name in ("R", "Pi", "wheel_momentum", "G", "cmd", "tau", "cs"):
             getattr(self, name)[...] = np.asarray(st[name], dtype=np.float64)
+        if "counts" in st:
+            self.counts[...] = np.asarray(st["counts"], dtype=np.int64)
+            self.it_total = int(st["it_total"])
+            self.res_max = float(st["res_max"])
+            self.external = bool(st["external"])
+
+    def stream_meta(self) -> dict[str, Any]:
+        """JSON-serialisable metadata of a stream of this run: what :func:`_from_stream` needs and
+        what identifies the run (compared on resume; a controller without its own ``__repr__`` by its
+        class, not by its address)."""
+        meta = dict(self.meta)
+        c = self.controller
+        if c is not None and type(c).__repr__ is object.__repr__:
+            name = f"{type(c).__module__}.{type(c).__qualname__}"
+            meta["controller"] = name
+            meta["torque_model"] = meta["torque_model"].replace(repr(c), name)
+        return dict(meta, h=self.h, steps=self.steps, inertia=self.body.J.tolist(),
+                    motors_off=bool(self.motors_off), initial={"R": self.R0.tolist(), "Pi": self.Pi0.tolist(),
+                                                               "wheel_momentum": self.rho0.tolist()})
 
     # -------------------------------------------------------------- stepping
     def _kernel(self, k0: int, n: int, kb: int, R_out, Pi_out, rho_out, it_out, res_out, u_out) -> int:
@@ -546,6 +578,77 @@ class GyrostatRun:
         self.cmd[:] = 0.0 if wheel is None else wheel
 
 
+def controller_state(controller: Any) -> dict[str, Any] | None:
+    """The internal state of a Python controller between calls, JSON-serialisable, or ``None`` when
+    lgvi cannot save it: the controller's own ``state()`` if its class has ``state`` and
+    ``load_state``; :class:`lgvi.control.MRPFeedback` (its integral and last call's time) and
+    :class:`lgvi.control.RotationPD` (none) are known; another class is not."""
+    from ..control import MRPFeedback, RotationPD
+
+    if callable(getattr(controller, "state", None)) and callable(getattr(controller, "load_state", None)):
+        return dict(controller.state())
+    if type(controller) is MRPFeedback:
+        return {"int_sigma": np.asarray(controller.int_sigma, dtype=np.float64).tolist(),
+                "prior_time": controller.prior_time}
+    if type(controller) is RotationPD:
+        return {}
+    return None
+
+
+def load_controller_state(controller: Any, saved: dict[str, Any]) -> None:
+    """Restore what :func:`controller_state` saved."""
+    from ..control import MRPFeedback
+
+    if callable(getattr(controller, "state", None)) and callable(getattr(controller, "load_state", None)):
+        controller.load_state(saved)
+    elif type(controller) is MRPFeedback:
+        controller.int_sigma = np.asarray(saved["int_sigma"], dtype=np.float64).copy()
+        prior = saved["prior_time"]
+        controller.prior_time = None if prior is None else float(prior)
+
+
+def _wheel_torque_samples(M: int, u_out: np.ndarray, full: bool, se: int, last: np.ndarray) -> np.ndarray:
+    """(M, N) motor torques per sample from the records ``u_out`` (per step with ``full`` and
+    ``se > 1``, else per saved interval); the last sample repeats the last entry (``last``: none)."""
+    rec = u_out if not full or se == 1 else u_out[::se]
+    wt = np.empty((M, len(last)))
+    m = min(len(rec), M - 1)
+    wt[:m] = rec[:m]
+    if M > m:
+        wt[m:] = rec[m - 1] if m > 0 else last
+    return wt
+
+
+def _from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state: dict[str, Any]) -> GyrostatTrajectory:
+    """The :class:`GyrostatTrajectory` of a stream folder (``System.from_stream``)."""
+    from types import SimpleNamespace
+
+    wheels = meta["wheels"]
+    axes = np.asarray(wheels["axes"], dtype=np.float64).reshape(-1, 3)
+    n = len(axes)
+    Js = np.asarray(wheels["spin_inertia"], dtype=np.float64).reshape(n)
+    M = len(arrays["t"])
+    for name, shape in (("R", (M, 3, 3)), ("Pi", (M, 3)), ("wheel_momentum", (M, n))):
+        if arrays[name].shape != shape:
+            raise ValueError(f"field {name!r} must have shape {shape} (M = {M} samples, N = {n} wheels), got "
+                             f"{arrays[name].shape}")
+    u = arrays["wheel_torque"]
+    if u.ndim != 2 or u.shape[1] != n:
+        raise ValueError(f"field 'wheel_torque' must have shape (entries, {n}) (N = {n} wheels), got {u.shape}")
+    full, se = meta.get("solver_record") == "full", int(meta["save_every"])
+    out = dict(meta)
+    out["solver_summary"] = summary_dict(np.asarray(state["counts"], dtype=np.int64), int(state["it_total"]),
+                                         float(state["res_max"]))
+    out["invariants"] = _invariants(SimpleNamespace(external=bool(state["external"]),
+                                                    motors_off=bool(meta["motors_off"])))
+    return GyrostatTrajectory(t=arrays["t"], R=arrays["R"], Pi=arrays["Pi"],
+                              inertia=np.asarray(meta["inertia"], dtype=np.float64), iterations=arrays["iterations"],
+                              residual=arrays["residual"], h=float(meta["h"]), potential=None, meta=out,
+                              wheel_momentum=arrays["wheel_momentum"],
+                              wheel_torque=_wheel_torque_samples(M, u, full, se, np.zeros(n)), wheel_axes=axes,
+                              spin_inertia=Js)
+
+
 def _check_command(cmd: Any, n: int, k: int, t: float) -> tuple[Any, Any, Any]:
     if not isinstance(cmd, Command):
         raise TorqueError(f"controller.command must return an lgvi.control.Command, got {type(cmd).__name__}")
@@ -604,17 +707,49 @@ def gyrostat_options(*, torque: Any, forcing: Any, order: Any, composition: Any,
     _torque_model(torque)
     if forcing not in ("paper", "symmetric"):
         choice(forcing, "forcing", ("paper", "symmetric"))
-    if error_estimate not in (False, None):
-        raise ValueError("error_estimate is not available with wheels= or controller= yet")
+    from ..accuracy import check_options
+
+    check_options(error_estimate, 0.01, None)      # True or "richardson": the shadow run of simulate_gyrostat
 
 
 def simulate_gyrostat(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: Any, steps: Any,
                       wheels: Any = None, controller: Any = None, control_period: Any = None, environment: Any = None,
-                      magnetorquers: Any = None, progress: Any = False, **options: Any) -> GyrostatTrajectory:
-    """:func:`lgvi.simulate` with wheels or a controller (see there); returns a :class:`GyrostatTrajectory`."""
+                      magnetorquers: Any = None, progress: Any = False, error_estimate: Any = False,
+                      error_warn: Any = 0.01, **options: Any) -> GyrostatTrajectory:
+    """:func:`lgvi.simulate` with wheels or a controller (see there); returns a :class:`GyrostatTrajectory`.
+
+    With ``error_estimate``, the same run again at ``h/2`` (:func:`lgvi.accuracy.with_estimate`):
+    the controller, environment, magnetorquers and torque of that shadow run are copies of the
+    ones given, taken before the run changes them, and ``control_period`` must be a multiple of
+    ``h/2`` (it is whenever it is one of ``h``); the order is the composition's, 1 with wheel
+    friction (first order in the friction torque).
+    """
+    import copy
+
+    from ..accuracy import check_options, with_estimate
+
+    estimate, warn = check_options(error_estimate, error_warn, None)
+    if estimate:
+        if control_period is not None:
+            cp, half = as_float(control_period, "control_period", positive=True), abs(as_float(h, "h")) / 2.0
+            ratio = cp / half if half > 0 else float("inf")
+            if not np.isfinite(ratio) or abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio) or round(ratio) < 1:
+                raise ValueError(f"error_estimate: control_period must be a multiple of h/2 (the shadow run steps at "
+                                 f"h/2); got control_period={cp:g}, h={float(h):g}")
+        shadow_inputs = copy.deepcopy((wheels, controller, environment, magnetorquers, options.get("torque")))
     run = GyrostatRun(body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels, controller=controller,
                       control_period=control_period, environment=environment, magnetorquers=magnetorquers, **options)
-    return drive(run, MemorySink(run), progress)
+    traj = drive(run, MemorySink(run), progress)
+    if not estimate:
+        return traj
+    wl, ctrl, env, mtq, torque = shadow_inputs
+    kw = {k: v for k, v in options.items() if k not in ("save_every", "t0", "solver_record", "torque")}
+    kw.update(body=run.body, R0=R0, Pi0=Pi0, omega0=omega0, h=run.h, steps=run.steps, wheels=wl, controller=ctrl,
+              control_period=control_period, environment=env, magnetorquers=mtq, torque=torque,
+              save_every=run.save_every, t0=run.t0, progress=progress, scheme="lgvi", forcing="symmetric")
+    return with_estimate(traj, kw, warn=warn, stacklevel=3,
+                         order=1 if run.wheels.has_friction else run.comp.order)
 
 
-__all__ = ["GYROSTAT", "GyrostatRun", "GyrostatTrajectory", "ReactionWheels", "gyrostat_options", "simulate_gyrostat"]
+__all__ = ["GYROSTAT", "GyrostatRun", "GyrostatTrajectory", "ReactionWheels", "controller_state", "gyrostat_options",
+           "load_controller_state", "simulate_gyrostat"]

@@ -14,6 +14,7 @@ recorded in ``params`` and, where it differs, in ``dispersions``.
 from __future__ import annotations
 
 import copy
+import json
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -28,7 +29,15 @@ from ..driver import MemorySink, drive
 from ..errors import ConvergenceError, TorqueError
 from .gyrostat import GyrostatRun, GyrostatTrajectory, ReactionWheels
 
-__all__ = ["GyrostatEnsemble", "simulate_gyrostat_ensemble"]
+__all__ = ["FORMAT", "GyrostatEnsemble", "simulate_gyrostat_ensemble"]
+
+#: Format of a saved gyrostat ensemble (the ``__lgvi__`` header of its ``.npz``).
+FORMAT = "lgvi.gyrostat_ensemble/1"
+#: The members' arrays, stacked over members in the file (``t`` and ``h`` are shared).
+_MEMBER_ARRAYS = ("R", "Pi", "inertia", "iterations", "residual", "wheel_momentum", "wheel_torque", "wheel_axes",
+                  "spin_inertia")
+#: Prefix of the entries of ``params`` in the file.
+_PARAM_PREFIX = "param:"
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,6 +123,113 @@ class GyrostatEnsemble:
     @cached_property
     def spatial_momentum(self) -> np.ndarray:
         return self._stack("spatial_momentum")
+
+    def save(self, path: str | os.PathLike) -> None:
+        """Write to ``path`` (``.npz``, uncompressed, atomically); :meth:`load` (or
+        ``lgvi info``) reads it back bit for bit.
+
+        The members' arrays are stacked over members (``R`` (B, M, 3, 3), ``wheel_momentum``
+        (B, M, N), ...), ``t`` and ``h`` stored once, ``params`` as ``param:<name>``; the header
+        holds the ensemble's ``meta`` and every member's. Raises ``OSError`` naming the file and
+        its folder if the write fails (a full disk).
+        """
+        from .._files import write_atomic, write_failure
+        from .._version import __version__
+
+        members = self.members
+        if any(m.potential is not None for m in members) and any(m.potential is None for m in members):
+            raise ValueError("cannot save an ensemble whose members differ in having a potential")
+        arrays: dict[str, np.ndarray] = {"t": np.asarray(members[0].t), "h": np.float64(members[0].h)}
+        for name in _MEMBER_ARRAYS:
+            arrays[name] = np.stack([np.asarray(getattr(m, name)) for m in members])
+        if members[0].potential is not None:
+            arrays["potential"] = np.stack([np.asarray(m.potential) for m in members])
+        for name, arr in self.params.items():
+            arrays[_PARAM_PREFIX + name] = np.asarray(arr)
+        header = json.dumps({"format": FORMAT, "meta": dict(self.meta, lgvi_version=self.meta.get(
+            "lgvi_version", __version__)), "members": [m.meta for m in members]})
+        try:
+            write_atomic(os.fspath(path), lambda fh: np.savez(fh, __lgvi__=np.array(header), **arrays))
+        except OSError as exc:
+            raise write_failure(exc, os.fspath(path), "the gyrostat ensemble", "The file was left as it was "
+                                "(files are replaced only once complete).") from exc
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> "GyrostatEnsemble":
+        """Read an ensemble written by :meth:`save`.
+
+        Raises
+        ------
+        ValueError
+            Naming the file, when it is not such an ensemble: not an ``.npz``, object arrays or
+            sizes beyond the file (refused before reading), another format, missing fields,
+            arrays of the wrong shape or type.
+        """
+        path = os.fspath(path)
+        try:
+            return _read(path)
+        except MemoryError:
+            raise
+        except ValueError as exc:
+            raise (exc if path in str(exc) else ValueError(f"cannot read gyrostat ensemble {path}: {exc}")) from exc
+        except Exception as exc:  # OSError, zip, JSON and numpy errors of damaged files
+            raise ValueError(f"cannot read gyrostat ensemble {path}: {type(exc).__name__}: {exc}") from exc
+
+
+def _read(path: str) -> GyrostatEnsemble:
+    """The ensemble in ``path`` (checked: see :meth:`GyrostatEnsemble.load`)."""
+    from .._untrusted import check_npz
+    from ..trajectory import RESULT_TYPES, check_arrays
+
+    from_file = RESULT_TYPES["gyrostat"][1]          # a member as lgvi.load reads one (shapes checked)
+
+    with open(path, "rb") as fh:
+        if fh.read(2) != b"PK":
+            raise ValueError("not an .npz (zip) archive")
+    check_npz(path)       # no object arrays, no declared size beyond the file's bytes
+    with np.load(path, allow_pickle=False) as data:
+        if "__lgvi__" not in data.files:
+            raise ValueError("no '__lgvi__' header")
+        header = json.loads(str(data["__lgvi__"]))
+        if not isinstance(header, dict) or header.get("format") != FORMAT:
+            what = header.get("format") if isinstance(header, dict) else header
+            raise ValueError(f"format {what!r}, expected {FORMAT!r}")
+        missing = [k for k in ("t", "h") + _MEMBER_ARRAYS if k not in data.files]
+        if missing:
+            raise ValueError(f"missing field(s) {', '.join(missing)}")
+        arrays = {k: data[k] for k in ("t", "h") + _MEMBER_ARRAYS}
+        potential = data["potential"] if "potential" in data.files else None
+        params = {k[len(_PARAM_PREFIX):]: data[k] for k in data.files if k.startswith(_PARAM_PREFIX)}
+    meta, metas = header.get("meta", {}), header.get("members")
+    if not isinstance(meta, dict):
+        raise ValueError("the header's 'meta' must be a JSON object")
+    B = arrays["R"].shape[0] if arrays["R"].ndim else -1
+    if not isinstance(metas, list) or len(metas) != B or B < 1 or not all(isinstance(m, dict) for m in metas):
+        raise ValueError(f"the header's 'members' must be a list of one JSON object per member ({B})")
+    h = arrays.pop("h")
+    if h.size != 1 or h.dtype.kind not in "iuf":
+        raise ValueError(f"field 'h' must be one real number, got shape {h.shape}, dtype {h.dtype}")
+    for name, arr in list(arrays.items()) + [("potential", potential)]:
+        if arr is not None and name != "t" and (arr.ndim < 1 or arr.shape[0] != B):
+            raise ValueError(f"field {name!r} must have one entry per member ({B}), got shape {arr.shape}")
+    for name, arr in params.items():
+        if arr.ndim < 1 or arr.shape[0] != B or arr.dtype.kind not in "iuf":
+            raise ValueError(f"field {_PARAM_PREFIX + name!r} must have one row per member ({B}), got shape "
+                             f"{arr.shape} and dtype {arr.dtype}")
+    members = []
+    for b in range(B):
+        fields = {k: arrays[k][b] for k in _MEMBER_ARRAYS}
+        fields["t"] = arrays["t"].copy()
+        pot = None if potential is None else potential[b]
+        try:
+            check_arrays({k: fields[k] for k in ("t", "R", "Pi", "inertia", "iterations", "residual")}, pot)
+            for k in ("wheel_momentum", "wheel_torque", "wheel_axes", "spin_inertia"):
+                if fields[k].dtype.kind not in "iuf":
+                    raise ValueError(f"field {k!r} must hold real numbers, got dtype {fields[k].dtype}")
+            members.append(from_file(h=float(h.reshape(())), potential=pot, meta=metas[b], **fields))
+        except ValueError as exc:
+            raise ValueError(f"member {b}: {exc}") from None
+    return GyrostatEnsemble(members=tuple(members), params=params, meta=meta)
 
 
 def _per_member(value: Any, name: str, B: int, kind: type) -> list[Any]:

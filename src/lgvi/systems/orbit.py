@@ -79,6 +79,7 @@ ORBIT = register(System(
     scenario_section="orbiting_body",
     run_factory=None,
     invariants=_invariants,
+    from_stream=lambda meta, arrays, state: _from_stream(meta, arrays, state),
 ))
 
 
@@ -294,9 +295,10 @@ class OrbitRun(CarriedState):
     full = False          # records: the largest per saved interval
     label = "orbit simulation"
 
-    def __init__(self, body: Any, mass: Any, x0: Any, v0: Any, R0: Any, Pi0: Any, *, omega0: Any, h: Any,
-                 steps: Any, mu: Any, potential: Any, J2: Any, radius: Any, torque: Any, tol: Any, max_iter: Any,
-                 save_every: Any, t0: Any) -> None:
+    def __init__(self, body: Any, mass: Any, x0: Any, v0: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None,
+                 h: Any, steps: Any, mu: Any, potential: Any = "order2", J2: Any = None, radius: Any = None,
+                 torque: Any = None, tol: Any = 1e-14, max_iter: Any = 50, save_every: Any = 1,
+                 t0: Any = 0.0) -> None:
         from ..driver import run_solver_options
 
         self.body = body if isinstance(body, RigidBody) else RigidBody(body)
@@ -340,6 +342,13 @@ class OrbitRun(CarriedState):
                      "torque": "none" if not self.has_torque else ("constant" if len(self.U) == 1 else "array"),
                      "invariants": self.declaration, "t0": self.t0, "save_every": self.save_every,
                      "method": "cayley", "tol": self.tol, "lgvi_version": __version__}
+        self.initial = {key: getattr(self, key).tolist() for key in ("x", "p", "R", "Pi")}
+
+    def stream_meta(self) -> dict[str, Any]:
+        """JSON-serialisable metadata of a stream of this run (:mod:`lgvi.io.streaming`): what
+        :func:`_from_stream` needs and what identifies the run (compared on resume)."""
+        return dict(self.meta, h=self.h, steps=self.steps, inertia=self.body.J.tolist(), mass=self.mass, mu=self.mu,
+                    max_iter=self.max_iter, initial=self.initial, torque_values=array_digest(self.U))
 
     @property
     def last_its(self) -> int:
@@ -372,6 +381,29 @@ class OrbitRun(CarriedState):
         meta = dict(self.meta, partial=True) if partial else dict(self.meta)
         return OrbitTrajectory(t=t, x=x, p=p, R=R, Pi=Pi, iterations=it, residual=res, h=self.h, mass=self.mass,
                                inertia=self.body.J.copy(), mu=self.mu, meta=meta)
+
+
+def array_digest(a: np.ndarray) -> Any:
+    """A short JSON-serialisable identity of ``a``: its values if small, else its shape and SHA-256."""
+    import hashlib
+
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    if a.size <= 16:
+        return a.tolist()
+    return {"shape": list(a.shape), "sha256": hashlib.sha256(a.tobytes()).hexdigest()}
+
+
+def _from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state: dict[str, Any]) -> OrbitTrajectory:
+    """The :class:`OrbitTrajectory` of a stream folder (``System.from_stream``)."""
+    M = len(arrays["t"])
+    for name, shape in (("x", (M, 3)), ("p", (M, 3)), ("R", (M, 3, 3)), ("Pi", (M, 3)), ("iterations", (M - 1,)),
+                        ("residual", (M - 1,))):
+        if arrays[name].shape != shape:
+            raise ValueError(f"field {name!r} must have shape {shape} (M = {M} samples), got {arrays[name].shape}")
+    return OrbitTrajectory(t=arrays["t"], x=arrays["x"], p=arrays["p"], R=arrays["R"], Pi=arrays["Pi"],
+                           iterations=arrays["iterations"], residual=arrays["residual"], h=float(meta["h"]),
+                           mass=float(meta["mass"]), inertia=np.asarray(meta["inertia"], dtype=np.float64),
+                           mu=float(meta["mu"]), meta=dict(meta))
 
 
 def simulate_orbit(body: Any, mass: float, x0: Any, v0: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None,

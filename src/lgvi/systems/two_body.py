@@ -34,6 +34,9 @@ from ..invariants import BOUNDED, EXACT
 from . import CarriedState, Field, System, register
 from .orbit import load_result_npz, positive_number, save_result_npz
 
+#: The body arrays a result keeps (``TwoBodyTrajectory.moments``).
+MOMENT_KEYS = ("S", "T3", "T4", "Q1", "w1", "Q2", "w2")
+
 CHUNK_STEPS = 1 << 18
 #: Mutual potentials by name (kernel codes).
 POTENTIALS = {"order2": 0, "order4": 1, "points": 2}
@@ -65,6 +68,7 @@ TWO_BODY = register(System(
     scenario_section="two_body",
     run_factory=None,
     invariants=_invariants,
+    from_stream=lambda meta, arrays, state: _from_stream(meta, arrays, state),
 ))
 
 
@@ -580,8 +584,9 @@ class TwoBodyRun(CarriedState):
     label = "two-body simulation"
 
     def __init__(self, body1: Any, body2: Any, m1: Any, m2: Any, x0: Any, v0: Any, R1_0: Any, R2_0: Any, *,
-                 Pi1_0: Any, Pi2_0: Any, omega1_0: Any, omega2_0: Any, h: Any, steps: Any, G: Any, potential: Any,
-                 tol: Any, max_iter: Any, save_every: Any, t0: Any) -> None:
+                 Pi1_0: Any = None, Pi2_0: Any = None, omega1_0: Any = None, omega2_0: Any = None, h: Any,
+                 steps: Any, G: Any = 1.0, potential: Any = "order2", tol: Any = 1e-14, max_iter: Any = 50,
+                 save_every: Any = 1, t0: Any = 0.0) -> None:
         from ..driver import run_solver_options
 
         self.potential = choice(potential, "potential", tuple(POTENTIALS))
@@ -623,6 +628,16 @@ class TwoBodyRun(CarriedState):
         self.meta = {"system": TWO_BODY.name, "potential": self.potential, "invariants": _invariants(None),
                      "t0": self.t0, "save_every": self.save_every, "method": "cayley", "tol": self.tol,
                      "lgvi_version": __version__}
+        self.initial = {key: getattr(self, key).tolist() for key in ("x", "p", "R", "Pi")}
+
+    def stream_meta(self) -> dict[str, Any]:
+        """JSON-serialisable metadata of a stream of this run (:mod:`lgvi.io.streaming`): what
+        :func:`_from_stream` needs (the bodies' moment arrays with their shapes) and what identifies
+        the run (compared on resume)."""
+        a = self.arrays
+        return dict(self.meta, h=self.h, steps=self.steps, G=self.G, masses=[self.b1.mass, self.b2.mass],
+                    max_iter=self.max_iter, initial=self.initial,
+                    moments={k: {"shape": list(a[k].shape), "values": a[k].ravel().tolist()} for k in MOMENT_KEYS})
 
     @property
     def last_its(self) -> int:
@@ -657,9 +672,24 @@ class TwoBodyRun(CarriedState):
     def trajectory(self, t, x, p, R, Pi, it, res, partial: bool = False) -> TwoBodyTrajectory:
         meta = dict(self.meta, partial=True) if partial else dict(self.meta)
         a = self.arrays
-        moments = {k: a[k].copy() for k in ("S", "T3", "T4", "Q1", "w1", "Q2", "w2")}
+        moments = {k: a[k].copy() for k in MOMENT_KEYS}
         return TwoBodyTrajectory(t=t, x=x, p=p, R=R, Pi=Pi, iterations=it, residual=res, h=self.h, G=self.G,
                                  masses=np.array([self.b1.mass, self.b2.mass]), moments=moments, meta=meta)
+
+
+def _from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state: dict[str, Any]) -> TwoBodyTrajectory:
+    """The :class:`TwoBodyTrajectory` of a stream folder (``System.from_stream``)."""
+    M = len(arrays["t"])
+    for name, shape in (("x", (M, 2, 3)), ("p", (M, 2, 3)), ("R", (M, 2, 3, 3)), ("Pi", (M, 2, 3)),
+                        ("iterations", (M - 1,)), ("residual", (M - 1,))):
+        if arrays[name].shape != shape:
+            raise ValueError(f"field {name!r} must have shape {shape} (M = {M} samples), got {arrays[name].shape}")
+    moments = {k: np.asarray(meta["moments"][k]["values"], dtype=np.float64).reshape(meta["moments"][k]["shape"])
+               for k in MOMENT_KEYS}
+    return TwoBodyTrajectory(t=arrays["t"], x=arrays["x"], p=arrays["p"], R=arrays["R"], Pi=arrays["Pi"],
+                             iterations=arrays["iterations"], residual=arrays["residual"], h=float(meta["h"]),
+                             G=float(meta["G"]), masses=np.asarray(meta["masses"], dtype=np.float64).reshape(2),
+                             moments=moments, meta=dict(meta))
 
 
 def simulate_two_body(body1: Any, body2: Any, m1: float | None, m2: float | None, x0: Any, v0: Any, R1_0: Any,
