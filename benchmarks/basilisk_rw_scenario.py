@@ -21,7 +21,9 @@ at h = 0.1 s, falling as h^2; adding the wheels' transverse inertia, masses and 
 centre of mass, :func:`locked_inertia`, leaves 3.6e-3). The attitude does not depend on the orbit
 (Basilisk applies no gravity torque here). The fixture ``basilisk_rw_scenario.npz`` beside this script keeps every 10th
 sample (1 s) of Basilisk's ``sigma_BN``, ``omega_BN_B`` and wheel speeds, and Basilisk's wall
-time of ``ExecuteSimulation()`` when it was written.
+time of ``ExecuteSimulation()`` when it was written; ``basilisk_rw_scenario_ki.npz`` (written by
+``--write-ki-fixture``) the same with ``mrpFeedback``'s integral term on (``Ki = 2e-4``, integral
+limit ``2 / Ki * 0.1``, as Basilisk's example sets it).
 """
 
 from __future__ import annotations
@@ -38,6 +40,8 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 FIXTURE = HERE / "basilisk_rw_scenario.npz"
+#: The same scenario with ``mrpFeedback``'s integral term on (``KI``, limit ``2 / KI * 0.1``).
+FIXTURE_KI = HERE / "basilisk_rw_scenario_ki.npz"
 
 HUB_INERTIA = np.diag([900.0, 800.0, 600.0])
 HUB_MASS = 750.0
@@ -52,6 +56,7 @@ SIGMA0 = np.array([0.1, 0.2, -0.3])
 OMEGA0 = np.array([0.001, -0.01, 0.03])
 K, P, U_MAX = 3.5, 30.0, 0.2
 DT, T_END, DECIMATE = 0.1, 600.0, 10
+KI = 0.0002
 
 
 def locked_inertia() -> np.ndarray:
@@ -71,8 +76,11 @@ def locked_inertia() -> np.ndarray:
 # ------------------------------------------------------------------------------------------------
 # Basilisk
 # ------------------------------------------------------------------------------------------------
-def run_basilisk(dt: float = DT) -> dict:
-    """Basilisk's scenario; returns the logged arrays (every task step) and the wall time."""
+def run_basilisk(dt: float = DT, ki: float | None = None) -> dict:
+    """Basilisk's scenario; returns the logged arrays (every task step) and the wall time.
+
+    ``ki``: the integral gain of ``mrpFeedback`` (integral limit ``2 / ki * 0.1`` as Basilisk's
+    example), ``None``: off (the scenario's default)."""
     from Basilisk.architecture import messaging
     from Basilisk.fswAlgorithms import attTrackingError, inertial3D, mrpFeedback, rwMotorTorque
     from Basilisk.simulation import reactionWheelStateEffector, simpleNav, spacecraft
@@ -108,7 +116,7 @@ def run_basilisk(dt: float = DT) -> dict:
     sim.AddModelToTask("simTask", err)
     ctrl = mrpFeedback.mrpFeedback()
     sim.AddModelToTask("simTask", ctrl)
-    ctrl.K, ctrl.Ki, ctrl.P = K, -1.0, P
+    ctrl.K, ctrl.Ki, ctrl.P = K, (-1.0 if ki is None else ki), P
     ctrl.integralLimit = 2.0 / ctrl.Ki * 0.1
     mt = rwMotorTorque.rwMotorTorque()
     sim.AddModelToTask("simTask", mt)
@@ -140,43 +148,59 @@ def run_basilisk(dt: float = DT) -> dict:
     rwe.rwMotorCmdInMsg.subscribeTo(mt.rwMotorTorqueOutMsg)
     sim.InitializeSimulation()
     sim.ConfigureStopTime(macros.sec2nano(T_END))
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     sim.ExecuteSimulation()
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     n = len(WHEEL_AXES)
     return {"t": state_log.times() * 1e-9, "sigma": np.array(state_log.sigma_BN),
             "omega": np.array(state_log.omega_BN_B), "wheel_speed": np.array(speed_log.wheelSpeeds)[:, :n],
-            "wheel_torque": np.array(torque_log.motorTorque)[:, :n], "wall": wall}
+            "wheel_torque": np.array(torque_log.motorTorque)[:, :n], "wall": wall, "cpu": cpu,
+            "bsk": _bsk_version()}
 
 
-def basilisk_in(python: str | None) -> dict:
-    """:func:`run_basilisk` here, or with another interpreter (a venv with ``bsk``)."""
+def basilisk_repeated(ki: float | None = None, repeat: int = 1) -> dict:
+    """:func:`run_basilisk` ``repeat`` times: the first run's arrays, the medians of wall and CPU time."""
+    runs = [run_basilisk(ki=ki) for _ in range(repeat)]
+    d = runs[0]
+    d["wall"] = float(np.median([r["wall"] for r in runs]))
+    d["cpu"] = float(np.median([r["cpu"] for r in runs]))
+    return d
+
+
+def basilisk_in(python: str | None, ki: float | None = None, repeat: int = 1) -> dict:
+    """:func:`basilisk_repeated` here, or with another interpreter (a venv with ``bsk``)."""
     if python is None:
-        return run_basilisk()
+        return basilisk_repeated(ki, repeat)
     out = Path(os.environ.get("TMPDIR", "/tmp")) / f"lgvi_bsk_rw_{os.getpid()}.npz"
-    subprocess.run([python, str(Path(__file__).resolve()), "--basilisk-only", str(out)], check=True)
+    extra = ["--bsk-repeat", str(repeat)] + ([] if ki is None else ["--ki", repr(ki)])
+    subprocess.run([python, str(Path(__file__).resolve()), "--basilisk-only", str(out)] + extra, check=True)
     with np.load(out) as z:
         d = {k: z[k] for k in z.files}
     out.unlink()
     d["wall"] = float(d["wall"])
+    d["cpu"] = float(d["cpu"])
+    d["bsk"] = str(d["bsk"])
     return d
 
 
 # ------------------------------------------------------------------------------------------------
 # lgvi
 # ------------------------------------------------------------------------------------------------
-def run_lgvi(h: float = DT, save_every: int | None = None, order: int = 2):
-    """lgvi on the scenario at step ``h`` (a divisor of 0.1 s); samples every ``DT * DECIMATE`` by default."""
+def run_lgvi(h: float = DT, save_every: int | None = None, order: int = 2, composition: str | None = None,
+             ki: float | None = None, steps: int | None = None):
+    """lgvi on the scenario at step ``h`` (a divisor of 0.1 s); samples every ``DT * DECIMATE`` by default.
+    ``ki``: the integral gain (limit ``2 / ki * 0.1``), ``None``: off; ``steps``: fewer than the 600 s."""
     import lgvi
     from lgvi.control import MRPFeedback, matrix_from_mrp
 
-    steps = int(round(T_END / h))
+    steps = int(round(T_END / h)) if steps is None else steps
     se = save_every if save_every is not None else int(round(DT * DECIMATE / h))
     wheels = lgvi.ReactionWheels(WHEEL_AXES, JS, speed0=SPEED0, max_torque=U_MAX, max_speed=OMEGA_MAX)
     body = lgvi.RigidBody(HUB_INERTIA)
     return lgvi.simulate(body, matrix_from_mrp(SIGMA0), omega0=OMEGA0, h=h, steps=steps, wheels=wheels,
-                         controller=MRPFeedback(K, P, inertia=HUB_INERTIA), control_period=DT, save_every=se,
-                         order=order)
+                         controller=MRPFeedback(K, P, Ki=ki, integral_limit=None if ki is None else 2.0 / ki * 0.1,
+                                                inertia=HUB_INERTIA),
+                         control_period=DT, save_every=se, order=order, composition=composition)
 
 
 def differences(traj, fix) -> tuple[float, float, float]:
@@ -198,28 +222,34 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--write-fixture", action="store_true", help="run Basilisk and write the fixture")
     ap.add_argument("--bsk-python", default=None, help="a Python with Basilisk (bsk) installed")
     ap.add_argument("--basilisk-only", default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--ki", type=float, default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--bsk-repeat", type=int, default=3, help="Basilisk runs (median of their times)")
+    ap.add_argument("--write-ki-fixture", action="store_true",
+                    help=f"run Basilisk with the integral term (Ki = {KI:g}) and write {FIXTURE_KI.name}")
     ap.add_argument("--repeat", type=int, default=9, help="timing repetitions for lgvi (median)")
     ap.add_argument("--quick", action="store_true", help="one repetition, three rows (for the tests)")
     args = ap.parse_args(argv)
     if args.basilisk_only:
-        d = run_basilisk()
+        d = basilisk_repeated(args.ki, args.bsk_repeat)
         np.savez(args.basilisk_only, **d)
         return 0
-    if args.write_fixture:
-        d = basilisk_in(args.bsk_python)
+    if args.write_fixture or args.write_ki_fixture:
+        ki = KI if args.write_ki_fixture else None
+        path = FIXTURE_KI if args.write_ki_fixture else FIXTURE
+        d = basilisk_in(args.bsk_python, ki, 1)
         sl = slice(None, None, DECIMATE)
-        from importlib.metadata import version as _v
-        try:
-            bsk = _v("bsk")
-        except Exception:
-            bsk = "unknown"
-        np.savez_compressed(FIXTURE, t=d["t"][sl], sigma=d["sigma"][sl], omega=d["omega"][sl],
+        bsk = str(d.get("bsk", "unknown"))         # the version of the interpreter that ran Basilisk
+        info = {"bsk": bsk, "dt": DT, "T": T_END, "decimate": DECIMATE}
+        if ki is not None:
+            info.update(Ki=ki, integralLimit=2.0 / ki * 0.1)
+        np.savez_compressed(path, t=d["t"][sl], sigma=d["sigma"][sl], omega=d["omega"][sl],
                             wheel_speed=d["wheel_speed"][sl], wheel_torque=d["wheel_torque"][sl],
-                            wall=d["wall"], info=json.dumps({"bsk": bsk, "dt": DT, "T": T_END, "decimate": DECIMATE}))
-        print(f"wrote {FIXTURE} ({FIXTURE.stat().st_size} bytes); Basilisk ExecuteSimulation {d['wall']:.3f} s")
+                            wall=d["wall"], info=json.dumps(info))
+        print(f"wrote {path} ({path.stat().st_size} bytes); Basilisk ExecuteSimulation {d['wall']:.3f} s")
         return 0
     fix = np.load(FIXTURE)
-    bsk = basilisk_in(args.bsk_python) if (args.bsk_python or _have_basilisk()) and not args.quick else None
+    with_bsk = (args.bsk_python or _have_basilisk()) and not args.quick
+    bsk = basilisk_in(args.bsk_python, None, args.bsk_repeat) if with_bsk else None
     run_lgvi()  # compile / load the kernels
     walls = []
     for _ in range(args.repeat):
@@ -229,11 +259,14 @@ def main(argv: list[str] | None = None) -> int:
     lg = float(np.median(walls))
     print("Basilisk scenarioAttitudeFeedbackRW, 600 s at 0.1 s (machine shared with other jobs: medians)")
     ref_wall = bsk["wall"] if bsk is not None else float(fix["wall"])
-    print(f"{'h':>8} {'order':>5} {'max |d sigma|':>14} {'max |d omega|':>14} {'max |d speed|':>14} {'err vs ref':>12} "
-          f"{'lgvi ms':>9} {'Basilisk/lgvi':>14}")
-    rows = [(DT / sub, 2) for sub in (1, 2, 4, 8, 16)] + [(DT, 4), (DT, 6)]
+    ref_cpu = bsk["cpu"] if bsk is not None else None
+    print("(times: medians of --repeat runs, Basilisk's of --bsk-repeat; wall clock, and the CPU time of the process, "
+          "which the load of other jobs disturbs less)")
+    print(f"{'h':>8} {'order':>9} {'max |d sigma|':>14} {'max |d omega|':>14} {'max |d speed|':>14} {'err vs ref':>12} "
+          f"{'lgvi ms':>9} {'Basilisk/lgvi':>14} {'lgvi CPU ms':>12} {'ratio CPU':>10}")
+    rows = [(DT / sub, 2, None) for sub in (1, 2, 4, 8, 16)] + [(DT, 4, None), (DT, 4, "yoshida4"), (DT, 6, None)]
     if args.quick:
-        args.repeat, rows = 1, [(DT, 2), (DT / 2, 2), (DT, 4)]
+        args.repeat, rows = 1, [(DT, 2, None), (DT / 2, 2, None), (DT, 4, None)]
     # a converged reference (order 6 at h = 0.1/16: changes below 2e-13 from h = 0.1/32) for the accuracy
     # of both: Basilisk's RK4 at 0.1 s and each lgvi row, largest MRP difference over the 1 s samples
     from lgvi.control import mrp_from_matrix
@@ -241,28 +274,51 @@ def main(argv: list[str] | None = None) -> int:
     sig_ref = mrp_from_matrix(run_lgvi(DT / 16, order=6).R)
     print(f"Basilisk RK4 at 0.1 s: max |sigma - sigma_ref| = {np.abs(fix['sigma'] - sig_ref).max():.2e} "
           "(the reference: lgvi order 6 at h = 0.1/16)")
-    for h, order in rows:
-        traj = run_lgvi(h, order=order)
+    for h, order, comp in rows:
+        traj = run_lgvi(h, order=order, composition=comp)
         ds, dw, dv = differences(traj, fix)
         err = np.abs(mrp_from_matrix(traj.R) - sig_ref).max()
-        ts = []
+        ts, cs = [], []
         for _ in range(args.repeat):
-            t0 = time.perf_counter()
-            run_lgvi(h, order=order)
+            t0, c0 = time.perf_counter(), time.process_time()
+            run_lgvi(h, order=order, composition=comp)
             ts.append(time.perf_counter() - t0)
-        wall = float(np.median(ts))
-        print(f"{h:8.4f} {order:5d} {ds:14.3e} {dw:14.3e} {dv:14.3e} {err:12.2e} {wall * 1e3:9.2f} "
-              f"{ref_wall / wall:13.0f}x   (fastest {min(ts) * 1e3:.2f} ms: {ref_wall / min(ts):.0f}x)")
+            cs.append(time.process_time() - c0)
+        wall, cpu = float(np.median(ts)), float(np.median(cs))
+        name = str(order) if comp is None else f"{order} {comp[:7]}"
+        cpu_ratio = f"{ref_cpu / cpu:9.0f}x" if ref_cpu is not None else f"{'-':>10}"
+        print(f"{h:8.4f} {name:>9} {ds:14.3e} {dw:14.3e} {dv:14.3e} {err:12.2e} {wall * 1e3:9.2f} "
+              f"{ref_wall / wall:13.0f}x {cpu * 1e3:12.2f} {cpu_ratio}")
     print("(the differences fall as h^2 at order 2 towards Basilisk's own RK4 error; order 4 and 6 compose the "
           "step with the wheel torques held over it)")
+    fix_ki = np.load(FIXTURE_KI)
+    ds, dw, dv = differences(run_lgvi(DT, ki=KI), fix_ki)
+    print(f"with the integral term (Ki = {KI:g}, fixture {FIXTURE_KI.name}), h = 0.1, order 2: max |d sigma| = "
+          f"{ds:.3e}, max |d omega| = {dw:.3e}, max |d speed| = {dv:.3e}")
     print(f"lgvi simulate (h = 0.1 s, compiled MRPFeedback): {lg * 1e3:.2f} ms (median of {args.repeat})")
+    fixed = []
+    for _ in range(max(args.repeat, 5)):
+        c0 = time.process_time()
+        run_lgvi(DT, save_every=10, order=4, steps=10)
+        fixed.append(time.process_time() - c0)
+    print(f"fixed cost per call (the same call for 10 steps, order 4: objects, checks, set-up, result; CPU): "
+          f"{np.median(fixed) * 1e3:.2f} ms")
     if bsk is not None:
-        print(f"Basilisk ExecuteSimulation (this run): {bsk['wall'] * 1e3:.1f} ms; ratio Basilisk / lgvi = "
-              f"{bsk['wall'] / lg:.0f}x")
+        print(f"Basilisk ExecuteSimulation (this run, median of {args.bsk_repeat}): {bsk['wall'] * 1e3:.1f} ms wall, "
+              f"{bsk['cpu'] * 1e3:.1f} ms CPU; ratio Basilisk / lgvi (wall) = {bsk['wall'] / lg:.0f}x")
     else:
         print(f"Basilisk ExecuteSimulation (fixture, another run): {float(fix['wall']) * 1e3:.1f} ms; ratio = "
               f"{float(fix['wall']) / lg:.0f}x (give --bsk-python for a same-run figure)")
     return 0
+
+
+def _bsk_version() -> str:
+    from importlib.metadata import version
+
+    try:
+        return version("bsk")
+    except Exception:
+        return "unknown"
 
 
 def _have_basilisk() -> bool:

@@ -23,8 +23,9 @@ Problems (targets in rad)
               figures were measured. Lee, Leok and McClamroch's own start hangs (com = -0.3 e3
               here, E0 = 2.03 J: examples/pendulum3d.py).
 
-The orbit cases run lgvi's splitting methods (``scheme="splitting"``, exact free-body flows and
-gravity-gradient kicks, :mod:`lgvi.splitting`) and its LGVI compositions against the compiled RK4
+The orbit cases run lgvi's splitting methods (``scheme="splitting"``: exact free-body flows and
+gravity-gradient kicks, and the ``axes-*`` compositions of rotations about the principal axes and
+kicks, :mod:`lgvi.splitting`) and its LGVI compositions against the compiled RK4
 baseline, SciPy's DOP853 and Basilisk's RK4 (a row says "n/a" when Basilisk is not installed or
 has no such model).
 
@@ -399,7 +400,7 @@ def basilisk_configs(p: Problem, quick: bool) -> list[Config]:
 
 def configurations(p: Problem, quick: bool, only: set[str] | None) -> list[Config]:
     if p.key in ISSUE_PROBLEMS:
-        names = ("strang", "saba2", "saba4", "bab64", "aba84", "aba84-tj6")
+        names = ("strang", "saba2", "saba4", "bab64", "aba84", "aba84-tj6", "axes-suzuki4", "axes-kl6", "axes-kl8")
         cfgs = [splitting_config(p, n) for n in names] + [lgvi_config(p, "newton", o) for o in (4, 6)]
         cfgs += [scipy_config(p, "DOP853"), rk4_config(p)]
         cfgs += basilisk_configs(p, quick)[:1]

@@ -212,7 +212,7 @@ def test_run_options_these_systems_do_not_take(capsys, tmp_path):
     code, _, err = run(capsys, "run", path, "-o", tmp_path / "a", "--format", "csv")
     assert code == 2 and "--format" in err and "npz" in err
     code, _, err = run(capsys, "run", path, "-o", tmp_path / "b", "--resume")
-    assert code == 2 and "--resume" in err
+    assert code == 2 and "--resume" in err and "no interrupted run" in err
     plots_off = write(tmp_path, ORBIT.replace("[integrator]", "[output]\nplots = false\n\n[integrator]"), "quiet.toml")
     code, _, err = run(capsys, "run", plots_off, "-o", tmp_path / "c")
     assert code == 0, err
@@ -230,17 +230,40 @@ def test_a_failed_run_writes_the_part_computed(capsys, tmp_path, monkeypatch):
     part = replace(whole, t=whole.t[:11], x=whole.x[:11], p=whole.p[:11], R=whole.R[:11], Pi=whole.Pi[:11],
                    iterations=whole.iterations[:10], residual=whole.residual[:10])
 
-    def fail(self, progress=False):
+    def fail(self, folder, *, resume=False, progress=False, chunk_steps=None):
         raise lgvi.ConvergenceError("orbit step 41 (t = 410) failed: test", residual=1.0, iterations=50, step=41,
                                     time=410.0, trajectory=part)
 
-    monkeypatch.setattr(BodiesScenario, "run", fail)
+    monkeypatch.setattr(BodiesScenario, "run_stream", fail)
     code, _, err = run(capsys, "run", path, "-o", tmp_path / "out")
     assert code == 1 and "ConvergenceError" in err and "step 41" in err and str(tmp_path / "out") in err
     js = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert js["status"] == "failed" and js["steps"] == 40 and js["samples"] == 11
     back = read_trajectory(tmp_path / "out" / "trajectory.npz")
     assert np.array_equal(back.x, part.x) and not list((tmp_path / "out").glob("*.png"))
+
+
+@pytest.mark.parametrize("text", [ORBIT, TWO], ids=["orbit", "two_body"])
+def test_an_interrupted_run_resumes_bit_for_bit(capsys, tmp_path, text):
+    # lgvi run streams these systems as it does rigid bodies: a run stopped by Ctrl-C after two
+    # chunks is finished by `lgvi run --resume`, and the result is the uninterrupted run
+    path = write(tmp_path, text)
+    sc = load_scenario(path)
+    whole = sc.run()
+    stop = sc.steps // 2
+
+    def ctrl_c(k, n):
+        if k >= stop:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        sc.run_stream(tmp_path / "out" / "stream", chunk_steps=stop // 2, progress=ctrl_c)
+    code, _, err = run(capsys, "run", path, "-o", tmp_path / "out", "--resume")
+    assert code == 0, err
+    back = read_trajectory(tmp_path / "out" / "trajectory.npz")
+    for name in ("t", "x", "p", "R", "Pi", "iterations", "residual"):
+        assert np.array_equal(getattr(back, name), getattr(whole, name)), name
+    assert not (tmp_path / "out" / "stream").exists()      # removed unless --keep-stream
 
 
 # ------------------------------------------------------------------------------------------------

@@ -327,3 +327,27 @@ def test_gravity_gradient_figures_show_the_jacobi_integral():
     titles = [ax.get_title() for ax in fig.axes if ax.get_visible()]
     assert len(titles) == 2 and "Jacobi" in titles[0] and "SO(3)" in titles[1]
     assert "not shown" in fig.get_suptitle() and "energy" in fig.get_suptitle()
+
+
+def test_long_lines_are_drawn_without_gaps(tmp_path):
+    # Figures are saved with long lines cut into pieces of plot.AGG_CHUNK vertices (to bound
+    # Agg's memory); matplotlib's own cutting (agg.path.chunksize) drops the vertex at each cut
+    # and leaves a visible gap. A zigzag of 3 * AGG_CHUNK vertices, looked at around the first
+    # cut: every pixel column of the axes must hold some of the line.
+    import matplotlib.image
+
+    n = 3 * plot.AGG_CHUNK
+    fig = Figure(figsize=(4, 3))
+    ax = fig.add_axes((0, 0, 1, 1))
+    ax.set_axis_off()
+    x = np.arange(n, dtype=float)
+    y = x % 2
+    x[-1], y[-1] = 0.0, 10.0   # not sorted in x, so Line2D hands Agg the whole path, not the visible part
+    line, = ax.plot(x, y, color="k", lw=1, label="zigzag")
+    ax.set_xlim(plot.AGG_CHUNK - 11, plot.AGG_CHUNK + 9)
+    ax.set_ylim(-0.1, 1.1)
+    png = plot._save(fig, tmp_path / "zigzag.png")
+    img = matplotlib.image.imread(png)[..., :3].mean(axis=2)
+    dark = (img < 0.5).any(axis=0)
+    assert dark[2:-2].all(), f"{int((~dark[2:-2]).sum())} empty pixel columns"
+    assert len(line.get_xdata()) == n and ax.get_lines() == [line]    # the figure is put back

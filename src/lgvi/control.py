@@ -161,8 +161,24 @@ def map_to_wheels(torque_request: Any, axes: Any) -> np.ndarray:
     return -(np.linalg.pinv(G) @ L)
 
 
+_WHEEL_MAPS: dict[bytes, np.ndarray] = {}
+
+
 def _wheel_map(axes: np.ndarray) -> np.ndarray:
-    """``map_to_wheels`` of the three body axes as columns (N, 3), the same numbers, ``cond`` once."""
+    """``map_to_wheels`` of the three body axes as columns (N, 3), the same numbers, ``cond`` once;
+    remembered for the last few sets of axes (a new copy each call)."""
+    a = np.ascontiguousarray(axes, dtype=np.float64)
+    key = a.shape[0].to_bytes(4, "little") + a.tobytes()
+    hit = _WHEEL_MAPS.get(key)
+    if hit is None:
+        hit = _wheel_map_of(a)
+        if len(_WHEEL_MAPS) >= 8:
+            _WHEEL_MAPS.pop(next(iter(_WHEEL_MAPS)))
+        _WHEEL_MAPS[key] = hit
+    return hit.copy()
+
+
+def _wheel_map_of(axes: np.ndarray) -> np.ndarray:
     G = np.asarray(axes, dtype=np.float64).T
     if G.shape[1] >= 3:
         M = G @ G.T
@@ -195,8 +211,9 @@ class MRPFeedback(Controller):
               + J (omega x omega_r - domega_r))
 
     with the integral term ``z = int_sigma + J dw``, ``int_sigma`` the sum of ``K sigma dt`` over
-    the calls (``dt`` the time since the last call, 0 at the first), each component clipped to
-    ``integral_limit``; ``z = 0`` without ``Ki``. With wheels the request is mapped to wheel motor
+    the calls (``dt`` the time since the last call, 0 at the first and, as in Basilisk, at the call
+    after one at ``t = 0``: Basilisk's prior call time 0 means "no prior call"), each component
+    clipped to ``integral_limit``; ``z = 0`` without ``Ki``. With wheels the request is mapped to wheel motor
     torques by :func:`map_to_wheels` (``rwMotorTorque``) and the wheels' saturation applies;
     without wheels it is applied as a body torque.
 
@@ -293,7 +310,8 @@ class MRPFeedback(Controller):
         w_r = BN @ w_ref_N
         dw_r = BN @ dw_ref_N
         dw = omega - w_r
-        dt = 0.0 if self.prior_time is None else t - self.prior_time
+        # Basilisk's mrpFeedback takes a prior call time of 0 for "no prior call": dt = 0 then too
+        dt = 0.0 if self.prior_time is None or self.prior_time == 0.0 else t - self.prior_time
         self.prior_time = t
         J = self.J
         z = np.zeros(3)

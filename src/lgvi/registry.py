@@ -8,8 +8,8 @@ re-declares them (see ``docs/architecture.md``):
 * :data:`FORCINGS`: treatments of the non-conservative moment;
 * :data:`COMPOSITIONS` and :data:`DEFAULT_COMPOSITION`: symmetric compositions of the symmetric
   step (:data:`ORDERS` follows from them);
-* :data:`SPLITTINGS` and :data:`DEFAULT_SPLITTING`: splitting methods (exact free-body flows and
-  kicks) of ``scheme="splitting"``;
+* :data:`SPLITTINGS` and :data:`DEFAULT_SPLITTING`: splitting methods (exact free-body flows, or
+  rotations about the principal axes, and kicks) of ``scheme="splitting"``;
 * :data:`TORQUE_MODELS`: the torque models by scenario key, each class registered by
   :class:`lgvi.torques.TorqueModel` itself when it is defined (``key = "..."``);
 * :data:`lgvi.systems.SYSTEMS`: the dynamical systems the driver runs.
@@ -183,6 +183,12 @@ class Splitting:
     ``nodes[i]`` of the step, and the drifts are the differences of consecutive nodes (with 0 and
     1 at the ends). ``order`` is the classical order; ``eps_orders = (s1, s2)`` says the error is
     ``O(eps h^s1 + eps^2 h^s2)`` (``docs/splitting.md`` derives the coefficients and the conditions).
+
+    ``base="axes"``: the free body is not flowed exactly but split further into the three
+    rotations about the principal axes (one sine and cosine each); stage ``i`` is the symmetric
+    Strang step ``U T_a T_b T_c T_b T_a U`` of the length ``weights[i] h``, ending at the fraction
+    ``nodes[i]`` of the step (its half kicks at its two ends), and ``eps_orders = (order, order)``:
+    the error has no factor ``eps``.
     """
 
     name: str
@@ -191,6 +197,7 @@ class Splitting:
     nodes: tuple[float, ...]
     weights: tuple[float, ...]
     source: str
+    base: str = "exact"
 
     @property
     def kicks(self) -> int:
@@ -251,6 +258,25 @@ _ABA84 = Splitting("aba84", 4, (8, 4), _ABA84_NODES, _ABA84_WEIGHTS,
                    "symmetric ABA, 5 kicks: Gauss-type quadrature of order 8 plus the eps^2 h^3 condition "
                    "(after McLachlan 1995, BIT 35, 258; derived in docs/splitting.md)")
 
+def _axes(name: str, order: int, gammas: tuple[float, ...], source: str) -> "Splitting":
+    """A symmetric composition ``S(g_1 h) ... S(g_s h)`` of the axis splitting's Strang step ``S``
+    (``base="axes"``); ``nodes``: where each stage ends (its last half kick)."""
+    nodes = tuple(float(c) for c in np.cumsum(gammas))
+    return Splitting(name, order, (order, order), nodes, tuple(float(g) for g in gammas), source, base="axes")
+
+
+# symmetric compositions of a symmetric method of order 2 (docs/splitting.md checks their orders):
+# Suzuki's 5 stages (order 4), Kahan and Li's s9odr6a and s15odr8 (1997, Math. Comp. 66, 1089)
+_SUZUKI5 = (1.0 / (4.0 - 4.0 ** (1.0 / 3.0)),) * 2
+_SUZUKI5 = _SUZUKI5 + (1.0 - 4.0 * _SUZUKI5[0],) + _SUZUKI5
+_KL9 = (0.39216144400731413927925056, 0.33259913678935943859974864, -0.70624617255763935980996482,
+        0.08221359629355080023149045, 0.79854399093482996339895035)
+_KL9 = _KL9 + _KL9[3::-1]
+_KL15 = (0.74167036435061295344822780, -0.40910082580003159399730010, 0.19075471029623837995387626,
+         -0.57386247111608226665638773, 0.29906418130365592384446354, 0.33462491824529818378495798,
+         0.31529309239676659663205666, -0.79688793935291635401978884)
+_KL15 = _KL15 + _KL15[6::-1]
+
 #: Splitting methods by name (``simulate(..., scheme="splitting", composition=name)``).
 SPLITTINGS: dict[str, Splitting] = {
     s.name: s for s in (
@@ -264,11 +290,16 @@ SPLITTINGS: dict[str, Splitting] = {
                   "the eps^2 h^3 condition (after McLachlan 1995; derived in docs/splitting.md)"),
         _ABA84,
         _splitting_triple_jump(_ABA84, "aba84-tj6"),
+        _axes("axes-strang", 2, (1.0,), "rotations about the principal axes and the kick: Strang's "
+              "U T_a T_b T_c T_b T_a U (McLachlan 1993; Touma and Wisdom 1994)"),
+        _axes("axes-suzuki4", 4, _SUZUKI5, "Suzuki's 5-stage composition (1990) of axes-strang"),
+        _axes("axes-kl6", 6, _KL9, "Kahan and Li's s9odr6a (1997, Math. Comp. 66, 1089) of axes-strang"),
+        _axes("axes-kl8", 8, _KL15, "Kahan and Li's s15odr8 (1997) of axes-strang"),
     )
 }
 
 #: Splitting used by ``scheme="splitting", order=p`` unless ``composition=`` names another.
-DEFAULT_SPLITTING = {2: "saba3", 4: "aba84", 6: "aba84-tj6"}
+DEFAULT_SPLITTING = {2: "saba3", 4: "aba84", 6: "aba84-tj6", 8: "axes-kl8"}
 
 
 def splitting_for(order: Any, composition: Any) -> Splitting:

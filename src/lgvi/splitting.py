@@ -11,6 +11,12 @@ classical order ``p`` made for near-integrable problems is ``O(eps h^s1 + eps^2 
 ``eps`` the size of the perturbation relative to the free body: small for a tumbling satellite
 under gravity gradient. See ``docs/splitting.md``.
 
+The ``axes-*`` splittings (``Splitting.base == "axes"``, ``order=8`` by default) split the free
+body further into the rotations about its three principal axes (one sine and cosine each, exact
+flows of ``Pi_i^2 / (2 I_i)``) and compose Strang's step to order 4, 6 or 8: for problems where
+the moment is not small (the 3D pendulum, a librating satellite), cheap stages at the classical
+order; the same structure (SO(3), ``|Pi|`` and ``R Pi`` across every rotation).
+
 Moments that depend on ``Pi`` (damping, the PD controller, a ``Compiled`` model with
 ``momentum_dependent=True``), torque callables and torque arrays are not split here: use the LGVI
 (``scheme=None``).
@@ -152,7 +158,10 @@ class SplittingRun(Run):
                                 step=k, time=t_fail, trajectory=trajectory)
 
     def advance(self, n: int, R_out, Pi_out, it_out, res_out, partial) -> int:
-        from ._kernels.splitting_kernels import run_split, run_split_user
+        from ._kernels.splitting_kernels import run_axes, run_axes_user, run_split, run_split_user
+
+        if self.split.base == "axes":
+            run_split, run_split_user = run_axes, run_axes_user
 
         args = (self.I, self.ax, self.symax, self.Pax, self.diag, self.body.J, self.drift, self.weight, self.node,
                 self.h, self.t0, self.R, self.Pi, self.codes, self.params, self.k, n, self.save_every, R_out, Pi_out,

@@ -68,16 +68,13 @@ def solve_shifted(a00, a01, a02, a10, a11, a12, a20, a21, a22, p0, p1, p2, g0, g
             a = 2.0 * sh * ch / t
             b = 2.0 * sh * sh / t2
         E00, E01, E02, E10, E11, E12, E20, E21, E22 = expm1_entries(g0, g1, g2, a, b)
-        # X = E A
-        x00 = E00 * a00 + E01 * a10 + E02 * a20
+        # X = E A: the residual needs the off-diagonal entries only (the diagonal after the test)
         x01 = E00 * a01 + E01 * a11 + E02 * a21
         x02 = E00 * a02 + E01 * a12 + E02 * a22
         x10 = E10 * a00 + E11 * a10 + E12 * a20
-        x11 = E10 * a01 + E11 * a11 + E12 * a21
         x12 = E10 * a02 + E11 * a12 + E12 * a22
         x20 = E20 * a00 + E21 * a10 + E22 * a20
         x21 = E20 * a01 + E21 * a11 + E22 * a21
-        x22 = E20 * a02 + E21 * a12 + E22 * a22
         r0 = (x21 - x12) - p0
         r1 = (x02 - x20) - p1
         r2 = (x10 - x01) - p2
@@ -91,6 +88,9 @@ def solve_shifted(a00, a01, a02, a10, a11, a12, a20, a21, a22, p0, p1, p2, g0, g
         if it >= max_iter:
             return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), NOT_CONVERGED
         # M = tr(B) I - B, B = A + X
+        x00 = E00 * a00 + E01 * a10 + E02 * a20
+        x11 = E10 * a01 + E11 * a11 + E12 * a21
+        x22 = E20 * a02 + E21 * a12 + E22 * a22
         tb = tr + x00 + x11 + x22
         m00 = tb - a00 - x00
         m01 = -a01 - x01
@@ -252,7 +252,8 @@ def mrp_feedback(cp, cs, t, R, w0, w1, w2, axes, wp, rho, cmd, tau):
     z1 = 0.0
     z2 = 0.0
     if Ki > 0.0:
-        dt = t - cs[3] if cs[4] > 0.0 else 0.0
+        # no prior call, or one at t = 0 (Basilisk's mrpFeedback: prior time 0 is "none"): dt = 0
+        dt = t - cs[3] if cs[4] > 0.0 and cs[3] != 0.0 else 0.0
         lim = cp[CP_LIM]
         cs[0] = min(max(cs[0] + K * dt * s0, -lim), lim)
         cs[1] = min(max(cs[1] + K * dt * s1, -lim), lim)
@@ -341,10 +342,19 @@ def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cm
         m2 = float(mm[2])
         if not (math.isfinite(m0) and math.isfinite(m1) and math.isfinite(m2)):
             return NOT_FINITE, k0, 0, 0.0, 0, 0.0
+    # counters instead of a division per step: k % spc, (k - kb) // per, (k - kb) % per, (k + 1 - kb) % save_every
+    c_ctl = k0 % spc
+    e = (k0 - kb) // per
+    c_rec = (k0 - kb) % per
+    c_save = (k0 + 1 - kb) % save_every
+    j = (k0 - kb) // save_every - 1              # the last sample written before k0
     for k in range(k0, k0 + n):
         w0, w1, w2 = body_rate(JBi, Pi, axes, rho)
-        if ctrl == 1 and k % spc == 0:
+        if ctrl == 1 and c_ctl == 0:
             mrp_feedback(cp, cs, t0 + k * h, R, w0, w1, w2, axes, wp, rho, cmd, tau)
+        c_ctl += 1
+        if c_ctl == spc:
+            c_ctl = 0
         # wheel torques: saturated motor command plus friction, held over the step
         for i in range(N):
             js = wp[i, W_JS]
@@ -447,8 +457,7 @@ def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cm
             rmax = rn
         counts[its if its < nb else nb - 1] += 1
         # records: the largest per entry; the motor torque at the entry's first step
-        e = (k - kb) // per
-        if (k - kb) % per == 0:
+        if c_rec == 0:
             it_out[e] = its
             res_out[e] = rn
             for i in range(N):
@@ -458,14 +467,21 @@ def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cm
                 it_out[e] = its
             if rn > res_out[e]:
                 res_out[e] = rn
-        if (k + 1 - kb) % save_every == 0:
-            j = (k + 1 - kb) // save_every - 1
+        c_rec += 1
+        if c_rec == per:
+            c_rec = 0
+            e += 1
+        if c_save == 0:
+            j += 1
             for a in range(3):
                 Pi_out[j, a] = Pi[a]
                 for b in range(3):
                     R_out[j, a, b] = R[a, b]
             for i in range(N):
                 rho_out[j, i] = rho[i]
+        c_save += 1
+        if c_save == save_every:
+            c_save = 0
     return OK, k0 + n, it_sum, rmax, its, rn
 
 

@@ -537,6 +537,86 @@ def split_steps(moment, up, user, I, ax, symax, Pax, diag, J, drift, weight, nod
 
 
 @jit(inline="always")
+def axis_flow(I, i, R, Pi, tau):
+    """Exact flow of ``T_i = Pi_i^2 / (2 I_i)`` over ``tau``, in place: ``R <- R exp(th e_i^)``,
+    ``Pi <- exp(-th e_i^) Pi`` with ``th = Pi_i tau / I_i`` (``Pi_i`` is constant)."""
+    th = Pi[i] / I[i] * tau
+    c = math.cos(th)
+    s = math.sin(th)
+    a = (i + 1) % 3
+    b = (i + 2) % 3
+    for r in range(3):
+        x = R[r, a]
+        y = R[r, b]
+        R[r, a] = c * x + s * y
+        R[r, b] = c * y - s * x
+    x = Pi[a]
+    y = Pi[b]
+    Pi[a] = c * x + s * y
+    Pi[b] = c * y - s * x
+
+
+@jit(inline="always")
+def axes_steps(moment, up, user, I, ax, Pax, diag, J, weight, node, h, t0, R, Pi, codes, params, k0, n, save_every,
+               R_out, Pi_out, ws, Rb, Pb, Rs, Ps):
+    """Steps ``k0 .. k0+n-1`` of an axis splitting (``base="axes"``): per step, the stages
+    ``U(g/2) T_a(g/2) T_b(g/2) T_c(g) T_b(g/2) T_a(g/2) U(g/2)`` with ``g = weight[i] h``, ``(a, b, c) = ax``
+    (smallest, middle, largest moment; ``T_i`` the rotation about principal axis ``i``) and the kicks
+    at the stage's ends (``t0 + k h`` and ``t0 + (k + node[i]) h``); the kicks between two stages of a
+    step are one. Returns ``(status, k)``."""
+    s = weight.shape[0]
+    oa = ax[0]
+    ob = ax[1]
+    oc = ax[2]
+    if not diag:
+        _to_frame(R, Pi, Pax, True, ws)
+    countdown = save_every
+    jout = 0
+    status = OK
+    kend = k0 + n
+    for k in range(k0, k0 + n):
+        for i in range(3):
+            Pb[i] = Pi[i]
+            for j in range(3):
+                Rb[i, j] = R[i, j]
+        kick(moment, up, user, diag, Pax, J, codes, params, t0 + k * h, 0.5 * weight[0] * h, R, Pi, Rs, Ps)
+        for i in range(s):
+            g = weight[i] * h
+            axis_flow(I, oa, R, Pi, 0.5 * g)
+            axis_flow(I, ob, R, Pi, 0.5 * g)
+            axis_flow(I, oc, R, Pi, g)
+            axis_flow(I, ob, R, Pi, 0.5 * g)
+            axis_flow(I, oa, R, Pi, 0.5 * g)
+            hb = 0.5 * (weight[i] + weight[i + 1]) * h if i + 1 < s else 0.5 * g
+            kick(moment, up, user, diag, Pax, J, codes, params, t0 + (k + node[i]) * h, hb, R, Pi, Rs, Ps)
+        countdown -= 1
+        ok = math.isfinite(Pi[0]) and math.isfinite(Pi[1]) and math.isfinite(Pi[2])
+        for i in range(3):
+            for j in range(3):
+                ok = ok and math.isfinite(R[i, j])
+        if not ok:
+            for i in range(3):
+                Pi[i] = Pb[i]
+                for j in range(3):
+                    R[i, j] = Rb[i, j]
+            status = OVERFLOW
+            kend = k
+            break
+        if countdown == 0:
+            countdown = save_every
+            for i in range(3):
+                Pi_out[jout, i] = Pi[i]
+                for j in range(3):
+                    R_out[jout, i, j] = R[i, j]
+            if not diag:
+                _to_frame(R_out[jout], Pi_out[jout], Pax, False, ws)
+            jout += 1
+    if not diag:
+        _to_frame(R, Pi, Pax, False, ws)
+    return status, kend
+
+
+@jit(inline="always")
 def no_moment(t, R, Pi, p):
     return (0.0, 0.0, 0.0)
 
@@ -558,10 +638,28 @@ def run_split_user(moment, up, I, ax, symax, Pax, diag, J, drift, weight, node, 
                        codes, params, k0, n, save_every, R_out, Pi_out, ws, Rb, Pb, Rs, Ps)
 
 
+@jit(_nrt=False)
+def run_axes(I, ax, symax, Pax, diag, J, drift, weight, node, h, t0, R, Pi, codes, params, k0, n, save_every,
+             R_out, Pi_out, ws, Rb, Pb, Rs, Ps):
+    """:func:`axes_steps` with the built-in torque models only (the arguments of :func:`run_split`;
+    ``symax`` and ``drift`` are unused)."""
+    return axes_steps(no_moment, params, False, I, ax, Pax, diag, J, weight, node, h, t0, R, Pi, codes, params, k0,
+                      n, save_every, R_out, Pi_out, ws, Rb, Pb, Rs, Ps)
+
+
+@jit(cache=False)
+def run_axes_user(moment, up, I, ax, symax, Pax, diag, J, drift, weight, node, h, t0, R, Pi, codes, params, k0,
+                  n, save_every, R_out, Pi_out, ws, Rb, Pb, Rs, Ps):
+    """:func:`axes_steps` with the user's compiled ``moment(t, R, Pi, up)`` (see :func:`run_split_user`)."""
+    return axes_steps(moment, up, True, I, ax, Pax, diag, J, weight, node, h, t0, R, Pi, codes, params, k0, n,
+                      save_every, R_out, Pi_out, ws, Rb, Pb, Rs, Ps)
+
+
 @jit
 def flow_once(I, ax, symax, R, Pi, tau, ws):
     """One exact free flow (tests and the Python layer): :func:`free_flow`."""
     free_flow(I, ax, symax, R, Pi, tau, ws)
 
 
-__all__ = ["carlson_rf", "carlson_rj", "flow_once", "free_flow", "run_split", "run_split_user"]
+__all__ = ["axis_flow", "carlson_rf", "carlson_rj", "flow_once", "free_flow", "run_axes", "run_axes_user", "run_split",
+           "run_split_user"]

@@ -586,15 +586,12 @@ def _write_system_results(traj, scenario, outdir: Path, plots: bool, wall: float
 
 
 def _run_system(args: argparse.Namespace, scenario) -> int:
-    """``lgvi run`` of an ``[orbiting_body]`` or ``[two_body]`` scenario (in memory: no stream
-    folder, so no ``--resume``)."""
+    """``lgvi run`` of an ``[orbiting_body]`` or ``[two_body]`` scenario, streamed to
+    ``outdir/stream`` as the rigid body's runs are (so ``--resume`` continues it)."""
     from dataclasses import replace
 
     from ..errors import ConvergenceError, SimulationInterrupted, TorqueError
 
-    if args.resume:
-        raise UsageError(f"--resume: {scenario.source} is an [{'orbiting_body' if scenario.kind == 'orbit' else 'two_body'}] "
-                         "scenario, which runs in memory (no stream folder to resume from)")
     formats = _parse_formats(args.format, scenario.formats)
     if formats != ("npz",):
         raise UsageError(f"--format: the results of an [orbiting_body] or [two_body] scenario are saved as npz "
@@ -614,15 +611,19 @@ def _run_system(args: argparse.Namespace, scenario) -> int:
         print(f"lgvi run: {scenario.name}: {scenario.steps} steps of h = {scenario.h:g} s ({scenario.kind}) ...",
               file=sys.stderr, flush=True)
     t0 = time.perf_counter()
+    stream = outdir / "stream"
+    if args.resume and not (stream / "manifest.json").exists():
+        raise UsageError(f"--resume: no interrupted run to resume in {stream}")
     try:
-        traj = scenario.run(progress=True)
+        traj = scenario.run_stream(stream, resume=args.resume, progress=True)
     except SimulationInterrupted as exc:
         part = exc.trajectory
         if part is not None and len(part.t):
             files = _write_system_results(part, scenario, outdir, False, time.perf_counter() - t0,
                                           status="interrupted", message=str(exc))
             _err(f"interrupted: {exc}; the {(len(part.t) - 1) * scenario.save_every} steps computed are written to "
-                 f"{outdir} ({', '.join(p.name for p in files)})")
+                 f"{outdir} ({', '.join(p.name for p in files)}); `lgvi run {args.scenario} -o {outdir} --resume` "
+                 "continues the run")
         else:
             _err(f"interrupted: {exc}")
         return 130
@@ -639,6 +640,8 @@ def _run_system(args: argparse.Namespace, scenario) -> int:
         rate = scenario.steps / wall if wall > 0 else float("inf")
         print(f"lgvi run: {scenario.name}: done in {wall:.3g} s ({rate:.3g} steps/s)", file=sys.stderr, flush=True)
     files = _write_system_results(traj, scenario, outdir, plots, wall, kernel_load=t_load)
+    if not args.keep_stream:
+        shutil.rmtree(stream, ignore_errors=True)
     print(f"{scenario.name}: {scenario.steps} steps in {wall:.3g} s; wrote {len(files)} files to {outdir}")
     for p in files:
         print(f"  {p.name}")

@@ -150,7 +150,7 @@ import numpy as np
 from . import scenario_space
 from .._untrusted import name_problem
 from .._version import __version__
-from ..registry import COMPOSITIONS, FORCINGS, ORDERS, SCHEMES, SPLITTINGS, method_names
+from ..registry import COMPOSITIONS, DEFAULT_SPLITTING, FORCINGS, ORDERS, SCHEMES, SPLITTINGS, method_names
 from ..torques import TORQUE_MODELS
 
 __all__ = ["BodiesScenario", "Scenario", "ScenarioError", "load_scenario", "to_toml"]
@@ -726,13 +726,15 @@ class Scenario:
         if not 0.0 < alpha <= 1.0:
             raise c.error("integrator.alpha", f"expected a number in (0, 1], got {alpha!r}")
         forcing = c.string(integ["forcing"], "integrator.forcing", FORCINGS) if "forcing" in integ else None
+        scheme = c.string(integ["scheme"], "integrator.scheme", SCHEMES) if "scheme" in integ else None
         order = None
         if "order" in integ:
             order = integ["order"]
-            if isinstance(order, bool) or order not in ORDERS or not isinstance(order, int):
-                raise c.expected("integrator.order", "one of " + ", ".join(str(o) for o in ORDERS), order)
+            orders = tuple(sorted(DEFAULT_SPLITTING)) if scheme == "splitting" else ORDERS
+            if isinstance(order, bool) or order not in orders or not isinstance(order, int):
+                raise c.expected("integrator.order", "one of " + ", ".join(str(o) for o in orders)
+                                 + (' (scheme = "splitting")' if scheme == "splitting" else ""), order)
         composition = None
-        scheme = c.string(integ["scheme"], "integrator.scheme", SCHEMES) if "scheme" in integ else None
         comps = SPLITTINGS if scheme == "splitting" else COMPOSITIONS
         if "composition" in integ:
             composition = c.string(integ["composition"], "integrator.composition", tuple(comps))
@@ -1194,8 +1196,25 @@ class BodiesScenario:
     def run(self, progress: Any = False):
         """Simulate (:func:`lgvi.simulate_orbit` or :func:`lgvi.simulate_two_body`); the result's
         ``meta`` holds the scenario text, name and source."""
+        return self._attached(lambda: self._run(progress=progress))
+
+    def run_stream(self, folder, *, resume: bool = False, progress: Any = False, chunk_steps: int | None = None):
+        """Simulate into a crash-safe stream folder (:func:`lgvi.io.streaming.stream_system`) and read
+        it back; ``resume=True`` continues an interrupted or killed run bit for bit. Returns what
+        :meth:`run` returns, equal to it bit for bit."""
+        from .streaming import read_stream, stream_system
+
+        def go():
+            stream_system(folder, self.kind, *self.args, progress=progress, resume=resume, chunk_steps=chunk_steps,
+                          meta={"scenario_name": self.name}, h=self.h, steps=self.steps, save_every=self.save_every,
+                          **self.kwargs)
+            return read_stream(folder)
+
+        return self._attached(go)
+
+    def _attached(self, go: Any):
         try:
-            traj = self._run(progress=progress)
+            traj = go()
         except (KeyboardInterrupt, RuntimeError) as exc:
             part = getattr(exc, "trajectory", None)
             if part is not None:

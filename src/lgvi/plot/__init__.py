@@ -1028,11 +1028,51 @@ def _save(fig: Figure, path: Path) -> Path:
     import matplotlib
 
     FigureCanvasAgg(fig)  # render with Agg whatever the session's backend
-    # Agg rasterises a line in pieces of this many vertices: a dense curve of MAX_POINTS points
-    # drawn in one piece holds tens of MB of coverage cells at once (measured), in pieces a few
-    with matplotlib.rc_context({"agg.path.chunksize": AGG_CHUNK}):
-        fig.savefig(path, dpi=DPI, format="png")
+    # A dense curve of MAX_POINTS points rasterised by Agg in one piece holds tens of MB of coverage
+    # cells at once (measured); in pieces of AGG_CHUNK vertices a few. Matplotlib's own chunking
+    # (agg.path.chunksize) drops the vertex at each cut, leaving a gap of two segments in the
+    # curve, so the long lines are cut here, into pieces that share their end vertices.
+    undo = _cut_long_lines(fig, AGG_CHUNK)
+    try:
+        with matplotlib.rc_context({"agg.path.chunksize": 0}):
+            fig.savefig(path, dpi=DPI, format="png")
+    finally:
+        undo()
     return path
+
+
+def _cut_long_lines(fig: Figure, piece: int) -> Callable[[], None]:
+    """Draw every plain line (no markers) of more than ``piece`` vertices as consecutive pieces of
+    at most ``piece`` vertices that share their end vertices (the first piece is the line itself,
+    so legends still point to it). Returns the function that puts the figure back."""
+    from matplotlib.lines import Line2D
+
+    changed: list[tuple[Any, Any, Any]] = []
+    added: list[Any] = []
+    for ax in fig.axes:
+        for line in list(ax.get_lines()):
+            x, y = line.get_xdata(orig=True), line.get_ydata(orig=True)
+            n = len(x)
+            if n <= piece or line.get_marker() not in (None, "None", "", " ") or line.get_drawstyle() != "default":
+                continue
+            changed.append((line, x, y))
+            step = piece - 1
+            line.set_data(x[:piece], y[:piece])
+            for i0 in range(step, n - 1, step):
+                part = Line2D(x[i0:i0 + piece], y[i0:i0 + piece])
+                part.update_from(line)
+                part.set_label("_nolegend_")
+                part.set_zorder(line.get_zorder())
+                ax.add_line(part)
+                added.append(part)
+
+    def undo() -> None:
+        for part in added:
+            part.remove()
+        for line, x, y in changed:
+            line.set_data(x, y)
+
+    return undo
 
 
 def _attitude_panels(traj: Trajectory) -> Figure:

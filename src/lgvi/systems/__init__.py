@@ -7,12 +7,10 @@ driver (:mod:`lgvi.driver`) allocates the result buffers from the layout and run
 run object in compiled chunks, so progress, Ctrl-C, partial results, failures and streaming are
 the same for every system.
 
-The systems: the rigid body (:mod:`lgvi.systems.rigid_body`), a rigid body in a central field
-(:mod:`lgvi.systems.orbit`) and two rigid bodies in mutual gravity (:mod:`lgvi.systems.two_body`);
-another is a new module plus a :func:`register` call.
-The systems: the rigid body (:mod:`lgvi.systems.rigid_body`) and the gyrostat, a body with
-reaction wheels (:mod:`lgvi.systems.gyrostat`); a body in orbit or two bodies are each a new
-module plus a :func:`register` call.
+The systems: the rigid body (:mod:`lgvi.systems.rigid_body`), the gyrostat, a body with reaction
+wheels (:mod:`lgvi.systems.gyrostat`), a rigid body in a central field (:mod:`lgvi.systems.orbit`)
+and two rigid bodies in mutual gravity (:mod:`lgvi.systems.two_body`); another is a new module
+plus a :func:`register` call.
 """
 
 from __future__ import annotations

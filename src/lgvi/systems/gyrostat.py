@@ -41,6 +41,11 @@ def _per_wheel(value: Any, name: str, n: int, *, minimum: float | None = None, s
     """A scalar or (N,) array of finite floats, checked against ``minimum`` (``strict``: above)."""
     if value is None:
         return np.full(n, np.nan if none is None else none)
+    if type(value) is float and math.isfinite(value):        # the common case, without the array round trip
+        if minimum is not None and (value <= minimum if strict else value < minimum):
+            rule = f"> {minimum:g}" if strict else f">= {minimum:g}"
+            raise ValueError(f"{name} must be {rule} for every wheel; wheel 0 has {value:g}")
+        return np.full(n, value)
     arr = as_float_array(value, name)
     if arr.ndim == 0:
         arr = np.full(n, float(arr))
@@ -395,9 +400,13 @@ class GyrostatRun:
         self.comp = composition_for(order, composition)
         self.gam = self.comp.arrays()[0]
         self.G = np.zeros((len(self.gam), 5, 3))
-        for i, g in enumerate(self.gam):
-            getattr(initial_guess, "py_func", initial_guess)(self.code, JB, g * self.h * (self.Pi - a.T @ self.wheel_momentum),
-                                                             self.G[i, 0])
+        guess, q, first = getattr(initial_guess, "py_func", initial_guess), self.Pi - a.T @ self.wheel_momentum, {}
+        for i, g in enumerate(self.gam):           # once per distinct substep
+            if g in first:
+                self.G[i, 0] = self.G[first[g], 0]
+            else:
+                guess(self.code, JB, g * self.h * q, self.G[i, 0])
+                first[g] = i
         # a body torque acted (the declaration of invariants is that of the run so far)
         self.external = (self.ctrl == 1 and n == 0) or self.model is not None
         self.motors_off = controller is None and not wheels.has_friction
@@ -416,19 +425,20 @@ class GyrostatRun:
             state=(GYROSTAT.state[0], GYROSTAT.state[1], Field("wheel_momentum", (n,), doc=GYROSTAT.state[2].doc)),
             records=(GYROSTAT.records[0], GYROSTAT.records[1],
                      Field("wheel_torque", (n,), np.float64, GYROSTAT.records[2].doc)))
+        ctrl_repr = repr(controller) if controller is not None else None
         self.meta: dict[str, Any] = {"system": "gyrostat", "method": "newton", "tol": self.tol,
                                      "max_iter": self.max_iter, "alpha": 1.0, "save_every": se,
                                      "torque": ("none" if controller is None else "controller") if self.model is None
                                      else repr(self.model),
                                      "forcing": "symmetric", "lgvi_version": __version__, "t0": self.t0, "order": self.comp.order,
                                      "solver_record": solver_record, "wheels": wheels.describe(),
-                                     "controller": repr(controller) if controller is not None else None,
+                                     "controller": ctrl_repr,
                                      "control_period": None if controller is None else self.spc * abs(self.h),
                                      "invariants": _invariants(self)}
         if self.comp.order != 2:
             self.meta["composition"] = self.comp.name
         self.meta["torque_model"] = (f"the gyrostat ({n} reaction wheels"
-                                     + (f", {controller!r} every {self.spc * abs(self.h):g} s)" if controller is not None
+                                     + (f", {ctrl_repr} every {self.spc * abs(self.h):g} s)" if controller is not None
                                         else ")"))
 
     # -------------------------------------------------------------- results
