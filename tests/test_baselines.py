@@ -381,3 +381,36 @@ def test_torque_errors_name_step_and_keep_the_run(body):
     with pytest.raises(TorqueError, match="finite"):
         solve_ivp_baseline(body, np.eye(3), omega0=OMEGA0, t_final=1.0,
                            torque=lambda t, R, Pi: np.array([np.nan, 0.0, 0.0]))
+
+
+@pytest.mark.parametrize("path", ["compiled", "python"])
+def test_rk4_runs_on_the_driver_in_chunks_and_ctrl_c_keeps_the_part(body, monkeypatch, path):
+    """``rk4`` runs in chunks of lgvi.driver: the chunked run is the one-chunk run bit for bit, progress
+    is reported between chunks, and a Ctrl-C in the middle keeps the part computed."""
+    import os
+    import signal
+
+    def nudge(t, R, Pi):
+        return np.array([0.01 * np.sin(t), -0.02 * R[0, 1], 0.003 * Pi[2]])
+
+    kw = dict(omega0=OMEGA0, h=0.05, steps=64, save_every=2, torque=None if path == "compiled" else nudge)
+    whole = rk4(body, np.eye(3), **kw)
+    assert whole.meta["torque_path"] == path
+    monkeypatch.setattr(baselines, "CHUNK_STEPS", 8)
+    monkeypatch.setattr(baselines, "CALLABLE_CHUNK_STEPS", 8)
+    seen = []
+    parts = rk4(body, np.eye(3), progress=lambda k, n: seen.append(k), **kw)
+    assert seen == list(range(8, 65, 8))
+    for key in ("t", "R", "Pi"):
+        assert np.array_equal(getattr(parts, key), getattr(whole, key))
+
+    def stop(k, n):
+        if k == 16:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    with pytest.raises(lgvi.SimulationInterrupted, match="rk4 interrupted after 16 of 64 steps") as info:
+        rk4(body, np.eye(3), progress=stop, **kw)
+    part = info.value.trajectory
+    assert part.meta["partial"] is True and part.meta["solver_summary"]["steps"] == 16 and len(part.t) == 9
+    for key in ("t", "R", "Pi"):
+        assert np.array_equal(getattr(part, key), getattr(whole, key)[:9])

@@ -5,7 +5,8 @@
 * kernels (``_kernels/``) import only ``lgvi._jit`` and other kernels;
 * ``io/`` never imports ``cli/`` or ``plot/``; ``verification/`` never imports ``io/``, ``cli/`` or
   ``plot/``; ``plot/`` never imports ``cli/``;
-* inside the core, nothing below imports anything above (the top-level modules are ranked below).
+* inside the core, nothing below imports anything above (the top-level modules are ranked below);
+* the import graph of the top-level modules and folders has no cycle.
 
 An import inside a function counts too (it runs when the function does), and an old name of a moved
 module (``from . import exact``, ``from .streaming import ...``: :data:`lgvi._aliases.MOVED`) counts
@@ -57,11 +58,9 @@ CORE_RANKS: dict[str, int] = {
 }
 
 # Imports inside the core that run back up, each with its reason; the test fails when one
-# disappears (so that the list stays true) or when a new one appears.
-ALLOWED_UPWARD = {
-    # the accuracy estimate re-runs lgvi.simulate at h/2 (a shadow run of the same problem)
-    ("accuracy", "integrator"),
-}
+# disappears (so that the list stays true) or when a new one appears. None today: the accuracy
+# estimate's shadow run calls lgvi.simulate as lgvi.integrator provides it (accuracy.provide_simulate).
+ALLOWED_UPWARD: set[tuple[str, str]] = set()
 
 
 def _modules(src: Path = SRC) -> dict[str, Path]:
@@ -148,6 +147,68 @@ def _upward(src: Path = SRC) -> set[tuple[str, str]]:
     """Imports inside the core (top-level modules and ``systems``) of a higher-ranked module."""
     return {(m.split(".")[0], t.split(".")[0]) for m, t in _edges(src)
             if _area(m) == "core" and _area(t) in ("core", "kernels") and _rank(t) > _rank(m)}
+
+
+def _cycles(src: Path = SRC) -> list[list[str]]:
+    """The import cycles between top-level modules and folders (``systems.gyrostat`` counts as
+    ``systems``; an import inside a function counts too): each strongly connected group of two or
+    more, sorted (Tarjan's algorithm)."""
+    graph: dict[str, set[str]] = {}
+    for m, t in _edges(src):
+        a, b = m.split(".")[0], t.split(".")[0]
+        graph.setdefault(a, set())
+        graph.setdefault(b, set())
+        if a != b:
+            graph[a].add(b)
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    groups: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            group = []
+            while True:
+                w = stack.pop()
+                group.append(w)
+                if w == v:
+                    break
+            if len(group) > 1:
+                groups.append(sorted(group))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return sorted(groups)
+
+
+def test_no_import_cycle_between_top_level_modules():
+    """A module that needs one above it is handed it through a registration (``lgvi.systems.provide_run``,
+    ``lgvi.accuracy.provide_simulate``, ``lgvi.invariants.declares_invariants``), never imports it back."""
+    cycles = _cycles()
+    assert not cycles, "import cycles between top-level modules (an import inside a function counts):\n" + \
+        "\n".join(" <-> ".join(c) for c in cycles)
+
+
+def test_the_cycle_check_sees_one(tmp_path):
+    src = tmp_path / "lgvi"
+    (src / "systems").mkdir(parents=True)
+    (src / "torques.py").write_text("def f():\n    from .invariants import combine\n")
+    (src / "invariants.py").write_text("from .registry import kind\n")
+    (src / "registry.py").write_text("def g():\n    from . import torques\n")
+    (src / "so3.py").write_text("from .torques import f\n")                        # into a cycle, not on one
+    (src / "integrator.py").write_text("from .systems.gyrostat import x\n")
+    (src / "systems" / "__init__.py").write_text("from . import gyrostat\n")      # inside a folder: not a cycle
+    (src / "systems" / "gyrostat.py").write_text("from . import System\ndef h():\n    from ..integrator import y\n")
+    assert _cycles(src) == [["integrator", "systems"], ["invariants", "registry", "torques"]]
 
 
 def test_every_core_module_and_folder_has_a_rank():

@@ -47,6 +47,7 @@ from .integrator import StepResult as StepResult
 from .integrator import simulate as simulate
 from .integrator import step as step
 from .modified import simulate_modified as simulate_modified
+from . import splitting as splitting  # provides the run of scheme="splitting" (lgvi.systems.provide_run)
 from .system_ensembles import SystemEnsemble as SystemEnsemble
 from .system_ensembles import simulate_members as simulate_members
 from .io import streaming as streaming  # the old name lgvi.streaming (imported here anyway)

@@ -232,6 +232,16 @@ def richardson(traj: Any, shadow: Any, order: int, *, wall_time_s: float = 0.0,
                          h=float(traj.h), wall_time_s=float(wall_time_s), warn=warn)
 
 
+#: The function a shadow run calls, :func:`lgvi.simulate`: :mod:`lgvi.integrator` provides it on
+#: import (:func:`provide_simulate`), so that this module stays below the integrator (no import cycle).
+SHADOW_RUNNER: dict[str, Any] = {}
+
+
+def provide_simulate(simulate: Any) -> None:
+    """Set the function the shadow run of :func:`with_estimate` calls (:func:`lgvi.simulate`)."""
+    SHADOW_RUNNER["simulate"] = simulate
+
+
 def with_estimate(traj: Any, args: dict[str, Any], *, warn: float | None = DEFAULT_WARN,
                   stacklevel: int = 2, order: int | None = None) -> Any:
     """``traj`` with ``meta["error_estimate"]`` from a shadow run of :func:`lgvi.simulate` at ``h/2``.
@@ -257,8 +267,7 @@ def with_estimate(traj: Any, args: dict[str, Any], *, warn: float | None = DEFAU
     SimulationInterrupted, ConvergenceError, TorqueError
         From the shadow run, with ``.trajectory`` the (complete) run ``traj``.
     """
-    from .integrator import simulate
-
+    simulate = SHADOW_RUNNER["simulate"]   # lgvi.simulate (provided by lgvi.integrator)
     kw = dict(args)
     kw.update(h=float(kw["h"]) / 2.0, steps=2 * int(kw["steps"]), save_every=2 * int(kw.get("save_every", 1)))
     if kw.get("progress") is not True:
@@ -285,5 +294,5 @@ def with_estimate(traj: Any, args: dict[str, Any], *, warn: float | None = DEFAU
     return replace(traj, meta=dict(traj.meta, error_estimate=est.to_dict()))
 
 
-__all__ = ["ASYMPTOTIC_LIMIT", "DEFAULT_WARN", "ErrorEstimate", "check_options", "geodesic_distance", "richardson",
-           "scheme_order", "with_estimate"]
+__all__ = ["ASYMPTOTIC_LIMIT", "DEFAULT_WARN", "ErrorEstimate", "SHADOW_RUNNER", "check_options", "geodesic_distance",
+           "provide_simulate", "richardson", "scheme_order", "with_estimate"]

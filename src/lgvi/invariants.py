@@ -59,9 +59,11 @@ __all__ = [
     "QUANTITIES",
     "Declaration",
     "Quantity",
+    "MODEL_TYPES",
     "combine",
     "declared",
     "declaration_of",
+    "declares_invariants",
     "drifts",
     "error_series",
 ]
@@ -237,14 +239,26 @@ def combine(decls: list[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
     return {k: out[k] for k in QUANTITIES if k in out}
 
 
+#: The classes whose instances declare their own invariants (``invariants()``): the torque models'
+#: base class, :class:`lgvi.torques.TorqueModel`, which :mod:`lgvi.torques` adds on import with
+#: :func:`declares_invariants`, so that this module stays below the torque models.
+MODEL_TYPES: list[type] = []
+
+
+def declares_invariants(cls: type) -> type:
+    """Class decorator: instances of ``cls`` declare their invariants (:func:`declaration_of` calls
+    their ``invariants()``)."""
+    if cls not in MODEL_TYPES:
+        MODEL_TYPES.append(cls)
+    return cls
+
+
 def declaration_of(torque: Any) -> dict[str, dict[str, Any]]:
     """The declaration of a run's torque: ``None`` (free body), a torque model, or anything else
     (arrays, callables: no invariants declared)."""
-    from .torques import TorqueModel
-
     if torque is None:
         return {k: dict(v) for k, v in FREE_BODY.items()}
-    if isinstance(torque, TorqueModel):
+    if isinstance(torque, tuple(MODEL_TYPES)):
         return _check(torque.invariants(), repr(torque))
     return {}
 

@@ -35,6 +35,8 @@ from .errors import ConvergenceError
 from .integrator import CHUNK_STEPS, SOLVER_RECORDS, Run, as_body
 from .invariants import declaration_of
 from .registry import FORCINGS, splitting_for, torque_kind
+from .systems import provide_run
+from .systems.rigid_body import RIGID_BODY
 from .trajectory import HIST_BINS
 
 _NO_CODES = np.zeros((0, 2), dtype=np.int64)
@@ -206,5 +208,7 @@ def free_flow(body: Any, R: Any, Pi: Any, tau: float) -> tuple[np.ndarray, np.nd
     flow_once(I, ax, symax, R, Pi, tau, np.zeros(64))
     return R @ Pax.T, Pax @ Pi
 
+
+provide_run(RIGID_BODY, SplittingRun, scheme="splitting")  # lgvi.simulate(scheme="splitting") runs it
 
 __all__ = ["SplittingRun", "free_flow", "principal_data"]

@@ -60,6 +60,7 @@ from typing import Any
 import numpy as np
 
 from ._validation import as_float, as_float_array, as_rotation
+from .invariants import combine, declares_invariants
 
 __all__ = [
     "AttitudePD",
@@ -140,6 +141,7 @@ def _time(t: Any) -> np.ndarray:
     return t
 
 
+@declares_invariants  # lgvi.invariants.declaration_of reads a model's own declaration
 class TorqueModel:
     """Base class of the torque models (a moment given as data; see the module notes).
 
@@ -622,8 +624,6 @@ class TorqueSum(TorqueModel):
 
     def invariants(self):
         """What every term conserves, with the weaker kind (:func:`lgvi.invariants.combine`)."""
-        from .invariants import combine
-
         return combine([m.invariants() for m in self._models])
 
     def __repr__(self) -> str:

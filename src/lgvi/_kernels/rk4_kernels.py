@@ -1,4 +1,4 @@
-"""Compiled right-hand side and fixed-step RK4 loop of the classical baselines.
+"""Compiled right-hand side and fixed-step RK4 chunk of the classical baselines.
 
 The ODE is Euler's equations with quaternion kinematics, on ``y = (q, Pi)`` with ``q = (x, y, z, w)``
 scalar-last (body to inertial, Hamilton product) and ``Pi`` the body angular momentum:
@@ -74,12 +74,16 @@ def rhs(t, y, J, J_inv, codes, params, D):
 
 
 @jit
-def rk4_run(h, t0, q, Pi, J, J_inv, codes, params, D, k0, n, save_every, normalize, q_out, Pi_out):
-    """Advance ``n`` classic RK4 steps ``k0 .. k0+n-1`` in place on ``q`` (4,) and ``Pi`` (3,).
+def rk4_chunk(h, t0, q, Pi, J, J_inv, codes, params, D, k0, n, save_every, normalize, q_out, Pi_out):
+    """Advance ``n`` classic RK4 steps ``k0 .. k0+n-1`` in place on ``q`` (4,) and ``Pi`` (3,): one
+    chunk of :func:`lgvi.driver.drive`.
 
-    Step ``k`` starts at ``t0 + k h``. After step ``k`` the state is saved at index
-    ``(k + 1) // save_every`` of ``q_out``/``Pi_out`` when ``(k + 1) % save_every == 0``. With
-    ``normalize`` the quaternion is rescaled to unit length after every step. Returns ``k0 + n``.
+    Step ``k`` starts at ``t0 + k h``. ``k0`` and ``n`` are multiples of ``save_every``; the chunk's
+    samples go to its own buffers ``q_out`` (n // save_every, 4) and ``Pi_out`` (n // save_every, 3),
+    from index 0: the state after step ``k`` is the chunk's next sample when
+    ``(k + 1) % save_every == 0`` (a running index: cheaper in the loop than computing it from
+    ``k``). With ``normalize`` the quaternion is rescaled to unit length after every step.
+    Returns ``k0 + n``.
     """
     Rs = np.empty((3, 3))
     h2 = 0.5 * h
@@ -91,6 +95,7 @@ def rk4_run(h, t0, q, Pi, J, J_inv, codes, params, D, k0, n, save_every, normali
     p0 = Pi[0]
     p1 = Pi[1]
     p2 = Pi[2]
+    j = 0                                   # the chunk's next sample
     for k in range(k0, k0 + n):
         t = t0 + k * h
         a0, a1, a2, a3, a4, a5, a6 = rhs_scalar(t, x, y, z, w, p0, p1, p2, J, J_inv, codes, params, D, Rs)
@@ -117,7 +122,6 @@ def rk4_run(h, t0, q, Pi, J, J_inv, codes, params, D, k0, n, save_every, normali
             z *= s
             w *= s
         if (k + 1) % save_every == 0:
-            j = (k + 1) // save_every
             q_out[j, 0] = x
             q_out[j, 1] = y
             q_out[j, 2] = z
@@ -125,6 +129,7 @@ def rk4_run(h, t0, q, Pi, J, J_inv, codes, params, D, k0, n, save_every, normali
             Pi_out[j, 0] = p0
             Pi_out[j, 1] = p1
             Pi_out[j, 2] = p2
+            j += 1
     q[0] = x
     q[1] = y
     q[2] = z

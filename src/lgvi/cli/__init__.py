@@ -814,14 +814,7 @@ def cmd_info(args: argparse.Namespace) -> int:
     if len(traj.t):
         decl = declared(traj)
         d = conservation_drifts(traj, decl)
-        print(f"  conservation (largest change over the run; {decl.note()})")
-        for k in decl.quantities():
-            q = QUANTITIES[k]
-            print(f"    {q.name.split(' (')[0]} " + (f"abs {d[q.abs_key]:.3e}, " if q.abs_key else "")
-                  + f"rel {_fmt_drift(d[q.rel_key])} ({KIND_TEXT[decl.kind(k)]})")
-        print(f"    |R^T R - I| max {d['orthogonality_max']:.3e}")
-        if decl.not_invariants():
-            print(f"    not invariants here: {', '.join(QUANTITIES[k].name for k in decl.not_invariants())}")
+        _print_conservation(decl, d, d["orthogonality_max"], short_names=True)
     if scenario_text:
         print("  scenario")
         for line in scenario_text.rstrip("\n").splitlines():
@@ -862,18 +855,25 @@ def _info_system(path: str, traj) -> int:
               f"max final residual (absolute) {float(res.max()):.3e}")
     if len(traj.t):
         decl = _system_declaration(traj)
-        d = invariant_drifts(traj, decl)
-        print(f"  conservation (largest change over the run; {decl.note()})")
-        for k in decl.quantities():
-            q = QUANTITIES[k]
-            print(f"    {q.name} " + (f"abs {d[q.abs_key]:.3e}, " if q.abs_key else "")
-                  + f"rel {_fmt_drift(d[q.rel_key])} ({KIND_TEXT[decl.kind(k)]})")
-        print(f"    |R^T R - I| max {orthogonality_max(traj):.3e}")
-        if decl.not_invariants():
-            print(f"    not invariants here: {', '.join(QUANTITIES[k].name for k in decl.not_invariants())}")
+        _print_conservation(decl, invariant_drifts(traj, decl), orthogonality_max(traj))
     meta.pop("invariants", None)        # printed above
     _print_meta(meta)
     return 0
+
+
+def _print_conservation(decl: Any, d: dict[str, float], orthogonality: float, short_names: bool = False) -> None:
+    """``lgvi info``'s conservation lines: each declared quantity's largest change ``d`` and kind."""
+    from ..invariants import KIND_TEXT, QUANTITIES
+
+    print(f"  conservation (largest change over the run; {decl.note()})")
+    for k in decl.quantities():
+        q = QUANTITIES[k]
+        name = q.name.split(" (")[0] if short_names else q.name
+        print(f"    {name} " + (f"abs {d[q.abs_key]:.3e}, " if q.abs_key else "")
+              + f"rel {_fmt_drift(d[q.rel_key])} ({KIND_TEXT[decl.kind(k)]})")
+    print(f"    |R^T R - I| max {orthogonality:.3e}")
+    if decl.not_invariants():
+        print(f"    not invariants here: {', '.join(QUANTITIES[k].name for k in decl.not_invariants())}")
 
 
 def _info_ensemble(path: str, ens) -> int:

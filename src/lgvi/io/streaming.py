@@ -254,6 +254,28 @@ def _stream_system(meta: dict[str, Any], mpath: Path) -> Any:
     return system
 
 
+def _chunk_arrays(folder: Any, mpath: Path, i: int, entry: Any, required: tuple[str, ...],
+                  optional: tuple[str, ...] = (), totals: Any = None) -> dict[str, Any]:
+    """The arrays ``required`` (each must be there) and those of ``optional`` that are there, of
+    the stream's chunk ``i``, checked before loading; ``totals(arrays)``, if given, is stored under
+    ``"totals"``. Any failure is a ValueError naming the chunk file."""
+    path = _chunk_file(folder, mpath, i, entry)
+    try:
+        check_npz(path)
+        with np.load(path, allow_pickle=False) as data:
+            missing = [k for k in required if k not in data.files]
+            if missing:
+                raise ValueError(f"missing field(s) {', '.join(missing)}")
+            arrays: dict[str, Any] = {k: data[k] for k in required + optional if k in data.files}
+        if totals is not None:
+            arrays["totals"] = totals(arrays)
+        return arrays
+    except MemoryError:
+        raise
+    except Exception as exc:  # OSError, EOFError, zipfile.BadZipFile, numpy's ValueErrors, ...
+        raise ValueError(f"cannot read stream chunk {path}: {type(exc).__name__}: {exc}") from exc
+
+
 def system_arrays(folder: str | os.PathLike) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """``(manifest, arrays)`` of a stream of any system: the complete chunks' arrays concatenated by
     field name (``t``, the system's ``state`` and ``records`` fields), checked to fit together."""
@@ -266,19 +288,9 @@ def system_arrays(folder: str | os.PathLike) -> tuple[dict[str, Any], dict[str, 
     names = ("t",) + tuple(f.name for f in system.state) + tuple(f.name for f in system.records)
     parts: dict[str, list[np.ndarray]] = {k: [] for k in names}
     for i, entry in enumerate(chunks):
-        path = _chunk_file(folder, mpath, i, entry)
-        try:
-            check_npz(path)
-            with np.load(path, allow_pickle=False) as data:
-                missing = [k for k in names if k not in data.files]
-                if missing:
-                    raise ValueError(f"missing field(s) {', '.join(missing)}")
-                for key in names:
-                    parts[key].append(data[key])
-        except MemoryError:
-            raise
-        except Exception as exc:  # OSError, EOFError, zipfile.BadZipFile, numpy's ValueErrors, ...
-            raise ValueError(f"cannot read stream chunk {path}: {type(exc).__name__}: {exc}") from exc
+        data = _chunk_arrays(folder, mpath, i, entry, names)
+        for key in names:
+            parts[key].append(data[key])
     if not parts["t"]:
         raise ValueError(f"{folder} holds no complete chunk yet")
     try:
@@ -338,26 +350,18 @@ def read_stream(folder: str | os.PathLike) -> Any:
                          f"{exc})") from exc
     parts: dict[str, list[np.ndarray]] = {k: [] for k in _CHUNK_FIELDS + ("potential",)}
     summaries: list[dict[str, Any] | None] = []
+    def totals(data: dict[str, np.ndarray]) -> dict[str, Any] | None:
+        if all(k in data for k in _SUMMARY_FIELDS):
+            return summary_dict(data["iteration_counts"], int(data["iterations_total"]),
+                                float(data["residual_max"]), int(data["iterations_max"]))
+        return None   # a stream written before lgvi kept the solver's totals: per-step records
+
     for i, entry in enumerate(chunks):
-        path = _chunk_file(folder, mpath, i, entry)
-        try:
-            check_npz(path)
-            with np.load(path, allow_pickle=False) as data:
-                missing = [k for k in _CHUNK_FIELDS if k not in data.files]
-                if missing:
-                    raise ValueError(f"missing field(s) {', '.join(missing)}")
-                for key in parts:
-                    if key in data.files:
-                        parts[key].append(data[key])
-                if all(k in data.files for k in _SUMMARY_FIELDS):
-                    summaries.append(summary_dict(data["iteration_counts"], int(data["iterations_total"]),
-                                                  float(data["residual_max"]), int(data["iterations_max"])))
-                else:  # a stream written before lgvi kept the solver's totals: per-step records
-                    summaries.append(None)
-        except MemoryError:
-            raise
-        except Exception as exc:  # OSError, EOFError, zipfile.BadZipFile, numpy's ValueErrors, ...
-            raise ValueError(f"cannot read stream chunk {path}: {type(exc).__name__}: {exc}") from exc
+        data = _chunk_arrays(folder, mpath, i, entry, _CHUNK_FIELDS, ("potential",) + _SUMMARY_FIELDS, totals)
+        for key in parts:
+            if key in data:
+                parts[key].append(data[key])
+        summaries.append(data["totals"])
     meta = dict(meta, complete=manifest.get("complete", False))
     if summaries and all(x is not None for x in summaries):
         total = summaries[0]

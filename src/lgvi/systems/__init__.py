@@ -94,11 +94,17 @@ class System:
 
     def run(self, *args: Any, **kwargs: Any) -> Any:
         """A validated run of this system (see ``run_factory``)."""
-        factory = self.run_factory or RUNS.get(self.name)
+        return self.runner()(*args, **kwargs)
+
+    def runner(self, scheme: str | None = None) -> Callable[..., Any]:
+        """The run factory of this system, or of another of its schemes (``scheme``, e.g. the rigid
+        body's ``"splitting"``) as provided with :func:`provide_run`."""
+        key = self.name if scheme is None else f"{self.name}:{scheme}"
+        factory = (self.run_factory if scheme is None else None) or RUNS.get(key)
         if factory is None:
-            raise LookupError(f"no run is provided for the system {self.name!r}: import the module that "
+            raise LookupError(f"no run is provided for {key!r}: import the module that "
                               "defines it (import lgvi does for the built-in systems)")
-        return factory(*args, **kwargs)
+        return factory
 
 
 #: The registry of systems by name.
@@ -115,9 +121,11 @@ def register(system: System) -> System:
     return system
 
 
-def provide_run(system: System, factory: Callable[..., Any]) -> None:
-    """Attach the run factory of ``system`` (called by the module that defines the run object)."""
-    RUNS[system.name] = factory
+def provide_run(system: System, factory: Callable[..., Any], scheme: str | None = None) -> None:
+    """Attach the run factory of ``system`` (called by the module that defines the run object);
+    ``scheme`` names another scheme of the same system (:meth:`System.runner`), so that the module
+    that picks a scheme never imports the module that runs it."""
+    RUNS[system.name if scheme is None else f"{system.name}:{scheme}"] = factory
 
 
 class CarriedState:

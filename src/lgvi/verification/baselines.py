@@ -36,15 +36,19 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from .._kernels import rk4_kernels as _rk
+from .._kernels.codes import OK
 from .._validation import as_float, as_float_array, as_int, as_rotation
 from .._version import __version__
-from ..errors import SimulationInterrupted, TorqueError
-from ..driver import time_grid
+from ..driver import MemorySink, drive, time_grid
+from ..errors import TorqueError
 from ..registry import torque_kind
+from ..systems import Field, System
 from ..trajectory import Trajectory, summary_dict
 
-#: RK4 steps per compiled call; between chunks Ctrl-C is honoured.
+#: RK4 steps per compiled call; between chunks Ctrl-C is honoured and progress reported.
 CHUNK_STEPS = 1 << 18
+#: RK4 steps per chunk of the Python loop that serves a torque callable.
+CALLABLE_CHUNK_STEPS = 1 << 12
 
 #: ``compare`` method names (lower case) of ``solve_ivp`` methods.
 SOLVE_IVP_METHODS: dict[str, str] = {"rk45": "RK45", "dop853": "DOP853", "rk23": "RK23", "radau": "Radau",
@@ -208,7 +212,7 @@ def _initial_state(body: Any, R0: Any, Pi0: Any, omega0: Any):
 # classic RK4
 # ------------------------------------------------------------------------------------------------
 def rk4(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: float, steps: int, torque: Any = None,
-        save_every: int = 1, normalize: bool = False, t0: float = 0.0) -> Trajectory:
+        save_every: int = 1, normalize: bool = False, t0: float = 0.0, progress: Any = False) -> Trajectory:
     r"""Integrate the same problem as :func:`lgvi.simulate` with classic fixed-step RK4.
 
     Parameters
@@ -235,6 +239,9 @@ def rk4(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: float, st
         ``False``: ``q`` drifts in norm and ``R`` (homogeneous formula) drifts off SO(3), visibly.
     t0 : float
         Initial time.
+    progress : bool or callable
+        As in :func:`lgvi.simulate`: ``True`` draws a progress bar, a callable is called as
+        ``progress(steps_done, steps)`` between chunks; ``False`` (default) is silent.
 
     Returns
     -------
@@ -244,6 +251,15 @@ def rk4(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: float, st
         one per saved interval, shape ``(M - 1,)``, as lgvi's default record;
         ``potential`` is filled for a conservative model (see the module notes);
         ``meta["method"] == "rk4"``, ``meta["torque_path"]`` is ``"compiled"`` or ``"python"``.
+
+    Raises
+    ------
+    lgvi.SimulationInterrupted
+        On Ctrl-C (honoured between chunks, :func:`lgvi.driver.drive`), with the part computed in
+        ``.trajectory``.
+    lgvi.TorqueError
+        When a torque callable or model raises or returns other than 3 finite numbers, with the
+        step in ``.step`` and the run up to that step in ``.trajectory``.
 
     Notes
     -----
@@ -267,65 +283,113 @@ def rk4(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: float, st
     h, t0, steps, save_every = time_grid(h, t0, steps, save_every)  # lgvi.driver: the shared checks
     if not isinstance(normalize, (bool, np.bool_)):
         raise TypeError(f"normalize must be True or False, got {normalize!r}")
-    normalize = bool(normalize)
-    tq = _resolve_torque(torque, body)
+    run = RK4Run(body, R0, Pi, h, steps, _resolve_torque(torque, body), save_every, bool(normalize), t0)
+    return drive(run, MemorySink(run), progress)  # lgvi.driver: chunks, progress, Ctrl-C, partial results
 
-    M = steps // save_every + 1
-    q = _quat_of(R0)
-    q_out = np.empty((M, 4))
-    Pi_out = np.empty((M, 3))
-    q_out[0] = q
-    Pi_out[0] = Pi
-    meta = {"method": "rk4", "h": h, "steps": steps, "save_every": save_every, "normalize": normalize,
-            "torque": tq.kind, "torque_path": tq.path, "t0": t0, "lgvi_version": __version__}
 
-    def make(m: int, k_done: int, extra: dict | None = None) -> Trajectory:
-        t = t0 + h * save_every * np.arange(m)
-        R = homogeneous_matrix(q_out[:m])
-        # no implicit solves: a record of zeros per saved interval, sized by the samples as lgvi's
-        solver = summary_dict(np.array([k_done]), 0, 0.0)
-        return Trajectory(t=t, R=R, Pi=Pi_out[:m].copy(), inertia=body.J.copy(),
-                          iterations=np.zeros(m - 1, dtype=np.int32), residual=np.zeros(m - 1), h=h,
-                          potential=tq.potential(t, R, body),
-                          meta=dict(meta, solver_record="interval", solver_summary=solver, **(extra or {})))
+#: The state layout of :func:`rk4` that the driver allocates: the quaternion and the momentum (not a
+#: registered system of :mod:`lgvi.systems`: a baseline of the rigid body in other coordinates).
+RK4_LAYOUT = System(
+    name="rk4", doc="the rigid body in quaternion coordinates, classic RK4: q (4,) scalar-last, Pi (3,)",
+    state=(Field("q", (4,), doc="scalar-last quaternion, body to inertial, not renormalised"),
+           Field("Pi", (3,), doc="body angular momentum")),
+    records=(), kernels=lambda: {"rk4_chunk": _rk.rk4_chunk},
+    results=("t", "R", "Pi", "inertia", "iterations", "residual", "h", "potential", "meta"), scenario_section="",
+    run_factory=None, invariants=lambda torque: {})
 
-    k = 0
-    try:
-        if tq.codes is not None:
-            J = np.ascontiguousarray(body.J)
-            J_inv = np.ascontiguousarray(body.J_inv)
-            while k < steps:
-                n = min(CHUNK_STEPS, steps - k)
-                k = _rk.rk4_run(h, t0, q, Pi, J, J_inv, tq.codes, tq.params, tq.D, k, n, save_every, normalize,
-                                q_out, Pi_out)
+
+class RK4Run:
+    """One validated :func:`rk4` run, driven by :func:`lgvi.driver.drive` in chunks of :attr:`chunk`
+    steps (a multiple of ``save_every``): the compiled chunk :func:`lgvi._kernels.rk4_kernels.rk4_chunk`
+    for the free body and the built-in models, a Python loop for a torque callable. ``q`` (4,) and
+    ``Pi`` (3,) carry the state from chunk to chunk."""
+
+    system = RK4_LAYOUT
+    label = "rk4"
+
+    def __init__(self, body: Any, R0: np.ndarray, Pi: np.ndarray, h: float, steps: int, tq: "_Torque",
+                 save_every: int, normalize: bool, t0: float) -> None:
+        self.body, self.h, self.steps, self.save_every, self.normalize, self.t0 = body, h, steps, save_every, normalize, t0
+        self.tq = tq
+        self.k = 0
+        self.q = _quat_of(R0)
+        self.Pi = Pi
+        base = CHUNK_STEPS if tq.codes is not None else CALLABLE_CHUNK_STEPS
+        self.chunk = max(1, base // save_every) * save_every
+        if tq.codes is None:
+            self.f = _python_rhs(tq, body)
+            self.y = np.concatenate([self.q, self.Pi])
         else:
-            f = _python_rhs(tq, body)
-            y = np.concatenate([q, Pi])
-            h2, h6 = 0.5 * h, h / 6.0
-            for k in range(steps):
-                t = t0 + k * h
-                try:
-                    k1 = f(t, y)
-                    k2 = f(t + h2, y + h2 * k1)
-                    k3 = f(t + h2, y + h2 * k2)
-                    k4 = f(t + h, y + h * k3)
-                except TorqueError as exc:
-                    exc.step = k
-                    exc.args = (f"{exc.args[0]} (in step {k}; the run up to step {k} is in .trajectory)",)
-                    exc.trajectory = make(k // save_every + 1, k, {"partial": True})
-                    raise
-                y = y + h6 * (k1 + 2.0 * (k2 + k3) + k4)
-                if normalize:
-                    y[:4] /= np.sqrt(y[:4] @ y[:4])
-                if (k + 1) % save_every == 0:
-                    j = (k + 1) // save_every
-                    q_out[j] = y[:4]
-                    Pi_out[j] = y[4:]
-            k = steps
-    except KeyboardInterrupt:
-        raise SimulationInterrupted(f"rk4 interrupted after about {k} of {steps} steps; the saved part is in "
-                                    ".trajectory", trajectory=make(k // save_every + 1, k, {"partial": True})) from None
-    return make(M, steps)
+            self.J = np.ascontiguousarray(body.J)
+            self.J_inv = np.ascontiguousarray(body.J_inv)
+        self.meta = {"method": "rk4", "h": h, "steps": steps, "save_every": save_every, "normalize": normalize,
+                     "torque": tq.kind, "torque_path": tq.path, "t0": t0, "lgvi_version": __version__}
+
+    def times(self, j0: int, j1: int) -> np.ndarray:
+        return self.t0 + self.h * self.save_every * np.arange(j0, j1)
+
+    def advance(self, n: int, q_out: np.ndarray, Pi_out: np.ndarray, partial: Callable) -> int:
+        """Steps ``k .. k+n-1`` into the chunk's buffers (``n // save_every`` samples each)."""
+        tq = self.tq
+        if tq.codes is not None:
+            self.k = _rk.rk4_chunk(self.h, self.t0, self.q, self.Pi, self.J, self.J_inv, tq.codes, tq.params, tq.D,
+                                   self.k, n, self.save_every, self.normalize, q_out, Pi_out)
+            return OK
+        f, y, h, t0, se, normalize = self.f, self.y, self.h, self.t0, self.save_every, self.normalize
+        h2, h6 = 0.5 * h, h / 6.0
+        k0 = self.k
+        for i in range(n):
+            k = k0 + i
+            t = t0 + k * h
+            try:
+                k1 = f(t, y)
+                k2 = f(t + h2, y + h2 * k1)
+                k3 = f(t + h2, y + h2 * k2)
+                k4 = f(t + h, y + h * k3)
+            except TorqueError as exc:
+                self.k = k
+                exc.step = k
+                exc.args = (f"{exc.args[0]} (in step {k}; the run up to step {k} is in .trajectory)",)
+                exc.trajectory = partial(k)
+                raise
+            y = y + h6 * (k1 + 2.0 * (k2 + k3) + k4)
+            if normalize:
+                y[:4] /= np.sqrt(y[:4] @ y[:4])
+            if (i + 1) % se == 0:
+                j = (i + 1) // se - 1
+                q_out[j] = y[:4]
+                Pi_out[j] = y[4:]
+        self.y = y
+        self.k = k0 + n
+        return OK
+
+    def failure(self, status: int, residual: float, iterations: int, trajectory: Any, where: str = "") -> Exception:
+        # an explicit method has no step that fails: never called (every chunk returns OK)
+        return RuntimeError(f"rk4 step {self.k} returned the status {status}{where}")  # pragma: no cover
+
+    def state(self) -> dict[str, Any]:
+        st = {"k": self.k, "q": self.q.copy(), "Pi": self.Pi.copy()}
+        if self.tq.codes is None:
+            st["y"] = self.y.copy()
+        return st
+
+    def load_state(self, st: dict[str, Any]) -> None:
+        self.k = int(st["k"])
+        self.q[...] = st["q"]
+        self.Pi[...] = st["Pi"]
+        if "y" in st:
+            self.y = np.array(st["y"], dtype=np.float64)
+
+    def trajectory(self, t: np.ndarray, q: np.ndarray, Pi: np.ndarray, partial: bool = False) -> Trajectory:
+        """The :class:`lgvi.Trajectory` of samples ``q`` (m, 4), ``Pi`` (m, 3) after :attr:`k` steps."""
+        m = len(t)
+        R = homogeneous_matrix(q)
+        # no implicit solves: a record of zeros per saved interval, sized by the samples as lgvi's
+        solver = summary_dict(np.array([self.k]), 0, 0.0)
+        extra = {"partial": True} if partial else {}
+        return Trajectory(t=t, R=R, Pi=Pi, inertia=self.body.J.copy(), iterations=np.zeros(m - 1, dtype=np.int32),
+                          residual=np.zeros(m - 1), h=self.h, potential=self.tq.potential(t, R, self.body),
+                          meta=dict(self.meta, solver_record="interval", solver_summary=solver, **extra))
 
 
 # ------------------------------------------------------------------------------------------------
