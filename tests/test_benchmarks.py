@@ -113,6 +113,13 @@ def test_bench_bodies_quick():
     _check(proc, "Table 1", "steps/s", "order2", "order4", "Table 2", "lgvi order2", "scipy DOP853", "DOP853/lgvi")
 
 
+@pytest.mark.slow
+def test_bench_members_quick():
+    """The Monte Carlo benchmark (lgvi.simulate_members) prints its table; members checked bit for bit."""
+    proc = _run("bench_members.py", "--quick")
+    _check(proc, "orbit members", "members/s", "loop/this", "threads=2")
+
+
 def test_bench_gyrostat_quick():
     proc = _run("bench_gyrostat.py", "--quick")
     _check(proc, "gyrostat step vs free body", "ns/step", "ratio", "free body", "4 wheels, motors off",

@@ -48,6 +48,8 @@ from .integrator import simulate as simulate
 from .integrator import step as step
 from .modified import simulate_modified as simulate_modified
 from . import splitting as splitting  # provides the run of scheme="splitting" (lgvi.systems.provide_run)
+from .system_ensembles import SystemEnsemble as SystemEnsemble
+from .system_ensembles import simulate_members as simulate_members
 from .io import streaming as streaming  # the old name lgvi.streaming (imported here anyway)
 from .io.streaming import simulate_stream as simulate_stream
 from .systems.orbit import OrbitTrajectory as OrbitTrajectory
@@ -79,6 +81,7 @@ __all__ = [
     "RigidBody",
     "SimulationInterrupted",
     "StepResult",
+    "SystemEnsemble",
     "TorqueError",
     "Trajectory",
     "TwoBodyTrajectory",
@@ -92,6 +95,7 @@ __all__ = [
     "optimal",
     "simulate",
     "simulate_ensemble",
+    "simulate_members",
     "simulate_modified",
     "simulate_orbit",
     "simulate_stream",
