@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 
-from .._jit import jit
+from .._jit import jit, jit_copy
 from .codes import OK, OVERFLOW
 from .torque_kernels import model_moments_s
 
@@ -166,6 +166,12 @@ def carlson_rf_rj(x, y, z, p):
     e5 = xyz * pp * pp
     series = rj_series(e2, e3, e4, e5)
     return rf, fac * series / (a * math.sqrt(a)) + 6.0 * total
+
+
+#: :func:`carlson_rf_rj` compiled from its source as a function of its own (:func:`.._jit.jit_copy`),
+#: called by :func:`free_flow`: the largest helper of the flow, built once and not copied (bit for bit).
+rf_rj_call = jit_copy(carlson_rf_rj, "carlson_rf_rj_call", "carlson_rf_rj compiled as a function of its own (see "
+                      "splitting_kernels.rf_rj_call).")
 
 
 @jit(inline="always")
@@ -384,7 +390,7 @@ def free_flow(I, ax, symax, R, Pi, tau, ws):
     sr0 = math.sin(r0)
     cr0 = math.cos(r0)
     y0 = cr0 * cr0 + m1 * sr0 * sr0
-    rf0, rj0 = carlson_rf_rj(cr0 * cr0, y0, 1.0, 1.0 - nn * sr0 * sr0)
+    rf0, rj0 = rf_rj_call(cr0 * cr0, y0, 1.0, 1.0 - nn * sr0 * sr0)
     u0 = sr0 * rf0
     phi1 = jacobi_am(u0 + lam * tau, m, m1, ws)
     flip = -1.0 if j0 % 2 != 0 else 1.0
