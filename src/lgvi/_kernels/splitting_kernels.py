@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 
-from .._jit import jit
+from .._jit import jit, jit_copy
 from .codes import OK, OVERFLOW
 from .torque_kernels import model_moments_s
 
@@ -168,6 +168,12 @@ def carlson_rf_rj(x, y, z, p):
     return rf, fac * series / (a * math.sqrt(a)) + 6.0 * total
 
 
+#: :func:`carlson_rf_rj` compiled from its source as a function of its own (:func:`.._jit.jit_copy`),
+#: called by :func:`free_flow`: the largest helper of the flow, built once and not copied (bit for bit).
+rf_rj_call = jit_copy(carlson_rf_rj, "carlson_rf_rj_call", "carlson_rf_rj compiled as a function of its own (see "
+                      "splitting_kernels.rf_rj_call).")
+
+
 @jit(inline="always")
 def third_kind_rest(n, phi, m1):
     """``G(phi) = 3 (Pi(n; phi | m) - F(phi | m)) / n``: ``sin^3 R_J(cos^2, 1 - m sin^2, 1, 1 - n sin^2)`` at the
@@ -262,6 +268,14 @@ def axis_rotation(x, y, z, angle, F, o):
 
 
 @jit
+def rotate_by(R, x, y, z, angle, ws):
+    """``R <- R Rot((x, y, z), angle)``, the rotation left in ``ws[50:59]`` (row-major): a called
+    function, not inlined, so that the rare paths of :func:`free_flow` share one compiled copy."""
+    axis_rotation(x, y, z, angle, ws, 50)
+    rotate_right(R, ws, 50)
+
+
+@jit
 def free_flow(I, ax, symax, R, Pi, tau, ws):
     """Advance the free rigid body ``(R, Pi)`` by the time ``tau`` exactly, in place.
 
@@ -292,8 +306,7 @@ def free_flow(I, ax, symax, R, Pi, tau, ws):
     L = math.sqrt(L2)
     if symax == 3:                      # spherical: a steady rotation
         w = L / I[0]
-        axis_rotation(p0 / L, p1 / L, p2 / L, w * tau, ws, 50)
-        rotate_right(R, ws, 50)
+        rotate_by(R, p0 / L, p1 / L, p2 / L, w * tau, ws)
         return
     if symax >= 0:                      # axisymmetric: Pi turns about e_s, R precesses about L
         s = symax
@@ -302,14 +315,12 @@ def free_flow(I, ax, symax, R, Pi, tau, ws):
         ex = 1.0 if s == 0 else 0.0
         ey = 1.0 if s == 1 else 0.0
         ez = 1.0 if s == 2 else 0.0
-        axis_rotation(p0 / L, p1 / L, p2 / L, L * tau / Iperp, ws, 32)
-        rotate_right(R, ws, 32)
-        axis_rotation(ex, ey, ez, mu * tau, ws, 41)
-        rotate_right(R, ws, 41)
+        rotate_by(R, p0 / L, p1 / L, p2 / L, L * tau / Iperp, ws)
+        rotate_by(R, ex, ey, ez, mu * tau, ws)
         # Pi(tau) = Rot(e_s, -mu tau) Pi = Rot(e_s, mu tau)^T Pi
-        q0 = ws[41] * p0 + ws[44] * p1 + ws[47] * p2
-        q1 = ws[42] * p0 + ws[45] * p1 + ws[48] * p2
-        q2 = ws[43] * p0 + ws[46] * p1 + ws[49] * p2
+        q0 = ws[50] * p0 + ws[53] * p1 + ws[56] * p2
+        q1 = ws[51] * p0 + ws[54] * p1 + ws[57] * p2
+        q2 = ws[52] * p0 + ws[55] * p1 + ws[58] * p2
         Pi[0] = q0
         Pi[1] = q1
         Pi[2] = q2
@@ -325,8 +336,7 @@ def free_flow(I, ax, symax, R, Pi, tau, ws):
         ex = 1.0 if imid == 0 else 0.0
         ey = 1.0 if imid == 1 else 0.0
         ez = 1.0 if imid == 2 else 0.0
-        axis_rotation(ex, ey, ez, Pi[imid] / Jmid * tau, ws, 50)
-        rotate_right(R, ws, 50)
+        rotate_by(R, ex, ey, ez, Pi[imid] / Jmid * tau, ws)
         return
     if D >= 0.0:
         a1 = imin
@@ -380,7 +390,7 @@ def free_flow(I, ax, symax, R, Pi, tau, ws):
     sr0 = math.sin(r0)
     cr0 = math.cos(r0)
     y0 = cr0 * cr0 + m1 * sr0 * sr0
-    rf0, rj0 = carlson_rf_rj(cr0 * cr0, y0, 1.0, 1.0 - nn * sr0 * sr0)
+    rf0, rj0 = rf_rj_call(cr0 * cr0, y0, 1.0, 1.0 - nn * sr0 * sr0)
     u0 = sr0 * rf0
     phi1 = jacobi_am(u0 + lam * tau, m, m1, ws)
     flip = -1.0 if j0 % 2 != 0 else 1.0
@@ -414,9 +424,13 @@ def free_flow(I, ax, symax, R, Pi, tau, ws):
     rotate_right(R, ws, 50)
 
 
-@jit(inline="always")
+@jit
 def _to_frame(R, Pi, Pax, forward, ws):
-    """Between the body frame and the principal frame ``(R Pax, Pax^T Pi)`` (``forward``) or back."""
+    """Between the body frame and the principal frame ``(R Pax, Pax^T Pi)`` (``forward``) or back.
+
+    Called, not inlined (it runs at the ends of a chunk and at saved samples only); the callers pass
+    ``forward`` as a runtime bool (``not diag`` / ``diag`` under ``if not diag``), not a literal, so
+    that one compiled copy serves both directions."""
     for i in range(3):
         for j in range(3):
             ws[59 + j] = R[i, j]
@@ -487,7 +501,7 @@ def split_steps(moment, up, user, I, ax, symax, Pax, diag, J, drift, weight, nod
     step and the first of the next are one flow, except at saved samples. Returns ``(status, k)``."""
     s = weight.shape[0]
     if not diag:
-        _to_frame(R, Pi, Pax, True, ws)
+        _to_frame(R, Pi, Pax, not diag, ws)    # forward (a runtime bool: one compiled _to_frame for both ways)
     countdown = save_every
     jout = 0
     pend = 0.0
@@ -529,10 +543,10 @@ def split_steps(moment, up, user, I, ax, symax, Pax, diag, J, drift, weight, nod
                     R_out[jout, i, j] = R[i, j]
             if not diag:
                 # saved in the body frame
-                _to_frame(R_out[jout], Pi_out[jout], Pax, False, ws)
+                _to_frame(R_out[jout], Pi_out[jout], Pax, diag, ws)
             jout += 1
     if not diag:
-        _to_frame(R, Pi, Pax, False, ws)
+        _to_frame(R, Pi, Pax, diag, ws)
     return status, kend
 
 
@@ -569,7 +583,7 @@ def axes_steps(moment, up, user, I, ax, Pax, diag, J, weight, node, h, t0, R, Pi
     ob = ax[1]
     oc = ax[2]
     if not diag:
-        _to_frame(R, Pi, Pax, True, ws)
+        _to_frame(R, Pi, Pax, not diag, ws)    # forward (a runtime bool: one compiled _to_frame for both ways)
     countdown = save_every
     jout = 0
     status = OK
@@ -609,10 +623,10 @@ def axes_steps(moment, up, user, I, ax, Pax, diag, J, weight, node, h, t0, R, Pi
                 for j in range(3):
                     R_out[jout, i, j] = R[i, j]
             if not diag:
-                _to_frame(R_out[jout], Pi_out[jout], Pax, False, ws)
+                _to_frame(R_out[jout], Pi_out[jout], Pax, diag, ws)
             jout += 1
     if not diag:
-        _to_frame(R, Pi, Pax, False, ws)
+        _to_frame(R, Pi, Pax, diag, ws)
     return status, kend
 
 
