@@ -230,3 +230,16 @@ def test_gyrostat_member_refuses_what_simulate_members_cannot_run():
                 raise TypeError(f"holds {gen!r}")
 
         simulate_members("gyrostat", [dict(members[0], controller=Uncopyable(0.05))])
+
+
+def test_gyrostat_members_on_dask_same_as_single_runs():
+    distributed = pytest.importorskip("dask.distributed")
+    shared = Counting(0.05)
+    members = _gyro_members(shared)[:3]
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=":0") as cluster, distributed.Client(cluster) as client:
+        ens = simulate_members("gyrostat", members, client=client)
+    assert shared.calls == 0
+    for b, kw in enumerate(members):
+        fresh = Counting(0.05) if kw["controller"] is shared else MRPFeedback(0.5, 2.0, Ki=0.01, integral_limit=0.2)
+        _same(ens[b], lgvi.simulate(**dict(kw, controller=fresh)), GYRO_FIELDS)
