@@ -414,3 +414,30 @@ def test_rk4_runs_on_the_driver_in_chunks_and_ctrl_c_keeps_the_part(body, monkey
     assert part.meta["partial"] is True and part.meta["solver_summary"]["steps"] == 16 and len(part.t) == 9
     for key in ("t", "R", "Pi"):
         assert np.array_equal(getattr(part, key), getattr(whole, key)[:9])
+
+
+@pytest.mark.parametrize("path", ["compiled", "python"])
+@pytest.mark.parametrize("save_every, normalize", [(1, False), (2, True)])
+def test_rk4_overflow_raises_with_the_step_and_keeps_the_finite_part(body, path, save_every, normalize):
+    """A torque that blows the state up stops the run as lgvi.simulate does (a ConvergenceError
+    naming the step and time, the finite run up to that step attached), never a NaN trajectory."""
+    u = np.array([1e6, 2e6, 0.0])
+    torque = lgvi.torques.Constant(u) if path == "compiled" else (lambda t, R, Pi: u.copy())
+    kw = dict(omega0=OMEGA0, h=0.01, torque=torque, save_every=save_every, normalize=normalize)
+    with np.errstate(over="ignore", invalid="ignore"):
+        with pytest.raises(lgvi.ConvergenceError, match=r"rk4 step \d+ \(t = .*\) failed: .*non-finite") as info:
+            rk4(body, np.eye(3), steps=1000, **kw)
+    err = info.value
+    assert 0 < err.step < 1000 and f"step {err.step} " in str(err) and err.time == pytest.approx(0.01 * err.step)
+    part = err.trajectory
+    assert part.meta["partial"] is True and part.meta["torque_path"] == path
+    assert len(part.t) == err.step // save_every + 1 and np.isfinite(part.Pi).all() and np.isfinite(part.R).all()
+    done = err.step // save_every * save_every      # the same run stopped at the last saved sample
+    whole = rk4(body, np.eye(3), steps=done, **kw)
+    for key in ("t", "R", "Pi"):
+        assert np.array_equal(getattr(part, key), getattr(whole, key))
+    with np.errstate(over="ignore", invalid="ignore"):   # the brief's example: a moment of 1e308
+        with pytest.raises(lgvi.ConvergenceError, match=r"rk4 step 0 \(t = 0\)") as info:
+            rk4(body, np.eye(3), steps=10, omega0=OMEGA0, h=0.01,
+                torque=(lambda t, R, Pi: np.full(3, 1e308)) if path == "python" else lgvi.torques.Constant([1e308] * 3))
+    assert info.value.step == 0 and len(info.value.trajectory.t) == 1

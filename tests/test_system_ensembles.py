@@ -157,3 +157,89 @@ def test_real_convergence_failure_keeps_the_members_run(threads):
         assert sorted(err.members) == [0]
     for b, traj in err.members.items():
         _same(traj, lgvi.simulate_orbit(**members[b]), ORBIT_FIELDS)
+
+
+# ------------------------------------------------------------------------------------------------
+# the gyrostat: reaction wheels and a control loop (SYSTEMS["gyrostat"].run = gyrostat_run)
+# ------------------------------------------------------------------------------------------------
+from lgvi.control import Command, Controller, MRPFeedback  # noqa: E402
+
+GYRO_FIELDS = ("R", "Pi", "wheel_momentum", "wheel_torque")
+AXES = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 1.0, 1.0]]) / np.array(
+    [[1.0], [1.0], [1.0], [np.sqrt(3.0)]])
+
+
+class Counting(Controller):
+    """A stateful Python controller: the command depends on how often it was called since reset."""
+
+    def __init__(self, scale: float) -> None:
+        self.scale = scale
+        self.calls = 0
+
+    def reset(self) -> None:
+        self.calls = 0
+
+    def __repr__(self) -> str:
+        return f"Counting({self.scale})"
+
+    def command(self, t, R, omega, wheel_speed, env):
+        self.calls += 1
+        return Command(wheel_torque=self.scale * np.sin(0.3 * self.calls + np.arange(len(wheel_speed))))
+
+
+def _gyro_members(shared: Controller) -> list[dict]:
+    wheels = lgvi.ReactionWheels(AXES, [0.02, 0.03, 0.04, 0.05], speed0=[10.0, -5.0, 3.0, 7.0], max_torque=0.5)
+    base = dict(body=lgvi.RigidBody([1.0, 2.0, 3.0]), R0=lgvi.so3.exp([0.3, -0.2, 0.5]), h=0.02, steps=400,
+                wheels=wheels, control_period=0.1, save_every=4)
+    return [dict(base, omega0=[0.3, 1.0, 0.2], controller=shared),          # one Python controller object ...
+            dict(base, omega0=[0.3, 1.1, 0.2], controller=shared),          # ... given to three members
+            dict(base, omega0=[0.2, 1.0, 0.2], controller=MRPFeedback(0.5, 2.0, Ki=0.01, integral_limit=0.2)),
+            dict(base, omega0=[0.3, 1.0, 0.3], controller=shared, Pi0=None, order=4)]
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_gyrostat_members_bit_for_bit_each_with_its_own_controller(threads):
+    """simulate_members("gyrostat", ...) gives lgvi.simulate(..., wheels=, controller=) bit for bit; a
+    stateful controller object given to several members is copied per member (left untouched)."""
+    shared = Counting(0.05)
+    members = _gyro_members(shared)
+    ens = simulate_members("gyrostat", members, threads=threads)
+    assert shared.calls == 0                            # each member ran its own copy
+    for b, kw in enumerate(members):
+        ctrl = kw["controller"]
+        fresh = Counting(0.05) if isinstance(ctrl, Counting) else MRPFeedback(0.5, 2.0, Ki=0.01, integral_limit=0.2)
+        single = lgvi.simulate(**dict(kw, controller=fresh))
+        _same(ens[b], single, GYRO_FIELDS)
+        assert ens[b].meta["controller"] == single.meta["controller"]
+    assert ens.wheel_momentum.shape == (4, 101, 4)
+    assert not np.array_equal(ens.R[0], ens.R[1])
+
+
+def test_gyrostat_member_refuses_what_simulate_members_cannot_run():
+    members = _gyro_members(Counting(0.05))
+    with pytest.raises(ValueError, match=r"^member 1: error_estimate must be False") as info:
+        simulate_members("gyrostat", [members[0], dict(members[1], error_estimate=True)])
+    assert info.value.member == 1
+    with pytest.raises(ValueError, match=r"^member 0: scheme must be None or 'lgvi'"):
+        simulate_members("gyrostat", [dict(members[0], scheme="splitting")])
+    with pytest.raises(TypeError, match=r"^member 0: controller: .*cannot be copied"):
+        gen = (x for x in range(3))
+
+        class Uncopyable(Counting):
+            def __deepcopy__(self, memo):
+                raise TypeError(f"holds {gen!r}")
+
+        simulate_members("gyrostat", [dict(members[0], controller=Uncopyable(0.05))])
+
+
+def test_gyrostat_members_on_dask_same_as_single_runs():
+    distributed = pytest.importorskip("dask.distributed")
+    shared = Counting(0.05)
+    members = _gyro_members(shared)[:3]
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=":0") as cluster, distributed.Client(cluster) as client:
+        ens = simulate_members("gyrostat", members, client=client)
+    assert shared.calls == 0
+    for b, kw in enumerate(members):
+        fresh = Counting(0.05) if kw["controller"] is shared else MRPFeedback(0.5, 2.0, Ki=0.01, integral_limit=0.2)
+        _same(ens[b], lgvi.simulate(**dict(kw, controller=fresh)), GYRO_FIELDS)

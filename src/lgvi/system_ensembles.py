@@ -1,8 +1,9 @@
 """Monte Carlo runs of any registered system: one run per member, on threads or on Dask.
 
 :func:`simulate_members` takes a system of :data:`lgvi.systems.SYSTEMS` (``"orbit"``,
-``"two_body"``, ...) and a sequence of members, each the arguments of one run of that system
-(those of :func:`lgvi.simulate_orbit`, :func:`lgvi.simulate_two_body`, without ``progress``).
+``"two_body"``, ``"gyrostat"``, ...) and a sequence of members, each the arguments of one run of
+that system (those of :func:`lgvi.simulate_orbit`, :func:`lgvi.simulate_two_body`, or of
+:func:`lgvi.simulate` with ``wheels=``/``controller=``, without ``progress``).
 Every member is built and validated first (a bad member raises before any work, naming its index);
 then each is driven by :func:`lgvi.driver.drive` into its own :class:`lgvi.driver.MemorySink`, on a
 pool of threads (the compiled kernels release the GIL) or as one task per member on a
@@ -101,9 +102,7 @@ def _system(system: Any) -> System:
         system = SYSTEMS[system]
     if system.run_factory is None and system.name not in RUNS:
         raise ValueError(f"the system {system.name!r} provides no run factory (SYSTEMS[{system.name!r}].run), so "
-                         "simulate_members cannot build its members"
-                         + ("; run its ensembles with lgvi.simulate_ensemble(..., wheels=...)"
-                            if system.name == "gyrostat" else ""))
+                         "simulate_members cannot build its members")
     return system
 
 
@@ -268,9 +267,13 @@ def simulate_members(system: Any, members: Sequence[Any], *, threads: int | None
     Parameters
     ----------
     system : str or lgvi.systems.System
-        A registered system with a run factory (``SYSTEMS[name].run``): ``"orbit"``, ``"two_body"``;
-        also ``"rigid_body"``, whose run is the low-level :class:`lgvi.integrator.Run` (every
-        option by name; :func:`lgvi.simulate_ensemble` is its better path).
+        A registered system with a run factory (``SYSTEMS[name].run``): ``"orbit"``, ``"two_body"``,
+        ``"gyrostat"`` (the arguments of :func:`lgvi.simulate` with ``wheels=``, ``controller=``;
+        each member runs its own copy of its controller, environment and magnetorquers, so one
+        object may serve several members and is left untouched:
+        :func:`lgvi.systems.gyrostat.gyrostat_run`); also ``"rigid_body"``, whose run is the
+        low-level :class:`lgvi.integrator.Run` (every option by name; :func:`lgvi.simulate_ensemble`
+        is its better path).
     members : sequence
         One entry per run: a dict of the keyword arguments of the system's run (those of
         :func:`lgvi.simulate_orbit` / :func:`lgvi.simulate_two_body`, which take every argument by

@@ -23,6 +23,7 @@ import math
 import numpy as np
 
 from .._jit import jit
+from .codes import OK, OVERFLOW
 from .torque_kernels import model_moments
 
 
@@ -83,7 +84,10 @@ def rk4_chunk(h, t0, q, Pi, J, J_inv, codes, params, D, k0, n, save_every, norma
     from index 0: the state after step ``k`` is the chunk's next sample when
     ``(k + 1) % save_every == 0`` (a running index: cheaper in the loop than computing it from
     ``k``). With ``normalize`` the quaternion is rescaled to unit length after every step.
-    Returns ``k0 + n``.
+
+    Returns ``(status, k)``: ``(OK, k0 + n)``, or ``(OVERFLOW, k)`` when step ``k`` made the state
+    non-finite (or, with ``normalize``, overflowed ``|q|^2``); then ``q``, ``Pi`` hold the state
+    before step ``k`` (the last finite one) and the samples of steps before ``k`` are written.
     """
     Rs = np.empty((3, 3))
     h2 = 0.5 * h
@@ -96,6 +100,8 @@ def rk4_chunk(h, t0, q, Pi, J, J_inv, codes, params, D, k0, n, save_every, norma
     p1 = Pi[1]
     p2 = Pi[2]
     j = 0                                   # the chunk's next sample
+    status = OK
+    kend = k0 + n
     for k in range(k0, k0 + n):
         t = t0 + k * h
         a0, a1, a2, a3, a4, a5, a6 = rhs_scalar(t, x, y, z, w, p0, p1, p2, J, J_inv, codes, params, D, Rs)
@@ -108,19 +114,36 @@ def rk4_chunk(h, t0, q, Pi, J, J_inv, codes, params, D, k0, n, save_every, norma
         d0, d1, d2, d3, d4, d5, d6 = rhs_scalar(t + h, x + h * c0, y + h * c1, z + h * c2, w + h * c3,
                                                 p0 + h * c4, p1 + h * c5, p2 + h * c6,
                                                 J, J_inv, codes, params, D, Rs)
-        x += h6 * (a0 + 2.0 * (b0 + c0) + d0)
-        y += h6 * (a1 + 2.0 * (b1 + c1) + d1)
-        z += h6 * (a2 + 2.0 * (b2 + c2) + d2)
-        w += h6 * (a3 + 2.0 * (b3 + c3) + d3)
-        p0 += h6 * (a4 + 2.0 * (b4 + c4) + d4)
-        p1 += h6 * (a5 + 2.0 * (b5 + c5) + d5)
-        p2 += h6 * (a6 + 2.0 * (b6 + c6) + d6)
+        nx = x + h6 * (a0 + 2.0 * (b0 + c0) + d0)
+        ny = y + h6 * (a1 + 2.0 * (b1 + c1) + d1)
+        nz = z + h6 * (a2 + 2.0 * (b2 + c2) + d2)
+        nw = w + h6 * (a3 + 2.0 * (b3 + c3) + d3)
+        n0 = p0 + h6 * (a4 + 2.0 * (b4 + c4) + d4)
+        n1 = p1 + h6 * (a5 + 2.0 * (b5 + c5) + d5)
+        n2 = p2 + h6 * (a6 + 2.0 * (b6 + c6) + d6)
+        if not (math.isfinite(nx) and math.isfinite(ny) and math.isfinite(nz) and math.isfinite(nw)
+                and math.isfinite(n0) and math.isfinite(n1) and math.isfinite(n2)):
+            status = OVERFLOW               # stop before the step: the state stays the last finite one
+            kend = k
+            break
         if normalize:
-            s = 1.0 / math.sqrt(x * x + y * y + z * z + w * w)
-            x *= s
-            y *= s
-            z *= s
-            w *= s
+            qq = nx * nx + ny * ny + nz * nz + nw * nw
+            if not (0.0 < qq < math.inf):   # |q|^2 overflowed (or q = 0): no rotation to rescale to
+                status = OVERFLOW
+                kend = k
+                break
+            s = 1.0 / math.sqrt(qq)
+            nx *= s
+            ny *= s
+            nz *= s
+            nw *= s
+        x = nx
+        y = ny
+        z = nz
+        w = nw
+        p0 = n0
+        p1 = n1
+        p2 = n2
         if (k + 1) % save_every == 0:
             q_out[j, 0] = x
             q_out[j, 1] = y
@@ -137,4 +160,4 @@ def rk4_chunk(h, t0, q, Pi, J, J_inv, codes, params, D, k0, n, save_every, norma
     Pi[0] = p0
     Pi[1] = p1
     Pi[2] = p2
-    return k0 + n
+    return status, kend

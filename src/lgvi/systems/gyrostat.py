@@ -761,5 +761,53 @@ def simulate_gyrostat(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None
                          order=1 if run.wheels.has_friction else run.comp.order)
 
 
+def gyrostat_run(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: Any, steps: Any, wheels: Any = None,
+                 controller: Any = None, control_period: Any = None, environment: Any = None, magnetorquers: Any = None,
+                 torque: Any = None, method: str = "newton", tol: Any = 1e-14, max_iter: Any = 50, alpha: Any = 1.0,
+                 save_every: Any = 1, t0: Any = 0.0, forcing: Any = "paper", order: Any = 2, composition: Any = None,
+                 solver_record: str = "interval", scheme: Any = None, error_estimate: Any = False,
+                 error_warn: Any = 0.01) -> GyrostatRun:
+    """The run factory of the gyrostat (``SYSTEMS["gyrostat"].run``, :func:`lgvi.simulate_members`):
+    the validated :class:`GyrostatRun` of ``lgvi.simulate(body, R0, Pi0, ..., wheels=..., controller=...)``
+    with the same arguments (``progress`` aside), so that driving it gives that result bit for bit.
+
+    The run uses its own copies (``copy.deepcopy``) of ``controller``, ``environment`` and
+    ``magnetorquers``: a controller is stateful (its integral, a Python controller's memory), so one
+    object given to several members would otherwise be shared and changed by all of them; the
+    objects given are left as they are (not set up, not run). An object that cannot be copied is
+    refused (``TypeError``). ``error_estimate`` (a second run at ``h/2``) is not available here:
+    call :func:`lgvi.simulate` for it.
+    """
+    import copy
+
+    if error_estimate is not False and error_estimate is not None:
+        raise ValueError(f"error_estimate must be False in a run of the gyrostat built by its run factory "
+                         f"(lgvi.simulate_members), got {error_estimate!r}: the estimate is a second run at h/2 "
+                         "that lgvi.simulate(..., error_estimate=True) makes")
+    if scheme is not None and scheme != "lgvi":
+        raise ValueError(f"scheme must be None or 'lgvi' for the gyrostat (reaction wheels and the control loop "
+                         f"run with the LGVI), got {scheme!r}")
+    gyrostat_options(torque=torque, forcing=forcing, order=order, composition=composition, error_estimate=False)
+    owned = {}
+    for name, obj in (("controller", controller), ("environment", environment), ("magnetorquers", magnetorquers)):
+        try:
+            owned[name] = copy.deepcopy(obj)
+        except Exception as exc:
+            raise TypeError(f"{name}: each run of the gyrostat's run factory (lgvi.simulate_members) uses its own "
+                            f"copy of its {name} (copy.deepcopy), and this {type(obj).__name__} cannot be copied "
+                            f"({type(exc).__name__}: {exc}); give each member its own object") from exc
+    return GyrostatRun(body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels, control_period=control_period,
+                       method=method, tol=tol, max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0,
+                       solver_record=solver_record, order=order, composition=composition, torque=torque, **owned)
+
+
+def _provide() -> None:
+    from . import provide_run
+
+    provide_run(GYROSTAT, gyrostat_run)
+
+
+_provide()
+
 __all__ = ["GYROSTAT", "GyrostatRun", "GyrostatTrajectory", "ReactionWheels", "controller_state", "gyrostat_options",
-           "load_controller_state", "simulate_gyrostat"]
+           "gyrostat_run", "load_controller_state", "simulate_gyrostat"]

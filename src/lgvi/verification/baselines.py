@@ -36,11 +36,11 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from .._kernels import rk4_kernels as _rk
-from .._kernels.codes import OK
+from .._kernels.codes import OK, OVERFLOW
 from .._validation import as_float, as_float_array, as_int, as_rotation
 from .._version import __version__
 from ..driver import MemorySink, drive, time_grid
-from ..errors import TorqueError
+from ..errors import ConvergenceError, TorqueError
 from ..registry import torque_kind
 from ..systems import Field, System
 from ..trajectory import Trajectory, summary_dict
@@ -260,6 +260,10 @@ def rk4(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: float, st
     lgvi.TorqueError
         When a torque callable or model raises or returns other than 3 finite numbers, with the
         step in ``.step`` and the run up to that step in ``.trajectory``.
+    lgvi.ConvergenceError
+        When a step makes the state ``(q, Pi)`` non-finite (overflow; with ``normalize`` also when
+        ``|q|^2`` overflows), as :func:`lgvi.simulate` reports it: the step in ``.step``, its time
+        in ``.time`` and the finite run up to that step in ``.trajectory``.
 
     Notes
     -----
@@ -312,6 +316,7 @@ class RK4Run:
         self.body, self.h, self.steps, self.save_every, self.normalize, self.t0 = body, h, steps, save_every, normalize, t0
         self.tq = tq
         self.k = 0
+        self.last_res, self.last_its = float("nan"), 0    # of a failed step (lgvi.driver.MemorySink.failed)
         self.q = _quat_of(R0)
         self.Pi = Pi
         base = CHUNK_STEPS if tq.codes is not None else CALLABLE_CHUNK_STEPS
@@ -332,9 +337,9 @@ class RK4Run:
         """Steps ``k .. k+n-1`` into the chunk's buffers (``n // save_every`` samples each)."""
         tq = self.tq
         if tq.codes is not None:
-            self.k = _rk.rk4_chunk(self.h, self.t0, self.q, self.Pi, self.J, self.J_inv, tq.codes, tq.params, tq.D,
-                                   self.k, n, self.save_every, self.normalize, q_out, Pi_out)
-            return OK
+            status, self.k = _rk.rk4_chunk(self.h, self.t0, self.q, self.Pi, self.J, self.J_inv, tq.codes, tq.params,
+                                           tq.D, self.k, n, self.save_every, self.normalize, q_out, Pi_out)
+            return status
         f, y, h, t0, se, normalize = self.f, self.y, self.h, self.t0, self.save_every, self.normalize
         h2, h6 = 0.5 * h, h / 6.0
         k0 = self.k
@@ -352,9 +357,15 @@ class RK4Run:
                 exc.args = (f"{exc.args[0]} (in step {k}; the run up to step {k} is in .trajectory)",)
                 exc.trajectory = partial(k)
                 raise
-            y = y + h6 * (k1 + 2.0 * (k2 + k3) + k4)
+            y_new = y + h6 * (k1 + 2.0 * (k2 + k3) + k4)
             if normalize:
-                y[:4] /= np.sqrt(y[:4] @ y[:4])
+                qq = y_new[:4] @ y_new[:4]
+                y_new[:4] /= np.sqrt(qq)
+            if not (np.isfinite(y_new).all() and (not normalize or 0.0 < qq < np.inf)):
+                self.y = y                  # the last finite state, before step k (as the compiled chunk)
+                self.k = k
+                return OVERFLOW
+            y = y_new
             if (i + 1) % se == 0:
                 j = (i + 1) // se - 1
                 q_out[j] = y[:4]
@@ -363,9 +374,16 @@ class RK4Run:
         self.k = k0 + n
         return OK
 
-    def failure(self, status: int, residual: float, iterations: int, trajectory: Any, where: str = "") -> Exception:
-        # an explicit method has no step that fails: never called (every chunk returns OK)
-        return RuntimeError(f"rk4 step {self.k} returned the status {status}{where}")  # pragma: no cover
+    def failure(self, status: int, residual: float, iterations: int, trajectory: Any,
+                where: str = "") -> ConvergenceError:
+        """The error of a step that made the state non-finite (``OVERFLOW``, the only failing status
+        of an explicit method), as :func:`lgvi.simulate` reports one: step, time and the run up to it."""
+        k = self.k
+        t_fail = self.t0 + k * self.h
+        return ConvergenceError(f"rk4 step {k} (t = {t_fail:g}) failed: the state (q, Pi) became non-finite "
+                                "(overflow): check the torque's magnitude, or reduce the step h. The run up to "
+                                f"step {k} is in .trajectory." + where, residual=float("nan"), iterations=0,
+                                step=k, time=t_fail, trajectory=trajectory)
 
     def state(self) -> dict[str, Any]:
         st = {"k": self.k, "q": self.q.copy(), "Pi": self.Pi.copy()}
