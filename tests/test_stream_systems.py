@@ -292,3 +292,14 @@ def test_scenario_with_wheels_streams_and_resumes_like_the_run_in_memory(tmp_pat
     got = sc.run_stream(tmp_path / "stream", chunk_steps=1000, resume=True)
     same_gyro(got, ref)
     assert got.meta["scenario_name"] == "wheel_slew"
+
+
+def test_stream_system_runs_the_gyrostat_by_name(tmp_path):
+    # stream_system(folder, "gyrostat", ...) goes through the gyrostat's registered run factory:
+    # the same stream as simulate_stream(wheels=...), and the in-memory run, bit for bit
+    kw = dict(omega0=W0, h=0.01, steps=600, wheels=wheels(), controller=MRPFeedback(K=0.5, P=1.0, target=R_REF),
+              control_period=0.05, save_every=3)
+    ref = lgvi.simulate(BODY, R0, **kw)
+    kw["controller"] = MRPFeedback(K=0.5, P=1.0, target=R_REF)
+    stream_system(tmp_path / "s", "gyrostat", BODY, R0, chunk_steps=150, **kw)
+    same_gyro(read_stream(tmp_path / "s"), ref)
