@@ -259,7 +259,11 @@ def declaration_of(torque: Any) -> dict[str, dict[str, Any]]:
     if torque is None:
         return {k: dict(v) for k, v in FREE_BODY.items()}
     if isinstance(torque, tuple(MODEL_TYPES)):
-        return _check(torque.invariants(), repr(torque))
+        decl = torque.invariants()
+        try:
+            return _check(decl, "")
+        except (TypeError, ValueError):  # again, naming the model (its repr only when needed: ~2 us a run)
+            return _check(decl, repr(torque))
     return {}
 
 
