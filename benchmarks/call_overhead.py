@@ -4,6 +4,7 @@ Usage::
 
     python benchmarks/call_overhead.py                          # the lgvi this Python imports
     python benchmarks/call_overhead.py --compare OLD/src NEW/src  # two source trees, alternated
+    python benchmarks/call_overhead.py --quick                  # a smoke run (tests/test_benchmarks.py)
 
 Short runs (``steps=10``) are dominated by the Python work of one call (validation, set-up,
 result wrapping), which is what optimisation and MPC loops pay on every call. Each case is timed
@@ -84,7 +85,10 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--rounds", type=int, default=3, help="child processes per tree (default 3)")
     ap.add_argument("--calls", type=int, default=200, help="calls per timed batch (default 200)")
     ap.add_argument("--batches", type=int, default=7, help="timed batches per child (default 7)")
+    ap.add_argument("--quick", action="store_true", help="1 round, 3 batches of 20 calls (a smoke run)")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.rounds, args.batches, args.calls = 1, 3, 20
     print(f"lgvi.simulate, steps=10: median us per call ({args.batches} batches of {args.calls} calls; "
           f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")
     if args.compare is None:
