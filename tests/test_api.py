@@ -364,6 +364,37 @@ def test_initial_matrix_slightly_off_so3_is_replaced_by_its_nearest_rotation():
     assert np.array_equal(both[0], R) and np.array_equal(both[1], so3.project(rounded))
 
 
+def test_quick_rotation_check_accepts_only_what_the_full_check_uses_as_is():
+    """The plain-float check that skips the NumPy one (issue 13, call overhead) accepts only
+    matrices orthogonal to tol / 2 with det +1, so every matrix it passes is one the full check
+    uses unchanged; near the thresholds the decision of ``nearest_rotation`` is the full check's."""
+    from lgvi._validation import ROTATION_TOL, _surely_rotation, nearest_rotation
+
+    rng = np.random.default_rng(13)
+    tol = ROTATION_TOL
+    accepted = rejected = 0
+    for i in range(400):
+        R = so3.exp(rng.normal(size=3))
+        S = rng.normal(size=(3, 3))
+        if i % 2:
+            S = np.triu(S, 1) + np.triu(S, 1).T       # off-diagonal defects only
+        S *= rng.uniform(0.02, 1.5) * tol / np.linalg.norm(S)
+        A = R @ (np.eye(3) + S) if i % 3 else -(R @ (np.eye(3) + S))  # and reflections
+        err = np.linalg.norm(A.T @ A - np.eye(3))
+        det = np.linalg.det(A)
+        if _surely_rotation(A, tol):
+            accepted += 1
+            assert err <= 0.5 * tol * (1 + 1e-6) and det > 0.0, (err, det)
+        else:
+            rejected += 1
+        if err <= 1e-6 and det > 0.0:
+            out, defect = nearest_rotation(A, "R0", "")
+            assert (defect is None) == (err <= tol)
+            if defect is None:
+                assert out is A
+    assert accepted > 30 and rejected > 30
+
+
 @pytest.mark.parametrize(
     "overrides,exc,pattern",
     [

@@ -43,6 +43,13 @@ def test_time_to_accuracy_quick():
 
 
 @pytest.mark.slow
+def test_call_overhead_quick():
+    proc = _run("call_overhead.py", "--quick", "--compare", "src", "src")
+    _check(proc, "case", "old us", "new us", "new/old", "free body", "UniformGravity", "splitting order 4")
+    assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
 def test_peers_quick():
     proc = _run("peers.py", "--quick")
     _check(proc, "case", "steps/s", "us/step", "lgvi newton, order 2", "scipy solve_ivp RK45",

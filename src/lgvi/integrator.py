@@ -68,6 +68,17 @@ def _solver_state(code: int, body: RigidBody, h: float, Pi: np.ndarray) -> np.nd
     return G
 
 
+def _solver_states(code: int, body: RigidBody, hs: np.ndarray, Pi: np.ndarray) -> np.ndarray:
+    """:func:`_solver_state` for each substep ``hs[i]``, (s, 5, 3), filled in place (no stack)."""
+    from ._kernels.solvers import initial_guess
+
+    guess = getattr(initial_guess, "py_func", initial_guess)
+    G = np.zeros((len(hs), 5, 3))
+    for i, hi in enumerate(hs.tolist()):
+        guess(code, body.J, hi * Pi, G[i, 0])
+    return G
+
+
 @dataclass(frozen=True)
 class StepResult:
     """Result of :func:`step`: the next state and the solve that produced it."""
@@ -429,7 +440,7 @@ class Run:
             self.G = _solver_state(self.code, body, h, self.Pi)
         else:
             self.gam, self.cum = comp.arrays()
-            self.G = np.stack([_solver_state(self.code, body, g * h, self.Pi) for g in self.gam])
+            self.G = _solver_states(self.code, body, self.gam * h, self.Pi)
             if self.func is None:
                 self.codes, self.params = (self.model.encode() if self.model is not None
                                            else (_NO_CODES, np.zeros(0)))

@@ -1,0 +1,114 @@
+"""Per-call overhead of :func:`lgvi.simulate`: median microseconds a call of a short run (issue 13).
+
+Usage::
+
+    python benchmarks/call_overhead.py                          # the lgvi this Python imports
+    python benchmarks/call_overhead.py --compare OLD/src NEW/src  # two source trees, alternated
+    python benchmarks/call_overhead.py --quick                  # a smoke run (tests/test_benchmarks.py)
+
+Short runs (``steps=10``) are dominated by the Python work of one call (validation, set-up,
+result wrapping), which is what optimisation and MPC loops pay on every call. Each case is timed
+in a child process (kernels compiled or loaded from the cache first, not timed): ``--calls``
+calls a batch, the median of ``--batches`` batches, in microseconds a call. With ``--compare``
+the two trees are measured in alternating child processes (``--rounds`` each, the median of
+their medians), so both see the same machine load; the table gives the ratio new / old.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+
+SETUP = """
+import numpy as np
+import lgvi
+from lgvi.torques import GravityGradient, UniformGravity
+top = lgvi.RigidBody([0.13, 0.28, 0.17])
+cubesat = lgvi.RigidBody([0.0433, 0.0418, 0.0067])
+gravity = UniformGravity(1.0, [0.0, 0.0, -0.3])
+gg = GravityGradient(3.986004418e14, 6878.137e3)
+both = gravity + GravityGradient(3.986004418e14, 6878.137e3)
+R0 = np.eye(3)
+"""
+#: case -> the call (a 10-step run)
+CASES: dict[str, str] = {
+    "free body": "lgvi.simulate(top, R0, omega0=[4.14, 4.14, 4.14], h=0.01, steps=10)",
+    "UniformGravity": "lgvi.simulate(top, R0, omega0=[4.14, 4.14, 4.14], h=0.01, steps=10, torque=gravity)",
+    "sum of two models": "lgvi.simulate(top, R0, omega0=[4.14, 4.14, 4.14], h=0.01, steps=10, torque=both)",
+    "GravityGradient order 4": ("lgvi.simulate(cubesat, R0, omega0=[0.08, -0.06, 0.09], h=1.0, steps=10, "
+                                "torque=gg, order=4)"),
+    "splitting order 4": ("lgvi.simulate(cubesat, R0, omega0=[0.08, -0.06, 0.09], h=8.0, steps=10, torque=gg, "
+                          "scheme='splitting', order=4)"),
+}
+
+CHILD = """
+import json, time
+{setup}
+cases = {cases!r}
+out = {{}}
+for name, code in cases.items():
+    f = eval("lambda: " + code)
+    for _ in range(20):
+        f()                               # compile / load the kernels, warm the caches
+    per = []
+    for _ in range({batches}):
+        t0 = time.perf_counter()
+        for _ in range({calls}):
+            f()
+        per.append((time.perf_counter() - t0) / {calls} * 1e6)
+    per.sort()
+    out[name] = per[len(per) // 2]
+print(json.dumps({{"file": lgvi.__file__, "us": out}}))
+"""
+
+
+def measure(src: str | None, calls: int, batches: int) -> dict[str, float]:
+    env = dict(os.environ)
+    if src is not None:
+        env["PYTHONPATH"] = os.path.abspath(src) + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    code = CHILD.format(setup=SETUP, cases=CASES, calls=calls, batches=batches)
+    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    res = json.loads(proc.stdout.strip().splitlines()[-1])
+    if src is not None and not os.path.abspath(res["file"]).startswith(os.path.abspath(src)):
+        raise RuntimeError(f"{src}: the child imported lgvi from {res['file']}")
+    return res["us"]
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--compare", nargs=2, metavar=("OLD_SRC", "NEW_SRC"),
+                    help="two source trees (the folders holding lgvi/), measured alternately")
+    ap.add_argument("--rounds", type=int, default=3, help="child processes per tree (default 3)")
+    ap.add_argument("--calls", type=int, default=200, help="calls per timed batch (default 200)")
+    ap.add_argument("--batches", type=int, default=7, help="timed batches per child (default 7)")
+    ap.add_argument("--quick", action="store_true", help="1 round, 3 batches of 20 calls (a smoke run)")
+    args = ap.parse_args(argv)
+    if args.quick:
+        args.rounds, args.batches, args.calls = 1, 3, 20
+    print(f"lgvi.simulate, steps=10: median us per call ({args.batches} batches of {args.calls} calls; "
+          f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")
+    if args.compare is None:
+        us = measure(None, args.calls, args.batches)
+        print(f"{'case':<26}{'us/call':>10}")
+        for name, v in us.items():
+            print(f"{name:<26}{v:>10.1f}")
+        return
+    old_src, new_src = args.compare
+    runs: dict[str, list[dict[str, float]]] = {old_src: [], new_src: []}
+    for r in range(args.rounds):
+        for src in ((old_src, new_src) if r % 2 == 0 else (new_src, old_src)):
+            runs[src].append(measure(src, args.calls, args.batches))
+    print(f"old: {old_src}\nnew: {new_src}\n({args.rounds} alternated child processes each, median of their medians)")
+    print(f"{'case':<26}{'old us':>10}{'new us':>10}{'new/old':>10}")
+    for name in CASES:
+        o = statistics.median(m[name] for m in runs[old_src])
+        n = statistics.median(m[name] for m in runs[new_src])
+        print(f"{name:<26}{o:>10.1f}{n:>10.1f}{n / o:>10.2f}")
+
+
+if __name__ == "__main__":
+    main()
