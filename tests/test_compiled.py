@@ -255,3 +255,146 @@ def test_momentum_equation_that_does_not_converge_stops_the_run(threads):
     assert info.value.step == 25
     traj = info.value.trajectory
     assert np.all(np.isfinite(traj.Pi)) and np.all(np.isfinite(traj.R))
+
+
+# --- evaluating a trajectory's samples: one compiled loop (user_kernels.user_*_series) ---------
+
+def per_sample_moment(func, t, R, Pi, p):
+    """The evaluation before the series loop: one call from Python per sample."""
+    lead = R.shape[:-2]
+    t = np.broadcast_to(np.asarray(t, dtype=np.float64), lead)
+    Pi = np.broadcast_to(Pi, lead + (3,))
+    out = np.empty(lead + (3,))
+    for i in np.ndindex(*lead):
+        out[i] = np.asarray(func(float(t[i]), np.ascontiguousarray(R[i]), np.ascontiguousarray(Pi[i]), p))
+    return out
+
+
+def per_sample_potential(func, t, R, p):
+    lead = R.shape[:-2]
+    t = np.broadcast_to(np.asarray(t, dtype=np.float64), lead)
+    out = np.empty(lead)
+    for i in np.ndindex(*lead):
+        out[i] = float(func(float(t[i]), np.ascontiguousarray(R[i]), p))
+    return out
+
+
+@numba.njit
+def wobbly_moment(t, R, Pi, p):
+    # uses t, R, Pi and the params with operations whose rounding a different order would change
+    out = np.empty(3)
+    for i in range(3):
+        out[i] = p[0] * np.sin(t * p[1] + R[i, 0]) * R[2, i] + p[2] * Pi[i] * Pi[(i + 1) % 3] / 3.0
+    return out
+
+
+@numba.njit
+def wobbly_potential(t, R, p):
+    return p[0] * np.cos(t * p[1]) * (R[2, 0] + R[2, 1] / 7.0) + p[2] * R[0, 0] * R[1, 1] * R[2, 2]
+
+
+def samples(lead, seed=3):
+    rng = np.random.default_rng(seed)
+    R = np.stack([lgvi.so3.exp(v) for v in rng.standard_normal((int(np.prod(lead)), 3))]).reshape(lead + (3, 3))
+    return rng.uniform(0.0, 5.0, lead), R, rng.standard_normal(lead + (3,))
+
+
+def series_model(moment, potential=None, params=None):
+    m = Compiled(moment, potential=potential, params=params)
+    m.series_min = 1                      # the compiled series loop for every sample count
+    m.series_compile = 0
+    return m
+
+
+@pytest.mark.parametrize("lead", [(), (1,), (5,), (300,), (4, 70)])
+@pytest.mark.parametrize("funcs", [(gravity_moment, gravity_potential), (wobbly_moment, wobbly_potential)])
+def test_series_equals_per_sample_bit_for_bit(lead, funcs):
+    from lgvi._kernels import user_kernels
+
+    p = np.array([0.7, 1.9, -0.4])
+    model = series_model(*funcs, params=p)
+    t, R, Pi = samples(lead)
+    assert np.array_equal(model.moment(t, R, Pi, None), per_sample_moment(funcs[0], t, R, Pi, p))
+    assert np.array_equal(model.potential(t, R, None), per_sample_potential(funcs[1], t, R, p))
+    # scalar time and a single momentum broadcast over the samples
+    pi = Pi.reshape(-1, 3)[0]
+    assert np.array_equal(model.moment(1.25, R, pi, None), per_sample_moment(funcs[0], 1.25, R, pi, p))
+    assert np.array_equal(model.potential(1.25, R, None), per_sample_potential(funcs[1], 1.25, R, p))
+    assert model.moment(t, R, Pi, None).shape == lead + (3,)
+    assert model.potential(t, R, None).shape == lead
+    if lead:        # the compiled loops did run (a single sample stays one call from Python)
+        typ = numba.typeof(funcs[0])
+        assert any(sig[0] == typ for sig in user_kernels.user_moment_series.signatures)
+        typ = numba.typeof(funcs[1])
+        assert any(sig[0] == typ for sig in user_kernels.user_potential_series.signatures)
+
+
+def test_series_per_body_params_rows():
+    rows = np.array([[0.7, 1.9, -0.4], [-1.1, 0.3, 2.0]])
+    model = series_model(wobbly_moment, wobbly_potential, params=rows)
+    t, R, Pi = samples((50,))
+    for b in range(2):
+        assert np.array_equal(model.moment(t, R, Pi, None, b=b), per_sample_moment(wobbly_moment, t, R, Pi, rows[b]))
+        assert np.array_equal(model.potential(t, R, None, b=b), per_sample_potential(wobbly_potential, t, R, rows[b]))
+    assert not np.array_equal(model.potential(t, R, None, b=0), model.potential(t, R, None, b=1))
+    with pytest.raises(ValueError, match="one row per body"):
+        model.potential(t, R, None)
+
+
+def test_series_default_thresholds_and_python_path_agree():
+    # the default model (Python calls below series_compile unless compiled) gives the same numbers
+    p = np.array([0.7, 1.9, -0.4])
+    t, R, Pi = samples((3, 40))
+    a = Compiled(wobbly_moment, potential=wobbly_potential, params=p)
+    a.series_min = 1 << 62                                   # always one call per sample
+    b = series_model(wobbly_moment, wobbly_potential, params=p)
+    c = Compiled(wobbly_moment, potential=wobbly_potential, params=p)
+    for m in (b, c):
+        assert np.array_equal(m.moment(t, R, Pi, None), a.moment(t, R, Pi, None))
+        assert np.array_equal(m.potential(t, R, None), a.potential(t, R, None))
+
+
+def test_series_bad_input_raises_as_before():
+    model = series_model(wobbly_moment, wobbly_potential, params=[1.0, 1.0, 1.0])
+    t, R, Pi = samples((30,))
+    with pytest.raises(ValueError, match="R must have shape"):
+        model.potential(t, R[:, :2], None)
+    with pytest.raises(ValueError, match="Pi must have shape"):
+        model.moment(t, R, Pi[:, :2], None)
+    with pytest.raises(ValueError):
+        model.moment(t[:7], R, Pi, None)                     # t does not broadcast to the samples
+
+    @numba.njit
+    def grows(t, R, Pi, p):
+        return np.zeros(3 if t < 1.0 else 4)                 # passes the trial call at t = 0
+
+    g = series_model(grows)
+    with pytest.raises(ValueError, match="could not broadcast"):
+        g.moment(np.linspace(0.0, 2.0, 30), R, Pi, None)     # the per-sample error, as before
+    assert np.array_equal(g.moment(np.zeros(30), R, Pi, None), np.zeros((30, 3)))
+
+
+@pytest.mark.parametrize("series", [True, False])
+def test_series_leaves_the_samples_alone(series):
+    @numba.njit
+    def scribbles(t, R, Pi, p):
+        R[0, 0] = 99.0              # the per-sample calls passed views of the samples: this wrote into them
+        return (R[0, 0], 0.0, 0.0)
+
+    t, R, Pi = samples((20,))
+    R0_, Pi0_ = R.copy(), Pi.copy()
+    out = (series_model(scribbles) if series else Compiled(scribbles)).moment(t, R, Pi, None)
+    assert np.array_equal(out[:, 0], np.full(20, 99.0))
+    assert np.array_equal(R, R0_) and np.array_equal(Pi, Pi0_)
+
+
+def test_energy_of_a_compiled_run_unchanged_by_the_series_loop():
+    p = GRAVITY.mass * GRAVITY.g * GRAVITY.com
+    a = Compiled(gravity_moment, potential=gravity_potential, params=p)
+    a.series_min = 1 << 62                                   # the per-sample Python calls
+    b = series_model(gravity_moment, gravity_potential, params=p)
+    ta, tb = run(a, steps=500), run(b, steps=500)
+    assert np.array_equal(ta.R, tb.R)
+    assert np.array_equal(tb.potential, per_sample_potential(gravity_potential, tb.t, tb.R, p))
+    assert np.array_equal(ta.energy, tb.energy)
+    assert np.array_equal(ta.potential, tb.potential)

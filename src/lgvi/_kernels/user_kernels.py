@@ -207,3 +207,41 @@ def run_chunk_user(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, h, t0, 
         Rt, Pt, Mt = Rx, Px, Mx
     save_state(R, Pi, S, Rt, Pt, Mt)
     return status, kend, book[0], book[1], its_sum, book[2]
+
+
+@jit(cache=False)
+def user_moment_series(moment, t, R, Pi, up, Rs, Ps, out):
+    """The user's moment at each sample: ``out[i] = moment(t[i], R[i], Pi[i], up)``.
+
+    ``t`` (M,), ``R`` (M, 3, 3), ``Pi`` (M, 3), ``out`` (M, 3). Each sample is copied into the
+    scratch arrays ``Rs`` (3, 3), ``Ps`` (3,) (C-contiguous, as the per-sample evaluation passes
+    them) so the user's function cannot change the samples. Returns -1, or the index of the first
+    sample whose moment is not 3 numbers (``out`` is then incomplete; the caller re-evaluates in
+    Python to raise the per-sample error).
+    """
+    for i in range(t.shape[0]):
+        for a in range(3):
+            for c in range(3):
+                Rs[a, c] = R[i, a, c]
+            Ps[a] = Pi[i, a]
+        m = moment(t[i], Rs, Ps, up)
+        if len(m) != 3:
+            return i
+        out[i, 0] = float(m[0])
+        out[i, 1] = float(m[1])
+        out[i, 2] = float(m[2])
+    return -1
+
+
+@jit(cache=False)
+def user_potential_series(potential, t, R, up, Rs, out):
+    """The user's potential at each sample: ``out[i] = potential(t[i], R[i], up)``.
+
+    ``t`` (M,), ``R`` (M, 3, 3), ``out`` (M,); ``Rs`` (3, 3) scratch as in
+    :func:`user_moment_series`.
+    """
+    for i in range(t.shape[0]):
+        for a in range(3):
+            for c in range(3):
+                Rs[a, c] = R[i, a, c]
+        out[i] = float(potential(t[i], Rs, up))
