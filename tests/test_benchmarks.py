@@ -50,6 +50,13 @@ def test_call_overhead_quick():
 
 
 @pytest.mark.slow
+def test_bench_compiled_energy_quick():
+    proc = _run("bench_compiled_energy.py", "--quick")
+    _check(proc, "potential", "moment", "1000")
+    assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
 def test_peers_quick():
     proc = _run("peers.py", "--quick")
     _check(proc, "case", "steps/s", "us/step", "lgvi newton, order 2", "scipy solve_ivp RK45",
