@@ -494,6 +494,35 @@ def kick(moment, up, user, diag, Pax, J, codes, params, t, hb, R, Pi, Rs, Ps):
 
 
 @jit(inline="always")
+def step_end(R, Pi, Rb, Pb, countdown, save_every, jout, R_out, Pi_out, Pax, diag, ws):
+    """A step's end in :func:`split_steps` and :func:`axes_steps`: if ``R`` or ``Pi`` is not finite,
+    restore them from ``Rb``, ``Pb`` (the step's start) and return ``ok = False``; else, when
+    ``countdown`` is 0, store sample ``jout`` (in the body frame) and restart the countdown.
+    Returns ``(ok, countdown, jout)``."""
+    ok = math.isfinite(Pi[0]) and math.isfinite(Pi[1]) and math.isfinite(Pi[2])
+    for i in range(3):
+        for j in range(3):
+            ok = ok and math.isfinite(R[i, j])
+    if not ok:
+        for i in range(3):
+            Pi[i] = Pb[i]
+            for j in range(3):
+                R[i, j] = Rb[i, j]
+        return False, countdown, jout
+    if countdown == 0:
+        countdown = save_every
+        for i in range(3):
+            Pi_out[jout, i] = Pi[i]
+            for j in range(3):
+                R_out[jout, i, j] = R[i, j]
+        if not diag:
+            # saved in the body frame
+            _to_frame(R_out[jout], Pi_out[jout], Pax, diag, ws)
+        jout += 1
+    return True, countdown, jout
+
+
+@jit(inline="always")
 def split_steps(moment, up, user, I, ax, symax, Pax, diag, J, drift, weight, node, h, t0, R, Pi, codes, params,
                 k0, n, save_every, R_out, Pi_out, ws, Rb, Pb, Rs, Ps):
     """Steps ``k0 .. k0+n-1`` of the splitting: per step, drifts (exact free flows) of
@@ -522,29 +551,12 @@ def split_steps(moment, up, user, I, ax, symax, Pax, diag, J, drift, weight, nod
         if countdown == 0:
             free_flow(I, ax, symax, R, Pi, pend, ws)
             pend = 0.0
-        ok = math.isfinite(Pi[0]) and math.isfinite(Pi[1]) and math.isfinite(Pi[2])
-        for i in range(3):
-            for j in range(3):
-                ok = ok and math.isfinite(R[i, j])
+        ok, countdown, jout = step_end(R, Pi, Rb, Pb, countdown, save_every, jout, R_out, Pi_out, Pax, diag, ws)
         if not ok:
-            for i in range(3):
-                Pi[i] = Pb[i]
-                for j in range(3):
-                    R[i, j] = Rb[i, j]
             free_flow(I, ax, symax, R, Pi, pend_b, ws)
             status = OVERFLOW
             kend = k
             break
-        if countdown == 0:
-            countdown = save_every
-            for i in range(3):
-                Pi_out[jout, i] = Pi[i]
-                for j in range(3):
-                    R_out[jout, i, j] = R[i, j]
-            if not diag:
-                # saved in the body frame
-                _to_frame(R_out[jout], Pi_out[jout], Pax, diag, ws)
-            jout += 1
     if not diag:
         _to_frame(R, Pi, Pax, diag, ws)
     return status, kend
@@ -604,27 +616,11 @@ def axes_steps(moment, up, user, I, ax, Pax, diag, J, weight, node, h, t0, R, Pi
             hb = 0.5 * (weight[i] + weight[i + 1]) * h if i + 1 < s else 0.5 * g
             kick(moment, up, user, diag, Pax, J, codes, params, t0 + (k + node[i]) * h, hb, R, Pi, Rs, Ps)
         countdown -= 1
-        ok = math.isfinite(Pi[0]) and math.isfinite(Pi[1]) and math.isfinite(Pi[2])
-        for i in range(3):
-            for j in range(3):
-                ok = ok and math.isfinite(R[i, j])
+        ok, countdown, jout = step_end(R, Pi, Rb, Pb, countdown, save_every, jout, R_out, Pi_out, Pax, diag, ws)
         if not ok:
-            for i in range(3):
-                Pi[i] = Pb[i]
-                for j in range(3):
-                    R[i, j] = Rb[i, j]
             status = OVERFLOW
             kend = k
             break
-        if countdown == 0:
-            countdown = save_every
-            for i in range(3):
-                Pi_out[jout, i] = Pi[i]
-                for j in range(3):
-                    R_out[jout, i, j] = R[i, j]
-            if not diag:
-                _to_frame(R_out[jout], Pi_out[jout], Pax, diag, ws)
-            jout += 1
     if not diag:
         _to_frame(R, Pi, Pax, diag, ws)
     return status, kend
