@@ -228,19 +228,18 @@ def _fmt_drift(x: float | None) -> str:
     return "n/a (zero scale)" if x is None else f"{x:.3e}"
 
 
-def _conservation_lines(traj, drifts: dict[str, Any]) -> list[str]:
-    """The conservation block of ``summary.txt``: each declared invariant with its kind and
+def _conservation_lines(decl, drifts: dict[str, Any], width: int = 34) -> list[str]:
+    """The conservation block of ``summary.txt``: each invariant ``decl`` declares with its kind and
     largest change, then the usual quantities this system does not conserve, marked so."""
-    from ..invariants import KIND_TEXT, QUANTITIES, declared
+    from ..invariants import KIND_TEXT, QUANTITIES
 
-    decl = declared(traj)
     lines = [f"conservation (largest change over the run; {decl.note()}):"]
     for k in decl.quantities():
         q = QUANTITIES[k]
         change = (f"abs {drifts[q.abs_key]:.3e}   " if q.abs_key else "") + f"rel {_fmt_drift(drifts[q.rel_key])}"
-        lines.append(f"  {q.name:<34} {change}   {KIND_TEXT[decl.kind(k)]}")
-    lines += [f"  {QUANTITIES[k].name:<34} not an invariant here" for k in decl.not_invariants()]
-    lines.append(f"  {'|R^T R - I|':<34} max {drifts['orthogonality_max']:.3e}")
+        lines.append(f"  {q.name:<{width}} {change}   {KIND_TEXT[decl.kind(k)]}")
+    lines += [f"  {QUANTITIES[k].name:<{width}} not an invariant here" for k in decl.not_invariants()]
+    lines.append(f"  {'|R^T R - I|':<{width}} max {drifts['orthogonality_max']:.3e}")
     return lines
 
 
@@ -309,7 +308,7 @@ def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], 
         + ("" if kernel_load is None else f"; kernel load/compile before it {kernel_load:.3g} s"),
         f"solver:        mean {data['iterations_mean'] if data['iterations_mean'] is None else round(data['iterations_mean'], 3)}"
         f" iterations/step, max {data['iterations_max']}, max residual {data['residual_max']}",
-        *_conservation_lines(traj, drifts),
+        *_conservation_lines(declared(traj), drifts),
         f"files:         {', '.join(data['files'])}",
         "",
         "scenario:",
@@ -484,20 +483,6 @@ def _system_declaration(traj):
     return Declaration(decl.entries, what, decl.recorded)
 
 
-def _system_conservation_lines(traj, decl, drifts: dict[str, Any]) -> list[str]:
-    """The conservation block of an orbit or two-body run's ``summary.txt``."""
-    from ..invariants import KIND_TEXT, QUANTITIES
-
-    lines = [f"conservation (largest change over the run; {decl.note()}):"]
-    for k in decl.quantities():
-        q = QUANTITIES[k]
-        change = (f"abs {drifts[q.abs_key]:.3e}   " if q.abs_key else "") + f"rel {_fmt_drift(drifts[q.rel_key])}"
-        lines.append(f"  {q.name:<50} {change}   {KIND_TEXT[decl.kind(k)]}")
-    lines += [f"  {QUANTITIES[k].name:<50} not an invariant here" for k in decl.not_invariants()]
-    lines.append(f"  {'|R^T R - I|':<50} max {drifts['orthogonality_max']:.3e}")
-    return lines
-
-
 def _system_lines(traj) -> list[str]:
     """What was simulated: the orbit's or the pair's parameters and range."""
     meta = traj.meta
@@ -559,7 +544,7 @@ def write_system_summary(outdir: Path, traj, scenario, wall: float, files: list[
          f"{data['iterations_interval_mean']:.3f}, max {data['iterations_max']}; max final residual (absolute) "
          f"{data['residual_max']:.3e}"
          if its.size else "solver:        no steps recorded"),
-        *(_system_conservation_lines(traj, decl, drifts) if len(traj.t) else []),
+        *(_conservation_lines(decl, drifts, width=50) if len(traj.t) else []),
         f"files:         {', '.join(data['files'])}",
         "",
         "scenario:",

@@ -471,21 +471,11 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
     run = Run(body, R0, Pi0, omega0=omega0, h=h, steps=steps, torque=torque, method=method, tol=tol,
               max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0, forcing=forcing, order=order,
               composition=composition, solver_record=solver_record)
-    if chunk_steps is not None:
-        run.chunk = max(1, as_int(chunk_steps, "chunk_steps", minimum=1) // run.save_every) * run.save_every
+    _chunk_steps(run, chunk_steps)
     stream_meta = dict(run.meta, **(meta or {}), h=run.h, steps=run.steps, inertia=run.body.J.tolist())
     folder = Path(folder)
-    writer = StreamWriter(folder, stream_meta, resume=resume,
-                          check=lambda manifest: _check_resume(manifest["meta"], stream_meta, folder))
-    if resume and writer.state is not None:
-        run.load_state(writer.state)
-        if writer.manifest.get("complete") and run.k == run.steps:
-            writer.release()
-            return folder
-    sink = StreamSink(run, writer, folder)
-    with writer:
-        drive(run, sink, progress)  # lgvi.driver: chunks, progress, Ctrl-C, failures
-    return folder
+    return _drive_stream(folder, run, stream_meta, resume, progress,
+                         lambda manifest: _check_resume(manifest["meta"], stream_meta, folder))
 
 
 def stream_system(folder: str | os.PathLike, system: str, *args: Any, progress: Any = False, resume: bool = False,
@@ -531,13 +521,26 @@ def stream_run(folder: str | os.PathLike, run: Any, *, resume: bool = False, pro
                chunk_steps: int | None = None, meta: dict[str, Any] | None = None) -> Path:
     """Drive a validated run of a streamable system (its ``system.from_stream`` set, with
     ``stream_meta()``, ``state()`` and ``load_state()``) into the stream folder ``folder``."""
-    if chunk_steps is not None:
-        run.chunk = max(1, as_int(chunk_steps, "chunk_steps", minimum=1) // run.save_every) * run.save_every
+    _chunk_steps(run, chunk_steps)
     stream_meta = json.loads(json.dumps(dict(run.stream_meta(), **(meta or {}))))
     folder = Path(folder)
     ignore = {"lgvi_version", *(meta or {})}
-    writer = StreamWriter(folder, stream_meta, resume=resume,
-                          check=lambda manifest: _check_resume_system(manifest["meta"], stream_meta, folder, ignore))
+    return _drive_stream(folder, run, stream_meta, resume, progress,
+                         lambda manifest: _check_resume_system(manifest["meta"], stream_meta, folder, ignore))
+
+
+def _chunk_steps(run: Any, chunk_steps: int | None) -> None:
+    """Set the run's chunk to ``chunk_steps`` rounded down to whole saved intervals (at least one)."""
+    if chunk_steps is not None:
+        run.chunk = max(1, as_int(chunk_steps, "chunk_steps", minimum=1) // run.save_every) * run.save_every
+
+
+def _drive_stream(folder: Path, run: Any, stream_meta: dict[str, Any], resume: bool, progress: Any,
+                  check: Any) -> Path:
+    """Open the stream folder (``check(manifest)`` refuses to resume another run), continue from
+    its saved state when resuming (an already complete stream is left as it is), and drive the run
+    into it chunk by chunk."""
+    writer = StreamWriter(folder, stream_meta, resume=resume, check=check)
     if resume and writer.state is not None:
         try:
             run.load_state(writer.state)
