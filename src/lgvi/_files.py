@@ -31,6 +31,20 @@ LOCK_NAME = ".lgvi.lock"
 NO_SPACE = tuple(e for e in (getattr(errno, "ENOSPC", None), getattr(errno, "EDQUOT", None)) if e is not None)
 
 
+def lgvi_header(data: Any, expected: str) -> dict[str, Any]:
+    """The JSON ``__lgvi__`` header of an opened lgvi ``.npz`` whose format must be ``expected``;
+    ValueError saying what is wrong otherwise."""
+    import json
+
+    if "__lgvi__" not in data.files:
+        raise ValueError("no '__lgvi__' header")
+    header = json.loads(str(data["__lgvi__"]))
+    if not isinstance(header, dict) or header.get("format") != expected:
+        what = header.get("format") if isinstance(header, dict) else header
+        raise ValueError(f"format {what!r}, expected {expected!r}")
+    return header
+
+
 def write_atomic(path: str | os.PathLike, write: Callable[[Any], Any]) -> None:
     """Write ``path`` as ``write(fh)`` does into a binary file, atomically.
 

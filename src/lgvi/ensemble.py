@@ -22,7 +22,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ._files import write_atomic, write_failure
+from ._files import lgvi_header, write_atomic, write_failure
 from ._kernels.codes import METHOD_CAYLEY, OK
 from ._untrusted import check_npz, inside
 from ._validation import REPAIR_TOL, ROTATION_TOL, as_float_array, as_int, choice, is_scipy_rotation, warn_repaired
@@ -227,12 +227,7 @@ def _load_one(path: str) -> EnsembleTrajectory:
             raise ValueError("not an .npz (zip) archive")
         check_npz(path)
         with np.load(path, allow_pickle=False) as data:
-            if "__lgvi__" not in data.files:
-                raise ValueError("no '__lgvi__' header")
-            header = json.loads(str(data["__lgvi__"]))
-            if not isinstance(header, dict) or header.get("format") != ENSEMBLE_FORMAT:
-                what = header.get("format") if isinstance(header, dict) else header
-                raise ValueError(f"format {what!r}, expected {ENSEMBLE_FORMAT!r}")
+            header = lgvi_header(data, ENSEMBLE_FORMAT)
             names = ("t", "R", "Pi", "inertia", "iterations", "residual", "h")
             missing = [k for k in names if k not in data.files]
             if missing:

@@ -178,6 +178,7 @@ class GyrostatEnsemble:
 
 def _read(path: str) -> GyrostatEnsemble:
     """The ensemble in ``path`` (checked: see :meth:`GyrostatEnsemble.load`)."""
+    from .._files import lgvi_header
     from .._untrusted import check_npz
     from ..trajectory import RESULT_TYPES, check_arrays
 
@@ -188,12 +189,7 @@ def _read(path: str) -> GyrostatEnsemble:
             raise ValueError("not an .npz (zip) archive")
     check_npz(path)       # no object arrays, no declared size beyond the file's bytes
     with np.load(path, allow_pickle=False) as data:
-        if "__lgvi__" not in data.files:
-            raise ValueError("no '__lgvi__' header")
-        header = json.loads(str(data["__lgvi__"]))
-        if not isinstance(header, dict) or header.get("format") != FORMAT:
-            what = header.get("format") if isinstance(header, dict) else header
-            raise ValueError(f"format {what!r}, expected {FORMAT!r}")
+        header = lgvi_header(data, FORMAT)
         missing = [k for k in ("t", "h") + _MEMBER_ARRAYS if k not in data.files]
         if missing:
             raise ValueError(f"missing field(s) {', '.join(missing)}")
