@@ -331,22 +331,26 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     True
     """
     if wheels is not None or controller is not None or control_period is not None or environment is not None \
-            or magnetorquers is not None:   # the gyrostat and the control loop (lgvi.systems.gyrostat)
+            or magnetorquers is not None or scheme == "rkmk4":   # the gyrostat and the control loop (lgvi.systems.gyrostat)
         from .systems.gyrostat import gyrostat_options, simulate_gyrostat
 
-        if scheme is not None and scheme != "lgvi":
+        if scheme is not None and scheme not in ("lgvi", "rkmk4"):
             raise ValueError(f"scheme={scheme!r} cannot be combined with wheels=, controller=, "
                              "environment= or magnetorquers=: reaction wheels and the control loop run "
-                             "with the LGVI (scheme=None)")
+                             "with the LGVI (scheme=None) or the explicit RKMK scheme (scheme='rkmk4')")
+        if scheme == "rkmk4":
+            from .systems.gyrostat_rkmk import check_rkmk_options
 
-        gyrostat_options(torque=torque, forcing=forcing, order=order, composition=composition,
-                         error_estimate=error_estimate)
+            check_rkmk_options(torque=torque, order=order, composition=composition)
+        else:
+            gyrostat_options(torque=torque, forcing=forcing, order=order, composition=composition,
+                             error_estimate=error_estimate)
         return simulate_gyrostat(body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels, controller=controller,
                                  control_period=control_period, environment=environment, magnetorquers=magnetorquers,
                                  progress=progress, method=method, tol=tol, max_iter=max_iter, alpha=alpha,
                                  save_every=save_every, t0=t0, solver_record=solver_record, order=order,
                                  composition=composition, torque=torque, error_estimate=error_estimate,
-                                 error_warn=error_warn)
+                                 error_warn=error_warn, scheme=scheme)
     from .accuracy import check_options
 
     estimate, warn = check_options(error_estimate, error_warn, torque)
