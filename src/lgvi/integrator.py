@@ -251,12 +251,15 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
         ``(M - 1,)``, so the result is sized by the saved states; ``"full"`` every step, shape
         ``(steps,)``. With ``save_every=1`` both are the per-step record. Run totals and a
         histogram of the iterations are kept either way (:attr:`Trajectory.solver_summary`).
-    scheme : {None, "lgvi", "splitting"}
+    scheme : {None, "lgvi", "splitting", "rkmk4"}
         ``None`` (or ``"lgvi"``): the LGVI above and its compositions. ``"splitting"``: exact
         free-body flows and kicks of the torque model's moment ``M(t, R)`` (:mod:`lgvi.splitting`),
         for potentials and other moments of the attitude and time; ``order`` 2, 4 or 6 and
         ``composition`` a name in :data:`lgvi.registry.SPLITTINGS`. The solver options are unused
-        (no implicit equation), the record's iterations and residuals are zero.
+        (no implicit equation), the record's iterations and residuals are zero. ``"rkmk4"``: the
+        gyrostat (with or without ``wheels``) by an explicit 4th-order Runge-Kutta-Munthe-Kaas
+        method in Cayley coordinates, momentum-exact but not symplectic (``docs/gyrostat_rkmk.md``;
+        ``composition`` its tableau, ``torque`` refused, iterations and residuals zero).
     wheels : lgvi.ReactionWheels, optional
         Balanced reaction wheels (a gyrostat, ``docs/gyrostat.md``); ``body`` is then the
         spacecraft with the wheels locked, ``Pi0`` the total body momentum. The result is a
@@ -331,7 +334,7 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     True
     """
     if wheels is not None or controller is not None or control_period is not None or environment is not None \
-            or magnetorquers is not None or scheme == "rkmk4":   # the gyrostat and the control loop (lgvi.systems.gyrostat)
+            or magnetorquers is not None or scheme == "rkmk4":   # the gyrostat (lgvi.systems.gyrostat)
         from .systems.gyrostat import gyrostat_options, simulate_gyrostat
 
         if scheme is not None and scheme not in ("lgvi", "rkmk4"):

@@ -164,8 +164,8 @@ def rkmk_steps(tab, JBi, h, t0, q, R, Pi, rho, axes, wp, cmd, tau, u_now, ctrl, 
     The compiled MRP feedback (``ctrl = 1``, every ``spc`` steps; :func:`lgvi._kernels.gyrostat_kernels.mrp_law`)
     takes its error from the quaternions (:func:`mrp_error_q`, ``qr[:4]`` the quaternion of
     ``R_ref``); ``qr[4] != 0``: the reference rates in ``cp`` are not zero, ``R`` is then formed for
-    them. ``R`` (3, 3) is set from ``q`` at the saved samples and at the end. Buffers and records as :func:`lgvi._kernels.gyrostat_kernels.gyro_steps`
-    (iterations and residuals zero). A step whose ``|theta|`` exceeds ``theta_max`` or whose new
+    them. ``R`` (3, 3) is set from ``q`` at the saved samples and at the end. Buffers and records as
+    :func:`lgvi._kernels.gyrostat_kernels.gyro_steps` (iterations and residuals zero). A step whose ``|theta|`` exceeds ``theta_max`` or whose new
     momentum is not finite is not taken: returns ``(status, k, |theta|)`` with the state of its
     start; else ``(OK, k0 + n, 0.0)``.
     """

@@ -762,8 +762,8 @@ def simulate_gyrostat(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None
               save_every=run.save_every, t0=run.t0, progress=progress, scheme="lgvi", forcing="symmetric")
     if run_class is not GyrostatRun:
         kw.update(scheme=scheme, order=4, composition=run.tableau)
-    return with_estimate(traj, kw, warn=warn, stacklevel=3,
-                         order=1 if run.wheels.has_friction else (4 if run_class is not GyrostatRun else run.comp.order))
+    order = 4 if run_class is not GyrostatRun else run.comp.order
+    return with_estimate(traj, kw, warn=warn, stacklevel=3, order=1 if run.wheels.has_friction else order)
 
 
 def scheme_run_class(scheme: Any) -> Any:

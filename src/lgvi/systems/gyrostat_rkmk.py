@@ -137,8 +137,8 @@ class GyrostatRKMKRun(GyrostatRun):
         per = 1 if self.full else self.save_every
         status, k, theta = run_rkmk(self.tab, self.JB_inv, self.h, self.t0, self.q, self.R, self.Pi,
                                     self.wheel_momentum, self.wheels.axes, self.wp, self.cmd, self.tau, self.u_now,
-                                    self.ctrl, self.cp, self.cs, self.qr, self.spc, k0, n, kb, self.save_every, per, THETA_MAX,
-                                    R_out, Pi_out, rho_out, u_out, it_out, res_out, self.counts)
+                                    self.ctrl, self.cp, self.cs, self.qr, self.spc, k0, n, kb, self.save_every, per,
+                                    THETA_MAX, R_out, Pi_out, rho_out, u_out, it_out, res_out, self.counts)
         self.k = int(k)
         self.theta = float(theta)
         self.last_its, self.last_res = 0, 0.0
