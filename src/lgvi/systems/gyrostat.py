@@ -827,4 +827,4 @@ def _provide() -> None:
 _provide()
 
 __all__ = ["GYROSTAT", "GyrostatRun", "GyrostatTrajectory", "ReactionWheels", "controller_state", "gyrostat_options",
-           "gyrostat_run", "load_controller_state", "simulate_gyrostat"]
+           "gyrostat_run", "load_controller_state", "scheme_run_class", "simulate_gyrostat"]
