@@ -258,3 +258,15 @@ def test_environment_and_magnetorquers_are_a_held_body_torque():
     assert np.abs(a.R - c.R).max() < 2e-9 and np.abs(a.Pi - c.Pi).max() < 2e-9      # measured 5.6e-10
     assert np.abs(a.spatial_momentum[-1] - a.spatial_momentum[0]).max() > 1e-4     # the torque acted
     assert a.meta["invariants"] == {}
+
+
+def test_error_estimate_runs_the_same_scheme_at_half_the_step():
+    kw = dict(h=0.05, steps=400, wheels=wheels(max_torque=0.05), controller=MRPFeedback(0.5, 2.0, target=R_REF),
+              control_period=0.1, save_every=20)
+    traj = lgvi.simulate(BODY, R0, omega0=W0, scheme="rkmk4", error_estimate=True, **kw)
+    est = traj.meta["error_estimate"]
+    assert est["order"] == 4 and est["h"] == 0.05
+    # the estimate (Richardson, order 4) is near the actual error against a converged run
+    ref = lgvi.simulate(BODY, R0, omega0=W0, **dict(kw, h=0.1 / 64, steps=400 * 32, save_every=640), order=6)
+    actual = max(angle(a, b) for a, b in zip(ref.R, traj.R))
+    assert 0.3 < est["attitude_max"] / actual < 3.0, (est["attitude_max"], actual)
