@@ -186,10 +186,12 @@ def basilisk_in(python: str | None, ki: float | None = None, repeat: int = 1) ->
 # ------------------------------------------------------------------------------------------------
 # lgvi
 # ------------------------------------------------------------------------------------------------
-def run_lgvi(h: float = DT, save_every: int | None = None, order: int = 2, composition: str | None = None,
-             ki: float | None = None, steps: int | None = None):
-    """lgvi on the scenario at step ``h`` (a divisor of 0.1 s); samples every ``DT * DECIMATE`` by default.
-    ``ki``: the integral gain (limit ``2 / ki * 0.1``), ``None``: off; ``steps``: fewer than the 600 s."""
+def lgvi_call(h: float = DT, save_every: int | None = None, order: int = 2, composition: str | None = None,
+              ki: float | None = None, steps: int | None = None, scheme: str | None = None):
+    """The ``lgvi.simulate`` call of the scenario, as a function of no arguments: the body, wheels,
+    controller and ``R0`` are built here, outside it (as Basilisk's objects and
+    ``InitializeSimulation()`` are outside its timed ``ExecuteSimulation()``). The controller's
+    state is reset by each call (``Controller.reset``), so the function can be called repeatedly."""
     import lgvi
     from lgvi.control import MRPFeedback, matrix_from_mrp
 
@@ -197,10 +199,33 @@ def run_lgvi(h: float = DT, save_every: int | None = None, order: int = 2, compo
     se = save_every if save_every is not None else int(round(DT * DECIMATE / h))
     wheels = lgvi.ReactionWheels(WHEEL_AXES, JS, speed0=SPEED0, max_torque=U_MAX, max_speed=OMEGA_MAX)
     body = lgvi.RigidBody(HUB_INERTIA)
-    return lgvi.simulate(body, matrix_from_mrp(SIGMA0), omega0=OMEGA0, h=h, steps=steps, wheels=wheels,
-                         controller=MRPFeedback(K, P, Ki=ki, integral_limit=None if ki is None else 2.0 / ki * 0.1,
-                                                inertia=HUB_INERTIA),
-                         control_period=DT, save_every=se, order=order, composition=composition)
+    ctrl = MRPFeedback(K, P, Ki=ki, integral_limit=None if ki is None else 2.0 / ki * 0.1, inertia=HUB_INERTIA)
+    R0 = matrix_from_mrp(SIGMA0)
+    simulate = lgvi.simulate
+
+    def call():
+        return simulate(body, R0, omega0=OMEGA0, h=h, steps=steps, wheels=wheels, controller=ctrl,
+                        control_period=DT, save_every=se, order=order, composition=composition, scheme=scheme)
+    return call
+
+
+def run_lgvi(h: float = DT, save_every: int | None = None, order: int = 2, composition: str | None = None,
+             ki: float | None = None, steps: int | None = None, scheme: str | None = None):
+    """lgvi on the scenario at step ``h`` (a divisor of 0.1 s); samples every ``DT * DECIMATE`` by default.
+    ``ki``: the integral gain (limit ``2 / ki * 0.1``), ``None``: off; ``steps``: fewer than the 600 s;
+    ``scheme``: ``"rkmk4"`` the explicit RKMK scheme (``order`` 4, ``composition`` its tableau)."""
+    return lgvi_call(h, save_every, order, composition, ki, steps, scheme)()
+
+
+def timed(call, repeat: int) -> tuple[float, float]:
+    """Medians of the wall and CPU time of ``call()`` over ``repeat`` calls (seconds)."""
+    ts, cs = [], []
+    for _ in range(repeat):
+        t0, c0 = time.perf_counter(), time.process_time()
+        call()
+        ts.append(time.perf_counter() - t0)
+        cs.append(time.process_time() - c0)
+    return float(np.median(ts)), float(np.median(cs))
 
 
 def differences(traj, fix) -> tuple[float, float, float]:
@@ -251,22 +276,23 @@ def main(argv: list[str] | None = None) -> int:
     with_bsk = (args.bsk_python or _have_basilisk()) and not args.quick
     bsk = basilisk_in(args.bsk_python, None, args.bsk_repeat) if with_bsk else None
     run_lgvi()  # compile / load the kernels
-    walls = []
-    for _ in range(args.repeat):
-        t0 = time.perf_counter()
-        traj = run_lgvi()
-        walls.append(time.perf_counter() - t0)
-    lg = float(np.median(walls))
-    print("Basilisk scenarioAttitudeFeedbackRW, 600 s at 0.1 s (machine shared with other jobs: medians)")
+    run_lgvi(scheme="rkmk4")
+    lg = timed(lgvi_call(), args.repeat)[0]
+    print("Basilisk scenarioAttitudeFeedbackRW, 600 s at 0.1 s (machine shared with other jobs: medians; "
+          f"load average {os.getloadavg()[0]:.2f})")
     ref_wall = bsk["wall"] if bsk is not None else float(fix["wall"])
     ref_cpu = bsk["cpu"] if bsk is not None else None
     print("(times: medians of --repeat runs, Basilisk's of --bsk-repeat; wall clock, and the CPU time of the process, "
           "which the load of other jobs disturbs less)")
+    print("(timed: Basilisk's ExecuteSimulation() only; lgvi's lgvi.simulate(...) call only, its RigidBody, "
+          "ReactionWheels, MRPFeedback and R0 built before, as Basilisk's objects and InitializeSimulation())")
     print(f"{'h':>8} {'order':>9} {'max |d sigma|':>14} {'max |d omega|':>14} {'max |d speed|':>14} {'err vs ref':>12} "
           f"{'lgvi ms':>9} {'Basilisk/lgvi':>14} {'lgvi CPU ms':>12} {'ratio CPU':>10}")
     rows = [(DT / sub, 2, None) for sub in (1, 2, 4, 8, 16)] + [(DT, 4, None), (DT, 4, "yoshida4"), (DT, 6, None)]
+    # the explicit RKMK scheme (scheme="rkmk4") with its tableaux
+    rows += [(DT, "rkmk4", tab) for tab in ("rk4", "rk38", "ralston4")] + [(DT / 2, "rkmk4", "rk4")]
     if args.quick:
-        args.repeat, rows = 1, [(DT, 2, None), (DT / 2, 2, None), (DT, 4, None)]
+        args.repeat, rows = 1, [(DT, 2, None), (DT / 2, 2, None), (DT, 4, None), (DT, "rkmk4", "rk4")]
     # a converged reference (order 6 at h = 0.1/16: changes below 2e-13 from h = 0.1/32) for the accuracy
     # of both: Basilisk's RK4 at 0.1 s and each lgvi row, largest MRP difference over the 1 s samples
     from lgvi.control import mrp_from_matrix
@@ -274,41 +300,54 @@ def main(argv: list[str] | None = None) -> int:
     sig_ref = mrp_from_matrix(run_lgvi(DT / 16, order=6).R)
     print(f"Basilisk RK4 at 0.1 s: max |sigma - sigma_ref| = {np.abs(fix['sigma'] - sig_ref).max():.2e} "
           "(the reference: lgvi order 6 at h = 0.1/16)")
+    rk = None
     for h, order, comp in rows:
-        traj = run_lgvi(h, order=order, composition=comp)
+        kw = dict(order=4, composition=comp, scheme=order) if order == "rkmk4" else dict(order=order, composition=comp)
+        call = lgvi_call(h, **kw)
+        traj = call()
         ds, dw, dv = differences(traj, fix)
         err = np.abs(mrp_from_matrix(traj.R) - sig_ref).max()
-        ts, cs = [], []
-        for _ in range(args.repeat):
-            t0, c0 = time.perf_counter(), time.process_time()
-            run_lgvi(h, order=order, composition=comp)
-            ts.append(time.perf_counter() - t0)
-            cs.append(time.process_time() - c0)
-        wall, cpu = float(np.median(ts)), float(np.median(cs))
-        name = str(order) if comp is None else f"{order} {comp[:7]}"
+        wall, cpu = timed(call, args.repeat)
+        if order == "rkmk4" and comp == "rk4" and h == DT:
+            rk = (wall, cpu, err)
+        name = str(order) if comp is None else (f"rk {comp[:6]}" if order == "rkmk4" else f"{order} {comp[:7]}")
         cpu_ratio = f"{ref_cpu / cpu:9.0f}x" if ref_cpu is not None else f"{'-':>10}"
         print(f"{h:8.4f} {name:>9} {ds:14.3e} {dw:14.3e} {dv:14.3e} {err:12.2e} {wall * 1e3:9.2f} "
               f"{ref_wall / wall:13.0f}x {cpu * 1e3:12.2f} {cpu_ratio}")
     print("(the differences fall as h^2 at order 2 towards Basilisk's own RK4 error; order 4 and 6 compose the "
-          "step with the wheel torques held over it)")
+          "step with the wheel torques held over it; 'rk TAB': scheme='rkmk4', the explicit Runge-Kutta-Munthe-Kaas "
+          "method in Cayley coordinates with tableau TAB)")
+    if not args.quick:
+        per = {}
+        for sch, order in (("rkmk4", 4), (None, 4)):
+            c6, c60 = lgvi_call(DT, order=order, scheme=sch), lgvi_call(DT, order=order, scheme=sch, steps=60000)
+            w6, w60 = [], []
+            for _ in range(max(3, args.repeat // 3)):      # alternated
+                w6.append(timed(c6, 1)[1])
+                w60.append(timed(c60, 1)[1])
+            per[sch] = (float(np.median(w60)) - float(np.median(w6))) / 54000
+        print(f"cost per step (CPU time of 60000 steps minus 6000, / 54000; h = 0.1 with the compiled MRP feedback "
+              f"every step): rkmk4 {per['rkmk4'] * 1e9:.0f} ns, LGVI order 4 (suzuki4) {per[None] * 1e9:.0f} ns")
     fix_ki = np.load(FIXTURE_KI)
     ds, dw, dv = differences(run_lgvi(DT, ki=KI), fix_ki)
     print(f"with the integral term (Ki = {KI:g}, fixture {FIXTURE_KI.name}), h = 0.1, order 2: max |d sigma| = "
           f"{ds:.3e}, max |d omega| = {dw:.3e}, max |d speed| = {dv:.3e}")
     print(f"lgvi simulate (h = 0.1 s, compiled MRPFeedback): {lg * 1e3:.2f} ms (median of {args.repeat})")
-    fixed = []
-    for _ in range(max(args.repeat, 5)):
-        c0 = time.process_time()
-        run_lgvi(DT, save_every=10, order=4, steps=10)
-        fixed.append(time.process_time() - c0)
-    print(f"fixed cost per call (the same call for 10 steps, order 4: objects, checks, set-up, result; CPU): "
-          f"{np.median(fixed) * 1e3:.2f} ms")
+    fixed = timed(lgvi_call(DT, save_every=10, order=4, steps=10), max(args.repeat, 5))[1]
+    fixed_rk = timed(lgvi_call(DT, save_every=10, order=4, steps=10, scheme="rkmk4"), max(args.repeat, 5))[1]
+    print(f"fixed cost per call (the same call for 10 steps: checks, set-up, result; CPU): order 4 "
+          f"{fixed * 1e3:.2f} ms, rkmk4 {fixed_rk * 1e3:.2f} ms")
     if bsk is not None:
         print(f"Basilisk ExecuteSimulation (this run, median of {args.bsk_repeat}): {bsk['wall'] * 1e3:.1f} ms wall, "
               f"{bsk['cpu'] * 1e3:.1f} ms CPU; ratio Basilisk / lgvi (wall) = {bsk['wall'] / lg:.0f}x")
     else:
         print(f"Basilisk ExecuteSimulation (fixture, another run): {float(fix['wall']) * 1e3:.1f} ms; ratio = "
               f"{float(fix['wall']) / lg:.0f}x (give --bsk-python for a same-run figure)")
+    if rk is not None:
+        cpu_part = f", {ref_cpu / rk[1]:.0f}x (CPU)" if ref_cpu is not None else ""
+        print(f"scheme='rkmk4' (tableau rk4) at h = 0.1: {rk[0] * 1e3:.2f} ms wall, {rk[1] * 1e3:.2f} ms CPU; "
+              f"Basilisk / rkmk4 = {ref_wall / rk[0]:.0f}x (wall){cpu_part}; error against the reference {rk[2]:.2e}, "
+              f"Basilisk's {np.abs(fix['sigma'] - sig_ref).max():.2e}")
     return 0
 
 

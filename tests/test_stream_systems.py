@@ -104,6 +104,11 @@ GYRO_RUNS = {
     # free wheels with friction, no controller, fourth order
     "friction-order4": lambda: dict(wheels=wheels(friction={"coulomb": 1e-4, "viscous": 1e-5}), order=4,
                                     save_every=3, steps=3000, h=0.02),
+    # the explicit RKMK scheme (its attitude quaternion is saved): compiled and Python law
+    "rkmk4-mrp": lambda: dict(wheels=wheels(), controller=MRPFeedback(0.5, 2.0, Ki=0.01, target=R_REF),
+                              control_period=0.1, save_every=5, steps=3000, h=0.02, scheme="rkmk4"),
+    "rkmk4-python-mrp": lambda: dict(wheels=wheels(), controller=PythonMRP(0.5, 2.0, target=R_REF),
+                                     control_period=0.14, save_every=5, steps=3000, h=0.02, scheme="rkmk4"),
 }
 
 

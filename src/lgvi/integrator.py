@@ -251,12 +251,15 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
         ``(M - 1,)``, so the result is sized by the saved states; ``"full"`` every step, shape
         ``(steps,)``. With ``save_every=1`` both are the per-step record. Run totals and a
         histogram of the iterations are kept either way (:attr:`Trajectory.solver_summary`).
-    scheme : {None, "lgvi", "splitting"}
+    scheme : {None, "lgvi", "splitting", "rkmk4"}
         ``None`` (or ``"lgvi"``): the LGVI above and its compositions. ``"splitting"``: exact
         free-body flows and kicks of the torque model's moment ``M(t, R)`` (:mod:`lgvi.splitting`),
         for potentials and other moments of the attitude and time; ``order`` 2, 4 or 6 and
         ``composition`` a name in :data:`lgvi.registry.SPLITTINGS`. The solver options are unused
-        (no implicit equation), the record's iterations and residuals are zero.
+        (no implicit equation), the record's iterations and residuals are zero. ``"rkmk4"``: the
+        gyrostat (with or without ``wheels``) by an explicit 4th-order Runge-Kutta-Munthe-Kaas
+        method in Cayley coordinates, momentum-exact but not symplectic (``docs/gyrostat_rkmk.md``;
+        ``composition`` its tableau, ``torque`` refused, iterations and residuals zero).
     wheels : lgvi.ReactionWheels, optional
         Balanced reaction wheels (a gyrostat, ``docs/gyrostat.md``); ``body`` is then the
         spacecraft with the wheels locked, ``Pi0`` the total body momentum. The result is a
@@ -331,22 +334,26 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     True
     """
     if wheels is not None or controller is not None or control_period is not None or environment is not None \
-            or magnetorquers is not None:   # the gyrostat and the control loop (lgvi.systems.gyrostat)
+            or magnetorquers is not None or scheme == "rkmk4":   # the gyrostat (lgvi.systems.gyrostat)
         from .systems.gyrostat import gyrostat_options, simulate_gyrostat
 
-        if scheme is not None and scheme != "lgvi":
+        if scheme is not None and scheme not in ("lgvi", "rkmk4"):
             raise ValueError(f"scheme={scheme!r} cannot be combined with wheels=, controller=, "
                              "environment= or magnetorquers=: reaction wheels and the control loop run "
-                             "with the LGVI (scheme=None)")
+                             "with the LGVI (scheme=None) or the explicit RKMK scheme (scheme='rkmk4')")
+        if scheme == "rkmk4":
+            from .systems.gyrostat_rkmk import check_rkmk_options
 
-        gyrostat_options(torque=torque, forcing=forcing, order=order, composition=composition,
-                         error_estimate=error_estimate)
+            check_rkmk_options(torque=torque, order=order, composition=composition)
+        else:
+            gyrostat_options(torque=torque, forcing=forcing, order=order, composition=composition,
+                             error_estimate=error_estimate)
         return simulate_gyrostat(body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels, controller=controller,
                                  control_period=control_period, environment=environment, magnetorquers=magnetorquers,
                                  progress=progress, method=method, tol=tol, max_iter=max_iter, alpha=alpha,
                                  save_every=save_every, t0=t0, solver_record=solver_record, order=order,
                                  composition=composition, torque=torque, error_estimate=error_estimate,
-                                 error_warn=error_warn)
+                                 error_warn=error_warn, scheme=scheme)
     from .accuracy import check_options
 
     estimate, warn = check_options(error_estimate, error_warn, torque)

@@ -320,8 +320,9 @@ def splitting_for(order: Any, composition: Any) -> Splitting:
     return sp
 
 
-#: ``scheme=`` of :func:`lgvi.simulate`: ``None`` (or ``"lgvi"``) the LGVI and its compositions.
-SCHEMES = ("lgvi", "splitting")
+#: ``scheme=`` of :func:`lgvi.simulate`: ``None`` (or ``"lgvi"``) the LGVI and its compositions;
+#: ``"rkmk4"`` the gyrostat's explicit Runge-Kutta-Munthe-Kaas scheme (:mod:`lgvi.systems.gyrostat_rkmk`).
+SCHEMES = ("lgvi", "splitting", "rkmk4")
 
 
 def check_composable(comp: Composition, kind: str, forcing: str, model: Any) -> None:

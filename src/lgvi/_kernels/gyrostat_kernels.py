@@ -181,9 +181,14 @@ def mrp_feedback(cp, cs, t, R, w0, w1, w2, axes, wp, rho, cmd, tau):
     """The MRP feedback law (as :meth:`lgvi.control.MRPFeedback.torque_request`) into ``cmd``
     (wheel motor torques through the wheel map) or, without wheels, ``tau``. ``cs``: int_sigma
     (3), prior time, has prior (0/1)."""
-    K = cp[CP_K]
-    P = cp[CP_P]
-    Ki = cp[CP_KI]
+    s0, s1, s2 = mrp_error(cp, R)
+    r0, r1, r2, e0, e1, e2 = reference_rates(cp, R)
+    mrp_law(cp, cs, t, s0, s1, s2, r0, r1, r2, e0, e1, e2, w0, w1, w2, axes, rho, cmd, tau)
+
+
+@jit(inline="always")
+def mrp_error(cp, R):
+    """The attitude error ``sigma`` (3 scalars) of ``R_ref^T R``, the set with ``|sigma| <= 1``."""
     # C = R_ref^T R
     c = CP_RREF
     C00 = cp[c] * R[0, 0] + cp[c + 3] * R[1, 0] + cp[c + 6] * R[2, 0]
@@ -224,10 +229,12 @@ def mrp_feedback(cp, cs, t, R, w0, w1, w2, axes, wp, rho, cmd, tau):
     if qw < 0.0:
         qw, qx, qy, qz = -qw, -qx, -qy, -qz
     d = 1.0 + qw
-    s0 = qx / d
-    s1 = qy / d
-    s2 = qz / d
-    # reference rates in the body frame: R^T w
+    return qx / d, qy / d, qz / d
+
+
+@jit(inline="always")
+def reference_rates(cp, R):
+    """The reference rate and its derivative in the body frame, ``R^T omega_ref``, ``R^T domega_ref``."""
     wr = CP_WREF
     dwr = CP_DWREF
     r0 = R[0, 0] * cp[wr] + R[1, 0] * cp[wr + 1] + R[2, 0] * cp[wr + 2]
@@ -236,6 +243,16 @@ def mrp_feedback(cp, cs, t, R, w0, w1, w2, axes, wp, rho, cmd, tau):
     e0 = R[0, 0] * cp[dwr] + R[1, 0] * cp[dwr + 1] + R[2, 0] * cp[dwr + 2]
     e1 = R[0, 1] * cp[dwr] + R[1, 1] * cp[dwr + 1] + R[2, 1] * cp[dwr + 2]
     e2 = R[0, 2] * cp[dwr] + R[1, 2] * cp[dwr + 1] + R[2, 2] * cp[dwr + 2]
+    return r0, r1, r2, e0, e1, e2
+
+
+@jit(inline="always")
+def mrp_law(cp, cs, t, s0, s1, s2, r0, r1, r2, e0, e1, e2, w0, w1, w2, axes, rho, cmd, tau):
+    """The feedback law of :func:`mrp_feedback` from the error ``sigma`` and the reference rates
+    ``r``, ``e`` in the body frame (:func:`mrp_error`, :func:`reference_rates`)."""
+    K = cp[CP_K]
+    P = cp[CP_P]
+    Ki = cp[CP_KI]
     dw0 = w0 - r0
     dw1 = w1 - r1
     dw2 = w2 - r2

@@ -450,17 +450,21 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
     from ..integrator import Run
 
     if wheels is not None or controller is not None or control_period is not None or environment is not None \
-            or magnetorquers is not None:   # the gyrostat (lgvi.systems.gyrostat)
-        from ..systems.gyrostat import GyrostatRun, gyrostat_options
+            or magnetorquers is not None or scheme == "rkmk4":   # the gyrostat (lgvi.systems.gyrostat)
+        from ..systems.gyrostat import gyrostat_options, scheme_run_class
 
-        if scheme is not None and scheme != "lgvi":
+        if scheme is not None and scheme not in ("lgvi", "rkmk4"):
             raise ValueError(f"scheme={scheme!r} cannot be combined with wheels=, controller=, environment= or "
-                             "magnetorquers=: reaction wheels and the control loop run with the LGVI (scheme=None)")
-        gyrostat_options(torque=torque, forcing=forcing, order=order, composition=composition, error_estimate=None)
-        run = GyrostatRun(body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels, controller=controller,
-                          control_period=control_period, environment=environment, magnetorquers=magnetorquers,
-                          method=method, tol=tol, max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0,
-                          solver_record=solver_record, order=order, composition=composition, torque=torque)
+                             "magnetorquers=: reaction wheels and the control loop run with the LGVI (scheme=None) "
+                             "or the explicit RKMK scheme (scheme='rkmk4')")
+        if scheme != "rkmk4":
+            gyrostat_options(torque=torque, forcing=forcing, order=order, composition=composition,
+                             error_estimate=None)
+        run_class = scheme_run_class(scheme)       # GyrostatRun, or the explicit RKMK run
+        run = run_class(body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels, controller=controller,
+                        control_period=control_period, environment=environment, magnetorquers=magnetorquers,
+                        method=method, tol=tol, max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0,
+                        solver_record=solver_record, order=order, composition=composition, torque=torque)
         return stream_run(folder, run, resume=resume, progress=progress, chunk_steps=chunk_steps, meta=meta)
     if scheme is not None and scheme != "lgvi":
         from .._validation import choice

@@ -186,11 +186,12 @@ class ReactionWheels:
 # ------------------------------------------------------------------------------------------------
 def _invariants(spec: Any = None) -> dict[str, dict[str, Any]]:
     """The gyrostat's invariants: total momentum and ``|Pi|`` exact without external torque, under any
-    wheel torques; the energy bounded with the motors off and no friction (``spec``: the run)."""
+    wheel torques; the energy bounded with the motors off and no friction (``spec``: the run; an
+    explicit run, ``spec.symplectic`` false, declares no energy bound)."""
     if spec is not None and getattr(spec, "external", False):
         return {}
     out = {"spatial_momentum": {"kind": EXACT}, "spatial_momentum_e3": {"kind": EXACT}, "casimir": {"kind": EXACT}}
-    if spec is None or getattr(spec, "motors_off", True):
+    if (spec is None or getattr(spec, "motors_off", True)) and getattr(spec, "symplectic", True):
         out["energy"] = {"kind": BOUNDED}
     return out
 
@@ -650,7 +651,8 @@ def _from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state: dic
     out["solver_summary"] = summary_dict(np.asarray(state["counts"], dtype=np.int64), int(state["it_total"]),
                                          float(state["res_max"]))
     out["invariants"] = _invariants(SimpleNamespace(external=bool(state["external"]),
-                                                    motors_off=bool(meta["motors_off"])))
+                                                    motors_off=bool(meta["motors_off"]),
+                                                    symplectic=meta.get("scheme") != "rkmk4"))
     return GyrostatTrajectory(t=arrays["t"], R=arrays["R"], Pi=arrays["Pi"],
                               inertia=np.asarray(meta["inertia"], dtype=np.float64), iterations=arrays["iterations"],
                               residual=arrays["residual"], h=float(meta["h"]), potential=None, meta=out,
@@ -725,7 +727,7 @@ def gyrostat_options(*, torque: Any, forcing: Any, order: Any, composition: Any,
 def simulate_gyrostat(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: Any, steps: Any,
                       wheels: Any = None, controller: Any = None, control_period: Any = None, environment: Any = None,
                       magnetorquers: Any = None, progress: Any = False, error_estimate: Any = False,
-                      error_warn: Any = 0.01, **options: Any) -> GyrostatTrajectory:
+                      error_warn: Any = 0.01, scheme: Any = None, **options: Any) -> GyrostatTrajectory:
     """:func:`lgvi.simulate` with wheels or a controller (see there); returns a :class:`GyrostatTrajectory`.
 
     With ``error_estimate``, the same run again at ``h/2`` (:func:`lgvi.accuracy.with_estimate`):
@@ -747,8 +749,9 @@ def simulate_gyrostat(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None
                 raise ValueError(f"error_estimate: control_period must be a multiple of h/2 (the shadow run steps at "
                                  f"h/2); got control_period={cp:g}, h={float(h):g}")
         shadow_inputs = copy.deepcopy((wheels, controller, environment, magnetorquers, options.get("torque")))
-    run = GyrostatRun(body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels, controller=controller,
-                      control_period=control_period, environment=environment, magnetorquers=magnetorquers, **options)
+    run_class = scheme_run_class(scheme)
+    run = run_class(body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels, controller=controller,
+                    control_period=control_period, environment=environment, magnetorquers=magnetorquers, **options)
     traj = drive(run, MemorySink(run), progress)
     if not estimate:
         return traj
@@ -757,8 +760,23 @@ def simulate_gyrostat(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None
     kw.update(body=run.body, R0=R0, Pi0=Pi0, omega0=omega0, h=run.h, steps=run.steps, wheels=wl, controller=ctrl,
               control_period=control_period, environment=env, magnetorquers=mtq, torque=torque,
               save_every=run.save_every, t0=run.t0, progress=progress, scheme="lgvi", forcing="symmetric")
-    return with_estimate(traj, kw, warn=warn, stacklevel=3,
-                         order=1 if run.wheels.has_friction else run.comp.order)
+    if run_class is not GyrostatRun:
+        kw.update(scheme=scheme, order=4, composition=run.tableau)
+    order = 4 if run_class is not GyrostatRun else run.comp.order
+    return with_estimate(traj, kw, warn=warn, stacklevel=3, order=1 if run.wheels.has_friction else order)
+
+
+def scheme_run_class(scheme: Any) -> Any:
+    """The run class of ``scheme``: ``None``/``"lgvi"`` :class:`GyrostatRun`, ``"rkmk4"`` the explicit
+    RKMK scheme (:mod:`lgvi.systems.gyrostat_rkmk`)."""
+    if scheme is None or scheme == "lgvi":
+        return GyrostatRun
+    if scheme == "rkmk4":
+        from .gyrostat_rkmk import GyrostatRKMKRun
+
+        return GyrostatRKMKRun
+    raise ValueError(f"scheme must be None or 'lgvi' (the LGVI) or 'rkmk4' (the explicit RKMK scheme) for the "
+                     f"gyrostat, got {scheme!r}")
 
 
 def gyrostat_run(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: Any, steps: Any, wheels: Any = None,
@@ -784,10 +802,9 @@ def gyrostat_run(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: 
         raise ValueError(f"error_estimate must be False in a run of the gyrostat built by its run factory "
                          f"(lgvi.simulate_members), got {error_estimate!r}: the estimate is a second run at h/2 "
                          "that lgvi.simulate(..., error_estimate=True) makes")
-    if scheme is not None and scheme != "lgvi":
-        raise ValueError(f"scheme must be None or 'lgvi' for the gyrostat (reaction wheels and the control loop "
-                         f"run with the LGVI), got {scheme!r}")
-    gyrostat_options(torque=torque, forcing=forcing, order=order, composition=composition, error_estimate=False)
+    run_class = scheme_run_class(scheme)
+    if run_class is GyrostatRun:
+        gyrostat_options(torque=torque, forcing=forcing, order=order, composition=composition, error_estimate=False)
     owned = {}
     for name, obj in (("controller", controller), ("environment", environment), ("magnetorquers", magnetorquers)):
         try:
@@ -796,9 +813,9 @@ def gyrostat_run(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: 
             raise TypeError(f"{name}: each run of the gyrostat's run factory (lgvi.simulate_members) uses its own "
                             f"copy of its {name} (copy.deepcopy), and this {type(obj).__name__} cannot be copied "
                             f"({type(exc).__name__}: {exc}); give each member its own object") from exc
-    return GyrostatRun(body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels, control_period=control_period,
-                       method=method, tol=tol, max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0,
-                       solver_record=solver_record, order=order, composition=composition, torque=torque, **owned)
+    return run_class(body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels, control_period=control_period,
+                     method=method, tol=tol, max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0,
+                     solver_record=solver_record, order=order, composition=composition, torque=torque, **owned)
 
 
 def _provide() -> None:
@@ -810,4 +827,4 @@ def _provide() -> None:
 _provide()
 
 __all__ = ["GYROSTAT", "GyrostatRun", "GyrostatTrajectory", "ReactionWheels", "controller_state", "gyrostat_options",
-           "gyrostat_run", "load_controller_state", "simulate_gyrostat"]
+           "gyrostat_run", "load_controller_state", "scheme_run_class", "simulate_gyrostat"]
