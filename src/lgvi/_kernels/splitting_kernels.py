@@ -211,6 +211,51 @@ def jacobi_am(u, m, m1, ws):
 
 
 @jit(inline="always")
+def jacobi_sncn(u, m, m1, ws):
+    """``(sn(u | m), cn(u | m), j)`` for ``0 <= m < 1`` by the descending Landen transformation, and the
+    integer ``j`` with ``am(u | m) = r + j pi``, ``r`` in ``[-pi/2, pi/2]``; ``ws`` (>= 31,) scratch.
+
+    With ``k = sqrt(m)``, ``k1 = (1 - k')/(1 + k') = k^2/(1 + k')^2`` and ``z1 = u/(1 + k1)`` (DLMF 22.7.1-3),
+    ``sn(u, k) = (1 + k1) s / (1 + k1 s^2)``, ``cn(u, k) = c d / (1 + k1 s^2)``,
+    ``dn(u, k) = (c^2 + (1 - k1) s^2) / (1 + k1 s^2)`` with ``(s, c, d)`` the functions of ``(z1, k1)``;
+    repeated until ``k_N <= 1e-8``, where ``sn = sin z_N`` to ``k_N^2 z_N / 4``. One sine and cosine and a
+    division a level, where the amplitude by the AGM (:func:`jacobi_am`) takes an arcsine and a sine a level.
+    The signs of ``sn`` and ``cn`` are those of ``sin z_N``, ``cos z_N`` (``d > 0``) and ``z_N = pi u / (2 K)``,
+    so ``j = round(z_N / pi)``.
+    """
+    k = math.sqrt(m)
+    kp = math.sqrt(m1)
+    z = u
+    n = 0
+    while k > 1e-8 and n < 14:
+        d = 1.0 + kp
+        k = k * k / (d * d)
+        n += 1
+        ws[n] = k
+        ws[16 + n] = 2.0 * kp / d                       # 1 - k_n, without cancellation
+        kp = 2.0 * math.sqrt(kp) / d
+        z = z / (1.0 + k)
+    j = round(z / math.pi)
+    s = math.sin(z)
+    c = math.cos(z)
+    dd = 1.0 - 0.5 * k * k * s * s
+    for i in range(n, 0, -1):
+        kk = ws[i]
+        s2 = s * s
+        inv = 1.0 / (1.0 + kk * s2)
+        dn = (c * c + ws[16 + i] * s2) * inv
+        c = c * dd * inv
+        s = (1.0 + kk) * s * inv
+        dd = dn
+    # s^2 + c^2 = 1 to round-off, but the recursion's round-off is biased: it would make |Pi| and the
+    # energy drift linearly over many flows (the phase quadratically). One Newton step for
+    # 1/sqrt(s^2 + c^2), applied as a correction (multiplying by 1.5 - (s^2 + c^2)/2 would round it to
+    # the spacing of the floats near 1 and bias it again); docs/splitting.md has the drift measured
+    d = 0.5 * ((s * s - 1.0) + c * c)
+    return s - d * s, c - d * c, j
+
+
+@jit(inline="always")
 def euler_frame(p0, p1, p2, e, ws, o):
     """The rotation ``V`` (into ``ws[o:o+9]``, row-major) with ``V Pi = |Pi| e3``, from the angles of
     the Euler sequence about body axis ``e``."""
@@ -220,12 +265,14 @@ def euler_frame(p0, p1, p2, e, ws, o):
     x1 = q[a]
     x2 = q[b]
     x3 = q[e]
-    rho = math.hypot(x1, x2)
-    nrm = math.sqrt(rho * rho + x3 * x3)
-    sth = rho / nrm
-    cth = x3 / nrm
-    sph = x1 / rho
-    cph = x2 / rho
+    rho2 = x1 * x1 + x2 * x2
+    rho = math.sqrt(rho2)
+    inrm = 1.0 / math.sqrt(rho2 + x3 * x3)
+    irho = 1.0 / rho
+    sth = rho * inrm
+    cth = x3 * inrm
+    sph = x1 * irho
+    cph = x2 * irho
     # Q rows in the coordinates (a, b, e); V[:, a] = Q[:, 0], V[:, b] = Q[:, 1], V[:, e] = Q[:, 2]
     ws[o + a] = cph
     ws[o + b] = -sph
@@ -379,30 +426,48 @@ def free_flow(I, ax, symax, R, Pi, tau, ws):
         e = a3
         c0 = A1 * A1
         nn = -m * A3 * A3 / c0
-    # phase: am(u0) = phi0; reduced to phi0 - j0 pi in [-pi/2, pi/2] (am(u + 2K) = am(u) + pi, and the
-    # integrals below are differences, unchanged by the shift)
-    phi0 = math.atan2(q2 * A1 * s3 * s23, q1 * A2)
-    j0 = round(phi0 / math.pi)
-    if m1 <= 0.0:
-        j0 = 0
-        phi0 = max(-0.5 * math.pi, min(0.5 * math.pi, phi0))
-    r0 = phi0 - j0 * math.pi
-    sr0 = math.sin(r0)
-    cr0 = math.cos(r0)
+    # phase: am(u0) = phi0; reduced to r0 = phi0 - j0 pi in [-pi/2, pi/2] (am(u + 2K) = am(u) + pi, and the
+    # integrals below are differences, unchanged by the shift): (sin r0, cos r0) = +-(y, x) / |(x, y)|
+    xph = q1 * A2
+    yph = q2 * A1 * s3 * s23
+    if m1 <= 0.0:                     # the separatrix (m = 1): am(u | 1) = gd(u) in (-pi/2, pi/2)
+        phi0 = max(-0.5 * math.pi, min(0.5 * math.pi, math.atan2(yph, xph)))
+        sr0 = math.sin(phi0)
+        cr0 = math.cos(phi0)
+        flip = 1.0
+    else:
+        rho = math.sqrt(xph * xph + yph * yph)
+        flip = 1.0 if xph >= 0.0 else -1.0
+        sr0 = flip * yph / rho if rho > 0.0 else 0.0
+        cr0 = flip * xph / rho if rho > 0.0 else 1.0
     y0 = cr0 * cr0 + m1 * sr0 * sr0
     rf0, rj0 = rf_rj_call(cr0 * cr0, y0, 1.0, 1.0 - nn * sr0 * sr0)
     u0 = sr0 * rf0
-    phi1 = jacobi_am(u0 + lam * tau, m, m1, ws)
-    flip = -1.0 if j0 % 2 != 0 else 1.0
-    sn = flip * math.sin(phi1)
-    cn = flip * math.cos(phi1)
+    if m1 <= 0.0:
+        phi1 = jacobi_am(u0 + lam * tau, m, m1, ws)
+        sr1 = math.sin(phi1)
+        cr1 = math.cos(phi1)
+        j1 = 0
+        sn = sr1
+        cn = cr1
+    else:
+        # sn, cn of u1 = u0 + lam tau and j1 with am(u1) = r1 + j1 pi, r1 in [-pi/2, pi/2]
+        sn, cn, j1 = jacobi_sncn(u0 + lam * tau, m, m1, ws)
+        sr1 = -sn if j1 % 2 != 0 else sn
+        cr1 = -cn if j1 % 2 != 0 else cn
+        sn = flip * sn
+        cn = flip * cn
     dn = math.sqrt(cn * cn + m1 * sn * sn)
     Ie = I[e]
     twoE_minus = p0 * p0 * (1.0 / I[0] - 1.0 / Ie) + p1 * p1 * (1.0 / I[1] - 1.0 / Ie) + \
         p2 * p2 * (1.0 / I[2] - 1.0 / Ie)
     # int dt / (L^2 - Pi_e^2) = [Pi(nn; am u | m)] / (c0 lam), and Pi(nn; phi) = F(phi) + nn/3 G(phi) with
     # F(am u) = u, so the difference is lam tau + nn/3 (G(phi1) - G(phi0))
-    dG = third_kind_rest(nn, phi1, m1) - sr0 * sr0 * sr0 * rj0
+    # G(phi1) = sin^3 r1 R_J(cos^2 r1, ...) + 2 j1 R_J(0, m1, 1, 1 - nn) (third_kind_rest, from sin and cos)
+    dG = sr1 * sr1 * sr1 * carlson_rj(cr1 * cr1, cr1 * cr1 + m1 * sr1 * sr1, 1.0, 1.0 - nn * sr1 * sr1) \
+        - sr0 * sr0 * sr0 * rj0
+    if j1 != 0:
+        dG += 2.0 * j1 * carlson_rj(0.0, m1, 1.0, 1.0 - nn)
     psi = L * tau / Ie + L * twoE_minus / c0 * (tau + nn / (3.0 * lam) * dG)
     euler_frame(p0, p1, p2, e, ws, 32)            # V0
     n1 = A1 * cn
