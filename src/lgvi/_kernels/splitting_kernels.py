@@ -322,8 +322,30 @@ def rotate_by(R, x, y, z, angle, ws):
     rotate_right(R, ws, 50)
 
 
+@jit(inline="always")
+def flow_constants(I, ax):
+    """The body's constants of :func:`free_flow` (15 floats), so that a flow divides by no moment:
+    ``1/I_i`` (3), ``(I_max - I_mid)/I_max``, ``(I_mid - I_min)/I_min`` (the sign of ``D``), then for
+    ``(I1, I2, I3) = (I_min, I_mid, I_max)`` and again for ``(I_max, I_mid, I_min)``:
+    ``I1 (I3 - I2)/(I2 (I3 - I1))``, ``I2 (I3 - I1)/(I1 (I3 - I2))``, ``I3 (I2 - I1)/(I2 (I3 - I1))``
+    (the amplitudes ``A1, A2, A3``), ``I3 (I2 - I1)/(I1 (I3 - I2))`` (``m A3^2/A1^2``) and
+    ``sqrt((I3 - I2)(I3 - I1)/(I1 I2))/I3`` (``lam/A3``). Infinite or NaN for equal moments, where
+    :func:`free_flow` does not read them."""
+    lo = I[ax[0]]
+    mid = I[ax[1]]
+    hi = I[ax[2]]
+    out0 = (1.0 / I[0], 1.0 / I[1], 1.0 / I[2], (hi - mid) / hi, (mid - lo) / lo)
+    I1, I2, I3 = lo, mid, hi
+    b0 = (I1 * (I3 - I2) / (I2 * (I3 - I1)), I2 * (I3 - I1) / (I1 * (I3 - I2)), I3 * (I2 - I1) / (I2 * (I3 - I1)),
+          I3 * (I2 - I1) / (I1 * (I3 - I2)), math.sqrt((I3 - I2) * (I3 - I1) / (I1 * I2)) / I3)
+    I1, I3 = hi, lo
+    b1 = (I1 * (I3 - I2) / (I2 * (I3 - I1)), I2 * (I3 - I1) / (I1 * (I3 - I2)), I3 * (I2 - I1) / (I2 * (I3 - I1)),
+          I3 * (I2 - I1) / (I1 * (I3 - I2)), math.sqrt((I3 - I2) * (I3 - I1) / (I1 * I2)) / I3)
+    return out0 + b0 + b1
+
+
 @jit
-def free_flow(I, ax, symax, R, Pi, tau, ws):
+def free_flow(I, ax, symax, R, Pi, tau, ws, fc):
     """Advance the free rigid body ``(R, Pi)`` by the time ``tau`` exactly, in place.
 
     Parameters
@@ -343,6 +365,8 @@ def free_flow(I, ax, symax, R, Pi, tau, ws):
         Time (any sign).
     ws : (64,) float64
         Scratch.
+    fc : tuple of 15 floats
+        :func:`flow_constants` of ``I`` and ``ax`` (the body's constants, computed once per run).
     """
     p0 = Pi[0]
     p1 = Pi[1]
@@ -375,10 +399,8 @@ def free_flow(I, ax, symax, R, Pi, tau, ws):
     imin = ax[0]
     imid = ax[1]
     imax = ax[2]
-    Jmin = I[imin]
     Jmid = I[imid]
-    Jmax = I[imax]
-    D = Pi[imax] ** 2 * (Jmax - Jmid) / Jmax - Pi[imin] ** 2 * (Jmid - Jmin) / Jmin
+    D = Pi[imax] ** 2 * fc[3] - Pi[imin] ** 2 * fc[4]
     if D == 0.0 and Pi[imin] == 0.0 and Pi[imax] == 0.0:   # steady spin about the middle axis
         ex = 1.0 if imid == 0 else 0.0
         ey = 1.0 if imid == 1 else 0.0
@@ -388,27 +410,29 @@ def free_flow(I, ax, symax, R, Pi, tau, ws):
     if D >= 0.0:
         a1 = imin
         a3 = imax
+        c12, c21, c32, cm, clam = fc[5], fc[6], fc[7], fc[8], fc[9]
     else:
         a1 = imax
         a3 = imin
+        c12, c21, c32, cm, clam = fc[10], fc[11], fc[12], fc[13], fc[14]
     a2 = imid
     sg = 1.0 if (a2 - a1) % 3 == 1 else -1.0      # S = rows e_a1, sg e_a2, e_a3 has det +1
-    I1 = I[a1]
     I2 = I[a2]
     I3 = I[a3]
     q1 = Pi[a1]
     q2 = sg * Pi[a2]
     q3 = Pi[a3]
-    A1 = math.sqrt(q1 * q1 + q2 * q2 * (I1 * (I3 - I2)) / (I2 * (I3 - I1)))
-    A2 = math.sqrt(q2 * q2 + q1 * q1 * (I2 * (I3 - I1)) / (I1 * (I3 - I2)))
-    A3 = math.sqrt(q3 * q3 + q2 * q2 * (I3 * (I2 - I1)) / (I2 * (I3 - I1)))
-    den = A3 * A3 * I1 * (I3 - I2)
-    m = A1 * A1 * I3 * (I2 - I1) / den
-    m1 = (den - A1 * A1 * I3 * (I2 - I1)) / den
+    A1 = math.sqrt(q1 * q1 + q2 * q2 * c12)
+    A2 = math.sqrt(q2 * q2 + q1 * q1 * c21)
+    A3 = math.sqrt(q3 * q3 + q2 * q2 * c32)
+    den = A3 * A3
+    num = A1 * A1 * cm
+    m = num / den
+    m1 = (den - num) / den
     if m >= 1.0 or m1 <= 0.0:
         m = 1.0
         m1 = 0.0
-    lam = A3 / I3 * math.sqrt((I3 - I2) * (I3 - I1) / (I1 * I2))
+    lam = A3 * clam
     s3 = 1.0 if q3 > 0.0 else -1.0
     s23 = 1.0 if I3 > I2 else -1.0
     B2 = s3 * s23 * A2
@@ -458,9 +482,8 @@ def free_flow(I, ax, symax, R, Pi, tau, ws):
         sn = flip * sn
         cn = flip * cn
     dn = math.sqrt(cn * cn + m1 * sn * sn)
-    Ie = I[e]
-    twoE_minus = p0 * p0 * (1.0 / I[0] - 1.0 / Ie) + p1 * p1 * (1.0 / I[1] - 1.0 / Ie) + \
-        p2 * p2 * (1.0 / I[2] - 1.0 / Ie)
+    iIe = fc[e]
+    twoE_minus = p0 * p0 * (fc[0] - iIe) + p1 * p1 * (fc[1] - iIe) + p2 * p2 * (fc[2] - iIe)
     # int dt / (L^2 - Pi_e^2) = [Pi(nn; am u | m)] / (c0 lam), and Pi(nn; phi) = F(phi) + nn/3 G(phi) with
     # F(am u) = u, so the difference is lam tau + nn/3 (G(phi1) - G(phi0))
     # G(phi1) = sin^3 r1 R_J(cos^2 r1, ...) + 2 j1 R_J(0, m1, 1, 1 - nn) (third_kind_rest, from sin and cos)
@@ -468,7 +491,7 @@ def free_flow(I, ax, symax, R, Pi, tau, ws):
         - sr0 * sr0 * sr0 * rj0
     if j1 != 0:
         dG += 2.0 * j1 * carlson_rj(0.0, m1, 1.0, 1.0 - nn)
-    psi = L * tau / Ie + L * twoE_minus / c0 * (tau + nn / (3.0 * lam) * dG)
+    psi = L * tau * iIe + L * twoE_minus / c0 * (tau + nn / (3.0 * lam) * dG)
     euler_frame(p0, p1, p2, e, ws, 32)            # V0
     n1 = A1 * cn
     n2 = B2 * sn
@@ -594,6 +617,7 @@ def split_steps(moment, up, user, I, ax, symax, Pax, diag, J, drift, weight, nod
     ``drift[i] h`` and kicks ``Pi += weight[i] h M(t0 + (k + node[i]) h, R)``; the last drift of a
     step and the first of the next are one flow, except at saved samples. Returns ``(status, k)``."""
     s = weight.shape[0]
+    fc = flow_constants(I, ax)
     if not diag:
         _to_frame(R, Pi, Pax, not diag, ws)    # forward (a runtime bool: one compiled _to_frame for both ways)
     countdown = save_every
@@ -609,16 +633,16 @@ def split_steps(moment, up, user, I, ax, symax, Pax, diag, J, drift, weight, nod
         pend_b = pend
         pend += drift[0] * h
         for i in range(s):
-            free_flow(I, ax, symax, R, Pi, pend, ws)
+            free_flow(I, ax, symax, R, Pi, pend, ws, fc)
             kick(moment, up, user, diag, Pax, J, codes, params, t0 + (k + node[i]) * h, weight[i] * h, R, Pi, Rs, Ps)
             pend = drift[i + 1] * h
         countdown -= 1
         if countdown == 0:
-            free_flow(I, ax, symax, R, Pi, pend, ws)
+            free_flow(I, ax, symax, R, Pi, pend, ws, fc)
             pend = 0.0
         ok, countdown, jout = step_end(R, Pi, Rb, Pb, countdown, save_every, jout, R_out, Pi_out, Pax, diag, ws)
         if not ok:
-            free_flow(I, ax, symax, R, Pi, pend_b, ws)
+            free_flow(I, ax, symax, R, Pi, pend_b, ws, fc)
             status = OVERFLOW
             kend = k
             break
@@ -733,7 +757,7 @@ def run_axes_user(moment, up, I, ax, symax, Pax, diag, J, drift, weight, node, h
 @jit
 def flow_once(I, ax, symax, R, Pi, tau, ws):
     """One exact free flow (tests and the Python layer): :func:`free_flow`."""
-    free_flow(I, ax, symax, R, Pi, tau, ws)
+    free_flow(I, ax, symax, R, Pi, tau, ws, flow_constants(I, ax))
 
 
 __all__ = ["axis_flow", "carlson_rf", "carlson_rj", "flow_once", "free_flow", "run_axes", "run_axes_user", "run_split",
