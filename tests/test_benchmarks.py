@@ -157,3 +157,10 @@ def test_bench_field_quick():
     proc = _run("bench_field.py", "--quick")
     _check(proc, "us/point", "IGRF-14 n=13, compiled, batch", "centred dipole n=1, compiled, batch")
     assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
+def test_splitting_flow_cost_quick():
+    proc = _run("splitting_flow_cost.py", "--quick", "--compare", "src", "src")
+    _check(proc, "old us/step", "new ns/flow", "new/old", "saba4 h=24 s, gravity gradient", "no torque")
+    assert "Traceback" not in proc.stderr

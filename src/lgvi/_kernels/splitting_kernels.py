@@ -211,6 +211,51 @@ def jacobi_am(u, m, m1, ws):
 
 
 @jit(inline="always")
+def jacobi_sncn(u, m, m1, ws):
+    """``(sn(u | m), cn(u | m), j)`` for ``0 <= m < 1`` by the descending Landen transformation, and the
+    integer ``j`` with ``am(u | m) = r + j pi``, ``r`` in ``[-pi/2, pi/2]``; ``ws`` (>= 31,) scratch.
+
+    With ``k = sqrt(m)``, ``k1 = (1 - k')/(1 + k') = k^2/(1 + k')^2`` and ``z1 = u/(1 + k1)`` (DLMF 22.7.1-3),
+    ``sn(u, k) = (1 + k1) s / (1 + k1 s^2)``, ``cn(u, k) = c d / (1 + k1 s^2)``,
+    ``dn(u, k) = (c^2 + (1 - k1) s^2) / (1 + k1 s^2)`` with ``(s, c, d)`` the functions of ``(z1, k1)``;
+    repeated until ``k_N <= 1e-8``, where ``sn = sin z_N`` to ``k_N^2 z_N / 4``. One sine and cosine and a
+    division a level, where the amplitude by the AGM (:func:`jacobi_am`) takes an arcsine and a sine a level.
+    The signs of ``sn`` and ``cn`` are those of ``sin z_N``, ``cos z_N`` (``d > 0``) and ``z_N = pi u / (2 K)``,
+    so ``j = round(z_N / pi)``.
+    """
+    k = math.sqrt(m)
+    kp = math.sqrt(m1)
+    z = u
+    n = 0
+    while k > 1e-8 and n < 14:
+        d = 1.0 + kp
+        k = k * k / (d * d)
+        n += 1
+        ws[n] = k
+        ws[16 + n] = 2.0 * kp / d                       # 1 - k_n, without cancellation
+        kp = 2.0 * math.sqrt(kp) / d
+        z = z / (1.0 + k)
+    j = round(z / math.pi)
+    s = math.sin(z)
+    c = math.cos(z)
+    dd = 1.0 - 0.5 * k * k * s * s
+    for i in range(n, 0, -1):
+        kk = ws[i]
+        s2 = s * s
+        inv = 1.0 / (1.0 + kk * s2)
+        dn = (c * c + ws[16 + i] * s2) * inv
+        c = c * dd * inv
+        s = (1.0 + kk) * s * inv
+        dd = dn
+    # s^2 + c^2 = 1 to round-off, but the recursion's round-off is biased: it would make |Pi| and the
+    # energy drift linearly over many flows (the phase quadratically). One Newton step for
+    # 1/sqrt(s^2 + c^2), applied as a correction (multiplying by 1.5 - (s^2 + c^2)/2 would round it to
+    # the spacing of the floats near 1 and bias it again); docs/splitting.md has the drift measured
+    d = 0.5 * ((s * s - 1.0) + c * c)
+    return s - d * s, c - d * c, j
+
+
+@jit(inline="always")
 def euler_frame(p0, p1, p2, e, ws, o):
     """The rotation ``V`` (into ``ws[o:o+9]``, row-major) with ``V Pi = |Pi| e3``, from the angles of
     the Euler sequence about body axis ``e``."""
@@ -220,12 +265,14 @@ def euler_frame(p0, p1, p2, e, ws, o):
     x1 = q[a]
     x2 = q[b]
     x3 = q[e]
-    rho = math.hypot(x1, x2)
-    nrm = math.sqrt(rho * rho + x3 * x3)
-    sth = rho / nrm
-    cth = x3 / nrm
-    sph = x1 / rho
-    cph = x2 / rho
+    rho2 = x1 * x1 + x2 * x2
+    rho = math.sqrt(rho2)
+    inrm = 1.0 / math.sqrt(rho2 + x3 * x3)
+    irho = 1.0 / rho
+    sth = rho * inrm
+    cth = x3 * inrm
+    sph = x1 * irho
+    cph = x2 * irho
     # Q rows in the coordinates (a, b, e); V[:, a] = Q[:, 0], V[:, b] = Q[:, 1], V[:, e] = Q[:, 2]
     ws[o + a] = cph
     ws[o + b] = -sph
@@ -275,8 +322,30 @@ def rotate_by(R, x, y, z, angle, ws):
     rotate_right(R, ws, 50)
 
 
+@jit(inline="always")
+def flow_constants(I, ax):
+    """The body's constants of :func:`free_flow` (15 floats), so that a flow divides by no moment:
+    ``1/I_i`` (3), ``(I_max - I_mid)/I_max``, ``(I_mid - I_min)/I_min`` (the sign of ``D``), then for
+    ``(I1, I2, I3) = (I_min, I_mid, I_max)`` and again for ``(I_max, I_mid, I_min)``:
+    ``I1 (I3 - I2)/(I2 (I3 - I1))``, ``I2 (I3 - I1)/(I1 (I3 - I2))``, ``I3 (I2 - I1)/(I2 (I3 - I1))``
+    (the amplitudes ``A1, A2, A3``), ``I3 (I2 - I1)/(I1 (I3 - I2))`` (``m A3^2/A1^2``) and
+    ``sqrt((I3 - I2)(I3 - I1)/(I1 I2))/I3`` (``lam/A3``). Infinite or NaN for equal moments, where
+    :func:`free_flow` does not read them."""
+    lo = I[ax[0]]
+    mid = I[ax[1]]
+    hi = I[ax[2]]
+    out0 = (1.0 / I[0], 1.0 / I[1], 1.0 / I[2], (hi - mid) / hi, (mid - lo) / lo)
+    I1, I2, I3 = lo, mid, hi
+    b0 = (I1 * (I3 - I2) / (I2 * (I3 - I1)), I2 * (I3 - I1) / (I1 * (I3 - I2)), I3 * (I2 - I1) / (I2 * (I3 - I1)),
+          I3 * (I2 - I1) / (I1 * (I3 - I2)), math.sqrt((I3 - I2) * (I3 - I1) / (I1 * I2)) / I3)
+    I1, I3 = hi, lo
+    b1 = (I1 * (I3 - I2) / (I2 * (I3 - I1)), I2 * (I3 - I1) / (I1 * (I3 - I2)), I3 * (I2 - I1) / (I2 * (I3 - I1)),
+          I3 * (I2 - I1) / (I1 * (I3 - I2)), math.sqrt((I3 - I2) * (I3 - I1) / (I1 * I2)) / I3)
+    return out0 + b0 + b1
+
+
 @jit
-def free_flow(I, ax, symax, R, Pi, tau, ws):
+def free_flow(I, ax, symax, R, Pi, tau, ws, fc):
     """Advance the free rigid body ``(R, Pi)`` by the time ``tau`` exactly, in place.
 
     Parameters
@@ -296,6 +365,8 @@ def free_flow(I, ax, symax, R, Pi, tau, ws):
         Time (any sign).
     ws : (64,) float64
         Scratch.
+    fc : tuple of 15 floats
+        :func:`flow_constants` of ``I`` and ``ax`` (the body's constants, computed once per run).
     """
     p0 = Pi[0]
     p1 = Pi[1]
@@ -328,10 +399,8 @@ def free_flow(I, ax, symax, R, Pi, tau, ws):
     imin = ax[0]
     imid = ax[1]
     imax = ax[2]
-    Jmin = I[imin]
     Jmid = I[imid]
-    Jmax = I[imax]
-    D = Pi[imax] ** 2 * (Jmax - Jmid) / Jmax - Pi[imin] ** 2 * (Jmid - Jmin) / Jmin
+    D = Pi[imax] ** 2 * fc[3] - Pi[imin] ** 2 * fc[4]
     if D == 0.0 and Pi[imin] == 0.0 and Pi[imax] == 0.0:   # steady spin about the middle axis
         ex = 1.0 if imid == 0 else 0.0
         ey = 1.0 if imid == 1 else 0.0
@@ -341,27 +410,29 @@ def free_flow(I, ax, symax, R, Pi, tau, ws):
     if D >= 0.0:
         a1 = imin
         a3 = imax
+        c12, c21, c32, cm, clam = fc[5], fc[6], fc[7], fc[8], fc[9]
     else:
         a1 = imax
         a3 = imin
+        c12, c21, c32, cm, clam = fc[10], fc[11], fc[12], fc[13], fc[14]
     a2 = imid
     sg = 1.0 if (a2 - a1) % 3 == 1 else -1.0      # S = rows e_a1, sg e_a2, e_a3 has det +1
-    I1 = I[a1]
     I2 = I[a2]
     I3 = I[a3]
     q1 = Pi[a1]
     q2 = sg * Pi[a2]
     q3 = Pi[a3]
-    A1 = math.sqrt(q1 * q1 + q2 * q2 * (I1 * (I3 - I2)) / (I2 * (I3 - I1)))
-    A2 = math.sqrt(q2 * q2 + q1 * q1 * (I2 * (I3 - I1)) / (I1 * (I3 - I2)))
-    A3 = math.sqrt(q3 * q3 + q2 * q2 * (I3 * (I2 - I1)) / (I2 * (I3 - I1)))
-    den = A3 * A3 * I1 * (I3 - I2)
-    m = A1 * A1 * I3 * (I2 - I1) / den
-    m1 = (den - A1 * A1 * I3 * (I2 - I1)) / den
+    A1 = math.sqrt(q1 * q1 + q2 * q2 * c12)
+    A2 = math.sqrt(q2 * q2 + q1 * q1 * c21)
+    A3 = math.sqrt(q3 * q3 + q2 * q2 * c32)
+    den = A3 * A3
+    num = A1 * A1 * cm
+    m = num / den
+    m1 = (den - num) / den
     if m >= 1.0 or m1 <= 0.0:
         m = 1.0
         m1 = 0.0
-    lam = A3 / I3 * math.sqrt((I3 - I2) * (I3 - I1) / (I1 * I2))
+    lam = A3 * clam
     s3 = 1.0 if q3 > 0.0 else -1.0
     s23 = 1.0 if I3 > I2 else -1.0
     B2 = s3 * s23 * A2
@@ -379,31 +450,48 @@ def free_flow(I, ax, symax, R, Pi, tau, ws):
         e = a3
         c0 = A1 * A1
         nn = -m * A3 * A3 / c0
-    # phase: am(u0) = phi0; reduced to phi0 - j0 pi in [-pi/2, pi/2] (am(u + 2K) = am(u) + pi, and the
-    # integrals below are differences, unchanged by the shift)
-    phi0 = math.atan2(q2 * A1 * s3 * s23, q1 * A2)
-    j0 = round(phi0 / math.pi)
-    if m1 <= 0.0:
-        j0 = 0
-        phi0 = max(-0.5 * math.pi, min(0.5 * math.pi, phi0))
-    r0 = phi0 - j0 * math.pi
-    sr0 = math.sin(r0)
-    cr0 = math.cos(r0)
+    # phase: am(u0) = phi0; reduced to r0 = phi0 - j0 pi in [-pi/2, pi/2] (am(u + 2K) = am(u) + pi, and the
+    # integrals below are differences, unchanged by the shift): (sin r0, cos r0) = +-(y, x) / |(x, y)|
+    xph = q1 * A2
+    yph = q2 * A1 * s3 * s23
+    if m1 <= 0.0:                     # the separatrix (m = 1): am(u | 1) = gd(u) in (-pi/2, pi/2)
+        phi0 = max(-0.5 * math.pi, min(0.5 * math.pi, math.atan2(yph, xph)))
+        sr0 = math.sin(phi0)
+        cr0 = math.cos(phi0)
+        flip = 1.0
+    else:
+        rho = math.sqrt(xph * xph + yph * yph)
+        flip = 1.0 if xph >= 0.0 else -1.0
+        sr0 = flip * yph / rho if rho > 0.0 else 0.0
+        cr0 = flip * xph / rho if rho > 0.0 else 1.0
     y0 = cr0 * cr0 + m1 * sr0 * sr0
     rf0, rj0 = rf_rj_call(cr0 * cr0, y0, 1.0, 1.0 - nn * sr0 * sr0)
     u0 = sr0 * rf0
-    phi1 = jacobi_am(u0 + lam * tau, m, m1, ws)
-    flip = -1.0 if j0 % 2 != 0 else 1.0
-    sn = flip * math.sin(phi1)
-    cn = flip * math.cos(phi1)
+    if m1 <= 0.0:
+        phi1 = jacobi_am(u0 + lam * tau, m, m1, ws)
+        sr1 = math.sin(phi1)
+        cr1 = math.cos(phi1)
+        j1 = 0
+        sn = sr1
+        cn = cr1
+    else:
+        # sn, cn of u1 = u0 + lam tau and j1 with am(u1) = r1 + j1 pi, r1 in [-pi/2, pi/2]
+        sn, cn, j1 = jacobi_sncn(u0 + lam * tau, m, m1, ws)
+        sr1 = -sn if j1 % 2 != 0 else sn
+        cr1 = -cn if j1 % 2 != 0 else cn
+        sn = flip * sn
+        cn = flip * cn
     dn = math.sqrt(cn * cn + m1 * sn * sn)
-    Ie = I[e]
-    twoE_minus = p0 * p0 * (1.0 / I[0] - 1.0 / Ie) + p1 * p1 * (1.0 / I[1] - 1.0 / Ie) + \
-        p2 * p2 * (1.0 / I[2] - 1.0 / Ie)
+    iIe = fc[e]
+    twoE_minus = p0 * p0 * (fc[0] - iIe) + p1 * p1 * (fc[1] - iIe) + p2 * p2 * (fc[2] - iIe)
     # int dt / (L^2 - Pi_e^2) = [Pi(nn; am u | m)] / (c0 lam), and Pi(nn; phi) = F(phi) + nn/3 G(phi) with
     # F(am u) = u, so the difference is lam tau + nn/3 (G(phi1) - G(phi0))
-    dG = third_kind_rest(nn, phi1, m1) - sr0 * sr0 * sr0 * rj0
-    psi = L * tau / Ie + L * twoE_minus / c0 * (tau + nn / (3.0 * lam) * dG)
+    # G(phi1) = sin^3 r1 R_J(cos^2 r1, ...) + 2 j1 R_J(0, m1, 1, 1 - nn) (third_kind_rest, from sin and cos)
+    dG = sr1 * sr1 * sr1 * carlson_rj(cr1 * cr1, cr1 * cr1 + m1 * sr1 * sr1, 1.0, 1.0 - nn * sr1 * sr1) \
+        - sr0 * sr0 * sr0 * rj0
+    if j1 != 0:
+        dG += 2.0 * j1 * carlson_rj(0.0, m1, 1.0, 1.0 - nn)
+    psi = L * tau * iIe + L * twoE_minus / c0 * (tau + nn / (3.0 * lam) * dG)
     euler_frame(p0, p1, p2, e, ws, 32)            # V0
     n1 = A1 * cn
     n2 = B2 * sn
@@ -529,6 +617,7 @@ def split_steps(moment, up, user, I, ax, symax, Pax, diag, J, drift, weight, nod
     ``drift[i] h`` and kicks ``Pi += weight[i] h M(t0 + (k + node[i]) h, R)``; the last drift of a
     step and the first of the next are one flow, except at saved samples. Returns ``(status, k)``."""
     s = weight.shape[0]
+    fc = flow_constants(I, ax)
     if not diag:
         _to_frame(R, Pi, Pax, not diag, ws)    # forward (a runtime bool: one compiled _to_frame for both ways)
     countdown = save_every
@@ -544,16 +633,16 @@ def split_steps(moment, up, user, I, ax, symax, Pax, diag, J, drift, weight, nod
         pend_b = pend
         pend += drift[0] * h
         for i in range(s):
-            free_flow(I, ax, symax, R, Pi, pend, ws)
+            free_flow(I, ax, symax, R, Pi, pend, ws, fc)
             kick(moment, up, user, diag, Pax, J, codes, params, t0 + (k + node[i]) * h, weight[i] * h, R, Pi, Rs, Ps)
             pend = drift[i + 1] * h
         countdown -= 1
         if countdown == 0:
-            free_flow(I, ax, symax, R, Pi, pend, ws)
+            free_flow(I, ax, symax, R, Pi, pend, ws, fc)
             pend = 0.0
         ok, countdown, jout = step_end(R, Pi, Rb, Pb, countdown, save_every, jout, R_out, Pi_out, Pax, diag, ws)
         if not ok:
-            free_flow(I, ax, symax, R, Pi, pend_b, ws)
+            free_flow(I, ax, symax, R, Pi, pend_b, ws, fc)
             status = OVERFLOW
             kend = k
             break
@@ -668,7 +757,7 @@ def run_axes_user(moment, up, I, ax, symax, Pax, diag, J, drift, weight, node, h
 @jit
 def flow_once(I, ax, symax, R, Pi, tau, ws):
     """One exact free flow (tests and the Python layer): :func:`free_flow`."""
-    free_flow(I, ax, symax, R, Pi, tau, ws)
+    free_flow(I, ax, symax, R, Pi, tau, ws, flow_constants(I, ax))
 
 
 __all__ = ["axis_flow", "carlson_rf", "carlson_rj", "flow_once", "free_flow", "run_axes", "run_axes_user", "run_split",
