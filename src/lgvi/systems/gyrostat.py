@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import operator
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Any
@@ -34,6 +35,9 @@ CHUNK_STEPS = 1 << 16
 OMEGA_LIMIT_CYCLE = 1e-4
 #: Tolerance on the norm of a wheel axis.
 AXIS_TOL = 1e-6
+#: The arrays of :class:`ReactionWheels` (what its derived values are computed from).
+_WHEEL_ARRAYS = ("axes", "spin_inertia", "speed0", "max_torque", "min_torque", "max_power", "max_speed", "coulomb",
+                 "viscous", "omega_limit_cycle")
 
 
 def _per_wheel(value: Any, name: str, n: int, *, minimum: float | None = None, strict: bool = False,
@@ -41,7 +45,7 @@ def _per_wheel(value: Any, name: str, n: int, *, minimum: float | None = None, s
     """A scalar or (N,) array of finite floats, checked against ``minimum`` (``strict``: above)."""
     if value is None:
         return np.full(n, np.nan if none is None else none)
-    if type(value) is float and math.isfinite(value):        # the common case, without the array round trip
+    if isinstance(value, float) and math.isfinite(value):   # the common case (np.float64 too), no array round trip
         if minimum is not None and (value <= minimum if strict else value < minimum):
             rule = f"> {minimum:g}" if strict else f">= {minimum:g}"
             raise ValueError(f"{name} must be {rule} for every wheel; wheel 0 has {value:g}")
@@ -130,6 +134,46 @@ class ReactionWheels:
     def __len__(self) -> int:
         return int(self.axes.shape[0])
 
+    def __getstate__(self) -> dict[str, Any]:
+        state = dict(self.__dict__)
+        state.pop("_kept", None)          # a copy or a pickle recomputes what it needs
+        return state
+
+    def _derived(self) -> dict[str, Any]:
+        """The values derived from the wheels' numbers, kept for the next run with the same numbers.
+
+        They are kept with the arrays they were computed from and those arrays' bytes: an array
+        replaced (another object) or changed in place (other bytes) makes them computed afresh, so
+        a stale value is never returned. Callers copy what they hand out.
+        """
+        arrays = tuple(map(self.__dict__.get, _WHEEL_ARRAYS))
+        kept = self.__dict__.get("_kept")
+        if (kept is not None and all(map(operator.is_, arrays, kept["arrays"]))
+                and kept["bytes"] == tuple(a.tobytes() for a in arrays)):
+            return kept
+        kept = {"arrays": arrays, "bytes": None, "hub": {}}
+        if all(type(a) is np.ndarray and a.dtype == np.float64 for a in arrays):
+            kept["bytes"] = tuple(a.tobytes() for a in arrays)
+            self.__dict__["_kept"] = kept
+        return kept
+
+    def _hub(self, body: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(J_B, J_B^-1, Jd_B)`` (3, 3) of the wheels in ``body`` (:meth:`hub_inertia`, its inverse and
+        ``tr(J_B)/2 I - J_B``), computed once per body inertia and set of wheel numbers; the arrays
+        kept, not copies (do not write into them)."""
+        hub = self._derived()["hub"]
+        J = np.asarray(body.J, dtype=np.float64)
+        key = J.tobytes()
+        out = hub.get(key)
+        if out is None:
+            JB = self._hub_inertia(J)
+            JdB = np.trace(JB) / 2.0 * np.eye(3) - JB
+            out = (JB, np.linalg.inv(JB), JdB)
+            if len(hub) >= 4:
+                hub.pop(next(iter(hub)))
+            hub[key] = out
+        return out
+
     @property
     def G(self) -> np.ndarray:
         """(3, N) the axes as columns."""
@@ -137,13 +181,19 @@ class ReactionWheels:
 
     @property
     def has_friction(self) -> bool:
-        return bool(np.any(self.coulomb) or np.any(self.viscous))
+        kept = self._derived()
+        if "has_friction" not in kept:
+            kept["has_friction"] = bool(np.any(self.coulomb) or np.any(self.viscous))
+        return kept["has_friction"]
 
     def params(self) -> np.ndarray:
-        """(N, 8) rows for the kernel (:mod:`lgvi._kernels.gyrostat_kernels`)."""
-        return np.ascontiguousarray(np.stack([self.spin_inertia, self.max_torque, self.min_torque, self.max_power,
-                                              self.max_speed, self.coulomb, self.viscous, self.omega_limit_cycle],
-                                             axis=1).reshape(len(self), 8))
+        """(N, 8) rows for the kernel (:mod:`lgvi._kernels.gyrostat_kernels`), a new array."""
+        kept = self._derived()
+        if "params" not in kept:
+            kept["params"] = np.ascontiguousarray(np.stack(
+                [self.spin_inertia, self.max_torque, self.min_torque, self.max_power, self.max_speed, self.coulomb,
+                 self.viscous, self.omega_limit_cycle], axis=1).reshape(len(self), 8))
+        return kept["params"].copy()
 
     def hub_inertia(self, body: Any) -> np.ndarray:
         """``J_B = J - G diag(Js) G^T`` (3, 3): the body's inertia without the wheels' axial part.
@@ -151,7 +201,10 @@ class ReactionWheels:
         Raises ``ValueError`` when the wheels do not fit the body: the locked inertia along an
         axis not above that wheel's spin inertia, or ``J_B`` not positive definite.
         """
-        J = np.asarray(body.J, dtype=np.float64)
+        return self._hub(body)[0].copy()
+
+    def _hub_inertia(self, J: np.ndarray) -> np.ndarray:
+        """:meth:`hub_inertia` of the inertia ``J`` (3, 3), computed."""
         for i in range(len(self)):
             along = float(self.axes[i] @ J @ self.axes[i])
             if not along > self.spin_inertia[i]:
@@ -298,6 +351,22 @@ RESULT_TYPES["gyrostat"] = (("wheel_momentum", "wheel_torque", "wheel_axes", "sp
 # the run
 # ------------------------------------------------------------------------------------------------
 _NO_WHEELS = None
+#: The gyrostat's System with the wheel fields shaped for N wheels, by N (each built once).
+_LAYOUTS: dict[int, System] = {}
+
+
+def _layout(n: int) -> System:
+    """:data:`GYROSTAT` with ``wheel_momentum`` and ``wheel_torque`` of shape ``(n,)`` (frozen, shared by runs)."""
+    system = _LAYOUTS.get(n)
+    if system is None:
+        system = dataclasses.replace(
+            GYROSTAT,
+            state=(GYROSTAT.state[0], GYROSTAT.state[1], Field("wheel_momentum", (n,), doc=GYROSTAT.state[2].doc)),
+            records=(GYROSTAT.records[0], GYROSTAT.records[1],
+                     Field("wheel_torque", (n,), np.float64, GYROSTAT.records[2].doc)))
+        if len(_LAYOUTS) < 64:
+            _LAYOUTS[n] = system
+    return system
 
 
 def _controller_period(controller: Any, control_period: Any, h: float) -> int:
@@ -347,9 +416,10 @@ class GyrostatRun:
         check_memory(self.steps, self.save_every, self.full)
         n = len(wheels)
         self.N = n
-        self.JB = JB = wheels.hub_inertia(body)
-        self.JB_inv = np.linalg.inv(JB)
-        self.JdB = body.Jd.copy() if n == 0 else np.trace(JB) / 2.0 * np.eye(3) - JB
+        JB, JB_inv, JdB = wheels._hub(body)            # kept by the wheels: this run's own copies
+        self.JB = JB = JB.copy()
+        self.JB_inv = JB_inv.copy()
+        self.JdB = body.Jd.copy() if n == 0 else JdB.copy()
         a, Js = wheels.axes, wheels.spin_inertia
         # initial state: Pi = J_B omega + G rho, rho = Js (a . omega + speed0)
         if Pi0 is None and omega0 is None:
@@ -406,7 +476,8 @@ class GyrostatRun:
             if g in first:
                 self.G[i, 0] = self.G[first[g], 0]
             else:
-                guess(self.code, JB, g * self.h * q, self.G[i, 0])
+                # memoryviews: the kernel's Python source on plain floats, the same IEEE operations
+                guess(self.code, memoryview(JB), memoryview(g * self.h * q), memoryview(self.G[i, 0]))
                 first[g] = i
         # a body torque acted (the declaration of invariants is that of the run so far)
         self.external = (self.ctrl == 1 and n == 0) or self.model is not None
@@ -421,11 +492,7 @@ class GyrostatRun:
         base = CHUNK_STEPS if not self.python_controller else max(CHUNK_STEPS, self.spc)
         self.chunk = max(1, base // se) * se
         self.wp = wheels.params()
-        self.system = dataclasses.replace(
-            GYROSTAT,
-            state=(GYROSTAT.state[0], GYROSTAT.state[1], Field("wheel_momentum", (n,), doc=GYROSTAT.state[2].doc)),
-            records=(GYROSTAT.records[0], GYROSTAT.records[1],
-                     Field("wheel_torque", (n,), np.float64, GYROSTAT.records[2].doc)))
+        self.system = _layout(n)
         ctrl_repr = repr(controller) if controller is not None else None
         self.meta: dict[str, Any] = {"system": "gyrostat", "method": "newton", "tol": self.tol,
                                      "max_iter": self.max_iter, "alpha": 1.0, "save_every": se,
@@ -686,17 +753,20 @@ def _mrp_params(ctrl: Any, wheels: ReactionWheels) -> np.ndarray:
     from ..control import map_to_wheels
 
     n = len(wheels)
-    R_ref = np.eye(3) if ctrl.R_ref is None else ctrl.R_ref
-    M = np.zeros((n, 3))
+    # the numbers go through Python floats (exact both ways): a few small-array calls less
+    R_ref = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0] if ctrl.R_ref is None else ctrl.R_ref.ravel().tolist()
+    M = [0.0] * (3 * n)
     wm = getattr(ctrl, "wheel_map", None)      # set by MRPFeedback.setup from these axes: the same numbers
-    if n and isinstance(wm, np.ndarray) and wm.shape == (n, 3) and np.array_equal(ctrl.axes, wheels.axes):
-        M[:] = wm
+    axes = ctrl.axes
+    if (n and isinstance(wm, np.ndarray) and wm.shape == (n, 3) and isinstance(axes, np.ndarray)
+            and axes.shape == wheels.axes.shape and axes.tolist() == wheels.axes.tolist()):   # np.array_equal
+        M = np.asarray(wm, dtype=np.float64).ravel().tolist()
     elif n:
-        for j in range(3):
-            M[:, j] = map_to_wheels(np.eye(3)[j], wheels.axes)
+        cols = [map_to_wheels(np.eye(3)[j], wheels.axes) for j in range(3)]
+        M = np.stack(cols, axis=1).astype(np.float64, copy=False).ravel().tolist()
     lim = ctrl.integral_limit if math.isfinite(ctrl.integral_limit) else 1e300
-    return np.concatenate([[ctrl.K, ctrl.P, 0.0 if ctrl.Ki is None else ctrl.Ki, lim], R_ref.ravel(), np.zeros(6),
-                           np.asarray(ctrl.J, dtype=np.float64).ravel(), M.ravel()])
+    return np.array([ctrl.K, ctrl.P, 0.0 if ctrl.Ki is None else ctrl.Ki, lim] + R_ref + [0.0] * 6
+                    + np.asarray(ctrl.J, dtype=np.float64).ravel().tolist() + M, dtype=np.float64)
 
 
 def _torque_model(torque: Any) -> Any:
