@@ -104,13 +104,12 @@ class ReactionWheels:
         if a.ndim != 2 or a.shape[1] != 3:
             raise ValueError(f"axes must have shape (N, 3) (one unit vector per wheel), got shape {a.shape}")
         n = a.shape[0]
-        norms = np.linalg.norm(a, axis=1)
-        bad = np.abs(norms - 1.0) > AXIS_TOL
-        if np.any(bad):
-            i = int(np.argmax(bad))
-            raise ValueError(f"axes must be unit vectors (to {AXIS_TOL:g}); axis {i} {a[i].tolist()} has norm "
-                             f"{norms[i]:.9g}: divide it by its norm")
-        self.axes = a / norms[:, None] if n else a.reshape(0, 3)
+        norms = [math.sqrt((x * x + y * y) + z * z) for x, y, z in a.tolist()]   # np.linalg.norm(a, axis=1)
+        for i, norm in enumerate(norms):
+            if abs(norm - 1.0) > AXIS_TOL:
+                raise ValueError(f"axes must be unit vectors (to {AXIS_TOL:g}); axis {i} {a[i].tolist()} has norm "
+                                 f"{norm:.9g}: divide it by its norm")
+        self.axes = a / np.array(norms)[:, None] if n else a.reshape(0, 3)
         self.spin_inertia = _per_wheel(spin_inertia, "spin_inertia", n, minimum=0.0, strict=True)
         self.speed0 = _per_wheel(speed0, "speed0", n)
         self.max_torque = _per_wheel(max_torque, "max_torque", n, minimum=0.0, strict=True, none=0.0)
@@ -167,7 +166,10 @@ class ReactionWheels:
         out = hub.get(key)
         if out is None:
             JB = self._hub_inertia(J)
-            JdB = np.trace(JB) / 2.0 * np.eye(3) - JB
+            rows = JB.tolist()                               # np.trace(JB) / 2.0 * np.eye(3) - JB, in floats
+            half = ((rows[0][0] + rows[1][1]) + rows[2][2]) / 2.0
+            JdB = np.array([[(half if r == c else half * 0.0) - x for c, x in enumerate(row)]
+                            for r, row in enumerate(rows)])
             out = (JB, np.linalg.inv(JB), JdB)
             if len(hub) >= 4:
                 hub.pop(next(iter(hub)))
@@ -183,16 +185,18 @@ class ReactionWheels:
     def has_friction(self) -> bool:
         kept = self._derived()
         if "has_friction" not in kept:
-            kept["has_friction"] = bool(np.any(self.coulomb) or np.any(self.viscous))
+            kept["has_friction"] = any(np.ravel(self.coulomb).tolist()) or any(np.ravel(self.viscous).tolist())
         return kept["has_friction"]
 
     def params(self) -> np.ndarray:
         """(N, 8) rows for the kernel (:mod:`lgvi._kernels.gyrostat_kernels`), a new array."""
         kept = self._derived()
         if "params" not in kept:
-            kept["params"] = np.ascontiguousarray(np.stack(
-                [self.spin_inertia, self.max_torque, self.min_torque, self.max_power, self.max_speed, self.coulomb,
-                 self.viscous, self.omega_limit_cycle], axis=1).reshape(len(self), 8))
+            rows = np.empty((len(self), 8))           # np.stack(..., axis=1), C order
+            for j, column in enumerate((self.spin_inertia, self.max_torque, self.min_torque, self.max_power,
+                                        self.max_speed, self.coulomb, self.viscous, self.omega_limit_cycle)):
+                rows[:, j] = column
+            kept["params"] = rows
         return kept["params"].copy()
 
     def hub_inertia(self, body: Any) -> np.ndarray:
