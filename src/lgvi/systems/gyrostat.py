@@ -473,15 +473,18 @@ class GyrostatRun:
         from .._kernels.solvers import initial_guess   # cold start from the linearisation (as the rigid body)
 
         self.comp = composition_for(order, composition)
-        self.gam = self.comp.arrays()[0]
+        self.gam = np.array(self.comp.coefficients)     # comp.arrays()[0], without the cumulative sums
         self.G = np.zeros((len(self.gam), 5, 3))
         guess, q, first = getattr(initial_guess, "py_func", initial_guess), self.Pi - a.T @ self.wheel_momentum, {}
-        for i, g in enumerate(self.gam):           # once per distinct substep
+        # the kernel's Python source on plain floats (J_B as a memoryview, lists): the same IEEE operations
+        JB_view, q, h = memoryview(JB), q.tolist(), self.h
+        for i, g in enumerate(self.comp.coefficients):           # once per distinct substep
             if g in first:
                 self.G[i, 0] = self.G[first[g], 0]
             else:
-                # memoryviews: the kernel's Python source on plain floats, the same IEEE operations
-                guess(self.code, memoryview(JB), memoryview(g * self.h * q), memoryview(self.G[i, 0]))
+                gh, out = g * h, [0.0, 0.0, 0.0]
+                guess(self.code, JB_view, [gh * x for x in q], out)      # g * h * q
+                self.G[i, 0] = out
                 first[g] = i
         # a body torque acted (the declaration of invariants is that of the run so far)
         self.external = (self.ctrl == 1 and n == 0) or self.model is not None
@@ -754,8 +757,6 @@ def _check_command(cmd: Any, n: int, k: int, t: float) -> tuple[Any, Any, Any]:
 
 def _mrp_params(ctrl: Any, wheels: ReactionWheels) -> np.ndarray:
     """The ``cp`` vector of the compiled MRP feedback (:data:`lgvi._kernels.gyrostat_kernels.CP_MAP`)."""
-    from ..control import map_to_wheels
-
     n = len(wheels)
     # the numbers go through Python floats (exact both ways): a few small-array calls less
     R_ref = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0] if ctrl.R_ref is None else ctrl.R_ref.ravel().tolist()
@@ -766,6 +767,8 @@ def _mrp_params(ctrl: Any, wheels: ReactionWheels) -> np.ndarray:
             and axes.shape == wheels.axes.shape and axes.tolist() == wheels.axes.tolist()):   # np.array_equal
         M = np.asarray(wm, dtype=np.float64).ravel().tolist()
     elif n:
+        from ..control import map_to_wheels
+
         cols = [map_to_wheels(np.eye(3)[j], wheels.axes) for j in range(3)]
         M = np.stack(cols, axis=1).astype(np.float64, copy=False).ravel().tolist()
     lim = ctrl.integral_limit if math.isfinite(ctrl.integral_limit) else 1e300
