@@ -22,10 +22,13 @@ import numpy as np
 
 from .._validation import as_float, as_float_array, as_int, as_rotation, choice
 from .._version import __version__
+from ..accuracy import check_options, with_estimate
+from ..body import RigidBody
 from ..control import Command, Controller
 from ..driver import MemorySink, check_memory, drive, run_solver_options, sample_times, time_grid
 from ..errors import ConvergenceError, TorqueError
 from ..invariants import BOUNDED, EXACT
+from ..registry import composition_for
 from ..trajectory import HIST_BINS, RESULT_TYPES, Trajectory, freeze_arrays, summary_dict
 from . import Field, System, register
 
@@ -355,6 +358,7 @@ RESULT_TYPES["gyrostat"] = (("wheel_momentum", "wheel_torque", "wheel_axes", "sp
 # the run
 # ------------------------------------------------------------------------------------------------
 _NO_WHEELS = None
+_INITIAL_GUESS = None
 #: The gyrostat's System with the wheel fields shaped for N wheels, by N (each built once).
 _LAYOUTS: dict[int, System] = {}
 
@@ -371,6 +375,17 @@ def _layout(n: int) -> System:
         if len(_LAYOUTS) < 64:
             _LAYOUTS[n] = system
     return system
+
+
+def _cold_start() -> Any:
+    """The Python source of the solvers' cold start from the linearisation (as the rigid body), imported
+    on the first run (the kernels load lazily)."""
+    global _INITIAL_GUESS
+    if _INITIAL_GUESS is None:
+        from .._kernels.solvers import initial_guess
+
+        _INITIAL_GUESS = getattr(initial_guess, "py_func", initial_guess)
+    return _INITIAL_GUESS
 
 
 def _controller_period(controller: Any, control_period: Any, h: float) -> int:
@@ -400,8 +415,6 @@ class GyrostatRun:
                  magnetorquers: Any = None, method: str = "newton", tol: Any = 1e-14, max_iter: Any = 50,
                  alpha: Any = 1.0, save_every: Any = 1, t0: Any = 0.0, solver_record: str = "interval",
                  order: Any = 2, composition: Any = None, torque: Any = None) -> None:
-        from ..body import RigidBody
-
         self.body = body = body if isinstance(body, RigidBody) else RigidBody(body)
         if wheels is None:
             wheels = ReactionWheels(np.zeros((0, 3)), np.zeros(0))
@@ -469,13 +482,10 @@ class GyrostatRun:
         self.cmd = np.zeros(n)
         self.tau = np.zeros(3)
         self.u_now = np.zeros(2 * n)
-        from ..registry import composition_for
-        from .._kernels.solvers import initial_guess   # cold start from the linearisation (as the rigid body)
-
         self.comp = composition_for(order, composition)
         self.gam = np.array(self.comp.coefficients)     # comp.arrays()[0], without the cumulative sums
         self.G = np.zeros((len(self.gam), 5, 3))
-        guess, q, first = getattr(initial_guess, "py_func", initial_guess), self.Pi - a.T @ self.wheel_momentum, {}
+        guess, q, first = _cold_start(), self.Pi - a.T @ self.wheel_momentum, {}
         # the kernel's Python source on plain floats (J_B as a memoryview, lists): the same IEEE operations
         JB_view, q, h = memoryview(JB), q.tolist(), self.h
         for i, g in enumerate(self.comp.coefficients):           # once per distinct substep
@@ -796,8 +806,6 @@ def gyrostat_options(*, torque: Any, forcing: Any, order: Any, composition: Any,
     _torque_model(torque)
     if forcing not in ("paper", "symmetric"):
         choice(forcing, "forcing", ("paper", "symmetric"))
-    from ..accuracy import check_options
-
     check_options(error_estimate, 0.01, None)      # True or "richardson": the shadow run of simulate_gyrostat
 
 
@@ -814,8 +822,6 @@ def simulate_gyrostat(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None
     friction (first order in the friction torque).
     """
     import copy
-
-    from ..accuracy import check_options, with_estimate
 
     estimate, warn = check_options(error_estimate, error_warn, None)
     if estimate:
