@@ -159,11 +159,11 @@ class ReactionWheels:
             self.__dict__["_kept"] = kept
         return kept
 
-    def _hub(self, body: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _hub(self, body: Any, kept: dict[str, Any] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(J_B, J_B^-1, Jd_B)`` (3, 3) of the wheels in ``body`` (:meth:`hub_inertia`, its inverse and
         ``tr(J_B)/2 I - J_B``), computed once per body inertia and set of wheel numbers; the arrays
         kept, not copies (do not write into them)."""
-        hub = self._derived()["hub"]
+        hub = (kept or self._derived())["hub"]
         J = np.asarray(body.J, dtype=np.float64)
         key = J.tobytes()
         out = hub.get(key)
@@ -179,6 +179,26 @@ class ReactionWheels:
             hub[key] = out
         return out
 
+    def _for_run(self, body: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
+        """``(J_B, J_B^-1, Jd_B, params, has_friction)`` for a run in ``body``, the wheels' numbers
+        checked once (:meth:`_derived`); the arrays kept, not copies (do not write into them)."""
+        kept = self._derived()
+        return (*self._hub(body, kept), self._params(kept), self._friction(kept))
+
+    def _friction(self, kept: dict[str, Any]) -> bool:
+        if "has_friction" not in kept:
+            kept["has_friction"] = any(np.ravel(self.coulomb).tolist()) or any(np.ravel(self.viscous).tolist())
+        return kept["has_friction"]
+
+    def _params(self, kept: dict[str, Any]) -> np.ndarray:
+        if "params" not in kept:
+            rows = np.empty((len(self), 8))           # np.stack(..., axis=1), C order
+            for j, column in enumerate((self.spin_inertia, self.max_torque, self.min_torque, self.max_power,
+                                        self.max_speed, self.coulomb, self.viscous, self.omega_limit_cycle)):
+                rows[:, j] = column
+            kept["params"] = rows
+        return kept["params"]
+
     @property
     def G(self) -> np.ndarray:
         """(3, N) the axes as columns."""
@@ -186,21 +206,11 @@ class ReactionWheels:
 
     @property
     def has_friction(self) -> bool:
-        kept = self._derived()
-        if "has_friction" not in kept:
-            kept["has_friction"] = any(np.ravel(self.coulomb).tolist()) or any(np.ravel(self.viscous).tolist())
-        return kept["has_friction"]
+        return self._friction(self._derived())
 
     def params(self) -> np.ndarray:
         """(N, 8) rows for the kernel (:mod:`lgvi._kernels.gyrostat_kernels`), a new array."""
-        kept = self._derived()
-        if "params" not in kept:
-            rows = np.empty((len(self), 8))           # np.stack(..., axis=1), C order
-            for j, column in enumerate((self.spin_inertia, self.max_torque, self.min_torque, self.max_power,
-                                        self.max_speed, self.coulomb, self.viscous, self.omega_limit_cycle)):
-                rows[:, j] = column
-            kept["params"] = rows
-        return kept["params"].copy()
+        return self._params(self._derived()).copy()
 
     def hub_inertia(self, body: Any) -> np.ndarray:
         """``J_B = J - G diag(Js) G^T`` (3, 3): the body's inertia without the wheels' axial part.
@@ -433,7 +443,7 @@ class GyrostatRun:
         check_memory(self.steps, self.save_every, self.full)
         n = len(wheels)
         self.N = n
-        JB, JB_inv, JdB = wheels._hub(body)            # kept by the wheels: this run's own copies
+        JB, JB_inv, JdB, wp, friction = wheels._for_run(body)     # kept by the wheels: this run's own copies
         self.JB = JB = JB.copy()
         self.JB_inv = JB_inv.copy()
         self.JdB = body.Jd.copy() if n == 0 else JdB.copy()
@@ -498,7 +508,7 @@ class GyrostatRun:
                 first[g] = i
         # a body torque acted (the declaration of invariants is that of the run so far)
         self.external = (self.ctrl == 1 and n == 0) or self.model is not None
-        self.motors_off = controller is None and not wheels.has_friction
+        self.motors_off = controller is None and not friction
         self.k = 0
         self.counts = np.zeros(HIST_BINS, dtype=np.int64)
         self.it_total = 0
@@ -508,7 +518,7 @@ class GyrostatRun:
         se = self.save_every
         base = CHUNK_STEPS if not self.python_controller else max(CHUNK_STEPS, self.spc)
         self.chunk = max(1, base // se) * se
-        self.wp = wheels.params()
+        self.wp = wp.copy()
         self.system = _layout(n)
         ctrl_repr = repr(controller) if controller is not None else None
         self.meta: dict[str, Any] = {"system": "gyrostat", "method": "newton", "tol": self.tol,
