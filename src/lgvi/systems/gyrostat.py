@@ -778,22 +778,27 @@ def _check_command(cmd: Any, n: int, k: int, t: float) -> tuple[Any, Any, Any]:
 def _mrp_params(ctrl: Any, wheels: ReactionWheels) -> np.ndarray:
     """The ``cp`` vector of the compiled MRP feedback (:data:`lgvi._kernels.gyrostat_kernels.CP_MAP`)."""
     n = len(wheels)
-    # the numbers go through Python floats (exact both ways): a few small-array calls less
-    R_ref = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0] if ctrl.R_ref is None else ctrl.R_ref.ravel().tolist()
-    M = [0.0] * (3 * n)
+    cp = np.zeros(28 + 3 * n)              # filled in place: the same numbers, fewer small-array calls
+    cp[0], cp[1], cp[2] = ctrl.K, ctrl.P, 0.0 if ctrl.Ki is None else ctrl.Ki
+    cp[3] = ctrl.integral_limit if math.isfinite(ctrl.integral_limit) else 1e300
+    if ctrl.R_ref is None:
+        cp[4:13:4] = 1.0                    # the identity
+    else:
+        cp[4:13] = ctrl.R_ref.ravel()
+    cp[19:28] = np.asarray(ctrl.J, dtype=np.float64).ravel()
     wm = getattr(ctrl, "wheel_map", None)      # set by MRPFeedback.setup from these axes: the same numbers
     axes = ctrl.axes
     if (n and isinstance(wm, np.ndarray) and wm.shape == (n, 3) and isinstance(axes, np.ndarray)
             and axes.shape == wheels.axes.shape and axes.tolist() == wheels.axes.tolist()):   # np.array_equal
-        M = np.asarray(wm, dtype=np.float64).ravel().tolist()
+        cp[28:] = wm.ravel()
     elif n:
         from ..control import map_to_wheels
 
-        cols = [map_to_wheels(np.eye(3)[j], wheels.axes) for j in range(3)]
-        M = np.stack(cols, axis=1).astype(np.float64, copy=False).ravel().tolist()
-    lim = ctrl.integral_limit if math.isfinite(ctrl.integral_limit) else 1e300
-    return np.array([ctrl.K, ctrl.P, 0.0 if ctrl.Ki is None else ctrl.Ki, lim] + R_ref + [0.0] * 6
-                    + np.asarray(ctrl.J, dtype=np.float64).ravel().tolist() + M, dtype=np.float64)
+        M = np.zeros((n, 3))
+        for j in range(3):
+            M[:, j] = map_to_wheels(np.eye(3)[j], wheels.axes)
+        cp[28:] = M.ravel()
+    return cp
 
 
 def _torque_model(torque: Any) -> Any:
