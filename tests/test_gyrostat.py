@@ -491,8 +491,9 @@ def test_scenario_bad_wheel_and_controller_tables(edit, match):
 # values the wheels keep between runs (hub inertia per body, kernel rows): never stale
 # ------------------------------------------------------------------------------------------------
 def test_kept_wheel_values_follow_every_change_of_the_wheels():
-    """ReactionWheels keeps J_B, J_B^-1, Jd_B per body and its kernel rows between runs; a wheel
-    array changed in place or replaced, or another body, must give what new wheels give."""
+    """ReactionWheels keeps J_B, J_B^-1, Jd_B per body (shared with wheels of the same numbers) and
+    its kernel rows between runs; a wheel array changed in place or replaced, or another body, must
+    give what new wheels give and what the formula gives."""
     other = lgvi.RigidBody([[1.5, 0.1, 0.0], [0.1, 2.0, 0.05], [0.0, 0.05, 2.5]])
 
     def run(w, body=BODY):
@@ -503,11 +504,16 @@ def test_kept_wheel_values_follow_every_change_of_the_wheels():
         for name in ("R", "Pi", "wheel_momentum", "wheel_torque"):
             np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
 
+    def hub(body, Js):                                   # J - G diag(Js) G^T, computed here
+        return body.J - (AXES.T * Js) @ AXES
+
     w = wheels()
     for body in (BODY, other, BODY):                     # one set of wheels, several bodies
+        np.testing.assert_allclose(w.hub_inertia(body), hub(body, JS), rtol=1e-14, atol=0.0)
         np.testing.assert_array_equal(w.hub_inertia(body), wheels().hub_inertia(body))
         same(run(w, body), run(wheels(), body))
     w.spin_inertia *= 2.0                                 # in place
+    np.testing.assert_allclose(w.hub_inertia(BODY), hub(BODY, 2.0 * JS), rtol=1e-14, atol=0.0)
     np.testing.assert_array_equal(w.hub_inertia(BODY), lgvi.ReactionWheels(AXES, 2.0 * JS).hub_inertia(BODY))
     np.testing.assert_array_equal(w.params()[:, 0], 2.0 * JS)
     same(run(w), run(lgvi.ReactionWheels(AXES, 2.0 * JS, speed0=[10.0, -5.0, 3.0, 7.0])))

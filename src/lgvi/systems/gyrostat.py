@@ -38,9 +38,13 @@ CHUNK_STEPS = 1 << 16
 OMEGA_LIMIT_CYCLE = 1e-4
 #: Tolerance on the norm of a wheel axis.
 AXIS_TOL = 1e-6
-#: The arrays of :class:`ReactionWheels` (what its derived values are computed from).
+#: The arrays of :class:`ReactionWheels` (what its derived values are computed from; the hub
+#: inertia from the first two).
 _WHEEL_ARRAYS = ("axes", "spin_inertia", "speed0", "max_torque", "min_torque", "max_power", "max_speed", "coulomb",
                  "viscous", "omega_limit_cycle")
+#: ``(J_B, J_B^-1, Jd_B)`` by the numbers they are computed from (the body's inertia, the wheels'
+#: axes and spin inertias, with shapes): shared by wheels with the same numbers; the last 16.
+_HUBS: dict[tuple[Any, ...], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
 
 def _per_wheel(value: Any, name: str, n: int, *, minimum: float | None = None, strict: bool = False,
@@ -163,19 +167,29 @@ class ReactionWheels:
         """``(J_B, J_B^-1, Jd_B)`` (3, 3) of the wheels in ``body`` (:meth:`hub_inertia`, its inverse and
         ``tr(J_B)/2 I - J_B``), computed once per body inertia and set of wheel numbers; the arrays
         kept, not copies (do not write into them)."""
-        hub = (kept or self._derived())["hub"]
+        kept = kept or self._derived()
+        hub = kept["hub"]
         J = np.asarray(body.J, dtype=np.float64)
         key = J.tobytes()
         out = hub.get(key)
         if out is None:
-            JB = self._hub_inertia(J)
-            rows = JB.tolist()                               # np.trace(JB) / 2.0 * np.eye(3) - JB, in floats
-            half = ((rows[0][0] + rows[1][1]) + rows[2][2]) / 2.0
-            JdB = np.array([[(half if r == c else half * 0.0) - x for c, x in enumerate(row)]
-                            for r, row in enumerate(rows)])
-            out = (JB, np.linalg.inv(JB), JdB)
+            # other wheels with the same numbers (a caller building its objects for each run) share them
+            shared = None if kept["bytes"] is None else (J.shape, self.axes.shape, self.spin_inertia.shape, key,
+                                                         *kept["bytes"][:2])
+            out = _HUBS.get(shared) if shared is not None else None
+            if out is None:
+                JB = self._hub_inertia(J)
+                rows = JB.tolist()                           # np.trace(JB) / 2.0 * np.eye(3) - JB, in floats
+                half = ((rows[0][0] + rows[1][1]) + rows[2][2]) / 2.0
+                JdB = np.array([[(half if r == c else half * 0.0) - x for c, x in enumerate(row)]
+                                for r, row in enumerate(rows)])
+                out = (JB, np.linalg.inv(JB), JdB)
+                if shared is not None:
+                    if len(_HUBS) >= 16:
+                        _HUBS.clear()
+                    _HUBS[shared] = out
             if len(hub) >= 4:
-                hub.pop(next(iter(hub)))
+                hub.clear()
             hub[key] = out
         return out
 
