@@ -187,7 +187,8 @@ def check_inertia(inertia: ArrayLike, name: str = "inertia") -> _FloatArray:
         raise ValueError(f"{name} must be finite (no NaN or inf), got {_fmt(arr)}")
 
     scale = max(map(abs, flat))  # np.max(np.abs(J))
-    asym = max(abs(rows[i][j] - rows[j][i]) for i in range(3) for j in range(3))  # np.max(np.abs(J - J.T))
+    # np.max(np.abs(J - J.T)): its diagonal is zero and (i, j), (j, i) are the same number
+    asym = max(abs(rows[0][1] - rows[1][0]), abs(rows[0][2] - rows[2][0]), abs(rows[1][2] - rows[2][1]))
     if asym > RTOL * scale:
         raise ValueError(
             f"{name} must be symmetric: max |J - J^T| = {asym:.3g} exceeds "

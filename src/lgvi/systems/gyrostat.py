@@ -51,12 +51,12 @@ def _per_wheel(value: Any, name: str, n: int, *, minimum: float | None = None, s
                none: float | None = None) -> np.ndarray:
     """A scalar or (N,) array of finite floats, checked against ``minimum`` (``strict``: above)."""
     if value is None:
-        return np.full(n, np.nan if none is None else none)
+        return np.array([np.nan if none is None else none] * n, dtype=np.float64)     # np.full, cheaper
     if isinstance(value, float) and math.isfinite(value):   # the common case (np.float64 too), no array round trip
         if minimum is not None and (value <= minimum if strict else value < minimum):
             rule = f"> {minimum:g}" if strict else f">= {minimum:g}"
             raise ValueError(f"{name} must be {rule} for every wheel; wheel 0 has {value:g}")
-        return np.full(n, value)
+        return np.array([value] * n, dtype=np.float64)
     arr = as_float_array(value, name)
     if arr.ndim == 0:
         arr = np.full(n, float(arr))
