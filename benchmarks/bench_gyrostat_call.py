@@ -11,7 +11,8 @@ runs it (three wheels with torque and speed limits, the compiled MRP feedback ev
 4, a sample every 10 steps). Cases: ``objects`` builds the inputs (``ReactionWheels``,
 ``RigidBody``, ``matrix_from_mrp``, ``MRPFeedback``); ``simulate 10`` and ``simulate 6000`` call
 ``lgvi.simulate`` on inputs built before (10 steps: nearly all fixed cost; 6000 steps: the whole
-600 s scenario); ``objects + simulate 10`` both, as a caller building everything each time.
+600 s scenario); ``objects + simulate 10`` both, as a caller building everything each time; the
+``rkmk4`` rows the same calls with ``scheme="rkmk4"`` (a tree without it shows no row).
 Each case is timed in a child process (kernels compiled or loaded from the cache first, not
 timed): ``--calls`` calls a batch, the median of ``--batches`` batches, in microseconds a call,
 wall (``perf_counter``) and CPU (``process_time``). With ``--compare`` the two trees are measured
@@ -46,10 +47,11 @@ def objects():
     body = lgvi.RigidBody(HUB)
     return wheels, body, matrix_from_mrp(SIGMA0), MRPFeedback(3.5, 30.0, inertia=HUB)
 
-def run(obj, steps):
+def run(obj, steps, **kw):
     wheels, body, R0, ctrl = obj
+    kw.setdefault("order", 4)
     return lgvi.simulate(body, R0, omega0=OMEGA0, h=0.1, steps=steps, wheels=wheels, controller=ctrl,
-                         control_period=0.1, save_every=10, order=4)
+                         control_period=0.1, save_every=10, **kw)
 
 built = objects()
 """
@@ -59,6 +61,8 @@ CASES: dict[str, tuple[str, float]] = {
     "simulate 10": ("run(built, 10)", 1.0),
     "simulate 6000": ("run(built, 6000)", 0.1),
     "objects + simulate 10": ("run(objects(), 10)", 1.0),
+    "rkmk4: simulate 10": ("run(built, 10, scheme='rkmk4')", 1.0),
+    "rkmk4: simulate 6000": ("run(built, 6000, scheme='rkmk4')", 0.1),
 }
 
 CHILD = """
@@ -68,8 +72,12 @@ cases = {cases!r}
 out = {{}}
 for name, (code, scale) in cases.items():
     f = eval("lambda: " + code)
-    for _ in range(20):
-        f()                               # compile / load the kernels, warm the caches
+    try:
+        for _ in range(20):
+            f()                           # compile / load the kernels, warm the caches
+    except (TypeError, ValueError):       # a tree without this case (e.g. before scheme="rkmk4")
+        out[name] = None
+        continue
     calls = max(1, int({calls} * scale))
     wall, cpu = [], []
     for _ in range({batches}):
@@ -114,8 +122,8 @@ def main(argv: list[str] | None = None) -> None:
     if args.compare is None:
         us = measure(None, args.calls, args.batches)
         print(f"{'case':<24}{'wall us':>10}{'CPU us':>10}")
-        for name, (w, c) in us.items():
-            print(f"{name:<24}{w:>10.1f}{c:>10.1f}")
+        for name, v in us.items():
+            print(f"{name:<24}" + (f"{v[0]:>10.1f}{v[1]:>10.1f}" if v is not None else f"{'-':>10}{'-':>10}"))
         return
     old_src, new_src = args.compare
     runs: dict[str, list[dict[str, list[float]]]] = {old_src: [], new_src: []}
@@ -126,6 +134,9 @@ def main(argv: list[str] | None = None) -> None:
           f"load average now {os.getloadavg()[0]:.1f})")
     print(f"{'case':<24}{'old wall':>10}{'new wall':>10}{'new/old':>9}{'old CPU':>10}{'new CPU':>10}{'new/old':>9}")
     for name in CASES:
+        if any(m[name] is None for src in (old_src, new_src) for m in runs[src]):
+            print(f"{name:<24}  (not in both trees)")
+            continue
         ow, nw, oc, nc = (statistics.median(m[name][i] for m in runs[src])
                           for i, src in ((0, old_src), (0, new_src), (1, old_src), (1, new_src)))
         print(f"{name:<24}{ow:>10.1f}{nw:>10.1f}{nw / ow:>9.2f}{oc:>10.1f}{nc:>10.1f}{nc / oc:>9.2f}")
