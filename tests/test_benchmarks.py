@@ -153,6 +153,13 @@ def test_bench_gyrostat_ensemble_quick():
     _check(proc, "simulate_ensemble with wheels", "MRPFeedback compiled", "RotationPD, Python", "vs threads=1")
 
 
+@pytest.mark.slow
+def test_bench_gyrostat_call_quick():
+    proc = _run("bench_gyrostat_call.py", "--quick", "--compare", "src", "src")
+    _check(proc, "case", "old wall", "new CPU", "new/old", "objects", "simulate 10", "simulate 6000")
+    assert "Traceback" not in proc.stderr
+
+
 def test_bench_field_quick():
     proc = _run("bench_field.py", "--quick")
     _check(proc, "us/point", "IGRF-14 n=13, compiled, batch", "centred dipole n=1, compiled, batch")

@@ -253,3 +253,26 @@ def test_docstring_examples_run() -> None:
     result = doctest.testmod(body_module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
     assert result.attempted > 0
     assert result.failed == 0
+
+
+@pytest.mark.parametrize("moments", [[1.0, 2.0, 3.0], [3.0, 2.0, 1.0], [2.0, 3.0, 1.0], [3.0, 1.0, 2.0],
+                                     [1.0, 3.0, 2.0], [2.0, 1.0, 3.0], [2.0, 2.0, 1.0], [1.0, 1.0, 1.0],
+                                     [0.0433, 0.0418, 0.0067], [900.0, 800.0, 600.0]])
+def test_diagonal_body_in_floats_is_the_numpy_formulas_bit_for_bit(moments) -> None:
+    """A diagonal body's arrays are computed in Python floats: the same bits as the NumPy
+    formulas of the general path (signs of zeros included), for every order of the moments."""
+    from lgvi.body import _principal
+
+    for J in (np.diag(moments), np.array(moments)):
+        b = RigidBody(J)
+        Jm = np.diag(np.asarray(moments, dtype=np.float64))
+        want_moments, want_axes, diagonal = _principal(Jm)
+        assert b.is_diagonal and diagonal
+        for got, want in ((b.J, Jm), (b.Jd, inertia_to_jd(Jm)), (b.J_inv, np.diag(1.0 / np.diag(Jm))),
+                          (b.principal_moments, want_moments), (b.principal_axes, want_axes)):
+            assert got.dtype == np.float64 and got.shape == want.shape and got.tobytes() == want.tobytes()
+            assert not got.flags.writeable
+        assert np.linalg.det(b.principal_axes) == 1.0
+        copy = RigidBody(b)                                   # a body from a body: the same arrays
+        for name in ("J", "Jd", "J_inv", "principal_moments", "principal_axes"):
+            assert getattr(copy, name).tobytes() == getattr(b, name).tobytes()

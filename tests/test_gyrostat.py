@@ -485,3 +485,59 @@ def test_scenario_bad_wheel_and_controller_tables(edit, match):
     d.update(edit)
     with pytest.raises(ScenarioError, match=match):
         Scenario.from_dict(d)
+
+
+# ------------------------------------------------------------------------------------------------
+# values the wheels keep between runs (hub inertia per body, kernel rows): never stale
+# ------------------------------------------------------------------------------------------------
+def test_kept_wheel_values_follow_every_change_of_the_wheels():
+    """ReactionWheels keeps J_B, J_B^-1, Jd_B per body (shared with wheels of the same numbers) and
+    its kernel rows between runs; a wheel array changed in place or replaced, or another body, must
+    give what new wheels give and what the formula gives."""
+    other = lgvi.RigidBody([[1.5, 0.1, 0.0], [0.1, 2.0, 0.05], [0.0, 0.05, 2.5]])
+
+    def run(w, body=BODY):
+        return lgvi.simulate(body, R0, omega0=W0, h=0.01, steps=40, wheels=w, controller=Random(1e-3),
+                             control_period=0.02)
+
+    def same(a, b):
+        for name in ("R", "Pi", "wheel_momentum", "wheel_torque"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+
+    def hub(body, Js):                                   # J - G diag(Js) G^T, computed here
+        return body.J - (AXES.T * Js) @ AXES
+
+    w = wheels()
+    for body in (BODY, other, BODY):                     # one set of wheels, several bodies
+        np.testing.assert_allclose(w.hub_inertia(body), hub(body, JS), rtol=1e-14, atol=0.0)
+        np.testing.assert_array_equal(w.hub_inertia(body), wheels().hub_inertia(body))
+        same(run(w, body), run(wheels(), body))
+    w.spin_inertia *= 2.0                                 # in place
+    np.testing.assert_allclose(w.hub_inertia(BODY), hub(BODY, 2.0 * JS), rtol=1e-14, atol=0.0)
+    np.testing.assert_array_equal(w.hub_inertia(BODY), lgvi.ReactionWheels(AXES, 2.0 * JS).hub_inertia(BODY))
+    np.testing.assert_array_equal(w.params()[:, 0], 2.0 * JS)
+    same(run(w), run(lgvi.ReactionWheels(AXES, 2.0 * JS, speed0=[10.0, -5.0, 3.0, 7.0])))
+    assert not w.has_friction
+    w.viscous = np.full(4, 1e-3)                          # replaced
+    assert w.has_friction and np.array_equal(w.params()[:, 6], np.full(4, 1e-3))
+    w.params()[:] = 0.0                                   # a new array each call
+    assert np.array_equal(w.params()[:, 6], np.full(4, 1e-3))
+    w.spin_inertia[0] = 5.0                               # now inconsistent with the body: refused again
+    with pytest.raises(ValueError, match="wheels inconsistent with the body"):
+        run(w)
+
+
+def test_matrix_from_mrp_of_one_mrp_is_the_batch_bit_for_bit():
+    """One MRP goes through Python floats; a stack through NumPy and lgvi.so3.quat_to_matrix: the
+    same bits (and the same error for a quaternion that is not finite)."""
+    rng = np.random.default_rng(12)
+    S = np.concatenate([rng.normal(size=(300, 3)) * 10.0 ** rng.integers(-6, 6, size=(300, 1)),
+                        [[0.0, 0.0, 0.0], [-0.0, 0.0, -0.0], [0.0, 0.0, -1.0], [1e-300, 0.0, 0.0]]])
+    batch = matrix_from_mrp(S)
+    for s, want in zip(S, batch):
+        assert matrix_from_mrp(s).tobytes() == want.tobytes()
+    assert matrix_from_mrp(list(S[0])).tobytes() == batch[0].tobytes()
+    with np.errstate(over="ignore", invalid="ignore"):
+        for bad in ([np.nan, 0.0, 0.0], [1e200, 0.0, 0.0]):
+            with pytest.raises(ValueError, match="finite, non-zero norm"):
+                matrix_from_mrp(bad)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import operator
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Any
@@ -21,10 +22,13 @@ import numpy as np
 
 from .._validation import as_float, as_float_array, as_int, as_rotation, choice
 from .._version import __version__
+from ..accuracy import check_options, with_estimate
+from ..body import RigidBody
 from ..control import Command, Controller
 from ..driver import MemorySink, check_memory, drive, run_solver_options, sample_times, time_grid
 from ..errors import ConvergenceError, TorqueError
 from ..invariants import BOUNDED, EXACT
+from ..registry import composition_for
 from ..trajectory import HIST_BINS, RESULT_TYPES, Trajectory, freeze_arrays, summary_dict
 from . import Field, System, register
 
@@ -34,18 +38,25 @@ CHUNK_STEPS = 1 << 16
 OMEGA_LIMIT_CYCLE = 1e-4
 #: Tolerance on the norm of a wheel axis.
 AXIS_TOL = 1e-6
+#: The arrays of :class:`ReactionWheels` (what its derived values are computed from; the hub
+#: inertia from the first two).
+_WHEEL_ARRAYS = ("axes", "spin_inertia", "speed0", "max_torque", "min_torque", "max_power", "max_speed", "coulomb",
+                 "viscous", "omega_limit_cycle")
+#: ``(J_B, J_B^-1, Jd_B)`` by the numbers they are computed from (the body's inertia, the wheels'
+#: axes and spin inertias, with shapes): shared by wheels with the same numbers; the last 16.
+_HUBS: dict[tuple[Any, ...], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
 
 def _per_wheel(value: Any, name: str, n: int, *, minimum: float | None = None, strict: bool = False,
                none: float | None = None) -> np.ndarray:
     """A scalar or (N,) array of finite floats, checked against ``minimum`` (``strict``: above)."""
     if value is None:
-        return np.full(n, np.nan if none is None else none)
-    if type(value) is float and math.isfinite(value):        # the common case, without the array round trip
+        return np.array([np.nan if none is None else none] * n, dtype=np.float64)     # np.full, cheaper
+    if isinstance(value, float) and math.isfinite(value):   # the common case (np.float64 too), no array round trip
         if minimum is not None and (value <= minimum if strict else value < minimum):
             rule = f"> {minimum:g}" if strict else f">= {minimum:g}"
             raise ValueError(f"{name} must be {rule} for every wheel; wheel 0 has {value:g}")
-        return np.full(n, value)
+        return np.array([value] * n, dtype=np.float64)
     arr = as_float_array(value, name)
     if arr.ndim == 0:
         arr = np.full(n, float(arr))
@@ -100,13 +111,12 @@ class ReactionWheels:
         if a.ndim != 2 or a.shape[1] != 3:
             raise ValueError(f"axes must have shape (N, 3) (one unit vector per wheel), got shape {a.shape}")
         n = a.shape[0]
-        norms = np.linalg.norm(a, axis=1)
-        bad = np.abs(norms - 1.0) > AXIS_TOL
-        if np.any(bad):
-            i = int(np.argmax(bad))
-            raise ValueError(f"axes must be unit vectors (to {AXIS_TOL:g}); axis {i} {a[i].tolist()} has norm "
-                             f"{norms[i]:.9g}: divide it by its norm")
-        self.axes = a / norms[:, None] if n else a.reshape(0, 3)
+        norms = [math.sqrt((x * x + y * y) + z * z) for x, y, z in a.tolist()]   # np.linalg.norm(a, axis=1)
+        for i, norm in enumerate(norms):
+            if abs(norm - 1.0) > AXIS_TOL:
+                raise ValueError(f"axes must be unit vectors (to {AXIS_TOL:g}); axis {i} {a[i].tolist()} has norm "
+                                 f"{norm:.9g}: divide it by its norm")
+        self.axes = a / np.array(norms)[:, None] if n else a.reshape(0, 3)
         self.spin_inertia = _per_wheel(spin_inertia, "spin_inertia", n, minimum=0.0, strict=True)
         self.speed0 = _per_wheel(speed0, "speed0", n)
         self.max_torque = _per_wheel(max_torque, "max_torque", n, minimum=0.0, strict=True, none=0.0)
@@ -130,6 +140,79 @@ class ReactionWheels:
     def __len__(self) -> int:
         return int(self.axes.shape[0])
 
+    def __getstate__(self) -> dict[str, Any]:
+        state = dict(self.__dict__)
+        state.pop("_kept", None)          # a copy or a pickle recomputes what it needs
+        return state
+
+    def _derived(self) -> dict[str, Any]:
+        """The values derived from the wheels' numbers, kept for the next run with the same numbers.
+
+        They are kept with the arrays they were computed from and those arrays' bytes: an array
+        replaced (another object) or changed in place (other bytes) makes them computed afresh, so
+        a stale value is never returned. Callers copy what they hand out.
+        """
+        arrays = tuple(map(self.__dict__.get, _WHEEL_ARRAYS))
+        kept = self.__dict__.get("_kept")
+        if (kept is not None and all(map(operator.is_, arrays, kept["arrays"]))
+                and kept["bytes"] == tuple(a.tobytes() for a in arrays)):
+            return kept
+        kept = {"arrays": arrays, "bytes": None, "hub": {}}
+        if all(type(a) is np.ndarray and a.dtype == np.float64 for a in arrays):
+            kept["bytes"] = tuple(a.tobytes() for a in arrays)
+            self.__dict__["_kept"] = kept
+        return kept
+
+    def _hub(self, body: Any, kept: dict[str, Any] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(J_B, J_B^-1, Jd_B)`` (3, 3) of the wheels in ``body`` (:meth:`hub_inertia`, its inverse and
+        ``tr(J_B)/2 I - J_B``), computed once per body inertia and set of wheel numbers; the arrays
+        kept, not copies (do not write into them)."""
+        kept = kept or self._derived()
+        hub = kept["hub"]
+        J = np.asarray(body.J, dtype=np.float64)
+        key = J.tobytes()
+        out = hub.get(key)
+        if out is None:
+            # other wheels with the same numbers (a caller building its objects for each run) share them
+            shared = None if kept["bytes"] is None else (J.shape, self.axes.shape, self.spin_inertia.shape, key,
+                                                         *kept["bytes"][:2])
+            out = _HUBS.get(shared) if shared is not None else None
+            if out is None:
+                JB = self._hub_inertia(J)
+                rows = JB.tolist()                           # np.trace(JB) / 2.0 * np.eye(3) - JB, in floats
+                half = ((rows[0][0] + rows[1][1]) + rows[2][2]) / 2.0
+                JdB = np.array([[(half if r == c else half * 0.0) - x for c, x in enumerate(row)]
+                                for r, row in enumerate(rows)])
+                out = (JB, np.linalg.inv(JB), JdB)
+                if shared is not None:
+                    if len(_HUBS) >= 16:
+                        _HUBS.clear()
+                    _HUBS[shared] = out
+            if len(hub) >= 4:
+                hub.clear()
+            hub[key] = out
+        return out
+
+    def _for_run(self, body: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
+        """``(J_B, J_B^-1, Jd_B, params, has_friction)`` for a run in ``body``, the wheels' numbers
+        checked once (:meth:`_derived`); the arrays kept, not copies (do not write into them)."""
+        kept = self._derived()
+        return (*self._hub(body, kept), self._params(kept), self._friction(kept))
+
+    def _friction(self, kept: dict[str, Any]) -> bool:
+        if "has_friction" not in kept:
+            kept["has_friction"] = any(np.ravel(self.coulomb).tolist()) or any(np.ravel(self.viscous).tolist())
+        return kept["has_friction"]
+
+    def _params(self, kept: dict[str, Any]) -> np.ndarray:
+        if "params" not in kept:
+            rows = np.empty((len(self), 8))           # np.stack(..., axis=1), C order
+            for j, column in enumerate((self.spin_inertia, self.max_torque, self.min_torque, self.max_power,
+                                        self.max_speed, self.coulomb, self.viscous, self.omega_limit_cycle)):
+                rows[:, j] = column
+            kept["params"] = rows
+        return kept["params"]
+
     @property
     def G(self) -> np.ndarray:
         """(3, N) the axes as columns."""
@@ -137,13 +220,11 @@ class ReactionWheels:
 
     @property
     def has_friction(self) -> bool:
-        return bool(np.any(self.coulomb) or np.any(self.viscous))
+        return self._friction(self._derived())
 
     def params(self) -> np.ndarray:
-        """(N, 8) rows for the kernel (:mod:`lgvi._kernels.gyrostat_kernels`)."""
-        return np.ascontiguousarray(np.stack([self.spin_inertia, self.max_torque, self.min_torque, self.max_power,
-                                              self.max_speed, self.coulomb, self.viscous, self.omega_limit_cycle],
-                                             axis=1).reshape(len(self), 8))
+        """(N, 8) rows for the kernel (:mod:`lgvi._kernels.gyrostat_kernels`), a new array."""
+        return self._params(self._derived()).copy()
 
     def hub_inertia(self, body: Any) -> np.ndarray:
         """``J_B = J - G diag(Js) G^T`` (3, 3): the body's inertia without the wheels' axial part.
@@ -151,7 +232,10 @@ class ReactionWheels:
         Raises ``ValueError`` when the wheels do not fit the body: the locked inertia along an
         axis not above that wheel's spin inertia, or ``J_B`` not positive definite.
         """
-        J = np.asarray(body.J, dtype=np.float64)
+        return self._hub(body)[0].copy()
+
+    def _hub_inertia(self, J: np.ndarray) -> np.ndarray:
+        """:meth:`hub_inertia` of the inertia ``J`` (3, 3), computed."""
         for i in range(len(self)):
             along = float(self.axes[i] @ J @ self.axes[i])
             if not along > self.spin_inertia[i]:
@@ -298,6 +382,34 @@ RESULT_TYPES["gyrostat"] = (("wheel_momentum", "wheel_torque", "wheel_axes", "sp
 # the run
 # ------------------------------------------------------------------------------------------------
 _NO_WHEELS = None
+_INITIAL_GUESS = None
+#: The gyrostat's System with the wheel fields shaped for N wheels, by N (each built once).
+_LAYOUTS: dict[int, System] = {}
+
+
+def _layout(n: int) -> System:
+    """:data:`GYROSTAT` with ``wheel_momentum`` and ``wheel_torque`` of shape ``(n,)`` (frozen, shared by runs)."""
+    system = _LAYOUTS.get(n)
+    if system is None:
+        system = dataclasses.replace(
+            GYROSTAT,
+            state=(GYROSTAT.state[0], GYROSTAT.state[1], Field("wheel_momentum", (n,), doc=GYROSTAT.state[2].doc)),
+            records=(GYROSTAT.records[0], GYROSTAT.records[1],
+                     Field("wheel_torque", (n,), np.float64, GYROSTAT.records[2].doc)))
+        if len(_LAYOUTS) < 64:
+            _LAYOUTS[n] = system
+    return system
+
+
+def _cold_start() -> Any:
+    """The Python source of the solvers' cold start from the linearisation (as the rigid body), imported
+    on the first run (the kernels load lazily)."""
+    global _INITIAL_GUESS
+    if _INITIAL_GUESS is None:
+        from .._kernels.solvers import initial_guess
+
+        _INITIAL_GUESS = getattr(initial_guess, "py_func", initial_guess)
+    return _INITIAL_GUESS
 
 
 def _controller_period(controller: Any, control_period: Any, h: float) -> int:
@@ -327,8 +439,6 @@ class GyrostatRun:
                  magnetorquers: Any = None, method: str = "newton", tol: Any = 1e-14, max_iter: Any = 50,
                  alpha: Any = 1.0, save_every: Any = 1, t0: Any = 0.0, solver_record: str = "interval",
                  order: Any = 2, composition: Any = None, torque: Any = None) -> None:
-        from ..body import RigidBody
-
         self.body = body = body if isinstance(body, RigidBody) else RigidBody(body)
         if wheels is None:
             wheels = ReactionWheels(np.zeros((0, 3)), np.zeros(0))
@@ -347,9 +457,10 @@ class GyrostatRun:
         check_memory(self.steps, self.save_every, self.full)
         n = len(wheels)
         self.N = n
-        self.JB = JB = wheels.hub_inertia(body)
-        self.JB_inv = np.linalg.inv(JB)
-        self.JdB = body.Jd.copy() if n == 0 else np.trace(JB) / 2.0 * np.eye(3) - JB
+        JB, JB_inv, JdB, wp, friction = wheels._for_run(body)     # kept by the wheels: this run's own copies
+        self.JB = JB = JB.copy()
+        self.JB_inv = JB_inv.copy()
+        self.JdB = body.Jd.copy() if n == 0 else JdB.copy()
         a, Js = wheels.axes, wheels.spin_inertia
         # initial state: Pi = J_B omega + G rho, rho = Js (a . omega + speed0)
         if Pi0 is None and omega0 is None:
@@ -395,22 +506,23 @@ class GyrostatRun:
         self.cmd = np.zeros(n)
         self.tau = np.zeros(3)
         self.u_now = np.zeros(2 * n)
-        from ..registry import composition_for
-        from .._kernels.solvers import initial_guess   # cold start from the linearisation (as the rigid body)
-
         self.comp = composition_for(order, composition)
-        self.gam = self.comp.arrays()[0]
+        self.gam = np.array(self.comp.coefficients)     # comp.arrays()[0], without the cumulative sums
         self.G = np.zeros((len(self.gam), 5, 3))
-        guess, q, first = getattr(initial_guess, "py_func", initial_guess), self.Pi - a.T @ self.wheel_momentum, {}
-        for i, g in enumerate(self.gam):           # once per distinct substep
+        guess, q, first = _cold_start(), self.Pi - a.T @ self.wheel_momentum, {}
+        # the kernel's Python source on plain floats (J_B as a memoryview, lists): the same IEEE operations
+        JB_view, q, h = memoryview(JB), q.tolist(), self.h
+        for i, g in enumerate(self.comp.coefficients):           # once per distinct substep
             if g in first:
                 self.G[i, 0] = self.G[first[g], 0]
             else:
-                guess(self.code, JB, g * self.h * q, self.G[i, 0])
+                gh, out = g * h, [0.0, 0.0, 0.0]
+                guess(self.code, JB_view, [gh * x for x in q], out)      # g * h * q
+                self.G[i, 0] = out
                 first[g] = i
         # a body torque acted (the declaration of invariants is that of the run so far)
         self.external = (self.ctrl == 1 and n == 0) or self.model is not None
-        self.motors_off = controller is None and not wheels.has_friction
+        self.motors_off = controller is None and not friction
         self.k = 0
         self.counts = np.zeros(HIST_BINS, dtype=np.int64)
         self.it_total = 0
@@ -420,12 +532,8 @@ class GyrostatRun:
         se = self.save_every
         base = CHUNK_STEPS if not self.python_controller else max(CHUNK_STEPS, self.spc)
         self.chunk = max(1, base // se) * se
-        self.wp = wheels.params()
-        self.system = dataclasses.replace(
-            GYROSTAT,
-            state=(GYROSTAT.state[0], GYROSTAT.state[1], Field("wheel_momentum", (n,), doc=GYROSTAT.state[2].doc)),
-            records=(GYROSTAT.records[0], GYROSTAT.records[1],
-                     Field("wheel_torque", (n,), np.float64, GYROSTAT.records[2].doc)))
+        self.wp = wp.copy()
+        self.system = _layout(n)
         ctrl_repr = repr(controller) if controller is not None else None
         self.meta: dict[str, Any] = {"system": "gyrostat", "method": "newton", "tol": self.tol,
                                      "max_iter": self.max_iter, "alpha": 1.0, "save_every": se,
@@ -683,20 +791,28 @@ def _check_command(cmd: Any, n: int, k: int, t: float) -> tuple[Any, Any, Any]:
 
 def _mrp_params(ctrl: Any, wheels: ReactionWheels) -> np.ndarray:
     """The ``cp`` vector of the compiled MRP feedback (:data:`lgvi._kernels.gyrostat_kernels.CP_MAP`)."""
-    from ..control import map_to_wheels
-
     n = len(wheels)
-    R_ref = np.eye(3) if ctrl.R_ref is None else ctrl.R_ref
-    M = np.zeros((n, 3))
+    cp = np.zeros(28 + 3 * n)              # filled in place: the same numbers, fewer small-array calls
+    cp[0], cp[1], cp[2] = ctrl.K, ctrl.P, 0.0 if ctrl.Ki is None else ctrl.Ki
+    cp[3] = ctrl.integral_limit if math.isfinite(ctrl.integral_limit) else 1e300
+    if ctrl.R_ref is None:
+        cp[4:13:4] = 1.0                    # the identity
+    else:
+        cp[4:13] = ctrl.R_ref.ravel()
+    cp[19:28] = np.asarray(ctrl.J, dtype=np.float64).ravel()
     wm = getattr(ctrl, "wheel_map", None)      # set by MRPFeedback.setup from these axes: the same numbers
-    if n and isinstance(wm, np.ndarray) and wm.shape == (n, 3) and np.array_equal(ctrl.axes, wheels.axes):
-        M[:] = wm
+    axes = ctrl.axes
+    if (n and isinstance(wm, np.ndarray) and wm.shape == (n, 3) and isinstance(axes, np.ndarray)
+            and axes.shape == wheels.axes.shape and axes.tolist() == wheels.axes.tolist()):   # np.array_equal
+        cp[28:] = wm.ravel()
     elif n:
+        from ..control import map_to_wheels
+
+        M = np.zeros((n, 3))
         for j in range(3):
             M[:, j] = map_to_wheels(np.eye(3)[j], wheels.axes)
-    lim = ctrl.integral_limit if math.isfinite(ctrl.integral_limit) else 1e300
-    return np.concatenate([[ctrl.K, ctrl.P, 0.0 if ctrl.Ki is None else ctrl.Ki, lim], R_ref.ravel(), np.zeros(6),
-                           np.asarray(ctrl.J, dtype=np.float64).ravel(), M.ravel()])
+        cp[28:] = M.ravel()
+    return cp
 
 
 def _torque_model(torque: Any) -> Any:
@@ -719,8 +835,6 @@ def gyrostat_options(*, torque: Any, forcing: Any, order: Any, composition: Any,
     _torque_model(torque)
     if forcing not in ("paper", "symmetric"):
         choice(forcing, "forcing", ("paper", "symmetric"))
-    from ..accuracy import check_options
-
     check_options(error_estimate, 0.01, None)      # True or "richardson": the shadow run of simulate_gyrostat
 
 
@@ -737,8 +851,6 @@ def simulate_gyrostat(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None
     friction (first order in the friction torque).
     """
     import copy
-
-    from ..accuracy import check_options, with_estimate
 
     estimate, warn = check_options(error_estimate, error_warn, None)
     if estimate:
