@@ -25,7 +25,7 @@ from . import so3
 from ._kernels.codes import OK
 from ._validation import as_float, as_float_array, as_rotation, choice
 from ._version import __version__
-from .accuracy import provide_simulate
+from .accuracy import check_options, provide_simulate
 from .body import RigidBody
 from .driver import (MemorySink, check_memory as _check_memory, drive,  # noqa: F401
                      initial_momentum as _initial_momentum, run_solver_options, sample_times, time_grid)
@@ -354,8 +354,6 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
                                  save_every=save_every, t0=t0, solver_record=solver_record, order=order,
                                  composition=composition, torque=torque, error_estimate=error_estimate,
                                  error_warn=error_warn, scheme=scheme)
-    from .accuracy import check_options
-
     estimate, warn = check_options(error_estimate, error_warn, torque)
     run_class = _Run
     if scheme is not None and scheme != "lgvi":
