@@ -44,8 +44,14 @@ from .trajectory import HIST_BINS
 _NO_CODES = np.zeros((0, 2), dtype=np.int64)
 
 
-#: principal_data of each RigidBody seen (immutable: validated once, read-only arrays), while it lives
-_PRINCIPAL: "weakref.WeakKeyDictionary[RigidBody, tuple]" = weakref.WeakKeyDictionary()
+#: id(body) -> (weak reference, principal_data) of each RigidBody seen while it lives (a body is
+#: immutable: validated once, read-only arrays); a plain dict: a WeakKeyDictionary look-up costs 3 us
+_PRINCIPAL: dict[int, tuple[weakref.ref, tuple]] = {}
+
+
+def _forget(ref: weakref.ref, key: int) -> None:
+    if _PRINCIPAL.get(key, (None,))[0] is ref:
+        del _PRINCIPAL[key]
 
 
 def principal_data(body: Any) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, bool]:
@@ -56,10 +62,11 @@ def principal_data(body: Any) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, 
 
     Computed once per :class:`lgvi.RigidBody` (it is immutable); each call returns new arrays."""
     if type(body) is RigidBody:
-        data = _PRINCIPAL.get(body)
-        if data is None:
-            data = _PRINCIPAL[body] = _principal_data(body)
-        I, ax, symax, Pax, diag = data
+        key = id(body)
+        hit = _PRINCIPAL.get(key)
+        if hit is None or hit[0]() is not body:
+            hit = _PRINCIPAL[key] = (weakref.ref(body, lambda ref, key=key: _forget(ref, key)), _principal_data(body))
+        I, ax, symax, Pax, diag = hit[1]
         return I.copy(), ax.copy(), symax, Pax.copy(), diag
     return _principal_data(body)
 
