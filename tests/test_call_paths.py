@@ -136,3 +136,19 @@ def test_rotation_check_keeps_its_answers():
     assert fixed is not near and np.allclose(fixed, R, atol=1e-7)
     for bad in (np.eye(3, dtype=np.float32), np.eye(3).astype(">f8"), np.asfortranarray(R)):
         assert np.array_equal(as_rotation(bad), bad)
+
+
+def test_gravity_gradient_nadir_as_stacked():
+    from lgvi.torques import GravityGradient
+
+    gg = GravityGradient(3.986004418e14, 6878.137e3)
+    rng = np.random.default_rng(2)
+    for shape in ((), (11,), (4, 5)):
+        t = rng.uniform(-1e5, 1e5, shape)
+        R = lgvi.so3.exp(rng.normal(size=shape + (3,)))
+        for tt in (t, 3.0):
+            nt = gg.mean_motion * np.asarray(tt, dtype=np.float64)
+            r_hat = np.stack(np.broadcast_arrays(np.cos(nt), np.sin(nt), np.zeros_like(nt)), axis=-1)
+            want = -np.einsum("...ji,...j->...i", R, r_hat)
+            got = gg.nadir(tt, R)
+            assert got.shape == want.shape and got.tobytes() == want.tobytes()
