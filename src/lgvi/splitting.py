@@ -24,6 +24,7 @@ Moments that depend on ``Pi`` (damping, the PD controller, a ``Compiled`` model 
 
 from __future__ import annotations
 
+import functools
 import weakref
 from typing import Any
 
@@ -49,9 +50,10 @@ _NO_CODES = np.zeros((0, 2), dtype=np.int64)
 _PRINCIPAL: dict[int, tuple[weakref.ref, tuple]] = {}
 
 
-def _forget(ref: weakref.ref, key: int) -> None:
-    if _PRINCIPAL.get(key, (None,))[0] is ref:
-        del _PRINCIPAL[key]
+def _forget(ref: weakref.ref, key: int, cache: dict = _PRINCIPAL) -> None:
+    """The body behind ``ref`` died: drop its entry (no global looked up: safe at interpreter exit)."""
+    if cache.get(key, (None,))[0] is ref:
+        del cache[key]
 
 
 def principal_data(body: Any) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, bool]:
@@ -65,7 +67,7 @@ def principal_data(body: Any) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, 
         key = id(body)
         hit = _PRINCIPAL.get(key)
         if hit is None or hit[0]() is not body:
-            hit = _PRINCIPAL[key] = (weakref.ref(body, lambda ref, key=key: _forget(ref, key)), _principal_data(body))
+            hit = _PRINCIPAL[key] = (weakref.ref(body, functools.partial(_forget, key=key)), _principal_data(body))
         I, ax, symax, Pax, diag = hit[1]
         return I.copy(), ax.copy(), symax, Pax.copy(), diag
     return _principal_data(body)
