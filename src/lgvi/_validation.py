@@ -32,11 +32,15 @@ def as_float_array(value: Any, name: str, shape: tuple[int | None, ...] | None =
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise TypeError(f"{name} must be an array of real numbers, got {_short(value)}") from exc
-    if shape is not None:
+    if shape is not None and arr.shape != shape:     # equal: the common case, no loop over the axes
         ok = arr.ndim == len(shape) and all(s is None or s == d for s, d in zip(shape, arr.shape))
         if not ok:
             want = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
             raise ValueError(f"{name} must have shape {want}, got shape {arr.shape}")
+    # a small array (a vector, a matrix): its sum is finite only if every entry is (a NaN or an
+    # infinity makes it NaN or infinite); a finite sum is the answer, anything else is checked
+    if arr.size <= 64 and math.isfinite(sum(arr.ravel().tolist())):
+        return arr
     if not np.isfinite(arr).all():
         bad = np.argwhere(~np.isfinite(arr))[0]
         where = f" at index {tuple(int(i) for i in bad)}" if arr.ndim else ""
@@ -87,6 +91,9 @@ def as_rotation(value: Any, name: str = "R0", tol: float = ROTATION_TOL) -> np.n
     A matrix orthogonal to :data:`REPAIR_TOL` but not to ``tol`` is replaced by its nearest
     rotation (:func:`lgvi.so3.project`) with an :class:`lgvi.errors.AttitudeWarning`.
     """
+    if type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (3, 3) \
+            and _surely_rotation(value, tol):
+        return value            # what the checks below return for it (finite, a rotation to tol)
     if is_scipy_rotation(value):
         if not value.single:
             raise ValueError(f"{name} must be a single rotation, got a stack of {len(value)}")

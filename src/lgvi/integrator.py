@@ -16,16 +16,17 @@ Schemes (see :func:`simulate`):
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Callable
 
 import numpy as np
 
 from . import so3
-from ._kernels.codes import OK
+from ._kernels.codes import METHOD_CAYLEY, OK
 from ._validation import as_float, as_float_array, as_rotation, choice
 from ._version import __version__
-from .accuracy import provide_simulate
+from .accuracy import check_options, provide_simulate
 from .body import RigidBody
 from .driver import (MemorySink, check_memory as _check_memory, drive,  # noqa: F401
                      initial_momentum as _initial_momentum, run_solver_options, sample_times, time_grid)
@@ -56,26 +57,67 @@ _NO_CODES = np.zeros((0, 2), dtype=np.int64)
 SOLVER_RECORDS = ("interval", "full")
 
 
+def _cold_start_factors(code: int, J: np.ndarray) -> tuple[float, ...] | None:
+    """The cofactors of ``J`` and the scale of the kernels' cold start
+    (:func:`lgvi._kernels.solvers.initial_guess`), in Python floats: its operations in its order,
+    so the same bits. ``None`` when any is not finite (a huge or tiny ``J``): then the kernel's
+    own source runs, with NumPy's warnings."""
+    (j00, j01, j02), (j10, j11, j12), (j20, j21, j22) = J.tolist()
+    c00 = j11 * j22 - j12 * j21
+    c01 = j12 * j20 - j10 * j22
+    c02 = j10 * j21 - j11 * j20
+    c10 = j02 * j21 - j01 * j22
+    c11 = j00 * j22 - j02 * j20
+    c12 = j01 * j20 - j00 * j21
+    c20 = j01 * j12 - j02 * j11
+    c21 = j02 * j10 - j00 * j12
+    c22 = j00 * j11 - j01 * j10
+    det = j00 * c00 + j01 * c01 + j02 * c02
+    if det == 0.0 or not math.isfinite(det + c00 + c01 + c02 + c10 + c11 + c12 + c20 + c21 + c22):
+        return None
+    scale = 1.0 / det
+    if code == METHOD_CAYLEY:
+        scale *= 0.5
+    if not math.isfinite(scale):
+        return None
+    return c00, c01, c02, c10, c11, c12, c20, c21, c22, scale
+
+
+def _cold_start(factors: tuple[float, ...] | None, code: int, J: np.ndarray, h: float, Pi: np.ndarray,
+                g: np.ndarray) -> None:
+    """``g`` (3,) = the kernels' cold start of the step ``h`` from ``Pi`` (``initial_guess(code, J,
+    h * Pi, g)``, bit for bit), from the :func:`_cold_start_factors` of ``J``."""
+    if factors is not None:
+        c00, c01, c02, c10, c11, c12, c20, c21, c22, scale = factors
+        p0, p1, p2 = Pi.tolist()
+        x, y, z = h * p0, h * p1, h * p2          # h * Pi
+        g0 = (c00 * x + c10 * y + c20 * z) * scale
+        g1 = (c01 * x + c11 * y + c21 * z) * scale
+        g2 = (c02 * x + c12 * y + c22 * z) * scale
+        if math.isfinite(g0 + g1 + g2):
+            g[0], g[1], g[2] = g0, g1, g2
+            return
+    from ._kernels.solvers import initial_guess
+
+    # the kernel's Python source: the same IEEE operations (so the same bits as the compiled
+    # ensemble path), without loading one more compiled function on a run's first call
+    getattr(initial_guess, "py_func", initial_guess)(code, J, h * Pi, g)
+
+
 def _solver_state(code: int, body: RigidBody, h: float, Pi: np.ndarray) -> np.ndarray:
     """Solver history ``G`` (5,3) of the stepping kernels (row 4: the low part of ``Pi``, zero), cold-started
     from the linearisation."""
-    from ._kernels.solvers import initial_guess
-
     G = np.zeros((5, 3))
-    # the kernel's Python source: the same IEEE operations (so the same bits as the compiled
-    # ensemble path), without loading one more compiled function on a run's first call
-    getattr(initial_guess, "py_func", initial_guess)(code, body.J, h * Pi, G[0])
+    _cold_start(_cold_start_factors(code, body.J), code, body.J, h, Pi, G[0])
     return G
 
 
 def _solver_states(code: int, body: RigidBody, hs: np.ndarray, Pi: np.ndarray) -> np.ndarray:
     """:func:`_solver_state` for each substep ``hs[i]``, (s, 5, 3), filled in place (no stack)."""
-    from ._kernels.solvers import initial_guess
-
-    guess = getattr(initial_guess, "py_func", initial_guess)
     G = np.zeros((len(hs), 5, 3))
+    factors = _cold_start_factors(code, body.J)
     for i, hi in enumerate(hs.tolist()):
-        guess(code, body.J, hi * Pi, G[i, 0])
+        _cold_start(factors, code, body.J, hi, Pi, G[i, 0])
     return G
 
 
@@ -354,8 +396,6 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
                                  save_every=save_every, t0=t0, solver_record=solver_record, order=order,
                                  composition=composition, torque=torque, error_estimate=error_estimate,
                                  error_warn=error_warn, scheme=scheme)
-    from .accuracy import check_options
-
     estimate, warn = check_options(error_estimate, error_warn, torque)
     run_class = _Run
     if scheme is not None and scheme != "lgvi":
@@ -451,7 +491,11 @@ class Run:
             if self.func is None:
                 self.codes, self.params = (self.model.encode() if self.model is not None
                                            else (_NO_CODES, np.zeros(0)))
-                self.A = _momentum_matrices(body, self.codes, self.params, self.gam * h, sym)
+                if sym:
+                    self.A = _momentum_matrices(body, self.codes, self.params, self.gam * h, sym)
+                else:   # the paper's forcing: what momentum_matrices returns, identities (s, 3, 3)
+                    self.A = np.zeros((len(self.gam), 3, 3))
+                    self.A[:, 0, 0] = self.A[:, 1, 1] = self.A[:, 2, 2] = 1.0
                 self.S = np.zeros(7)
                 self.gidx = np.arange(len(self.gam), dtype=np.int64)
         base = CHUNK_STEPS if self.func is None else CALLABLE_CHUNK_STEPS

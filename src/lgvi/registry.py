@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -103,7 +104,13 @@ class Composition:
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:
         """``gam`` (s,), the substep fractions, and ``cum`` (s+1,), the fraction of the step at the
-        end of each substep (``cum[0] = 0``, ``cum[s] = 1`` exactly), as the kernels take them."""
+        end of each substep (``cum[0] = 0``, ``cum[s] = 1`` exactly), as the kernels take them
+        (new arrays each call, computed once)."""
+        gam, cum = self._arrays
+        return gam.copy(), cum.copy()
+
+    @cached_property
+    def _arrays(self) -> tuple[np.ndarray, np.ndarray]:
         gam = np.array(self.coefficients)
         cum = np.concatenate([[0.0], np.cumsum(gam)])
         cum[-1] = 1.0
@@ -204,7 +211,13 @@ class Splitting:
         return len(self.weights)
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``drift`` (s+1,), ``weight`` (s,), ``node`` (s,) as the kernels take them (fractions of ``h``)."""
+        """``drift`` (s+1,), ``weight`` (s,), ``node`` (s,) as the kernels take them (fractions of ``h``;
+        new arrays each call, computed once)."""
+        drift, weight, node = self._arrays
+        return drift.copy(), weight.copy(), node.copy()
+
+    @cached_property
+    def _arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         node = np.array(self.nodes, dtype=np.float64)
         drift = np.diff(np.concatenate([[0.0], node, [1.0]]))
         return drift, np.array(self.weights, dtype=np.float64), node
@@ -304,6 +317,9 @@ DEFAULT_SPLITTING = {2: "saba3", 4: "aba84", 6: "aba84-tj6", 8: "axes-kl8"}
 
 def splitting_for(order: Any, composition: Any) -> Splitting:
     """The validated splitting method of ``order=`` and ``composition=`` (``None``: the default one)."""
+    sp = SPLITTINGS.get(composition) if type(composition) is str else None
+    if sp is not None and type(order) is int and order == sp.order and order in DEFAULT_SPLITTING:
+        return sp          # a registered name of that order: every check below passes
     from ._validation import choice
 
     orders = tuple(sorted(DEFAULT_SPLITTING))
@@ -351,6 +367,9 @@ def check_composable(comp: Composition, kind: str, forcing: str, model: Any) -> 
 TORQUE_KINDS = ("none", "model", "callable", "array")
 
 
+_TorqueModel: Any = None    # lgvi.torques.TorqueModel, imported on first use (it is a layer above)
+
+
 def torque_kind(torque: Any) -> str:
     """Classify ``torque=``, the one classification every entry point uses.
 
@@ -359,11 +378,14 @@ def torque_kind(torque: Any) -> str:
     the entry points that take them). Each entry point then rejects the kinds it cannot run with
     its own message.
     """
-    from .torques import TorqueModel
-
     if torque is None:
         return "none"
-    if isinstance(torque, TorqueModel):
+    global _TorqueModel
+    if _TorqueModel is None:
+        from .torques import TorqueModel
+
+        _TorqueModel = TorqueModel
+    if isinstance(torque, _TorqueModel):
         return "model"
     if callable(torque):
         return "callable"

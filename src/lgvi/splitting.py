@@ -24,12 +24,15 @@ Moments that depend on ``Pi`` (damping, the PD controller, a ``Compiled`` model 
 
 from __future__ import annotations
 
+import functools
+import weakref
 from typing import Any
 
 import numpy as np
 
 from ._validation import as_rotation, choice
 from ._version import __version__
+from .body import RigidBody
 from .driver import check_memory, initial_momentum, run_solver_options, time_grid
 from .errors import ConvergenceError
 from .integrator import CHUNK_STEPS, SOLVER_RECORDS, Run, as_body
@@ -42,11 +45,35 @@ from .trajectory import HIST_BINS
 _NO_CODES = np.zeros((0, 2), dtype=np.int64)
 
 
+#: id(body) -> (weak reference, principal_data) of each RigidBody seen while it lives (a body is
+#: immutable: validated once, read-only arrays); a plain dict: a WeakKeyDictionary look-up costs 3 us
+_PRINCIPAL: dict[int, tuple[weakref.ref, tuple]] = {}
+
+
+def _forget(ref: weakref.ref, key: int, cache: dict = _PRINCIPAL) -> None:
+    """The body behind ``ref`` died: drop its entry (no global looked up: safe at interpreter exit)."""
+    if cache.get(key, (None,))[0] is ref:
+        del cache[key]
+
+
 def principal_data(body: Any) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, bool]:
     """``(I, ax, symax, Pax, diag)`` of the kernels: principal moments per axis (3,), the axes of
     the smallest, middle, largest moment (3,) int64, the symmetry code (``-1`` distinct moments,
     ``0..2`` the odd axis of two equal moments, ``3`` a sphere), the principal axes (3, 3) and
-    whether ``J`` is diagonal (then the body frame is the principal frame and ``Pax = I``)."""
+    whether ``J`` is diagonal (then the body frame is the principal frame and ``Pax = I``).
+
+    Computed once per :class:`lgvi.RigidBody` (it is immutable); each call returns new arrays."""
+    if type(body) is RigidBody:
+        key = id(body)
+        hit = _PRINCIPAL.get(key)
+        if hit is None or hit[0]() is not body:
+            hit = _PRINCIPAL[key] = (weakref.ref(body, functools.partial(_forget, key=key)), _principal_data(body))
+        I, ax, symax, Pax, diag = hit[1]
+        return I.copy(), ax.copy(), symax, Pax.copy(), diag
+    return _principal_data(body)
+
+
+def _principal_data(body: Any) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, bool]:
     J = np.array(body.J)
     diag = bool(np.count_nonzero(J - np.diag(np.diag(J))) == 0)
     if diag:
@@ -68,6 +95,21 @@ def principal_data(body: Any) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, 
         symax = -1
     ax = np.argsort(moments, kind="stable").astype(np.int64)
     return moments, ax, symax, np.ascontiguousarray(axes), diag
+
+
+_KERNELS: dict[bool, tuple[Any, Any]] = {}
+
+
+def _kernels(axes: bool) -> tuple[Any, Any]:
+    """The compiled loops ``(run, run_user)`` of the exact or (``axes``) the axis splittings,
+    imported on a run's first step (importing this module loads no Numba)."""
+    pair = _KERNELS.get(axes)
+    if pair is None:
+        from ._kernels.splitting_kernels import run_axes, run_axes_user, run_split, run_split_user
+
+        _KERNELS[True], _KERNELS[False] = (run_axes, run_axes_user), (run_split, run_split_user)
+        pair = _KERNELS[axes]
+    return pair
 
 
 class SplittingRun(Run):
@@ -158,10 +200,7 @@ class SplittingRun(Run):
                                 step=k, time=t_fail, trajectory=trajectory)
 
     def advance(self, n: int, R_out, Pi_out, it_out, res_out, partial) -> int:
-        from ._kernels.splitting_kernels import run_axes, run_axes_user, run_split, run_split_user
-
-        if self.split.base == "axes":
-            run_split, run_split_user = run_axes, run_axes_user
+        run_split, run_split_user = _kernels(self.split.base == "axes")
 
         args = (self.I, self.ax, self.symax, self.Pax, self.diag, self.body.J, self.drift, self.weight, self.node,
                 self.h, self.t0, self.R, self.Pi, self.codes, self.params, self.k, n, self.save_every, R_out, Pi_out,

@@ -99,7 +99,7 @@ def _num(x: float) -> str:
 
 
 def _vec_text(v: np.ndarray) -> str:
-    return "[" + ", ".join(_num(float(x)) for x in v) + "]"
+    return "[" + ", ".join(map(_num, np.asarray(v, dtype=np.float64).tolist())) + "]"
 
 
 def _gain(value: Any, name: str) -> np.ndarray:
@@ -432,7 +432,9 @@ class GravityGradient(TorqueModel):
         """Nadir direction ``c = -R^T r_hat(t)`` in the body frame, shape ``(..., 3)``."""
         R, _ = _state(R)
         nt = self.mean_motion * _time(t)
-        r_hat = np.stack(np.broadcast_arrays(np.cos(nt), np.sin(nt), np.zeros_like(nt)), axis=-1)
+        r_hat = np.zeros(nt.shape + (3,))           # (cos nt, sin nt, 0), without stacking three arrays
+        r_hat[..., 0] = np.cos(nt)
+        r_hat[..., 1] = np.sin(nt)
         return -np.einsum("...ji,...j->...i", R, r_hat)
 
     def moment(self, t, R, Pi, body):

@@ -31,11 +31,12 @@ def summary_dict(counts: Any, iterations_total: int, residual_max: float,
     and, unless given, the largest iteration count its last non-empty bin.
     """
     counts = np.asarray(counts, dtype=np.int64)
-    nz = np.flatnonzero(counts)
+    nz = counts.nonzero()[0]
     top = int(nz[-1]) if len(nz) else 0
-    return {"steps": int(counts.sum()), "iterations_total": int(iterations_total),
+    hist = counts.tolist()                      # Python ints (JSON), without a loop over the bins
+    return {"steps": sum(hist), "iterations_total": int(iterations_total),
             "iterations_max": top if iterations_max is None else max(int(iterations_max), top),
-            "residual_max": float(residual_max), "histogram": [int(c) for c in counts]}
+            "residual_max": float(residual_max), "histogram": hist}
 
 
 def merge_summaries(a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any]:
@@ -58,9 +59,10 @@ def freeze_arrays(obj: Any, names: tuple[str, ...]) -> None:
     for name in names:
         arr = getattr(obj, name)
         if arr is not None:
-            arr = np.asarray(arr)
-            arr.flags.writeable = False
-            object.__setattr__(obj, name, arr)
+            if type(arr) is not np.ndarray:
+                arr = np.asarray(arr)
+                object.__setattr__(obj, name, arr)
+            arr.setflags(write=False)
 
 
 def _continuous(q: np.ndarray) -> np.ndarray:
