@@ -61,10 +61,11 @@ def test_sncn_near_the_separatrix_matches_the_agm_amplitude():
 ])
 def test_many_flows_keep_the_invariants(moments, Pi0, h):
     """30000 exact flows (no torque): |Pi|^2 and 2E stay within 2e-12 (relative) of the start, and the
-    attitude agrees with one flow over the whole time to 5e-8 rad. Measured (Landen sn, cn; before
-    them, with the AGM amplitude): |dL^2| 1e-14, 4.8e-13, 1.9e-14 (1.4e-14, 4.3e-13, 1.9e-14),
-    attitude 1.1e-9, 1.3e-8, 4.1e-10 rad (1.8e-9, 1.1e-8, 4.1e-10); without the final projection of
-    (sn, cn) onto the circle |Pi|^2 drifts linearly, to about 5e-12 here."""
+    attitude agrees with one flow over the whole time to 5e-8 rad. Measured (amplitudes divided per
+    flow; before that, with quotients rounded once per run; with the AGM amplitude):
+    |dL^2| 5e-15, 1.7e-14, 1.8e-14 (1.3e-13, 4.4e-13, 1.7e-14; 1.4e-14, 4.3e-13, 1.9e-14),
+    attitude 4.2e-12, 5.6e-10, 3.9e-10 rad (6.5e-10, 1.1e-8, 3.7e-10; 1.8e-9, 1.1e-8, 4.1e-10); without
+    the final projection of (sn, cn) onto the circle |Pi|^2 drifts linearly, to about 5e-12 here."""
     body = lgvi.RigidBody(moments)
     J = np.array(moments)
     N = 30000
