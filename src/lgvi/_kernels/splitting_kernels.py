@@ -308,6 +308,11 @@ def rotate_by(R, x, y, z, angle, ws):
     rotate_right(R, ws, 50)
 
 
+#: below this ``m1 = 1 - m`` :func:`free_flow` takes ``sn``, ``cn`` from the AGM amplitude (:func:`jacobi_am`),
+#: not the Landen transformation (docs/splitting.md, round-off over many flows)
+AGM_M1 = 0.05
+
+
 @jit(inline="always")
 def orbit_constants(I1, I2, I3):
     """``(I1 (I3 - I2), I3 (I2 - I1), I2 (I3 - I1), sqrt((I3 - I2)(I3 - I1)/(I1 I2))/I3)`` for the axes
@@ -462,20 +467,20 @@ def free_flow(I, ax, symax, R, Pi, tau, ws, fc):
     y0 = cr0 * cr0 + m1 * sr0 * sr0
     rf0, rj0 = rf_rj_call(cr0 * cr0, y0, 1.0, 1.0 - nn * sr0 * sr0)
     u0 = sr0 * rf0
-    if m1 <= 0.0:
+    # sn, cn of u1 = u0 + lam tau and j1 with am(u1) = r1 + j1 pi, r1 in [-pi/2, pi/2]: by the descending
+    # Landen transformation, or near the separatrix (m1 < AGM_M1) by the AGM amplitude, whose angle is
+    # more accurate there (the next flow reads the phase back with the error divided by dn ~ sqrt(m1))
+    if m1 < AGM_M1:
         phi1 = jacobi_am(u0 + lam * tau, m, m1, ws)
-        sr1 = math.sin(phi1)
-        cr1 = math.cos(phi1)
-        j1 = 0
-        sn = sr1
-        cn = cr1
+        j1 = round(phi1 / math.pi)
+        sn = math.sin(phi1)
+        cn = math.cos(phi1)
     else:
-        # sn, cn of u1 = u0 + lam tau and j1 with am(u1) = r1 + j1 pi, r1 in [-pi/2, pi/2]
         sn, cn, j1 = jacobi_sncn(u0 + lam * tau, m, m1, ws)
-        sr1 = -sn if j1 % 2 != 0 else sn
-        cr1 = -cn if j1 % 2 != 0 else cn
-        sn = flip * sn
-        cn = flip * cn
+    sr1 = -sn if j1 % 2 != 0 else sn
+    cr1 = -cn if j1 % 2 != 0 else cn
+    sn = flip * sn
+    cn = flip * cn
     dn = math.sqrt(cn * cn + m1 * sn * sn)
     iIe = fc[e]
     twoE_minus = p0 * p0 * (fc[0] - iIe) + p1 * p1 * (fc[1] - iIe) + p2 * p2 * (fc[2] - iIe)
