@@ -392,7 +392,7 @@ def free_flow(I, ax, symax, R, Pi, tau, ws, fc):
     imid = ax[1]
     imax = ax[2]
     Jmid = I[imid]
-    # D = m1 A3^2 pa of the orbit about the smallest moment's axis (m1 >= 0 there), else about the largest's
+    # D = m1 A3^2 pa of the orbit about the largest moment's axis (m1 >= 0 there), else about the smallest's
     D = Pi[imax] * Pi[imax] * fc[3] - Pi[imin] * Pi[imin] * fc[4]
     if D == 0.0 and Pi[imin] == 0.0 and Pi[imax] == 0.0:   # steady spin about the middle axis
         ex = 1.0 if imid == 0 else 0.0
