@@ -175,20 +175,6 @@ rf_rj_call = jit_copy(carlson_rf_rj, "carlson_rf_rj_call", "carlson_rf_rj compil
 
 
 @jit(inline="always")
-def third_kind_rest(n, phi, m1):
-    """``G(phi) = 3 (Pi(n; phi | m) - F(phi | m)) / n``: ``sin^3 R_J(cos^2, 1 - m sin^2, 1, 1 - n sin^2)`` at the
-    reduced angle plus ``2 j R_J(0, 1 - m, 1, 1 - n)`` for ``phi = r + j pi`` (any real ``phi``)."""
-    j = round(phi / math.pi)
-    r = phi - j * math.pi
-    s = math.sin(r)
-    c = math.cos(r)
-    out = s * s * s * carlson_rj(c * c, c * c + m1 * s * s, 1.0, 1.0 - n * s * s)
-    if j != 0 and m1 > 0.0:
-        out += 2.0 * j * carlson_rj(0.0, m1, 1.0, 1.0 - n)
-    return out
-
-
-@jit(inline="always")
 def jacobi_am(u, m, m1, ws):
     """Jacobi amplitude ``am(u | m)`` (continuous, increasing in ``u``) by the AGM; ``ws`` (>= 32,) scratch."""
     if m1 <= 0.0:                        # m = 1: the separatrix, am = gd(u)
@@ -322,26 +308,32 @@ def rotate_by(R, x, y, z, angle, ws):
     rotate_right(R, ws, 50)
 
 
+#: below this ``m1 = 1 - m`` :func:`free_flow` takes ``sn``, ``cn`` from the AGM amplitude (:func:`jacobi_am`),
+#: not the Landen transformation (docs/splitting.md, round-off over many flows)
+AGM_M1 = 0.05
+
+
+@jit(inline="always")
+def orbit_constants(I1, I2, I3):
+    """``(I1 (I3 - I2), I3 (I2 - I1), I2 (I3 - I1), sqrt((I3 - I2)(I3 - I1)/(I1 I2))/I3)`` for the axes
+    ``(a1, a2, a3)`` of :func:`free_flow` with moments ``(I1, I2, I3)`` (increasing or decreasing): the
+    products of the amplitudes' ratios (``A1^2 = q1^2 + q2^2 pa/pc``, ...) and ``lam/A3``."""
+    return I1 * (I3 - I2), I3 * (I2 - I1), I2 * (I3 - I1), math.sqrt((I3 - I2) * (I3 - I1) / (I1 * I2)) / I3
+
+
 @jit(inline="always")
 def flow_constants(I, ax):
-    """The body's constants of :func:`free_flow` (15 floats), so that a flow divides by no moment:
-    ``1/I_i`` (3), ``(I_max - I_mid)/I_max``, ``(I_mid - I_min)/I_min`` (the sign of ``D``), then for
-    ``(I1, I2, I3) = (I_min, I_mid, I_max)`` and again for ``(I_max, I_mid, I_min)``:
-    ``I1 (I3 - I2)/(I2 (I3 - I1))``, ``I2 (I3 - I1)/(I1 (I3 - I2))``, ``I3 (I2 - I1)/(I2 (I3 - I1))``
-    (the amplitudes ``A1, A2, A3``), ``I3 (I2 - I1)/(I1 (I3 - I2))`` (``m A3^2/A1^2``) and
-    ``sqrt((I3 - I2)(I3 - I1)/(I1 I2))/I3`` (``lam/A3``). Infinite or NaN for equal moments, where
-    :func:`free_flow` does not read them."""
+    """The body's constants of :func:`free_flow` (11 floats): ``1/I_i`` (3), then :func:`orbit_constants`
+    for ``(I1, I2, I3) = (I_min, I_mid, I_max)`` (4) and for ``(I_max, I_mid, I_min)`` (4). Infinite or
+    NaN for equal moments, where :func:`free_flow` does not read them.
+
+    The amplitudes' ratios are kept as products, not quotients: each flow divides by them. A quotient
+    rounded once per run would multiply the same (nearly conserved) ``q2^2`` by the same rounding error
+    every flow, a bias of ``|Pi|^2`` and the energy a flow that adds up (tests/test_splitting_flow.py)."""
     lo = I[ax[0]]
     mid = I[ax[1]]
     hi = I[ax[2]]
-    out0 = (1.0 / I[0], 1.0 / I[1], 1.0 / I[2], (hi - mid) / hi, (mid - lo) / lo)
-    I1, I2, I3 = lo, mid, hi
-    b0 = (I1 * (I3 - I2) / (I2 * (I3 - I1)), I2 * (I3 - I1) / (I1 * (I3 - I2)), I3 * (I2 - I1) / (I2 * (I3 - I1)),
-          I3 * (I2 - I1) / (I1 * (I3 - I2)), math.sqrt((I3 - I2) * (I3 - I1) / (I1 * I2)) / I3)
-    I1, I3 = hi, lo
-    b1 = (I1 * (I3 - I2) / (I2 * (I3 - I1)), I2 * (I3 - I1) / (I1 * (I3 - I2)), I3 * (I2 - I1) / (I2 * (I3 - I1)),
-          I3 * (I2 - I1) / (I1 * (I3 - I2)), math.sqrt((I3 - I2) * (I3 - I1) / (I1 * I2)) / I3)
-    return out0 + b0 + b1
+    return (1.0 / I[0], 1.0 / I[1], 1.0 / I[2]) + orbit_constants(lo, mid, hi) + orbit_constants(hi, mid, lo)
 
 
 @jit
@@ -365,7 +357,7 @@ def free_flow(I, ax, symax, R, Pi, tau, ws, fc):
         Time (any sign).
     ws : (64,) float64
         Scratch.
-    fc : tuple of 15 floats
+    fc : tuple of 11 floats
         :func:`flow_constants` of ``I`` and ``ax`` (the body's constants, computed once per run).
     """
     p0 = Pi[0]
@@ -400,7 +392,8 @@ def free_flow(I, ax, symax, R, Pi, tau, ws, fc):
     imid = ax[1]
     imax = ax[2]
     Jmid = I[imid]
-    D = Pi[imax] ** 2 * fc[3] - Pi[imin] ** 2 * fc[4]
+    # D = m1 A3^2 pa of the orbit about the largest moment's axis (m1 >= 0 there), else about the smallest's
+    D = Pi[imax] * Pi[imax] * fc[3] - Pi[imin] * Pi[imin] * fc[4]
     if D == 0.0 and Pi[imin] == 0.0 and Pi[imax] == 0.0:   # steady spin about the middle axis
         ex = 1.0 if imid == 0 else 0.0
         ey = 1.0 if imid == 1 else 0.0
@@ -410,11 +403,11 @@ def free_flow(I, ax, symax, R, Pi, tau, ws, fc):
     if D >= 0.0:
         a1 = imin
         a3 = imax
-        c12, c21, c32, cm, clam = fc[5], fc[6], fc[7], fc[8], fc[9]
+        pa, pb, pc, clam = fc[3], fc[4], fc[5], fc[6]
     else:
         a1 = imax
         a3 = imin
-        c12, c21, c32, cm, clam = fc[10], fc[11], fc[12], fc[13], fc[14]
+        pa, pb, pc, clam = fc[7], fc[8], fc[9], fc[10]
     a2 = imid
     sg = 1.0 if (a2 - a1) % 3 == 1 else -1.0      # S = rows e_a1, sg e_a2, e_a3 has det +1
     I2 = I[a2]
@@ -422,13 +415,20 @@ def free_flow(I, ax, symax, R, Pi, tau, ws, fc):
     q1 = Pi[a1]
     q2 = sg * Pi[a2]
     q3 = Pi[a3]
-    A1 = math.sqrt(q1 * q1 + q2 * q2 * c12)
-    A2 = math.sqrt(q2 * q2 + q1 * q1 * c21)
-    A3 = math.sqrt(q3 * q3 + q2 * q2 * c32)
-    den = A3 * A3
-    num = A1 * A1 * cm
-    m = num / den
-    m1 = (den - num) / den
+    # The amplitudes and m are nearly conserved: a rounding error that is the same every flow adds up
+    # (|Pi|^2, the energy and, through m1, the frequency drift). So the ratios are divided per flow
+    # (rounded anew each time; flow_constants) and m1 A3^2 pa = q3^2 pa - q1^2 pb comes from the
+    # momentum itself, not as the difference of the two rounded A3^2 pa and A1^2 pb, whose cancellation
+    # near the separatrix (m1 -> 0) multiplied their rounding by 1/m1 (docs/splitting.md)
+    s1 = q1 * q1
+    t2 = q2 * q2 / pc
+    s3q = q3 * q3
+    A1 = math.sqrt(s1 + t2 * pa)
+    A2 = math.sqrt(q2 * q2 + s1 * pc / pa)
+    A3 = math.sqrt(s3q + t2 * pb)
+    inv = 1.0 / (A3 * A3 * pa)
+    m = A1 * A1 * pb * inv
+    m1 = (s3q * pa - s1 * pb) * inv
     if m >= 1.0 or m1 <= 0.0:
         m = 1.0
         m1 = 0.0
@@ -467,26 +467,26 @@ def free_flow(I, ax, symax, R, Pi, tau, ws, fc):
     y0 = cr0 * cr0 + m1 * sr0 * sr0
     rf0, rj0 = rf_rj_call(cr0 * cr0, y0, 1.0, 1.0 - nn * sr0 * sr0)
     u0 = sr0 * rf0
-    if m1 <= 0.0:
+    # sn, cn of u1 = u0 + lam tau and j1 with am(u1) = r1 + j1 pi, r1 in [-pi/2, pi/2]: by the descending
+    # Landen transformation, or near the separatrix (m1 < AGM_M1) by the AGM amplitude, whose angle is
+    # more accurate there (the next flow reads the phase back with the error divided by dn ~ sqrt(m1))
+    if m1 < AGM_M1:
         phi1 = jacobi_am(u0 + lam * tau, m, m1, ws)
-        sr1 = math.sin(phi1)
-        cr1 = math.cos(phi1)
-        j1 = 0
-        sn = sr1
-        cn = cr1
+        j1 = round(phi1 / math.pi)
+        sn = math.sin(phi1)
+        cn = math.cos(phi1)
     else:
-        # sn, cn of u1 = u0 + lam tau and j1 with am(u1) = r1 + j1 pi, r1 in [-pi/2, pi/2]
         sn, cn, j1 = jacobi_sncn(u0 + lam * tau, m, m1, ws)
-        sr1 = -sn if j1 % 2 != 0 else sn
-        cr1 = -cn if j1 % 2 != 0 else cn
-        sn = flip * sn
-        cn = flip * cn
+    sr1 = -sn if j1 % 2 != 0 else sn
+    cr1 = -cn if j1 % 2 != 0 else cn
+    sn = flip * sn
+    cn = flip * cn
     dn = math.sqrt(cn * cn + m1 * sn * sn)
     iIe = fc[e]
     twoE_minus = p0 * p0 * (fc[0] - iIe) + p1 * p1 * (fc[1] - iIe) + p2 * p2 * (fc[2] - iIe)
     # int dt / (L^2 - Pi_e^2) = [Pi(nn; am u | m)] / (c0 lam), and Pi(nn; phi) = F(phi) + nn/3 G(phi) with
     # F(am u) = u, so the difference is lam tau + nn/3 (G(phi1) - G(phi0))
-    # G(phi1) = sin^3 r1 R_J(cos^2 r1, ...) + 2 j1 R_J(0, m1, 1, 1 - nn) (third_kind_rest, from sin and cos)
+    # G(phi1) = sin^3 r1 R_J(cos^2 r1, ...) + 2 j1 R_J(0, m1, 1, 1 - nn), from sin and cos of r1
     dG = sr1 * sr1 * sr1 * carlson_rj(cr1 * cr1, cr1 * cr1 + m1 * sr1 * sr1, 1.0, 1.0 - nn * sr1 * sr1) \
         - sr0 * sr0 * sr0 * rj0
     if j1 != 0:
