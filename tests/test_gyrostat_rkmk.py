@@ -13,35 +13,11 @@ import lgvi
 from lgvi.control import Command, Controller, MRPFeedback, matrix_from_mrp, mrp_from_matrix
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
-BODY = lgvi.RigidBody([1.0, 2.0, 3.0])
-AXES = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 1.0, 1.0]]) / np.array(
-    [[1.0], [1.0], [1.0], [np.sqrt(3.0)]])
-JS = np.array([0.02, 0.03, 0.04, 0.05])
-R0 = lgvi.so3.exp([0.3, -0.2, 0.5])
-W0 = np.array([0.3, 1.0, 0.2])
-R_REF = lgvi.so3.exp([0.0, 0.5, 0.0])
-
-
-def wheels(**kw):
-    kw.setdefault("speed0", [10.0, -5.0, 3.0, 7.0])
-    return lgvi.ReactionWheels(AXES, JS, **kw)
+from gyrostat_cases import BODY, R0, R_REF, W0, Random, wheels  # tests/ is on the path
 
 
 class PythonMRP(MRPFeedback):
     """The same law, called from Python (a subclass is not compiled)."""
-
-
-class Random(Controller):
-    """Random wheel motor torques (seeded), held over each control period."""
-
-    def __init__(self, scale, seed=0):
-        self.scale, self.seed = scale, seed
-
-    def reset(self):
-        self.rng = np.random.default_rng(self.seed)
-
-    def command(self, t, R, omega, wheel_speed, env):
-        return Command(wheel_torque=self.scale * self.rng.standard_normal(len(wheel_speed)))
 
 
 def rel_drift(x):

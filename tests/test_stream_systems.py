@@ -21,19 +21,13 @@ from lgvi.systems.gyrostat import GyrostatTrajectory
 from lgvi.systems.orbit import OrbitTrajectory
 from lgvi.systems.two_body import PointMasses, TwoBodyTrajectory
 
-BODY = lgvi.RigidBody([1.0, 2.0, 3.0])
-AXES = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 1.0, 1.0]]) / np.array(
-    [[1.0], [1.0], [1.0], [np.sqrt(3.0)]])
-JS = np.array([0.02, 0.03, 0.04, 0.05])
-R0 = lgvi.so3.exp([0.3, -0.2, 0.5])
-W0 = np.array([0.3, 1.0, 0.2])
-R_REF = lgvi.so3.exp([0.0, 0.5, 0.0])
+from gyrostat_cases import BODY, R0, R_REF, W0  # tests/ is on the path
+from gyrostat_cases import wheels as _wheels
 
 
 def wheels(**kw):
-    kw.setdefault("speed0", [10.0, -5.0, 3.0, 7.0])
     kw.setdefault("max_torque", 0.5)
-    return lgvi.ReactionWheels(AXES, JS, **kw)
+    return _wheels(**kw)
 
 
 def same_arrays(a, b, names) -> None:

@@ -187,6 +187,17 @@ def mrp_feedback(cp, cs, t, R, w0, w1, w2, axes, wp, rho, cmd, tau):
 
 
 @jit(inline="always")
+def save_sample(j, R, Pi, rho, R_out, Pi_out, rho_out):
+    """Sample ``j`` of the state into the output buffers: ``R``, ``Pi`` and the wheel momenta ``rho``."""
+    for a in range(3):
+        Pi_out[j, a] = Pi[a]
+        for b in range(3):
+            R_out[j, a, b] = R[a, b]
+    for i in range(rho.shape[0]):
+        rho_out[j, i] = rho[i]
+
+
+@jit(inline="always")
 def mrp_error(cp, R):
     """The attitude error ``sigma`` (3 scalars) of ``R_ref^T R``, the set with ``|sigma| <= 1``."""
     # C = R_ref^T R
@@ -490,12 +501,7 @@ def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cm
             e += 1
         if c_save == 0:
             j += 1
-            for a in range(3):
-                Pi_out[j, a] = Pi[a]
-                for b in range(3):
-                    R_out[j, a, b] = R[a, b]
-            for i in range(N):
-                rho_out[j, i] = rho[i]
+            save_sample(j, R, Pi, rho, R_out, Pi_out, rho_out)
         c_save += 1
         if c_save == save_every:
             c_save = 0

@@ -29,36 +29,25 @@ import math
 from .._jit import jit
 from .codes import NOT_FINITE, OK
 from .gyrostat_kernels import CP_K, CP_KI, CP_MAP, CP_P, W_FC, W_FV, W_JS, W_OLC, W_OMAX, W_PMAX, W_UMAX, W_UMIN, \
-    friction, mrp_law, reference_rates, saturate
+    friction, mrp_law, reference_rates, saturate, save_sample
 
 #: Status: the rotation per step left the part of the Cayley chart this scheme accepts (``|theta| > theta_max``).
 CHART = 5
 
 
 @jit(inline="always")
-def cay_t(t0, t1, t2, c, y0, y1, y2):
-    """``cay(theta)^T y`` with ``c = 4 / (4 + |theta|^2)``."""
+def cay_apply(sign, t0, t1, t2, c, y0, y1, y2):
+    """``cay(theta) y`` (``sign = 1``) or ``cay(theta)^T y = cay(-theta) y`` (``sign = -1``), with
+    ``c = 4 / (4 + |theta|^2)``: ``y + sign c theta x y + c/2 theta x (theta x y)``."""
     a0 = t1 * y2 - t2 * y1
     a1 = t2 * y0 - t0 * y2
     a2 = t0 * y1 - t1 * y0
     b0 = t1 * a2 - t2 * a1
     b1 = t2 * a0 - t0 * a2
     b2 = t0 * a1 - t1 * a0
+    sc = sign * c
     hc = 0.5 * c
-    return y0 - c * a0 + hc * b0, y1 - c * a1 + hc * b1, y2 - c * a2 + hc * b2
-
-
-@jit(inline="always")
-def cay_v(t0, t1, t2, c, y0, y1, y2):
-    """``cay(theta) y`` with ``c = 4 / (4 + |theta|^2)``."""
-    a0 = t1 * y2 - t2 * y1
-    a1 = t2 * y0 - t0 * y2
-    a2 = t0 * y1 - t1 * y0
-    b0 = t1 * a2 - t2 * a1
-    b1 = t2 * a0 - t0 * a2
-    b2 = t0 * a1 - t1 * a0
-    hc = 0.5 * c
-    return y0 + c * a0 + hc * b0, y1 + c * a1 + hc * b1, y2 + c * a2 + hc * b2
+    return y0 + sc * a0 + hc * b0, y1 + sc * a1 + hc * b1, y2 + sc * a2 + hc * b2
 
 
 @jit(inline="always")
@@ -101,7 +90,7 @@ def stage(JBi, P0, P1, P2, t0, t1, t2, g0, g1, g2, z0, z1, z2, tq, ta0, ta1, ta2
     m1 = 0.0
     m2 = 0.0
     if tq:
-        m0, m1, m2 = cay_v(t0, t1, t2, 4.0 * inv, ta0, ta1, ta2)
+        m0, m1, m2 = cay_apply(1.0, t0, t1, t2, 4.0 * inv, ta0, ta1, ta2)
     return k0, k1, k2, m0, m1, m2
 
 
@@ -297,7 +286,7 @@ def rkmk_steps(tab, JBi, h, t0, q, R, Pi, rho, axes, wp, cmd, tau, u_now, ctrl, 
             P0 += h * (b1 * ta0 + b2 * M20 + b3 * M30 + b4 * M40)
             P1 += h * (b1 * ta1 + b2 * M21 + b3 * M31 + b4 * M41)
             P2 += h * (b1 * ta2 + b2 * M22 + b3 * M32 + b4 * M42)
-        n0, n1, n2 = cay_t(th0, th1, th2, 4.0 / (4.0 + tt), P0, P1, P2)
+        n0, n1, n2 = cay_apply(-1.0, th0, th1, th2, 4.0 / (4.0 + tt), P0, P1, P2)
         if not (math.isfinite(n0) and math.isfinite(n1) and math.isfinite(n2)):
             quat_to_matrix(q, R)
             return NOT_FINITE, k, math.sqrt(tt)
@@ -333,12 +322,7 @@ def rkmk_steps(tab, JBi, h, t0, q, R, Pi, rho, axes, wp, cmd, tau, u_now, ctrl, 
         if c_save == 0:
             j += 1
             quat_to_matrix(q, R)
-            for a in range(3):
-                Pi_out[j, a] = Pi[a]
-                for b in range(3):
-                    R_out[j, a, b] = R[a, b]
-            for i in range(N):
-                rho_out[j, i] = rho[i]
+            save_sample(j, R, Pi, rho, R_out, Pi_out, rho_out)
         c_save += 1
         if c_save == save_every:
             c_save = 0
