@@ -451,7 +451,8 @@ def test_run_a_wheel_scenario_with_scheme_rkmk4(capsys, tmp_path):
         code, out, err = run(capsys, "run", write(tmp_path, text, f"{name}.toml"), "-o", out_dir)
         assert code == 0, err
         sums[name] = ((out_dir / "summary.txt").read_text(), json.loads((out_dir / "summary.json").read_text()))
-        assert {"trajectory.npz", "summary.txt", "wheels.png", "conservation.png"} <= {p.name for p in out_dir.iterdir()}
+        files = {p.name for p in out_dir.iterdir()}
+        assert {"trajectory.npz", "summary.txt", "wheels.png", "conservation.png"} <= files
     traj = read_trajectory(tmp_path / "rkmk4" / "trajectory.npz")
     wheels = lgvi.ReactionWheels(np.eye(3)[:2], 0.08, speed0=[100.0, -50.0])
     ref = lgvi.simulate(np.diag([900.0, 800.0, 600.0]), np.eye(3), omega0=[0.01, -0.02, 0.03], h=0.1, steps=400,

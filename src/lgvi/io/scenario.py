@@ -733,7 +733,8 @@ class Scenario:
         order = None
         if "order" in integ:
             order = integ["order"]
-            orders = tuple(sorted(DEFAULT_SPLITTING)) if scheme == "splitting" else (4,) if scheme == "rkmk4" else ORDERS
+            orders = tuple(sorted(DEFAULT_SPLITTING)) if scheme == "splitting" else ORDERS
+            orders = (4,) if scheme == "rkmk4" else orders
             if isinstance(order, bool) or order not in orders or not isinstance(order, int):
                 raise c.expected("integrator.order", "one of " + ", ".join(str(o) for o in orders)
                                  + (f' (scheme = "{scheme}")' if scheme in ("splitting", "rkmk4") else ""), order)
