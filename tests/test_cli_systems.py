@@ -406,3 +406,78 @@ def test_error_estimate_with_wheels_runs_the_shadow_with_a_copy_of_the_controlle
     assert a.error_estimate.attitude == pytest.approx(4.0 / 3.0 * float(geodesic_distance(a.R[-1], half.R[-1])),
                                                       rel=1e-12)
     assert a.error_estimate.attitude < 1e-4
+
+
+# ------------------------------------------------------------------------------------------------
+# a wheel scenario with scheme = "rkmk4" from the command line
+# ------------------------------------------------------------------------------------------------
+COAST = """\
+name = "wheels_coast"
+
+[body]
+inertia = [900.0, 800.0, 600.0]
+
+[initial]
+omega = [0.01, -0.02, 0.03]
+
+[integrator]
+h = 0.1
+steps = 400
+save_every = 4
+scheme = "rkmk4"
+composition = "ralston4"
+
+[[wheel]]
+axis = [1.0, 0.0, 0.0]
+spin_inertia = 0.08
+speed0 = 100.0
+
+[[wheel]]
+axis = [0.0, 1.0, 0.0]
+spin_inertia = 0.08
+speed0 = -50.0
+"""
+
+
+def test_run_a_wheel_scenario_with_scheme_rkmk4(capsys, tmp_path):
+    """``lgvi run`` of [[wheel]] with scheme = "rkmk4": the run of lgvi.simulate bit for bit, the
+    scheme and tableau in the summary, the wheel figures, and no energy bound claimed (the LGVI's
+    run of the same file, motors off, claims one)."""
+    lgvi_text = COAST.replace('scheme = "rkmk4"\ncomposition = "ralston4"\n', "")
+    assert lgvi_text != COAST
+    sums = {}
+    for name, text in (("rkmk4", COAST), ("lgvi", lgvi_text)):
+        out_dir = tmp_path / name
+        code, out, err = run(capsys, "run", write(tmp_path, text, f"{name}.toml"), "-o", out_dir)
+        assert code == 0, err
+        sums[name] = ((out_dir / "summary.txt").read_text(), json.loads((out_dir / "summary.json").read_text()))
+        files = {p.name for p in out_dir.iterdir()}
+        assert {"trajectory.npz", "summary.txt", "wheels.png", "conservation.png"} <= files
+    traj = read_trajectory(tmp_path / "rkmk4" / "trajectory.npz")
+    wheels = lgvi.ReactionWheels(np.eye(3)[:2], 0.08, speed0=[100.0, -50.0])
+    ref = lgvi.simulate(np.diag([900.0, 800.0, 600.0]), np.eye(3), omega0=[0.01, -0.02, 0.03], h=0.1, steps=400,
+                        save_every=4, wheels=wheels, scheme="rkmk4", composition="ralston4")
+    for name in ("t", "R", "Pi", "wheel_momentum"):
+        assert np.array_equal(getattr(traj, name), getattr(ref, name)), name
+    assert traj.meta["scheme"] == "rkmk4" and traj.meta["composition"] == "ralston4"
+    text, js = sums["rkmk4"]
+    assert "integrator:    rkmk4 ralston4 (explicit Runge-Kutta-Munthe-Kaas), order 4" in text
+    assert (js["scheme"], js["method"], js["composition"], js["order"]) == ("rkmk4", "rkmk4", "ralston4", 4)
+    assert re.search(r"energy \(total\)\s+not an invariant here", text), text
+    assert js["invariants"]["energy"] == "not an invariant"
+    assert all(rel < 1e-12 for _, rel, _ in summary_rows(text).values())   # the momenta it declares exact
+    text, js = sums["lgvi"]
+    assert js["invariants"]["energy"] == "bounded" and "bounded" in summary_rows(text)["energy (total)"][2]
+
+
+@pytest.mark.parametrize("old,new,key,allowed", [
+    ('composition = "ralston4"', 'composition = "suzuki4"', "integrator.composition", "'rk4', 'rk38', 'ralston4'"),
+    ("h = 0.1", "h = 0.1\norder = 6", "integrator.order", "one of 4"),
+    ("[[wheel]]", '[[torque]]\ntype = "damping"\nc = 0.1\n\n[[wheel]]', "torque", 'integrator.scheme = "lgvi"'),
+])
+def test_run_names_the_key_scheme_rkmk4_refuses(capsys, tmp_path, old, new, key, allowed):
+    assert old in COAST
+    path = write(tmp_path, COAST.replace(old, new, 1))
+    code, _, err = run(capsys, "run", path, "-o", tmp_path / "out")
+    assert code == 2 and key in err and allowed in err, err
+    assert not (tmp_path / "out").exists()

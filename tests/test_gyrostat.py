@@ -442,6 +442,56 @@ def test_scenario_wheel_slew_runs_like_the_example():
     assert np.abs(traj.wheel_speed - ref.wheel_speed).max() < 1e-9
 
 
+@pytest.mark.parametrize("composition", [None, "rk38", "ralston4"])
+def test_scenario_wheel_slew_with_scheme_rkmk4_runs_like_simulate(composition):
+    """``scheme = "rkmk4"`` in [integrator], with any of its tableaux as ``composition``: the run of
+    lgvi.simulate(scheme="rkmk4", composition=...) bit for bit."""
+    import tomllib
+
+    from lgvi.io.scenario import Scenario
+    from lgvi.systems.gyrostat_rkmk import DEFAULT_TABLEAU
+
+    d = tomllib.loads((BENCH.parent / "examples" / "wheel_slew.toml").read_text())
+    d["integrator"].update(duration=60.0, scheme="rkmk4", **({} if composition is None else
+                                                              {"composition": composition}))
+    traj = Scenario.from_dict(d).run()
+    target = Scenario.from_dict(d).controller.target
+    kw = dict(omega0=np.zeros(3), h=0.1, steps=600, save_every=10, control_period=0.1, scheme="rkmk4")
+    ref = lgvi.simulate(np.diag([900.0, 800.0, 600.0]), np.eye(3), wheels=Scenario.from_dict(d).wheels,
+                        controller=MRPFeedback(K=20.0, P=200.0, target=target), composition=composition, **kw)
+    assert traj.meta["scheme"] == "rkmk4" and traj.meta["composition"] == (composition or DEFAULT_TABLEAU)
+    for name in ("R", "Pi", "wheel_momentum", "wheel_torque"):
+        assert np.array_equal(getattr(traj, name), getattr(ref, name)), name
+    if composition is not None:      # the tableau reaches the run: another tableau, other bits
+        rk4 = lgvi.simulate(np.diag([900.0, 800.0, 600.0]), np.eye(3), wheels=Scenario.from_dict(d).wheels,
+                            controller=MRPFeedback(K=20.0, P=200.0, target=target), **kw)
+        assert not np.array_equal(traj.R, rk4.R)
+
+
+@pytest.mark.parametrize("edit, key, match", [
+    ({"composition": "suzuki4"}, "integrator.composition", r"expected one of 'rk4', 'rk38', 'ralston4', got 'suzuki4'"),
+    ({"composition": "rk3"}, "integrator.composition", r"one of 'rk4', 'rk38', 'ralston4'.*did you mean"),
+    ({"order": 6}, "integrator.order", r"expected one of 4 \(scheme = \"rkmk4\"\), got 6"),
+    ({"order": 2, "composition": "rk38"}, "integrator.order", r"one of 4"),
+    ({"torque": [{"type": "constant", "u": [0.0, 0.0, 0.01]}]}, "torque",
+     r'not available with integrator\.scheme = "rkmk4".*integrator\.scheme = "lgvi"'),
+])
+def test_scenario_options_scheme_rkmk4_refuses_name_the_key(edit, key, match):
+    from lgvi.io.scenario import Scenario, ScenarioError
+
+    d = {"body": {"inertia": [1.0, 2.0, 3.0]}, "initial": {"omega": [0.1, 0.2, 0.3]},
+         "integrator": {"h": 0.01, "steps": 10, "scheme": "rkmk4"},
+         "wheel": [{"axis": [1.0, 0.0, 0.0], "spin_inertia": 0.1}]}
+    for k, v in edit.items():
+        (d if k == "torque" else d["integrator"])[k] = v
+    with pytest.raises(ScenarioError, match=match) as info:
+        Scenario.from_dict(d)
+    assert info.value.key == key
+    del d["integrator"]["scheme"]                       # the same file for the LGVI is fine, or refused elsewhere
+    if key == "torque":
+        assert Scenario.from_dict(d).torque is not None
+
+
 @pytest.mark.parametrize("edit, match", [
     ({"wheel": {"axis": [1.0, 0.0, 0.0], "spin_inertia": 0.1}}, r"\[\[wheel\]\] \(double brackets\)"),
     ({"wheel": [{"spin_inertia": 0.1}]}, r"wheel\[0\]\.axis"),

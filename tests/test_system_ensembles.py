@@ -215,6 +215,26 @@ def test_gyrostat_members_bit_for_bit_each_with_its_own_controller(threads):
     assert not np.array_equal(ens.R[0], ens.R[1])
 
 
+@pytest.mark.parametrize("threads", [1, 2])
+def test_gyrostat_members_with_scheme_rkmk4_are_the_lone_runs_bit_for_bit(threads):
+    """scheme="rkmk4" (and its tableau) reaches every member: member b is lgvi.simulate(**member b)."""
+    shared = Counting(0.05)
+    members = [dict(kw, scheme="rkmk4", **tab) for kw, tab in
+               zip(_gyro_members(shared), ({}, {"composition": "rk38"}, {"composition": "ralston4"}, {}))]
+    ens = simulate_members("gyrostat", members, threads=threads)
+    assert shared.calls == 0
+    for b, kw in enumerate(members):
+        fresh = Counting(0.05) if isinstance(kw["controller"], Counting) else \
+            MRPFeedback(0.5, 2.0, Ki=0.01, integral_limit=0.2)
+        single = lgvi.simulate(**dict(kw, controller=fresh))
+        assert ens[b].meta["scheme"] == single.meta["scheme"] == "rkmk4"
+        assert ens[b].meta["composition"] == single.meta["composition"]
+        _same(ens[b], single, GYRO_FIELDS)
+        assert np.all(ens[b].iterations == 0)            # explicit: the RKMK run, not the LGVI's
+    lgvi_run = lgvi.simulate(**dict(members[1], scheme=None, composition=None, controller=Counting(0.05)))
+    assert not np.array_equal(ens.R[1], lgvi_run.R)
+
+
 def test_gyrostat_member_refuses_what_simulate_members_cannot_run():
     members = _gyro_members(Counting(0.05))
     with pytest.raises(ValueError, match=r"^member 1: error_estimate must be False") as info:

@@ -273,7 +273,7 @@ def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], 
         "h": scenario.h,
         "t_start": float(traj.t[0]),
         "t_end": float(traj.t[-1]),
-        "method": scenario.method,
+        "method": "rkmk4" if traj.meta.get("scheme") == "rkmk4" else scenario.method,
         "scheme": traj.meta.get("scheme"),            # "splitting": no implicit solve, no forcing
         "composition": traj.meta.get("composition"),
         "forcing": traj.meta.get("forcing", scenario.forcing),
@@ -302,6 +302,8 @@ def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], 
         f"{data['t_end']:g} s, {data['samples']} saved states (every {scenario.save_every})",
         (f"integrator:    splitting {data['composition']}, order {data['order']}, "
          if data["scheme"] == "splitting" else
+         f"integrator:    rkmk4 {data['composition']} (explicit Runge-Kutta-Munthe-Kaas), order {data['order']}, "
+         if data["scheme"] == "rkmk4" else
          f"integrator:    method {scenario.method}, forcing {data['forcing']}, order {data['order']}, ")
         + f"torque {' + '.join(data['torque']) or 'none'}",
         f"wall time:     {wall:.4g} s ({rate} steps/s)"

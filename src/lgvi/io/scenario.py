@@ -54,6 +54,9 @@ A complete example (every key shown; comments say which keys are alternatives)::
     # composition = "suzuki4"          # a composition of lgvi.registry.COMPOSITIONS (sets the order)
     # scheme = "splitting"             # exact free-body flows and kicks (lgvi.splitting); composition
                                          # then names one of lgvi.registry.SPLITTINGS
+    # scheme = "rkmk4"                 # with [[wheel]] / [controller]: the explicit RKMK scheme
+                                         # (lgvi.systems.gyrostat_rkmk); composition then names its
+                                         # tableau: "rk4" (default), "rk38" or "ralston4"; no [[torque]]
     save_every = 10                      # keep every 10th state; must divide the steps
     error_estimate = true                # also run at h/2 and report the estimated final
                                          # attitude error (lgvi.accuracy; default false)
@@ -731,14 +734,17 @@ class Scenario:
         if "order" in integ:
             order = integ["order"]
             orders = tuple(sorted(DEFAULT_SPLITTING)) if scheme == "splitting" else ORDERS
+            orders = (4,) if scheme == "rkmk4" else orders
             if isinstance(order, bool) or order not in orders or not isinstance(order, int):
                 raise c.expected("integrator.order", "one of " + ", ".join(str(o) for o in orders)
-                                 + (' (scheme = "splitting")' if scheme == "splitting" else ""), order)
+                                 + (f' (scheme = "{scheme}")' if scheme in ("splitting", "rkmk4") else ""), order)
         composition = None
         comps = SPLITTINGS if scheme == "splitting" else COMPOSITIONS
+        if scheme == "rkmk4":   # the Runge-Kutta tableaux, all of order 4
+            from ..systems.gyrostat_rkmk import TABLEAUS as comps  # type: ignore[assignment]
         if "composition" in integ:
             composition = c.string(integ["composition"], "integrator.composition", tuple(comps))
-            comp_order = comps[composition].order
+            comp_order = 4 if scheme == "rkmk4" else comps[composition].order
             if order is None:
                 order = comp_order
             elif order != comp_order:
@@ -761,6 +767,10 @@ class Scenario:
                               "error_estimate = true to [integrator], or remove error_warn")
 
         torque, spec = _torque(c, d["torque"]) if "torque" in d else (None, ())
+        if scheme == "rkmk4" and "torque" in d:
+            raise c.error("torque", 'not available with integrator.scheme = "rkmk4" (a compiled torque model runs in '
+                          'the LGVI\'s loop only); remove the [[torque]] tables, or set integrator.scheme = "lgvi" '
+                          '(or leave it out)')
         wheels = _wheels(c, d["wheel"], body) if "wheel" in d else None
         controller, control_period = _controller(c, d["controller"], h) if "controller" in d else (None, None)
         environment = scenario_space.environment(c, d)
