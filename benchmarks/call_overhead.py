@@ -19,11 +19,10 @@ their medians), so both see the same machine load; the table gives the ratio new
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import statistics
-import subprocess
-import sys
+
+from _trees import run_child  # benchmarks/_trees.py (the script's folder is on the path)
 
 SETUP = """
 import numpy as np
@@ -79,15 +78,7 @@ print(json.dumps({{"file": lgvi.__file__, "us": out}}))
 
 
 def measure(src: str | None, calls: int, batches: int) -> dict[str, float]:
-    env = dict(os.environ)
-    if src is not None:
-        env["PYTHONPATH"] = os.path.abspath(src) + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
-    code = CHILD.format(setup=SETUP, cases=CASES, calls=calls, batches=batches)
-    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
-    res = json.loads(proc.stdout.strip().splitlines()[-1])
-    if src is not None and not os.path.abspath(res["file"]).startswith(os.path.abspath(src)):
-        raise RuntimeError(f"{src}: the child imported lgvi from {res['file']}")
-    return res["us"]
+    return run_child(src, CHILD.format(setup=SETUP, cases=CASES, calls=calls, batches=batches))["us"]
 
 
 def main(argv: list[str] | None = None) -> None:

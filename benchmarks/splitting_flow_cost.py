@@ -18,11 +18,10 @@ processes (``--rounds`` each, the median of their medians), so both see the same
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import statistics
-import subprocess
-import sys
+
+from _trees import run_child  # benchmarks/_trees.py (the script's folder is on the path)
 
 #: case -> (composition, order, h, steps, torque?)
 CASES: dict[str, tuple[str, int, float, int, bool]] = {
@@ -33,6 +32,7 @@ CASES: dict[str, tuple[str, int, float, int, bool]] = {
 
 CHILD = """
 import json, time
+
 import numpy as np
 import lgvi
 from lgvi.registry import SPLITTINGS
@@ -62,12 +62,7 @@ print(json.dumps(out))
 
 
 def measure(src: str | None, repeat: int, scale: float) -> dict[str, list[float]]:
-    env = dict(os.environ)
-    if src is not None:
-        env["PYTHONPATH"] = os.path.abspath(src) + os.pathsep + env.get("PYTHONPATH", "")
-    code = CHILD.format(cases=CASES, repeat=repeat, scale=scale)
-    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+    return run_child(src, CHILD.format(cases=CASES, repeat=repeat, scale=scale))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -21,11 +21,9 @@ separatrix and ``d = -+1e-3, -+1e-6`` (the orbits about the smallest and the lar
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import os
-import subprocess
-import sys
+
+from _trees import run_child  # benchmarks/_trees.py (the script's folder is on the path)
 
 S = 0.6 / math.sqrt(3.0)
 #: case -> (moments, Pi0, step scale)
@@ -41,6 +39,7 @@ CASES: dict[str, tuple[list[float], list[float], float]] = {
 
 CHILD = """
 import json
+
 import numpy as np
 import lgvi
 out = {{}}
@@ -66,12 +65,7 @@ print(json.dumps(out))
 
 
 def measure(src: str | None, flows: int, steps: list[float]) -> dict[str, list[float]]:
-    env = dict(os.environ)
-    if src is not None:
-        env["PYTHONPATH"] = os.path.abspath(src) + os.pathsep + env.get("PYTHONPATH", "")
-    code = CHILD.format(cases=CASES, flows=flows, steps=steps)
-    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+    return run_child(src, CHILD.format(cases=CASES, flows=flows, steps=steps))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -187,6 +187,20 @@ def mrp_feedback(cp, cs, t, R, w0, w1, w2, axes, wp, rho, cmd, tau):
 
 
 @jit(inline="always")
+def wheel_torque(i, cmd, rho, axes, wp, w0, w1, w2, u_now, N):
+    """Wheel ``i``'s torques held over a step, from the state at its start (body rate ``w``): the motor
+    command ``cmd[i]`` after :func:`saturate` into ``u_now[i]``, plus :func:`friction` into
+    ``u_now[N + i]``, which is returned."""
+    js = wp[i, W_JS]
+    Om = rho[i] / js - (axes[i, 0] * w0 + axes[i, 1] * w1 + axes[i, 2] * w2)
+    um = saturate(cmd[i], Om, js, wp[i, W_UMAX], wp[i, W_UMIN], wp[i, W_PMAX], wp[i, W_OMAX])
+    u_now[i] = um
+    ut = um + friction(Om, wp[i, W_FC], wp[i, W_FV], wp[i, W_OLC])
+    u_now[N + i] = ut
+    return ut
+
+
+@jit(inline="always")
 def save_sample(j, R, Pi, rho, R_out, Pi_out, rho_out):
     """Sample ``j`` of the state into the output buffers: ``R``, ``Pi`` and the wheel momenta ``rho``."""
     for a in range(3):
@@ -385,11 +399,7 @@ def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cm
             c_ctl = 0
         # wheel torques: saturated motor command plus friction, held over the step
         for i in range(N):
-            js = wp[i, W_JS]
-            Om = rho[i] / js - (axes[i, 0] * w0 + axes[i, 1] * w1 + axes[i, 2] * w2)
-            um = saturate(cmd[i], Om, js, wp[i, W_UMAX], wp[i, W_UMIN], wp[i, W_PMAX], wp[i, W_OMAX])
-            u_now[i] = um
-            u_now[N + i] = um + friction(Om, wp[i, W_FC], wp[i, W_FV], wp[i, W_OLC])
+            wheel_torque(i, cmd, rho, axes, wp, w0, w1, w2, u_now, N)
         ta0 = tau[0]
         ta1 = tau[1]
         ta2 = tau[2]

@@ -28,8 +28,7 @@ import math
 
 from .._jit import jit
 from .codes import NOT_FINITE, OK
-from .gyrostat_kernels import CP_K, CP_KI, CP_MAP, CP_P, W_FC, W_FV, W_JS, W_OLC, W_OMAX, W_PMAX, W_UMAX, W_UMIN, \
-    friction, mrp_law, reference_rates, saturate, save_sample
+from .gyrostat_kernels import CP_K, CP_KI, CP_MAP, CP_P, mrp_law, reference_rates, save_sample, wheel_torque
 
 #: Status: the rotation per step left the part of the Cayley chart this scheme accepts (``|theta| > theta_max``).
 CHART = 5
@@ -229,12 +228,7 @@ def rkmk_steps(tab, JBi, h, t0, q, R, Pi, rho, axes, wp, cmd, tau, u_now, ctrl, 
         v1 = 0.0
         v2 = 0.0
         for i in range(N):
-            js = wp[i, W_JS]
-            Om = rho[i] / js - (axes[i, 0] * w0 + axes[i, 1] * w1 + axes[i, 2] * w2)
-            um = saturate(cmd[i], Om, js, wp[i, W_UMAX], wp[i, W_UMIN], wp[i, W_PMAX], wp[i, W_OMAX])
-            u_now[i] = um
-            ut = um + friction(Om, wp[i, W_FC], wp[i, W_FV], wp[i, W_OLC])
-            u_now[N + i] = ut
+            ut = wheel_torque(i, cmd, rho, axes, wp, w0, w1, w2, u_now, N)
             v0 += axes[i, 0] * ut
             v1 += axes[i, 1] * ut
             v2 += axes[i, 2] * ut
