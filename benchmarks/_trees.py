@@ -12,7 +12,7 @@ import json
 import os
 import subprocess
 import sys
-from typing import Any
+from typing import Any, Callable
 
 
 def run_child(src: str | None, code: str) -> Any:
@@ -26,3 +26,32 @@ def run_child(src: str | None, code: str) -> Any:
             and not os.path.abspath(res["file"]).startswith(os.path.abspath(src)):
         raise RuntimeError(f"{src}: the child imported lgvi from {res['file']}")
     return res
+
+
+def add_batch_args(ap: Any, calls_help: str = "calls per timed batch (default 200)") -> None:
+    """The options of a per-call benchmark run in child processes: ``--compare OLD NEW``, ``--rounds``,
+    ``--calls``, ``--batches`` and ``--quick`` (applied by :func:`parse_batch_args`)."""
+    ap.add_argument("--compare", nargs=2, metavar=("OLD_SRC", "NEW_SRC"),
+                    help="two source trees (the folders holding lgvi/), measured alternately")
+    ap.add_argument("--rounds", type=int, default=3, help="child processes per tree (default 3)")
+    ap.add_argument("--calls", type=int, default=200, help=calls_help)
+    ap.add_argument("--batches", type=int, default=7, help="timed batches per child (default 7)")
+    ap.add_argument("--quick", action="store_true", help="1 round, 3 batches of 20 calls (a smoke run)")
+
+
+def parse_batch_args(ap: Any, argv: list[str] | None) -> Any:
+    """``ap.parse_args(argv)`` with ``--quick`` turned into 1 round of 3 batches of 20 calls."""
+    args = ap.parse_args(argv)
+    if args.quick:
+        args.rounds, args.batches, args.calls = 1, 3, 20
+    return args
+
+
+def alternate(old_src: str, new_src: str, rounds: int, measure: Callable[[str], Any]) -> dict[str, list[Any]]:
+    """``{src: [measure(src), ...]}`` over ``rounds`` child processes per tree, the trees alternated
+    (old first in even rounds), so both see the same machine load."""
+    runs: dict[str, list[Any]] = {old_src: [], new_src: []}
+    for r in range(rounds):
+        for src in ((old_src, new_src) if r % 2 == 0 else (new_src, old_src)):
+            runs[src].append(measure(src))
+    return runs

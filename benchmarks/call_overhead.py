@@ -22,7 +22,7 @@ import argparse
 import os
 import statistics
 
-from _trees import run_child  # benchmarks/_trees.py (the script's folder is on the path)
+from _trees import add_batch_args, alternate, parse_batch_args, run_child  # benchmarks/_trees.py
 
 SETUP = """
 import numpy as np
@@ -83,15 +83,8 @@ def measure(src: str | None, calls: int, batches: int) -> dict[str, float]:
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--compare", nargs=2, metavar=("OLD_SRC", "NEW_SRC"),
-                    help="two source trees (the folders holding lgvi/), measured alternately")
-    ap.add_argument("--rounds", type=int, default=3, help="child processes per tree (default 3)")
-    ap.add_argument("--calls", type=int, default=200, help="calls per timed batch (default 200)")
-    ap.add_argument("--batches", type=int, default=7, help="timed batches per child (default 7)")
-    ap.add_argument("--quick", action="store_true", help="1 round, 3 batches of 20 calls (a smoke run)")
-    args = ap.parse_args(argv)
-    if args.quick:
-        args.rounds, args.batches, args.calls = 1, 3, 20
+    add_batch_args(ap)
+    args = parse_batch_args(ap, argv)
     print(f"lgvi.simulate, steps=10: median us per call ({args.batches} batches of {args.calls} calls; "
           f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")
     if args.compare is None:
@@ -101,10 +94,7 @@ def main(argv: list[str] | None = None) -> None:
             print(f"{name:<26}{us[name]:>10.1f}{us['cpu ' + name]:>10.1f}")
         return
     old_src, new_src = args.compare
-    runs: dict[str, list[dict[str, float]]] = {old_src: [], new_src: []}
-    for r in range(args.rounds):
-        for src in ((old_src, new_src) if r % 2 == 0 else (new_src, old_src)):
-            runs[src].append(measure(src, args.calls, args.batches))
+    runs = alternate(old_src, new_src, args.rounds, lambda src: measure(src, args.calls, args.batches))
     print(f"old: {old_src}\nnew: {new_src}\n({args.rounds} alternated child processes each, median of their medians)")
     print(f"{'case':<26}{'old us':>10}{'new us':>10}{'new/old':>10}{'old cpu':>10}{'new cpu':>10}{'new/old':>10}")
     for name in CASES:

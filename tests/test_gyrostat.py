@@ -18,7 +18,7 @@ import lgvi
 from lgvi.control import Command, Controller, MRPFeedback, map_to_wheels, matrix_from_mrp, mrp_from_matrix
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
-from gyrostat_cases import AXES, BODY, JS, R0, W0, Random, wheels  # tests/ is on the path
+from gyrostat_cases import AXES, BODY, JS, R0, Random, W0, basilisk_scenario, wheels  # tests/ is on the path
 
 
 class Constant(Controller):
@@ -318,11 +318,7 @@ def test_zero_order_hold_between_controller_calls():
 # Basilisk
 # ------------------------------------------------------------------------------------------------
 def test_agrees_with_basilisk_scenario_attitude_feedback_rw():
-    sys.path.insert(0, str(BENCH))
-    try:
-        import basilisk_rw_scenario as scen
-    finally:
-        sys.path.remove(str(BENCH))
+    scen = basilisk_scenario()
     fix = np.load(scen.FIXTURE)
     diffs = [scen.differences(scen.run_lgvi(0.1 / sub), fix) for sub in (1, 2, 4)]
     ds, dw, dv = diffs[0]
@@ -340,11 +336,7 @@ def test_agrees_with_basilisk_with_the_integral_term():
     """The same scenario with mrpFeedback's integral term (Ki = 2e-4, limit 2 / Ki * 0.1, as Basilisk's
     example): compiled law and the Python law agree with Basilisk as without it, falling as h^2.
     Basilisk integrates from the third call on (its prior call time 0 means "none")."""
-    sys.path.insert(0, str(BENCH))
-    try:
-        import basilisk_rw_scenario as scen
-    finally:
-        sys.path.remove(str(BENCH))
+    scen = basilisk_scenario()
     fix = np.load(scen.FIXTURE_KI)
     assert json.loads(str(fix["info"]))["Ki"] == scen.KI
     # the integral term matters here: Basilisk's runs with and without it differ by 0.1 in MRP

@@ -3,17 +3,13 @@ order 4, exact momentum map, agreement with Basilisk, the compiled and the Pytho
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 import lgvi
 from lgvi.control import Command, Controller, MRPFeedback, matrix_from_mrp, mrp_from_matrix
 
-BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
-from gyrostat_cases import BODY, R0, R_REF, W0, Random, wheels  # tests/ is on the path
+from gyrostat_cases import BODY, R0, R_REF, Random, W0, basilisk_scenario, wheels  # tests/ is on the path
 
 
 class PythonMRP(MRPFeedback):
@@ -153,11 +149,7 @@ def test_body_torque_enters_as_the_inertial_impulse():
 
 
 def test_agrees_with_basilisk_scenario_attitude_feedback_rw():
-    sys.path.insert(0, str(BENCH))
-    try:
-        import basilisk_rw_scenario as scen
-    finally:
-        sys.path.remove(str(BENCH))
+    scen = basilisk_scenario()
     fix = np.load(scen.FIXTURE)
     w = lgvi.ReactionWheels(scen.WHEEL_AXES, scen.JS, speed0=scen.SPEED0, max_torque=scen.U_MAX,
                             max_speed=scen.OMEGA_MAX)

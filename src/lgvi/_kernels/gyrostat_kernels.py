@@ -201,6 +201,28 @@ def wheel_torque(i, cmd, rho, axes, wp, w0, w1, w2, u_now, N):
 
 
 @jit(inline="always")
+def record_step(c_rec, e, per, its, rn, it_out, res_out, u_out, u_now, N):
+    """A step's records into entry ``e`` (``per`` steps an entry, ``c_rec`` this step's place in it):
+    the largest iterations and residual, and the motor torques at the entry's first step. Returns
+    the next ``(c_rec, e)``."""
+    if c_rec == 0:
+        it_out[e] = its
+        res_out[e] = rn
+        for i in range(N):
+            u_out[e, i] = u_now[i]
+    else:
+        if its > it_out[e]:
+            it_out[e] = its
+        if rn > res_out[e]:
+            res_out[e] = rn
+    c_rec += 1
+    if c_rec == per:
+        c_rec = 0
+        e += 1
+    return c_rec, e
+
+
+@jit(inline="always")
 def save_sample(j, R, Pi, rho, R_out, Pi_out, rho_out):
     """Sample ``j`` of the state into the output buffers: ``R``, ``Pi`` and the wheel momenta ``rho``."""
     for a in range(3):
@@ -494,21 +516,7 @@ def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cm
         if rn > rmax:
             rmax = rn
         counts[its if its < nb else nb - 1] += 1
-        # records: the largest per entry; the motor torque at the entry's first step
-        if c_rec == 0:
-            it_out[e] = its
-            res_out[e] = rn
-            for i in range(N):
-                u_out[e, i] = u_now[i]
-        else:
-            if its > it_out[e]:
-                it_out[e] = its
-            if rn > res_out[e]:
-                res_out[e] = rn
-        c_rec += 1
-        if c_rec == per:
-            c_rec = 0
-            e += 1
+        c_rec, e = record_step(c_rec, e, per, its, rn, it_out, res_out, u_out, u_now, N)
         if c_save == 0:
             j += 1
             save_sample(j, R, Pi, rho, R_out, Pi_out, rho_out)

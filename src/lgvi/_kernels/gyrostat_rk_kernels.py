@@ -28,7 +28,8 @@ import math
 
 from .._jit import jit
 from .codes import NOT_FINITE, OK
-from .gyrostat_kernels import CP_K, CP_KI, CP_MAP, CP_P, mrp_law, reference_rates, save_sample, wheel_torque
+from .gyrostat_kernels import CP_K, CP_KI, CP_MAP, CP_P, mrp_law, record_step, reference_rates, save_sample, \
+    wheel_torque
 
 #: Status: the rotation per step left the part of the Cayley chart this scheme accepts (``|theta| > theta_max``).
 CHART = 5
@@ -304,15 +305,7 @@ def rkmk_steps(tab, JBi, h, t0, q, R, Pi, rho, axes, wp, cmd, tau, u_now, ctrl, 
         for i in range(N):
             rho[i] += h * u_now[N + i]
         counts[0] += 1
-        if c_rec == 0:
-            it_out[e] = 0
-            res_out[e] = 0.0
-            for i in range(N):
-                u_out[e, i] = u_now[i]
-        c_rec += 1
-        if c_rec == per:
-            c_rec = 0
-            e += 1
+        c_rec, e = record_step(c_rec, e, per, 0, 0.0, it_out, res_out, u_out, u_now, N)   # no iterations
         if c_save == 0:
             j += 1
             quat_to_matrix(q, R)
