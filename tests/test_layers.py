@@ -51,7 +51,7 @@ CORE_RANKS: dict[str, int] = {
     # 2: models, registries, invariants, implicit solver, results
     "registry": 2, "torques": 2, "invariants": 2, "implicit": 2, "accuracy": 2, "trajectory": 2,
     "discrete": 2, "control": 2,
-    "environment": 2,
+    "environment": 2, "components": 2, "spacecraft": 2, "fsw": 2,
     # 3: systems and the driver
     "driver": 3, "systems": 3, "integrator": 3, "ensemble": 3, "modified": 3, "optimal": 3, "splitting": 3,
     "system_ensembles": 3,

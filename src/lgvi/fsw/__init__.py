@@ -1,0 +1,2 @@
+"""What runs on board: estimation, guidance, control and mode rules, as components of the compiled
+loop (:mod:`lgvi.components`)."""
