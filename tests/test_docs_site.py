@@ -32,7 +32,7 @@ def site(tmp_path_factory):
     env = dict(os.environ, LGVI_DOCS_EXAMPLES="kepler", MPLBACKEND="Agg")
     proc = subprocess.run([sys.executable, "-m", "sphinx", "-b", "html", "-W", "--keep-going", "-q",
                            "-d", str(out / "doctrees"), "docs", str(out / "html")],
-                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+                          cwd=ROOT, env=env, capture_output=True, text=True)
     assert proc.returncode == 0, f"sphinx-build -W failed:\n{proc.stdout[-3000:]}\n{proc.stderr[-6000:]}"
     return out / "html"
 

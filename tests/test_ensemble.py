@@ -263,11 +263,11 @@ def test_kernels_interpreted_match_compiled():
         "print(out)\n"
     )
     env = dict(os.environ, NUMBA_DISABLE_JIT="1")
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert proc.returncode == 0, proc.stderr
     interpreted = np.array(eval(proc.stdout.strip().splitlines()[-1]))
     env.pop("NUMBA_DISABLE_JIT")
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert proc.returncode == 0, proc.stderr
     compiled = np.array(eval(proc.stdout.strip().splitlines()[-1]))
     np.testing.assert_allclose(interpreted, compiled, rtol=0, atol=1e-13)
@@ -304,8 +304,7 @@ def test_uncertainty_example_quick(tmp_path):
     env = dict(os.environ, MPLBACKEND="Agg")
     env.pop("NUMBA_DISABLE_JIT", None)
     proc = subprocess.run([sys.executable, str(ROOT / "examples" / "uncertainty.py"), "--quick", "--out",
-                           str(tmp_path / "figs")], capture_output=True, text=True, env=env, timeout=120,
-                          cwd=tmp_path)
+                           str(tmp_path / "figs")], capture_output=True, text=True, env=env, cwd=tmp_path)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "bodies" in proc.stdout and "spread" in proc.stdout
     for name in ("axis_spread.png",):
@@ -318,7 +317,7 @@ def test_benchmark_quick():
     env = dict(os.environ)
     env.pop("NUMBA_DISABLE_JIT", None)
     proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bench_ensemble.py"), "--quick"],
-                          capture_output=True, text=True, env=env, timeout=120, cwd=ROOT)
+                          capture_output=True, text=True, env=env, cwd=ROOT)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     for needle in ("body-steps/s", "threads", "2 threads / 1", "load average"):
         assert needle in proc.stdout, proc.stdout

@@ -59,9 +59,8 @@ def _env(**extra: str) -> dict[str, str]:
     return env
 
 
-def _run(code: str, env: dict[str, str], timeout: float = 240) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=timeout,
-                          cwd=REPO)
+def _run(code: str, env: dict[str, str]) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=REPO)
 
 
 def _result(run: subprocess.CompletedProcess) -> dict:
@@ -169,7 +168,7 @@ def test_reduced_suite_passes_interpreted():
     deselect = " and ".join(f"not {name}" for name in LONG_RUN_TESTS)
     cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-x", *INTERPRETED,
            "-k", f"not slow and {deselect}"]
-    run = subprocess.run(cmd, capture_output=True, text=True, cwd=REPO, timeout=300,
+    run = subprocess.run(cmd, capture_output=True, text=True, cwd=REPO,
                          env=_env(NUMBA_DISABLE_JIT="1", LGVI_TEST_SCALE="small"))
     tail = run.stdout[-3000:] + run.stderr[-2000:]
     assert run.returncode == 0, tail
@@ -414,7 +413,7 @@ def test_editing_any_kernel_file_invalidates_every_cached_kernel(tmp_path):
         """)
 
     def hits_misses() -> tuple[int, int]:
-        run = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, env=env, timeout=300)
+        run = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, env=env)
         assert run.returncode == 0, run.stderr[-2000:]
         hits, misses = run.stdout.split()[-2:]
         return int(hits), int(misses)

@@ -16,10 +16,10 @@ HAVE_TORQUES = importlib.util.find_spec("lgvi.torques") is not None
 needs_torques = pytest.mark.skipif(not HAVE_TORQUES, reason="lgvi.torques not available")
 
 
-def run_example(name: str, *args: str, cwd: Path, timeout: float = 120.0) -> str:
+def run_example(name: str, *args: str, cwd: Path) -> str:
     env = dict(os.environ, MPLBACKEND="Agg")
     proc = subprocess.run([sys.executable, str(EXAMPLES / name), *args], cwd=cwd, env=env, capture_output=True,
-                          text=True, timeout=timeout)
+                          text=True)
     assert proc.returncode == 0, f"{name} failed:\n{proc.stdout}\n{proc.stderr}"
     return proc.stdout
 

@@ -121,16 +121,26 @@ def test_failing_member_names_its_index_and_keeps_the_others(monkeypatch, thread
 def test_ctrl_c_keeps_the_finished_members(monkeypatch, threads):
     import os
     import signal
-    import time
+    import threading
+    import types
 
     real = OrbitRun.advance
+    stops: list[threading.Event] = []
+
+    class Stop(threading.Event):       # the stop request of simulate_members' thread pool, seen by the test
+        def __init__(self) -> None:
+            super().__init__()
+            stops.append(self)
 
     def advance(self, *a):
         if 7040.0 < self.x[0] < 7060.0 and self.k == 0:     # member 1 presses Ctrl-C in its first chunk
             os.kill(os.getpid(), signal.SIGINT)
-            time.sleep(0.5)                                   # the main thread sees it meanwhile
+            if stops:                  # on a thread: wait until the main thread has seen it and asked to stop,
+                stops[0].wait()        # however long a busy machine takes (no race on thread timing)
         return real(self, *a)
 
+    namespace = types.SimpleNamespace(**{**vars(threading), "Event": Stop})
+    monkeypatch.setattr(lgvi.system_ensembles, "threading", namespace)
     monkeypatch.setattr(OrbitRun, "advance", advance)
     monkeypatch.setattr(lgvi.systems.orbit, "CHUNK_STEPS", 8)     # 15 chunks a member: stops between them
     members = _orbit_members()
