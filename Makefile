@@ -1,11 +1,15 @@
 # Quick start: `make demo` runs the default scenario, `make test` runs the test suite.
-# Each target creates .venv and installs the package (editable) on first use.
-# `make test` also runs FLOORS_TESTS in .venv-floors: the lowest versions pyproject.toml declares,
-# pinned in requirements/floors.txt (`make test-floors` alone, `make test-newest` without it).
+# Each target creates .venv and installs the package (editable) on first use: `make demo` only what
+# the demo needs (the `demo` extra: matplotlib), `make test` the test extras.
+# `make test` runs two stages and reports both, even when the first fails: the whole suite at the
+# newest versions (`make test-newest`), then FLOORS_TESTS in .venv-floors at the lowest versions
+# pyproject.toml declares, pinned in requirements/floors.txt (`make test-floors`); it exits nonzero
+# when either failed.
 PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+DEMO_STAMP := $(VENV)/.installed-demo
 FLOORS := .venv-floors
 FLOORS_STAMP := $(FLOORS)/.installed
 # The core at the floors: simulate and its results, so3, outputs, scenarios, the command line, and
@@ -19,6 +23,15 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[test,plot]"
 	touch $(STAMP)
+
+# The demo's own stamp: the package and matplotlib, nothing else (seconds, not minutes). After
+# `make test` (a superset) it only records that.
+$(DEMO_STAMP): pyproject.toml
+	@test -x $(BIN)/python || $(PY) -m venv $(VENV)
+	@if [ -f $(STAMP) ] && [ $(STAMP) -nt pyproject.toml ]; then :; \
+	else echo "make demo: installing lgvi and matplotlib into $(VENV)"; \
+	     $(BIN)/python -m pip install --quiet --disable-pip-version-check -e ".[demo]"; fi
+	@touch $(DEMO_STAMP)
 
 # Rebuilt from scratch whenever the floors change (an install would not downgrade a package otherwise).
 # uv (from PyPI, into this venv) installs in seconds where pip's resolver takes minutes; wheels only
@@ -34,10 +47,15 @@ $(FLOORS_STAMP): pyproject.toml requirements/floors.txt
 .PHONY: install demo test test-newest test-floors bench browser docs
 install: $(STAMP)
 
-demo: $(STAMP)
+demo: $(DEMO_STAMP)
 	$(BIN)/python -m lgvi demo -o lgvi-demo
 
-test: test-newest test-floors
+test:
+	@newest=passed; floors=passed; \
+	$(MAKE) --no-print-directory test-newest || newest=FAILED; \
+	$(MAKE) --no-print-directory test-floors || floors=FAILED; \
+	echo "make test: newest versions $$newest; floor versions $$floors"; \
+	[ $$newest = passed ] && [ $$floors = passed ]
 
 test-newest: $(STAMP) browser
 	$(BIN)/python -m pytest -q

@@ -4,14 +4,21 @@ Every compiled kernel in :mod:`lgvi._kernels` is decorated with :func:`jit` from
 compilation options live in a single spot:
 
 * ``nopython`` mode, always (no object-mode fallback);
-* ``cache=True`` unless the environment variable ``LGVI_NUMBA_CACHE`` is ``0``. When no cache
-  location is writable (a read-only install with an unwritable ``NUMBA_CACHE_DIR`` and home),
+* ``cache=True`` unless the environment variable ``LGVI_NUMBA_CACHE`` is ``0``. The cache lives in
+  ``NUMBA_CACHE_DIR`` when it is set, else in the user's cache folder (:func:`user_cache_dir`:
+  ``$XDG_CACHE_HOME/lgvi/numba`` or ``~/.cache/lgvi/numba`` on Linux, ``~/Library/Caches/lgvi/numba``
+  on macOS, ``%LOCALAPPDATA%\\lgvi\\Cache\\numba`` on Windows), never inside the installed package
+  unless neither is writable. When no cache location is writable (a read-only install with an unwritable ``NUMBA_CACHE_DIR`` and home),
   Numba refuses ``cache=True``; the kernels are then compiled in memory and a warning says so;
 * ``fastmath`` is never enabled: conservation to round-off depends on IEEE semantics;
 * the cache of every kernel is keyed by a hash of *all* the kernel sources. Numba's own key is
   the defining file's time stamp only, so after an edit of ``solvers.py`` a cached kernel of
   ``stepping.py`` would keep the old solver inlined (an in-place upgrade or a development tree
   would silently mix versions); with the hash, any change of any kernel file recompiles them all.
+
+When a compilation of lgvi's kernels takes longer than a second (a fresh install, an upgrade, a
+new model), one line on the ``lgvi`` logger (shown on stderr unless logging is configured) says
+so; loading compiled kernels from the cache says nothing.
 
 Setting ``NUMBA_DISABLE_JIT=1`` runs every kernel as plain Python (slow, but identical maths),
 which the test suite uses to check the kernels interpreted.
@@ -20,7 +27,11 @@ which the test suite uses to check the kernels interpreted.
 from __future__ import annotations
 
 import hashlib
+import logging
 import os
+import sys
+import threading
+import time
 import types
 import warnings
 from typing import Any, Callable
@@ -43,6 +54,17 @@ def _kernel_sources_hash() -> str:
     return digest.hexdigest()
 
 
+def user_cache_dir() -> str:
+    """The folder of lgvi's compiled kernels in the user's cache folder (the platform's convention)."""
+    if sys.platform == "win32":
+        base = os.environ.get("LOCALAPPDATA") or os.path.expanduser(os.path.join("~", "AppData", "Local"))
+        return os.path.join(base, "lgvi", "Cache", "numba")
+    if sys.platform == "darwin":
+        return os.path.expanduser(os.path.join("~", "Library", "Caches", "lgvi", "numba"))
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.expanduser(os.path.join("~", ".cache"))
+    return os.path.join(base, "lgvi", "numba")
+
+
 def _install_cache_key() -> None:
     """Key the Numba cache of lgvi's kernels by the hash of all kernel sources (see above).
 
@@ -53,14 +75,22 @@ def _install_cache_key() -> None:
         from numba.core import caching
 
         stamp = ("lgvi-kernels", _kernel_sources_hash())
-        # public names in recent Numba; underscored (private) in 0.59 to 0.61
-        bases = [getattr(caching, name, None) or getattr(caching, "_" + name)
-                 for name in ("UserProvidedCacheLocator", "InTreeCacheLocator", "UserWideCacheLocator")]
+        # public names in recent Numba; underscored (private) in 0.59 to 0.61. The order is the
+        # preference: NUMBA_CACHE_DIR, the user's cache folder, next to the source as a last resort
+        provided, in_tree, user_wide = [getattr(caching, name, None) or getattr(caching, "_" + name)
+                                        for name in ("UserProvidedCacheLocator", "InTreeCacheLocator",
+                                                     "UserWideCacheLocator")]
+        bases = [provided, user_wide, in_tree]
     except Exception:  # pragma: no cover - a Numba without these internals
         return
 
     def make(base: type) -> type:
         class Locator(base):  # type: ignore[misc, valid-type]
+            if base is user_wide:
+                def __init__(self, py_func, py_file):
+                    super().__init__(py_func, py_file)
+                    self._cache_path = os.path.join(user_cache_dir(), self.get_suitable_cache_subpath(py_file))
+
             @classmethod
             def from_function(cls, py_func, py_file):
                 if os.path.dirname(os.path.abspath(py_file)) != _KERNELS:
@@ -81,6 +111,65 @@ def _install_cache_key() -> None:
 if CACHE:
     _install_cache_key()
 _warned = False
+
+#: Seconds a compilation of lgvi's kernels runs before the line saying so appears.
+COMPILE_NOTICE_AFTER = 1.0
+_log = logging.getLogger("lgvi")
+
+
+def _install_compile_notice() -> None:
+    """Say on the ``lgvi`` logger when compiling lgvi's kernels takes longer than a second.
+
+    Numba's event API reports each compilation (a cache miss; a load from the cache is none). The
+    outermost one of a thread starts a timer that says it once ``COMPILE_NOTICE_AFTER`` seconds
+    have passed; its end cancels the timer, and says it then if the timer could not run in time
+    (a busy machine). Nothing runs on the hot path.
+    """
+    try:
+        from numba.core import event
+    except ImportError:  # pragma: no cover - a Numba without the event API
+        return
+    local = threading.local()
+
+    class Compiling:
+        def __init__(self, name: str) -> None:
+            self.name, self.start, self.lock, self.said = name, time.perf_counter(), threading.Lock(), False
+            self.timer = threading.Timer(COMPILE_NOTICE_AFTER, self.say)
+            self.timer.daemon = True
+            self.timer.start()
+
+        def say(self) -> None:
+            with self.lock:
+                if self.said:
+                    return
+                self.said = True
+            kept = "cached for the next runs" if CACHE else "in memory only: LGVI_NUMBA_CACHE=0"
+            _log.warning("lgvi: compiling the kernel %s for this model (first use; %s)", self.name, kept)
+
+        def end(self) -> None:
+            self.timer.cancel()
+            if time.perf_counter() - self.start >= COMPILE_NOTICE_AFTER:
+                self.say()
+
+    class Listener(event.Listener):
+        def on_start(self, ev: Any) -> None:
+            depth = getattr(local, "depth", 0)
+            local.depth = depth + 1
+            if depth == 0:
+                func = getattr((ev.data or {}).get("dispatcher"), "py_func", None)
+                local.compiling = (Compiling(func.__name__)
+                                   if getattr(func, "__module__", "").startswith("lgvi.") else None)
+
+        def on_end(self, ev: Any) -> None:
+            local.depth = max(getattr(local, "depth", 1) - 1, 0)
+            if local.depth == 0 and getattr(local, "compiling", None) is not None:
+                local.compiling.end()
+                local.compiling = None
+
+    event.register("numba:compile", Listener())
+
+
+_install_compile_notice()
 
 
 def _compile(func: Callable, options: dict[str, Any]) -> Callable:

@@ -18,6 +18,8 @@ command                                            what it does
 ``lgvi view TRAJECTORY [-o PAGE.html]``            an interactive page (plotly, offline): the body turning in
                                                    3D, linked plots, the summary
 ``lgvi warmup``                                    compiles (or loads from Numba's cache) the kernels
+``lgvi example [NAME] [-o PATH] [--force]``        lists the example scenarios shipped with lgvi; with a
+                                                   name, writes ``NAME.toml`` (to give to ``lgvi run``)
 =================================================  ==============================================================
 
 Exit codes: 0 success; 2 a usage or input error (bad arguments, an invalid scenario or trajectory
@@ -928,6 +930,23 @@ def cmd_view(args: argparse.Namespace) -> int:
     return 0
 
 
+# ------------------------------------------------------------------------------------ example
+def cmd_example(args: argparse.Namespace) -> int:
+    from ..io import examples
+
+    if args.name is None:
+        print("example scenarios (lgvi example NAME writes NAME.toml; then lgvi run NAME.toml):")
+        for name in examples.names():
+            print(f"  {name:<18} {examples.summary(name)}")
+        return 0
+    try:
+        path = examples.write(args.name, args.output, overwrite=args.force)
+    except FileExistsError as exc:
+        raise UsageError(str(exc)) from None
+    print(f"wrote {path}; run it with: lgvi run {path}")
+    return 0
+
+
 # ------------------------------------------------------------------------------------ warmup
 def cmd_warmup(args: argparse.Namespace) -> int:
     import inspect
@@ -1054,6 +1073,15 @@ def build_parser() -> argparse.ArgumentParser:
                           description="Compile (or load from Numba's cache) every kernel by running each solver "
                           "method, torque path and baseline on a tiny problem; prints the time taken.")
     warm.set_defaults(func=cmd_warmup)
+
+    example = sub.add_parser("example", help="list the example scenarios, or write one out",
+                             description="Without a name, list the example scenarios shipped with lgvi; with one, "
+                             "write it to NAME.toml (or -o PATH) for `lgvi run`.")
+    example.add_argument("name", nargs="?", default=None, metavar="NAME", help="the example's name")
+    example.add_argument("-o", "--output", default=None, metavar="PATH",
+                         help="file or folder to write (default: NAME.toml here)")
+    example.add_argument("--force", action="store_true", help="overwrite an existing file")
+    example.set_defaults(func=cmd_example)
     return parser
 
 
