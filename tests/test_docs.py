@@ -127,13 +127,30 @@ def test_make_figures_script(tmp_path):
 
 
 def test_quick_start_is_the_two_commands():
-    """The README opens with a Quick start of exactly two commands, each doing its own set-up: one
-    runs the default scenario, one the tests (CI's `.ci/run` is the second)."""
+    """The README's Quick start (right after what lgvi is and how to install it) is exactly two
+    commands, each doing its own set-up: one runs the default scenario, one the tests (CI's
+    `.ci/run` is the second)."""
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    head, _, rest = readme.partition("\n## Quick start\n")
-    assert rest and head.count("\n## ") == 0, "Quick start must be the README's first section"
+    sections = re.findall(r"^## (.+)$", readme, flags=re.M)
+    assert sections[:2] == ["Install", "Quick start"], sections
+    rest = readme.partition("\n## Quick start\n")[2]
     block = re.search(r"```bash\n(.*?)```", rest, flags=re.S)
     assert block and rest.index("```bash") < rest.find("\n## "), "Quick start has no bash block"
     commands = [line.split("#")[0].strip() for line in block.group(1).splitlines() if line.split("#")[0].strip()]
     assert commands == ["make demo", "make test"]
     assert "make test" in (ROOT / ".ci" / "run").read_text(encoding="utf-8")
+
+
+def test_readme_is_a_page_for_users():
+    """Short; installable as shown; no dates, machine loads or history (CHANGELOG.md has those);
+    no relative links to pages, which break where the README is shown off the repository (PyPI):
+    documents are named as plain paths, and the one figure is the only relative target."""
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert len(readme.splitlines()) <= 150
+    assert "pip install lgvi" in readme and "CITATION.cff" in readme and "LICENSE" in readme
+    assert not re.search(r"\b20\d\d-\d\d-\d\d\b|\bload \d|\bUTC\b|\bsession\b", readme)
+    targets = [t for t in LINK.findall(readme) if "://" not in t]
+    assert targets == ["docs/figures/dzhanibekov_comparison.png"], targets
+    for path in re.findall(r"\b((?:docs|examples)/[\w./-]*\w|[A-Z]+\.(?:md|cff)|LICENSE)\b", readme):
+        if not path.startswith("docs/_build") and "NAME" not in path:    # made by `make docs`; a pattern
+            assert (ROOT / path).exists(), f"the README names {path}, which does not exist"
