@@ -64,9 +64,9 @@ def test_simulate_signature():
     assert params["body"].kind is inspect.Parameter.POSITIONAL_OR_KEYWORD
     assert params["R0"].kind is inspect.Parameter.POSITIONAL_OR_KEYWORD
     assert params["Pi0"].default is None
-    expected = {"omega0": None, "h": inspect.Parameter.empty, "steps": inspect.Parameter.empty,
+    expected = {"omega0": None, "h": inspect.Parameter.empty, "steps": None, "duration": None,
                 "torque": None, "method": "newton", "tol": 1e-14, "max_iter": 50, "alpha": 1.0,
-                "save_every": 1}
+                "save_every": 1}     # exactly one of steps and duration (tests/test_conventions.py)
     for name, default in expected.items():
         assert params[name].kind is inspect.Parameter.KEYWORD_ONLY, name
         assert params[name].default == default or (default is inspect.Parameter.empty

@@ -72,7 +72,37 @@ class Recorder(tqdm.std.tqdm):
 def recorder(monkeypatch):
     Recorder.bars = []
     monkeypatch.setattr(tqdm.auto, "tqdm", Recorder)
+    monkeypatch.setattr(lgvi.driver, "interactive", lambda: True)    # as on a terminal
     return Recorder.bars
+
+
+def test_progress_true_draws_nothing_where_nobody_watches(recorder, monkeypatch):
+    """stderr to a file or a CI log (not a terminal, not Jupyter): no bar, the run the same."""
+    monkeypatch.setattr(lgvi.driver, "interactive", lambda: False)
+    quiet = lgvi.simulate([1.0, 2.0, 3.0], np.eye(3), omega0=[0.3, 1.0, 0.2], h=0.01, steps=50, progress=True)
+    assert recorder == []
+    assert np.array_equal(quiet.R, lgvi.simulate([1.0, 2.0, 3.0], np.eye(3), omega0=[0.3, 1.0, 0.2], h=0.01,
+                                                 steps=50).R)
+
+
+def test_interactive_means_a_terminal_or_jupyter(monkeypatch):
+    import io
+    import sys
+    import types
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    monkeypatch.setattr(sys, "stderr", io.StringIO())
+    monkeypatch.delitem(sys.modules, "IPython", raising=False)
+    assert not lgvi.driver.interactive()
+    monkeypatch.setattr(sys, "stderr", Tty())
+    assert lgvi.driver.interactive()
+    monkeypatch.setattr(sys, "stderr", io.StringIO())
+    ZMQInteractiveShell = type("ZMQInteractiveShell", (), {})
+    monkeypatch.setitem(sys.modules, "IPython", types.SimpleNamespace(get_ipython=lambda: ZMQInteractiveShell()))
+    assert lgvi.driver.interactive()
 
 
 def test_progress_true_is_a_tqdm_bar_updated_between_chunks(recorder, monkeypatch, tmp_path):

@@ -21,6 +21,7 @@ import _signal  # signal.signal without its enum conversions: the same C call, ~
 import functools
 import os
 import signal
+import sys
 import threading
 from typing import Any, Protocol
 
@@ -59,6 +60,25 @@ def time_grid(h: Any, t0: Any, steps: Any, save_every: Any) -> tuple[float, floa
         raise ValueError(f"save_every must divide steps so that the final state is saved; got "
                          f"steps={steps}, save_every={save_every} (steps % save_every = {steps % save_every})")
     return h, t0, steps, save_every
+
+
+def steps_from(h: Any, steps: Any, duration: Any) -> Any:
+    """The number of steps of a run given as ``steps=`` or as ``duration=`` (the time span
+    ``steps * h``, signed like ``h``): exactly one of the two, and a duration that is a whole
+    number of steps (to 1e-9 relative)."""
+    if (steps is None) == (duration is None):
+        raise TypeError("give exactly one of steps= (an integer number of steps) and duration= (the time span, "
+                        f"steps * h); got steps={steps!r}, duration={duration!r}")
+    if duration is None:
+        return steps
+    h = as_float(h, "h", nonzero=True)
+    duration = as_float(duration, "duration")
+    n = duration / h
+    k = round(n)
+    if k < 0 or abs(n - k) > 1e-9 * max(1.0, abs(n)):
+        raise ValueError(f"duration={duration!r} must be a whole, non-negative number of steps h={h!r} "
+                         f"(duration / h = {n:.12g}): choose an h that divides it, or give steps=")
+    return int(k)
 
 
 def sample_times(t0: float, dt: float, j0: int, j1: int) -> np.ndarray:
@@ -122,10 +142,22 @@ class Interrupts:
             _signal.signal(signal.SIGINT, self._old)
 
 
+def interactive() -> bool:
+    """Whether a person watches this process: stderr is a terminal, or a Jupyter kernel runs it."""
+    try:
+        if sys.stderr is not None and sys.stderr.isatty():
+            return True
+    except (AttributeError, ValueError):  # a closed or replaced stream
+        pass
+    shell = getattr(sys.modules.get("IPython"), "get_ipython", lambda: None)()
+    return type(shell).__name__ == "ZMQInteractiveShell"
+
+
 class Progress:
-    """A progress report between chunks: ``progress=True`` draws a ``tqdm`` bar (``tqdm.auto``: a
-    widget in Jupyter, text on stderr elsewhere), a callable is called as
-    ``progress(steps_done, steps)``, ``False`` is silent. Updated between compiled chunks only."""
+    """A progress report between chunks: ``progress=True`` draws a ``tqdm`` bar where a person
+    watches (``tqdm.auto``: a widget in Jupyter, text on a terminal's stderr; nothing when stderr
+    goes to a file or a CI log), a callable is called as ``progress(steps_done, steps)``, ``False``
+    is silent. Updated between compiled chunks only."""
 
     def __init__(self, progress: Any, steps: int, start: int = 0, unit: str = "step") -> None:
         if not (isinstance(progress, bool) or callable(progress)):
@@ -133,7 +165,7 @@ class Progress:
         self.progress = progress
         self.steps = steps
         self.bar = None
-        if progress is True and steps:
+        if progress is True and steps and interactive():
             from tqdm.auto import tqdm
 
             self.bar = tqdm(total=steps, initial=start, unit=unit, unit_scale=steps >= 100_000, dynamic_ncols=True)

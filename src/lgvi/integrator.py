@@ -29,7 +29,8 @@ from ._version import __version__
 from .accuracy import check_options, provide_simulate
 from .body import RigidBody
 from .driver import (MemorySink, check_memory as _check_memory, drive,  # noqa: F401
-                     initial_momentum as _initial_momentum, run_solver_options, sample_times, time_grid)
+                     initial_momentum as _initial_momentum, run_solver_options, sample_times, steps_from,
+                     time_grid)
 from .errors import ConvergenceError, TorqueError
 from .implicit import METHODS, failure_message, largest_step
 from .invariants import declaration_of, forcing_used
@@ -208,14 +209,14 @@ def step(body: Any, R: Any, Pi: Any, *, h: float, u: Any = None, method: str = "
     return StepResult(R=Rn, Pi=Pin, F=F, iterations=int(its), residual=float(res))
 
 
-def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: float, steps: int,
+def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: float, steps: int | None = None,
              torque: Any = None, method: str = "newton", tol: float = 1e-14, max_iter: int = 50,
              alpha: float = 1.0, save_every: int = 1, t0: float = 0.0, forcing: str = "paper",
              order: int = 2, composition: str | None = None, progress: Any = False,
              error_estimate: Any = False, error_warn: float | None = 0.01,
              solver_record: str = "interval", scheme: str | None = None, wheels: Any = None,
              controller: Any = None, control_period: Any = None, environment: Any = None,
-             magnetorquers: Any = None) -> Trajectory:
+             magnetorquers: Any = None, duration: float | None = None) -> Trajectory:
     r"""Simulate the attitude of a rigid body with the Lie group variational integrator.
 
     Each step solves ``hat(h Pi_k) = F_k Jd - Jd F_k^T`` for ``F_k`` in SO(3), then sets
@@ -236,7 +237,10 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     h : float
         Step size, non-zero; ``h < 0`` integrates backwards in time.
     steps : int
-        Number of steps, ``>= 0``.
+        Number of steps, ``>= 0``. Give this or ``duration``.
+    duration : float
+        The time span instead of ``steps``: ``steps = duration / h``, which must be a whole
+        number (``duration`` is signed like ``h``).
     torque : None, array_like, callable, or lgvi.torques.TorqueModel
         Body-frame moments:
 
@@ -278,7 +282,8 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
         Name in :data:`COMPOSITIONS` (``"suzuki4"``, ``"yoshida4"``, ``"kahan-li6"``,
         ``"yoshida6"``); its order must equal ``order``. Default :data:`DEFAULT_COMPOSITION`.
     progress : bool or callable
-        ``True`` draws a ``tqdm`` progress bar (stderr; a widget in Jupyter) between compiled chunks;
+        ``True`` draws a ``tqdm`` progress bar (on a terminal; a widget in Jupyter; nothing when
+        stderr goes to a file or a log) between compiled chunks;
         a callable is called as ``progress(steps_done, steps)``; ``False`` (default) is silent.
     error_estimate : {False, True, "richardson"}
         ``True`` (or ``"richardson"``) runs the problem again at ``h/2`` (twice the steps, about
@@ -375,6 +380,7 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     >>> bool(np.abs(traj.energy - traj.energy[0]).max() < 1e-2 * traj.energy[0])
     True
     """
+    steps = steps_from(h, steps, duration)
     if wheels is not None or controller is not None or control_period is not None or environment is not None \
             or magnetorquers is not None or scheme == "rkmk4":   # the gyrostat (lgvi.systems.gyrostat)
         from .systems.gyrostat import gyrostat_options, simulate_gyrostat

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -47,6 +48,12 @@ def merge_summaries(a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any]:
     return summary_dict(hist, int(a["iterations_total"]) + int(b["iterations_total"]),
                         max(float(a["residual_max"]), float(b["residual_max"])),
                         max(int(a["iterations_max"]), int(b["iterations_max"])))
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, (np.ndarray, np.generic)):
+        return obj.tolist()
+    return str(obj)
 
 
 #: Jupyter's rich display of a trajectory, ``rich_display(traj, include, exclude) -> mimebundle``:
@@ -127,8 +134,195 @@ class Trajectory:
     potential: np.ndarray | None = None
     meta: dict[str, Any] = field(default_factory=dict)
 
+    #: Array fields that describe the body, not a sample (never sliced or interpolated; the
+    #: gyrostat's wheels too).
+    STATIC_FIELDS: ClassVar[frozenset[str]] = frozenset({"inertia", "wheel_axes", "spin_inertia"})
+    #: The solver's record (per saved interval or per step), reduced by maximum when sliced.
+    RECORD_FIELDS: ClassVar[tuple[str, ...]] = ("iterations", "residual")
+
     def __post_init__(self) -> None:
         freeze_arrays(self, ARRAY_FIELDS)
+
+    # ---------------------------------------------------------------- samples: slices, times
+    def _sampled(self) -> dict[str, np.ndarray]:
+        """The array fields with one entry per sample (``t``, ``R``, ``Pi``, ``potential``, ...)."""
+        M = len(self.t)
+        out = {}
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if (isinstance(v, np.ndarray) and v.ndim >= 1 and len(v) == M and f.name not in self.STATIC_FIELDS
+                    and f.name not in self.RECORD_FIELDS):
+                out[f.name] = v
+        return out
+
+    def _interval_record(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The solver's record as one entry per saved interval (the largest over its steps), or
+        ``None`` when it cannot be told (a baseline's record of another length)."""
+        n = len(self.t) - 1
+        its, res = np.asarray(self.iterations), np.asarray(self.residual)
+        if n <= 0 or len(its) != len(res) or len(its) % n:
+            return None
+        per = len(its) // n                      # 1 for an interval record, save_every for a per-step one
+        return its.reshape(n, per).max(axis=1), res.reshape(n, per).max(axis=1)
+
+    def __getitem__(self, key: slice) -> "Trajectory":
+        """The samples ``key`` (a slice stepping forward in time) as a trajectory of the same kind.
+
+        ``traj[::10]`` keeps every tenth sample, ``traj[100:]`` drops the first hundred. The
+        solver's record becomes one entry per new interval: the largest over the steps it
+        covers. The run totals (:attr:`solver_summary`) are kept when the slice still spans the
+        whole run, and otherwise computed from that record.
+
+        >>> import numpy as np, lgvi
+        >>> traj = lgvi.simulate([1.0, 2.0, 3.0], np.eye(3), omega0=[0.3, 1.0, 0.2], h=0.01, steps=100)
+        >>> traj[::10].t.shape, traj[::10].R.shape
+        ((11,), (11, 3, 3))
+        """
+        if not isinstance(key, slice):
+            raise TypeError(f"a trajectory is indexed by a slice of its samples (traj[a:b:k]), got "
+                            f"{type(key).__name__} {key!r}; the state at sample k is traj.R[k], traj.Pi[k], "
+                            "and at a time t, traj.at(t)")
+        M = len(self.t)
+        start, stop, step = key.indices(M)
+        if step < 1:
+            raise ValueError(f"a trajectory slice must step forward in time (step >= 1), got step={key.step!r}; "
+                             "reverse an array itself (traj.R[::-1]) instead")
+        idx = np.arange(start, stop, step)
+        changes: dict[str, Any] = {name: v[idx] for name, v in self._sampled().items()}
+        record = self._interval_record()
+        meta = dict(self.meta)
+        whole = len(idx) > 0 and idx[0] == 0 and idx[-1] == M - 1
+        if not whole:
+            meta.pop("solver_summary", None)
+        if record is not None and len(idx) >= 2:
+            its, res = record
+            changes["iterations"] = np.maximum.reduceat(its[:idx[-1]], idx[:-1])
+            changes["residual"] = np.maximum.reduceat(res[:idx[-1]], idx[:-1])
+            meta["solver_record"] = "interval"
+        else:
+            changes["iterations"] = np.zeros(0, dtype=np.asarray(self.iterations).dtype)
+            changes["residual"] = np.zeros(0)
+        return dataclasses.replace(self, meta=meta, **changes)
+
+    def at(self, t: Any) -> "Trajectory":
+        """The state at the times ``t`` (a number or an array inside the run), as a trajectory.
+
+        The attitude is interpolated along the geodesic of SO(3) between the neighbouring samples
+        (slerp: ``R_k exp(s log(R_k^T R_{k+1}))``), every other sampled array (``Pi``, the
+        potential, wheel momenta, ...) linearly; at a sample's time the sample itself is
+        returned, bit for bit. The samples must be closer than half a turn of the body for the
+        geodesic to be the motion. The result has one sample per time and no solver record (its
+        run totals are the run's).
+
+        Raises
+        ------
+        ValueError
+            A time outside ``[t[0], t[-1]]`` or not finite.
+
+        >>> import numpy as np, lgvi
+        >>> traj = lgvi.simulate([1.0, 2.0, 3.0], np.eye(3), omega0=[0.3, 1.0, 0.2], h=0.01, steps=100)
+        >>> mid = traj.at(0.505)
+        >>> mid.R.shape, bool(np.allclose(mid.R[0].T @ mid.R[0], np.eye(3)))
+        ((1, 3, 3), True)
+        """
+        from . import so3
+
+        tq = np.atleast_1d(np.asarray(t, dtype=np.float64))
+        ts = np.asarray(self.t)
+        M = len(ts)
+        if tq.ndim != 1:
+            raise ValueError(f"t must be a number or a one-dimensional array of times, got shape {tq.shape}")
+        lo, hi = (float(ts.min()), float(ts.max())) if M else (np.nan, np.nan)
+        bad = ~np.isfinite(tq) | (tq < lo) | (tq > hi)
+        if M == 0 or bad.any():
+            raise ValueError(f"t must lie inside the run, [{lo:.17g}, {hi:.17g}]; got {tq[bad][:3].tolist()}")
+        order = np.arange(M) if M < 2 or ts[-1] >= ts[0] else np.arange(M)[::-1]   # a backward run: h < 0
+        asc = ts[order]
+        j = np.clip(np.searchsorted(asc, tq, side="right") - 1, 0, max(M - 2, 0))
+        a, b = order[j], order[np.minimum(j + 1, M - 1)]
+        span = ts[b] - ts[a]
+        s = np.divide(tq - ts[a], span, out=np.zeros_like(tq), where=span != 0)
+        at_a, at_b = tq == ts[a], tq == ts[b]
+        R = np.asarray(self.R)
+        Rq = np.einsum("mij,mjk->mik", R[a], so3.exp(s[:, None] * so3.log(np.einsum("mji,mjk->mik", R[a], R[b]))))
+        Rq[at_a], Rq[at_b & ~at_a] = R[a][at_a], R[b][at_b & ~at_a]
+        changes: dict[str, Any] = {"t": tq.copy(), "R": Rq}
+        for name, v in self._sampled().items():
+            if name in ("t", "R"):
+                continue
+            w = s.reshape((-1,) + (1,) * (v.ndim - 1))
+            out = v[a] + w * (v[b] - v[a])
+            out[at_a], out[at_b & ~at_a] = v[a][at_a], v[b][at_b & ~at_a]
+            changes[name] = out
+        changes["iterations"] = np.zeros(0, dtype=np.asarray(self.iterations).dtype)
+        changes["residual"] = np.zeros(0)
+        meta = dict(self.meta, interpolated=True)
+        if "solver_summary" not in meta:
+            meta["solver_summary"] = dict(self.solver_summary, histogram=self.solver_summary["histogram"].tolist())
+        return dataclasses.replace(self, meta=meta, **changes)
+
+    def to_xarray(self):
+        """The trajectory as an ``xarray.Dataset`` (the ``io`` extra): dimension ``time`` (M),
+        ``row``/``col``/``axis`` (3), ``component`` (4: ``x y z w``, scalar last), the solver's
+        record along ``interval`` (M - 1) or ``step``; variables ``R``, ``Pi``, ``omega``,
+        ``quaternion``, ``energy`` (and ``potential``), ``inertia``, ``iterations``, ``residual``
+        and a subclass's sampled arrays (``wheel_momentum``: ``time`` x ``wheel``), with units;
+        attributes ``h`` and ``lgvi_meta`` (the JSON of ``meta``)."""
+        try:
+            import xarray as xr
+        except ImportError as exc:
+            raise ImportError(f"to_xarray needs xarray: pip install 'lgvi[io]' ({exc})") from exc
+        interval = (self.meta or {}).get("solver_record") == "interval" and len(self.iterations) == len(self.t) - 1
+        rec_dim = "interval" if interval else "step"
+        rec_what = "largest over the steps of each saved interval" if interval else "of each step"
+        data: dict[str, Any] = {
+            "R": (("time", "row", "col"), np.asarray(self.R),
+                  {"long_name": "attitude matrix, maps body vectors to inertial ones", "units": "1"}),
+            "Pi": (("time", "axis"), np.asarray(self.Pi), {"long_name": "body angular momentum", "units": "kg m2 s-1"}),
+            "omega": (("time", "axis"), self.omega, {"long_name": "body angular velocity", "units": "rad s-1"}),
+            "quaternion": (("time", "component"), self.quaternion,
+                           {"long_name": "unit quaternion, scalar last (x, y, z, w), Hamilton", "units": "1"}),
+            "energy": (("time",), self.energy, {"long_name": "total energy (kinetic + potential)", "units": "J"}),
+            "inertia": (("row", "col"), np.asarray(self.inertia), {"long_name": "inertia matrix J", "units": "kg m2"}),
+            "iterations": ((rec_dim,), np.asarray(self.iterations, dtype=np.int32),
+                           {"long_name": f"solver iterations, {rec_what}"}),
+            "residual": ((rec_dim,), np.asarray(self.residual, dtype=np.float64),
+                         {"long_name": f"final residual of the implicit solves, {rec_what}"}),
+        }
+        if self.potential is not None:
+            data["potential"] = (("time",), np.asarray(self.potential), {"long_name": "potential energy", "units": "J"})
+        for name, v in self._sampled().items():
+            if name not in data and name != "t":
+                data[name] = (("time",) + tuple(f"{name.split('_')[0]}{'' if i == 1 else i}" for i in range(1, v.ndim)),
+                              np.asarray(v))
+        return xr.Dataset(data, coords={"time": ("time", np.asarray(self.t), {"units": "s", "long_name": "time"}),
+                                        "component": ("component", np.array(["x", "y", "z", "w"]))},
+                          attrs={"h": float(self.h), "lgvi_meta": json.dumps(self.meta, default=_json_default)})
+
+    def to_dataframe(self):
+        """The samples as a ``pandas.DataFrame`` indexed by time ``t`` (pandas, e.g. from the ``io``
+        extra): columns ``qx qy qz qw`` (scalar-last quaternion), ``omega_x .. omega_z`` (rad/s),
+        ``Pi_x .. Pi_z``, ``energy`` (and ``potential``), ``R11 .. R33``."""
+        try:
+            import pandas as pd
+        except ImportError as exc:
+            raise ImportError(f"to_dataframe needs pandas: pip install pandas, or 'lgvi[io]' ({exc})") from exc
+        cols: dict[str, np.ndarray] = {}
+        q = self.quaternion
+        for i, c in enumerate("xyzw"):
+            cols[f"q{c}"] = q[:, i]
+        for i, c in enumerate("xyz"):
+            cols[f"omega_{c}"] = self.omega[:, i]
+        for i, c in enumerate("xyz"):
+            cols[f"Pi_{c}"] = np.asarray(self.Pi)[:, i]
+        cols["energy"] = self.energy
+        if self.potential is not None:
+            cols["potential"] = np.asarray(self.potential)
+        R = np.asarray(self.R)
+        for i in range(3):
+            for j in range(3):
+                cols[f"R{i + 1}{j + 1}"] = R[:, i, j]
+        return pd.DataFrame(cols, index=pd.Index(np.asarray(self.t), name="t"))
 
     def __len__(self) -> int:
         return len(self.t)

@@ -80,12 +80,6 @@ def _meta(traj: Trajectory) -> dict[str, Any]:
     return meta
 
 
-def _interval_record(traj: Trajectory) -> bool:
-    """Whether the solver's record of ``traj`` is one entry per saved interval (``(M - 1,)``)."""
-    return ((traj.meta or {}).get("solver_record") == "interval" and len(traj.t) > 0
-            and len(traj.iterations) == len(traj.t) - 1 == len(traj.residual))
-
-
 def _unit(column: str) -> str:
     for prefix in ("omega", "Pi", "R", "q"):
         if column.startswith(prefix):
@@ -246,37 +240,13 @@ def write_netcdf(traj: Trajectory, path: str | os.PathLike) -> Path:
     ImportError
         If xarray (or a netCDF engine) is missing; the message says ``pip install 'lgvi[io]'``.
     """
-    xr = _xarray()
+    _xarray()
     path = Path(path)
     meta = _meta(traj)
-    interval = _interval_record(traj)
-    rec_dim = "interval" if interval else "step"
-    rec_what = "largest over the steps of each saved interval" if interval else "of each step"
-    data_vars: dict[str, Any] = {
-        "R": (("time", "row", "col"), np.asarray(traj.R),
-              {"long_name": "attitude matrix, maps body vectors to inertial ones", "units": "1"}),
-        "Pi": (("time", "axis"), np.asarray(traj.Pi), {"long_name": "body angular momentum", "units": "kg m2 s-1"}),
-        "omega": (("time", "axis"), traj.omega, {"long_name": "body angular velocity", "units": "rad s-1"}),
-        "quaternion": (("time", "component"), traj.quaternion,
-                       {"long_name": "unit quaternion, scalar last (x, y, z, w), Hamilton", "units": "1"}),
-        "energy": (("time",), traj.energy, {"long_name": "total energy (kinetic + potential)", "units": "J"}),
-        "inertia": (("row", "col"), np.asarray(traj.inertia), {"long_name": "inertia matrix J", "units": "kg m2"}),
-        "iterations": ((rec_dim,), np.asarray(traj.iterations, dtype=np.int32),
-                       {"long_name": f"solver iterations, {rec_what}"}),
-        "residual": ((rec_dim,), np.asarray(traj.residual, dtype=np.float64),
-                     {"long_name": f"final residual of the implicit solves, {rec_what}"}),
-    }
-    if traj.potential is not None:
-        data_vars["potential"] = (("time",), np.asarray(traj.potential), {"long_name": "potential energy",
-                                                                           "units": "J"})
-    ds = xr.Dataset(
-        data_vars,
-        coords={"time": ("time", np.asarray(traj.t), {"units": "s", "long_name": "time"}),
-                "component": ("component", np.array(["x", "y", "z", "w"]))},
-        attrs={"title": f"lgvi trajectory{': ' + str(meta['scenario_name']) if 'scenario_name' in meta else ''}",
-               "lgvi_format": NETCDF_FORMAT, "lgvi_version": __version__, "h": float(traj.h),
-               "lgvi_meta": json.dumps(meta, default=_jsonable), "scenario": str(meta.get("scenario", ""))},
-    )
+    ds = traj.to_xarray()     # the variables (lgvi.Trajectory.to_xarray); the file's attributes here
+    ds.attrs = {"title": f"lgvi trajectory{': ' + str(meta['scenario_name']) if 'scenario_name' in meta else ''}",
+                "lgvi_format": NETCDF_FORMAT, "lgvi_version": __version__, "h": float(traj.h),
+                "lgvi_meta": json.dumps(meta, default=_jsonable), "scenario": str(meta.get("scenario", ""))}
     try:
         ds.to_netcdf(path)
     except ValueError as exc:

@@ -1,0 +1,134 @@
+"""Conventions a SciPy or xarray user expects: ``duration=`` beside ``steps``, slicing of results,
+``traj.at(t)`` (slerp for the attitude), ``to_xarray()`` and ``to_dataframe()``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import lgvi
+from lgvi import so3
+
+BODY = lgvi.RigidBody([1.0, 2.0, 3.0])
+KW = dict(omega0=[0.3, 1.0, 0.2], h=0.01)
+
+
+@pytest.fixture(scope="module")
+def traj():
+    return lgvi.simulate(BODY, np.eye(3), steps=200, **KW)
+
+
+# ------------------------------------------------------------------------------ duration=
+def test_duration_is_steps_times_h():
+    a = lgvi.simulate(BODY, np.eye(3), duration=0.5, **KW)
+    b = lgvi.simulate(BODY, np.eye(3), steps=50, **KW)
+    assert np.array_equal(a.R, b.R) and np.array_equal(a.t, b.t) and a.steps == 50
+    back = lgvi.simulate(BODY, np.eye(3), omega0=KW["omega0"], h=-0.01, duration=-0.5)
+    assert back.steps == 50 and back.t[-1] == pytest.approx(-0.5)
+    assert lgvi.simulate(BODY, np.eye(3), duration=0.0, **KW).steps == 0
+
+
+@pytest.mark.parametrize("kw, exc, match", [
+    (dict(), TypeError, "exactly one of steps= .*integer.* and duration="),
+    (dict(steps=10, duration=0.1), TypeError, "exactly one of steps="),
+    (dict(duration=0.333), ValueError, r"duration=0.333 must be a whole, non-negative number of steps h=0.01"),
+    (dict(duration=-1.0), ValueError, "non-negative"),
+    (dict(duration="1"), TypeError, "duration"),
+    (dict(duration=float("nan")), ValueError, "duration"),
+])
+def test_duration_refusals_name_the_rule(kw, exc, match):
+    with pytest.raises(exc, match=match):
+        lgvi.simulate(BODY, np.eye(3), **KW, **kw)
+
+
+# ------------------------------------------------------------------------------ slicing
+def test_slice_keeps_every_kth_sample_and_reduces_the_record(traj):
+    s = traj[::10]
+    assert type(s) is type(traj) and len(s) == 21
+    for name in ("t", "R", "Pi"):
+        assert np.array_equal(getattr(s, name), getattr(traj, name)[::10])
+    # the record of each new interval is the largest of the ten it covers
+    assert np.array_equal(s.iterations, traj.iterations.reshape(20, 10).max(axis=1))
+    assert np.array_equal(s.residual, traj.residual.reshape(20, 10).max(axis=1))
+    assert s.steps == traj.steps == 200 and s.solver_summary["iterations_total"] == traj.solver_summary[
+        "iterations_total"]
+    assert np.array_equal(s.energy, traj.energy[::10])
+    part = traj[50:101:25]
+    assert np.array_equal(part.t, traj.t[50:101:25])
+    assert np.array_equal(part.iterations, [traj.iterations[50:75].max(), traj.iterations[75:100].max()])
+
+
+def test_slice_of_a_sparse_run_is_its_own_sparse_run():
+    full = lgvi.simulate(BODY, np.eye(3), steps=200, **KW)
+    sparse = lgvi.simulate(BODY, np.eye(3), steps=200, save_every=10, **KW)
+    assert np.array_equal(full[::10].R, sparse.R)
+    assert np.array_equal(full[::10].iterations, sparse.iterations)
+
+
+def test_slice_refusals(traj):
+    with pytest.raises(TypeError, match=r"traj.R\[k\]"):
+        traj[3]
+    with pytest.raises(ValueError, match="step forward"):
+        traj[::-1]
+
+
+def test_slice_of_a_gyrostat_run_slices_the_wheels_not_their_axes():
+    wheels = lgvi.ReactionWheels(np.eye(3), [0.01, 0.01, 0.01], speed0=[10.0, 0.0, -5.0])
+    run = lgvi.simulate(BODY, np.eye(3), omega0=[0.1, 0.0, 0.0], h=0.1, steps=30, wheels=wheels)
+    s = run[::3]
+    assert np.array_equal(s.wheel_momentum, run.wheel_momentum[::3])
+    assert np.array_equal(s.wheel_axes, run.wheel_axes)
+    assert np.array_equal(s.omega, run.omega[::3])
+
+
+# ------------------------------------------------------------------------------ at(t)
+def test_at_the_sample_times_gives_the_samples_bit_for_bit(traj):
+    got = traj.at(traj.t[::7])
+    assert np.array_equal(got.R, traj.R[::7]) and np.array_equal(got.Pi, traj.Pi[::7])
+    assert got.steps == traj.steps and len(got.iterations) == 0
+
+
+def test_at_interpolates_along_the_geodesic(traj):
+    coarse = traj[::4]                       # samples 0.04 s apart
+    mid = coarse.at(traj.t[2:-2:4])          # halfway between them, where traj has samples
+    R = mid.R
+    # on SO(3) to round-off, and equidistant from both neighbours (the geodesic's midpoint)
+    assert np.abs(np.einsum("mki,mkj->mij", R, R) - np.eye(3)).max() < 1e-14
+    d_left = np.linalg.norm(so3.log(np.einsum("mji,mjk->mik", coarse.R[:-1], R)), axis=1)
+    d_right = np.linalg.norm(so3.log(np.einsum("mji,mjk->mik", R, coarse.R[1:])), axis=1)
+    assert np.allclose(d_left, d_right, rtol=1e-10, atol=1e-15)
+    # and close to the true motion: slerp's error is second order in the gap (0.04 s at ~1 rad/s)
+    err = np.linalg.norm(so3.log(np.einsum("mji,mjk->mik", R, traj.R[2:-2:4])), axis=1)
+    assert 0 < err.max() < 1e-3
+    assert np.allclose(mid.Pi, 0.5 * (coarse.Pi[:-1] + coarse.Pi[1:]), rtol=0, atol=1e-15)
+
+
+def test_at_near_a_half_turn():
+    """Samples a bit less than pi apart about a fixed axis: the midpoint is the half-angle rotation."""
+    axis = np.array([1.0, 2.0, 2.0]) / 3.0
+    angles = np.array([0.0, 3.1, 6.2])
+    spin = lgvi.Trajectory(t=np.array([0.0, 1.0, 2.0]), R=so3.exp(np.outer(angles, axis)), Pi=np.outer(angles, axis),
+                           inertia=np.eye(3), iterations=np.ones(2, dtype=np.int32), residual=np.zeros(2), h=1.0)
+    mid = spin.at([0.5, 1.5])
+    assert np.allclose(mid.R, so3.exp(np.outer([1.55, 4.65], axis)), atol=1e-12)
+
+
+def test_at_refuses_times_outside_the_run(traj):
+    with pytest.raises(ValueError, match=r"t must lie inside the run, \[0, 2"):
+        traj.at(2.5)
+    with pytest.raises(ValueError, match="inside the run"):
+        traj.at([0.1, np.nan])
+
+
+# ------------------------------------------------------------------------------ xarray, pandas
+def test_to_xarray_and_to_dataframe(traj):
+    xr = pytest.importorskip("xarray")
+    ds = traj.to_xarray()
+    assert isinstance(ds, xr.Dataset)
+    assert np.array_equal(ds["R"].values, traj.R) and np.array_equal(ds["time"].values, traj.t)
+    assert np.array_equal(ds["omega"].values, traj.omega) and ds["omega"].attrs["units"] == "rad s-1"
+    assert ds["iterations"].dims == ("interval",)
+    df = traj.to_dataframe()
+    assert df.index.name == "t" and len(df) == len(traj)
+    assert np.array_equal(df[["qx", "qy", "qz", "qw"]].to_numpy(), traj.quaternion)
+    assert np.array_equal(df["R23"].to_numpy(), traj.R[:, 1, 2])
