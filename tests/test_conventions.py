@@ -132,3 +132,24 @@ def test_to_xarray_and_to_dataframe(traj):
     assert df.index.name == "t" and len(df) == len(traj)
     assert np.array_equal(df[["qx", "qy", "qz", "qw"]].to_numpy(), traj.quaternion)
     assert np.array_equal(df["R23"].to_numpy(), traj.R[:, 1, 2])
+
+
+# ------------------------------------------------------------------------------ MRP in lgvi.so3
+@pytest.mark.parametrize("angle", [0.0, 1e-7, 0.3, 2.0, np.pi - 1e-9, np.pi])
+def test_mrp_round_trip_near_the_identity_and_a_half_turn(angle):
+    axis = np.array([2.0, -1.0, 2.0]) / 3.0
+    R = so3.exp(angle * axis)
+    sigma = so3.mrp_from_matrix(R)
+    assert np.linalg.norm(sigma) <= 1.0 + 1e-15                              # never the shadow set
+    assert np.allclose(sigma, np.tan(angle / 4.0) * axis, rtol=1e-12, atol=1e-16)
+    assert np.abs(so3.matrix_from_mrp(sigma) - R).max() < 4e-16 * max(1.0, angle)
+    stack = so3.mrp_from_matrix(np.stack([R, R.T]))                            # vectorised over leading axes
+    assert stack.shape == (2, 3) and np.array_equal(stack[0], sigma)
+    assert np.array_equal(stack[1], so3.mrp_from_matrix(R.T))
+
+
+def test_control_keeps_the_mrp_names():
+    import lgvi.control
+
+    assert lgvi.control.mrp_from_matrix is so3.mrp_from_matrix
+    assert lgvi.control.matrix_from_mrp is so3.matrix_from_mrp

@@ -31,6 +31,7 @@ from typing import Any, Callable, NamedTuple
 import numpy as np
 
 from ._validation import as_float, as_float_array, as_rotation
+from .so3 import matrix_from_mrp, mrp_from_matrix  # noqa: F401  (lgvi.control's names of lgvi.so3's MRPs)
 
 
 class Command(NamedTuple):
@@ -97,56 +98,6 @@ class Controller:
 # ------------------------------------------------------------------------------------------------
 # modified Rodrigues parameters (Basilisk's attitude coordinates)
 # ------------------------------------------------------------------------------------------------
-def mrp_from_matrix(R: Any) -> np.ndarray:
-    """The MRP ``sigma`` (``|sigma| <= 1``) of the rotation ``R = exp(hat(phi e))``: ``e tan(phi/4)``.
-
-    For lgvi's ``R`` (body to inertial) that is Basilisk's ``sigma_BN``; for ``R_ref.T @ R`` it is
-    ``sigma_BR``. Vectorised over leading axes: ``(..., 3, 3) -> (..., 3)``.
-    """
-    from .so3 import matrix_to_quat
-
-    q = matrix_to_quat(np.asarray(R, dtype=np.float64))     # scalar-last
-    q = np.where(q[..., 3:4] < 0.0, -q, q)
-    return q[..., :3] / (1.0 + q[..., 3:4])
-
-
-def matrix_from_mrp(sigma: Any) -> np.ndarray:
-    """The rotation matrix of the MRP ``sigma`` (inverse of :func:`mrp_from_matrix`): ``(..., 3) -> (..., 3, 3)``."""
-    from .so3 import quat_to_matrix
-
-    s = np.asarray(sigma, dtype=np.float64)
-    if s.shape == (3,):
-        R = _matrix_from_mrp3(*s.tolist())
-        if R is not None:
-            return R
-    s2 = np.sum(s * s, axis=-1, keepdims=True)
-    q = np.concatenate([2.0 * s, 1.0 - s2], axis=-1) / (1.0 + s2)
-    return quat_to_matrix(q)
-
-
-def _matrix_from_mrp3(a: float, b: float, c: float) -> np.ndarray | None:
-    """:func:`matrix_from_mrp` of one MRP in Python floats: the same IEEE operations in the same
-    order as the NumPy code and :func:`lgvi.so3.quat_to_matrix` (so the same bits), a tenth of
-    the time; ``None`` for a quaternion that is not finite (the NumPy code says why)."""
-    s2 = (a * a + b * b) + c * c                      # np.sum(s * s, axis=-1)
-    d = 1.0 + s2
-    q = [2.0 * a / d, 2.0 * b / d, 2.0 * c / d, (1.0 - s2) / d]
-    if not all(map(math.isfinite, q)):
-        return None
-    m = max(map(abs, q))                              # quat_to_matrix: q / max|q|, then / |q|
-    if not m > 0.0:
-        return None
-    x, y, z, w = (v / m for v in q)
-    n = math.sqrt(((x * x + y * y) + z * z) + w * w)
-    x, y, z, w = x / n, y / n, z / n, w / n
-    xx, yy, zz = x * x, y * y, z * z
-    xy, xz, yz = x * y, x * z, y * z
-    wx, wy, wz = w * x, w * y, w * z
-    return np.array([[1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy)],
-                     [2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx)],
-                     [2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy)]])
-
-
 def _mrp3(C: np.ndarray) -> np.ndarray:
     """:func:`mrp_from_matrix` of one (3, 3) matrix in scalar code (the controllers' hot path)."""
     (c00, c01, c02), (c10, c11, c12), (c20, c21, c22) = C.tolist()

@@ -51,6 +51,8 @@ __all__ = [
     "project",
     "orthogonality_error",
     "is_rotation",
+    "mrp_from_matrix",
+    "matrix_from_mrp",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -968,3 +970,61 @@ def is_rotation(R: ArrayLike, tol: float = 1e-9) -> NDArray[np.bool_]:
     finite = np.all(np.isfinite(R), axis=(-2, -1))
     det = np.linalg.det(np.where(finite[..., None, None], R, 0.0))
     return np.asarray(finite & (err <= tol) & (det > 0.0))
+
+
+# --------------------------------------------------------------------------------------------
+# Modified Rodrigues parameters (Basilisk's attitude coordinates; lgvi.control keeps these names)
+# --------------------------------------------------------------------------------------------
+def mrp_from_matrix(R: Any) -> np.ndarray:
+    """The MRP ``sigma`` (``|sigma| <= 1``) of the rotation ``R = exp(hat(phi e))``: ``e tan(phi/4)``.
+
+    For lgvi's ``R`` (body to inertial) that is Basilisk's ``sigma_BN``; for ``R_ref.T @ R`` it is
+    ``sigma_BR``. Vectorised over leading axes: ``(..., 3, 3) -> (..., 3)``. The shadow set
+    (``|sigma| > 1``) is never returned: the rotation angle is taken in ``[0, pi]``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from lgvi import so3
+    >>> sigma = so3.mrp_from_matrix(so3.exp([0.0, 0.0, np.pi / 2]))   # a quarter turn about z
+    >>> bool(np.allclose(sigma, [0.0, 0.0, np.tan(np.pi / 8)]))
+    True
+    """
+    q = matrix_to_quat(np.asarray(R, dtype=np.float64))     # scalar-last
+    q = np.where(q[..., 3:4] < 0.0, -q, q)
+    return q[..., :3] / (1.0 + q[..., 3:4])
+
+
+def matrix_from_mrp(sigma: Any) -> np.ndarray:
+    """The rotation matrix of the MRP ``sigma`` (inverse of :func:`mrp_from_matrix`): ``(..., 3) -> (..., 3, 3)``."""
+    s = np.asarray(sigma, dtype=np.float64)
+    if s.shape == (3,):
+        R = _matrix_from_mrp3(*s.tolist())
+        if R is not None:
+            return R
+    s2 = np.sum(s * s, axis=-1, keepdims=True)
+    q = np.concatenate([2.0 * s, 1.0 - s2], axis=-1) / (1.0 + s2)
+    return quat_to_matrix(q)
+
+
+def _matrix_from_mrp3(a: float, b: float, c: float) -> np.ndarray | None:
+    """:func:`matrix_from_mrp` of one MRP in Python floats: the same IEEE operations in the same
+    order as the NumPy code and :func:`lgvi.so3.quat_to_matrix` (so the same bits), a tenth of
+    the time; ``None`` for a quaternion that is not finite (the NumPy code says why)."""
+    s2 = (a * a + b * b) + c * c                      # np.sum(s * s, axis=-1)
+    d = 1.0 + s2
+    q = [2.0 * a / d, 2.0 * b / d, 2.0 * c / d, (1.0 - s2) / d]
+    if not all(map(math.isfinite, q)):
+        return None
+    m = max(map(abs, q))                              # quat_to_matrix: q / max|q|, then / |q|
+    if not m > 0.0:
+        return None
+    x, y, z, w = (v / m for v in q)
+    n = math.sqrt(((x * x + y * y) + z * z) + w * w)
+    x, y, z, w = x / n, y / n, z / n, w / n
+    xx, yy, zz = x * x, y * y, z * z
+    xy, xz, yz = x * y, x * z, y * z
+    wx, wy, wz = w * x, w * y, w * z
+    return np.array([[1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy)],
+                     [2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx)],
+                     [2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy)]])
