@@ -153,3 +153,68 @@ def test_control_keeps_the_mrp_names():
 
     assert lgvi.control.mrp_from_matrix is so3.mrp_from_matrix
     assert lgvi.control.matrix_from_mrp is so3.matrix_from_mrp
+
+
+# ------------------------------------------------------------------------------ the view page
+def test_view_traces_the_axis_the_symmetry_picks():
+    from lgvi.view import traced_axis
+
+    assert traced_axis([0.13, 0.13, 0.28]) == 2          # a symmetric top: its symmetry axis
+    assert traced_axis([0.28, 0.13, 0.13]) == 0
+    assert traced_axis([1.0, 2.0, 3.0]) == 1             # asymmetric: the intermediate axis
+    assert traced_axis([3.0, 1.0, 2.0]) == 2
+    assert traced_axis([1.0, 1.0 + 1e-12, 2.0]) == 2     # equal to round-off is equal
+
+
+def test_light_jupyter_display_on_request():
+    pytest.importorskip("plotly")
+    import lgvi.view
+
+    tr = lgvi.simulate(BODY, np.eye(3), steps=20, **KW)
+    try:
+        lgvi.view.display("summary")
+        bundle = tr._repr_mimebundle_()
+        assert len(bundle["text/html"]) < 20_000 and "lgvi-summary" in bundle["text/html"]
+        assert "Plotly" not in bundle["text/html"]
+    finally:
+        lgvi.view.display("view")
+    with pytest.raises(ValueError, match="'view' or 'summary'"):
+        lgvi.view.display("tiny")
+
+
+def test_decimation_note_is_not_styled_as_an_error():
+    import lgvi.view
+
+    note_rule = next(line for line in lgvi.view._CSS.splitlines() if ".lgvi-note" in line)
+    assert "#8b0000" not in note_rule and "red" not in note_rule
+
+
+# ------------------------------------------------------------------------------ figures
+def test_round_off_quantities_are_drawn_as_their_running_maximum(traj):
+    pytest.importorskip("matplotlib")
+    from lgvi import plot
+
+    fig = plot.conservation(traj)
+    ax = fig.axes[0]
+    lines = {line.get_label(): np.asarray(line.get_ydata(), dtype=float) for line in ax.get_lines()}
+    envelopes = [label for label in lines if label.endswith("running max")]
+    assert len(envelopes) == 4          # energy, |Pi|, R Pi (exact for the free body) and |R^T R - I|
+    for label in envelopes:
+        assert np.all(np.diff(lines[label]) >= 0), label
+    # the legend is below the axes, outside the data
+    legend = ax.get_legend()
+    assert legend is not None and legend.get_bbox_to_anchor().y0 < ax.get_window_extent().y0
+
+
+def test_attitude_figure_is_free_of_gimbal_lock(traj, tmp_path):
+    pytest.importorskip("matplotlib")
+    from lgvi import plot
+
+    fig = plot._attitude_panels(traj)
+    titles = [ax.get_title() for ax in fig.axes]
+    assert "modified Rodrigues" in titles[0] and "quaternion" in titles[1]
+    assert not any("Euler" in t for t in titles)
+    sigma = plot.attitude(traj, "mrp").axes[0].get_lines()
+    assert all(np.nanmax(np.abs(line.get_ydata())) <= 1.0 for line in sigma)
+    with pytest.raises(ValueError, match="'euler', 'quaternion' or 'mrp'"):
+        plot.attitude(traj, "rpy")

@@ -28,7 +28,8 @@ loaded, and each costs only its data (a few hundred KB at the inline defaults,
 :data:`INLINE_FRAMES` frames and :data:`INLINE_POINTS` points per curve). A notebook saved with its
 outputs keeps that first output and so renders offline. Where the first output was cleared, a
 display says so; ``IPython.display.HTML(lgvi.view.html(traj, full_html=False))`` embeds the
-library again.
+library again. ``lgvi.view.display("summary")`` makes every later display the run's summary table
+only (a few kB), for light notebooks.
 
 Requires plotly (``pip install 'lgvi[plot]'``); imported only when a page is made.
 """
@@ -47,7 +48,7 @@ from . import trajectory as _trajectory
 from .invariants import KIND_TEXT, QUANTITIES, declared, drifts, error_series
 
 __all__ = ["MAX_FRAMES", "MAX_POINTS", "INLINE_FRAMES", "INLINE_POINTS", "figure", "html", "write_html",
-           "mimebundle"]
+           "mimebundle", "display", "traced_axis"]
 
 #: Most animation frames of a page (the run is sampled evenly, first and last sample included).
 MAX_FRAMES: int = 200
@@ -68,6 +69,9 @@ _TRI = np.array([(0, 1, 3), (0, 3, 2), (4, 5, 7), (4, 7, 6), (0, 1, 5), (0, 5, 4
                  (2, 3, 7), (2, 7, 6), (0, 2, 6), (0, 6, 4), (1, 3, 7), (1, 7, 5)])
 _DIV_ID = "lgvi-view"
 _inline_library_sent = False
+#: What a trajectory shows in Jupyter: ``"view"`` (the interactive view) or ``"summary"`` (the
+#: run's summary table only, a few kB); set with :func:`display`.
+INLINE: str = "view"
 
 
 def _plotly():
@@ -97,6 +101,25 @@ def _principal(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
         return np.diag(J).copy(), np.eye(3), ["body x", "body y", "body z"]
     moments, V = np.linalg.eigh(0.5 * (J + J.T))
     return moments, V, ["principal axis 1", "principal axis 2", "principal axis 3"]
+
+
+def traced_axis(moments: Any, rtol: float = 1e-6) -> int:
+    """The body axis whose tip the view traces: the symmetry axis of a symmetric body (the moment
+    that differs from the two equal ones: a top's nutation and precession), else the axis of the
+    intermediate moment (the Dzhanibekov flips). Index into the principal moments given.
+
+    >>> traced_axis([0.13, 0.13, 0.28]), traced_axis([0.2, 0.1, 0.1]), traced_axis([1.0, 3.0, 2.0])
+    (2, 0, 2)
+    """
+    mo = np.asarray(moments, dtype=np.float64)
+    order = np.argsort(mo, kind="stable")
+    lo, mid, hi = mo[order]
+    close = lambda a, b: abs(a - b) <= rtol * max(abs(a), abs(b))   # noqa: E731
+    if close(lo, mid) and not close(mid, hi):
+        return int(order[2])
+    if close(mid, hi) and not close(lo, mid):
+        return int(order[0])
+    return int(order[1])
 
 
 def _box_half_sides(moments: np.ndarray) -> np.ndarray:
@@ -288,12 +311,13 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
         fig.add_trace(go.Scatter3d(**first[5 + i], mode="lines", line=dict(color=_WHEEL_COLORS[i % 6], width=5),
                                    name=f"wheel {i + 1}", hoverinfo="skip"), row=1, col=1)
     n_body = len(first)
-    # the path of the tip of the intermediate axis over the whole run (static)
+    # the path of the tip of one body axis over the whole run (static), chosen by the body's symmetry
     fine = np.unique(np.linspace(0, m - 1, min(m, max_points)).round().astype(np.int64))
-    tip = np.einsum("mij,j->mi", R[fine], axes[1])
+    traced = traced_axis(moments)
+    tip = np.einsum("mij,j->mi", R[fine], axes[traced])
     fig.add_trace(go.Scatter3d(x=np.round(tip[:, 0], 5), y=np.round(tip[:, 1], 5), z=np.round(tip[:, 2], 5),
-                               mode="lines", line=dict(color=_AXIS_COLORS[1], width=2), opacity=0.45,
-                               name=f"path of the {names[1]} tip", hoverinfo="skip"), row=1, col=1)
+                               mode="lines", line=dict(color=_AXIS_COLORS[traced], width=2), opacity=0.45,
+                               name=f"path of the {names[traced]} tip", hoverinfo="skip"), row=1, col=1)
 
     # ---- linked plots
     omega = np.asarray(traj.omega, dtype=np.float64)
@@ -437,7 +461,7 @@ _CSS = """
 .lgvi-view { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; color: #222; }
 .lgvi-view h1 { font-size: 1.35em; margin: 0 0 0.3em 0; }
 .lgvi-view h2 { font-size: 1.1em; margin: 1.2em 0 0.4em 0; }
-.lgvi-view .lgvi-note { color: #8b0000; border: 1px solid #8b0000; border-radius: 4px; padding: 0.3em 0.6em;
+.lgvi-view .lgvi-note { color: #444; background: #f3f6fa; border-left: 3px solid #7a9cc6; padding: 0.3em 0.6em;
                         display: inline-block; margin: 0.3em 0; font-size: 0.9em; }
 .lgvi-view table.lgvi-summary { border-collapse: collapse; font-size: 0.9em; margin: 0; }
 .lgvi-view table.lgvi-summary td { padding: 0.15em 0.9em 0.15em 0; vertical-align: top; text-align: left;
@@ -533,7 +557,7 @@ def html(traj: Any, *, title: str | None = None, summary: Mapping[str, Any] | No
             f"<body>\n<div class=\"lgvi-view\">\n{body}</div>\n</body>\n</html>\n")
 
 
-def write_html(traj: Any, path: str | os.PathLike, **kwargs: Any) -> Path:
+def write_html(traj: Any, path: str | os.PathLike[str], **kwargs: Any) -> Path:
     """Write the self-contained page of ``traj`` to ``path`` (atomically); keywords as :func:`html`.
 
     Returns
@@ -566,11 +590,30 @@ def mimebundle(traj: Any, include: Any = None, exclude: Any = None) -> dict[str,
         return {"text/plain": plain + "\n(pip install 'lgvi[plot]' for the interactive view)"}
     if len(traj.t) == 0:
         return {"text/plain": plain}
+    if INLINE == "summary":
+        rows = "\n".join(f"<tr><td>{_html.escape(a)}</td><td>{_html.escape(b)}</td></tr>"
+                         for a, b in summary_rows(traj))
+        return {"text/plain": plain, "text/html": f"<style>{_CSS}</style><div class=\"lgvi-view\"><table "
+                f"class=\"lgvi-summary\">\n{rows}\n</table></div>"}
     div_id = f"lgvi-view-{os.urandom(6).hex()}"
     text = html(traj, full_html=False, include_plotlyjs=not _inline_library_sent, max_frames=INLINE_FRAMES,
                 max_points=INLINE_POINTS, div_id=div_id)
     _inline_library_sent = True
     return {"text/plain": plain, "text/html": text}
+
+
+def display(mode: str) -> None:
+    """Choose what a trajectory shows in Jupyter: ``"view"`` (default: the interactive view; the
+    first display of a session embeds plotly.js, about 5 MB) or ``"summary"`` (the run's summary
+    table, a few kB: light notebooks). ``lgvi.view.write_html`` and ``lgvi view`` are unchanged.
+
+    >>> import lgvi.view
+    >>> lgvi.view.display("summary"); lgvi.view.display("view")
+    """
+    global INLINE
+    if mode not in ("view", "summary"):
+        raise ValueError(f"display: mode must be 'view' or 'summary', got {mode!r}")
+    INLINE = mode
 
 
 _trajectory.rich_display = mimebundle

@@ -184,6 +184,19 @@ def _thin_max(t: np.ndarray, y: np.ndarray, max_points: int) -> tuple[np.ndarray
     return np.append(t[edges], t[-1]), np.append(peaks, y[-1])
 
 
+def _running_max(err: Any) -> np.ndarray:
+    """The largest error so far at each sample (NaN, a missing sample, does not reset it)."""
+    err = np.asarray(err, dtype=np.float64)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return np.fmax.accumulate(err) if err.size else err
+
+
+def _legend_below(ax: Axes, ncol: int = 1) -> None:
+    """The legend under the axes, outside the data (constrained layout makes room for it)."""
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=ncol, fontsize="small", frameon=False)
+
+
 def _floor(err: np.ndarray) -> np.ndarray:
     err = np.asarray(err, dtype=np.float64)
     return np.where(np.isfinite(err), np.maximum(err, ERROR_FLOOR), np.nan)
@@ -313,6 +326,15 @@ def _thin_segments(t: np.ndarray, y: np.ndarray, breaks: np.ndarray, skip: np.nd
     return np.concatenate(parts_t[:-1]), np.concatenate(parts_y[:-1])
 
 
+def _oscillation_window(y: np.ndarray) -> slice:
+    """The samples shown of components that oscillate: all, or (when they change sign more often
+    than about :data:`QUAT_CYCLES` oscillations, a solid band at any width) the first ones."""
+    crossings = np.flatnonzero(np.diff(np.signbit(y), axis=0).any(axis=1))
+    if len(crossings) > 4 * QUAT_CYCLES:
+        return slice(0, int(crossings[2 * QUAT_CYCLES]) + 1)
+    return slice(None)
+
+
 def sampling_note(traj: Trajectory) -> str | None:
     """A warning when the saved samples are too sparse for the motion, else ``None``.
 
@@ -341,15 +363,17 @@ def _note(ax: Axes, text: str | None) -> None:
 
 def attitude(traj: Trajectory, kind: str = "euler", sequence: str = "ZYX", ax: Axes | None = None, *,
              degrees: bool = False, scalar_first: bool = False, max_points: int = MAX_POINTS) -> Figure:
-    """Attitude against time: Euler angles (unwrapped) or quaternion components.
+    """Attitude against time: MRPs, quaternion components or Euler angles (unwrapped).
 
     Parameters
     ----------
     traj : Trajectory
-    kind : {"euler", "quaternion"}
+    kind : {"euler", "quaternion", "mrp"}
         Euler angles of ``R`` (body to inertial) in ``sequence``, unwrapped over time so that
         full turns show as ramps instead of jumps (but never across a singularity, see the
-        notes); or the sign-continuous unit quaternion.
+        notes); or the sign-continuous unit quaternion; or the modified Rodrigues parameters
+        (:func:`lgvi.so3.mrp_from_matrix`, Basilisk's ``sigma_BN``: ``|sigma| <= 1``, no
+        singularity, a jump to the other side only where the body passes a half turn).
     sequence : str
         Euler sequence as in :meth:`scipy.spatial.transform.Rotation.as_euler`: upper case is
         intrinsic (``"ZYX"``: yaw, pitch, roll), lower case extrinsic.
@@ -377,8 +401,8 @@ def attitude(traj: Trajectory, kind: str = "euler", sequence: str = "ZYX", ax: A
     (:func:`sampling_note`).
     """
     _check_traj(traj, "attitude")
-    if kind not in ("euler", "quaternion"):
-        raise ValueError(f"attitude: kind must be 'euler' or 'quaternion', got {kind!r}")
+    if kind not in ("euler", "quaternion", "mrp"):
+        raise ValueError(f"attitude: kind must be 'euler', 'quaternion' or 'mrp', got {kind!r}")
     fig, ax = _axes(ax)
     t = np.asarray(traj.t)
     if kind == "euler":
@@ -413,16 +437,28 @@ def attitude(traj: Trajectory, kind: str = "euler", sequence: str = "ZYX", ax: A
         ax.set_ylabel(f"Euler angle ({unit})")
         ax.set_title(f"Attitude: {'intrinsic' if intrinsic else 'extrinsic'} {sequence} Euler angles "
                      "(unwrapped), body to inertial")
+    elif kind == "mrp":
+        from ..so3 import mrp_from_matrix
+
+        sigma = mrp_from_matrix(np.asarray(traj.R))
+        window = _oscillation_window(sigma)
+        tw, sw = t[window], sigma[window]
+        # the switch to the other side at a half turn is a jump (|d sigma| ~ 2): the curves break there
+        breaks = np.linalg.norm(np.diff(sw, axis=0), axis=1) > 1.0 if len(sw) > 1 else np.zeros(0, dtype=bool)
+        for i in range(3):
+            tt, yy = _thin_segments(tw, sw[:, i], breaks, np.zeros(len(tw), dtype=bool), max_points)
+            ax.plot(tt, yy, color=_COMPONENT_COLORS[i], lw=1.2, label=rf"$\sigma_{i + 1}$")
+        ax.set_ylabel("MRP component (1)")
+        ax.set_ylim(-1.08, 1.08)
+        shown = "" if window == slice(None) else f"; first {tw[-1] - t[0]:.4g} s of {t[-1] - t[0]:.4g} s"
+        ax.set_title(f"Attitude: modified Rodrigues parameters (body to inertial), |sigma| <= 1{shown}")
     else:
         q = traj.quaternions(scalar_first=scalar_first)
         names = ("w", "x", "y", "z") if scalar_first else ("x", "y", "z", "w")
         colors = (_COMPONENT_COLORS[3],) + _COMPONENT_COLORS[:3] if scalar_first else _COMPONENT_COLORS
         # a long run of a fast rotation oscillates more often than there are pixels (a solid band):
         # show the first ~QUAT_CYCLES oscillations only, and say so
-        crossings = np.flatnonzero(np.diff(np.signbit(q), axis=0).any(axis=1))
-        window = slice(None)
-        if len(crossings) > 4 * QUAT_CYCLES:
-            window = slice(0, int(crossings[2 * QUAT_CYCLES]) + 1)
+        window = _oscillation_window(q)
         for i in range(4):
             tt, yy = _thin_minmax(t[window], q[window, i], max_points)
             ax.plot(tt, yy, color=colors[i], lw=1.2, label=f"$q_{names[i]}$")
@@ -515,7 +551,11 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     gradient; see :mod:`lgvi.invariants`), and the distance ``|R^T R - I|_F`` of the attitude from
     SO(3). Zeros are drawn at :data:`ERROR_FLOOR`; long runs show each bin's maximum. Each
     invariant's legend says how the LGVI keeps it (exact or bounded); quantities that are not
-    invariants of the run are drawn dashed and say so.
+    invariants of the run are drawn dashed and say so. Quantities kept to round-off (the exact
+    invariants and the distance from SO(3)) are drawn as their running maximum: a round-off error
+    flickers between zero and a few ulps from one sample to the next, which would fill the plot
+    as a comb; its running maximum shows what matters, how large it has grown. The legend sits
+    below the axes, clear of the curves.
 
     Parameters
     ----------
@@ -546,7 +586,7 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     _check_traj(traj, "conservation")
     fig, ax = _axes(ax)
     t = np.asarray(traj.t)
-    from ..invariants import KIND_TEXT, QUANTITIES
+    from ..invariants import EXACT, KIND_TEXT, QUANTITIES
 
     decl = _declaration([traj])
     if invariants is None:
@@ -566,6 +606,9 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
             label += " (not an invariant here)"
         elif kind is not None and invariants is None:
             label += f": {KIND_TEXT[kind]}"
+        if not dashed and (key == "orthogonality" or kind == EXACT):
+            err = _running_max(err)
+            label += ", running max"
         tt, yy = _thin_max(t, _floor(err), max_points)
         ax.plot(tt, yy, color=_SERIES_COLORS[key], lw=1.2, ls="--" if dashed else "-", label=label)
     for j, (label, err) in enumerate((extra or {}).items()):
@@ -579,7 +622,7 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     ax.set_xlabel(_UNITS["t"])
     ax.set_ylabel("error (relative, 1)")
     ax.set_title(f"Conservation: {_label(traj)}\n({decl.note(short=True)})", fontsize="medium")
-    ax.legend(loc="best", fontsize="small", framealpha=0.85)
+    _legend_below(ax)
     return fig
 
 
@@ -904,7 +947,7 @@ _CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1
 _FACES = [(0, 1, 3, 2), (4, 5, 7, 6), (0, 1, 5, 4), (2, 3, 7, 6), (0, 2, 6, 4), (1, 3, 7, 5)]
 
 
-def animate(traj: Trajectory, path: str | os.PathLike, *, fps: int = 30, max_frames: int = 300,
+def animate(traj: Trajectory, path: str | os.PathLike[str], *, fps: int = 30, max_frames: int = 300,
             dpi: int = DPI) -> Path:
     """Animate the body: a box shaped by the principal moments, its axes and the momentum vector.
 
@@ -1076,12 +1119,15 @@ def _cut_long_lines(fig: Figure, piece: int) -> Callable[[], None]:
 
 
 def _attitude_panels(traj: Trajectory) -> Figure:
-    """Euler angles (top) and quaternion (bottom): the figure ``attitude.png`` of :func:`save_figures`."""
+    """MRPs (top) and quaternion (bottom), both free of gimbal lock: the figure ``attitude.png``
+    of :func:`save_figures` (Euler angles: :func:`attitude` with ``kind="euler"``)."""
     fig = _figure(ATTITUDE_PANELS_FIGSIZE)
-    ax_e, ax_q = fig.subplots(2, 1)  # not shared: the quaternion panel may show only the start
-    attitude(traj, "euler", ax=ax_e)
+    ax_e, ax_q = fig.subplots(2, 1)  # not shared: either panel may show only the start
+    attitude(traj, "mrp", ax=ax_e)
     attitude(traj, "quaternion", ax=ax_q)
-    ax_e.set_title("Attitude (body to inertial): ZYX Euler angles, unwrapped", fontsize="medium")
+    zoom = ax_e.get_title().partition("; ")[2]
+    ax_e.set_title("Attitude (body to inertial): modified Rodrigues parameters" + (f"; {zoom}" if zoom else ""),
+                   fontsize="medium")
     zoom = ax_q.get_title().partition("; ")[2]
     ax_q.set_title("unit quaternion, scalar-last (x, y, z, w), sign-continuous" + (f"; {zoom}" if zoom else ""),
                    fontsize="medium")
@@ -1090,12 +1136,13 @@ def _attitude_panels(traj: Trajectory) -> Figure:
     return fig
 
 
-def save_figures(traj: Trajectory, outdir: str | os.PathLike, *, prefix: str = "") -> list[Path]:
+def save_figures(traj: Trajectory, outdir: str | os.PathLike[str], *, prefix: str = "") -> list[Path]:
     """Write the figures of one trajectory as PNG files (pixel sizes in :data:`FIGURE_PIXELS`).
 
     Files ``{prefix}attitude.png``, ``rates.png``, ``conservation.png``, ``iterations.png``
     (only for runs with a per-step solver record, see :func:`has_solver_record`) and
-    ``polhode.png`` in ``outdir`` (created if needed), and ``wheels.png`` for a run with
+    ``polhode.png`` (only where the polhodes mean something: runs that keep ``|Pi|`` and the
+    energy, the free body) in ``outdir`` (created if needed), and ``wheels.png`` for a run with
     reaction wheels.
 
     Parameters
@@ -1126,8 +1173,8 @@ def save_figures(traj: Trajectory, outdir: str | os.PathLike, *, prefix: str = "
     has_record = has_solver_record(traj)
     written = []
     for name in FIGURE_NAMES:
-        if name == "iterations" and not has_record:
-            continue
+        if (name == "iterations" and not has_record) or (name == "polhode" and not _polhodes_apply(traj)):
+            continue          # a polhode means something only where |Pi| and the energy are kept
         fig = _attitude_panels(traj) if name == "attitude" else makers[name](traj)
         written.append(_save(fig, out / f"{prefix}{name}.png"))
     if getattr(traj, "wheel_speed", None) is not None:     # a run with reaction wheels
@@ -1170,10 +1217,12 @@ def comparison(trajs: Mapping[str, Trajectory], axes: Sequence[Axes] | None = No
     for label, tr in trajs.items():
         _check_traj(tr, f"comparison[{label!r}]")
     extra = dict(extra or {})
-    from ..invariants import KIND_TEXT, QUANTITIES
+    from ..invariants import EXACT, KIND_TEXT, QUANTITIES
 
     decl = _declaration(list(trajs.values()))
     keys = _shown(decl.quantities()) + ["orthogonality"]
+    # round-off quantities as their running maximum (a comb between zero and a few ulps otherwise)
+    envelope = {k for k in keys if k == "orthogonality" or decl.kind(k) == EXACT}
     n_panels = len(keys) + len(extra)
     if axes is None:
         ncols = 2 if n_panels <= 4 else 3
@@ -1194,13 +1243,14 @@ def comparison(trajs: Mapping[str, Trajectory], axes: Sequence[Axes] | None = No
 
     cmap = colormaps["tab10"]
     titles = {k: _CONSERVATION_TITLES[k] + (f"\n{KIND_TEXT[decl.kind(k)]} for the LGVI" if decl.kind(k) else "")
-              for k in keys}
+              + (", running max" if k in envelope else "") for k in keys}
     for j, (label, tr) in enumerate(trajs.items()):
         series = {key: _error(tr, key, decl)[0] for key in keys}
         for name, fn in extra.items():
             series[name] = np.asarray(fn(tr), dtype=np.float64)
         for ax, key in zip(axs, list(titles) + list(extra)):
-            tt, yy = _thin_max(np.asarray(tr.t), _floor(series[key]), max_points)
+            err = _running_max(series[key]) if key in envelope else series[key]
+            tt, yy = _thin_max(np.asarray(tr.t), _floor(err), max_points)
             ax.plot(tt, yy, color=cmap(j % 10), lw=1.2, label=str(label))
     for ax, title in zip(axs, list(titles.values()) + list(extra)):
         _style_log(ax)
@@ -1208,14 +1258,19 @@ def comparison(trajs: Mapping[str, Trajectory], axes: Sequence[Axes] | None = No
         ax.set_ylabel("error (1)")
         ax.set_xlabel(_UNITS["t"])
         ax.tick_params(labelbottom=True)
-    axs[0].legend(loc="best", fontsize="small", framealpha=0.85)
+    handles, labels = axs[0].get_legend_handles_labels()
+    if axes is None:   # below the panels, clear of the data
+        fig.legend(handles, labels, loc="outside lower center", ncol=min(len(labels), 4), fontsize="small",
+                   frameon=False)
+    else:
+        axs[0].legend(loc="best", fontsize="small", framealpha=0.85)
     missing = [QUANTITIES[k].name for k in decl.not_invariants()]
     fig.suptitle(f"Conservation compared ({decl.note(short=True)}; zeros drawn at 1e-17)"
                  + (f"\nnot invariants here, not shown: {', '.join(missing)}" if missing else ""), fontsize="medium")
     return fig
 
 
-def save_comparison(trajs: Mapping[str, Trajectory], outdir: str | os.PathLike, *,
+def save_comparison(trajs: Mapping[str, Trajectory], outdir: str | os.PathLike[str], *,
                     extra: Mapping[str, Callable[[Trajectory], Any]] | None = None) -> list[Path]:
     """Write :func:`comparison` of several trajectories as ``comparison.png`` (1000 x 700 pixels).
 
