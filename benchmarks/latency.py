@@ -35,7 +35,7 @@ import time
 SETUP = """
 import numpy as np
 import lgvi
-from lgvi.torques import GravityGradient, UniformGravity
+from lgvi.torques import GravityGradient, LinearDamping, UniformGravity
 top = lgvi.RigidBody([0.13, 0.28, 0.17])
 cubesat = lgvi.RigidBody([0.0433, 0.0418, 0.0067])
 gravity = UniformGravity(1.0, [0.0, 0.0, -0.3])
@@ -45,6 +45,8 @@ CASES: dict[str, tuple[str, float]] = {
     "simulate-free": ("lgvi.simulate(top, np.eye(3), omega0=[4.14, 4.14, 4.14], h=0.01, steps=100)", 5.0),
     "simulate-model": ("lgvi.simulate(top, np.eye(3), omega0=[4.14, 4.14, 4.14], h=0.01, steps=100, "
                        "torque=gravity)", 5.0),
+    "simulate-sum": ("lgvi.simulate(top, np.eye(3), omega0=[4.14, 4.14, 4.14], h=0.01, steps=100, "
+                     "torque=gravity + LinearDamping(0.01), forcing='symmetric')", 5.0),
     "simulate-model-order4": ("lgvi.simulate(cubesat, np.eye(3), omega0=[0.08, -0.06, 0.09], h=1.0, steps=100, "
                               "torque=gg, order=4)", 5.0),
     "simulate-splitting": ("lgvi.simulate(cubesat, np.eye(3), omega0=[0.08, -0.06, 0.09], h=8.0, steps=100, "
