@@ -45,7 +45,7 @@ def lgvi_header(data: Any, expected: str) -> dict[str, Any]:
     return header
 
 
-def write_atomic(path: str | os.PathLike, write: Callable[[Any], Any]) -> None:
+def write_atomic(path: str | os.PathLike[str], write: Callable[[Any], Any]) -> None:
     """Write ``path`` as ``write(fh)`` does into a binary file, atomically.
 
     The data go to a hidden temporary file in the same folder (a unique name, so that two
@@ -69,7 +69,7 @@ def write_atomic(path: str | os.PathLike, write: Callable[[Any], Any]) -> None:
         raise
 
 
-def write_failure(exc: OSError, path: str | os.PathLike, what: str, kept: str) -> OSError:
+def write_failure(exc: OSError, path: str | os.PathLike[str], what: str, kept: str) -> OSError:
     """``exc`` (a failed write of ``path``) as an ``OSError`` of the same kind whose message names
     the file and its folder; ``what`` says what was written, ``kept`` what is still usable."""
     path = Path(path)
@@ -109,7 +109,7 @@ class FolderLock:
     Use as a context manager, or call the two methods.
     """
 
-    def __init__(self, folder: str | os.PathLike, what: str = "folder") -> None:
+    def __init__(self, folder: str | os.PathLike[str], what: str = "folder") -> None:
         self.folder = Path(folder)
         self.path = self.folder / LOCK_NAME
         self.what = what

@@ -51,14 +51,14 @@ def safe_name(name: str, fallback: str = "scenario") -> str:
     return slug if slug.strip("_") else fallback
 
 
-def inside(folder: str | os.PathLike, path: str | os.PathLike) -> bool:
+def inside(folder: str | os.PathLike[str], path: str | os.PathLike[str]) -> bool:
     """Whether ``path``, symbolic links followed, lies inside ``folder`` (links followed too)."""
     root = Path(folder).resolve()
     target = Path(path).resolve()
     return target == root or root in target.parents
 
 
-def check_npz(path: str | os.PathLike) -> None:
+def check_npz(path: str | os.PathLike[str]) -> None:
     """Refuse an ``.npz`` whose headers declare object arrays or more data than it holds.
 
     Reads only the zip directory and the ``.npy`` headers, so a hostile file is refused before

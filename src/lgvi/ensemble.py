@@ -200,7 +200,7 @@ class EnsembleTrajectory:
         """(B, M, 3) inertial angular momentum ``R Pi``."""
         return np.einsum("bmij,bmj->bmi", self.R, self.Pi)
 
-    def save(self, path: str | os.PathLike) -> None:
+    def save(self, path: str | os.PathLike[str]) -> None:
         """Write to ``path`` (``.npz``, uncompressed) atomically; :func:`load_ensemble` reads it back exactly.
 
         Raises ``OSError`` naming the file and its folder if the write fails (a full disk).
@@ -264,7 +264,7 @@ def _load_one(path: str) -> EnsembleTrajectory:
                               model_params=params or None, **fields)
 
 
-def load_ensemble(path: str | os.PathLike | Sequence[str | os.PathLike]) -> EnsembleTrajectory:
+def load_ensemble(path: str | os.PathLike[str] | Sequence[str | os.PathLike[str]]) -> EnsembleTrajectory:
     """Read an ensemble written by :meth:`EnsembleTrajectory.save` or by ``simulate_ensemble(out_dir=)``.
 
     Parameters
@@ -650,7 +650,7 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
                       alpha: float = 1.0, save_every: int = 1, t0: float = 0.0, forcing: str = "paper",
                       order: int = 2, composition: str | None = None, threads: int | None = None,
                       client: Any = None, block_size: int | None = None,
-                      out_dir: str | os.PathLike | None = None, resume: bool = False,
+                      out_dir: str | os.PathLike[str] | None = None, resume: bool = False,
                       progress: Any = False, wheels: Any = None, controller: Any = None,
                       control_period: Any = None, environment: Any = None,
                       magnetorquers: Any = None) -> EnsembleTrajectory | list[Path] | Any:
@@ -1050,7 +1050,7 @@ def _blocks(s: _Setup, block_size: int | None, workers: int) -> list[tuple[int, 
     return [(a, min(a + block_size, B)) for a in range(0, B, block_size)]
 
 
-def _prepare_dir(out_dir: str | os.PathLike, resume: bool = False, blocks: int = 0) -> Path:
+def _prepare_dir(out_dir: str | os.PathLike[str], resume: bool = False, blocks: int = 0) -> Path:
     folder = Path(os.fspath(out_dir))
     folder.mkdir(parents=True, exist_ok=True)
     old = sorted(folder.glob("ensemble-*.npz"))

@@ -7,12 +7,19 @@ import json
 import os
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
 from ._untrusted import check_npz
 from ._version import __version__
+
+if TYPE_CHECKING:  # annotations only: none of these is imported at run time here
+    import pandas
+    import xarray
+    from scipy.spatial.transform import Rotation
+
+    from .accuracy import ErrorEstimate
 
 FORMAT = "lgvi.trajectory/1"
 
@@ -261,7 +268,7 @@ class Trajectory:
             meta["solver_summary"] = dict(self.solver_summary, histogram=self.solver_summary["histogram"].tolist())
         return dataclasses.replace(self, meta=meta, **changes)
 
-    def to_xarray(self):
+    def to_xarray(self) -> "xarray.Dataset":
         """The trajectory as an ``xarray.Dataset`` (the ``io`` extra): dimension ``time`` (M),
         ``row``/``col``/``axis`` (3), ``component`` (4: ``x y z w``, scalar last), the solver's
         record along ``interval`` (M - 1) or ``step``; variables ``R``, ``Pi``, ``omega``,
@@ -299,7 +306,7 @@ class Trajectory:
                                         "component": ("component", np.array(["x", "y", "z", "w"]))},
                           attrs={"h": float(self.h), "lgvi_meta": json.dumps(self.meta, default=_json_default)})
 
-    def to_dataframe(self):
+    def to_dataframe(self) -> "pandas.DataFrame":
         """The samples as a ``pandas.DataFrame`` indexed by time ``t`` (pandas, e.g. from the ``io``
         extra): columns ``qx qy qz qw`` (scalar-last quaternion), ``omega_x .. omega_z`` (rad/s),
         ``Pi_x .. Pi_z``, ``energy`` (and ``potential``), ``R11 .. R33``."""
@@ -339,7 +346,7 @@ class Trajectory:
         return rich_display(self, include, exclude)
 
     @property
-    def error_estimate(self):
+    def error_estimate(self) -> "ErrorEstimate | None":
         """The run's :class:`lgvi.accuracy.ErrorEstimate` (from ``meta["error_estimate"]``) or ``None``."""
         from .accuracy import ErrorEstimate
 
@@ -430,7 +437,7 @@ class Trajectory:
         return q[:, [3, 0, 1, 2]] if scalar_first else q
 
     @property
-    def rotation(self):
+    def rotation(self) -> "Rotation":
         """The attitudes as a scipy ``Rotation`` (a stack of ``M``)."""
         from scipy.spatial.transform import Rotation
 
@@ -441,7 +448,7 @@ class Trajectory:
         """Arrays a subclass (another system's result, :data:`RESULT_TYPES`) saves too."""
         return {}
 
-    def save(self, path: str | os.PathLike) -> None:
+    def save(self, path: str | os.PathLike[str]) -> None:
         """Write to ``path`` (``.npz``, uncompressed, atomically); :func:`lgvi.load` reads it back exactly."""
         meta = dict(self.meta)
         meta.setdefault("lgvi_version", __version__)
@@ -523,7 +530,7 @@ def _read(path: str) -> tuple[dict[str, Any], dict[str, np.ndarray], np.ndarray 
     return header, fields, potential, float(h_arr.reshape(()))
 
 
-def load(path: str | os.PathLike) -> Trajectory:
+def load(path: str | os.PathLike[str]) -> Trajectory:
     """Read a trajectory written by :meth:`Trajectory.save`.
 
     Raises

@@ -87,14 +87,14 @@ def _unit(column: str) -> str:
     return UNITS[column]
 
 
-def sidecar_path(path: str | os.PathLike) -> Path:
+def sidecar_path(path: str | os.PathLike[str]) -> Path:
     """The JSON sidecar of a CSV file: ``run.csv`` -> ``run.meta.json``."""
     p = Path(path)
     return p.with_name(p.stem + ".meta.json")
 
 
 # ------------------------------------------------------------------------------------ CSV
-def write_csv(traj: Trajectory, path: str | os.PathLike) -> Path:
+def write_csv(traj: Trajectory, path: str | os.PathLike[str]) -> Path:
     """Write one row per saved state, with named columns, and a JSON sidecar with the metadata.
 
     Parameters
@@ -145,7 +145,7 @@ def write_csv(traj: Trajectory, path: str | os.PathLike) -> Path:
     return path
 
 
-def read_csv(path: str | os.PathLike, *, inertia: Any = None) -> Trajectory:
+def read_csv(path: str | os.PathLike[str], *, inertia: Any = None) -> Trajectory:
     """Read a CSV written by :func:`write_csv` (with its sidecar) back into a :class:`Trajectory`.
 
     Parameters
@@ -225,7 +225,7 @@ def _xarray():
     return xarray
 
 
-def write_netcdf(traj: Trajectory, path: str | os.PathLike) -> Path:
+def write_netcdf(traj: Trajectory, path: str | os.PathLike[str]) -> Path:
     """Write the whole trajectory to a netCDF file through xarray (optional extra ``lgvi[io]``).
 
     Dimensions ``time`` (M), ``interval`` (M - 1, a solver record per saved interval) or
@@ -256,7 +256,7 @@ def write_netcdf(traj: Trajectory, path: str | os.PathLike) -> Path:
     return path
 
 
-def read_netcdf(path: str | os.PathLike) -> Trajectory:
+def read_netcdf(path: str | os.PathLike[str]) -> Trajectory:
     """Read a file written by :func:`write_netcdf` back into a :class:`Trajectory` (exact).
 
     Raises
@@ -296,7 +296,7 @@ def read_netcdf(path: str | os.PathLike) -> Trajectory:
 
 
 # ------------------------------------------------------------------------------------ any
-def _npz_format(path: str | os.PathLike) -> str | None:
+def _npz_format(path: str | os.PathLike[str]) -> str | None:
     """The ``format`` of an lgvi ``.npz`` result's header, ``None`` when it cannot be told (then
     :func:`lgvi.load` reads the file and says what is wrong with it)."""
     from .._untrusted import check_npz
@@ -324,7 +324,7 @@ def _npz_readers() -> dict[str, Any]:
             gyrostat_ensemble.FORMAT: gyrostat_ensemble.GyrostatEnsemble.load}
 
 
-def read_trajectory(path: str | os.PathLike) -> Any:
+def read_trajectory(path: str | os.PathLike[str]) -> Any:
     """Read a trajectory by its extension: ``.npz`` (:func:`lgvi.load`; the results of
     :func:`lgvi.simulate_orbit`, :func:`lgvi.simulate_two_body` and gyrostat ensembles by the
     format in their header), ``.csv``, ``.nc``."""
@@ -339,7 +339,7 @@ def read_trajectory(path: str | os.PathLike) -> Any:
     raise ValueError(f"{path}: unknown trajectory file type {suffix!r}; expected .npz, .csv or .nc")
 
 
-def write_trajectory(traj: Trajectory, outdir: str | os.PathLike, formats: Iterable[str] = ("npz",), *,
+def write_trajectory(traj: Trajectory, outdir: str | os.PathLike[str], formats: Iterable[str] = ("npz",), *,
                      stem: str = "trajectory") -> list[Path]:
     """Write ``traj`` to ``outdir/stem.npz``, ``.csv`` (+ ``.meta.json``), ``.nc`` as asked.
 

@@ -888,7 +888,7 @@ class Scenario:
         return replace(traj, meta=meta)
 
 
-def load_scenario(path: str | os.PathLike) -> Scenario:
+def load_scenario(path: str | os.PathLike[str]) -> Scenario:
     """Read and check a scenario file (TOML).
 
     Parameters

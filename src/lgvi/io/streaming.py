@@ -82,7 +82,7 @@ class StreamWriter:
         writer is released.
     """
 
-    def __init__(self, folder: str | os.PathLike, meta: dict[str, Any], *, resume: bool = False,
+    def __init__(self, folder: str | os.PathLike[str], meta: dict[str, Any], *, resume: bool = False,
                  check: Any = None):
         self.folder = Path(folder)
         self.folder.mkdir(parents=True, exist_ok=True)
@@ -205,7 +205,7 @@ def _check_resume_state(manifest: dict[str, Any], path: Path) -> None:
         raise ValueError(f"{path} is damaged: state M_cb must hold 3 numbers, got {str(M_cb)[:80]}")
 
 
-def read_manifest(folder: str | os.PathLike) -> dict[str, Any]:
+def read_manifest(folder: str | os.PathLike[str]) -> dict[str, Any]:
     """The manifest of a stream folder; ``ValueError`` if missing or not an lgvi stream."""
     path = Path(folder) / MANIFEST
     if path.is_symlink() and not inside(folder, path):
@@ -227,7 +227,7 @@ def read_manifest(folder: str | os.PathLike) -> dict[str, Any]:
 _CHUNK_FIELDS = ("t", "R", "Pi", "iterations", "residual")
 
 
-def _chunk_file(folder: str | os.PathLike, mpath: Path, i: int, entry: Any) -> Path:
+def _chunk_file(folder: str | os.PathLike[str], mpath: Path, i: int, entry: Any) -> Path:
     """The path of chunk ``i`` listed as ``entry`` (a plain file name inside the folder, checked)."""
     name = entry.get("file") if isinstance(entry, dict) else None
     if not isinstance(name, str) or not name or Path(name).name != name or name.startswith("."):
@@ -276,7 +276,7 @@ def _chunk_arrays(folder: Any, mpath: Path, i: int, entry: Any, required: tuple[
         raise ValueError(f"cannot read stream chunk {path}: {type(exc).__name__}: {exc}") from exc
 
 
-def system_arrays(folder: str | os.PathLike) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+def system_arrays(folder: str | os.PathLike[str]) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """``(manifest, arrays)`` of a stream of any system: the complete chunks' arrays concatenated by
     field name (``t``, the system's ``state`` and ``records`` fields), checked to fit together."""
     manifest = read_manifest(folder)
@@ -305,7 +305,7 @@ def system_arrays(folder: str | os.PathLike) -> tuple[dict[str, Any], dict[str, 
     return manifest, arrays
 
 
-def _read_system(folder: str | os.PathLike, meta: dict[str, Any]) -> Any:
+def _read_system(folder: str | os.PathLike[str], meta: dict[str, Any]) -> Any:
     """:func:`read_stream` of a system other than the rigid body: its ``from_stream`` result."""
     system = _stream_system(meta, Path(folder) / MANIFEST)
     manifest, arrays = system_arrays(folder)
@@ -320,7 +320,7 @@ def _read_system(folder: str | os.PathLike, meta: dict[str, Any]) -> Any:
 _SUMMARY_FIELDS = ("iteration_counts", "iterations_total", "residual_max", "iterations_max")
 
 
-def read_stream(folder: str | os.PathLike) -> Any:
+def read_stream(folder: str | os.PathLike[str]) -> Any:
     """Read every complete chunk of a stream folder as one :class:`Trajectory` (or, for another
     system, its result type: :class:`lgvi.systems.gyrostat.GyrostatTrajectory`,
     :class:`lgvi.OrbitTrajectory`, :class:`lgvi.TwoBodyTrajectory`, through ``System.from_stream``).
@@ -391,7 +391,7 @@ def read_stream(folder: str | os.PathLike) -> Any:
 # ------------------------------------------------------------------------------------------------
 # simulate_stream: the driver with a stream sink
 # ------------------------------------------------------------------------------------------------
-def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None,
+def simulate_stream(folder: str | os.PathLike[str], body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None,
                     h: float, steps: int, torque: Any = None, method: str = "newton", tol: float = 1e-14,
                     max_iter: int = 50, alpha: float = 1.0, save_every: int = 1, t0: float = 0.0,
                     forcing: str = "paper", order: int = 2, composition: str | None = None,
@@ -482,7 +482,7 @@ def simulate_stream(folder: str | os.PathLike, body: Any, R0: Any, Pi0: Any = No
                          lambda manifest: _check_resume(manifest["meta"], stream_meta, folder))
 
 
-def stream_system(folder: str | os.PathLike, system: str, *args: Any, progress: Any = False, resume: bool = False,
+def stream_system(folder: str | os.PathLike[str], system: str, *args: Any, progress: Any = False, resume: bool = False,
                   chunk_steps: int | None = None, meta: dict[str, Any] | None = None, **kwargs: Any) -> Path:
     """Run any streamable system (``lgvi.systems.SYSTEMS[system]``) to a crash-safe stream folder.
 
@@ -521,7 +521,7 @@ def stream_system(folder: str | os.PathLike, system: str, *args: Any, progress: 
     return stream_run(folder, run, resume=resume, progress=progress, chunk_steps=chunk_steps, meta=meta)
 
 
-def stream_run(folder: str | os.PathLike, run: Any, *, resume: bool = False, progress: Any = False,
+def stream_run(folder: str | os.PathLike[str], run: Any, *, resume: bool = False, progress: Any = False,
                chunk_steps: int | None = None, meta: dict[str, Any] | None = None) -> Path:
     """Drive a validated run of a streamable system (its ``system.from_stream`` set, with
     ``stream_meta()``, ``state()`` and ``load_state()``) into the stream folder ``folder``."""

@@ -124,7 +124,7 @@ class GyrostatEnsemble:
     def spatial_momentum(self) -> np.ndarray:
         return self._stack("spatial_momentum")
 
-    def save(self, path: str | os.PathLike) -> None:
+    def save(self, path: str | os.PathLike[str]) -> None:
         """Write to ``path`` (``.npz``, uncompressed, atomically); :meth:`load` (or
         ``lgvi info``) reads it back bit for bit.
 
@@ -155,7 +155,7 @@ class GyrostatEnsemble:
                                 "(files are replaced only once complete).") from exc
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> "GyrostatEnsemble":
+    def load(cls, path: str | os.PathLike[str]) -> "GyrostatEnsemble":
         """Read an ensemble written by :meth:`save`.
 
         Raises

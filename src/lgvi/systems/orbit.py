@@ -253,14 +253,14 @@ class OrbitTrajectory:
         """Total energy (M,): kinetic plus the potential of the run's field."""
         return self.kinetic_energy + self.potential_energy
 
-    def save(self, path: str | os.PathLike) -> None:
+    def save(self, path: str | os.PathLike[str]) -> None:
         """Write to ``path`` (``.npz``, atomically); :meth:`load` reads it back exactly."""
         arrays = {k: np.asarray(getattr(self, k)) for k in self.ARRAYS}
         arrays["scalars"] = np.array([self.h, self.mass, self.mu])
         save_result_npz(path, FORMAT, arrays, self.meta)
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> "OrbitTrajectory":
+    def load(cls, path: str | os.PathLike[str]) -> "OrbitTrajectory":
         """Read a result written by :meth:`save` (ValueError naming the file if it is not one)."""
         arrays, meta = load_result_npz(path, FORMAT, cls.ARRAYS + ("scalars",))
         h, mass, mu = (float(v) for v in arrays.pop("scalars"))

@@ -542,7 +542,7 @@ class TwoBodyTrajectory:
         """Total energy (M,): kinetic (both bodies, orbit and spin) plus the mutual potential."""
         return self.kinetic_energy + self.potential_energy
 
-    def save(self, path: str | os.PathLike) -> None:
+    def save(self, path: str | os.PathLike[str]) -> None:
         """Write to ``path`` (``.npz``, atomically); :meth:`load` reads it back exactly."""
         arrays = {k: np.asarray(getattr(self, k)) for k in self.ARRAYS}
         arrays.update({f"moment_{k}": v for k, v in self.moments.items()})
@@ -550,7 +550,7 @@ class TwoBodyTrajectory:
         save_result_npz(path, FORMAT, arrays, self.meta)
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> "TwoBodyTrajectory":
+    def load(cls, path: str | os.PathLike[str]) -> "TwoBodyTrajectory":
         """Read a result written by :meth:`save` (ValueError naming the file if it is not one)."""
         keys = ("S", "T3", "T4", "Q1", "w1", "Q2", "w2")
         arrays, meta = load_result_npz(path, FORMAT, cls.ARRAYS + ("scalars",) + tuple(f"moment_{k}" for k in keys))
