@@ -77,3 +77,15 @@ def test_gallery_pages_with_figures_made_at_build_time(site):
         png = (site / "gallery" / src).resolve()
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "LGVI_DOCS_EXAMPLES" in _text(site / "gallery" / "dzhanibekov.html")   # not run here: says so
+
+
+def test_math_renders_offline(site):
+    """MathJax ships with the site (sphinx-mathjax-offline): pages load it from _static, never a CDN,
+    and the method page's equations are math, not code."""
+    method = _text(site / "method.html")
+    assert "_static/mathjax/tex-chtml.js" in method
+    assert (site / "_static" / "mathjax" / "tex-chtml.js").exists()
+    for page in site.rglob("*.html"):
+        text = page.read_text(encoding="utf-8")
+        assert "cdn.jsdelivr.net" not in text and "cdnjs" not in text, f"{page.name} loads from a CDN"
+    assert 'class="math' in method and r"\operatorname{tr}" in method
