@@ -37,6 +37,7 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
+    "sphinx.ext.viewcode",      # source links: every documented object links to its highlighted source
     "sphinx-mathjax-offline",   # MathJax 3 from the package into _static/mathjax: math renders offline, no CDN
     "numpydoc",
 ]

@@ -164,11 +164,12 @@ def test_page_draws_and_the_scrubber_turns_the_body(browser, page):
     assert np.abs(after - before).max(axis=2).astype(bool).mean() > 0.005, "the 3D view did not change"
     # the cursor of the linked plots moved with it
     assert browser.execute_script(cursor_js) == pytest.approx(traj.t[frames[active]])
-    # play runs the animation from there (waited for until the slider moves on); pause stops it
+    # play runs the animation from there (waited for until a later frame is drawn); pause stops it
     buttons = browser.find_elements(By.CSS_SELECTOR, ".updatemenu-button")
     buttons[0].click()
-    _until(lambda: browser.execute_script(active_js) > active)
+    _until(lambda: np.abs(_attitude(browser) - att1).max() > 1e-6)
     buttons[1].click()
+    _frames(browser)
     moved = browser.execute_script(active_js)
     assert moved > active, f"play did not advance the animation ({active} -> {moved})"
     assert not _errors(browser), _errors(browser)
