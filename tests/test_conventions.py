@@ -218,3 +218,18 @@ def test_attitude_figure_is_free_of_gimbal_lock(traj, tmp_path):
     assert all(np.nanmax(np.abs(line.get_ydata())) <= 1.0 for line in sigma)
     with pytest.raises(ValueError, match="'euler', 'quaternion' or 'mrp'"):
         plot.attitude(traj, "rpy")
+
+
+def test_view_rates_on_their_own_axes_when_one_would_flatten_the_others():
+    pytest.importorskip("plotly")
+    import lgvi.view
+
+    top = lgvi.simulate([0.2, 0.2, 0.3], np.eye(3), omega0=[0.5, 0.0, 40.0], h=0.001, steps=400)
+    fig = lgvi.view.figure(top)
+    titles = [a.text for a in fig.layout.annotations if a.text and "rate" in a.text]
+    assert titles == ["body rate ωx (rad/s)", "body rate ωy (rad/s)", "body rate ωz (rad/s)"]
+    rates = {d.name: d for d in fig.data if d.name in ("ωx", "ωy", "ωz")}
+    assert len({rates[n].yaxis for n in rates}) == 3          # three y axes: every component visible
+    plain = lgvi.view.figure(lgvi.simulate(BODY, np.eye(3), steps=3000, **KW))      # comparable ranges
+    assert [a.text for a in plain.layout.annotations if a.text and a.text.startswith("body rate")] == [
+        "body rates ω (rad/s)"]

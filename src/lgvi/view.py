@@ -103,6 +103,20 @@ def _principal(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
     return moments, V, ["principal axis 1", "principal axis 2", "principal axis 3"]
 
 
+#: A rate component whose own range is below this fraction of the range of all three is drawn on an
+#: axis of its own (on a shared one it would be a flat line: a fast spin about one axis).
+RATES_APART = 0.05
+
+
+def _rates_apart(omega: np.ndarray) -> bool:
+    """Whether a shared axis would flatten a rate component that varies (see :data:`RATES_APART`)."""
+    if len(omega) < 2 or not np.all(np.isfinite(omega)):
+        return False
+    spans = np.ptp(omega, axis=0)
+    whole = float(np.max(omega) - np.min(omega))
+    return bool(whole > 0 and np.any((spans > 0) & (spans < RATES_APART * whole)))
+
+
 def traced_axis(moments: Any, rtol: float = 1e-6) -> int:
     """The body axis whose tip the view traces: the symmetry axis of a symmetric body (the moment
     that differs from the two equal ones: a top's nutation and precession), else the axis of the
@@ -247,10 +261,13 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
     decl = declared(traj)
     wheel_speed = _optional_series(traj, "wheel_speed", m)
     control = _optional_series(traj, "control_error", m)
-    panels = ["rates", "invariants"] + (["wheels"] if wheel_speed is not None else []) \
+    omega = np.asarray(traj.omega, dtype=np.float64)
+    rate_rows = ["rates"] * 3 if not _rates_apart(omega) else ["rate x", "rate y", "rate z"]
+    panels = list(dict.fromkeys(rate_rows)) + ["invariants"] + (["wheels"] if wheel_speed is not None else []) \
         + (["control"] if control is not None else [])
     titles = {"rates": "body rates ω (rad/s)", "invariants": "relative error of the invariants",
-              "wheels": "wheel speeds relative to the body (rad/s)", "control": "control error"}
+              "wheels": "wheel speeds relative to the body (rad/s)", "control": "control error",
+              "rate x": "body rate ωx (rad/s)", "rate y": "body rate ωy (rad/s)", "rate z": "body rate ωz (rad/s)"}
     n = len(panels)
     specs = [[{"type": "scene", "rowspan": n}, {"type": "xy"}]] + [[None, {"type": "xy"}] for _ in range(n - 1)]
     fig = make_subplots(rows=n, cols=2, specs=specs, column_widths=[0.52, 0.48], horizontal_spacing=0.07,
@@ -319,18 +336,19 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
                                mode="lines", line=dict(color=_AXIS_COLORS[traced], width=2), opacity=0.45,
                                name=f"path of the {names[traced]} tip", hoverinfo="skip"), row=1, col=1)
 
-    # ---- linked plots
-    omega = np.asarray(traj.omega, dtype=np.float64)
+    # ---- linked plots (the rates on one axis, or on one each when a shared axis would flatten some)
     for i, lab in enumerate("xyz"):
         tt, yy = _envelope(t, omega[:, i], max_points)
         fig.add_trace(go.Scatter(x=tt, y=yy, mode="lines", line=dict(color=_AXIS_COLORS[i], width=1.3),
                                  name=f"ω{lab}", legendgroup="rates", showlegend=False,
                                  hovertemplate=f"ω{lab} = %{{y:.4g}} rad/s<br>t = %{{x:.4g}} s<extra></extra>"),
-                      row=1 + panels.index("rates"), col=2)
+                      row=1 + panels.index(rate_rows[i]), col=2)
     row = 1 + panels.index("invariants")
     keys = decl.quantities()
     for j, key in enumerate(keys):
         err, relative = error_series(traj, key, {k: v for k, v in decl.entries[key].items() if k != "kind"})
+        if decl.kind(key) == "exact":     # round-off: its running maximum (a comb of zeros and ulps otherwise)
+            err = np.fmax.accumulate(np.asarray(err, dtype=np.float64))
         tt, yy = _bin_max(t[1:], np.maximum(err[1:], ERROR_FLOOR), max_points) if m > 1 else (t, err)
         q = QUANTITIES[key]
         fig.add_trace(go.Scatter(x=tt, y=yy, mode="lines", showlegend=False,
@@ -369,8 +387,10 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
         fig.add_annotation(text=text, xref=f"{xr} domain", yref=f"{yr} domain", x=0.01, y=0.99, showarrow=False,
                            xanchor="left", yanchor="top", font=dict(size=11), bgcolor="rgba(255,255,255,0.8)")
 
-    key(1 + panels.index("rates"), [(f"ω{lab}", _AXIS_COLORS[i]) for i, lab in enumerate("xyz")])
-    key(row, [(f"{QUANTITIES[k].name.split(' (')[0]}: {decl.kind(k)}", _ERROR_COLORS[j % len(_ERROR_COLORS)])
+    if "rates" in panels:
+        key(1 + panels.index("rates"), [(f"ω{lab}", _AXIS_COLORS[i]) for i, lab in enumerate("xyz")])
+    key(row, [(f"{QUANTITIES[k].name.split(' (')[0]}: {decl.kind(k)}"
+               + (" (running max)" if decl.kind(k) == "exact" else ""), _ERROR_COLORS[j % len(_ERROR_COLORS)])
               for j, k in enumerate(keys)] or [(decl.note(), "#222")])
     if wheel_speed is not None:
         key(1 + panels.index("wheels"), [(f"wheel {i + 1}", _WHEEL_COLORS[i % 6])
