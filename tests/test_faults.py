@@ -251,7 +251,8 @@ def test_second_writer_in_another_process_is_refused(tmp_path):
 def test_writer_process_holds_the_folder_and_a_killed_writer_is_taken_over(tmp_path):
     folder = tmp_path / "run"
     clean = lgvi.simulate(BODY, np.eye(3), **RUN)
-    proc = _writer(folder, 30.0)  # a chunk, then 30 s asleep between chunks, holding the lock
+    proc = _writer(folder, 1e6)   # a chunk, then asleep between chunks until killed, holding the lock (no race:
+                                  # however slow the machine, it writes no second chunk while the test looks)
     try:
         while not (folder / streaming.MANIFEST).exists() or not read_manifest(folder)["chunks"]:
             assert proc.poll() is None, proc.communicate()   # waits as long as the writer lives
