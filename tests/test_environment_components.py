@@ -94,6 +94,23 @@ def test_sun_component_writes_unit_vector_from_spacecraft():
     np.testing.assert_allclose(np.linalg.norm(out["sun_N"], axis=1), 1.0, rtol=1e-15)
 
 
+def test_sun_interpolated_between_minutes_is_the_series_and_a_pure_function_of_t():
+    epoch = dt.datetime(2026, 3, 20)
+    t = np.random.default_rng(4).uniform(-3600.0, 86400.0, 400)
+    r = np.zeros(3)
+    direct = Sun(epoch, interpolation=0.0).evaluate(t, r)
+    lerp = Sun(epoch).evaluate(t, r)
+    ang = np.linalg.norm(np.cross(direct["sun_N"], lerp["sun_N"]), axis=1)
+    assert ang.max() < 1e-10                                   # measured 2e-11 (the chord over 60 s)
+    assert np.max(np.abs(lerp["sun_distance"] / direct["sun_distance"] - 1.0)) < 1e-10
+    again = Sun(epoch).evaluate(np.sort(t), r)                 # another order of the calls: the same bits
+    order = np.argsort(t)
+    np.testing.assert_array_equal(again["sun_N"], lerp["sun_N"][order])
+    nodes = Sun(epoch).evaluate([120.0, 180.0], r)["sun_N"]    # on the grid: the series itself
+    np.testing.assert_allclose(nodes, Sun(epoch, interpolation=0.0).evaluate([120.0, 180.0], r)["sun_N"],
+                               rtol=0, atol=1e-15)
+
+
 # ----------------------------------------------------------------------------------------- shadow
 
 def test_conical_shadow_agrees_with_basilisk_eclipse():

@@ -22,6 +22,12 @@ def _size(kind: Any, name: str) -> int:
     return SIGNALS[name].size
 
 
+def layout(kind: Any) -> tuple[list[int], np.ndarray]:
+    """Sizes and bus offsets (int64) of ``kind.reads + kind.writes``, laid out one after another."""
+    sizes = [_size(kind, n) for n in kind.reads + kind.writes]
+    return sizes, np.concatenate([[0], np.cumsum(sizes)])[:-1].astype(np.int64)
+
+
 def evaluate(component: Any, t: Any = 0.0, **signals: Any) -> dict[str, np.ndarray]:
     """The signals ``component`` writes, at times ``t`` (seconds, scalar or (n,)) and read signals
     given by name (``R`` as (..., 3, 3), vectors as (..., 3), scalars as (...)), broadcast together.
@@ -29,9 +35,7 @@ def evaluate(component: Any, t: Any = 0.0, **signals: Any) -> dict[str, np.ndarr
     Returns ``{name: (n, size)}`` for each written signal (``(n,)`` for size 1). A nonzero status
     raises ValueError naming the component, the status and the first point."""
     kind = COMPONENT_KINDS[component.kind]
-    names = kind.reads + kind.writes
-    sizes = [_size(kind, n) for n in names]
-    offsets = np.concatenate([[0], np.cumsum(sizes)])[:-1].astype(np.int64)
+    sizes, offsets = layout(kind)
     missing = [n for n in kind.reads if n not in signals]
     if missing:
         raise TypeError(f"{kind.name}: the signals {missing} must be given (it reads {list(kind.reads)})")

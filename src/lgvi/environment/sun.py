@@ -59,24 +59,32 @@ class Sun:
     ----------
     epoch : datetime.datetime, numpy.datetime64 or Clock
         UTC date of the run's ``t = 0`` (1950 to 2050).
+    interpolation : float
+        Seconds between the series' evaluations: the sun's geocentric position is the straight line
+        between its values at the multiples of ``interpolation`` around ``t`` (60 s: 2e-11 rad from
+        the series, one evaluation a minute); ``0`` evaluates the series at every call.
     rate : float, optional
-        Seconds between evaluations (``None``: every step).
+        Seconds between runs in the loop (``None``: every step).
     """
 
     kind = "sun"
 
-    def __init__(self, epoch: Any, *, rate: float | None = None):
+    def __init__(self, epoch: Any, *, interpolation: float = 60.0, rate: float | None = None):
         self.clock = _clock(epoch)
+        self.interpolation = as_float(interpolation, "interpolation")
+        if self.interpolation < 0.0:
+            raise ValueError(f"interpolation must be >= 0 seconds (0: no interpolation), got {self.interpolation}")
         self.rate = None if rate is None else as_float(rate, "rate", positive=True)
 
     def __repr__(self) -> str:
         return f"Sun(epoch={self.clock.epoch.isoformat()})"
 
     def params(self) -> np.ndarray:
-        return np.array([self.clock.epoch_days_tt])
+        return np.array([self.clock.epoch_days_tt, self.interpolation])
 
     def state0(self) -> np.ndarray:
-        return np.zeros(0)
+        """[k, the node k's and the node k+1's positions]; k NaN: none computed yet."""
+        return np.array([np.nan, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
 
     def sizes(self) -> dict[str, int]:
         return {}
