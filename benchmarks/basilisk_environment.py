@@ -7,7 +7,8 @@ the tests never import Basilisk). Run with the ``bench`` extra (Basilisk) instal
 
 Contents (SI units; Basilisk's ``dcm_BN`` is lgvi's ``R.T``, its MRP ``sigma_BN`` is given):
 * ``ecl_*``: the ``eclipse`` module, the Earth at the origin, the sun at ``ecl_sun`` (m), the
-  spacecraft at ``ecl_r`` (n, 3) on rings through the umbra and penumbra: ``ecl_factor`` (n,);
+  spacecraft at ``ecl_r`` (n, 3) on arcs at 6600, 7000 and 42000 km through the umbra, densely
+  through the penumbra, and out into the sunlight: ``ecl_factor`` (n,);
   Basilisk's radii ``ecl_R_earth`` (REQ_EARTH) and ``ecl_R_sun`` (REQ_SUN, 695000 km).
 * ``atm_*``: ``exponentialAtmosphere`` (``atm_base``, ``atm_H``, ``atm_R``) at ``atm_r``:
   ``atm_density``.
@@ -87,11 +88,12 @@ def eclipse_case() -> dict[str, np.ndarray]:
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(u, e1)
     rs = []
-    for radius in (6.6e6, 7.0e6, 4.2e7):        # circles through the shadow, in a plane containing u
-        for th in np.linspace(np.pi - 0.2, np.pi + 0.2, 161):
-            rs.append(radius * (np.cos(th) * u + np.sin(th) * e1))
-        for th in np.linspace(np.pi - 0.2, np.pi + 0.2, 41):
-            rs.append(radius * (np.cos(th) * u + np.sin(th) * (0.6 * e1 + 0.8 * e2)))
+    for radius in (6.6e6, 7.0e6, 4.2e7):        # arcs behind the Earth, in planes containing u
+        edge = np.arcsin(6378.1366e3 / radius)  # the angle from the anti-sun line of the shadow's edge
+        for th in np.concatenate([np.linspace(0.0, 0.98 * edge, 15), edge + np.linspace(-0.01, 0.01, 81) * (
+                7e6 / radius), np.linspace(1.02 * edge, 1.5 * edge, 10)]):
+            for side in (e1, 0.6 * e1 + 0.8 * e2):
+                rs.append(radius * (-np.cos(th) * u + np.sin(th) * side))
     rs = np.array(rs)
     ecl = eclipse.Eclipse()
     sun_msg = messaging.SpicePlanetStateMsg().write(messaging.SpicePlanetStateMsgPayload(

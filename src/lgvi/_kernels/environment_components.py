@@ -206,9 +206,12 @@ def shadow_fraction(rx, ry, rz, ux, uy, uz, d, model, R_p, R_s):
         return 0.0
     if c < a - b:                                       # annular: the planet inside the disc
         return 1.0 - (b * b) / (a * a)
+    # partial: the lens of the two discs, a^2 (al - sin al cos al) + b^2 (be - sin be cos be), with
+    # x the distance from the sun's centre to the chord and y its half length; y^2 factored and the
+    # half-angles by atan2, so that no acos near 1 loses digits (the textbook acos form loses ~1e-9)
     x = (c * c + a * a - b * b) / (2.0 * c)
-    y = math.sqrt(max(a * a - x * x, 0.0))
-    area = a * a * _acos(x / a) + b * b * _acos((c - x) / b) - c * y
+    y = math.sqrt(max((a + b - c) * (b - a + c) * (c + a - b) * (c + a + b), 0.0)) / (2.0 * c)
+    area = a * a * math.atan2(y, x) + b * b * math.atan2(y, c - x) - c * y
     return 1.0 - area / (math.pi * a * a)
 
 
