@@ -5,7 +5,7 @@ Two steps, because the sun must be lgvi's own (the comparison is of the dynamics
 disturbance models, not of two ephemerides):
 
     PYTHONPATH=src python benchmarks/basilisk_loop_scenario.py --ephemeris     # lgvi: sun and GMST nodes
-    /work/bsk-venv/bin/python benchmarks/basilisk_loop_scenario.py             # Basilisk (the bench extra)
+    python benchmarks/basilisk_loop_scenario.py      # in an environment with Basilisk (the bench extra)
 
 The first writes ``basilisk_loop_scenario_ephemeris.json`` (lgvi's sun position, TEME metres, and
 the Greenwich mean sidereal time at every minute from -60 s to the end), the second reads it and
