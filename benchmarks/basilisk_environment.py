@@ -81,6 +81,38 @@ def _eclipse_payload(value: float):
     return payload
 
 
+def _run_at(module, rs) -> list:
+    """Give ``module`` one spacecraft state message per position of ``rs`` and run it once; the
+    messages are returned (they must live while the outputs are read)."""
+    keep = []
+    for r in rs:
+        m = messaging.SCStatesMsg().write(messaging.SCStatesMsgPayload(r_BN_N=list(r)))
+        keep.append(m)
+        module.addSpacecraftToModel(m)
+    module.Reset(0)
+    module.UpdateState(0)
+    return keep
+
+
+def drag_effector(fac):
+    """Basilisk's facet drag with the facets ``fac_*``."""
+    drag = facetDragDynamicEffector.FacetDragDynamicEffector()
+    for k in range(len(fac["fac_area"])):
+        drag.addFacet(fac["fac_area"][k], fac["fac_cd"][k], list(fac["fac_normal"][k]), list(fac["fac_centre"][k]))
+    return drag
+
+
+def srp_effector(fac):
+    """Basilisk's facet SRP with the facets ``fac_*`` (fixed, normals in the body frame)."""
+    srp = facetSRPDynamicEffector.FacetSRPDynamicEffector()
+    srp.setNumFacets(len(fac["fac_area"]))
+    srp.setNumArticulatedFacets(0)
+    for k in range(len(fac["fac_area"])):
+        srp.addFacet(fac["fac_area"][k], np.eye(3).tolist(), list(fac["fac_normal"][k]), [0.0, 0.0, 1.0],
+                     list(fac["fac_centre"][k]), fac["fac_diffuse"][k], fac["fac_specular"][k])
+    return srp
+
+
 def eclipse_case() -> dict[str, np.ndarray]:
     sun = np.array([1.2e11, -8.0e10, 3.1e10])
     u = sun / np.linalg.norm(sun)
@@ -102,13 +134,7 @@ def eclipse_case() -> dict[str, np.ndarray]:
         PositionVector=[0.0, 0.0, 0.0], PlanetName="earth"))
     ecl.sunInMsg.subscribeTo(sun_msg)
     ecl.addPlanetToModel(earth_msg)
-    keep = []
-    for r in rs:
-        m = messaging.SCStatesMsg().write(messaging.SCStatesMsgPayload(r_BN_N=list(r)))
-        keep.append(m)
-        ecl.addSpacecraftToModel(m)
-    ecl.Reset(0)
-    ecl.UpdateState(0)
+    keep = _run_at(ecl, rs)
     factor = np.array([_factor(ecl.eclipseOutMsgs[i].read()) for i in range(len(rs))])
     return dict(ecl_sun=sun, ecl_r=rs, ecl_factor=factor, ecl_R_earth=6378.1366e3, ecl_R_sun=695000e3)
 
@@ -118,14 +144,9 @@ def atmosphere_case() -> dict[str, np.ndarray]:
     atm.baseDensity, atm.scaleHeight, atm.planetRadius = 1.217, 8500.0, 6378136.6
     rs = RNG.normal(size=(40, 3))
     rs *= (6378136.6 + np.linspace(100e3, 400e3, 40))[:, None] / np.linalg.norm(rs, axis=1, keepdims=True)
-    keep, dens = [], []
-    for r in rs:
-        m = messaging.SCStatesMsg().write(messaging.SCStatesMsgPayload(r_BN_N=list(r)))
-        keep.append(m)
-        atm.addSpacecraftToModel(m)
-    atm.Reset(0)
-    atm.UpdateState(0)
+    keep = _run_at(atm, rs)
     dens = np.array([atm.envOutMsgs[i].read().neutralDensity for i in range(len(rs))])
+    del keep
     return dict(atm_base=1.217, atm_H=8500.0, atm_R=6378136.6, atm_r=rs, atm_density=dens)
 
 
@@ -151,9 +172,7 @@ def drag_case(fac: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     rho = 10.0 ** RNG.uniform(-13.0, -11.0, n)
     tq, fo = [], []
     for i in range(n):
-        drag = facetDragDynamicEffector.FacetDragDynamicEffector()
-        for k in range(len(fac["fac_area"])):
-            drag.addFacet(fac["fac_area"][k], fac["fac_cd"][k], list(fac["fac_normal"][k]), list(fac["fac_centre"][k]))
+        drag = drag_effector(fac)
         atm = messaging.AtmoPropsMsg().write(messaging.AtmoPropsMsgPayload(neutralDensity=rho[i]))
         drag.atmoDensInMsg.subscribeTo(atm)
         sim, sc = _spacecraft_with(drag, [atm])
@@ -174,12 +193,7 @@ def srp_case(fac: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     shadow = np.where(np.arange(n) % 4 == 0, RNG.uniform(0.0, 1.0, n), 1.0)
     tq, fo = [], []
     for i in range(n):
-        srp = facetSRPDynamicEffector.FacetSRPDynamicEffector()
-        srp.setNumFacets(len(fac["fac_area"]))
-        srp.setNumArticulatedFacets(0)
-        for k in range(len(fac["fac_area"])):
-            srp.addFacet(fac["fac_area"][k], np.eye(3).tolist(), list(fac["fac_normal"][k]), [0.0, 0.0, 1.0],
-                         list(fac["fac_centre"][k]), fac["fac_diffuse"][k], fac["fac_specular"][k])
+        srp = srp_effector(fac)
         sun_msg = messaging.SpicePlanetStateMsg().write(messaging.SpicePlanetStateMsgPayload(
             PositionVector=list(sun[i]), PlanetName="sun"))
         ecl = messaging.EclipseMsg().write(_eclipse_payload(shadow[i]))

@@ -90,9 +90,11 @@ def ephemeris() -> None:
 def basilisk() -> None:
     from Basilisk.architecture import messaging, sysModel
     from Basilisk.simulation import (GravityGradientEffector, MtbEffector, eclipse, exponentialAtmosphere,
-                                     facetDragDynamicEffector, facetSRPDynamicEffector, magneticFieldCenteredDipole,
-                                     spacecraft, zeroWindModel)
+                                     magneticFieldCenteredDipole, spacecraft, zeroWindModel)
     from Basilisk.utilities import SimulationBaseClass, macros, simIncludeGravBody
+
+    sys.path.insert(0, str(HERE))
+    from basilisk_environment import drag_effector, srp_effector
 
     eph = json.loads(EPHEMERIS.read_text())
     assert eph["epoch"] == EPOCH.isoformat()
@@ -170,19 +172,12 @@ def basilisk() -> None:
     wind.planetPosInMsg.subscribeTo(eph_mod.earthOutMsg)
     wind.addSpacecraftToModel(sc.scStateOutMsg)
 
-    drag = facetDragDynamicEffector.FacetDragDynamicEffector()
-    for k in range(len(fac["fac_area"])):
-        drag.addFacet(fac["fac_area"][k], fac["fac_cd"][k], list(fac["fac_normal"][k]), list(fac["fac_centre"][k]))
+    drag = drag_effector(fac)
     drag.atmoDensInMsg.subscribeTo(atm.envOutMsgs[0])
     drag.windVelInMsg.subscribeTo(wind.envOutMsgs[0])
     sc.addDynamicEffector(drag)
 
-    srp = facetSRPDynamicEffector.FacetSRPDynamicEffector()
-    srp.setNumFacets(len(fac["fac_area"]))
-    srp.setNumArticulatedFacets(0)
-    for k in range(len(fac["fac_area"])):
-        srp.addFacet(fac["fac_area"][k], np.eye(3).tolist(), list(fac["fac_normal"][k]), [0.0, 0.0, 1.0],
-                     list(fac["fac_centre"][k]), fac["fac_diffuse"][k], fac["fac_specular"][k])
+    srp = srp_effector(fac)
     srp.sunInMsg.subscribeTo(eph_mod.sunOutMsg)
     srp.sunEclipseInMsg.subscribeTo(ecl.eclipseOutMsgs[0])
     sc.addDynamicEffector(srp)

@@ -310,13 +310,11 @@ def environment_dispatch(code, t, bus, p, s, w):
 
 
 @jit(inline="always")
-def _add_torque(bus, w, k, tx, ty, tz):
-    """Write the torque at ``w[k]`` (the kind's own signal) and add it into ``w[k + 1]`` (tau_dist_B)."""
-    o = w[k]
+def _add_torque(bus, o, d, tx, ty, tz):
+    """Write the torque at ``o`` (the kind's own signal) and add it into ``d`` (tau_dist_B)."""
     bus[o] = tx
     bus[o + 1] = ty
     bus[o + 2] = tz
-    d = w[k + 1]
     bus[d] += tx
     bus[d + 1] += ty
     bus[d + 2] += tz
@@ -324,10 +322,33 @@ def _add_torque(bus, w, k, tx, ty, tz):
 
 
 @jit(inline="always")
-def _force_inertial(bus, Ro, o, fx, fy, fz):
-    """``F_N = R F_B`` written at ``o``."""
+def _facet_load(bus, ot, of, cx, cy, cz, gx, gy, gz):
+    """Add a facet's force ``g`` (body frame) at ``of`` and its moment ``c x g`` at ``ot``."""
+    bus[of] += gx
+    bus[of + 1] += gy
+    bus[of + 2] += gz
+    bus[ot] += cy * gz - cz * gy
+    bus[ot + 1] += cz * gx - cx * gz
+    bus[ot + 2] += cx * gy - cy * gx
+
+
+@jit(inline="always")
+def _facet_start(bus, ot, of):
     for i in range(3):
-        bus[o + i] = bus[Ro + 3 * i] * fx + bus[Ro + 3 * i + 1] * fy + bus[Ro + 3 * i + 2] * fz
+        bus[ot + i] = 0.0
+        bus[of + i] = 0.0
+
+
+@jit(inline="always")
+def _facet_finish(bus, Ro, ot, od, of):
+    """The force at ``of``, summed in the body frame, to the inertial frame (``F_N = R F_B``); the
+    torque at ``ot`` added into ``tau_dist_B`` at ``od``; the status."""
+    fx = bus[of]
+    fy = bus[of + 1]
+    fz = bus[of + 2]
+    for i in range(3):
+        bus[of + i] = bus[Ro + 3 * i] * fx + bus[Ro + 3 * i + 1] * fy + bus[Ro + 3 * i + 2] * fz
+    return _add_torque(bus, ot, od, bus[ot], bus[ot + 1], bus[ot + 2])
 
 
 @jit(inline="always")
@@ -348,7 +369,7 @@ def facet_drag_step(t, bus, p, s, w):
     rho = bus[w[1]]
     vx, vy, vz = _to_body(bus, Ro, w[2])
     V = math.sqrt(vx * vx + vy * vy + vz * vz)
-    fx = fy = fz = tx = ty = tz = 0.0
+    _facet_start(bus, w[3], w[5])
     if V > 1e-12:
         ux = vx / V
         uy = vy / V
@@ -359,17 +380,8 @@ def facet_drag_step(t, bus, p, s, w):
             A = p[j] * (p[j + 2] * ux + p[j + 3] * uy + p[j + 4] * uz)
             if A > 0.0:
                 k = -q * p[j + 1] * A
-                gx = k * ux
-                gy = k * uy
-                gz = k * uz
-                fx += gx
-                fy += gy
-                fz += gz
-                tx += p[j + 6] * gz - p[j + 7] * gy
-                ty += p[j + 7] * gx - p[j + 5] * gz
-                tz += p[j + 5] * gy - p[j + 6] * gx
-    _force_inertial(bus, Ro, w[5], fx, fy, fz)
-    return _add_torque(bus, w, 3, tx, ty, tz)
+                _facet_load(bus, w[3], w[5], p[j + 5], p[j + 6], p[j + 7], k * ux, k * uy, k * uz)
+    return _facet_finish(bus, Ro, w[3], w[4], w[5])
 
 
 @jit(inline="always")
@@ -389,7 +401,7 @@ def facet_srp_step(t, bus, p, s, w):
     sz /= n
     au = p[3] / bus[w[2]]
     P = p[1] / p[2] * au * au * bus[w[3]]
-    fx = fy = fz = tx = ty = tz = 0.0
+    _facet_start(bus, w[4], w[6])
     for i in range(int(p[0])):
         j = 4 + 9 * i
         nx = p[j + 1]
@@ -401,17 +413,9 @@ def facet_srp_step(t, bus, p, s, w):
             spec = p[j + 7]
             a = -P * A * (1.0 - spec)
             b = -P * A * 2.0 * (p[j + 8] / 3.0 + spec * cth)
-            gx = a * sx + b * nx
-            gy = a * sy + b * ny
-            gz = a * sz + b * nz
-            fx += gx
-            fy += gy
-            fz += gz
-            tx += p[j + 5] * gz - p[j + 6] * gy
-            ty += p[j + 6] * gx - p[j + 4] * gz
-            tz += p[j + 4] * gy - p[j + 5] * gx
-    _force_inertial(bus, Ro, w[6], fx, fy, fz)
-    return _add_torque(bus, w, 4, tx, ty, tz)
+            _facet_load(bus, w[4], w[6], p[j + 4], p[j + 5], p[j + 6], a * sx + b * nx, a * sy + b * ny,
+                        a * sz + b * nz)
+    return _facet_finish(bus, Ro, w[4], w[5], w[6])
 
 
 @jit(inline="always")
@@ -419,7 +423,7 @@ def residual_dipole_step(t, bus, p, s, w):
     """Residual dipole (code 202). p = [m (3, A m^2, body)]; reads R, B_N; writes
     tau_residual_dipole_B, tau_dist_B (adds): ``m x R^T B_N``."""
     bx, by, bz = _to_body(bus, w[0], w[1])
-    return _add_torque(bus, w, 2, p[1] * bz - p[2] * by, p[2] * bx - p[0] * bz, p[0] * by - p[1] * bx)
+    return _add_torque(bus, w[2], w[3], p[1] * bz - p[2] * by, p[2] * bx - p[0] * bz, p[0] * by - p[1] * bx)
 
 
 @jit(inline="always")
