@@ -342,3 +342,20 @@ def test_loop_scenario_fixture_environment_is_lgvis():
     b = np.array([CentredDipole(*d["g10_g11_h11"]).ecef(x, 2026.0) for x in r_ecef])
     b_N = np.stack([c * b[:, 0] - s * b[:, 1], s * b[:, 0] + c * b[:, 1], b[:, 2]], -1)
     assert rel_err(b_N, d["B_N"]) < 1e-9
+
+
+def test_a_value_that_is_not_finite_stops_with_status_1():
+    """A component never leaves garbage on the bus silently: NaN in, status 1 out (the loop stops)."""
+    epoch = dt.datetime(2026, 3, 20)
+    with pytest.raises(ValueError, match=r"sun: status 1 \(wrote a value that is not finite\) at point 0"):
+        Sun(epoch).evaluate(0.0, [np.nan, 0.0, 0.0])
+    drag = FacetDrag([0.1], [[1.0, 0.0, 0.0]], [[0.0, 0.05, 0.0]])
+    with pytest.raises(ValueError, match=r"facet_drag: status 1"):
+        drag.evaluate(np.eye(3), np.nan, [7500.0, 0.0, 0.0])
+    srp = FacetSRP([0.1], [[1.0, 0.0, 0.0]], [[0.0, 0.05, 0.0]], absorbed=0.5, specular=0.3, diffuse=0.2)
+    with pytest.raises(ValueError, match=r"facet_srp: status 1"):
+        srp.evaluate(np.eye(3), [1.0, 0.0, 0.0], 1.496e11, np.nan)
+    with pytest.raises(ValueError, match=r"residual_dipole: status 1"):
+        ResidualDipole([0.01, 0.0, 0.0]).evaluate(np.eye(3), [0.0, np.inf, 0.0])
+    with pytest.raises(ValueError, match=r"shadow: status 1"):
+        Shadow().evaluate([np.nan, 0.0, 0.0], [1.0, 0.0, 0.0], 1.496e11)

@@ -173,6 +173,8 @@ def shadow_fraction(rx, ry, rz, ux, uy, uz, d, model, R_p, R_s):
     along the unit vector ``u`` from the spacecraft. ``model`` 0: none; 1: cylindrical; 2: conical
     (Montenbruck and Gill 3.4: overlapping discs of apparent radii ``a`` (sun), ``b`` (planet)
     at separation ``c``)."""
+    if not math.isfinite(rx + ry + rz + ux + uy + uz + d):
+        return math.nan                                 # (the clamps of asin and acos would hide it)
     if model == 0.0:
         return 1.0
     hx = rx + d * ux                                    # sun from the planet
