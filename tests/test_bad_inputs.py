@@ -654,6 +654,68 @@ def _load_ensemble_text() -> Any:
             fh.write("not a zip")
         return GyrostatEnsemble.load(path)
 
+# ---- issue 26: sun, shadow, atmosphere, facet drag and radiation pressure, residual dipole -----------
+import datetime as _dt  # noqa: E402
+
+from lgvi.environment import atmosphere as _atm  # noqa: E402
+from lgvi.environment import clock as _clock  # noqa: E402
+from lgvi.environment import sun as _sun  # noqa: E402
+from lgvi.spacecraft import disturbances as _dist  # noqa: E402
+
+_X = [[1.0, 0.0, 0.0]]
+_C = [[0.0, 0.05, 0.0]]
+_EPOCH = _dt.datetime(2026, 3, 20)
+
+
+def _srp(**kw: Any) -> Any:
+    args = dict(absorbed=0.5, specular=0.3, diffuse=0.2)
+    args.update(kw)
+    return _dist.FacetSRP([0.06], _X, _C, **args)
+
+
+_ROWS += [
+    ("facet-area-zero", lambda: _dist.FacetDrag([0.0], _X, _C), ValueError, (r"\barea\b", r"got 0\.0", r"positive")),
+    ("facet-area-negative", lambda: _dist.FacetDrag([0.06, -0.01], _X * 2, _C * 2), ValueError,
+     (r"\barea\b", r"-0\.01", r"positive", r"index \(0, 1\)")),
+    ("facet-normal-not-unit", lambda: _dist.FacetDrag([0.06], [[1.0, 1.0, 0.0]], _C), ValueError,
+     (r"\bnormal\b", r"1\.41421", r"unit vectors")),
+    ("facet-shapes-differ", lambda: _dist.FacetDrag([0.06, 0.02], _X, _C), ValueError,
+     (r"\barea\b", r"\(1, 2\)", r"same facets")),
+    ("facet-drag-coefficient-negative", lambda: _dist.FacetDrag([0.06], _X, _C, drag_coefficient=-2.2), ValueError,
+     (r"\bdrag_coefficient\b", r"-2\.2", r"positive")),
+    ("facet-srp-specular-above-one", lambda: _srp(specular=1.2, absorbed=0.0, diffuse=0.0), ValueError,
+     (r"\bspecular\b", r"1\.2", r"in \[0, 1\]")),
+    ("facet-srp-diffuse-negative", lambda: _srp(diffuse=-0.1), ValueError, (r"\bdiffuse\b", r"-0\.1", r"in \[0, 1\]")),
+    ("facet-srp-fractions-sum", lambda: _srp(diffuse=0.3), ValueError,
+     (r"absorbed \+ specular \+ diffuse", r"1\.1", r"sum to one")),
+    ("facet-srp-flux-zero", lambda: _srp(solar_flux=0.0), ValueError, (r"\bsolar_flux\b", r"0\.0", r"positive")),
+    ("residual-dipole-shape", lambda: _dist.ResidualDipole([0.01, 0.02]), ValueError,
+     (r"\bdipole\b", r"\(2,\)", r"\(3,\) vector")),
+    ("exp-atmosphere-scale-height-zero", lambda: _atm.ExponentialAtmosphere(1.217, 0.0), ValueError,
+     (r"\bscale_height\b", r"0\.0", r"positive")),
+    ("exp-atmosphere-range", lambda: _atm.ExponentialAtmosphere(min_altitude=100e3, max_altitude=50e3), ValueError,
+     (r"\bmax_altitude\b", r"50000", r"above min_altitude")),
+    ("exp-atmosphere-below-surface", lambda: _atm.ExponentialAtmosphere().evaluate([6.0e6, 0.0, 0.0]), ValueError,
+     (r"exponential_atmosphere", r"status 3", r"left its valid range")),
+    ("msis-orbit-below-surface", lambda: _atm.TabulatedAtmosphere.from_msis(env.CircularOrbit(6.3e6), _EPOCH, 60.0),
+     ValueError, (r"\borbit\b", r"height of -", r"between the surface and 1000 km")),
+    ("msis-orbit-above-range", lambda: _atm.TabulatedAtmosphere.from_msis(env.CircularOrbit(6378137.0 + 1.2e6), _EPOCH,
+                                                                           60.0), ValueError,
+     (r"\borbit\b", r"height of 1200", r"between the surface and 1000 km")),
+    ("msis-space-weather-partial", lambda: _atm.TabulatedAtmosphere.from_msis(env.CircularOrbit(6.9e6), _EPOCH, 60.0,
+                                                                               f107=None), ValueError,
+     (r"\bf107\b", r"f107=None", r"all be given or all be None")),
+    ("table-density-negative", lambda: _atm.TabulatedAtmosphere(0.0, 10.0, [1e-12, 1e-12, -1e-12, 1e-12]), ValueError,
+     (r"\bdensity\b", r"-1e-12", r"positive")),
+    ("table-time-outside", lambda: _atm.TabulatedAtmosphere(0.0, 10.0, [1e-12] * 4).evaluate(31.0), ValueError,
+     (r"\bt\b", r"got 31", r"table's span \[0, 30\]")),
+    ("sun-epoch-outside", lambda: _sun.Sun(_dt.datetime(2051, 1, 1)), ValueError,
+     (r"\bepoch\b", r"2051-01-01", r"1950-01-01 \.\. 2050-01-01")),
+    ("shadow-model", lambda: _sun.Shadow("penumbral"), ValueError, (r"\bmodel\b", r"'penumbral'", r"one of")),
+    ("clock-epoch-type", lambda: _clock.Clock("2026-01-01"), TypeError,
+     (r"\bepoch\b", r"2026-01-01", r"datetime\.datetime")),
+]
+
 CASES = [pytest.param(call, exc, patterns, id=name) for name, call, exc, patterns in _ROWS] + [
     pytest.param(call, exc, patterns, id=name, marks=pytest.mark.xfail(strict=True, reason=reason))
     for name, call, exc, patterns, reason in _XFAIL_ROWS

@@ -167,3 +167,12 @@ def test_splitting_flow_cost_quick():
     proc = _run("splitting_flow_cost.py", "--quick", "--compare", "src", "src")
     _check(proc, "old us/step", "new ns/flow", "new/old", "saba4 h=24 s, gravity gradient", "no torque")
     assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
+def test_bench_environment_quick():
+    """Issue 26: per-evaluation cost of the environment and disturbance components, all of them vs a gyrostat step."""
+    proc = _run("bench_environment.py", "--quick")
+    _check(proc, "ns/eval", "sun (series every call)", "shadow (conical)", "facet SRP (10 facets)", "gyrostat step",
+           "all together / gyrostat step")
+    assert "Traceback" not in proc.stderr

@@ -157,9 +157,10 @@ def test_no_writable_cache_location_with_caching_off(tmp_path, reference):
 # NUMBA_DISABLE_JIT=1
 # --------------------------------------------------------------------------------------------
 #: The interpreted subset: the reference checks, the invariants without the shared 1e5-step runs
-#: (25 s interpreted), the bad-input table and the numerical edges at LGVI_TEST_SCALE=small.
+#: (25 s interpreted), the bad-input table, the numerical edges at LGVI_TEST_SCALE=small and the
+#: environment and disturbance components (issue 26, 9 s interpreted).
 INTERPRETED = ["tests/test_reference.py", "tests/test_invariants.py", "tests/test_bad_inputs.py",
-               "tests/test_edges.py"]
+               "tests/test_edges.py", "tests/test_environment_components.py"]
 LONG_RUN_TESTS = ("long_run", "spatial_momentum_conserved", "casimir_conserved", "kinetic_energy_conserved",
                   "attitude_stays_on_so3", "momentum_actually_moves")
 

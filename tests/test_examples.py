@@ -186,3 +186,15 @@ def test_nadir_dumping(tmp_path):
     assert number(r"end ([0-9.]+) N m s", free) > start + 0.02
     assert number(r"max ([0-9.]+), end", dump) < 0.3                  # bounded: the wheels hold 1.26 N m s
     assert (tmp_path / "figs" / "nadir_dumping.png").exists()
+
+
+def test_momentum_budget(tmp_path):
+    """Issue 26: the 6U's disturbance torques along a quarter orbit, and the figure."""
+    out = run_example("momentum_budget.py", "--quick", "--out", str(tmp_path / "figs"), cwd=tmp_path)
+    drag = number(r"aerodynamic drag\s+([0-9.e+-]+)", out)
+    srp = number(r"solar radiation pressure\s+([0-9.e+-]+)", out)
+    dipole = number(r"residual dipole\s+([0-9.e+-]+)", out)
+    # 500 km, a 6U: drag and a 0.02 A m^2 dipole of order 1e-7 N m, radiation pressure ten times less
+    assert 3e-8 < drag < 1e-6 and 1e-7 < dipole < 2e-6 and srp < drag / 5
+    assert "dominant torque:" in out
+    assert (tmp_path / "figs" / "momentum_budget.png").exists()

@@ -6,7 +6,10 @@
 * :mod:`lgvi.environment.gravity`: the gravity-gradient moment along any of these orbits,
   compiled (:class:`OrbitGravityGradient`);
 * :mod:`lgvi.environment.actuators`: magnetorquer rods (:class:`lgvi.Magnetorquers`);
-* :mod:`lgvi.environment.bdot`: B-dot detumbling and magnetic momentum dumping.
+* :mod:`lgvi.environment.bdot`: B-dot detumbling and magnetic momentum dumping;
+* :mod:`lgvi.environment.clock`: one clock (UTC epoch, TT, decimal years, GMST) for all of them;
+* :mod:`lgvi.environment.sun`: the sun and the Earth's shadow, components of the compiled loop;
+* :mod:`lgvi.environment.atmosphere`: exponential and tabulated (NRLMSIS) atmospheres, components.
 """
 
 from __future__ import annotations
@@ -16,10 +19,14 @@ from .bdot import BDot, MomentumDumping
 from .field import (CentredDipole, IGRF, WMM, SphericalHarmonicField, decimal_year, geodetic_to_ecef,
                     ned_frame)
 from .gravity import OrbitGravityGradient
+from .atmosphere import ExponentialAtmosphere, TabulatedAtmosphere, ecef_to_geodetic
+from .clock import Clock
 from .orbits import (CircularOrbit, J2Orbit, KeplerOrbit, Orbit, OrbitEnvironment, SGP4Orbit, gmst, lvlh_frame,
                      nadir_reference, solve_kepler)
+from .sun import Shadow, Sun, shadow_fraction, sun_position
 
 __all__ = ["CentredDipole", "IGRF", "WMM", "SphericalHarmonicField", "decimal_year", "geodetic_to_ecef",
            "ned_frame", "CircularOrbit", "J2Orbit", "KeplerOrbit", "Orbit", "OrbitEnvironment", "SGP4Orbit",
            "gmst", "lvlh_frame", "nadir_reference", "solve_kepler", "OrbitGravityGradient", "Magnetorquers",
-           "BDot", "MomentumDumping"]
+           "BDot", "MomentumDumping", "Clock", "Sun", "Shadow", "sun_position", "shadow_fraction",
+           "ExponentialAtmosphere", "TabulatedAtmosphere", "ecef_to_geodetic"]

@@ -1,2 +1,6 @@
 """What is bolted on the spacecraft: actuators, sensors and disturbance models, as components of
 the compiled loop (:mod:`lgvi.components`)."""
+
+from .disturbances import FacetDrag, FacetSRP, ResidualDipole
+
+__all__ = ["FacetDrag", "FacetSRP", "ResidualDipole"]

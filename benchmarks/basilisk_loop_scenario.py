@@ -1,0 +1,227 @@
+"""A tumbling 6U over one orbit under every disturbance of issue 26 together, in Basilisk: the
+fixture for the compiled loop's end-to-end check (the test is added with the loop, issue 25).
+
+Two steps, because the sun must be lgvi's own (the comparison is of the dynamics and the
+disturbance models, not of two ephemerides):
+
+    PYTHONPATH=src python benchmarks/basilisk_loop_scenario.py --ephemeris     # lgvi: sun and GMST nodes
+    python benchmarks/basilisk_loop_scenario.py      # in an environment with Basilisk (the bench extra)
+
+The first writes ``basilisk_loop_scenario_ephemeris.json`` (lgvi's sun position, TEME metres, and
+the Greenwich mean sidereal time at every minute from -60 s to the end), the second reads it and
+writes ``basilisk_loop_scenario.npz``. Everything below is what the lgvi side must configure to
+match (the values are also saved in the npz, under the names in brackets):
+
+* epoch 2026-03-20 00:00 UTC [epoch]; Earth point mass ``mu`` = Basilisk's 3.98600436e14 [mu],
+  no J2; the orbit integrated by Basilisk's RK4 with the attitude, from a circular orbit of radius
+  6878136.6 m (500 km), inclination 97.4 deg, RAAN 0, argument of latitude 0 (a noon-midnight
+  orbit at the equinox: about 35 minutes of eclipse) [r0, v0];
+* hub: mass 8 kg, inertia diag(0.1234, 0.0960, 0.0407) kg m^2 about the centre of mass, which is
+  the body frame's origin [J]; sigma_BN(0) [sigma0], omega_BN_B(0) = (3, -2, 1.5) deg/s [omega0];
+* sun: the straight line between lgvi's series at whole minutes (``lgvi.environment.Sun(epoch)``,
+  its default ``interpolation=60``), written for Basilisk each step by a Python module;
+* shadow: Basilisk's ``eclipse`` (conical; its REQ_SUN 695000 km, REQ_EARTH 6378.1366 km):
+  ``Shadow("conical", planet_radius=6378136.6, sun_radius=695e6)`` [R_sun];
+* atmosphere: ``exponentialAtmosphere`` [rho0, H, planet_radius] = ``ExponentialAtmosphere(rho0, H)``,
+  co-rotating through ``zeroWindModel`` with omega = (0, 0, 7.292115e-5) rad/s [omega_earth];
+* facet drag: ``facetDragDynamicEffector`` with the 6U's 10 facets of
+  ``basilisk_environment.py`` (``fac_*``, also in this npz) = ``FacetDrag(area, normal, centre, cd)``;
+* facet SRP: ``facetSRPDynamicEffector`` (solar flux 1368 W/m^2, AU 149597870700 m) with the same
+  facets, ``FacetSRP(..., absorbed=1 - specular - diffuse, specular, diffuse, solar_flux=1368)``;
+* residual dipole: ``MtbEffector`` holding the dipole [dipole] (A m^2, body) in
+  ``magneticFieldCenteredDipole`` (g10, g11, h11 [g10_g11_h11] nT, radius 6371.2 km): the field
+  of ``lgvi.environment.CentredDipole(g10, g11, h11)`` turned by the GMST (the Earth's
+  ``J20002Pfix`` = R3(GMST) at each step, the same GMST as ``lgvi.environment.gmst``);
+* gravity gradient: ``GravityGradientEffector`` (Earth, the same ``mu``);
+* Basilisk integrates with RK4 at h = 0.1 s; the environment (sun, shadow, density, wind, field)
+  is computed from the state at the start of each step and held over it, as the lgvi loop does
+  (task priorities: the spacecraft integrates to t_k first, then the ephemeris and environment
+  modules run on the state at t_k); the effectors' torques are evaluated at each RK4 stage with
+  the stage's attitude (and position), so the torque is not held over the step as in lgvi's loop:
+  a difference of O(h) per step that the merge-time test must take into account (converging
+  with h).
+
+Saved every 10 s over one orbit [t]: sigma_BN [sigma], omega_BN_B [omega] (rad/s), r_BN_N [r],
+v_BN_N [v], the shadow's visible fraction [shadow], the density [density], the field [B_N] (T).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+EPHEMERIS = HERE / "basilisk_loop_scenario_ephemeris.json"
+OUT = HERE / "basilisk_loop_scenario.npz"
+EPOCH = dt.datetime(2026, 3, 20)
+MU = 3.98600436e14
+RADIUS = 6378136.6 + 500e3
+INC = math.radians(97.4)
+PERIOD = 2.0 * math.pi * math.sqrt(RADIUS ** 3 / MU)
+H = 0.1
+SAVE = 10.0
+DURATION = SAVE * math.ceil(PERIOD / SAVE)
+NODE = 60.0
+J = np.diag([0.1234, 0.0960, 0.0407])
+MASS = 8.0
+SIGMA0 = np.array([0.1, -0.2, 0.3])
+OMEGA0 = np.radians([3.0, -2.0, 1.5])
+DIPOLE = np.array([0.02, -0.01, 0.015])
+G10_G11_H11 = np.array([-29350.0, -1410.3, 4545.5])
+OMEGA_EARTH = 7.292115e-5
+RHO0_H = (6.967e-13 * math.exp(500e3 / 63822.0), 63822.0)
+
+
+def ephemeris() -> None:
+    """lgvi's sun and GMST at the minutes -60 s .. DURATION + 60 s (run with lgvi importable)."""
+    from lgvi.environment import gmst, sun_position
+
+    t = NODE * np.arange(-1, int(DURATION // NODE) + 3)
+    EPHEMERIS.write_text(json.dumps({"epoch": EPOCH.isoformat(), "t": t.tolist(),
+                                     "sun": sun_position(EPOCH, t).tolist(), "gmst": np.unwrap(gmst(EPOCH, t)).tolist()}))
+    print(f"wrote {EPHEMERIS}")
+
+
+def basilisk() -> None:
+    from Basilisk.architecture import messaging, sysModel
+    from Basilisk.simulation import (GravityGradientEffector, MtbEffector, eclipse, exponentialAtmosphere,
+                                     magneticFieldCenteredDipole, spacecraft, zeroWindModel)
+    from Basilisk.utilities import SimulationBaseClass, macros, simIncludeGravBody
+
+    sys.path.insert(0, str(HERE))
+    from basilisk_environment import drag_effector, srp_effector
+
+    eph = json.loads(EPHEMERIS.read_text())
+    assert eph["epoch"] == EPOCH.isoformat()
+    tn, sun_n, gmst_n = np.array(eph["t"]), np.array(eph["sun"]), np.array(eph["gmst"])
+    fac = np.load(HERE / "basilisk_environment.npz")
+
+    class Ephemeris(sysModel.SysModel):
+        """Writes the sun (lgvi's nodes, interpolated) and the Earth (origin, J20002Pfix = R3(GMST))."""
+
+        def __init__(self):
+            super().__init__()
+            self.sunOutMsg = messaging.SpicePlanetStateMsg()
+            self.earthOutMsg = messaging.SpicePlanetStateMsg()
+
+        def UpdateState(self, CurrentSimNanos):
+            t = CurrentSimNanos * 1e-9
+            k = int(math.floor(t / NODE)) + 1                  # node k is at (k - 1) * NODE
+            q = t / NODE - math.floor(t / NODE)
+            sun = sun_n[k] + q * (sun_n[k + 1] - sun_n[k])
+            theta = gmst_n[k] + q * (gmst_n[k + 1] - gmst_n[k])
+            c, s = math.cos(theta), math.sin(theta)
+            sp = messaging.SpicePlanetStateMsgPayload()
+            sp.PositionVector = list(sun)
+            sp.PlanetName = "sun"
+            self.sunOutMsg.write(sp, CurrentSimNanos, self.moduleID)
+            ep = messaging.SpicePlanetStateMsgPayload()
+            ep.PositionVector = [0.0, 0.0, 0.0]
+            ep.PlanetName = "earth"
+            ep.J20002Pfix = [[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]
+            w = (gmst_n[k + 1] - gmst_n[k]) / NODE
+            ep.J20002Pfix_dot = [[-s * w, c * w, 0.0], [-c * w, -s * w, 0.0], [0.0, 0.0, 0.0]]
+            self.earthOutMsg.write(ep, CurrentSimNanos, self.moduleID)
+
+    sim = SimulationBaseClass.SimBaseClass()
+    proc = sim.CreateNewProcess("p")
+    proc.addTask(sim.CreateNewTask("dyn", macros.sec2nano(H)))
+    eph_mod = Ephemeris()
+    eph_mod.ModelTag = "ephemeris"
+    sim.AddModelToTask("dyn", eph_mod, 100)
+
+    sc = spacecraft.Spacecraft()
+    sc.ModelTag = "sixU"
+    sc.hub.mHub = MASS
+    sc.hub.IHubPntBc_B = J.tolist()
+    sc.hub.r_BcB_B = [[0.0], [0.0], [0.0]]
+    u, i = 0.0, INC
+    r0 = RADIUS * np.array([math.cos(u), math.cos(i) * math.sin(u), math.sin(i) * math.sin(u)])
+    vmag = math.sqrt(MU / RADIUS)
+    v0 = vmag * np.array([-math.sin(u), math.cos(i) * math.cos(u), math.sin(i) * math.cos(u)])
+    sc.hub.r_CN_NInit = r0.tolist()
+    sc.hub.v_CN_NInit = v0.tolist()
+    sc.hub.sigma_BNInit = SIGMA0.tolist()
+    sc.hub.omega_BN_BInit = OMEGA0.tolist()
+    grav = simIncludeGravBody.gravBodyFactory()
+    earth = grav.createEarth()
+    earth.isCentralBody = True
+    earth.mu = MU
+    grav.addBodiesTo(sc)
+
+    ggEff = GravityGradientEffector.GravityGradientEffector()
+    ggEff.addPlanetName(earth.planetName)
+    sc.addDynamicEffector(ggEff)
+
+    ecl = eclipse.Eclipse()
+    ecl.sunInMsg.subscribeTo(eph_mod.sunOutMsg)
+    ecl.addPlanetToModel(eph_mod.earthOutMsg)
+    ecl.addSpacecraftToModel(sc.scStateOutMsg)
+
+    atm = exponentialAtmosphere.ExponentialAtmosphere()
+    atm.baseDensity, atm.scaleHeight, atm.planetRadius = RHO0_H[0], RHO0_H[1], 6378136.6
+    atm.addSpacecraftToModel(sc.scStateOutMsg)
+    wind = zeroWindModel.ZeroWindModel()
+    wind.setPlanetOmega_N([0.0, 0.0, OMEGA_EARTH])
+    wind.setUseSpiceOmegaFlag(False)
+    wind.planetPosInMsg.subscribeTo(eph_mod.earthOutMsg)
+    wind.addSpacecraftToModel(sc.scStateOutMsg)
+
+    drag = drag_effector(fac)
+    drag.atmoDensInMsg.subscribeTo(atm.envOutMsgs[0])
+    drag.windVelInMsg.subscribeTo(wind.envOutMsgs[0])
+    sc.addDynamicEffector(drag)
+
+    srp = srp_effector(fac)
+    srp.sunInMsg.subscribeTo(eph_mod.sunOutMsg)
+    srp.sunEclipseInMsg.subscribeTo(ecl.eclipseOutMsgs[0])
+    sc.addDynamicEffector(srp)
+
+    mag = magneticFieldCenteredDipole.MagneticFieldCenteredDipole()
+    mag.g10, mag.g11, mag.h11 = (G10_G11_H11 * 1e-9).tolist()
+    mag.planetRadius = 6371.2e3
+    mag.planetPosInMsg.subscribeTo(eph_mod.earthOutMsg)
+    mag.addSpacecraftToModel(sc.scStateOutMsg)
+    mtb = MtbEffector.MtbEffector()
+    cmd = messaging.MTBCmdMsg().write(messaging.MTBCmdMsgPayload(mtbDipoleCmds=DIPOLE.tolist()))
+    pmsg = messaging.MTBArrayConfigMsg().write(messaging.MTBArrayConfigMsgPayload(
+        numMTB=3, GtMatrix_B=list(np.eye(3).ravel()), maxMtbDipoles=[10.0, 10.0, 10.0]))
+    mtb.mtbCmdInMsg.subscribeTo(cmd)
+    mtb.magInMsg.subscribeTo(mag.envOutMsgs[0])
+    mtb.mtbParamsInMsg.subscribeTo(pmsg)
+    sc.addDynamicEffector(mtb)
+
+    # at each time t_k the spacecraft integrates first (from t_{k-1} to t_k), then the ephemeris and the
+    # environment run on the state at t_k, then the effectors read them: held over [t_k, t_k+1]
+    for prio, model in ((110, sc), (90, ecl), (89, atm), (88, wind), (87, mag), (40, drag), (40, srp), (40, mtb),
+                        (40, ggEff)):
+        sim.AddModelToTask("dyn", model, prio)
+    every = macros.sec2nano(SAVE)
+    rec = {"sc": sc.scStateOutMsg.recorder(every), "ecl": ecl.eclipseOutMsgs[0].recorder(every),
+           "atm": atm.envOutMsgs[0].recorder(every), "mag": mag.envOutMsgs[0].recorder(every)}
+    for r in rec.values():
+        sim.AddModelToTask("dyn", r)
+    sim.InitializeSimulation()
+    sim.ConfigureStopTime(macros.sec2nano(DURATION))
+    sim.ExecuteSimulation()
+    ecl_data = rec["ecl"]
+    shadow = np.asarray(getattr(ecl_data, "illuminationFactor", None) if hasattr(ecl_data, "illuminationFactor")
+                        else ecl_data.shadowFactor)
+    out = dict(t=rec["sc"].times() * 1e-9, sigma=np.asarray(rec["sc"].sigma_BN), omega=np.asarray(rec["sc"].omega_BN_B),
+               r=np.asarray(rec["sc"].r_BN_N), v=np.asarray(rec["sc"].v_BN_N), shadow=shadow,
+               density=np.asarray(rec["atm"].neutralDensity), B_N=np.asarray(rec["mag"].magField_N), epoch=EPOCH.isoformat(), mu=MU, r0=r0, v0=v0, J=J,
+               mass=MASS, sigma0=SIGMA0, omega0=OMEGA0, dipole=DIPOLE, g10_g11_h11=G10_G11_H11, R_sun=695e6,
+               rho0=RHO0_H[0], H=RHO0_H[1], planet_radius=6378136.6, omega_earth=OMEGA_EARTH, h=H,
+               **{k: fac[k] for k in fac.files if k.startswith("fac_")})
+    np.savez_compressed(OUT, **out)
+    print(f"wrote {OUT} ({OUT.stat().st_size / 1024:.0f} kB): {len(out['t'])} samples to t = {out['t'][-1]:g} s, "
+          f"eclipse {np.sum(shadow < 1) * SAVE / 60:.0f} min")
+
+
+if __name__ == "__main__":
+    ephemeris() if "--ephemeris" in sys.argv[1:] else basilisk()

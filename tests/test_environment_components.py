@@ -1,0 +1,361 @@
+"""The environment and disturbance components (issue 26): sun, shadow, atmosphere, facet drag,
+facet radiation pressure, residual dipole, against astropy's ephemeris and Basilisk's modules.
+
+The Basilisk fixture is ``benchmarks/basilisk_environment.npz`` (made by
+``benchmarks/basilisk_environment.py``); astropy and pymsis are in the ``test`` extra.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from lgvi.components import COMPONENT_KINDS
+from lgvi.environment.atmosphere import ExponentialAtmosphere, TabulatedAtmosphere, ecef_to_geodetic
+from lgvi.environment.clock import J2000_UTC, Clock, tai_minus_utc
+from lgvi.environment.field import decimal_year, geodetic_to_ecef
+from lgvi.environment.orbits import CircularOrbit, gmst
+from lgvi.environment.sun import Shadow, Sun, shadow_fraction, sun_position
+from lgvi.spacecraft.disturbances import FacetDrag, FacetSRP, ResidualDipole
+
+ROOT = Path(__file__).resolve().parents[1]
+BSK = np.load(ROOT / "benchmarks" / "basilisk_environment.npz")
+
+
+def dcm_from_mrp(sigma: np.ndarray) -> np.ndarray:
+    """lgvi's R (body to inertial) of Basilisk's sigma_BN: R = dcm_BN^T."""
+    return Rotation.from_mrp(sigma).as_matrix()
+
+
+def rel_err(a: np.ndarray, b: np.ndarray) -> float:
+    """Largest error of rows ``a`` against ``b``, relative to the rows' norms."""
+    return float(np.max(np.linalg.norm(a - b, axis=-1) / np.linalg.norm(b, axis=-1)))
+
+
+# ------------------------------------------------------------------------------------------ clock
+
+def test_clock_time_scales():
+    assert float(Clock(J2000_UTC).days_tt(0.0)) == pytest.approx(0.0, abs=1e-12)
+    c = Clock(dt.datetime(2026, 7, 2, 12))
+    assert c.tt_minus_utc == 37.0 + 32.184
+    assert c.decimal_year(3600.0) == decimal_year(dt.datetime(2026, 7, 2, 13))
+    np.testing.assert_array_equal(c.gmst([0.0, 60.0]), gmst(c.epoch, [0.0, 60.0]))
+    assert float(c.tt_centuries(86400.0)) == pytest.approx(float(c.days_tt(86400.0)) / 36525.0, rel=1e-15)
+
+
+@pytest.mark.skipif(importlib.util.find_spec("erfa") is None, reason="pyerfa (astropy) not installed")
+def test_leap_seconds_agree_with_erfa():
+    import erfa
+
+    for year in range(1972, 2027):
+        for month in (1, 6, 7, 12):
+            when = dt.datetime(year, month, 15)
+            assert tai_minus_utc(when) == erfa.dat(year, month, 15, 0.0), when
+
+
+# -------------------------------------------------------------------------------------------- sun
+
+@pytest.mark.skipif(importlib.util.find_spec("astropy") is None, reason="astropy not installed")
+def test_sun_within_0p01_degree_of_astropy_1950_2050():
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        from fit_sun_series import angle_deg, astropy_sun_teme, random_dates
+    finally:
+        sys.path.pop(0)
+    jd = random_dates(3, 1500)                           # not the fit's dates (seed 1)
+    days, ref = astropy_sun_teme(jd)
+    epoch = dt.datetime(2000, 1, 1, 12)
+    t = (jd - 2451545.0) * 86400.0                       # UTC seconds after the epoch
+    ours = sun_position(dt.datetime(1950, 1, 1), 0.0)    # the public function works at the range's start
+    assert ours.shape == (3,)
+    from lgvi._kernels.environment_components import sun_many
+
+    got = sun_many(days, 1.0)
+    ang = angle_deg(got, ref)
+    assert ang.max() < 0.01                              # the issue's bound; measured 0.0028 (docs/environment.md)
+    assert np.max(np.abs(np.linalg.norm(got, axis=1) / np.linalg.norm(ref, axis=1) - 1.0)) < 5e-5
+    # the public path (Clock: UTC epoch + t -> TT) agrees with the TT days astropy gives, to 0.2 s of motion
+    pub = np.array([sun_position(epoch, x) for x in t[:50]])
+    assert angle_deg(pub, ref[:50]).max() < 0.01
+
+
+def test_sun_component_writes_unit_vector_from_spacecraft():
+    epoch = dt.datetime(2026, 3, 20)
+    r = np.array([[7.0e6, 1.0e6, -2.0e6], [0.0, 0.0, 4.2e7]])
+    out = Sun(epoch).evaluate([0.0, 600.0], r)
+    s = sun_position(epoch, np.array([0.0, 600.0]))
+    np.testing.assert_allclose(out["sun_N"] * out["sun_distance"][:, None] + r, s, rtol=1e-14)
+    np.testing.assert_allclose(np.linalg.norm(out["sun_N"], axis=1), 1.0, rtol=1e-15)
+
+
+def test_sun_interpolated_between_minutes_is_the_series_and_a_pure_function_of_t():
+    epoch = dt.datetime(2026, 3, 20)
+    t = np.random.default_rng(4).uniform(-3600.0, 86400.0, 400)
+    r = np.zeros(3)
+    direct = Sun(epoch, interpolation=0.0).evaluate(t, r)
+    lerp = Sun(epoch).evaluate(t, r)
+    ang = np.linalg.norm(np.cross(direct["sun_N"], lerp["sun_N"]), axis=1)
+    assert ang.max() < 1e-10                                   # measured 2e-11 (the chord over 60 s)
+    assert np.max(np.abs(lerp["sun_distance"] / direct["sun_distance"] - 1.0)) < 1e-10
+    again = Sun(epoch).evaluate(np.sort(t), r)                 # another order of the calls: the same bits
+    order = np.argsort(t)
+    np.testing.assert_array_equal(again["sun_N"], lerp["sun_N"][order])
+    nodes = Sun(epoch).evaluate([120.0, 180.0], r)["sun_N"]    # on the grid: the series itself
+    np.testing.assert_allclose(nodes, Sun(epoch, interpolation=0.0).evaluate([120.0, 180.0], r)["sun_N"],
+                               rtol=0, atol=1e-15)
+
+
+# ----------------------------------------------------------------------------------------- shadow
+
+def _exact_shadow(r: np.ndarray, sun: np.ndarray, R_p: float, R_s: float) -> float:
+    """The visible fraction at 40 digits (mpmath): the same discs, the textbook lens formula."""
+    import mpmath as mp
+
+    with mp.workdps(40):
+        r = [mp.mpf(float(x)) for x in r]
+        d = [mp.mpf(float(s)) - x for s, x in zip(sun, r)]
+        dn, rn = mp.sqrt(sum(x * x for x in d)), mp.sqrt(sum(x * x for x in r))
+        a, b = mp.asin(mp.mpf(R_s) / dn), mp.asin(mp.mpf(R_p) / rn)
+        c = mp.acos(-sum(x * y for x, y in zip(r, d)) / (rn * dn))
+        if c >= a + b:
+            return 1.0
+        if c < b - a:
+            return 0.0
+        x = (c * c + a * a - b * b) / (2 * c)
+        area = a * a * mp.acos(x / a) + b * b * mp.acos((c - x) / b) - c * mp.sqrt(a * a - x * x)
+        return float(1 - area / (mp.pi * a * a))
+
+
+def test_conical_shadow_agrees_with_basilisk_eclipse():
+    """Sunlit and umbra: equal. In the penumbra Basilisk's textbook form (acos of a number within
+    1e-5 of 1) carries rounding errors up to 2.2e-9 of its own; lgvi's (atan2, factored chord) is
+    within 1e-12 of the fraction computed at 40 digits, so lgvi and Basilisk differ by Basilisk's
+    error, never more (docs/environment.md)."""
+    r, sun = BSK["ecl_r"], BSK["ecl_sun"]
+    R_p, R_s = float(BSK["ecl_R_earth"]), float(BSK["ecl_R_sun"])
+    f = shadow_fraction(r, sun, "conical", planet_radius=R_p, sun_radius=R_s)
+    ref = BSK["ecl_factor"]
+    partial = (ref > 0.0) & (ref < 1.0)
+    assert np.sum(ref == 0.0) > 100 and partial.sum() > 200 and np.sum(ref == 1.0) > 50
+    np.testing.assert_array_equal(f[~partial], ref[~partial])
+    exact = np.array([_exact_shadow(x, sun, R_p, R_s) for x in r[partial]])
+    assert np.max(np.abs(f[partial] - exact)) < 1e-12            # measured 2.8e-13
+    assert np.max(np.abs(ref[partial] - exact)) < 5e-9           # Basilisk's own rounding, measured 2.2e-9
+    assert np.all(np.abs(f[partial] - ref[partial]) <= np.abs(ref[partial] - exact) + 1e-12)
+
+
+def test_shadow_geometry():
+    sun = np.array([1.5e11, 0.0, 0.0])
+    # on the shadow axis: umbra in both models; on the day side: sunlit
+    for model in ("conical", "cylindrical"):
+        assert shadow_fraction([-7e6, 0.0, 0.0], sun, model) == 0.0
+        assert shadow_fraction([7e6, 0.0, 0.0], sun, model) == 1.0
+        assert shadow_fraction([0.0, 7e6, 0.0], sun, model) == 1.0
+    assert shadow_fraction([-7e6, 0.0, 0.0], sun, "none") == 1.0
+    # crossing the penumbra the visible fraction rises monotonically from 0 to 1
+    y = np.linspace(6.0e6, 6.8e6, 400)
+    f = shadow_fraction(np.stack([np.full_like(y, -7e6), y, np.zeros_like(y)], -1), sun, "conical")
+    assert f[0] == 0.0 and f[-1] == 1.0 and np.all(np.diff(f) >= 0.0)
+    # the cylinder's edge lies inside the penumbra: there the conical fraction is strictly between
+    edge = shadow_fraction([-7e6, 6378136.6, 0.0], sun, "conical")
+    assert 0.0 < edge < 1.0
+    # annular (the planet's disc inside the sun's): 1 - (b/a)^2, exactly
+    far = np.array([-3.0e9, 0.0, 0.0])
+    a = np.arcsin(6.957e8 / np.linalg.norm(sun - far))
+    b = np.arcsin(6378136.6 / 3.0e9)
+    assert shadow_fraction(far, sun, "conical") == pytest.approx(1.0 - (b / a) ** 2, rel=1e-14)
+
+
+# ------------------------------------------------------------------------------------- atmosphere
+
+def test_exponential_atmosphere_agrees_with_basilisk_and_corotates():
+    atm = ExponentialAtmosphere(float(BSK["atm_base"]), float(BSK["atm_H"]), planet_radius=float(BSK["atm_R"]))
+    r = BSK["atm_r"]
+    v = np.tile([1000.0, 7000.0, 500.0], (len(r), 1))
+    out = atm.evaluate(r, v)
+    np.testing.assert_allclose(out["density"], BSK["atm_density"], rtol=1e-12)
+    w = np.array([0.0, 0.0, 7.292115e-5])
+    np.testing.assert_allclose(out["v_rel_N"], v - np.cross(w, r), rtol=1e-15)
+    still = ExponentialAtmosphere(float(BSK["atm_base"]), float(BSK["atm_H"]), omega=0.0).evaluate(r, v)
+    np.testing.assert_array_equal(still["v_rel_N"], v)
+    # below the surface the compiled step stops with status 3; above max_altitude the density is zero
+    with pytest.raises(ValueError, match="status 3"):
+        atm.evaluate([6.0e6, 0.0, 0.0])
+    top = ExponentialAtmosphere(max_altitude=1000e3).evaluate([6378136.6 + 1001e3, 0.0, 0.0])
+    assert top["density"][0] == 0.0
+
+
+def test_ecef_to_geodetic_round_trip():
+    lat = np.array([0.0, 45.0, -60.0, 89.9, -89.99])
+    lon = np.array([0.0, 120.0, -170.0, 10.0, 33.0])
+    h = np.array([0.0, 500e3, 800e3, 400e3, 10e3])
+    la, lo, hh = ecef_to_geodetic(geodetic_to_ecef(lat, lon, h))
+    np.testing.assert_allclose(la, lat, atol=1e-9)
+    np.testing.assert_allclose(lo, lon, atol=1e-9)
+    np.testing.assert_allclose(hh, h, atol=1e-4)
+
+
+def test_table_spline_is_fourth_order():
+    """log rho's spline on a smooth density along an eccentric orbit: error / 16 when dt halves."""
+    from lgvi.environment.orbits import KeplerOrbit
+
+    orbit = KeplerOrbit(6378136.6 + 600e3, 0.01, 1.0)
+
+    def rho(t):
+        h = np.linalg.norm(orbit.position_velocity(t)[0], axis=-1) - 6378136.6
+        return 1e-12 * np.exp(-(h - 500e3) / 60e3) * (1.0 + 0.3 * np.cos(2.0 * np.pi * t / 5400.0 + 0.3))
+
+    err = []
+    for step in (10.0, 20.0):
+        t = np.arange(0.0, 6000.0 + step, step)
+        tm = t[:-1] + step / 2
+        err.append(np.max(np.abs(TabulatedAtmosphere(0.0, step, rho(t)).evaluate(tm)["density"] / rho(tm) - 1.0)))
+    assert err[0] < 1e-9                                  # measured 5.2e-10
+    assert 12.0 < err[1] / err[0] < 20.0                  # measured 16.0
+
+
+@pytest.mark.skipif(importlib.util.find_spec("pymsis") is None, reason="pymsis not installed")
+def test_msis_table_against_msis():
+    """The table every 10 s against NRLMSIS itself at the midpoints. NRLMSIS 2.x computes in single
+    precision: its own values scatter by about 1e-5 relative (the error stays 0.9e-5 to 1.3e-5 from
+    dt = 40 s down to 5 s at 300 to 800 km, docs/environment.md), far above the spline's error on a
+    smooth density (previous test); the bound is three times that scatter."""
+    import pymsis
+
+    from lgvi.environment.atmosphere import msis_track
+
+    orbit = CircularOrbit(6378136.6 + 500e3, np.radians(51.6))
+    epoch = dt.datetime(2026, 3, 20, 6)
+    atm = TabulatedAtmosphere.from_msis(orbit, epoch, 5700.0, dt=10.0)
+    tm = np.arange(5.0, 5695.0, 10.0)
+    lat, lon, h = msis_track(orbit, Clock(epoch), tm)
+    dates = np.datetime64(epoch, "us") + (tm * 1e6).astype("timedelta64[us]")
+    K = len(tm)
+    ref = pymsis.calculate(dates, lon, lat, h / 1e3, np.full(K, 150.0), np.full(K, 150.0), np.full((K, 7), 4.0))[:, 0]
+    got = atm.evaluate(tm)["density"]
+    assert np.max(np.abs(got / ref - 1.0)) < 3e-5
+    assert 1e-13 < ref.min() and ref.max() < 1e-11        # 500 km, moderate activity
+    # at the nodes the table is NRLMSIS
+    np.testing.assert_allclose(atm.evaluate([0.0, 10.0])["density"], atm.density[:2], rtol=1e-14)
+    with pytest.raises(ValueError, match=r"t must lie in the table's span \[0, 5700\] s, got 5701"):
+        atm.evaluate(5701.0)
+
+
+# ----------------------------------------------------------------------------------- disturbances
+
+def _facets(**extra):
+    return dict(area=BSK["fac_area"], normal=BSK["fac_normal"], centre=BSK["fac_centre"], **extra)
+
+
+def test_facet_drag_agrees_with_basilisk():
+    drag = FacetDrag(**_facets(drag_coefficient=BSK["fac_cd"]))
+    R = dcm_from_mrp(BSK["drag_sigma"])
+    out = drag.evaluate(R, BSK["drag_rho"], BSK["drag_v"])
+    assert rel_err(out["tau_facet_drag_B"], BSK["drag_torque"]) < 1e-9
+    F_B = np.einsum("nji,nj->ni", R, out["F_facet_drag_N"])
+    assert rel_err(F_B, BSK["drag_force"]) < 1e-9
+
+
+def test_facet_srp_agrees_with_basilisk():
+    spec, diff = BSK["fac_specular"], BSK["fac_diffuse"]
+    srp = FacetSRP(**_facets(absorbed=1.0 - spec - diff, specular=spec, diffuse=diff), solar_flux=float(BSK["srp_flux"]))
+    R = dcm_from_mrp(BSK["srp_sigma"])
+    d = BSK["srp_sun"] - BSK["srp_r"]
+    dist = np.linalg.norm(d, axis=1)
+    out = srp.evaluate(R, d / dist[:, None], dist, BSK["srp_shadow"])
+    lit = np.linalg.norm(BSK["srp_torque"], axis=1) > 0
+    assert lit.sum() > 30
+    assert rel_err(out["tau_facet_srp_B"][lit], BSK["srp_torque"][lit]) < 1e-9
+    F_B = np.einsum("nji,nj->ni", R, out["F_facet_srp_N"])
+    assert rel_err(F_B[lit], BSK["srp_force"][lit]) < 1e-9
+
+
+def test_residual_dipole_agrees_with_basilisk_mtb():
+    R = dcm_from_mrp(BSK["mtb_sigma"])
+    out = ResidualDipole(BSK["mtb_dipole"]).evaluate(R, BSK["mtb_B"])
+    assert rel_err(out["tau_residual_dipole_B"], BSK["mtb_torque"]) < 1e-9
+
+
+def test_disturbances_add_into_tau_dist_and_keep_their_own():
+    from lgvi.environment._evaluate import evaluate
+
+    drag = FacetDrag([0.1], [[1.0, 0.0, 0.0]], [[0.0, 0.05, 0.0]])
+    kind = COMPONENT_KINDS["facet_drag"]
+    assert kind.writes[:2] == ("tau_facet_drag_B", "tau_dist_B")
+    out = evaluate(drag, 0.0, R=np.eye(3), density=1e-12, v_rel_N=[7500.0, 0.0, 0.0])
+    np.testing.assert_array_equal(out["tau_dist_B"], out["tau_facet_drag_B"])
+    assert out["tau_facet_drag_B"][0, 2] == pytest.approx(-0.05 * (-0.5 * 1e-12 * 7500.0 ** 2 * 2.2 * 0.1))
+
+
+def test_per_member_rows():
+    area = np.array([[0.06, 0.03], [0.07, 0.02]])
+    normal = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+    centre = [[0.1, 0.0, 0.0], [0.0, 0.05, 0.02]]
+    ens = FacetDrag(area, normal, centre, drag_coefficient=[[2.2, 2.1], [2.3, 2.0]])
+    rows = ens.params()
+    assert rows.shape == (2, 17)
+    for i in range(2):
+        one = FacetDrag(area[i], normal, centre, drag_coefficient=[[2.2, 2.1], [2.3, 2.0]][i])
+        np.testing.assert_array_equal(rows[i], one.params())
+    m = ResidualDipole([[0.01, 0.0, 0.0], [0.0, 0.02, 0.0]])
+    assert m.params().shape == (2, 3)
+    spec = np.array([[0.2, 0.3], [0.4, 0.1]])
+    srp = FacetSRP(area, normal, centre, absorbed=0.5, specular=spec, diffuse=0.5 - spec)
+    assert srp.params().shape == (2, 4 + 18)
+    np.testing.assert_allclose(srp.params()[1, 4 + 7:4 + 9], [0.4, 0.1], rtol=1e-15)
+
+
+def test_kinds_registered():
+    for name, family, code in (("sun", "environment", 100), ("shadow", "environment", 101),
+                               ("exponential_atmosphere", "environment", 110),
+                               ("tabulated_atmosphere", "environment", 111), ("facet_drag", "disturbance", 200),
+                               ("facet_srp", "disturbance", 201), ("residual_dipole", "disturbance", 202)):
+        k = COMPONENT_KINDS[name]
+        assert (k.family, k.code) == (family, code)
+
+
+def test_loop_scenario_fixture_environment_is_lgvis():
+    """The Basilisk side of the tumbling-6U scenario (benchmarks/basilisk_loop_scenario.py, for the
+    loop's end-to-end test): along its orbit, lgvi's sun and shadow, exponential atmosphere and
+    centred dipole turned by the GMST give Basilisk's recorded shadow, density and field."""
+    from lgvi.environment import CentredDipole
+
+    d = np.load(ROOT / "benchmarks" / "basilisk_loop_scenario.npz")
+    t, r = d["t"], d["r"]
+    epoch = dt.datetime.fromisoformat(str(d["epoch"]))
+    atm = ExponentialAtmosphere(float(d["rho0"]), float(d["H"]), planet_radius=float(d["planet_radius"]))
+    np.testing.assert_allclose(atm.evaluate(r)["density"], d["density"], rtol=1e-12)
+    sun = Sun(epoch).evaluate(t, r)
+    f = Shadow("conical", planet_radius=6378136.6, sun_radius=float(d["R_sun"])).evaluate(r, sun["sun_N"],
+                                                                                         sun["sun_distance"])
+    assert np.max(np.abs(f - d["shadow"])) < 1e-9
+    assert np.sum(d["shadow"] == 0.0) > 150 and np.sum((d["shadow"] > 0.0) & (d["shadow"] < 1.0)) >= 1
+    th = gmst(epoch, t)
+    c, s = np.cos(th), np.sin(th)
+    r_ecef = np.stack([c * r[:, 0] + s * r[:, 1], -s * r[:, 0] + c * r[:, 1], r[:, 2]], -1)
+    b = np.array([CentredDipole(*d["g10_g11_h11"]).ecef(x, 2026.0) for x in r_ecef])
+    b_N = np.stack([c * b[:, 0] - s * b[:, 1], s * b[:, 0] + c * b[:, 1], b[:, 2]], -1)
+    assert rel_err(b_N, d["B_N"]) < 1e-9
+
+
+def test_a_value_that_is_not_finite_stops_with_status_1():
+    """A component never leaves garbage on the bus silently: NaN in, status 1 out (the loop stops)."""
+    epoch = dt.datetime(2026, 3, 20)
+    with pytest.raises(ValueError, match=r"sun: status 1 \(wrote a value that is not finite\) at point 0"):
+        Sun(epoch).evaluate(0.0, [np.nan, 0.0, 0.0])
+    drag = FacetDrag([0.1], [[1.0, 0.0, 0.0]], [[0.0, 0.05, 0.0]])
+    with pytest.raises(ValueError, match=r"facet_drag: status 1"):
+        drag.evaluate(np.eye(3), np.nan, [7500.0, 0.0, 0.0])
+    srp = FacetSRP([0.1], [[1.0, 0.0, 0.0]], [[0.0, 0.05, 0.0]], absorbed=0.5, specular=0.3, diffuse=0.2)
+    with pytest.raises(ValueError, match=r"facet_srp: status 1"):
+        srp.evaluate(np.eye(3), [1.0, 0.0, 0.0], 1.496e11, np.nan)
+    with pytest.raises(ValueError, match=r"residual_dipole: status 1"):
+        ResidualDipole([0.01, 0.0, 0.0]).evaluate(np.eye(3), [0.0, np.inf, 0.0])
+    with pytest.raises(ValueError, match=r"shadow: status 1"):
+        Shadow().evaluate([np.nan, 0.0, 0.0], [1.0, 0.0, 0.0], 1.496e11)
