@@ -12,7 +12,8 @@ p: 0 sigma_v (ARW, rad/s^0.5), 1 sigma_u (RRW, rad/s^1.5), 2 star tracker sigma 
    boresight (rad), 3 sigma about it (rad), 4..12 star tracker case -> body (row-major),
    13 magnetometer sigma (T), 14 sun sensor sigma (rad), 15 use the star tracker (0/1),
    16 use the magnetometer, 17 use the sun sensor, 18 largest admissible covariance diagonal
-   (beyond it, or not finite: status 2)
+   (beyond it, or not finite: status 2), 19 the gyro's output (0: rates at the samples, propagated
+   by the trapezoid; 1: mean rates over each sample interval, propagated as constant)
 s: 0..3 q, 4..6 b, 7..42 P (6x6 row-major), 43 time of the last run (NaN before the first),
    44..46 the gyro sample of the last run, 47..49 times of the last star tracker, magnetometer and
    sun measurements used (each measurement is used once)
@@ -200,8 +201,12 @@ def mekf_step(t, bus, p, s, w):
     if s[43] == s[43]:            # not the first run: propagate from the last one
         dt = t - s[43]
         if dt > 0.0:
-            propagate(s, s[44] - s[4], s[45] - s[5], s[46] - s[6], mx - s[4], my - s[5], mz - s[6], dt,
-                      p[0] * p[0], p[1] * p[1])
+            if p[19] != 0.0:      # the sample is the mean rate over (t - dt, t]: a constant rate
+                propagate(s, mx - s[4], my - s[5], mz - s[6], mx - s[4], my - s[5], mz - s[6], dt,
+                          p[0] * p[0], p[1] * p[1])
+            else:                 # rates at the samples: the trapezoid and its commutator term
+                propagate(s, s[44] - s[4], s[45] - s[5], s[46] - s[6], mx - s[4], my - s[5], mz - s[6], dt,
+                          p[0] * p[0], p[1] * p[1])
     s[43] = t
     s[44] = mx
     s[45] = my

@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 
 from .._jit import jit
-from .attitude_kernels import mat_t_vec, mat_vec, quat_from_matrix, quat_from_rotvec, quat_mul
+from .attitude_kernels import mat_t_vec, mat_vec, quat_from_matrix, quat_from_rotvec, quat_mul, quat_rotvec
 from .random import normal_pair, stream_key
 
 GYRO = 301
@@ -43,12 +43,15 @@ def saturate(x, limit):
 
 
 # --------------------------------------------------------------------------------------------------
-# gyro (Basilisk imuSensor's rate channel), reads omega; writes gyro_B, gyro_bias
+# gyro (Basilisk imuSensor's rate channel), reads omega, R; writes gyro_B, gyro_bias
 # p: 0 seed, 1 stream, 2 dt (sample period, s), 3 sigma_v (ARW, rad/s^0.5), 4 sigma_u (RRW,
 #    rad/s^1.5), 5..13 M (body -> gyro axes, row-major; misalignment), 14..16 constant bias (rad/s),
 #    17..19 scale factor (multiplies, Basilisk's gyroScale), 20 saturation (rad/s, inf: none),
-#    21 LSB (rad/s, 0: none), 22 rounding (0 towards zero, 1 nearest)
-# s: 0 counter (normal pairs), 1..3 rate-random-walk part of the bias (rad/s)
+#    21 LSB (rad/s, 0: none), 22 rounding (0 towards zero, 1 nearest), 23 output (0: the rate at the
+#    sample, Basilisk's omega_PN_P; 1: the mean rate over the sample interval, log(R_prev^T R) / dt,
+#    Basilisk's prv_PN / dt; the first sample gives the rate)
+# s: 0 counter (normal pairs), 1..3 rate-random-walk part of the bias (rad/s), 4..12 R at the last
+#    sample, 13: 1 once a sample was taken
 # --------------------------------------------------------------------------------------------------
 @jit
 def gyro_step(t, bus, p, s, w):
@@ -62,16 +65,31 @@ def gyro_step(t, bus, p, s, w):
     sv = p[3] / math.sqrt(dt)               # white rate noise of the sample: ARW / sqrt(dt)
     su = p[4] * math.sqrt(dt)               # bias increment over a sample: RRW sqrt(dt)
     o = w[0]
-    x, y, z = mat_vec(p, 5, bus[o], bus[o + 1], bus[o + 2])
+    x, y, z = bus[o], bus[o + 1], bus[o + 2]
+    if p[23] != 0.0:
+        r = w[1]
+        if s[13] != 0.0:
+            # the rotation vector of R_prev^T R over the sample period: the mean rate, exactly
+            e0, e1, e2, e3 = quat_from_matrix(s, 4)
+            f0, f1, f2, f3 = quat_from_matrix(bus, r)
+            d0, d1, d2, d3 = quat_mul(-e0, -e1, -e2, e3, f0, f1, f2, f3)
+            x, y, z = quat_rotvec(d0, d1, d2, d3)
+            x /= dt
+            y /= dt
+            z /= dt
+        for i in range(9):
+            s[4 + i] = bus[r + i]
+        s[13] = 1.0
+    x, y, z = mat_vec(p, 5, x, y, z)
     b0 = p[14] + s[1]
     b1 = p[15] + s[2]
     b2 = p[16] + s[3]
-    g = w[1]
+    g = w[2]
     near = p[22] != 0.0
     bus[g] = saturate(quantise(p[17] * (x + b0 + sv * n0), p[21], near), p[20])
     bus[g + 1] = saturate(quantise(p[18] * (y + b1 + sv * n1), p[21], near), p[20])
     bus[g + 2] = saturate(quantise(p[19] * (z + b2 + sv * n2), p[21], near), p[20])
-    b = w[2]
+    b = w[3]
     bus[b] = b0
     bus[b + 1] = b1
     bus[b + 2] = b2

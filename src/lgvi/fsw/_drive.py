@@ -47,12 +47,14 @@ def bus_layout(components: list[Any]) -> dict[str, tuple[int, int]]:
 
 
 def run_components(components: list[Any], truth: dict[str, Any], h: float, *, record: list[str],
-                   t0: float = 0.0, constants: dict[str, Any] | None = None) -> ComponentRun:
+                   t0: float = 0.0, constants: dict[str, Any] | None = None,
+                   record_state: dict[str, tuple[int, Any]] | None = None) -> ComponentRun:
     """Run ``components`` (sensors then estimators, in the order given) on the truth rows.
 
     ``truth``: signal name -> ``(n, size)`` array, one row a dynamics step of ``h`` seconds (``R`` as
     ``(n, 3, 3)`` is accepted); ``constants``: signal name -> value held on the bus throughout;
-    ``record``: the signals copied out after every row.
+    ``record``: the signals copied out after every row; ``record_state``: name -> (component index,
+    indices into its state), copied out after every row too (in ``records`` under that name).
     """
     layout = bus_layout(components)
     nbus = sum(size for _, size in layout.values())
@@ -97,11 +99,23 @@ def run_components(components: list[Any], truth: dict[str, Any], h: float, *, re
         o, size = layout[name]
         rec_off.extend(range(o, o + size))
         rec_names.append((name, size))
+    rec_comp, rec_s, s_names = [], [], []
+    for name, (c, idx) in (record_state or {}).items():
+        idx = np.atleast_1d(np.asarray(idx, dtype=np.int64))
+        rec_comp.extend([c] * idx.size)
+        rec_s.extend(idx.tolist())
+        s_names.append((name, idx.size))
     out = np.full((n, len(rec_off)), np.nan)
+    out_s = np.full((n, len(rec_s)), np.nan)
     k, status = _run(table, np.array(offs, dtype=np.int64), float(t0), float(h), codes, periods, P, S, W, bus,
-                     np.array(rec_off, dtype=np.int64), out)
+                     np.array(rec_off, dtype=np.int64), out, np.array(rec_comp, dtype=np.int64),
+                     np.array(rec_s, dtype=np.int64), out_s)
     records, j = {}, 0
     for name, size in rec_names:
         records[name] = out[:, j:j + size]
+        j += size
+    j = 0
+    for name, size in s_names:
+        records[name] = out_s[:, j:j + size]
         j += size
     return ComponentRun(records, int(k), int(status), [S[i, :states[i].size].copy() for i in range(len(components))])

@@ -16,10 +16,10 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import _short, as_float, as_float_array, as_rotation
+from .._validation import as_float, as_float_array, as_rotation
 from ..components import ComponentKind, Signal, register_kind
 from .._kernels import estimation_components as _k
-from ..spacecraft.sensors import MAG_TIME, ST_TIME, SUN_TIME, StarTracker
+from ..spacecraft.sensors import MAG_TIME, ST_TIME, SUN_TIME, StarTracker, describe
 
 __all__ = ["triad", "davenport", "MEKF", "EST_ERROR"]
 
@@ -33,7 +33,7 @@ def _unit_rows(v: Any, name: str, n: int | None = None) -> np.ndarray:
     arr = as_float_array(v, name, (n, 3))
     norms = np.linalg.norm(arr, axis=1)
     if (norms == 0.0).any():
-        raise ValueError(f"{name} must hold non-zero vectors, got {_short(arr)}")
+        raise ValueError(f"{name} must hold non-zero vectors, got {describe(arr)}")
     return arr / norms[:, None]
 
 
@@ -41,7 +41,7 @@ def _triad_frame(a: np.ndarray, b: np.ndarray, name: str) -> np.ndarray:
     c = np.cross(a, b)
     s = np.linalg.norm(c)
     if s < _PARALLEL:
-        raise ValueError(f"{name} must hold two vectors that are not parallel, got {_short(np.stack([a, b]))} "
+        raise ValueError(f"{name} must hold two vectors that are not parallel, got {describe(np.stack([a, b]))} "
                          f"(|v1 x v2| = {s:.3g} for unit vectors; TRIAD needs two directions)")
     c /= s
     return np.column_stack([a, c, np.cross(a, c)])
@@ -91,7 +91,7 @@ def davenport(body: Any, reference: Any, weights: Any = None) -> np.ndarray:
         raise ValueError(f"body must hold at least two vectors, got {b.shape[0]}")
     w = np.ones(b.shape[0]) if weights is None else as_float_array(weights, "weights", (b.shape[0],))
     if (w < 0.0).any():
-        raise ValueError(f"weights must be nonnegative, got {_short(w)}")
+        raise ValueError(f"weights must be nonnegative, got {describe(w)}")
     B = (w[:, None] * r).T @ b
     S = B + B.T
     z = np.array([B[1, 2] - B[2, 1], B[2, 0] - B[0, 2], B[0, 1] - B[1, 0]])
@@ -120,12 +120,12 @@ def _spd(value: Any, name: str, n: int) -> np.ndarray:
     if arr.shape != (n, n):
         raise ValueError(f"{name} must have shape ({n},) (a diagonal) or ({n}, {n}), got shape {arr.shape}")
     if not np.allclose(arr, arr.T, rtol=1e-12, atol=0.0):
-        raise ValueError(f"{name} must be symmetric positive definite: it is not symmetric, got {_short(arr)}")
+        raise ValueError(f"{name} must be symmetric positive definite: it is not symmetric, got {describe(arr)}")
     try:
         np.linalg.cholesky(arr)
     except np.linalg.LinAlgError:
         raise ValueError(f"{name} must be symmetric positive definite, got eigenvalues "
-                         f"{_short(np.linalg.eigvalsh(arr))}") from None
+                         f"{describe(np.linalg.eigvalsh(arr))}") from None
     return 0.5 * (arr + arr.T)
 
 
@@ -155,13 +155,16 @@ class MEKF:
     P0 : (6,) diagonal or (6, 6) symmetric positive definite initial covariance (rad^2, (rad/s)^2).
     max_variance : float
         A covariance diagonal entry above this (or not finite) stops the run with status 2.
+    gyro_output : ``"rate"`` or ``"mean"``, as the gyro's ``output``: rates at the samples are
+        propagated by the trapezoid (with its commutator term), mean rates as constant over the
+        interval (exact for the truth).
     """
 
     kind = "mekf"
 
     def __init__(self, *, rate: float | None = None, arw: float, rrw: float, star_tracker: StarTracker | None = None,
                  mag_sigma: float | None = None, sun_sigma: float | None = None, R0: Any = None,
-                 bias0: Any = (0.0, 0.0, 0.0), P0: Any, max_variance: float = 1e6) -> None:
+                 bias0: Any = (0.0, 0.0, 0.0), P0: Any, max_variance: float = 1e6, gyro_output: str = "rate") -> None:
         self.rate = None if rate is None else as_float(rate, "rate", positive=True)
         self.arw = as_float(arw, "arw")
         self.rrw = as_float(rrw, "rrw")
@@ -180,6 +183,9 @@ class MEKF:
         self.bias0 = as_float_array(bias0, "bias0", (3,))
         self.P0 = _spd(P0, "P0", 6)
         self.max_variance = as_float(max_variance, "max_variance", positive=True)
+        if gyro_output not in ("rate", "mean"):
+            raise ValueError(f"gyro_output must be 'rate' or 'mean' (the gyro's output), got {gyro_output!r}")
+        self.gyro_output = gyro_output
 
     def params(self) -> np.ndarray:
         st = self.star_tracker
@@ -188,7 +194,7 @@ class MEKF:
                                 0.0 if st is None else st.sigma_about], case.ravel(),
                                [self.mag_sigma or 0.0, self.sun_sigma or 0.0, float(st is not None),
                                 float(self.mag_sigma is not None), float(self.sun_sigma is not None),
-                                self.max_variance]])
+                                self.max_variance, float(self.gyro_output == "mean")]])
 
     def state0(self) -> np.ndarray:
         from scipy.spatial.transform import Rotation

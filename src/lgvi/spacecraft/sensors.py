@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import _short, as_float, as_float_array, as_rotation
+from .._validation import as_float, as_float_array, as_rotation
 from ..so3 import exp as _so3_exp
 from ..components import ComponentKind, Signal, register_kind
 from .._kernels import sensor_components as _k
@@ -39,6 +39,11 @@ SUN_TIME = Signal("sun_time", 1, "s", "-", "time of the fine sun sensor measurem
 _MAX_SEED = 2 ** 53
 
 
+def describe(value: Any) -> str:
+    """A short rendering of a value for error messages."""
+    return np.array2string(np.asarray(value), precision=6, threshold=12) if np.ndim(value) else repr(value)
+
+
 def period_steps(rate: float, h: float, name: str = "rate") -> int:
     """The whole number of dynamics steps ``h`` in the sample period ``rate``; any other rate is refused."""
     rate = as_float(rate, name, positive=True)
@@ -53,9 +58,9 @@ def period_steps(rate: float, h: float, name: str = "rate") -> int:
 def _seeds(seed: Any) -> np.ndarray:
     arr = np.asarray(seed)
     if arr.dtype == bool or not np.issubdtype(arr.dtype, np.integer) or arr.ndim > 1:
-        raise TypeError(f"seed must be an integer or a 1-D sequence of integers (one per member), got {_short(seed)}")
+        raise TypeError(f"seed must be an integer or a 1-D sequence of integers (one per member), got {describe(seed)}")
     if (arr < 0).any() or (arr >= _MAX_SEED).any():
-        raise ValueError(f"seed must lie in [0, 2^53), got {_short(seed)}")
+        raise ValueError(f"seed must lie in [0, 2^53), got {describe(seed)}")
     return arr.astype(np.float64)
 
 
@@ -93,7 +98,7 @@ class Sensor:
         self.seed = _seeds(seed)
         if isinstance(stream, (bool, np.bool_)) or not isinstance(stream, (int, np.integer)) \
                 or not 0 <= stream < _MAX_SEED:
-            raise ValueError(f"stream must be an integer in [0, 2^53), got {_short(stream)}")
+            raise ValueError(f"stream must be an integer in [0, 2^53), got {describe(stream)}")
         self.stream = int(stream)
 
     def _row(self, rest: np.ndarray) -> np.ndarray:
@@ -138,6 +143,10 @@ class Gyro(Sensor):
     misalignment : (3,) rotation vector or (3, 3) matrix taking body components to gyro axes
         (any invertible matrix: non-orthogonal axes too); None: aligned.
     saturation : float, rad/s (None: none).  lsb : float, rad/s (None: no quantisation).
+    output : ``"rate"`` (the rate at the sample, Basilisk's ``omega_PN_P``) or ``"mean"`` (the mean
+        rate over the sample interval, ``log(R_prev^T R) / dt``: Basilisk's ``prv_PN / dt``, an
+        integrating gyro; the first sample gives the rate). The MEKF propagates either exactly as
+        its ``gyro_output`` says.
     seed, stream : the random stream.
     """
 
@@ -145,7 +154,8 @@ class Gyro(Sensor):
 
     def __init__(self, *, rate: float, arw: float = 0.0, rrw: float = 0.0, bias: Any = (0.0, 0.0, 0.0),
                  scale: Any = 1.0, misalignment: Any = None, saturation: float | None = None,
-                 lsb: float | None = None, rounding: str = "zero", seed: Any = 0, stream: int = 1) -> None:
+                 lsb: float | None = None, rounding: str = "zero", output: str = "rate", seed: Any = 0,
+                 stream: int = 1) -> None:
         super().__init__(rate, seed, stream)
         self.arw = _density(arw, "arw")
         self.rrw = _density(rrw, "rrw")
@@ -153,11 +163,11 @@ class Gyro(Sensor):
         self.scale = np.broadcast_to(as_float_array(scale, "scale"), (3,)).astype(float) \
             if np.ndim(scale) == 0 else as_float_array(scale, "scale", (3,))
         if (self.scale == 0.0).any():
-            raise ValueError(f"scale must be non-zero on each axis, got {_short(self.scale)}")
+            raise ValueError(f"scale must be non-zero on each axis, got {describe(self.scale)}")
         if misalignment is not None and np.shape(misalignment) == (3, 3):
             M = as_float_array(misalignment, "misalignment", (3, 3))
             if abs(np.linalg.det(M)) < 1e-12:
-                raise ValueError(f"misalignment must be an invertible matrix, got {_short(M)}")
+                raise ValueError(f"misalignment must be an invertible matrix, got {describe(M)}")
             self.misalignment = M
         else:
             self.misalignment = _frame(misalignment, "misalignment").T     # body -> gyro axes
@@ -166,14 +176,19 @@ class Gyro(Sensor):
         if rounding not in ("zero", "nearest"):
             raise ValueError(f"rounding must be 'zero' or 'nearest', got {rounding!r}")
         self.rounding = rounding
+        if output not in ("rate", "mean"):
+            raise ValueError(f"output must be 'rate' (the rate at the sample) or 'mean' (the mean rate over the "
+                             f"sample interval), got {output!r}")
+        self.output = output
 
     def params(self) -> np.ndarray:
         return self._row(np.concatenate([[self.rate, self.arw, self.rrw], self.misalignment.ravel(), self.bias,
                                          self.scale, [self.saturation, self.lsb,
-                                                      float(self.rounding == "nearest")]]))
+                                                      float(self.rounding == "nearest"),
+                                                      float(self.output == "mean")]]))
 
     def state0(self) -> np.ndarray:
-        return np.zeros(4)
+        return np.zeros(14)
 
 
 class StarTracker(Sensor):
@@ -252,7 +267,7 @@ class CoarseSunSensors(Sensor):
             raise ValueError("normals must hold at least one head, got none")
         norms = np.linalg.norm(n, axis=1)
         if (norms == 0.0).any():
-            raise ValueError(f"normals must be non-zero vectors, got {_short(n)}")
+            raise ValueError(f"normals must be non-zero vectors, got {describe(n)}")
         self.normals = n / norms[:, None]
         self.sigma = _density(sigma, "sigma")
         self.scale = as_float(scale, "scale", positive=True)
@@ -290,7 +305,7 @@ class FineSunSensor(Sensor):
 
 
 def _register() -> None:
-    register_kind(ComponentKind("gyro", "sensor", _k.GYRO, _k.gyro_step, ("omega",), ("gyro_B", "gyro_bias"),
+    register_kind(ComponentKind("gyro", "sensor", _k.GYRO, _k.gyro_step, ("omega", "R"), ("gyro_B", "gyro_bias"),
                                 cls=Gyro, own=(GYRO_BIAS,), doc=Gyro.__doc__.splitlines()[0]))
     register_kind(ComponentKind("star_tracker", "sensor", _k.STAR_TRACKER, _k.star_tracker_step,
                                 ("R", "sun_N", "r_N"), ("st_q", "st_valid", "st_time"), cls=StarTracker,

@@ -1,0 +1,220 @@
+"""Attitude estimation (issue 27): TRIAD and Davenport's q-method against SciPy, and the MEKF as a
+compiled component on truth trajectories from ``lgvi.simulate`` (statistics over 100 seeded
+members: NEES in its 95% chi-square band, convergence from 10 degrees, 3-sigma coverage).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+from scipy.spatial.transform import Rotation
+
+import lgvi
+from lgvi import components
+from lgvi.fsw import MEKF, davenport, triad
+from lgvi.fsw._drive import run_components
+from lgvi.spacecraft import FineSunSensor, Gyro, Magnetometer, StarTracker
+
+# ------------------------------------------------------------------------------------------------
+# static attitude determination
+# ------------------------------------------------------------------------------------------------
+ROTATIONS = [Rotation.identity(), Rotation.from_rotvec([1e-9, -2e-9, 3e-9]),
+             Rotation.from_rotvec(np.array([2.0, -1.0, 2.0]) / 3.0 * (math.pi - 1e-7)),
+             Rotation.from_rotvec([0.0, 0.0, math.pi]), Rotation.from_rotvec([0.7, -1.9, 0.4])]
+
+
+@pytest.mark.parametrize("rot", ROTATIONS, ids=["identity", "near-identity", "near-pi", "pi", "generic"])
+def test_triad_equals_scipy_align_vectors_with_a_primary_vector(rot):
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        r = rng.normal(size=(2, 3)) * rng.uniform(0.1, 10.0, size=(2, 1))
+        b = rot.inv().apply(r) + rng.normal(scale=1e-3, size=(2, 3))          # noisy body measurements
+        ref, _ = Rotation.align_vectors(r, b, weights=[np.inf, 1.0])
+        np.testing.assert_allclose(triad(b, r), ref.as_matrix(), rtol=0, atol=1e-12)
+    exact = rot.inv().apply(r)
+    np.testing.assert_allclose(triad(exact, r), rot.as_matrix(), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("rot", ROTATIONS, ids=["identity", "near-identity", "near-pi", "pi", "generic"])
+def test_davenport_equals_scipy_align_vectors(rot):
+    rng = np.random.default_rng(2)
+    for n in (2, 3, 7):
+        r = rng.normal(size=(n, 3))
+        b = rot.inv().apply(r) + rng.normal(scale=1e-2, size=(n, 3))
+        w = rng.uniform(0.1, 3.0, size=n)
+        ref, _ = Rotation.align_vectors(r, b, weights=w)
+        np.testing.assert_allclose(davenport(b, r, w), ref.as_matrix(), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(davenport(rot.inv().apply(r), r), rot.as_matrix(), rtol=0, atol=1e-12)
+
+
+def test_static_solvers_refuse_parallel_vectors():
+    with pytest.raises(ValueError, match=r"(?s)body must hold two vectors that are not parallel.*TRIAD"):
+        triad([[1.0, 0.0, 0.0], [2.0, 1e-12, 0.0]], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    with pytest.raises(ValueError, match=r"reference must hold two vectors that are not parallel"):
+        triad([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], [[0.0, 0.0, 1.0], [0.0, 0.0, -3.0]])
+    with pytest.raises(ValueError, match=r"undetermined"):
+        davenport([[1.0, 0.0, 0.0], [2.0, 0.0, 0.0]], [[0.0, 1.0, 0.0], [0.0, 2.0, 0.0]])
+
+
+# ------------------------------------------------------------------------------------------------
+# the MEKF
+# ------------------------------------------------------------------------------------------------
+H = 0.1                 # dynamics step, gyro and filter period (s)
+ARW, RRW = 1e-4, 1e-5   # rad/s^0.5, rad/s^1.5 (a MEMS-grade gyro)
+ST_CROSS, ST_ABOUT = 5e-5, 4e-4
+BIAS_SD = 1e-4          # rad/s, the spread of the true constant biases (and the filter's prior)
+BODY = lgvi.RigidBody([0.03, 0.04, 0.05])   # a 6U-like inertia, kg m^2
+CASE = Rotation.from_rotvec([0.3, 1.2, -0.5]).as_matrix()
+STEPS = 1200            # 120 s
+MEMBERS = 100
+
+
+def truth(omega0):
+    R0 = Rotation.from_rotvec([0.4, -0.3, 1.0]).as_matrix()
+    traj = lgvi.simulate(BODY, R0, omega0=omega0, h=H, steps=STEPS - 1)
+    return {"R": traj.R.reshape(STEPS, 9), "omega": traj.omega}
+
+
+TUMBLING = [0.1, -0.2, 0.15]
+POINTING = [0.0, -1.1e-3, 0.0]      # an Earth-pointing rate
+
+
+def member(tr, seed, *, att_sd, output="mean", sensors="st", st_rate=0.5, **mekf_kw):
+    """One member: gyro and star tracker (or magnetometer and sun sensor) with their own streams,
+    a random true bias and a random initial attitude error, both drawn from the filter's prior."""
+    rng = np.random.default_rng(seed)
+    bias = rng.normal(scale=BIAS_SD, size=3)
+    err0 = rng.normal(scale=att_sd, size=3)
+    R0 = tr["R"][0].reshape(3, 3)
+    gyro = Gyro(rate=H, arw=ARW, rrw=RRW, bias=bias, output=output, seed=seed)
+    comps = [gyro]
+    if sensors == "st":
+        st = StarTracker(rate=st_rate, sigma_cross=ST_CROSS, sigma_about=ST_ABOUT, case=CASE, seed=seed)
+        comps.append(st)
+        kw = dict(star_tracker=st)
+    else:
+        comps += [Magnetometer(rate=0.5, sigma=1e-7, seed=seed), FineSunSensor(rate=1.0, sigma=2e-3, seed=seed)]
+        kw = dict(mag_sigma=1e-7, sun_sigma=2e-3)
+    P0 = np.r_[[att_sd ** 2] * 3, [BIAS_SD ** 2] * 3]
+    est = MEKF(rate=H, arw=ARW, rrw=RRW, R0=R0 @ Rotation.from_rotvec(-err0).as_matrix(), P0=P0,
+               gyro_output=output, **kw, **mekf_kw)
+    comps.append(est)
+    consts = {"B_N": [2e-5, -1e-5, 3.5e-5], "sun_N": np.array([0.6, 0.0, 0.8]), "shadow": 1.0} \
+        if sensors != "st" else None
+    run = run_components(comps, tr, H, record=["est_error", "gyro_bias", "bias_est", "P_diag"],
+                         record_state={"P": (len(comps) - 1, np.arange(7, 43))}, constants=consts)
+    assert run.status == 0 and run.rows == STEPS
+    e = np.concatenate([run.records["est_error"], run.records["gyro_bias"] - run.records["bias_est"]], axis=1)
+    return e, run.records["P"].reshape(-1, 6, 6)
+
+
+def nees(e, P):
+    return np.einsum("ni,ni->n", e, np.linalg.solve(P, e[..., None])[..., 0])
+
+
+@pytest.fixture(scope="module")
+def tumbling():
+    return truth(TUMBLING)
+
+
+@pytest.fixture(scope="module")
+def pointing():
+    return truth(POINTING)
+
+
+@pytest.mark.parametrize("case", ["tumbling", "pointing"])
+def test_mekf_nees_in_the_chi_square_band(case, request):
+    """The NEES of (attitude error, bias error), averaged over 100 members, against chi-square(600)/100,
+    on a tumble at 0.28 rad/s and an Earth-pointing attitude, over the filter's 1200 outputs.
+
+    A consistent filter puts the member-averaged NEES inside the two-sided 95% band 95% of the time
+    *on average*: "at least 95%" (the issue's words) would fail half the runs of a perfect filter.
+    Because the errors (the bias's above all) are correlated over tens of seconds, the fraction over
+    one run scatters: 0.92-0.96 over 8 seed sets of this setup (benchmarks/bench_estimation.py
+    --nees prints it for more). The test asks for >= 90% inside, and for the mean NEES over the run
+    within 5% of 6 (measured: 5.88-6.15 over those seed sets; a process noise off by a factor 2 moves
+    it by 20% or more).
+    """
+    tr = request.getfixturevalue(case)
+    total = np.zeros(STEPS)
+    for seed in range(MEMBERS):
+        e, P = member(tr, 1000 + seed, att_sd=math.radians(1.0))
+        total += nees(e, P)
+    avg = total / MEMBERS
+    lo, hi = stats.chi2.ppf([0.025, 0.975], 6 * MEMBERS) / MEMBERS
+    inside = np.mean((avg >= lo) & (avg <= hi))
+    assert inside >= 0.90, (inside, avg.mean(), lo, hi)
+    assert abs(avg.mean() / 6.0 - 1.0) < 0.05, avg.mean()
+
+
+def test_mekf_converges_from_ten_degrees_and_its_three_sigma_bounds_cover_the_error(tumbling):
+    """From a 10-degree prior (initial errors of 10 degrees per axis, drawn from it).
+
+    With the star tracker (a linear update): the error lies inside the filter's own 3-sigma bounds
+    at >= 99% of all outputs from the first (99.7% for a consistent filter).
+
+    With the magnetometer (2 Hz) and the fine sun sensor (1 Hz) only, the first updates are far from
+    linear and, as any EKF's, leave the filter overconfident for a while (the RMS of error / sigma is
+    4 at 30 s, 2 at 60 s, 1.05 at 105 s; from a 1-degree prior it is 1.0 throughout): after 30 s
+    the attitude sigma is below 0.5 degree and the error below 3 degrees (converged from 10), and
+    from 105 s on the error matches its sigma (RMS of error / sigma over members, axes and outputs
+    within 20% of 1) and its 3-sigma bounds cover it at >= 99% of the outputs.
+    """
+    covered = []
+    for seed in range(20):
+        e, P = member(tumbling, 2500 + seed, att_sd=math.radians(10.0))
+        covered.append(np.abs(e) <= 3 * np.sqrt(np.einsum("nii->ni", P)))
+    assert np.mean(covered) >= 0.99
+    covered, late, start = [], [], []
+    for seed in range(20):
+        e, P = member(tumbling, 2000 + seed, att_sd=math.radians(10.0), sensors="vectors")
+        sd = np.sqrt(np.einsum("nii->ni", P))
+        err0 = np.random.default_rng(2000 + seed).normal(size=(2, 3))[1] * math.radians(10.0)   # member's draw
+        start.append(np.linalg.norm(err0))
+        assert sd[300:, :3].max() < math.radians(0.5)
+        assert np.linalg.norm(e[300:, :3], axis=1).max() < math.radians(3.0)
+        late.append(e[1050:, :3] / sd[1050:, :3])
+        covered.append(np.abs(e[1050:]) <= 3 * sd[1050:])
+    assert np.median(start) > math.radians(10.0)           # a 10-degree start, per axis
+    assert abs(math.sqrt(np.mean(np.square(late))) - 1.0) < 0.2
+    assert np.mean(covered) >= 0.99
+
+
+def test_mekf_propagation_without_noise_exact_or_second_order(tumbling):
+    """With a noiseless, bias-free gyro and no update: the mean-rate gyro propagated as constant
+    follows the truth to round-off (log(R_prev^T R) / dt is the truth's increment); rates at the
+    samples propagated by the trapezoid follow it to second order (the error over 120 s falls by 4
+    when h is halved: 3e-3 rad at h = 0.1 s)."""
+    R0 = tumbling["R"][0].reshape(3, 3)
+
+    def error(output, tr, h):
+        comps = [Gyro(rate=h, output=output), MEKF(rate=h, arw=ARW, rrw=RRW, R0=R0, P0=np.ones(6) * 1e-6,
+                                                  gyro_output=output)]
+        return np.abs(run_components(comps, tr, h, record=["est_error"]).records["est_error"]).max()
+
+    assert error("mean", tumbling, H) < 1e-12
+    fine = lgvi.simulate(BODY, R0, omega0=TUMBLING, h=H / 2, steps=2 * STEPS - 2)
+    e1 = error("rate", tumbling, H)
+    e2 = error("rate", {"R": fine.R.reshape(-1, 9), "omega": fine.omega}, H / 2)
+    assert 1e-4 < e1 < 1e-2 and 3.6 < e1 / e2 < 4.4
+
+
+def test_mekf_divergence_stops_with_status_2(tumbling):
+    st = StarTracker(sigma_cross=ST_CROSS, sigma_about=ST_ABOUT)
+    comps = [Gyro(rate=H, arw=ARW), st, MEKF(arw=ARW, rrw=RRW, star_tracker=st, P0=np.ones(6) * 1e-4,
+                                              max_variance=1.0)]
+    bad = dict(tumbling)
+    bad["omega"] = tumbling["omega"].copy()
+    bad["omega"][50:] = np.inf               # a gyro gone wild
+    run = run_components(comps, bad, H, record=["R_est"])
+    assert run.status == 2 and run.rows == 50
+    assert np.all(np.isfinite(run.records["R_est"][:50]))
+
+
+def test_mekf_kind_is_registered():
+    kind = components.COMPONENT_KINDS["mekf"]
+    assert kind.family == "estimator" and kind.code == 401 and kind.cls is MEKF
+    assert {"R_est", "omega_est", "bias_est", "P_diag", "est_error"} == set(kind.writes)
