@@ -192,7 +192,7 @@ def vector_update(s, R, bx, by, bz, mx, my, mz, sigma):
     return update(s, H, mx - px, my - py, mz - pz, Rm)
 
 
-@jit
+@jit(inline="always")
 def mekf_step(t, bus, p, s, w):
     g = w[0]
     mx = bus[g]

@@ -16,9 +16,14 @@ constant. For a fixed key the words over ``counter`` are SplitMix64's own output
 ``2^64``); different keys start the sequence at unrelated points.
 
 Uniforms take the top 53 bits: ``u = (floor(u64 / 2^11) + 1/2) 2^-53`` lies in ``(0, 1)``, never 0
-or 1, so ``log(u)`` is finite. Normals come by the Box-Muller transform (exact, not an
-approximation): the pair of uniforms of counters ``2c`` and ``2c + 1`` gives two independent
-standard normals ``sqrt(-2 log u1) (cos 2 pi u2, sin 2 pi u2)``, :func:`normal_pair` (counter ``c``).
+or 1, so ``log(u)`` is finite. Normal number ``c`` comes by the ziggurat method (Marsaglia and
+Tsang 2000, 128 layers, in the form of Doornik 2005), an exact rejection method, not an
+approximation: the word ``c`` gives the layer (its low 7 bits) and a uniform in ``(-1, 1)`` (its top
+53 bits); 98.8% of the draws are accepted at once, the rest (the wedges and the tail beyond
+``r = 3.44262``, by Marsaglia's exponential method) draw further words from a second key,
+at indices ``c 2^20 + m``, so a normal is still a pure function of ``(seed, stream, c)``. The layer
+table is computed at import from ``r`` (the root, to 1e-40, of the 128-layer closure equation) and
+the common area ``v = r f(r) + sqrt(pi/2) erfc(r/sqrt(2))``, ``f(x) = exp(-x^2/2)``.
 
 Seeds and streams are integers in ``[0, 2^53)`` (they travel in float64 rows), counters too.
 """
@@ -41,7 +46,6 @@ _S31 = np.uint64(31)
 _S11 = np.uint64(11)
 _ONE = np.uint64(1)
 _TWO = np.uint64(2)
-_TWO_PI = 2.0 * math.pi
 _INV_2_53 = 1.0 / 9007199254740992.0
 
 
@@ -71,16 +75,69 @@ def uniform_at(key, counter):
     return ((bits_at(key, counter) >> _S11) + 0.5) * _INV_2_53
 
 
+def _ziggurat_table(r: float, n: int) -> np.ndarray:
+    """``x[0..n]``: ``x[0] = v / f(r)`` (the base strip's width), ``x[1] = r``,
+    ``f(x[i+1]) = f(x[i]) + v / x[i]``, ``x[n] = 0``."""
+    f = lambda x: math.exp(-0.5 * x * x)  # noqa: E731
+    v = r * f(r) + math.sqrt(math.pi / 2) * math.erfc(r / math.sqrt(2.0))
+    x = np.empty(n + 1)
+    x[0] = v / f(r)
+    x[1] = r
+    for i in range(1, n - 1):
+        x[i + 1] = math.sqrt(-2.0 * math.log(f(x[i]) + v / x[i]))
+    x[n] = 0.0
+    return x
+
+
+_ZIG_R = 3.4426198558966523
+_ZX = _ziggurat_table(_ZIG_R, 128)
+_ZRATIO = np.array([_ZX[i + 1] / _ZX[i] for i in range(128)])
+_SLOW = np.uint64(0x5851F42D4C957F2D)
+_SHIFT20 = np.uint64(20)
+_LOW7 = np.uint64(127)
+
+
 @jit(inline="always")
-def normal_pair(key, counter):
-    """Two independent standard normals, number ``counter`` of the stream ``key`` (Box-Muller on the
-    uniforms ``2 counter`` and ``2 counter + 1``)."""
-    c = np.uint64(counter) * _TWO
-    u1 = uniform_at(key, c)
-    u2 = uniform_at(key, c + _ONE)
-    r = math.sqrt(-2.0 * math.log(u1))
-    a = _TWO_PI * u2
-    return r * math.cos(a), r * math.sin(a)
+def _signed_uniform(b):
+    """A uniform in (-1, 1) from the top 53 bits of the word ``b``."""
+    return ((b >> _S11) + 0.5) * (2.0 * _INV_2_53) - 1.0
+
+
+@jit(inline="never")
+def _normal_slow(key, counter, u, i):
+    """The rejection part of the ziggurat for a first draw ``(u, i)`` that was not accepted at once."""
+    key2 = mix64(key + _SLOW)
+    m = np.uint64(counter) << _SHIFT20
+    while True:
+        if i == 0:          # the tail beyond r (Marsaglia 1964), with the sign of u
+            while True:
+                a = -math.log(uniform_at(key2, m)) / _ZIG_R
+                b = -math.log(uniform_at(key2, m + _ONE))
+                m += _TWO
+                if 2.0 * b > a * a:
+                    return _ZIG_R + a if u > 0.0 else -_ZIG_R - a
+        x = u * _ZX[i]
+        f0 = math.exp(-0.5 * (_ZX[i] * _ZX[i] - x * x))
+        f1 = math.exp(-0.5 * (_ZX[i + 1] * _ZX[i + 1] - x * x))
+        if f1 + uniform_at(key2, m) * (f0 - f1) < 1.0:
+            return x
+        w = bits_at(key2, m + _ONE)
+        m += _TWO
+        u = _signed_uniform(w)
+        i = np.int64(w & _LOW7)
+        if abs(u) < _ZRATIO[i]:
+            return u * _ZX[i]
+
+
+@jit(inline="always")
+def normal_at(key, counter):
+    """The standard normal number ``counter`` of the stream ``key`` (ziggurat, exact)."""
+    w = bits_at(key, counter)
+    u = _signed_uniform(w)
+    i = np.int64(w & _LOW7)
+    if abs(u) < _ZRATIO[i]:
+        return u * _ZX[i]
+    return _normal_slow(key, counter, u, i)
 
 
 @jit
@@ -95,15 +152,12 @@ def uniforms(seed, stream, counter0, n):
 
 @jit
 def normals(seed, stream, counter0, n):
-    """``2 n`` standard normals of ``(seed, stream)``: the pairs ``counter0 .. counter0 + n - 1``,
-    in order (for tests and tables)."""
+    """``n`` standard normals of ``(seed, stream)`` from counter ``counter0`` (for tests and tables)."""
     key = stream_key(seed, stream)
-    out = np.empty(2 * n)
+    out = np.empty(n)
     for i in range(n):
-        a, b = normal_pair(key, counter0 + i)
-        out[2 * i] = a
-        out[2 * i + 1] = b
+        out[i] = normal_at(key, counter0 + i)
     return out
 
 
-__all__ = ["mix64", "stream_key", "bits_at", "uniform_at", "normal_pair", "uniforms", "normals"]
+__all__ = ["mix64", "stream_key", "bits_at", "uniform_at", "normal_at", "uniforms", "normals"]

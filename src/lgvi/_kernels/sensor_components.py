@@ -5,7 +5,7 @@ Each kind reads the truth (``R``, ``omega``) and the environment (``B_N``, ``sun
 measurement. Parameter rows ``p`` and states ``s`` are laid out by the Python classes of
 :mod:`lgvi.spacecraft.sensors` (the layouts are repeated above each kind). Every random draw comes
 from :mod:`lgvi._kernels.random` with ``(seed, stream) = (p[0], p[1])`` and the counter ``s[0]``
-(counted in normal pairs), so a measurement is a pure function of the member's seed, the sensor's
+(counted in normals), so a measurement is a pure function of the member's seed, the sensor's
 stream and the sample number.
 
 All measurements are taken at the step's time from the truth on the bus ("instantaneous"
@@ -18,7 +18,7 @@ import math
 
 from .._jit import jit
 from .attitude_kernels import mat_t_vec, mat_vec, quat_from_matrix, quat_from_rotvec, quat_mul, quat_rotvec
-from .random import normal_pair, stream_key
+from .random import normal_at, stream_key
 
 GYRO = 301
 STAR_TRACKER = 302
@@ -50,17 +50,20 @@ def saturate(x, limit):
 #    21 LSB (rad/s, 0: none), 22 rounding (0 towards zero, 1 nearest), 23 output (0: the rate at the
 #    sample, Basilisk's omega_PN_P; 1: the mean rate over the sample interval, log(R_prev^T R) / dt,
 #    Basilisk's prv_PN / dt; the first sample gives the rate)
-# s: 0 counter (normal pairs), 1..3 rate-random-walk part of the bias (rad/s), 4..12 R at the last
+# s: 0 counter (normals), 1..3 rate-random-walk part of the bias (rad/s), 4..12 R at the last
 #    sample, 13: 1 once a sample was taken
 # --------------------------------------------------------------------------------------------------
-@jit
+@jit(inline="always")
 def gyro_step(t, bus, p, s, w):
     key = stream_key(p[0], p[1])
     c = s[0]
-    n0, n1 = normal_pair(key, c)
-    n2, n3 = normal_pair(key, c + 1)
-    n4, n5 = normal_pair(key, c + 2)
-    s[0] = c + 3
+    n0 = normal_at(key, c)
+    n1 = normal_at(key, c + 1)
+    n2 = normal_at(key, c + 2)
+    n3 = normal_at(key, c + 3)
+    n4 = normal_at(key, c + 4)
+    n5 = normal_at(key, c + 5)
+    s[0] = c + 6
     dt = p[2]
     sv = p[3] / math.sqrt(dt)               # white rate noise of the sample: ARW / sqrt(dt)
     su = p[4] * math.sqrt(dt)               # bias increment over a sample: RRW sqrt(dt)
@@ -108,7 +111,7 @@ def gyro_step(t, bus, p, s, w):
 # s: 0 counter
 # The measured attitude is R Exp(C e), e = (sx n0, sx n1, sz n2) in the case frame.
 # --------------------------------------------------------------------------------------------------
-@jit
+@jit(inline="always")
 def star_tracker_step(t, bus, p, s, w):
     o = w[0]
     # boresight in N: R C e_z
@@ -134,13 +137,15 @@ def star_tracker_step(t, bus, p, s, w):
             if math.acos(min(max(c, -1.0), 1.0)) < math.asin(p[15] / nr) + p[14]:
                 valid = False
     key = stream_key(p[0], p[1])
-    n0, n1 = normal_pair(key, s[0])
-    n2, n3 = normal_pair(key, s[0] + 1)
-    s[0] += 2
+    c = s[0]
+    s[0] = c + 3
     v = w[4]
     if not valid:
         bus[v] = 0.0
         return 0
+    n0 = normal_at(key, c)
+    n1 = normal_at(key, c + 1)
+    n2 = normal_at(key, c + 2)
     ex, ey, ez = mat_vec(p, 4, p[2] * n0, p[2] * n1, p[3] * n2)
     d0, d1, d2, d3 = quat_from_rotvec(ex, ey, ez)
     q0, q1, q2, q3 = quat_from_matrix(bus, o)
@@ -163,20 +168,19 @@ def star_tracker_step(t, bus, p, s, w):
 #    12..14 bias (T)
 # s: 0 counter
 # --------------------------------------------------------------------------------------------------
-@jit
+@jit(inline="always")
 def magnetometer_step(t, bus, p, s, w):
     o = w[0]
     f = w[1]
     bx, by, bz = mat_t_vec(bus, o, bus[f], bus[f + 1], bus[f + 2])       # R^T B_N
     x, y, z = mat_vec(p, 3, bx, by, bz)
     key = stream_key(p[0], p[1])
-    n0, n1 = normal_pair(key, s[0])
-    n2, n3 = normal_pair(key, s[0] + 1)
-    s[0] += 2
+    c = s[0]
+    s[0] = c + 3
     m = w[2]
-    bus[m] = x + p[12] + p[2] * n0
-    bus[m + 1] = y + p[13] + p[2] * n1
-    bus[m + 2] = z + p[14] + p[2] * n2
+    bus[m] = x + p[12] + p[2] * normal_at(key, c)
+    bus[m + 1] = y + p[13] + p[2] * normal_at(key, c + 1)
+    bus[m + 2] = z + p[14] + p[2] * normal_at(key, c + 2)
     bus[w[3]] = t
     return 0
 
@@ -189,7 +193,7 @@ def magnetometer_step(t, bus, p, s, w):
 # output_i = clip(scale shadow cos(a_i) [cos(a_i) >= max(cos(fov), 0)] + sigma n_i, 0, max)
 # (no albedo: Earth's reflected light is not modelled)
 # --------------------------------------------------------------------------------------------------
-@jit
+@jit(inline="always")
 def coarse_sun_sensors_step(t, bus, p, s, w):
     o = w[0]
     u = w[1]
@@ -199,17 +203,13 @@ def coarse_sun_sensors_step(t, bus, p, s, w):
     N = int(p[3])
     c0 = s[0]
     out = w[3]
-    n1 = 0.0
     for i in range(N):
-        if i % 2 == 0:
-            n0, n1 = normal_pair(key, c0 + i // 2)
-        else:
-            n0 = n1
+        n0 = normal_at(key, c0 + i)
         k = 7 + 3 * i
         c = p[k] * sx + p[k + 1] * sy + p[k + 2] * sz
         signal = lit * c if c >= p[5] and c > 0.0 else 0.0
         bus[out + i] = min(max(p[4] * signal + p[2] * n0, 0.0), p[6])
-    s[0] = c0 + (N + 1) // 2
+    s[0] = c0 + N
     return 0
 
 
@@ -220,15 +220,15 @@ def coarse_sun_sensors_step(t, bus, p, s, w):
 #    (the fraction of the solar disc) for a measurement
 # s: 0 counter
 # --------------------------------------------------------------------------------------------------
-@jit
+@jit(inline="always")
 def fine_sun_sensor_step(t, bus, p, s, w):
     o = w[0]
     u = w[1]
     sx, sy, sz = mat_t_vec(bus, o, bus[u], bus[u + 1], bus[u + 2])       # sun in B
     n = math.sqrt(sx * sx + sy * sy + sz * sz)
     key = stream_key(p[0], p[1])
-    n0, n1 = normal_pair(key, s[0])
-    s[0] += 1
+    c0 = s[0]
+    s[0] = c0 + 2
     v = w[4]
     c = (p[5] * sx + p[8] * sy + p[11] * sz) / n if n > 0.0 else -2.0      # boresight . sun
     if bus[w[2]] < p[13] or c < p[12]:
@@ -255,8 +255,8 @@ def fine_sun_sensor_step(t, bus, p, s, w):
     e2y = sz * e1x - sx * e1z
     e2z = sx * e1y - sy * e1x
     # rotate the sun line by the small angle sigma (n0, n1) across it: exact on the sphere
-    a = p[2] * n0
-    b = p[2] * n1
+    a = p[2] * normal_at(key, c0)
+    b = p[2] * normal_at(key, c0 + 1)
     th = math.sqrt(a * a + b * b)
     if th > 0.0:
         k = math.sin(th) / th
