@@ -171,3 +171,10 @@ def test_splitting_flow_cost_quick():
     proc = _run("splitting_flow_cost.py", "--quick", "--compare", "src", "src")
     _check(proc, "old us/step", "new ns/flow", "new/old", "saba4 h=24 s, gravity gradient", "no torque")
     assert "Traceback" not in proc.stderr
+
+
+def test_bench_estimation_quick():
+    proc = _run("bench_estimation.py", "--quick", "--repeat", "1")
+    _check(proc, "called ns", "gyro (ARW, RRW, bias, misalignment, scale)",
+           "MEKF propagation + star tracker update", "star tracker update alone")
+    assert "Traceback" not in proc.stderr

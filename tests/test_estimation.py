@@ -83,10 +83,10 @@ def test_mekf_nees_in_the_chi_square_band(case, request):
     A consistent filter puts the member-averaged NEES inside the two-sided 95% band 95% of the time
     *on average*: "at least 95%" (the issue's words) would fail half the runs of a perfect filter.
     Because the errors (the bias's above all) are correlated over tens of seconds, the fraction over
-    one run scatters: 0.92-0.96 over 8 seed sets of this setup (benchmarks/bench_estimation.py
-    --nees prints it for more). The test asks for >= 90% inside, and for the mean NEES over the run
-    within 5% of 6 (measured: 5.88-6.15 over those seed sets; a process noise off by a factor 2 moves
-    it by 20% or more).
+    one run scatters: 0.92-0.97 over 8 seed sets of each case (``python benchmarks/bench_estimation.py
+    --nees 8``). The test asks for >= 90% inside, and for the mean NEES over the run within 5% of 6
+    (measured: 5.84-6.12 over those seed sets; a process noise off by a factor 2 moves it by 20% or
+    more).
     """
     tr = request.getfixturevalue(case)
     total = np.zeros(STEPS)
