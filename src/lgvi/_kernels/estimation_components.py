@@ -34,6 +34,18 @@ _P = 7          # offset of P in the state
 
 
 @jit(inline="always")
+def turn(s, x, y, z):
+    """``q <- q Exp((x, y, z))`` for the estimate's quaternion ``s[0:4]``, renormalised."""
+    d0, d1, d2, d3 = quat_from_rotvec(x, y, z)
+    q0, q1, q2, q3 = quat_mul(s[0], s[1], s[2], s[3], d0, d1, d2, d3)
+    q0, q1, q2, q3 = quat_normalised(q0, q1, q2, q3)
+    s[0] = q0
+    s[1] = q1
+    s[2] = q2
+    s[3] = q3
+
+
+@jit(inline="always")
 def propagate(s, ax, ay, az, wx, wy, wz, dt, sv2, su2):
     """Move the estimate and the covariance from ``t`` to ``t + dt`` with the bias-corrected gyro
     samples ``a`` (at ``t``) and ``w`` (at ``t + dt``): the attitude by the rotation vector
@@ -41,13 +53,7 @@ def propagate(s, ax, ay, az, wx, wy, wz, dt, sv2, su2):
     px = 0.5 * dt * (ax + wx) + dt * dt / 12.0 * (ay * wz - az * wy)
     py = 0.5 * dt * (ay + wy) + dt * dt / 12.0 * (az * wx - ax * wz)
     pz = 0.5 * dt * (az + wz) + dt * dt / 12.0 * (ax * wy - ay * wx)
-    d0, d1, d2, d3 = quat_from_rotvec(px, py, pz)
-    q0, q1, q2, q3 = quat_mul(s[0], s[1], s[2], s[3], d0, d1, d2, d3)
-    q0, q1, q2, q3 = quat_normalised(q0, q1, q2, q3)
-    s[0] = q0
-    s[1] = q1
-    s[2] = q2
-    s[3] = q3
+    turn(s, px, py, pz)
     # Phi = [[A, B], [0, I]]: A = Exp(-phi), B = -dt (I - c1 hat(phi) + c2 hat(phi)^2)
     t2 = px * px + py * py + pz * pz
     sa, ca = exp_coefficients(t2)                          # sin t / t, (1 - cos t) / t^2
@@ -162,13 +168,7 @@ def update(s, H, y0, y1, y2, Rm):
     dz = K[2, 0] * y0 + K[2, 1] * y1 + K[2, 2] * y2
     for i in range(3):
         s[4 + i] += K[3 + i, 0] * y0 + K[3 + i, 1] * y1 + K[3 + i, 2] * y2
-    d0, d1, d2, d3 = quat_from_rotvec(dx, dy, dz)
-    q0, q1, q2, q3 = quat_mul(s[0], s[1], s[2], s[3], d0, d1, d2, d3)
-    q0, q1, q2, q3 = quat_normalised(q0, q1, q2, q3)
-    s[0] = q0
-    s[1] = q1
-    s[2] = q2
-    s[3] = q3
+    turn(s, dx, dy, dz)
     return True
 
 

@@ -42,6 +42,13 @@ def saturate(x, limit):
     return min(max(x, -limit), limit)
 
 
+@jit(inline="always")
+def sun_in_body(bus, w):
+    """``R^T sun_N`` for a kind that reads ``R`` then ``sun_N`` (offsets ``w[0]``, ``w[1]``)."""
+    u = w[1]
+    return mat_t_vec(bus, w[0], bus[u], bus[u + 1], bus[u + 2])
+
+
 # --------------------------------------------------------------------------------------------------
 # gyro (Basilisk imuSensor's rate channel), reads omega, R; writes gyro_B, gyro_bias
 # p: 0 seed, 1 stream, 2 dt (sample period, s), 3 sigma_v (ARW, rad/s^0.5), 4 sigma_u (RRW,
@@ -195,9 +202,7 @@ def magnetometer_step(t, bus, p, s, w):
 # --------------------------------------------------------------------------------------------------
 @jit(inline="always")
 def coarse_sun_sensors_step(t, bus, p, s, w):
-    o = w[0]
-    u = w[1]
-    sx, sy, sz = mat_t_vec(bus, o, bus[u], bus[u + 1], bus[u + 2])       # sun in B
+    sx, sy, sz = sun_in_body(bus, w)
     lit = bus[w[2]]
     key = stream_key(p[0], p[1])
     N = int(p[3])
@@ -222,9 +227,7 @@ def coarse_sun_sensors_step(t, bus, p, s, w):
 # --------------------------------------------------------------------------------------------------
 @jit(inline="always")
 def fine_sun_sensor_step(t, bus, p, s, w):
-    o = w[0]
-    u = w[1]
-    sx, sy, sz = mat_t_vec(bus, o, bus[u], bus[u + 1], bus[u + 2])       # sun in B
+    sx, sy, sz = sun_in_body(bus, w)
     n = math.sqrt(sx * sx + sy * sy + sz * sz)
     key = stream_key(p[0], p[1])
     c0 = s[0]
