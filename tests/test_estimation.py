@@ -168,3 +168,48 @@ def test_mekf_kind_is_registered():
     kind = components.COMPONENT_KINDS["mekf"]
     assert kind.family == "estimator" and kind.code == 401 and kind.cls is MEKF
     assert {"R_est", "omega_est", "bias_est", "P_diag", "est_error"} == set(kind.writes)
+
+
+_INTERPRETED = """
+import json, sys
+import numpy as np
+sys.path.insert(0, {tests!r})
+from estimation_cases import H, truth, TUMBLING
+from lgvi.fsw import MEKF
+from lgvi.fsw._drive import run_components
+from lgvi.spacecraft import CoarseSunSensors, FineSunSensor, Gyro, Magnetometer, StarTracker
+tr = {{k: v[:40] for k, v in truth(TUMBLING).items()}}
+st = StarTracker(rate=0.5, sigma_cross=5e-5, sigma_about=4e-4, sun_exclusion=0.2, seed=3)
+comps = [Gyro(rate=H, arw=1e-4, rrw=1e-5, lsb=1e-7, saturation=1.0, output="mean", seed=3), st,
+         Magnetometer(rate=0.2, sigma=1e-7, seed=3), CoarseSunSensors(np.eye(3), sigma=0.01, seed=3),
+         FineSunSensor(rate=0.3, sigma=1e-3, seed=3),
+         MEKF(rate=H, arw=1e-4, rrw=1e-5, star_tracker=st, mag_sigma=1e-7, sun_sigma=1e-3,
+              P0=[1e-3] * 3 + [1e-8] * 3, gyro_output="mean")]
+run = run_components(comps, tr, H, record=["gyro_B", "st_q", "mag_B", "css", "sun_B", "R_est", "P_diag"],
+                     constants={{"B_N": [2e-5, -1e-5, 3.5e-5], "sun_N": [0.6, 0.0, 0.8], "shadow": 1.0}})
+print(json.dumps({{k: v.tolist() for k, v in run.records.items()}}))
+"""
+
+
+def test_components_interpreted_match_compiled():
+    """Every sensor kind and the MEKF run as plain Python (NUMBA_DISABLE_JIT=1) give the compiled
+    records: the random words bit for bit (uint64 arithmetic wraps alike), the floats to round-off."""
+    import json
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    tests = str(Path(__file__).resolve().parent)
+    src = str(Path(lgvi.__file__).resolve().parents[1])
+    script = _INTERPRETED.format(tests=tests)
+    out = {}
+    for flag in ("0", "1"):
+        env = dict(os.environ, NUMBA_DISABLE_JIT=flag, PYTHONPATH=src)
+        proc = subprocess.run([sys.executable, "-W", "ignore", "-c", script], capture_output=True, text=True,
+                              env=env, timeout=600)
+        assert proc.returncode == 0, proc.stderr[-3000:]
+        out[flag] = json.loads(proc.stdout.strip().splitlines()[-1])
+    for name in out["0"]:
+        np.testing.assert_allclose(np.array(out["1"][name]), np.array(out["0"][name]), rtol=1e-12, atol=1e-18,
+                                   err_msg=name)
