@@ -639,7 +639,46 @@ _ROWS += [
      (r"\bcontrol_period\b", r"0\.0125", r"multiple of h/2")),
     ("gyrostat-ensemble-load-not-npz", lambda: _load_ensemble_text(), ValueError,
      (r"ensemble\.npz", r"not an \.npz")),
+    # sensors and estimation (issue 27)
+    ("gyro-arw-negative", lambda: _sensing().Gyro(rate=0.1, arw=-1e-3), ValueError,
+     (r"\barw\b", r"-0\.001", r"nonnegative noise density")),
+    ("gyro-rrw-nan", lambda: _sensing().Gyro(rate=0.1, rrw=NAN), ValueError, (r"\brrw\b", r"nan", r"finite")),
+    ("gyro-rate-zero", lambda: _sensing().Gyro(rate=0.0, arw=1e-3), ValueError,
+     (r"\brate\b", r"0\.0", r"positive")),
+    ("star-tracker-sigma-negative", lambda: _sensing().StarTracker(sigma_cross=-1e-5, sigma_about=1e-5), ValueError,
+     (r"sigma_cross", r"-1e-05", r"nonnegative")),
+    ("magnetometer-sigma-nan", lambda: _sensing().Magnetometer(sigma=NAN), ValueError,
+     (r"\bsigma\b", r"nan", r"finite")),
+    ("css-fov-beyond-90-degrees", lambda: _sensing().CoarseSunSensors([[1.0, 0.0, 0.0]], fov=2.0), ValueError,
+     (r"\bfov\b", r"2\.0", r"angle in \[0, 1\.5708\]")),
+    ("sensor-rate-not-a-multiple-of-h", lambda: _sensing().period_steps(0.25, 0.1), ValueError,
+     (r"\brate\b", r"0\.25", r"whole multiple of the step h = 0\.1")),
+    ("sensor-seed-negative", lambda: _sensing().Gyro(rate=0.1, seed=-1), ValueError,
+     (r"\bseed\b", r"-1", r"\[0, 2\^53\)")),
+    ("triad-parallel-vectors", lambda: _estimation().triad([[1.0, 0.0, 0.0], [-2.0, 0.0, 0.0]],
+                                                           [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]), ValueError,
+     (r"\bbody\b", r"\[\[ ?1\.", r"not parallel")),
+    ("mekf-P0-not-positive-definite",
+     lambda: _estimation().MEKF(arw=1e-4, rrw=1e-6, P0=[1e-4, 1e-4, 1e-4, 1e-8, 1e-8, -1e-9]), ValueError,
+     (r"\bP0\b", r"-1\.?e-09", r"symmetric positive definite")),
+    ("mekf-P0-not-symmetric",
+     lambda: _estimation().MEKF(arw=1e-4, rrw=1e-6, P0=np.eye(6) + np.triu(np.full((6, 6), 1e-3), 1)), ValueError,
+     (r"\bP0\b", r"0\.001", r"not symmetric")),
+    ("mekf-arw-negative", lambda: _estimation().MEKF(arw=-1e-4, rrw=1e-6, P0=np.ones(6)), ValueError,
+     (r"\barw\b", r"-0\.0001", r"nonnegative")),
 ]
+
+
+def _sensing() -> Any:
+    from lgvi.spacecraft import sensors
+
+    return sensors
+
+
+def _estimation() -> Any:
+    from lgvi.fsw import estimation
+
+    return estimation
 
 
 def _load_ensemble_text() -> Any:

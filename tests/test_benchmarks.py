@@ -176,3 +176,10 @@ def test_bench_environment_quick():
     _check(proc, "ns/eval", "sun (series every call)", "shadow (conical)", "facet SRP (10 facets)", "gyrostat step",
            "all together / gyrostat step")
     assert "Traceback" not in proc.stderr
+
+
+def test_bench_estimation_quick():
+    proc = _run("bench_estimation.py", "--quick", "--repeat", "1")
+    _check(proc, "called ns", "gyro (ARW, RRW, bias, misalignment, scale)",
+           "MEKF propagation + star tracker update", "star tracker update alone")
+    assert "Traceback" not in proc.stderr

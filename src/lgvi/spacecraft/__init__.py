@@ -2,5 +2,7 @@
 the compiled loop (:mod:`lgvi.components`)."""
 
 from .disturbances import FacetDrag, FacetSRP, ResidualDipole
+from .sensors import CoarseSunSensors, FineSunSensor, Gyro, Magnetometer, StarTracker
 
-__all__ = ["FacetDrag", "FacetSRP", "ResidualDipole"]
+__all__ = ["FacetDrag", "FacetSRP", "ResidualDipole", "Gyro", "StarTracker", "Magnetometer", "CoarseSunSensors",
+           "FineSunSensor"]

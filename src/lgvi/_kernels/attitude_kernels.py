@@ -1,0 +1,129 @@
+"""Small attitude helpers shared by the sensor and estimator components (scalar arithmetic, no
+allocation): rotation vectors, quaternions (scalar-last, Hamilton product, of the rotation that maps
+body vectors to inertial ones, as lgvi's ``R``) and 3x3 matrices stored row-major in flat slices.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .._jit import jit
+
+
+@jit(inline="always")
+def exp_coefficients(t2):
+    """``sin(t)/t`` and ``(1 - cos t)/t^2`` for ``t2 = t^2``, with Taylor branches near 0."""
+    if t2 < 1e-8:
+        return 1.0 - t2 / 6.0 + t2 * t2 / 120.0, 0.5 - t2 / 24.0 + t2 * t2 / 720.0
+    t = math.sqrt(t2)
+    return math.sin(t) / t, (1.0 - math.cos(t)) / t2
+
+
+@jit(inline="always")
+def quat_from_rotvec(x, y, z):
+    """The unit quaternion ``(qx, qy, qz, qw)`` of the rotation vector ``(x, y, z)`` (Taylor near 0)."""
+    t2 = x * x + y * y + z * z
+    if t2 < 1e-8:
+        c = 0.5 - t2 / 48.0 + t2 * t2 / 3840.0
+        w = 1.0 - t2 / 8.0 + t2 * t2 / 384.0
+    else:
+        t = math.sqrt(t2)
+        c = math.sin(0.5 * t) / t
+        w = math.cos(0.5 * t)
+    return c * x, c * y, c * z, w
+
+
+@jit(inline="always")
+def quat_mul(a0, a1, a2, a3, b0, b1, b2, b3):
+    """The Hamilton product ``a b`` of scalar-last quaternions."""
+    return (a3 * b0 + a0 * b3 + a1 * b2 - a2 * b1,
+            a3 * b1 - a0 * b2 + a1 * b3 + a2 * b0,
+            a3 * b2 + a0 * b1 - a1 * b0 + a2 * b3,
+            a3 * b3 - a0 * b0 - a1 * b1 - a2 * b2)
+
+
+@jit(inline="always")
+def quat_normalised(q0, q1, q2, q3):
+    """``q / |q|`` with the scalar part made nonnegative (one representative of the rotation)."""
+    n = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+    if q3 < 0.0:
+        n = -n
+    return q0 / n, q1 / n, q2 / n, q3 / n
+
+
+@jit(inline="always")
+def quat_to_matrix(q0, q1, q2, q3, out, o):
+    """Write the rotation matrix of the unit quaternion ``q`` into ``out[o:o + 9]`` (row-major)."""
+    out[o + 0] = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
+    out[o + 1] = 2.0 * (q0 * q1 - q2 * q3)
+    out[o + 2] = 2.0 * (q0 * q2 + q1 * q3)
+    out[o + 3] = 2.0 * (q0 * q1 + q2 * q3)
+    out[o + 4] = 1.0 - 2.0 * (q0 * q0 + q2 * q2)
+    out[o + 5] = 2.0 * (q1 * q2 - q0 * q3)
+    out[o + 6] = 2.0 * (q0 * q2 - q1 * q3)
+    out[o + 7] = 2.0 * (q1 * q2 + q0 * q3)
+    out[o + 8] = 1.0 - 2.0 * (q0 * q0 + q1 * q1)
+
+
+@jit(inline="always")
+def quat_from_matrix(R, o):
+    """The quaternion (scalar-last, scalar part >= 0) of the rotation matrix ``R[o:o + 9]``
+    (row-major), by Shepperd's method (the largest of the four candidates, no cancellation)."""
+    r00 = R[o]
+    r11 = R[o + 4]
+    r22 = R[o + 8]
+    tr = r00 + r11 + r22
+    if tr >= r00 and tr >= r11 and tr >= r22:
+        w = 0.5 * math.sqrt(1.0 + tr)
+        f = 0.25 / w
+        x = (R[o + 7] - R[o + 5]) * f
+        y = (R[o + 2] - R[o + 6]) * f
+        z = (R[o + 3] - R[o + 1]) * f
+    elif r00 >= r11 and r00 >= r22:
+        x = 0.5 * math.sqrt(1.0 + 2.0 * r00 - tr)
+        f = 0.25 / x
+        w = (R[o + 7] - R[o + 5]) * f
+        y = (R[o + 1] + R[o + 3]) * f
+        z = (R[o + 2] + R[o + 6]) * f
+    elif r11 >= r22:
+        y = 0.5 * math.sqrt(1.0 + 2.0 * r11 - tr)
+        f = 0.25 / y
+        w = (R[o + 2] - R[o + 6]) * f
+        x = (R[o + 1] + R[o + 3]) * f
+        z = (R[o + 5] + R[o + 7]) * f
+    else:
+        z = 0.5 * math.sqrt(1.0 + 2.0 * r22 - tr)
+        f = 0.25 / z
+        w = (R[o + 3] - R[o + 1]) * f
+        x = (R[o + 2] + R[o + 6]) * f
+        y = (R[o + 5] + R[o + 7]) * f
+    return quat_normalised(x, y, z, w)
+
+
+@jit(inline="always")
+def quat_rotvec(q0, q1, q2, q3):
+    """The rotation vector (angle in ``[0, pi]``) of the unit quaternion ``q`` (Taylor near 0)."""
+    if q3 < 0.0:
+        q0, q1, q2, q3 = -q0, -q1, -q2, -q3
+    s = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
+    if s < 1e-8:
+        f = 2.0 / q3 * (1.0 - s * s / (3.0 * q3 * q3))     # 2 atan(s/w)/s
+    else:
+        f = 2.0 * math.atan2(s, q3) / s
+    return f * q0, f * q1, f * q2
+
+
+@jit(inline="always")
+def mat_vec(M, o, x, y, z):
+    """``M[o:o + 9] (x, y, z)`` for a row-major 3x3 ``M``."""
+    return (M[o] * x + M[o + 1] * y + M[o + 2] * z,
+            M[o + 3] * x + M[o + 4] * y + M[o + 5] * z,
+            M[o + 6] * x + M[o + 7] * y + M[o + 8] * z)
+
+
+@jit(inline="always")
+def mat_t_vec(M, o, x, y, z):
+    """``M[o:o + 9]^T (x, y, z)`` for a row-major 3x3 ``M``."""
+    return (M[o] * x + M[o + 3] * y + M[o + 6] * z,
+            M[o + 1] * x + M[o + 4] * y + M[o + 7] * z,
+            M[o + 2] * x + M[o + 5] * y + M[o + 8] * z)

@@ -1,0 +1,280 @@
+"""Estimator components of the compiled loop (codes 400-499): the multiplicative extended Kalman
+filter (MEKF) of Lefferts, Markley and Shuster (1982; Markley and Crassidis 2014, ch. 6).
+
+The equations, derived, are in ``docs/estimation.md``; the symbols here are those of that page.
+State: the attitude estimate ``q`` (scalar-last, of ``R_est``: body -> inertial), the gyro bias
+estimate ``b`` and the 6x6 covariance ``P`` of the error ``x = (dtheta, db)`` with
+``R = R_est Exp(dtheta)`` (the error angles in the body frame) and ``b = b_est + db``.
+
+MEKF (code 401), reads gyro_B, st_q, st_valid, st_time, mag_B, mag_time, B_N, sun_B, sun_valid,
+sun_time, sun_N, R; writes R_est, omega_est, bias_est, P_diag, est_error.
+p: 0 sigma_v (ARW, rad/s^0.5), 1 sigma_u (RRW, rad/s^1.5), 2 star tracker sigma across the
+   boresight (rad), 3 sigma about it (rad), 4..12 star tracker case -> body (row-major),
+   13 magnetometer sigma (T), 14 sun sensor sigma (rad), 15 use the star tracker (0/1),
+   16 use the magnetometer, 17 use the sun sensor, 18 largest admissible covariance diagonal
+   (beyond it, or not finite: status 2), 19 the gyro's output (0: rates at the samples, propagated
+   by the trapezoid; 1: mean rates over each sample interval, propagated as constant)
+s: 0..3 q, 4..6 b, 7..42 P (6x6 row-major), 43 time of the last run (NaN before the first),
+   44..46 the gyro sample of the last run, 47..49 times of the last star tracker, magnetometer and
+   sun measurements used (each measurement is used once)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._jit import jit
+from .attitude_kernels import (exp_coefficients, mat_t_vec, quat_from_matrix, quat_from_rotvec, quat_mul,
+                               quat_normalised, quat_rotvec, quat_to_matrix)
+
+MEKF = 401
+_P = 7          # offset of P in the state
+
+
+@jit(inline="always")
+def turn(s, x, y, z):
+    """``q <- q Exp((x, y, z))`` for the estimate's quaternion ``s[0:4]``, renormalised."""
+    d0, d1, d2, d3 = quat_from_rotvec(x, y, z)
+    q0, q1, q2, q3 = quat_mul(s[0], s[1], s[2], s[3], d0, d1, d2, d3)
+    q0, q1, q2, q3 = quat_normalised(q0, q1, q2, q3)
+    s[0] = q0
+    s[1] = q1
+    s[2] = q2
+    s[3] = q3
+
+
+@jit(inline="always")
+def propagate(s, ax, ay, az, wx, wy, wz, dt, sv2, su2):
+    """Move the estimate and the covariance from ``t`` to ``t + dt`` with the bias-corrected gyro
+    samples ``a`` (at ``t``) and ``w`` (at ``t + dt``): the attitude by the rotation vector
+    ``phi = dt (a + w)/2 + dt^2/12 a x w``, the covariance by ``Phi P Phi^T + Qd``."""
+    px = 0.5 * dt * (ax + wx) + dt * dt / 12.0 * (ay * wz - az * wy)
+    py = 0.5 * dt * (ay + wy) + dt * dt / 12.0 * (az * wx - ax * wz)
+    pz = 0.5 * dt * (az + wz) + dt * dt / 12.0 * (ax * wy - ay * wx)
+    turn(s, px, py, pz)
+    # Phi = [[A, B], [0, I]]: A = Exp(-phi), B = -dt (I - c1 hat(phi) + c2 hat(phi)^2)
+    t2 = px * px + py * py + pz * pz
+    sa, ca = exp_coefficients(t2)                          # sin t / t, (1 - cos t) / t^2
+    if t2 < 1e-6:
+        c2 = 1.0 / 6.0 - t2 / 120.0 + t2 * t2 / 5040.0     # (t - sin t) / t^3
+    else:
+        t = math.sqrt(t2)
+        c2 = (t - math.sin(t)) / (t2 * t)
+    A = np.empty((3, 3))
+    B = np.empty((3, 3))
+    h00 = -(py * py + pz * pz)                             # hat(phi)^2 = phi phi^T - t2 I
+    h11 = -(px * px + pz * pz)
+    h22 = -(px * px + py * py)
+    h01 = px * py
+    h02 = px * pz
+    h12 = py * pz
+    A[0, 0] = 1.0 + ca * h00
+    A[1, 1] = 1.0 + ca * h11
+    A[2, 2] = 1.0 + ca * h22
+    A[0, 1] = sa * pz + ca * h01
+    A[1, 0] = -sa * pz + ca * h01
+    A[0, 2] = -sa * py + ca * h02
+    A[2, 0] = sa * py + ca * h02
+    A[1, 2] = sa * px + ca * h12
+    A[2, 1] = -sa * px + ca * h12
+    B[0, 0] = -dt * (1.0 + c2 * h00)
+    B[1, 1] = -dt * (1.0 + c2 * h11)
+    B[2, 2] = -dt * (1.0 + c2 * h22)
+    B[0, 1] = -dt * (ca * pz + c2 * h01)
+    B[1, 0] = -dt * (-ca * pz + c2 * h01)
+    B[0, 2] = -dt * (-ca * py + c2 * h02)
+    B[2, 0] = -dt * (ca * py + c2 * h02)
+    B[1, 2] = -dt * (ca * px + c2 * h12)
+    B[2, 1] = -dt * (-ca * px + c2 * h12)
+    # M = Phi P: rows 0..2 = A P[0:3, :] + B P[3:6, :], rows 3..5 = P[3:6, :]
+    M = np.empty((3, 6))
+    for i in range(3):
+        for j in range(6):
+            M[i, j] = (A[i, 0] * s[_P + j] + A[i, 1] * s[_P + 6 + j] + A[i, 2] * s[_P + 12 + j]
+                       + B[i, 0] * s[_P + 18 + j] + B[i, 1] * s[_P + 24 + j] + B[i, 2] * s[_P + 30 + j])
+    # P' = M Phi^T + Qd
+    q11 = sv2 * dt + su2 * dt * dt * dt / 3.0
+    q12 = -0.5 * su2 * dt * dt
+    q22 = su2 * dt
+    for i in range(3):
+        for j in range(i, 3):
+            v = 0.0
+            for k in range(3):
+                v += M[i, k] * A[j, k] + M[i, 3 + k] * B[j, k]
+            if i == j:
+                v += q11
+            s[_P + 6 * i + j] = v
+            s[_P + 6 * j + i] = v
+        for j in range(3):
+            v = M[i, 3 + j] + (q12 if i == j else 0.0)
+            s[_P + 6 * i + 3 + j] = v
+            s[_P + 6 * (3 + j) + i] = v
+    for i in range(3):
+        s[_P + 6 * (3 + i) + 3 + i] += q22
+
+
+@jit(inline="always")
+def update(s, H, y0, y1, y2, Rm):
+    """The Kalman update with the measurement ``y = H dtheta + v`` (``H`` 3x3 on the attitude block,
+    ``v ~ N(0, Rm)``), in Joseph form, then the reset of the error into ``q`` and ``b``.
+    Returns False when the innovation covariance is not positive definite."""
+    # PH = P[:, 0:3] H^T (6x3), S = H PH[0:3] + Rm
+    PH = np.empty((6, 3))
+    for i in range(6):
+        for j in range(3):
+            PH[i, j] = s[_P + 6 * i] * H[j, 0] + s[_P + 6 * i + 1] * H[j, 1] + s[_P + 6 * i + 2] * H[j, 2]
+    S = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            S[i, j] = H[i, 0] * PH[0, j] + H[i, 1] * PH[1, j] + H[i, 2] * PH[2, j] + Rm[i, j]
+    # S^-1 by cofactors (S symmetric positive definite)
+    c00 = S[1, 1] * S[2, 2] - S[1, 2] * S[2, 1]
+    c01 = S[1, 2] * S[2, 0] - S[1, 0] * S[2, 2]
+    c02 = S[1, 0] * S[2, 1] - S[1, 1] * S[2, 0]
+    det = S[0, 0] * c00 + S[0, 1] * c01 + S[0, 2] * c02
+    if not (det > 0.0 and S[0, 0] > 0.0 and S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0] > 0.0):
+        return False
+    Si = np.empty((3, 3))
+    Si[0, 0] = c00 / det
+    Si[1, 0] = c01 / det
+    Si[2, 0] = c02 / det
+    Si[0, 1] = (S[0, 2] * S[2, 1] - S[0, 1] * S[2, 2]) / det
+    Si[1, 1] = (S[0, 0] * S[2, 2] - S[0, 2] * S[2, 0]) / det
+    Si[2, 1] = (S[0, 1] * S[2, 0] - S[0, 0] * S[2, 1]) / det
+    Si[0, 2] = (S[0, 1] * S[1, 2] - S[0, 2] * S[1, 1]) / det
+    Si[1, 2] = (S[0, 2] * S[1, 0] - S[0, 0] * S[1, 2]) / det
+    Si[2, 2] = (S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]) / det
+    K = np.empty((6, 3))
+    for i in range(6):
+        for j in range(3):
+            K[i, j] = PH[i, 0] * Si[0, j] + PH[i, 1] * Si[1, j] + PH[i, 2] * Si[2, j]
+    # Joseph form: P - K (PH)^T - PH K^T + K S K^T
+    KS = np.empty((6, 3))
+    for i in range(6):
+        for j in range(3):
+            KS[i, j] = K[i, 0] * S[0, j] + K[i, 1] * S[1, j] + K[i, 2] * S[2, j]
+    for i in range(6):
+        for j in range(i, 6):
+            v = s[_P + 6 * i + j]
+            for k in range(3):
+                v += -K[i, k] * PH[j, k] - PH[i, k] * K[j, k] + KS[i, k] * K[j, k]
+            s[_P + 6 * i + j] = v
+            s[_P + 6 * j + i] = v
+    # the error estimate and the reset: q <- q Exp(dtheta), b <- b + db
+    dx = K[0, 0] * y0 + K[0, 1] * y1 + K[0, 2] * y2
+    dy = K[1, 0] * y0 + K[1, 1] * y1 + K[1, 2] * y2
+    dz = K[2, 0] * y0 + K[2, 1] * y1 + K[2, 2] * y2
+    for i in range(3):
+        s[4 + i] += K[3 + i, 0] * y0 + K[3 + i, 1] * y1 + K[3 + i, 2] * y2
+    turn(s, dx, dy, dz)
+    return True
+
+
+@jit(inline="always")
+def vector_update(s, R, bx, by, bz, mx, my, mz, sigma):
+    """Update with a measured body-frame vector ``m`` of the inertial vector ``b``: the prediction
+    ``p = R_est^T b``, ``H = hat(p)``, noise ``sigma^2 I``."""
+    px, py, pz = mat_t_vec(R, 0, bx, by, bz)
+    H = np.zeros((3, 3))
+    H[0, 1] = -pz
+    H[0, 2] = py
+    H[1, 0] = pz
+    H[1, 2] = -px
+    H[2, 0] = -py
+    H[2, 1] = px
+    Rm = np.zeros((3, 3))
+    v = sigma * sigma
+    Rm[0, 0] = v
+    Rm[1, 1] = v
+    Rm[2, 2] = v
+    return update(s, H, mx - px, my - py, mz - pz, Rm)
+
+
+@jit(inline="always")
+def mekf_step(t, bus, p, s, w):
+    g = w[0]
+    mx = bus[g]
+    my = bus[g + 1]
+    mz = bus[g + 2]
+    if s[43] == s[43]:            # not the first run: propagate from the last one
+        dt = t - s[43]
+        if dt > 0.0:
+            if p[19] != 0.0:      # the sample is the mean rate over (t - dt, t]: a constant rate
+                propagate(s, mx - s[4], my - s[5], mz - s[6], mx - s[4], my - s[5], mz - s[6], dt,
+                          p[0] * p[0], p[1] * p[1])
+            else:                 # rates at the samples: the trapezoid and its commutator term
+                propagate(s, s[44] - s[4], s[45] - s[5], s[46] - s[6], mx - s[4], my - s[5], mz - s[6], dt,
+                          p[0] * p[0], p[1] * p[1])
+    s[43] = t
+    s[44] = mx
+    s[45] = my
+    s[46] = mz
+    ok = True
+    R = np.empty(9)
+    # star tracker: the attitude error measured directly, H = I, noise C diag(sx^2, sx^2, sz^2) C^T
+    if p[15] != 0.0 and bus[w[2]] != 0.0 and bus[w[3]] > s[47]:
+        s[47] = bus[w[3]]
+        o = w[1]
+        e0, e1, e2, e3 = quat_mul(-s[0], -s[1], -s[2], s[3], bus[o], bus[o + 1], bus[o + 2], bus[o + 3])
+        y0, y1, y2 = quat_rotvec(e0, e1, e2, e3)
+        H = np.zeros((3, 3))
+        H[0, 0] = 1.0
+        H[1, 1] = 1.0
+        H[2, 2] = 1.0
+        Rm = np.empty((3, 3))
+        vx = p[2] * p[2]
+        vz = p[3] * p[3]
+        for i in range(3):
+            for j in range(3):
+                Rm[i, j] = vx * (p[4 + 3 * i] * p[4 + 3 * j] + p[5 + 3 * i] * p[5 + 3 * j]) \
+                    + vz * p[6 + 3 * i] * p[6 + 3 * j]
+        ok = update(s, H, y0, y1, y2, Rm)
+    if ok and p[16] != 0.0 and bus[w[5]] > s[48]:
+        s[48] = bus[w[5]]
+        quat_to_matrix(s[0], s[1], s[2], s[3], R, 0)
+        f = w[6]
+        m = w[4]
+        ok = vector_update(s, R, bus[f], bus[f + 1], bus[f + 2], bus[m], bus[m + 1], bus[m + 2], p[13])
+    if ok and p[17] != 0.0 and bus[w[8]] != 0.0 and bus[w[9]] > s[49]:
+        s[49] = bus[w[9]]
+        quat_to_matrix(s[0], s[1], s[2], s[3], R, 0)
+        f = w[10]
+        m = w[7]
+        ok = vector_update(s, R, bus[f], bus[f + 1], bus[f + 2], bus[m], bus[m + 1], bus[m + 2], p[14])
+    # outputs: R_est, omega_est, bias_est, P_diag, est_error
+    quat_to_matrix(s[0], s[1], s[2], s[3], bus, w[12])
+    o = w[13]
+    bus[o] = mx - s[4]
+    bus[o + 1] = my - s[5]
+    bus[o + 2] = mz - s[6]
+    o = w[14]
+    bus[o] = s[4]
+    bus[o + 1] = s[5]
+    bus[o + 2] = s[6]
+    o = w[15]
+    good = ok
+    for i in range(6):
+        d = s[_P + 7 * i]
+        bus[o + i] = d
+        if not (d > 0.0 and d <= p[18]):      # NaN fails too
+            good = False
+    t0, t1, t2, t3 = quat_from_matrix(bus, w[11])
+    e0, e1, e2, e3 = quat_mul(-s[0], -s[1], -s[2], s[3], t0, t1, t2, t3)
+    x, y, z = quat_rotvec(e0, e1, e2, e3)
+    o = w[16]
+    bus[o] = x
+    bus[o + 1] = y
+    bus[o + 2] = z
+    if not good or not (s[0] == s[0] and s[4] + s[5] + s[6] == s[4] + s[5] + s[6]):
+        return 2
+    return 0
+
+
+@jit
+def estimator_dispatch(code, t, bus, p, s, w):
+    """Run the built-in estimator kind ``code`` (400-499); an unknown code returns status 3."""
+    if code == MEKF:
+        return mekf_step(t, bus, p, s, w)
+    return 3

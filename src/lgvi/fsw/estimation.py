@@ -1,0 +1,220 @@
+"""Attitude estimation: TRIAD and Davenport's q-method (plain functions) and the multiplicative
+extended Kalman filter (a component of the compiled loop, :class:`MEKF`).
+
+Conventions as everywhere in lgvi: ``R`` maps body components to inertial ones, so a body-frame
+measurement ``b`` of the inertial vector ``r`` obeys ``r = R b``. The static solvers take the
+measured body vectors and the reference (inertial) vectors and return ``R``; SciPy's
+``Rotation.align_vectors(r, b, weights)`` solves the same weighted problem (Wahba's) and returns the
+same rotation. The MEKF's equations are derived in ``docs/estimation.md``; its compiled step is
+:func:`lgvi._kernels.estimation_components.mekf_step` (code 401).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from .._validation import as_float, as_float_array, as_rotation
+from ..components import ComponentKind, Signal, register_kind
+from .._kernels import estimation_components as _k
+from ..spacecraft.sensors import MAG_TIME, ST_TIME, SUN_TIME, StarTracker, describe
+
+__all__ = ["triad", "davenport", "MEKF", "EST_ERROR"]
+
+#: The MEKF's own record: the attitude error ``dtheta`` with ``R = R_est Exp(dtheta)`` (body frame).
+EST_ERROR = Signal("est_error", 3, "rad", "B", "attitude estimation error: R = R_est Exp(est_error)")
+
+_PARALLEL = 1e-10       # |b1 x b2| / (|b1| |b2|) below this: parallel for TRIAD
+
+
+def _unit_rows(v: Any, name: str, n: int | None = None) -> np.ndarray:
+    arr = as_float_array(v, name, (n, 3))
+    norms = np.linalg.norm(arr, axis=1)
+    if (norms == 0.0).any():
+        raise ValueError(f"{name} must hold non-zero vectors, got {describe(arr)}")
+    return arr / norms[:, None]
+
+
+def _triad_frame(a: np.ndarray, b: np.ndarray, name: str) -> np.ndarray:
+    c = np.cross(a, b)
+    s = np.linalg.norm(c)
+    if s < _PARALLEL:
+        raise ValueError(f"{name} must hold two vectors that are not parallel, got {describe(np.stack([a, b]))} "
+                         f"(|v1 x v2| = {s:.3g} for unit vectors; TRIAD needs two directions)")
+    c /= s
+    return np.column_stack([a, c, np.cross(a, c)])
+
+
+def triad(body: Any, reference: Any) -> np.ndarray:
+    """TRIAD: the rotation ``R`` (body -> inertial) that maps the first body vector exactly onto the
+    first reference vector and the second as closely as possible.
+
+    Parameters
+    ----------
+    body : (2, 3) the measured vectors in the body frame (any length; directions are used).
+    reference : (2, 3) the same vectors in the inertial frame.
+
+    Returns
+    -------
+    (3, 3) ndarray, ``R`` with ``R b1 || r1`` and ``R b2`` in the plane of ``r1, r2``. It equals
+    ``Rotation.align_vectors(reference, body, weights=[inf, 1])``. Parallel vectors are refused.
+    """
+    b = _unit_rows(body, "body", 2)
+    r = _unit_rows(reference, "reference", 2)
+    Mb = _triad_frame(b[0], b[1], "body")
+    Mr = _triad_frame(r[0], r[1], "reference")
+    return Mr @ Mb.T
+
+
+def davenport(body: Any, reference: Any, weights: Any = None) -> np.ndarray:
+    """Wahba's problem by Davenport's q-method: the rotation ``R`` minimising
+    ``sum_i w_i |r_i - R b_i|^2`` (the vectors as given, not normalised, as SciPy's
+    ``Rotation.align_vectors(reference, body, weights)``).
+
+    The optimal quaternion is the eigenvector of the largest eigenvalue of Davenport's symmetric
+    4x4 matrix ``K`` built from ``B = sum_i w_i r_i b_i^T``. An attitude that the vectors leave
+    undetermined (fewer than two independent directions: two equal largest eigenvalues) is refused.
+
+    Parameters
+    ----------
+    body, reference : (N, 3), N >= 2.  weights : (N,) nonnegative, default ones.
+
+    Returns
+    -------
+    (3, 3) ndarray, the rotation ``R``.
+    """
+    b = as_float_array(body, "body", (None, 3))
+    r = as_float_array(reference, "reference", (b.shape[0], 3))
+    if b.shape[0] < 2:
+        raise ValueError(f"body must hold at least two vectors, got {b.shape[0]}")
+    w = np.ones(b.shape[0]) if weights is None else as_float_array(weights, "weights", (b.shape[0],))
+    if (w < 0.0).any():
+        raise ValueError(f"weights must be nonnegative, got {describe(w)}")
+    B = (w[:, None] * r).T @ b
+    S = B + B.T
+    z = np.array([B[1, 2] - B[2, 1], B[2, 0] - B[0, 2], B[0, 1] - B[1, 0]])
+    K = np.empty((4, 4))             # scalar-last: [[S - tr(B) I, z], [z^T, tr(B)]]
+    K[:3, :3] = S - np.trace(B) * np.eye(3)
+    K[:3, 3] = z
+    K[3, :3] = z
+    K[3, 3] = np.trace(B)
+    vals, vecs = np.linalg.eigh(K)
+    if vals[3] - vals[2] <= 1e-12 * max(abs(vals[3]), 1e-300):
+        raise ValueError("body and reference leave the attitude undetermined (parallel or too few vectors): "
+                         f"the two largest eigenvalues of Davenport's matrix are {vals[3]:.6g} and {vals[2]:.6g}")
+    x, y, zq, s = vecs[:, 3]
+    # the eigenvector q is of the rotation taking reference to body components (A = R^T); R = A(q)^T
+    return np.array([
+        [s * s + x * x - y * y - zq * zq, 2 * (x * y - zq * s), 2 * (x * zq + y * s)],
+        [2 * (x * y + zq * s), s * s - x * x + y * y - zq * zq, 2 * (y * zq - x * s)],
+        [2 * (x * zq - y * s), 2 * (y * zq + x * s), s * s - x * x - y * y + zq * zq],
+    ]).T
+
+
+def _spd(value: Any, name: str, n: int) -> np.ndarray:
+    arr = as_float_array(value, name)
+    if arr.shape == (n,):
+        arr = np.diag(arr)
+    if arr.shape != (n, n):
+        raise ValueError(f"{name} must have shape ({n},) (a diagonal) or ({n}, {n}), got shape {arr.shape}")
+    if not np.allclose(arr, arr.T, rtol=1e-12, atol=0.0):
+        raise ValueError(f"{name} must be symmetric positive definite: it is not symmetric, got {describe(arr)}")
+    try:
+        np.linalg.cholesky(arr)
+    except np.linalg.LinAlgError:
+        raise ValueError(f"{name} must be symmetric positive definite, got eigenvalues "
+                         f"{describe(np.linalg.eigvalsh(arr))}") from None
+    return 0.5 * (arr + arr.T)
+
+
+class MEKF:
+    """The multiplicative extended Kalman filter (Lefferts, Markley and Shuster 1982) as a component.
+
+    Propagates the attitude with the gyro (``gyro_B``, bias-corrected, trapezoidal between the last
+    sample and this one) and the error covariance of ``x = (dtheta, db)`` (error angles in the body
+    frame, ``R = R_est Exp(dtheta)``; bias error); updates, each once per new measurement, with the
+    star tracker quaternion (``st_q``), the magnetometer (``mag_B`` against ``B_N``) and the fine sun
+    sensor (``sun_B`` against ``sun_N``). Writes ``R_est``, ``omega_est``, ``bias_est``, ``P_diag``
+    and ``est_error`` (the true error, from ``R``, for records). Equations: ``docs/estimation.md``.
+
+    Parameters
+    ----------
+    rate : float or None
+        Period of the filter in seconds (None: every step); run it at the gyro's rate.
+    arw, rrw : float
+        The gyro's angle random walk (rad/s^0.5) and rate random walk (rad/s^1.5) the filter assumes.
+    star_tracker : StarTracker or None
+        Its ``sigma_cross``, ``sigma_about`` and ``case`` set the update's noise; None: no update.
+    mag_sigma : float or None
+        The magnetometer's noise (T); None: no magnetometer update.
+    sun_sigma : float or None
+        The sun sensor's noise (rad); None: no sun update.
+    R0 : (3, 3) rotation, or a scipy Rotation: the initial estimate.   bias0 : (3,) rad/s.
+    P0 : (6,) diagonal or (6, 6) symmetric positive definite initial covariance (rad^2, (rad/s)^2).
+    max_variance : float
+        A covariance diagonal entry above this (or not finite) stops the run with status 2.
+    gyro_output : ``"rate"`` or ``"mean"``, as the gyro's ``output``: rates at the samples are
+        propagated by the trapezoid (with its commutator term), mean rates as constant over the
+        interval (exact for the truth).
+    """
+
+    kind = "mekf"
+
+    def __init__(self, *, rate: float | None = None, arw: float, rrw: float, star_tracker: StarTracker | None = None,
+                 mag_sigma: float | None = None, sun_sigma: float | None = None, R0: Any = None,
+                 bias0: Any = (0.0, 0.0, 0.0), P0: Any, max_variance: float = 1e6, gyro_output: str = "rate") -> None:
+        self.rate = None if rate is None else as_float(rate, "rate", positive=True)
+        self.arw = as_float(arw, "arw")
+        self.rrw = as_float(rrw, "rrw")
+        for name, v in (("arw", self.arw), ("rrw", self.rrw)):
+            if v < 0.0:
+                raise ValueError(f"{name} must be a nonnegative noise density, got {v}")
+        if star_tracker is not None and not isinstance(star_tracker, StarTracker):
+            raise TypeError(f"star_tracker must be a StarTracker or None, got {type(star_tracker).__name__}")
+        self.star_tracker = star_tracker
+        self.mag_sigma = None if mag_sigma is None else as_float(mag_sigma, "mag_sigma", positive=True)
+        self.sun_sigma = None if sun_sigma is None else as_float(sun_sigma, "sun_sigma", positive=True)
+        if star_tracker is not None and min(star_tracker.sigma_cross, star_tracker.sigma_about) <= 0.0:
+            raise ValueError("star_tracker must have positive sigma_cross and sigma_about for the filter's update, "
+                             f"got {star_tracker.sigma_cross} and {star_tracker.sigma_about}")
+        self.R0 = np.eye(3) if R0 is None else as_rotation(R0, "R0")
+        self.bias0 = as_float_array(bias0, "bias0", (3,))
+        self.P0 = _spd(P0, "P0", 6)
+        self.max_variance = as_float(max_variance, "max_variance", positive=True)
+        if gyro_output not in ("rate", "mean"):
+            raise ValueError(f"gyro_output must be 'rate' or 'mean' (the gyro's output), got {gyro_output!r}")
+        self.gyro_output = gyro_output
+
+    def params(self) -> np.ndarray:
+        st = self.star_tracker
+        case = np.eye(3) if st is None else st.case
+        return np.concatenate([[self.arw, self.rrw, 0.0 if st is None else st.sigma_cross,
+                                0.0 if st is None else st.sigma_about], case.ravel(),
+                               [self.mag_sigma or 0.0, self.sun_sigma or 0.0, float(st is not None),
+                                float(self.mag_sigma is not None), float(self.sun_sigma is not None),
+                                self.max_variance, float(self.gyro_output == "mean")]])
+
+    def state0(self) -> np.ndarray:
+        from scipy.spatial.transform import Rotation
+        q = Rotation.from_matrix(self.R0).as_quat()
+        if q[3] < 0.0:
+            q = -q
+        return np.concatenate([q, self.bias0, self.P0.ravel(), [math.nan, 0.0, 0.0, 0.0, -math.inf, -math.inf,
+                                                                 -math.inf]])
+
+    def sizes(self) -> dict[str, int]:
+        return {}
+
+    def __repr__(self) -> str:
+        return (f"MEKF(rate={self.rate}, star_tracker={self.star_tracker is not None}, "
+                f"mag={self.mag_sigma is not None}, sun={self.sun_sigma is not None})")
+
+
+register_kind(ComponentKind(
+    "mekf", "estimator", _k.MEKF, _k.mekf_step,
+    ("gyro_B", "st_q", "st_valid", "st_time", "mag_B", "mag_time", "B_N", "sun_B", "sun_valid", "sun_time",
+     "sun_N", "R"),
+    ("R_est", "omega_est", "bias_est", "P_diag", "est_error"),
+    cls=MEKF, own=(ST_TIME, MAG_TIME, SUN_TIME, EST_ERROR), doc=MEKF.__doc__.splitlines()[0]))

@@ -1,0 +1,215 @@
+"""Attitude estimation (issue 27): TRIAD and Davenport's q-method against SciPy, and the MEKF as a
+compiled component on truth trajectories from ``lgvi.simulate`` (statistics over 100 seeded
+members: NEES in its 95% chi-square band, convergence from 10 degrees, 3-sigma coverage).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+from scipy.spatial.transform import Rotation
+
+import lgvi
+from lgvi import components
+from lgvi.fsw import MEKF, davenport, triad
+from lgvi.fsw._drive import run_components
+from lgvi.spacecraft import Gyro, StarTracker
+
+from estimation_cases import (ARW, BODY, H, MEMBERS, POINTING, RRW, ST_ABOUT, ST_CROSS, STEPS, TUMBLING, member,
+                              nees, truth)
+
+# ------------------------------------------------------------------------------------------------
+# static attitude determination
+# ------------------------------------------------------------------------------------------------
+ROTATIONS = [Rotation.identity(), Rotation.from_rotvec([1e-9, -2e-9, 3e-9]),
+             Rotation.from_rotvec(np.array([2.0, -1.0, 2.0]) / 3.0 * (math.pi - 1e-7)),
+             Rotation.from_rotvec([0.0, 0.0, math.pi]), Rotation.from_rotvec([0.7, -1.9, 0.4])]
+
+
+@pytest.mark.parametrize("rot", ROTATIONS, ids=["identity", "near-identity", "near-pi", "pi", "generic"])
+def test_triad_equals_scipy_align_vectors_with_a_primary_vector(rot):
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        r = rng.normal(size=(2, 3)) * rng.uniform(0.1, 10.0, size=(2, 1))
+        b = rot.inv().apply(r) + rng.normal(scale=1e-3, size=(2, 3))          # noisy body measurements
+        ref, _ = Rotation.align_vectors(r, b, weights=[np.inf, 1.0])
+        np.testing.assert_allclose(triad(b, r), ref.as_matrix(), rtol=0, atol=1e-12)
+    exact = rot.inv().apply(r)
+    np.testing.assert_allclose(triad(exact, r), rot.as_matrix(), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("rot", ROTATIONS, ids=["identity", "near-identity", "near-pi", "pi", "generic"])
+def test_davenport_equals_scipy_align_vectors(rot):
+    rng = np.random.default_rng(2)
+    for n in (2, 3, 7):
+        r = rng.normal(size=(n, 3))
+        b = rot.inv().apply(r) + rng.normal(scale=1e-2, size=(n, 3))
+        w = rng.uniform(0.1, 3.0, size=n)
+        ref, _ = Rotation.align_vectors(r, b, weights=w)
+        np.testing.assert_allclose(davenport(b, r, w), ref.as_matrix(), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(davenport(rot.inv().apply(r), r), rot.as_matrix(), rtol=0, atol=1e-12)
+
+
+def test_static_solvers_refuse_parallel_vectors():
+    with pytest.raises(ValueError, match=r"(?s)body must hold two vectors that are not parallel.*TRIAD"):
+        triad([[1.0, 0.0, 0.0], [2.0, 1e-12, 0.0]], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    with pytest.raises(ValueError, match=r"reference must hold two vectors that are not parallel"):
+        triad([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], [[0.0, 0.0, 1.0], [0.0, 0.0, -3.0]])
+    with pytest.raises(ValueError, match=r"undetermined"):
+        davenport([[1.0, 0.0, 0.0], [2.0, 0.0, 0.0]], [[0.0, 1.0, 0.0], [0.0, 2.0, 0.0]])
+
+
+# ------------------------------------------------------------------------------------------------
+# the MEKF
+# ------------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def tumbling():
+    return truth(TUMBLING)
+
+
+@pytest.fixture(scope="module")
+def pointing():
+    return truth(POINTING)
+
+
+@pytest.mark.parametrize("case", ["tumbling", "pointing"])
+def test_mekf_nees_in_the_chi_square_band(case, request):
+    """The NEES of (attitude error, bias error), averaged over 100 members, against chi-square(600)/100,
+    on a tumble at 0.28 rad/s and an Earth-pointing attitude, over the filter's 1200 outputs.
+
+    A consistent filter puts the member-averaged NEES inside the two-sided 95% band 95% of the time
+    *on average*: "at least 95%" (the issue's words) would fail half the runs of a perfect filter.
+    Because the errors (the bias's above all) are correlated over tens of seconds, the fraction over
+    one run scatters: 0.92-0.97 over 8 seed sets of each case (``python benchmarks/bench_estimation.py
+    --nees 8``). The test asks for >= 90% inside, and for the mean NEES over the run within 5% of 6
+    (measured: 5.84-6.12 over those seed sets; a process noise off by a factor 2 moves it by 20% or
+    more).
+    """
+    tr = request.getfixturevalue(case)
+    total = np.zeros(STEPS)
+    for seed in range(MEMBERS):
+        e, P = member(tr, 1000 + seed, att_sd=math.radians(1.0))
+        total += nees(e, P)
+    avg = total / MEMBERS
+    lo, hi = stats.chi2.ppf([0.025, 0.975], 6 * MEMBERS) / MEMBERS
+    inside = np.mean((avg >= lo) & (avg <= hi))
+    assert inside >= 0.90, (inside, avg.mean(), lo, hi)
+    assert abs(avg.mean() / 6.0 - 1.0) < 0.05, avg.mean()
+
+
+def test_mekf_converges_from_ten_degrees_and_its_three_sigma_bounds_cover_the_error(tumbling):
+    """From a 10-degree prior (initial errors of 10 degrees per axis, drawn from it).
+
+    With the star tracker (a linear update): the error lies inside the filter's own 3-sigma bounds
+    at >= 99% of all outputs from the first (99.7% for a consistent filter).
+
+    With the magnetometer (2 Hz) and the fine sun sensor (1 Hz) only, the first updates are far from
+    linear and, as any EKF's, leave the filter overconfident for a while (the RMS of error / sigma is
+    4 at 30 s, 2 at 60 s, 1.05 at 105 s; from a 1-degree prior it is 1.0 throughout): after 30 s
+    the attitude sigma is below 0.5 degree and the error below 3 degrees (converged from 10), and
+    from 105 s on the error matches its sigma (RMS of error / sigma over members, axes and outputs
+    within 20% of 1) and its 3-sigma bounds cover it at >= 99% of the outputs.
+    """
+    covered = []
+    for seed in range(20):
+        e, P = member(tumbling, 2500 + seed, att_sd=math.radians(10.0))
+        covered.append(np.abs(e) <= 3 * np.sqrt(np.einsum("nii->ni", P)))
+    assert np.mean(covered) >= 0.99
+    covered, late, start = [], [], []
+    for seed in range(20):
+        e, P = member(tumbling, 2000 + seed, att_sd=math.radians(10.0), sensors="vectors")
+        sd = np.sqrt(np.einsum("nii->ni", P))
+        err0 = np.random.default_rng(2000 + seed).normal(size=(2, 3))[1] * math.radians(10.0)   # member's draw
+        start.append(np.linalg.norm(err0))
+        assert sd[300:, :3].max() < math.radians(0.5)
+        assert np.linalg.norm(e[300:, :3], axis=1).max() < math.radians(3.0)
+        late.append(e[1050:, :3] / sd[1050:, :3])
+        covered.append(np.abs(e[1050:]) <= 3 * sd[1050:])
+    assert np.median(start) > math.radians(10.0)           # a 10-degree start, per axis
+    assert abs(math.sqrt(np.mean(np.square(late))) - 1.0) < 0.2
+    assert np.mean(covered) >= 0.99
+
+
+def test_mekf_propagation_without_noise_exact_or_second_order(tumbling):
+    """With a noiseless, bias-free gyro and no update: the mean-rate gyro propagated as constant
+    follows the truth to round-off (log(R_prev^T R) / dt is the truth's increment); rates at the
+    samples propagated by the trapezoid follow it to second order (the error over 120 s falls by 4
+    when h is halved: 3e-3 rad at h = 0.1 s)."""
+    R0 = tumbling["R"][0].reshape(3, 3)
+
+    def error(output, tr, h):
+        comps = [Gyro(rate=h, output=output), MEKF(rate=h, arw=ARW, rrw=RRW, R0=R0, P0=np.ones(6) * 1e-6,
+                                                  gyro_output=output)]
+        return np.abs(run_components(comps, tr, h, record=["est_error"]).records["est_error"]).max()
+
+    assert error("mean", tumbling, H) < 1e-12
+    fine = lgvi.simulate(BODY, R0, omega0=TUMBLING, h=H / 2, steps=2 * STEPS - 2)
+    e1 = error("rate", tumbling, H)
+    e2 = error("rate", {"R": fine.R.reshape(-1, 9), "omega": fine.omega}, H / 2)
+    assert 1e-4 < e1 < 1e-2 and 3.6 < e1 / e2 < 4.4
+
+
+def test_mekf_divergence_stops_with_status_2(tumbling):
+    st = StarTracker(sigma_cross=ST_CROSS, sigma_about=ST_ABOUT)
+    comps = [Gyro(rate=H, arw=ARW), st, MEKF(arw=ARW, rrw=RRW, star_tracker=st, P0=np.ones(6) * 1e-4,
+                                              max_variance=1.0)]
+    bad = dict(tumbling)
+    bad["omega"] = tumbling["omega"].copy()
+    bad["omega"][50:] = np.inf               # a gyro gone wild
+    run = run_components(comps, bad, H, record=["R_est"])
+    assert run.status == 2 and run.rows == 50
+    assert np.all(np.isfinite(run.records["R_est"][:50]))
+
+
+def test_mekf_kind_is_registered():
+    kind = components.COMPONENT_KINDS["mekf"]
+    assert kind.family == "estimator" and kind.code == 401 and kind.cls is MEKF
+    assert {"R_est", "omega_est", "bias_est", "P_diag", "est_error"} == set(kind.writes)
+
+
+_INTERPRETED = """
+import json, sys
+import numpy as np
+sys.path.insert(0, {tests!r})
+from estimation_cases import H, truth, TUMBLING
+from lgvi.fsw import MEKF
+from lgvi.fsw._drive import run_components
+from lgvi.spacecraft import CoarseSunSensors, FineSunSensor, Gyro, Magnetometer, StarTracker
+tr = {{k: v[:40] for k, v in truth(TUMBLING).items()}}
+st = StarTracker(rate=0.5, sigma_cross=5e-5, sigma_about=4e-4, sun_exclusion=0.2, seed=3)
+comps = [Gyro(rate=H, arw=1e-4, rrw=1e-5, lsb=1e-7, saturation=1.0, output="mean", seed=3), st,
+         Magnetometer(rate=0.2, sigma=1e-7, seed=3), CoarseSunSensors(np.eye(3), sigma=0.01, seed=3),
+         FineSunSensor(rate=0.3, sigma=1e-3, seed=3),
+         MEKF(rate=H, arw=1e-4, rrw=1e-5, star_tracker=st, mag_sigma=1e-7, sun_sigma=1e-3,
+              P0=[1e-3] * 3 + [1e-8] * 3, gyro_output="mean")]
+run = run_components(comps, tr, H, record=["gyro_B", "st_q", "mag_B", "css", "sun_B", "R_est", "P_diag"],
+                     constants={{"B_N": [2e-5, -1e-5, 3.5e-5], "sun_N": [0.6, 0.0, 0.8], "shadow": 1.0}})
+print(json.dumps({{k: v.tolist() for k, v in run.records.items()}}))
+"""
+
+
+def test_components_interpreted_match_compiled():
+    """Every sensor kind and the MEKF run as plain Python (NUMBA_DISABLE_JIT=1) give the compiled
+    records: the random words bit for bit (uint64 arithmetic wraps alike), the floats to round-off."""
+    import json
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    tests = str(Path(__file__).resolve().parent)
+    src = str(Path(lgvi.__file__).resolve().parents[1])
+    script = _INTERPRETED.format(tests=tests)
+    out = {}
+    for flag in ("0", "1"):
+        env = dict(os.environ, NUMBA_DISABLE_JIT=flag, PYTHONPATH=src)
+        proc = subprocess.run([sys.executable, "-W", "ignore", "-c", script], capture_output=True, text=True,
+                              env=env, timeout=600)
+        assert proc.returncode == 0, proc.stderr[-3000:]
+        out[flag] = json.loads(proc.stdout.strip().splitlines()[-1])
+    for name in out["0"]:
+        np.testing.assert_allclose(np.array(out["1"][name]), np.array(out["0"][name]), rtol=1e-12, atol=1e-18,
+                                   err_msg=name)
