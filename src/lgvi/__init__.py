@@ -5,7 +5,7 @@ Public names (everything else is private):
 - :class:`RigidBody`, :func:`inertia_to_jd`, :func:`jd_to_inertia`
 - :func:`simulate`, :func:`step`, :class:`Trajectory`, :func:`load`
 - :func:`solve_implicit`, :class:`ImplicitSolution`
-- :class:`ConvergenceError`, :class:`TorqueError`, :class:`SimulationInterrupted`, :class:`AccuracyWarning`,
+- :class:`ConvergenceError`, :class:`CollisionError`, :class:`TorqueError`, :class:`SimulationInterrupted`, :class:`AccuracyWarning`,
   :class:`AttitudeWarning`
 - modules :mod:`lgvi.optimal` (optimal control and adjoint gradients), :mod:`lgvi.so3`, :mod:`lgvi.torques`, :mod:`lgvi.reference`, :mod:`lgvi.baselines`, :mod:`lgvi.exact`,
   :mod:`lgvi.accuracy` (the error estimate of ``simulate(..., error_estimate=True)``)
@@ -38,6 +38,7 @@ from . import environment as environment
 from .environment import Magnetorquers as Magnetorquers
 from .errors import AccuracyWarning as AccuracyWarning
 from .errors import AttitudeWarning as AttitudeWarning
+from .errors import CollisionError as CollisionError
 from .errors import ConvergenceError as ConvergenceError
 from .errors import SimulationInterrupted as SimulationInterrupted
 from .errors import TorqueError as TorqueError
@@ -69,6 +70,7 @@ _sys.modules.setdefault("lgvi.streaming", streaming)
 __all__ = [
     "AccuracyWarning",
     "AttitudeWarning",
+    "CollisionError",
     "ConvergenceError",
     "Ellipsoid",
     "EnsembleTrajectory",

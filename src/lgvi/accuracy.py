@@ -69,10 +69,17 @@ class ErrorEstimate:
     wall_time_s : float
         Wall time of the shadow run [s].
     warn : float or None
-        Threshold on ``attitude`` [rad] above which :class:`lgvi.AccuracyWarning` is emitted
-        (``None``: never).
+        Threshold on ``attitude`` [rad] (and on ``position_rel``) above which
+        :class:`lgvi.AccuracyWarning` is emitted (``None``: never).
     method : str
         ``"richardson"``.
+    position : float or None
+        For runs with an orbit (:func:`lgvi.simulate_orbit`: the position ``x``;
+        :func:`lgvi.simulate_two_body`: the relative position ``x2 - x1``): the estimated error of
+        the final position, ``2^p / (2^p - 1) |x_h - x_(h/2)|`` (length units); ``None`` otherwise.
+        With two bodies ``attitude`` is the larger of the two bodies' estimates.
+    position_rel : float or None
+        ``position`` divided by the largest distance from the centre over the run.
     """
 
     attitude: float
@@ -85,6 +92,8 @@ class ErrorEstimate:
     wall_time_s: float
     warn: float | None = DEFAULT_WARN
     method: str = "richardson"
+    position: float | None = None
+    position_rel: float | None = None
 
     @property
     def factor(self) -> float:
@@ -98,17 +107,22 @@ class ErrorEstimate:
         return self.attitude_max / self.factor < ASYMPTOTIC_LIMIT
 
     @property
+    def worst(self) -> float:
+        """The larger of ``attitude`` [rad] and ``position_rel`` (when there is a position)."""
+        return max(self.attitude, self.position_rel or 0.0)
+
+    @property
     def exceeds(self) -> bool:
-        """``attitude > warn`` (``False`` when ``warn`` is ``None``)."""
-        return self.warn is not None and self.attitude > self.warn
+        """``attitude > warn`` or ``position_rel > warn`` (``False`` when ``warn`` is ``None``)."""
+        return self.warn is not None and self.worst > self.warn
 
     def step_for(self, target: float) -> float:
         """Step of the same scheme that would bring the final attitude error to about ``target``
         [rad], from the ``h^p`` scaling (meaningful only when :attr:`asymptotic`)."""
         target = as_float(target, "target", positive=True)
-        if self.attitude == 0.0:
+        if self.worst == 0.0:
             return self.h
-        return self.h * (target / self.attitude) ** (1.0 / self.order)
+        return self.h * (target / self.worst) ** (1.0 / self.order)
 
     def describe(self) -> str:
         """One sentence: the estimate, in rad and degrees."""
@@ -116,10 +130,12 @@ class ErrorEstimate:
             "; the runs at h and h/2 differ by more than 0.3 rad, so the error is too large for the "
             "h^p model and this figure is only an order of magnitude")
         rel = "" if self.momentum_rel is None else f" ({self.momentum_rel:.2g} relative)"
+        where = "" if self.position is None else (
+            f"; position error {self.position:.3g} ({(self.position_rel or 0.0):.2g} of the largest distance)")
         return (f"estimated final attitude error {self.attitude:.3g} rad ({math.degrees(self.attitude):.3g} deg), "
                 f"largest {self.attitude_max:.3g} rad at t = {self.t_attitude_max:g}; momentum error "
-                f"{self.momentum:.3g} kg m^2/s{rel} (Richardson, order {self.order}, shadow run at h/2 = {self.h / 2:g})"
-                + regime)
+                f"{self.momentum:.3g} kg m^2/s{rel}{where} (Richardson, order {self.order}, shadow run at h/2 = "
+                f"{self.h / 2:g})" + regime)
 
     def advice(self, toml: bool = False) -> str:
         """What to change for accuracy: a higher order, or the step the ``h^p`` scaling asks for
@@ -128,7 +144,9 @@ class ErrorEstimate:
         eq, q, where = (" = ", '"', " in [integrator]") if toml else ("=", "'", "")
         tip = {1: f"forcing{eq}{q}symmetric{q} (order 2; also with order{eq}4 or 6){where}",
                2: f"order{eq}4 or order{eq}6{where}"}.get(self.order, f"a smaller h{where}")
-        if self.asymptotic and self.attitude > 0.0:
+        if self.position is not None:       # the orbit and two-body runs have one scheme: a smaller step
+            tip = f"a smaller h{where}"
+        if self.asymptotic and self.worst > 0.0:
             tip += f", or h{eq}{self.step_for(target):.3g} (order {self.order}) for about {target:g} rad"
         return f"for accuracy use {tip}"
 
@@ -142,7 +160,7 @@ class ErrorEstimate:
         if not isinstance(d, dict):
             raise ValueError(f"meta['error_estimate'] must be a JSON object, got {type(d).__name__}")
         names = [f for f in cls.__dataclass_fields__]
-        missing = [k for k in names if k not in d and k not in ("warn", "method")]
+        missing = [k for k in names if k not in d and k not in ("warn", "method", "position", "position_rel")]
         if missing:
             raise ValueError(f"meta['error_estimate'] lacks field(s) {', '.join(missing)}")
         unknown = [k for k in d if k not in names]
@@ -151,7 +169,7 @@ class ErrorEstimate:
         kw = dict(d)
         for k in ("attitude", "attitude_max", "t_attitude_max", "momentum", "h", "wall_time_s"):
             kw[k] = as_float(kw[k], f"meta['error_estimate'][{k!r}]")
-        for k in ("momentum_rel", "warn"):
+        for k in ("momentum_rel", "warn", "position", "position_rel"):
             if kw.get(k) is not None:
                 kw[k] = as_float(kw[k], f"meta['error_estimate'][{k!r}]")
         if kw["order"] not in (1, 2, 4, 6) or isinstance(kw["order"], bool):
@@ -202,7 +220,7 @@ def geodesic_distance(A: np.ndarray, B: np.ndarray) -> np.ndarray:
 
 
 def richardson(traj: Any, shadow: Any, order: int, *, wall_time_s: float = 0.0,
-               warn: float | None = DEFAULT_WARN) -> ErrorEstimate:
+               warn: float | None = DEFAULT_WARN, position: Any = None) -> ErrorEstimate:
     """The estimate from a run ``traj`` at ``h`` and a ``shadow`` run at ``h/2`` saved at the same times.
 
     Parameters
@@ -215,6 +233,9 @@ def richardson(traj: Any, shadow: Any, order: int, *, wall_time_s: float = 0.0,
         Wall time of the shadow run, recorded in the result.
     warn : float or None
         Threshold recorded in the result.
+    position : callable, optional
+        ``position(run)`` -> (M, 3): the position whose error is estimated too (an orbit's ``x``,
+        two bodies' ``x2 - x1``).
 
     Returns
     -------
@@ -224,12 +245,19 @@ def richardson(traj: Any, shadow: Any, order: int, *, wall_time_s: float = 0.0,
         raise ValueError("the shadow run must be saved at the times of the run")
     factor = 2.0 ** order / (2.0 ** order - 1.0)
     ang = factor * geodesic_distance(traj.R, shadow.R)
+    ang = ang.reshape(len(ang), -1).max(axis=1)           # the largest over the bodies of a run with two
     j = int(np.argmax(ang))
     dPi = factor * float(np.linalg.norm(traj.Pi[-1] - shadow.Pi[-1]))
-    scale = float(np.max(np.linalg.norm(traj.Pi, axis=1)))
+    scale = float(np.max(np.linalg.norm(traj.Pi.reshape(len(traj.Pi), -1), axis=1)))
+    pos = rel = None
+    if position is not None:
+        x, xs = position(traj), position(shadow)
+        pos = factor * float(np.linalg.norm(x[-1] - xs[-1]))
+        far = float(np.max(np.linalg.norm(x, axis=1)))
+        rel = pos / far if far > 0.0 else None
     return ErrorEstimate(attitude=float(ang[-1]), attitude_max=float(ang[j]), t_attitude_max=float(traj.t[j]),
                          momentum=dPi, momentum_rel=dPi / scale if scale > 0.0 else None, order=int(order),
-                         h=float(traj.h), wall_time_s=float(wall_time_s), warn=warn)
+                         h=float(traj.h), wall_time_s=float(wall_time_s), warn=warn, position=pos, position_rel=rel)
 
 
 #: The function a shadow run calls, :func:`lgvi.simulate`: :mod:`lgvi.integrator` provides it on
@@ -243,7 +271,7 @@ def provide_simulate(simulate: Any) -> None:
 
 
 def with_estimate(traj: Any, args: dict[str, Any], *, warn: float | None = DEFAULT_WARN,
-                  stacklevel: int = 2, order: int | None = None) -> Any:
+                  stacklevel: int = 2, order: int | None = None, runner: Any = None, position: Any = None) -> Any:
     """``traj`` with ``meta["error_estimate"]`` from a shadow run of :func:`lgvi.simulate` at ``h/2``.
 
     Parameters
@@ -261,13 +289,18 @@ def with_estimate(traj: Any, args: dict[str, Any], *, warn: float | None = DEFAU
     order : int, optional
         The scheme's order ``p`` when the arguments do not tell it (the gyrostat's: 1 with wheel
         friction); default from ``order``, ``torque`` and ``forcing``.
+    runner : callable, optional
+        The function the shadow run calls instead of :func:`lgvi.simulate`, with ``args`` (e.g.
+        :func:`lgvi.simulate_orbit`; then give ``order``).
+    position : callable, optional
+        As in :func:`richardson`.
 
     Raises
     ------
     SimulationInterrupted, ConvergenceError, TorqueError
         From the shadow run, with ``.trajectory`` the (complete) run ``traj``.
     """
-    simulate = SHADOW_RUNNER["simulate"]   # lgvi.simulate (provided by lgvi.integrator)
+    simulate = SHADOW_RUNNER["simulate"] if runner is None else runner   # lgvi.simulate (lgvi.integrator provides it)
     kw = dict(args)
     kw.update(h=float(kw["h"]) / 2.0, steps=2 * int(kw["steps"]), save_every=2 * int(kw.get("save_every", 1)))
     if kw.get("progress") is not True:
@@ -287,7 +320,7 @@ def with_estimate(traj: Any, args: dict[str, Any], *, warn: float | None = DEFAU
                     ".trajectory; pass error_estimate=False to skip the estimate)",)
         exc.trajectory = traj
         raise
-    est = richardson(traj, shadow, order, wall_time_s=time.perf_counter() - t0, warn=warn)
+    est = richardson(traj, shadow, order, wall_time_s=time.perf_counter() - t0, warn=warn, position=position)
     if est.exceeds:
         warnings.warn(f"{est.describe()}: above error_warn = {est.warn:g} rad; {est.advice()}",
                       AccuracyWarning, stacklevel=stacklevel + 1)

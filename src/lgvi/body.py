@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["RigidBody", "check_inertia", "inertia_to_jd", "jd_to_inertia"]
+__all__ = ["RigidBody", "check_inertia", "inertia_to_jd", "jd_to_inertia", "sphere_moments"]
 
 #: Relative tolerance of the symmetry check and of the triangle inequality (equality allowed).
 RTOL: float = 1e-12
@@ -121,7 +121,7 @@ def jd_to_inertia(Jd: ArrayLike) -> _FloatArray:
     return tr[..., None, None] * np.eye(3) - Jd
 
 
-def check_inertia(inertia: ArrayLike, name: str = "inertia") -> _FloatArray:
+def check_inertia(inertia: ArrayLike, name: str = "inertia", *, physical: bool = True) -> _FloatArray:
     """Validate an inertia and return it as a symmetric ``(3, 3)`` float64 matrix.
 
     Parameters
@@ -130,6 +130,9 @@ def check_inertia(inertia: ArrayLike, name: str = "inertia") -> _FloatArray:
         Principal moments (a diagonal inertia) or a full inertia matrix.
     name : str, optional
         Name of the argument, used in error messages.
+    physical : bool, optional
+        Check the triangle inequality (default). ``False`` allows the inertia of no physical
+        body (e.g. the textbook test case ``(2, 1, 2/3)``), for tests of the method.
 
     Returns
     -------
@@ -215,12 +218,13 @@ def check_inertia(inertia: ArrayLike, name: str = "inertia") -> _FloatArray:
             f"1 / (smallest principal moment) = {inverse:.10g} must be finite for Jd and J^-1; "
             f"change the units, got {_fmt(arr)}"
         )
-    if J3 - (J1 + J2) > RTOL * J3:
+    if physical and J3 - (J1 + J2) > RTOL * J3:
         raise ValueError(
             f"{name} violates the triangle inequality of a physical body: "
             f"J3 = {J3:.10g} > J1 + J2 = {J1 + J2:.10g} "
             f"(Jd = tr(J)/2 I - J must be positive semidefinite; principal moments "
-            f"J1 <= J2 <= J3 = {_fmt(np.array(moments))}), got {_fmt(arr)}"
+            f"J1 <= J2 <= J3 = {_fmt(np.array(moments))}); for a test of the method with such an "
+            f"inertia pass allow_nonphysical=True, got {_fmt(arr)}"
         )
     return J
 
@@ -296,12 +300,17 @@ class RigidBody:
     is_diagonal : bool
         Whether ``J`` is diagonal (its off-diagonal entries are exactly zero).
 
+    allow_nonphysical : bool, keyword-only
+        Accept an inertia that violates the triangle inequality (no physical body has it; its
+        ``Jd`` is indefinite), for tests of the method such as the textbook ``(2, 1, 2/3)``.
+        Default False.
+
     Raises
     ------
     ValueError
         If ``inertia`` has the wrong shape, is not finite, not symmetric, not positive definite
-        or violates the triangle inequality ``J3 <= J1 + J2`` of a physical body; see
-        :func:`check_inertia`.
+        or violates the triangle inequality ``J3 <= J1 + J2`` of a physical body (unless
+        ``allow_nonphysical``); see :func:`check_inertia`.
 
     Notes
     -----
@@ -325,20 +334,28 @@ class RigidBody:
     """
 
     inertia: InitVar[ArrayLike]
+    allow_nonphysical: InitVar[bool] = field(default=False, kw_only=True)
     J: _FloatArray = field(init=False)
     Jd: _FloatArray = field(init=False)
     J_inv: _FloatArray = field(init=False)
     principal_moments: _FloatArray = field(init=False)
     principal_axes: _FloatArray = field(init=False)
     is_diagonal: bool = field(init=False)
+    physical: bool = field(init=False, default=True)
 
-    def __post_init__(self, inertia: ArrayLike) -> None:
+    def __post_init__(self, inertia: ArrayLike, allow_nonphysical: bool = False) -> None:
+        if not isinstance(allow_nonphysical, (bool, np.bool_)):
+            raise TypeError(f"allow_nonphysical must be True or False, got {allow_nonphysical!r}")
         if isinstance(inertia, RigidBody):  # checked when it was made, and immutable: its arrays
             for key in ("J", "Jd", "J_inv", "principal_moments", "principal_axes"):
                 object.__setattr__(self, key, _readonly(getattr(inertia, key)))
             object.__setattr__(self, "is_diagonal", bool(inertia.is_diagonal))
+            object.__setattr__(self, "physical", bool(inertia.physical))
             return
-        J = check_inertia(inertia, "inertia")
+        J = check_inertia(inertia, "inertia", physical=not allow_nonphysical)
+        if allow_nonphysical:
+            m = np.linalg.eigvalsh(J)
+            object.__setattr__(self, "physical", bool(m[2] - (m[0] + m[1]) <= RTOL * m[2]))
         rows = J.tolist()
         if _is_diagonal(rows):
             self._set_diagonal(rows)
@@ -449,11 +466,12 @@ class RigidBody:
         def num(x: float) -> str:
             return f"{x:.10g}"
 
+        flag = "" if self.physical else ", allow_nonphysical=True"
         if self.is_diagonal:
             inner = ", ".join(num(x) for x in np.diag(self.J))
-            return f"RigidBody(inertia=[{inner}])"
+            return f"RigidBody(inertia=[{inner}]{flag})"
         inner = ", ".join(num(x) for x in self.principal_moments)
-        return f"RigidBody(principal_moments=[{inner}], diagonal=False)"
+        return f"RigidBody(principal_moments=[{inner}], diagonal=False{flag})"
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, RigidBody):
@@ -466,4 +484,116 @@ class RigidBody:
     def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
         # Rebuild through the constructor, so that a copy or an unpickled body is checked and its
         # arrays are read-only again.
+        if not self.physical:
+            return (_nonphysical, (np.array(self.J),))
         return (RigidBody, (np.array(self.J),))
+
+    @classmethod
+    def from_masses(cls, masses: ArrayLike, positions: ArrayLike, radii: ArrayLike | None = None) -> "RigidBody":
+        """The body made of point masses, or homogeneous spheres, rigidly joined by massless rods.
+
+        Parameters
+        ----------
+        masses : (n,) array_like
+            Masses, ``> 0``.
+        positions : (n, 3) array_like
+            Their positions (the centres of the spheres) in the body frame; any origin: the
+            inertia is taken about their centre of mass.
+        radii : (n,) array_like, optional
+            Radii of the spheres, ``>= 0`` (default: points, radius 0).
+
+        Returns
+        -------
+        RigidBody
+            The inertia ``sum_a m_a (|q_a|^2 I - q_a q_a^T) + 2/5 m_a rho_a^2 I`` about the centre of
+            mass (``q_a`` from it), in the body frame of ``positions``.
+
+        Raises
+        ------
+        ValueError
+            If the arrays do not match or are not finite, a mass is not positive, a radius is
+            negative, or the body has a zero principal moment (points on one line with no
+            sphere: add a sphere or a point off the line).
+
+        Examples
+        --------
+        >>> import lgvi
+        >>> dumbbell = lgvi.RigidBody.from_masses([1.0, 1.0], [[-1.0, 0, 0], [1.0, 0, 0]], radii=[0.5, 0.5])
+        >>> dumbbell.principal_moments.tolist()         # 2 (2/5 0.25), then 2 + 0.2 twice
+        [0.2, 2.2, 2.2]
+        """
+        w, q, rho = sphere_moments(masses, positions, radii, "RigidBody.from_masses", order=2)[:3]
+        J = np.einsum("a,ai,aj->ij", -w, q, q) + (w @ np.einsum("ai,ai->a", q, q) + 0.4 * (w @ rho ** 2)) * np.eye(3)
+        return cls(J)
+
+
+def _nonphysical(J: _FloatArray) -> RigidBody:
+    """Rebuild a body made with ``allow_nonphysical=True`` (pickling)."""
+    return RigidBody(J, allow_nonphysical=True)
+
+
+def sphere_moments(masses: ArrayLike, positions: ArrayLike, radii: ArrayLike | None, who: str,
+                   order: int = 4) -> tuple[Any, ...]:
+    r"""Validated points or homogeneous spheres and their mass moments about their centre of mass.
+
+    Parameters
+    ----------
+    masses : (n,) array_like
+        ``> 0``.
+    positions : (n, 3) array_like
+        Centres, any origin.
+    radii : (n,) array_like or None
+        ``>= 0`` (None: points).
+    who : str
+        Named in error messages.
+    order : {2, 4}
+        Compute ``T3`` and ``T4`` too (4) or not (2: they are returned as None).
+
+    Returns
+    -------
+    (w (n,), q (n, 3), rho (n,), S (3, 3), T3 (3, 3, 3), T4 (3, 3, 3, 3))
+        The masses, the centres relative to the centre of mass, the radii, and ``int r r^T dm``,
+        ``int r^(x3) dm``, ``int r^(x4) dm`` about the centre of mass. A sphere of mass ``m``
+        and radius ``rho`` adds ``m rho^2 / 5 I`` to ``S``, ``q_i <s_j s_k>`` and its
+        permutations to ``T3`` and the six ``q q <s s>`` terms plus
+        ``m rho^4 / 35 (d_ij d_kl + d_ik d_jl + d_il d_jk)`` to ``T4`` (``<s_i s_j> = m rho^2 / 5
+        d_ij``: the moments of a homogeneous ball about its centre).
+    """
+    w = np.asarray(masses, dtype=np.float64) if not isinstance(masses, (str, bytes)) else None
+    if w is None or w.ndim != 1 or len(w) == 0:
+        raise ValueError(f"{who}: masses must be a non-empty array of shape (n,), got {masses!r}")
+    q = np.asarray(positions, dtype=np.float64) if not isinstance(positions, (str, bytes)) else None
+    if q is None or q.shape != (len(w), 3):
+        raise ValueError(f"{who} needs as many masses as positions (n,) and (n, 3), got {len(w)} masses and "
+                         f"positions of shape {getattr(q, 'shape', None)}")
+    rho = np.zeros(len(w)) if radii is None else np.asarray(radii, dtype=np.float64)
+    if rho.shape != w.shape:
+        raise ValueError(f"{who}: radii must have shape ({len(w)},) like masses, got shape {rho.shape}")
+    for name, a in (("masses", w), ("positions", q), ("radii", rho)):
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{who}: {name} must be finite, got {a.tolist()}")
+    if not np.all(w > 0):
+        raise ValueError(f"{who}: masses must be positive, got {w[~(w > 0)][0]}")
+    if not np.all(rho >= 0):
+        raise ValueError(f"{who}: radii must be >= 0, got {rho[~(rho >= 0)][0]}")
+    q = q - (w @ q) / w.sum()
+    s2 = w * rho ** 2 / 5.0                      # <s s^T> = s2 I for each sphere
+    S = np.einsum("a,ai,aj->ij", w, q, q) + s2.sum() * np.eye(3)
+    moments = np.linalg.eigvalsh(np.trace(S) * np.eye(3) - S)
+    if not moments[0] > 1e-12 * moments[-1]:
+        raise ValueError(f"{who}: the points must not all lie on one line: a rigid body needs three non-zero "
+                         f"principal moments of inertia, got {moments.tolist()} (give the spheres radii, or add a "
+                         "point off the line, e.g. a light cross bar)")
+    if order == 2:
+        return w, q, rho, S, None, None
+    d = np.eye(3)
+    T3 = np.einsum("a,ai,aj,ak->ijk", w, q, q, q)
+    qs = np.einsum("a,ai->ai", s2, q)          # s2_a q_a
+    T3 = T3 + (np.einsum("ai,jk->ijk", qs, d) + np.einsum("aj,ik->ijk", qs, d) + np.einsum("ak,ij->ijk", qs, d))
+    T4 = np.einsum("a,ai,aj,ak,al->ijkl", w, q, q, q, q)
+    qq = np.einsum("a,ai,aj->ij", s2, q, q)      # sum_a s2_a q_a q_a^T
+    for a, b, c, e in ("ijkl", "ikjl", "iljk", "jkil", "jlik", "klij"):
+        T4 = T4 + np.einsum(f"{a}{b},{c}{e}->ijkl", qq, d)
+    iso = (w * rho ** 4 / 35.0).sum()
+    T4 = T4 + iso * (np.einsum("ij,kl->ijkl", d, d) + np.einsum("ik,jl->ijkl", d, d) + np.einsum("il,jk->ijkl", d, d))
+    return w, q, rho, S, T3, T4

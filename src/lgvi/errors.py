@@ -34,6 +34,35 @@ class ConvergenceError(RuntimeError):
         self.trajectory = trajectory
 
 
+class CollisionError(ConvergenceError):
+    """Impossible physics: the bodies of a run touched, or a body passed through a centre of
+    attraction (:func:`lgvi.simulate_orbit`, :func:`lgvi.simulate_two_body`).
+
+    Raised at the step where it happens, never returned as a result. A subclass of
+    :class:`ConvergenceError`, so code that keeps a failed run's partial result keeps this one too.
+
+    Attributes
+    ----------
+    step, time, trajectory
+        As in :class:`ConvergenceError`: the failed step ``k``, its time ``t_k``, and the run up
+        to that step (``None`` when the initial state is already in contact).
+    distance : float
+        The distance between the centres (of mass, or of the central body) where the contact was
+        found: the closest approach of the step's path, or the distance at the new state for
+        overlapping shapes.
+    """
+
+    def __init__(self, message: str, *, step: int | None = None, time: float | None = None,
+                 trajectory: Any = None, distance: float = float("nan")):
+        super().__init__(message, step=step, time=time, trajectory=trajectory)
+        self.distance = distance
+
+
+class InitialContactError(CollisionError, ValueError):
+    """The initial state of a run already has its bodies in contact (bad input: also a
+    ``ValueError``); ``step`` 0, ``trajectory`` None."""
+
+
 class SimulationInterrupted(KeyboardInterrupt):
     """A run was interrupted (Ctrl-C); ``trajectory`` holds the part computed so far."""
 
@@ -64,4 +93,4 @@ class AttitudeWarning(UserWarning):
     written with 7 significant digits) was replaced by its nearest rotation."""
 
 
-__all__ = ["AccuracyWarning", "AttitudeWarning", "ConvergenceError", "SimulationInterrupted", "TorqueError"]
+__all__ = ["AccuracyWarning", "AttitudeWarning", "CollisionError", "ConvergenceError", "InitialContactError", "SimulationInterrupted", "TorqueError"]

@@ -29,7 +29,8 @@ from __future__ import annotations
 import math
 
 from .._jit import jit
-from .codes import METHOD_CAYLEY, NOT_FINITE, OK, OVERFLOW
+from .codes import COLLISION, METHOD_CAYLEY, NOT_FINITE, OK, OVERFLOW
+from .contact_kernels import passage
 from .solvers import solve_scalar
 from .stepping import predict_at, push_at, rotated_row
 
@@ -95,13 +96,16 @@ def central_force(code, Jd, mass, mu, c2, x0, x1, x2, R00, R01, R02, R10, R11, R
 
 @jit(_nrt=False)
 def run_orbit(code, Jd, mass, mu, c2, h, x, p, R, Pi, G, C, U, k0, n, tol, max_iter, save_every,
-              x_out, p_out, R_out, Pi_out, it_out, res_out, hist, last):
+              x_out, p_out, R_out, Pi_out, it_out, res_out, hist, last, core, contact):
     """Steps ``k0 .. k0+n-1`` in place on ``x, p, R, Pi, G`` (1,5,3), ``C`` (7,); sample ``j``
     (every ``save_every`` steps) into the ``*_out`` buffers, the largest iterations and residual
     of each saved interval into ``it_out``, ``res_out``. ``U`` is ``(1, 3)`` (a constant extra
     body moment) or ``(steps + 1, 3)`` (its value at each grid time). ``last`` (2,) gets the
-    iterations and residual of the last step tried. Returns ``(status, k)``: ``k`` the steps done
-    (on failure the failed step; the state is then that before it)."""
+    iterations and residual of the last step tried. A step whose path touches the central body
+    (radius ``core``, 0 for a point) or passes its centre closer than its own length fails with
+    ``COLLISION`` and ``contact`` (3,) = ``(kind, d_min, L)`` (:func:`.contact_kernels.passage`).
+    Returns ``(status, k)``: ``k`` the steps done (on failure the failed step; the state is then
+    that before it)."""
     one = U.shape[0] == 1
     if C[6] == 0.0:
         g0, g1, g2, M0, M1, M2 = central_force(code, Jd, mass, mu, c2, x[0], x[1], x[2], R[0, 0], R[0, 1], R[0, 2],
@@ -141,6 +145,8 @@ def run_orbit(code, Jd, mass, mu, c2, h, x, p, R, Pi, G, C, U, k0, n, tol, max_i
         y0 = x[0] + hm * p[0] - hhm * C[0]
         y1 = x[1] + hm * p[1] - hhm * C[1]
         y2 = x[2] + hm * p[2] - hhm * C[2]
+        if passage(x[0], x[1], x[2], y0, y1, y2, core, contact):
+            return COLLISION, k
         g0, g1, g2, M0, M1, M2 = central_force(code, Jd, mass, mu, c2, y0, y1, y2, a00, a01, a02, a10, a11, a12,
                                                a20, a21, a22)
         n0 = p[0] - hh * (C[0] + g0)

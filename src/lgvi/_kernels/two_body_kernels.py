@@ -32,7 +32,8 @@ from __future__ import annotations
 import math
 
 from .._jit import jit
-from .codes import METHOD_CAYLEY, NOT_FINITE, OK, OVERFLOW
+from .codes import COLLISION, METHOD_CAYLEY, NOT_FINITE, OK, OVERFLOW
+from .contact_kernels import passage, shapes_overlap
 from .solvers import solve_scalar
 from .stepping import predict_at, push_at, rotated_row
 
@@ -294,13 +295,23 @@ def mutual_force(code, G, m1, m2, S, T3, t3, T4, Q4, q4, Q1, w1, Q2, w2, d, R, o
 
 @jit(_nrt=False)
 def run_two_body(code, G, m1, m2, S, T3, t3, T4, Q4, q4, Q1, w1, Q2, w2, Y, Z, A, B, h, X, P, R, Pi, Gh, C,
-                 N, k0, n, tol, max_iter, save_every, X_out, P_out, R_out, Pi_out, it_out, res_out, hist, last):
+                 N, k0, n, tol, max_iter, save_every, X_out, P_out, R_out, Pi_out, it_out, res_out, hist, last,
+                 E1, A1, E2, A2, bound, core, Xn, Rn, contact):
     """Steps ``k0 .. k0+n-1`` in place (see the module notes); ``N`` (10,) scratch for the new
     force and moments. Samples every ``save_every`` steps into the ``*_out`` buffers, the largest
     iterations (both solves summed) and residual of each saved interval into ``it_out``,
-    ``res_out``; ``last`` (2,) the last step's. Returns ``(status, k)``: ``k`` the steps done (on
-    failure the failed step; a failed solve leaves the state as before the step, an overflow of the
-    new state may leave it partly advanced: the saved samples are intact, the run is over)."""
+    ``res_out``; ``last`` (2,) the last step's.
+
+    Contact (:mod:`.contact_kernels`): the path of ``d = x2 - x1`` over a step must stay farther
+    than ``core`` from the origin and pass it no closer than its own length; where the centres are
+    closer than ``bound`` at the new state, the bodies' ellipsoids (centres ``E_i`` (n_i, 3), semi-axes
+    ``A_i`` (n_i, 3), body frame) must not overlap there (``Xn`` (2, 3), ``Rn`` (2, 3, 3) scratch for
+    the new state). Otherwise the step fails with ``COLLISION`` and ``contact`` (3,) =
+    ``(kind, distance, L)`` (kind 3: overlapping shapes).
+
+    Returns ``(status, k)``: ``k`` the steps done (on failure the failed step; a failed solve or a
+    collision leaves the state as before the step, an overflow of the new state may leave it partly
+    advanced: the saved samples are intact, the run is over)."""
     if C[9] == 0.0:
         mutual(code, G, m1, m2, S, T3, t3, T4, Q4, q4, Q1, w1, Q2, w2, Y, Z, A, B, X[1, 0] - X[0, 0],
                X[1, 1] - X[0, 1], X[1, 2] - X[0, 2], R, C)
@@ -357,11 +368,31 @@ def run_two_body(code, G, m1, m2, S, T3, t3, T4, Q4, q4, Q1, w1, Q2, w2, Y, Z, A
         z2 = X[1, 2] + hm2 * P[1, 2] - hm2 * hh * C[2]
         if not math.isfinite(y0 + y1 + y2 + z0 + z1 + z2):
             return NOT_FINITE, k
+        if passage(X[1, 0] - X[0, 0], X[1, 1] - X[0, 1], X[1, 2] - X[0, 2], z0 - y0, z1 - y1, z2 - y2, core, contact):
+            return COLLISION, k
         for i in range(2):
             E00, E01, E02, E10, E11, E12, E20, E21, E22 = e if i == 0 else e1
             for r in range(3):
-                R[i, r, 0], R[i, r, 1], R[i, r, 2] = rotated_row(R[i, r, 0], R[i, r, 1], R[i, r, 2], E00, E01, E02,
-                                                                 E10, E11, E12, E20, E21, E22)
+                Rn[i, r, 0], Rn[i, r, 1], Rn[i, r, 2] = rotated_row(R[i, r, 0], R[i, r, 1], R[i, r, 2], E00, E01,
+                                                                    E02, E10, E11, E12, E20, E21, E22)
+        dn = math.sqrt((z0 - y0) ** 2 + (z1 - y1) ** 2 + (z2 - y2) ** 2)
+        if dn < bound:
+            Xn[0, 0] = y0
+            Xn[0, 1] = y1
+            Xn[0, 2] = y2
+            Xn[1, 0] = z0
+            Xn[1, 1] = z1
+            Xn[1, 2] = z2
+            if shapes_overlap(Xn, Rn, E1, A1, E2, A2) >= 0:
+                contact[0] = 3.0
+                contact[1] = dn
+                contact[2] = 0.0
+                return COLLISION, k
+        for i in range(2):
+            for r in range(3):
+                R[i, r, 0] = Rn[i, r, 0]
+                R[i, r, 1] = Rn[i, r, 1]
+                R[i, r, 2] = Rn[i, r, 2]
         mutual(code, G, m1, m2, S, T3, t3, T4, Q4, q4, Q1, w1, Q2, w2, Y, Z, A, B, z0 - y0, z1 - y1, z2 - y2, R, N)
         n0 = hh * (C[0] + N[0])
         n1 = hh * (C[1] + N[1])

@@ -20,7 +20,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..errors import ConvergenceError
+from ..errors import CollisionError, ConvergenceError
 
 
 @dataclass(frozen=True)
@@ -150,6 +150,25 @@ class CarriedState:
         return ConvergenceError(f"{self.system.name.replace('_', '-')} step {self.k} (t = {t:g}) failed: {what}; "
                                 f"try a smaller step h{where}", residual=float(residual),
                                 iterations=int(iterations), step=self.k, time=t, trajectory=trajectory)
+
+    def collision(self, contact: np.ndarray, trajectory: Any, where: str, core: str, shapes: str = "") -> Exception:
+        """The :class:`lgvi.CollisionError` of a step that failed with ``COLLISION``: ``contact``
+        (3,) = ``(kind, d_min, L)`` from :mod:`lgvi._kernels.contact_kernels` (kind 1: the path met
+        ``core``, 2: it passed the centre closer than its length, 3: the shapes ``shapes`` overlap at
+        the new state, ``d_min`` the distance between the centres of mass there)."""
+        t = self.t0 + self.k * self.h
+        kind, d, L = int(contact[0]), float(contact[1]), float(contact[2])
+        if kind == 1:
+            what = f"its path came within {d:.6g} of the centre, inside {core}"
+        elif kind == 2:
+            what = (f"its path passed {d:.6g} from the centre in one step of length {L:.6g}: a fall through the "
+                    "centre, or a step far too large for this close approach (it swept more than 53 degrees "
+                    "about the centre)")
+        else:
+            what = f"the bodies overlap at its end ({shapes}), {d:.6g} apart (centres of mass)"
+        return CollisionError(f"{self.system.name.replace('_', '-')} step {self.k} (t = {t:g}): collision, {what}. "
+                              f"The run up to step {self.k} is in .trajectory{where}", step=self.k, time=t,
+                              trajectory=trajectory, distance=d)
 
 
 from . import rigid_body as rigid_body  # noqa: E402  (registers the rigid body)

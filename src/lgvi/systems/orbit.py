@@ -24,10 +24,12 @@ from typing import Any
 
 import numpy as np
 
-from .._kernels.codes import NOT_FINITE, OVERFLOW
+from .._kernels.codes import COLLISION, NOT_FINITE, OVERFLOW
 from .._validation import as_float, as_float_array, as_rotation, choice
+from ..accuracy import check_options, with_estimate
 from .._version import __version__
 from ..body import RigidBody
+from ..errors import InitialContactError
 from ..driver import MemorySink, Progress, check_memory, drive, initial_momentum, sample_times, time_grid
 from ..invariants import BOUNDED, EXACT
 from . import CarriedState, Field, System, register
@@ -173,6 +175,14 @@ def load_result_npz(path: Any, fmt: str, names: tuple[str, ...]) -> tuple[dict[s
     return arrays, header.get("meta", {})
 
 
+def estimate_of(meta: dict[str, Any]) -> Any:
+    """The :class:`lgvi.accuracy.ErrorEstimate` in ``meta["error_estimate"]``, or ``None``."""
+    from ..accuracy import ErrorEstimate
+
+    d = meta.get("error_estimate")
+    return None if d is None else ErrorEstimate.from_dict(d)
+
+
 @dataclass
 class OrbitTrajectory:
     """The result of :func:`simulate_orbit`, ``M`` samples.
@@ -211,6 +221,12 @@ class OrbitTrajectory:
     meta: dict[str, Any] = field(default_factory=dict)
 
     ARRAYS = ("t", "x", "p", "R", "Pi", "iterations", "residual", "inertia")
+
+    @property
+    def error_estimate(self) -> Any:
+        """The run's :class:`lgvi.accuracy.ErrorEstimate` (``simulate_orbit(..., error_estimate=True)``,
+        from ``meta["error_estimate"]``) or ``None``."""
+        return estimate_of(self.meta)
 
     @property
     def v(self) -> np.ndarray:
@@ -314,18 +330,20 @@ class OrbitRun(CarriedState):
         self.Pi = initial_momentum(self.body, Pi0, omega0)
         self.h, self.t0, self.steps, self.save_every = time_grid(h, t0, steps, save_every)
         _, self.tol, self.max_iter, _ = run_solver_options("cayley", tol, max_iter, 1.0)
+        self.radius = 0.0 if radius is None else positive_number(radius, "radius")
         if J2 is None:
             self.J2 = 0.0
-            self.radius = 0.0
-            if radius is not None:
-                raise ValueError("radius is the central body's equatorial radius for J2: give it with J2, "
-                                 f"got radius={radius!r} without J2")
         else:
             self.J2 = as_float(J2, "J2")
             if radius is None:
                 raise ValueError(f"J2 needs the central body's equatorial radius: give radius= (same length unit "
                                  f"as x0); got J2={J2!r} and radius=None")
-            self.radius = positive_number(radius, "radius")
+        r0 = float(np.linalg.norm(self.x))
+        if r0 <= self.radius:
+            raise InitialContactError(f"x0 is inside the central body: |x0| = {r0:.6g} <= radius = {self.radius:.6g} "
+                                      "(the orbit must start outside it)", step=0, time=float(self.t0),
+                                      distance=r0)
+        self.contact = np.zeros(3)
         self.U = extra_torque(torque, self.steps)
         self.has_torque = torque is not None
         check_memory(self.steps, self.save_every, False)
@@ -367,10 +385,13 @@ class OrbitRun(CarriedState):
         status, self.k = run_orbit(self.code, self.body.Jd, self.mass, self.mu, self.mu * self.J2 * self.radius ** 2,
                                    self.h, self.x, self.p, self.R, self.Pi, self.G, self.C, self.U, self.k, n, self.tol,
                                    self.max_iter, self.save_every, x_out, p_out, R_out, Pi_out, it_out, res_out,
-                                   self.hist, self.last)
+                                   self.hist, self.last, self.radius, self.contact)
         return int(status)
 
     def failure(self, status: int, residual: float, iterations: int, trajectory: Any, where: str = "") -> Exception:
+        if status == COLLISION:
+            core = f"the central body (radius {self.radius:g})"
+            return self.collision(self.contact, trajectory, where, core)
         what = {OVERFLOW: "the momentum after the step is not finite",
                 NOT_FINITE: "the state became non-finite (the body reached the centre, or the step is far too large)",
                 }.get(status, f"the attitude equation was not solved (status {status}, residual {residual:.3e}, "
@@ -409,7 +430,8 @@ def _from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state: dic
 def simulate_orbit(body: Any, mass: float, x0: Any, v0: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None,
                    h: float, steps: int, mu: float, potential: str = "order2", J2: float | None = None,
                    radius: float | None = None, torque: Any = None, save_every: int = 1, t0: float = 0.0,
-                   tol: float = 1e-14, max_iter: int = 50, progress: Any = False) -> OrbitTrajectory:
+                   tol: float = 1e-14, max_iter: int = 50, progress: Any = False, error_estimate: Any = False,
+                   error_warn: float | None = 0.01) -> OrbitTrajectory:
     r"""Simulate a rigid body in the gravity field of a central body (orbit and attitude coupled).
 
     Each step: the attitude by the LGVI (``hat(h mu_k) = F Jd - Jd F^T``, ``mu_k = Pi_k + h/2 M_k``),
@@ -443,7 +465,9 @@ def simulate_orbit(body: Any, mass: float, x0: Any, v0: Any, R0: Any, Pi0: Any =
         Zonal harmonic of the central body (oblate about the inertial ``e3``), acting on the
         body's centre of mass; needs ``radius``.
     radius : float, optional
-        Equatorial radius of the central body (for ``J2``), ``> 0``.
+        Equatorial radius of the central body, ``> 0``: needed with ``J2``; with or without it, a
+        step whose path enters the sphere of this radius raises :class:`lgvi.CollisionError`
+        (default: the central body is a point).
     torque : None or array_like
         Extra body moment: a constant ``(3,)`` or its values at the grid times ``(steps + 1, 3)``
         (used at both ends of each step).
@@ -455,6 +479,22 @@ def simulate_orbit(body: Any, mass: float, x0: Any, v0: Any, R0: Any, Pi0: Any =
         The attitude solve (Cayley form of the LGVI, relative tolerance).
     progress : bool or callable
         As in :func:`lgvi.simulate`.
+    error_estimate : {False, True, "richardson"}
+        Estimate the global error by a second run at ``h/2`` (:mod:`lgvi.accuracy`): attitude,
+        body momentum and position (``position``, ``position_rel`` of the
+        :class:`lgvi.accuracy.ErrorEstimate` in ``.error_estimate``); not with a torque given at
+        the grid times.
+    error_warn : float or None
+        With ``error_estimate``: emit :class:`lgvi.AccuracyWarning` when the estimated final
+        attitude error [rad] or the position error relative to the largest distance exceeds it.
+
+    Raises
+    ------
+    lgvi.CollisionError
+        At the step whose path enters the central body (``radius``) or passes its centre closer
+        than the step's own length (a fall through the centre, or a step far too large for the
+        approach), with the run up to that step in ``.trajectory``; a start inside the central
+        body raises it (as a ``ValueError`` too) before any step.
 
     Returns
     -------
@@ -471,10 +511,22 @@ def simulate_orbit(body: Any, mass: float, x0: Any, v0: Any, R0: Any, Pi0: Any =
     >>> bool(np.abs(L - L[0]).max() < 1e-12 * np.abs(L[0]).max())
     True
     """
+    estimate, warn = check_options(error_estimate, error_warn, None)
     run = OrbitRun(body, mass, x0, v0, R0, Pi0, omega0=omega0, h=h, steps=steps, mu=mu, potential=potential,
                    J2=J2, radius=radius, torque=torque, tol=tol, max_iter=max_iter, save_every=save_every, t0=t0)
+    if estimate and len(run.U) > 1:
+        raise ValueError("error_estimate needs the extra moment between the grid times (the shadow run steps at h/2), "
+                         "but a torque of shape (steps + 1, 3) holds it at the grid times only; give a constant "
+                         "torque (3,), or error_estimate=False")
     Progress(progress, 0)   # validates progress before any work
-    return drive(run, MemorySink(run), progress=progress)
+    traj = drive(run, MemorySink(run), progress=progress)
+    if not estimate:
+        return traj
+    args = dict(body=run.body, mass=mass, x0=x0, v0=v0, R0=R0, Pi0=Pi0, omega0=omega0, h=run.h, steps=run.steps,
+                mu=mu, potential=potential, J2=J2, radius=radius, torque=torque, save_every=run.save_every, t0=t0,
+                tol=tol, max_iter=max_iter, progress=progress)
+    return with_estimate(traj, args, warn=warn, stacklevel=2, order=2, runner=simulate_orbit,
+                         position=lambda tr: tr.x)
 
 
 def _provide() -> None:
@@ -485,4 +537,4 @@ def _provide() -> None:
 
 _provide()
 
-__all__ = ["ORBIT", "OrbitRun", "OrbitTrajectory", "orbit_equations", "orbit_potential", "simulate_orbit"]
+__all__ = ["ORBIT", "OrbitRun", "OrbitTrajectory", "estimate_of", "orbit_equations", "orbit_potential", "simulate_orbit"]

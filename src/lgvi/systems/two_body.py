@@ -25,14 +25,16 @@ from typing import Any
 
 import numpy as np
 
-from .._kernels.codes import NOT_FINITE, OVERFLOW
+from .._kernels.codes import COLLISION, NOT_FINITE, OVERFLOW
 from .._validation import as_float, as_float_array, as_rotation, choice
+from ..accuracy import check_options, with_estimate
 from .._version import __version__
 from ..body import RigidBody
+from ..errors import InitialContactError
 from ..driver import MemorySink, Progress, check_memory, drive, initial_momentum, sample_times, time_grid
 from ..invariants import BOUNDED, EXACT
 from . import CarriedState, Field, System, register
-from .orbit import load_result_npz, positive_number, save_result_npz
+from .orbit import estimate_of, load_result_npz, positive_number, save_result_npz
 
 #: The body arrays a result keeps (``TwoBodyTrajectory.moments``).
 MOMENT_KEYS = ("S", "T3", "T4", "Q1", "w1", "Q2", "w2")
@@ -235,6 +237,9 @@ class Polyhedron:
             m = None
         P = V[F] - com                 # the tetrahedra from the centre of mass
         vol = np.linalg.det(P) / 6.0
+        # the ball about the centre of mass inside the body: when the centre sees every face from inside
+        # (each tetrahedron to it positive), the nearest face plane bounds it (distance 3 vol / area)
+        self.inner_radius = float(np.min(3.0 * vol / area)) if np.all(vol > 0.0) else 0.0
         self.vertices = V
         self.faces = F
         self.volume = float(vol.sum())
@@ -267,43 +272,39 @@ class Polyhedron:
 
 @dataclass(frozen=True, eq=False)
 class PointMasses:
-    """A rigid body made of point masses ``masses`` (n,) at ``positions`` (n, 3) in its body frame.
+    """A rigid body made of point masses ``masses`` (n,) at ``positions`` (n, 3) in its body frame,
+    or of homogeneous spheres of ``radii`` (n,) there (a point is a sphere of radius 0).
 
     The positions are taken relative to their centre of mass (which the run's position follows).
-    Its moments of every order follow from the points; ``potential="points"`` uses the points
-    themselves (the exact mutual potential, ``n1 n2`` pairs a step)."""
+    Its moments of every order follow from the points and spheres (a sphere adds ``m rho^2 / 5`` to
+    its second moments and ``m rho^4 / 35`` times the isotropic tensor to its fourth,
+    :func:`lgvi.body.sphere_moments`); a sphere attracts as the point at its centre, so
+    ``potential="points"`` is exact for spheres too (the pairwise sum, ``n1 n2`` pairs a step) as
+    long as no two spheres overlap, which :func:`simulate_two_body` checks every step. Two spheres
+    on a rod (the dumbbell of Lee, Leok and McClamroch) are a rigid body: their own inertia gives
+    the moment about the rod."""
 
     masses: Any
     positions: Any
+    radii: Any = None
 
     def __post_init__(self) -> None:
-        w = as_float_array(self.masses, "masses", (None,))
-        q = as_float_array(self.positions, "positions", (None, 3))
-        if len(w) == 0 or len(w) != len(q):
-            raise ValueError(f"PointMasses needs as many masses as positions (at least one), got {len(w)} masses "
-                             f"and {len(q)} positions")
-        if not np.all(w > 0):
-            raise ValueError(f"masses must be positive, got {w[~(w > 0)][0]}")
-        q = q - (w @ q) / w.sum()
-        S = np.einsum("a,ai,aj->ij", w, q, q)
-        moments = np.linalg.eigvalsh(np.trace(S) * np.eye(3) - S)
-        if not moments[0] > 1e-12 * moments[-1]:
-            raise ValueError(f"positions of PointMasses must not all lie on one line: a rigid body needs three "
-                             f"non-zero principal moments of inertia, got {moments.tolist()} (add a point off "
-                             "the line, e.g. a light cross bar)")
+        from ..body import sphere_moments
+
+        w, q, rho, S, _, _ = sphere_moments(self.masses, self.positions, self.radii, "PointMasses", order=2)
         object.__setattr__(self, "masses", w)
         object.__setattr__(self, "positions", q)
+        object.__setattr__(self, "radii", rho)
 
     @property
     def mass(self) -> float:
         return float(self.masses.sum())
 
     def moments(self, mass: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        w, q = self.masses, self.positions
-        S = np.einsum("a,ai,aj->ij", w, q, q)
-        T3 = np.einsum("a,ai,aj,ak->ijk", w, q, q, q)
-        T4 = np.einsum("a,ai,aj,ak,al->ijkl", w, q, q, q, q)
-        return S, T3, T4
+        """``(S (3,3), T3 (3,3,3), T4 (3,3,3,3))`` about the centre of mass, spheres included."""
+        from ..body import sphere_moments
+
+        return sphere_moments(self.masses, self.positions, self.radii, "PointMasses")[3:]
 
 
 class Moments:
@@ -347,6 +348,33 @@ class Moments:
         self.t3 = np.einsum("kki->i", T3)
         self.Q4 = np.einsum("kkij->ij", T4)
         self.q4 = float(np.einsum("iijj->", T4))
+        self.E, self.A, self.core, self.bound, self.shape = contact_shape(body)
+
+
+def contact_shape(body: Any) -> tuple[np.ndarray, np.ndarray, float, float, str]:
+    """What the contact check of :func:`simulate_two_body` knows of a body's shape
+    (:mod:`lgvi._kernels.contact_kernels`): ellipsoids (centres ``E`` (n, 3) in the body frame from
+    the centre of mass, semi-axes ``A`` (n, 3) along the body axes), the radius ``core`` of a
+    ball about the centre of mass inside the body, the radius ``bound`` of a ball about it that
+    holds the ellipsoids, and a short description. An :class:`Ellipsoid` is one ellipsoid; a
+    :class:`PointMasses` body one sphere per point (radius 0 for a point); a :class:`Polyhedron`
+    only its inscribed ball about the centre of mass (when that centre sees every face from
+    inside: a grazing contact of two polyhedra is not detected); a body given by its inertia has
+    no shape (only a passage through its centre is detected)."""
+    none = np.zeros((0, 3))
+    if isinstance(body, Ellipsoid):
+        ax = np.array([[body.a, body.b, body.c]])
+        return np.zeros((1, 3)), ax, float(ax.min()), float(ax.max()), f"ellipsoid {body.a:g} x {body.b:g} x {body.c:g}"
+    if isinstance(body, PointMasses):
+        rho = body.radii
+        dist = np.linalg.norm(body.positions, axis=1)
+        core = float(max(0.0, np.max(rho - dist)))
+        what = f"{len(rho)} sphere{'s' if len(rho) > 1 else ''}" if rho.any() else f"{len(rho)} points"
+        return (np.ascontiguousarray(body.positions), np.repeat(rho[:, None], 3, axis=1), core,
+                float(np.max(dist + rho)), what)
+    if isinstance(body, Polyhedron):
+        return none, none, body.inner_radius, 0.0, f"polyhedron of {len(body.faces)} faces"
+    return none, none, 0.0, 0.0, "no shape"
 
 
 def mutual_potential(potential: str, G: float, d: np.ndarray, R1: np.ndarray, R2: np.ndarray, b1: Moments,
@@ -478,6 +506,12 @@ class TwoBodyTrajectory:
         """Inertias (2, 3, 3) about the centres of mass."""
         S = self.moments["S"]
         return np.trace(S, axis1=1, axis2=2)[:, None, None] * np.eye(3) - S
+
+    @property
+    def error_estimate(self) -> Any:
+        """The run's :class:`lgvi.accuracy.ErrorEstimate` (``simulate_two_body(..., error_estimate=True)``)
+        or ``None``."""
+        return estimate_of(self.meta)
 
     @property
     def relative_position(self) -> np.ndarray:
@@ -625,10 +659,30 @@ class TwoBodyRun(CarriedState):
                         np.zeros((3, 3)))
         self.last = np.zeros(2)
         self.hist = np.zeros(0)
+        b1, b2 = self.b1, self.b2
+        self.core = b1.core + b2.core
+        self.bound = b1.bound + b2.bound if len(b1.E) and len(b2.E) else 0.0
+        self.contact = np.zeros(3)
+        self.contact_scratch = (np.zeros((2, 3)), np.zeros((2, 3, 3)))
+        self._check_start()
         self.meta = {"system": TWO_BODY.name, "potential": self.potential, "invariants": _invariants(None),
                      "t0": self.t0, "save_every": self.save_every, "method": "cayley", "tol": self.tol,
                      "lgvi_version": __version__}
         self.initial = {key: getattr(self, key).tolist() for key in ("x", "p", "R", "Pi")}
+
+    def _check_start(self) -> None:
+        """Refuse an initial state whose bodies are in contact (:class:`lgvi.errors.InitialContactError`)."""
+        from .._kernels.contact_kernels import shapes_overlap
+
+        d = float(np.linalg.norm(self.x[1] - self.x[0]))
+        touch = d <= self.core
+        if not touch and d < self.bound:
+            touch = shapes_overlap(self.x, self.R, self.b1.E, self.b1.A, self.b2.E, self.b2.A) >= 0
+        if touch:
+            raise InitialContactError(f"x0 puts the bodies in contact at the start: the centres of mass are {d:.6g} "
+                                      f"apart and the bodies ({self.b1.shape}; {self.b2.shape}) overlap at the "
+                                      "attitudes R1_0, R2_0; start them farther apart", step=0, time=float(self.t0),
+                                      distance=d)
 
     def stream_meta(self) -> dict[str, Any]:
         """JSON-serialisable metadata of a stream of this run (:mod:`lgvi.io.streaming`): what
@@ -659,10 +713,14 @@ class TwoBodyRun(CarriedState):
                                       a["Q4"], a["q4"], a["Q1"], a["w1"], a["Q2"], a["w2"], Y, Z, A, B, self.h, self.x,
                                       self.p, self.R, self.Pi, self.Gh, self.C, self.N, self.k, n, self.tol,
                                       self.max_iter, self.save_every, x_out, p_out, R_out, Pi_out, it_out, res_out,
-                                      self.hist, self.last)
+                                      self.hist, self.last, self.b1.E, self.b1.A, self.b2.E, self.b2.A, self.bound,
+                                      self.core, *self.contact_scratch, self.contact)
         return int(status)
 
     def failure(self, status: int, residual: float, iterations: int, trajectory: Any, where: str = "") -> Exception:
+        if status == COLLISION:
+            core = f"the bodies (balls of radius {self.b1.core:g} and {self.b2.core:g} about their centres of mass)"
+            return self.collision(self.contact, trajectory, where, core, f"{self.b1.shape}; {self.b2.shape}")
         what = {OVERFLOW: "the state after the step is not finite (the bodies collided, or the step is far too large)",
                 NOT_FINITE: "the positions became non-finite",
                 }.get(status, f"an attitude equation was not solved (status {status}, residual {residual:.3e}, "
@@ -695,8 +753,8 @@ def _from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state: dic
 def simulate_two_body(body1: Any, body2: Any, m1: float | None, m2: float | None, x0: Any, v0: Any, R1_0: Any,
                       R2_0: Any, *, Pi1_0: Any = None, Pi2_0: Any = None, omega1_0: Any = None, omega2_0: Any = None,
                       h: float, steps: int, G: float = 1.0, potential: str = "order2", save_every: int = 1,
-                      t0: float = 0.0, tol: float = 1e-14, max_iter: int = 50,
-                      progress: Any = False) -> TwoBodyTrajectory:
+                      t0: float = 0.0, tol: float = 1e-14, max_iter: int = 50, progress: Any = False,
+                      error_estimate: Any = False, error_warn: float | None = 0.01) -> TwoBodyTrajectory:
     r"""Simulate two rigid bodies in mutual gravity (the full two-body problem).
 
     Each step: both attitudes by the LGVI, both orbits by the explicit variational (Verlet)
@@ -731,6 +789,18 @@ def simulate_two_body(body1: Any, body2: Any, m1: float | None, m2: float | None
         The mutual potential (see the module notes).
     save_every, t0, tol, max_iter, progress
         As in :func:`lgvi.simulate_orbit`.
+    error_estimate, error_warn
+        As in :func:`lgvi.simulate_orbit`: the shadow run at ``h/2`` estimates the error of both
+        attitudes (the larger is ``attitude``), of the body momenta and of the relative position
+        ``x2 - x1`` (``position``, ``position_rel``).
+
+    Raises
+    ------
+    lgvi.CollisionError
+        At the step where the bodies touch (for shapes the check knows: :func:`contact_shape`) or
+        where their centres pass each other closer than the step's own length, with the run up to
+        that step in ``.trajectory``; bodies in contact at the start raise it (as a
+        ``ValueError`` too) before any step.
 
     Returns
     -------
@@ -747,11 +817,19 @@ def simulate_two_body(body1: Any, body2: Any, m1: float | None, m2: float | None
     >>> bool(np.abs(traj.linear_momentum).max() < 1e-14)
     True
     """
+    estimate, warn = check_options(error_estimate, error_warn, None)
     run = TwoBodyRun(body1, body2, m1, m2, x0, v0, R1_0, R2_0, Pi1_0=Pi1_0, Pi2_0=Pi2_0, omega1_0=omega1_0,
                      omega2_0=omega2_0, h=h, steps=steps, G=G, potential=potential, tol=tol, max_iter=max_iter,
                      save_every=save_every, t0=t0)
     Progress(progress, 0)
-    return drive(run, MemorySink(run), progress=progress)
+    traj = drive(run, MemorySink(run), progress=progress)
+    if not estimate:
+        return traj
+    args = dict(body1=body1, body2=body2, m1=m1, m2=m2, x0=x0, v0=v0, R1_0=R1_0, R2_0=R2_0, Pi1_0=Pi1_0, Pi2_0=Pi2_0,
+                omega1_0=omega1_0, omega2_0=omega2_0, h=run.h, steps=run.steps, G=G, potential=potential,
+                save_every=run.save_every, t0=t0, tol=tol, max_iter=max_iter, progress=progress)
+    return with_estimate(traj, args, warn=warn, stacklevel=2, order=2, runner=simulate_two_body,
+                         position=lambda tr: tr.relative_position)
 
 
 def _provide() -> None:
