@@ -653,7 +653,7 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
                       out_dir: str | os.PathLike | None = None, resume: bool = False,
                       progress: Any = False, wheels: Any = None, controller: Any = None,
                       control_period: Any = None, environment: Any = None,
-                      magnetorquers: Any = None) -> EnsembleTrajectory | list[Path] | Any:
+                      magnetorquers: Any = None, device: str = "cpu") -> EnsembleTrajectory | list[Path] | Any:
     """Simulate ``B`` rigid bodies at once with the attitude LGVI, in parallel over cores.
 
     Body ``b`` follows bit for bit the trajectory of
@@ -729,6 +729,16 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
         :class:`lgvi.systems.gyrostat_ensemble.GyrostatEnsemble` (``ens[b]``, stacked ``R``,
         ``wheel_speed``, ..., and ``params``/``dispersions`` recording every member's inputs);
         ``client``, ``out_dir``, ``resume``, ``block_size`` and ``progress`` are not taken.
+    device : {"cpu", "cuda"}
+        Where the bodies run (``lgvi.registry.DEVICES``): ``"cpu"``, the machine's cores (the
+        default); ``"cuda"``, one NVIDIA GPU, one body a GPU thread, running the CPU kernels' own
+        per-body code compiled for the GPU by Numba's CUDA target (``pip install lgvi[cuda]``; see
+        ``docs/gpu.md`` and :mod:`lgvi.gpu`). On the GPU the samples come back to the host in
+        chunks that bound the device memory; progress, Ctrl-C and failures are as on the CPU.
+        Free bodies, the built-in torque models and their sums (one model per body too), both
+        forcings, the compositions and :class:`lgvi.torques.Compiled` models run there;
+        ``threads``, ``client``, ``out_dir``, ``resume``, ``block_size`` and the gyrostat's
+        ``wheels``/``controller`` (and their options) are CPU-only and refused.
 
     Returns
     -------
@@ -784,6 +794,13 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
     >>> bool(np.array_equal(ens.R[5], one.R)), ens.torque_model(5) == pd[5]
     (True, True)
     """
+    from .registry import DEVICES
+
+    choice(device, "device", DEVICES)
+    if device != "cpu":
+        _device_options(device, threads=threads, client=client, block_size=block_size, out_dir=out_dir,
+                        resume=resume, wheels=wheels, controller=controller, control_period=control_period,
+                        environment=environment, magnetorquers=magnetorquers)
     if any(x is not None for x in (wheels, controller, control_period, environment, magnetorquers)):
         from .systems.gyrostat import gyrostat_options
         from .systems.gyrostat_ensemble import simulate_gyrostat_ensemble
@@ -816,11 +833,49 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
     if resume and out_dir is None:
         raise ValueError("resume=True continues the blocks of an out_dir= run; give out_dir (the folder of the "
                          "interrupted run)")
+    if device != "cpu":
+        if not (isinstance(progress, bool) or callable(progress)):
+            raise TypeError(f"progress must be True, False or a callable progress(done, total), got {progress!r}")
+        return _device_run(device)(setup, progress)
     if client is not None:
         return _run_dask(setup, client, block_size, out_dir, progress, bool(resume))
     if out_dir is not None:
         return _run_blocks(setup, block_size, out_dir, progress, bool(resume))
     return _run_local(setup, progress)
+
+
+#: Runners of ``simulate_ensemble(device=...)`` other than ``"cpu"``, provided by the modules that
+#: define them (:mod:`lgvi.gpu` provides ``"cuda"``): ``run(setup, progress) -> EnsembleTrajectory``.
+_DEVICE_RUNS: dict[str, Any] = {}
+
+
+def provide_device(name: str, run: Any) -> None:
+    """Register ``run(setup, progress)`` as the runner of ``simulate_ensemble(device=name)`` (called by
+    the module that defines it on import, so that this module never imports it)."""
+    _DEVICE_RUNS[name] = run
+
+
+def _device_run(device: str) -> Any:
+    if device not in _DEVICE_RUNS:  # pragma: no cover - `import lgvi` imports lgvi.gpu, which provides it
+        raise RuntimeError(f"device={device!r} has no runner: import lgvi.gpu")
+    return _DEVICE_RUNS[device]
+
+
+def _device_options(device: str, **options: Any) -> None:
+    """Refuse the options of ``simulate_ensemble`` that run on the CPU only, naming each."""
+    for name in ("wheels", "controller", "control_period", "environment", "magnetorquers"):
+        if options[name] is not None:
+            raise ValueError(f"{name}= cannot be combined with device={device!r}: the gyrostat (reaction wheels "
+                             "and its compiled control loop) runs on the CPU only (see docs/gpu.md); drop "
+                             "device= to run it on the cores")
+    for name, what in (("threads", "CPU threads"), ("client", "Dask blocks"), ("block_size", "blocks of bodies"),
+                       ("out_dir", "blocks written to disk")):
+        if options[name] is not None:
+            raise ValueError(f"{name}={options[name]!r} ({what}) cannot be combined with device={device!r}; the "
+                             "GPU runs all bodies in one process and brings the samples back in chunks")
+    if options["resume"] is not False:
+        raise ValueError(f"resume={options['resume']!r} continues an out_dir= run, which device={device!r} "
+                         "does not write")
 
 
 class _Threads:
@@ -854,6 +909,8 @@ class _LocalRun:
     (``advance`` calls the compiled ensemble kernels; the kernels write at the global sample index)."""
 
     label = "ensemble"
+    #: whether the free body with Cayley may take the SIMD lockstep path (a GPU run steps one body a thread)
+    lockstep_allowed = True
 
     def __init__(self, s: _Setup, parallel: bool, first_body: int) -> None:
         from ._kernels import ensemble_kernels as ek
@@ -892,7 +949,7 @@ class _LocalRun:
 
             self.user_threads = numba.get_num_threads()
         # the free body with Cayley runs LANES bodies in lockstep (SIMD), the same values bit for bit
-        self.lockstep = s.legacy and s.code == METHOD_CAYLEY
+        self.lockstep = self.lockstep_allowed and s.legacy and s.code == METHOD_CAYLEY
         if self.lockstep:
             self.X = np.zeros(((B + ek.LANES - 1) // ek.LANES, ek.NF * ek.LANES))
             ek.pack_groups(self.R, self.Pi, self.G, self.Jd, s.ib, self.status, self.its, self.res, self.X)
