@@ -89,6 +89,7 @@ __all__ = [
     "__version__",
     "control",
     "environment",
+    "gpu",
     "inertia_to_jd",
     "jd_to_inertia",
     "load",

@@ -954,36 +954,37 @@ class _LocalRun:
             self.X = np.zeros(((B + ek.LANES - 1) // ek.LANES, ek.NF * ek.LANES))
             ek.pack_groups(self.R, self.Pi, self.G, self.Jd, s.ib, self.status, self.its, self.res, self.X)
 
+    def user_table(self) -> np.ndarray:
+        """The user's parameter rows of this run's bodies: (B, P), or (1, P) for all (C-contiguous)."""
+        m, body0 = self.s.model, getattr(self.s, "body0", 0)
+        table = m.params[body0:body0 + len(self.s)] if m.params.ndim == 2 else m.params.reshape(1, -1)
+        return np.ascontiguousarray(table, dtype=np.float64)
+
     def _advance_user(self, n: int, R_out: np.ndarray, Pi_out: np.ndarray) -> None:
-        """Steps ``k .. k + n - 1`` of a user's compiled model: one compiled call per body, with the
+        """Steps ``k .. k + n - 1`` of a user's compiled model: one compiled call per body
+        (:func:`lgvi._kernels.user_kernels.advance_user`, which the GPU's kernel calls too), with the
         body's parameter row, the same loop and values as :func:`lgvi.simulate`. The bodies are split
         into ``threads`` contiguous groups run in a pool of threads (the compiled loop releases the
         GIL; each thread has its own scratch arrays and each body its own state, so the numbers do not
         depend on the threads)."""
-        from ._kernels.user_kernels import run_chunk_user
+        from ._kernels.user_kernels import advance_user
 
         s, k, se = self.s, self.k, self.save_every
         m = s.model
         gidx = np.arange(self.G.shape[1], dtype=np.int64)
-        j0 = k // se + 1
         counts = np.zeros(0, dtype=np.int64)
-        body0 = getattr(s, "body0", 0)
+        table = self.user_table()
 
         def bodies(group: np.ndarray) -> None:
             Rs, Ps, it_buf, res_buf = np.zeros((3, 3)), np.zeros(3), np.zeros(n, np.int32), np.zeros(n)
             for b in group:
                 if self.status[b] != OK:
                     continue
-                q = s.ib[b]
-                st, kend, it_total, rmax, its, rn = run_chunk_user(
-                    m.moment_func, m.row(body0 + b), Rs, Ps, m.conservative, m.depends_on_momentum, s.code,
-                    self.Jd[q], self.J[q], self.J_inv[q], s.h, s.t0, s.gam, s.cum, self.A[self.ia[b]], self.R[b],
-                    self.Pi[b], self.G[b], gidx, self.S[b], s.codes, s.params, int(s.sym), k, n, s.tol, s.max_iter,
-                    s.alpha, se, se - k % se, R_out[b, j0:], Pi_out[b, j0:], it_buf, res_buf, _NO_HIST, counts)
-                self.its[b] += it_total
-                self.res[b] = max(self.res[b], rmax)
-                if st != OK:
-                    self.status[b], self.fail_step[b], self.fail_res[b], self.fail_its[b] = st, kend, rn, its
+                advance_user(int(b), m.moment_func, table, Rs, Ps, m.conservative, m.depends_on_momentum, s.code,
+                             self.Jd, self.J, self.J_inv, s.ib, s.h, s.t0, s.gam, s.cum, self.ia, self.A, self.R,
+                             self.Pi, self.G, gidx, self.S, s.codes, s.params, int(s.sym), k, n, s.tol, s.max_iter,
+                             s.alpha, se, 0, R_out, Pi_out, it_buf, res_buf, self.its, self.res, self.status,
+                             self.fail_step, self.fail_res, self.fail_its, _NO_HIST, counts)
 
         B = len(s)
         workers = min(self.user_threads, B)

@@ -155,8 +155,7 @@ class CudaRun(_LocalRun):
         self.user = getattr(s.model, "moment_func", None) is not None
         if self.user:
             m = s.model
-            table = m.params if m.params.ndim == 2 else m.params.reshape(1, -1)
-            d["table"] = dev(np.ascontiguousarray(table, dtype=np.float64))
+            d["table"] = dev(self.user_table())
             d["gidx"] = dev(np.arange(stages, dtype=np.int64))
             d["counts"] = dev(np.zeros(0, dtype=np.int64))
             # the solver's record of a chunk, per body (not kept: the ensemble records totals)
@@ -179,9 +178,9 @@ class CudaRun(_LocalRun):
         common = (s.tol, s.max_iter, s.alpha, se, out0, d["R_out"], d["Pi_out"])
         if self.user:
             m = s.model
-            return (d["table"], bool(m.conservative), bool(m.depends_on_momentum), s.code, d["Jd"], d["J"],
+            return (d["table"], m.conservative, m.depends_on_momentum, s.code, d["Jd"], d["J"],
                     d["J_inv"], d["ib"], s.h, s.t0, d["gam"], d["cum"], d["ia"], d["A"], d["R"], d["Pi"], d["G"],
-                    d["gidx"], d["S"], d["codes"], d["params"], bool(s.sym), k, n, *common, d["it_rec"],
+                    d["gidx"], d["S"], d["codes"], d["params"], int(s.sym), k, n, *common, d["it_rec"],
                     d["res_rec"], d["its"], d["res"], d["status"], d["fail_step"], d["fail_res"], d["fail_its"],
                     d["hist"], d["counts"])
         tail = (d["its"], d["res"], d["status"], d["fail_step"], d["fail_res"], d["fail_its"], d["hist"])

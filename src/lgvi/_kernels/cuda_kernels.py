@@ -47,7 +47,8 @@ def forced_kernel(method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, S,
 
 def user_kernel(moment):
     """A kernel for the user's compiled ``moment`` (:class:`lgvi.torques.Compiled`): thread ``b`` runs
-    :func:`.user_kernels.advance_user` with scratch ``R``, ``Pi`` in its local memory.
+    :func:`.user_kernels.advance_user` with scratch ``R``, ``Pi`` in its local memory and its row of
+    the record scratch ``it_rec``, ``res_rec`` (B, r).
 
     A CUDA kernel cannot take a function as an argument, so the function is a free variable of the
     kernel, which is made (and compiled on its first launch) once per function.
@@ -63,6 +64,6 @@ def user_kernel(moment):
             Ps = cuda.local.array(3, numba.float64)
             advance_user(b, moment, table, Rs, Ps, cons, mdep, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R,
                          Pi, G, gidx, S, codes, params, sym, k0, n, tol, max_iter, alpha, save_every, out0, R_out,
-                         Pi_out, it_rec, res_rec, its, res, status, fail_step, fail_res, fail_its, hist, counts)
+                         Pi_out, it_rec[b], res_rec[b], its, res, status, fail_step, fail_res, fail_its, hist, counts)
 
     return kernel
