@@ -85,13 +85,13 @@ def initial(bodies: int, top: bool) -> tuple[np.ndarray, np.ndarray]:
 
 
 class Timer:
-    """Time spent in a run's ``advance`` (the compiled chunks or the kernel launches and copies)."""
+    """Time spent in a run's ``advance`` (the compiled chunks, or the kernel launches and copies)."""
 
-    def __init__(self) -> None:
-        self.seconds = 0.0
+    def __init__(self, cls: type) -> None:
+        self.cls, self.seconds = cls, 0.0
 
-    def wrap(self, cls: type) -> None:
-        inner = cls.advance
+    def __enter__(self) -> "Timer":
+        self.inner = inner = self.cls.__dict__["advance"]
 
         def advance(run, *args):
             t = time.perf_counter()
@@ -100,22 +100,24 @@ class Timer:
             finally:
                 self.seconds += time.perf_counter() - t
 
-        cls.advance = advance
+        self.cls.advance = advance
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.cls.advance = self.inner
 
 
-CPU_TIMER, GPU_TIMER = Timer(), Timer()
-CPU_TIMER.wrap(ensemble._LocalRun)
-GPU_TIMER.wrap(gpu.CudaRun)
+TIMERS = {"cpu": Timer(ensemble.LocalRun), "cuda": Timer(gpu.CudaRun)}
 
 
 def run(device: str, case: dict, bodies: int, steps: int, torque) -> tuple[float, float, object]:
-    timer = GPU_TIMER if device == "cuda" else CPU_TIMER
     R0, w0 = initial(bodies, case.get("top", False))
-    timer.seconds = 0.0
-    t = time.perf_counter()
-    ens = lgvi.simulate_ensemble(case["inertia"], R0, omega0=w0, h=H, steps=steps, save_every=steps,
-                                 method=case["method"], torque=torque, device=device)
-    return timer.seconds, time.perf_counter() - t, ens
+    with TIMERS[device] as timer:
+        timer.seconds = 0.0
+        t = time.perf_counter()
+        ens = lgvi.simulate_ensemble(case["inertia"], R0, omega0=w0, h=H, steps=steps, save_every=steps,
+                                     method=case["method"], torque=torque, device=device)
+        return timer.seconds, time.perf_counter() - t, ens
 
 
 def subset(torque, n: int):
@@ -125,7 +127,7 @@ def subset(torque, n: int):
     return torque
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--bodies", type=int, default=1 << 20, help="bodies on the GPU (default 2^20)")
     ap.add_argument("--cpu-bodies", type=int, default=16384, help="bodies on the CPU (default 16384)")
@@ -133,7 +135,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--case", action="append", help="run only this case (repeatable)")
     ap.add_argument("--smoke", action="store_true", help="tiny sizes, one repeat (the simulator)")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     if args.smoke:
         args.bodies, args.cpu_bodies, args.steps, args.repeat = 8, 4, 6, 1
     cuda = gpu.cuda_module()

@@ -77,7 +77,7 @@ def main() -> None:
     print(f"{'kernel':<8} {'PTX chars':>10} {'compile s':>10} {'fma.rn.f64':>11} {'mul.f64':>8}")
     for name in args.kernels:
         opts = schemes[name]
-        s = lgvi.ensemble._Setup(body, R0, None, w0, h=0.01, steps=10, method="cayley", tol=1e-14, max_iter=50,
+        s = lgvi.ensemble.EnsembleSetup(body, R0, None, w0, h=0.01, steps=10, method="cayley", tol=1e-14, max_iter=50,
                                  alpha=1.0, save_every=1, t0=0.0, order=opts.get("order", 2), composition=None,
                                  threads=None, torque=opts.get("torque"), forcing=opts.get("forcing", "paper"))
         run = gpu.CudaRun(s)

@@ -1255,4 +1255,9 @@ def _run_dask(s: _Setup, client: Any, block_size: int | None, out_dir: Any,
     return concatenate(results)
 
 
-__all__ = ["EnsembleTrajectory", "concatenate", "load_ensemble", "simulate_ensemble"]
+#: The in-process run's pieces by public name, for the runs of other devices (:mod:`lgvi.gpu` builds
+#: its run and sink on them: the same set-up, records, failures and results)
+EnsembleSetup, LocalRun, LocalSink = _Setup, _LocalRun, _LocalSink
+
+__all__ = ["EnsembleSetup", "EnsembleTrajectory", "LocalRun", "LocalSink", "concatenate", "load_ensemble",
+           "provide_device", "simulate_ensemble"]

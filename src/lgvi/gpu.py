@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from ._kernels.codes import OK
-from .ensemble import EnsembleTrajectory, _LocalRun, _LocalSink, _Setup, provide_device
+from .ensemble import EnsembleSetup, EnsembleTrajectory, LocalRun, LocalSink, provide_device
 
 #: Device memory for one chunk's samples (``R`` and ``Pi``, 96 bytes a body and sample); a chunk
 #: holds at least one sample of every body.
@@ -117,13 +117,13 @@ class _Host:
 _USER_KERNELS: dict[Any, Any] = {}
 
 
-class CudaRun(_LocalRun):
+class CudaRun(LocalRun):
     """The bodies of an ensemble on the GPU: a run of :func:`lgvi.driver.drive` (see the module notes)."""
 
     label = "ensemble"
     lockstep_allowed = False
 
-    def __init__(self, s: _Setup) -> None:
+    def __init__(self, s: EnsembleSetup) -> None:
         self.cuda = cuda = cuda_module()       # before any work: no GPU, no run
         from ._kernels import cuda_kernels as ck
 
@@ -225,7 +225,7 @@ class CudaRun(_LocalRun):
             setattr(self, name, self.d[name].copy_to_host())
 
 
-class CudaSink(_LocalSink):
+class CudaSink(LocalSink):
     """The ensemble's samples in host memory (as on the CPU); the per-body records come from the device."""
 
     def result(self, m: int, partial: bool = False) -> EnsembleTrajectory:
@@ -233,7 +233,7 @@ class CudaSink(_LocalSink):
         return super().result(m, partial)
 
 
-def run_cuda(s: _Setup, progress: Any = False) -> EnsembleTrajectory:
+def run_cuda(s: EnsembleSetup, progress: Any = False) -> EnsembleTrajectory:
     """Run the validated ensemble ``s`` on the GPU (``simulate_ensemble(..., device="cuda")``)."""
     from .driver import drive
 
