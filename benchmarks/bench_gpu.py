@@ -134,8 +134,11 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--steps", type=int, default=2000)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--case", action="append", help="run only this case (repeatable)")
+    ap.add_argument("--tpb", type=int, default=gpu.THREADS_PER_BLOCK,
+                    help=f"GPU threads per block (default lgvi.gpu.THREADS_PER_BLOCK = {gpu.THREADS_PER_BLOCK})")
     ap.add_argument("--smoke", action="store_true", help="tiny sizes, one repeat (the simulator)")
     args = ap.parse_args(argv)
+    gpu.THREADS_PER_BLOCK = args.tpb
     if args.smoke:
         args.bodies, args.cpu_bodies, args.steps, args.repeat = 8, 4, 6, 1
     cuda = gpu.cuda_module()
@@ -149,8 +152,8 @@ def main(argv: list[str] | None = None) -> None:
     print(f"device: {where}")
     print(f"cpu: {os.cpu_count()} cores, {numba.get_num_threads()} Numba threads; load average before "
           f"{os.getloadavg()[0]:.1f}; numpy {np.__version__}, numba {numba.__version__}")
-    print(f"gpu bodies {args.bodies}, cpu bodies {args.cpu_bodies} (the gpu's first), steps {args.steps}, h {H}, "
-          f"median of {args.repeat} (wall clock, devices alternating)\n")
+    print(f"gpu bodies {args.bodies} ({args.tpb} threads a block), cpu bodies {args.cpu_bodies} (the gpu's first), "
+          f"steps {args.steps}, h {H}, median of {args.repeat} (wall clock, devices alternating)\n")
     head = (f"{'case':<18} | {'bodies':>8} | {'steps':>6} | {'cpu body-steps/s':>16} | {'gpu body-steps/s':>16} | "
             f"{'gpu/cpu':>8} | {'gpu call s':>10} | {'gpu compile s':>13} | {'rel d|Pi|':>9} | {'rel dE':>9} | "
             f"{'max |dR|':>8}")

@@ -23,11 +23,13 @@ import types
 
 import numba
 import numpy as np
-from numba import cuda
 
 import lgvi
 from lgvi import gpu
 from lgvi.torques import Compiled, LinearDamping, UniformGravity
+
+gpu.numpy_shim()          # before numba.cuda loads (NumPy 2.5 and numba-cuda: see docs/gpu.md)
+from numba import cuda  # noqa: E402
 
 
 @numba.njit

@@ -68,11 +68,16 @@ def _initial(n=B, seed=0):
 
 
 def _same(cpu, dev, exact=True):
-    for name in ("R", "Pi", "iterations", "residual", "t"):
+    """Bit for bit (the simulator, or one device run to run); on a GPU (``exact=False``, FMA
+    contraction) to round-off growth over these few steps, and the same solver work within 2 %."""
+    np.testing.assert_array_equal(cpu.t, dev.t)
+    for name in ("R", "Pi", "iterations", "residual"):
         a, b = getattr(cpu, name), getattr(dev, name)
-        if exact or name in ("t", "iterations"):
+        if exact:
             np.testing.assert_array_equal(a, b, err_msg=name)
-        else:  # pragma: no cover - on a GPU (FMA contraction): round-off growth
+        elif name == "iterations":  # pragma: no cover - on a GPU
+            assert np.all(np.abs(a - b) <= np.maximum(2, a // 50)), (a, b)
+        else:  # pragma: no cover - on a GPU
             np.testing.assert_allclose(a, b, rtol=0, atol=1e-9, err_msg=name)
 
 
@@ -159,10 +164,10 @@ def test_failure_names_the_body_and_keeps_the_partial_result(cuda):
     with pytest.raises(lgvi.ConvergenceError) as on_gpu:
         lgvi.simulate_ensemble([1.0, 2.0, 3.0], R0, Pi0, device="cuda", **opts)
     a, b = on_cpu.value, on_gpu.value
-    assert (b.body, b.step) == (a.body, a.step) == (3, a.step) and str(b) == str(a)
+    assert (b.body, b.step) == (a.body, a.step) == (3, a.step)
+    assert str(b) == str(a) or HARDWARE       # on a GPU the residual quoted may differ in its last digits
     assert b.trajectory.meta["partial"]
-    np.testing.assert_array_equal(b.trajectory.R, a.trajectory.R)
-    np.testing.assert_array_equal(b.trajectory.Pi, a.trajectory.Pi)
+    _same(a.trajectory, b.trajectory, exact=not HARDWARE)
 
 
 def test_progress_and_interrupt_between_chunks(cuda, monkeypatch):

@@ -71,6 +71,20 @@ def init_histories(method, J, ib, hs, Pi, G):
             hPi[2] = 0.0
 
 
+@jit(inline="always")
+def record_body(b, its, res, status, fail_step, fail_res, fail_its, it_sum, rmax, st, k, it, rn):
+    """Add a chunk's solver work ``it_sum`` and largest residual ``rmax`` to body ``b``'s records; on a
+    failure (``st``) record its status, the failed step ``k`` and that step's iterations and residual."""
+    its[b] += it_sum
+    if rmax > res[b]:
+        res[b] = rmax
+    if st != OK:
+        status[b] = st
+        fail_step[b] = k
+        fail_res[b] = rn
+        fail_its[b] = it
+
+
 @jit(_nrt=False)
 def advance_free(b, method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, save_every, out0, R_out, Pi_out,
                  its, res, status, fail_step, fail_res, fail_its, hist):
@@ -81,14 +95,7 @@ def advance_free(b, method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, sa
                                              tol, max_iter, alpha, save_every, save_every - k0 % save_every,
                                              k0 // save_every + 1 - out0, R_out[b], Pi_out[b], 0, hist, hist, hist,
                                              fail_its[:0])
-    its[b] += it_sum
-    if rmax > res[b]:
-        res[b] = rmax
-    if st != OK:
-        status[b] = st
-        fail_step[b] = k
-        fail_res[b] = rn
-        fail_its[b] = it
+    record_body(b, its, res, status, fail_step, fail_res, fail_its, it_sum, rmax, st, k, it, rn)
 
 
 @jit(_nrt=False)

@@ -22,6 +22,7 @@ import math
 
 from .._jit import jit
 from .codes import NOT_CONVERGED, OK
+from .ensemble_kernels import record_body
 from .solvers import EPS
 from .stepping import load_state, push_at, rotated_row, save_state, solve_warm, stage_done, step_done
 from .torque_kernels import model_moments, model_moments_s, momentum_diag
@@ -266,11 +267,4 @@ def advance_user(b, moment, table, Rs, Ps, cons, mdep, method, Jd, J, J_inv, ib,
         moment, up, Rs, Ps, cons, mdep, method, Jd[q], J[q], J_inv[q], h, t0, gam, cum, A[ia[b]], R[b], Pi[b], G[b],
         gidx, S[b], codes, params, sym, k0, n, tol, max_iter, alpha, save_every, save_every - k0 % save_every,
         R_out[b, j:], Pi_out[b, j:], it_rec[:n], res_rec[:n], hist, counts)
-    its[b] += it_total
-    if rmax > res[b]:
-        res[b] = rmax
-    if st != OK:
-        status[b] = st
-        fail_step[b] = kend
-        fail_res[b] = rn
-        fail_its[b] = it
+    record_body(b, its, res, status, fail_step, fail_res, fail_its, it_total, rmax, st, kend, it, rn)
