@@ -54,7 +54,7 @@ CORE_RANKS: dict[str, int] = {
     "environment": 2, "components": 2, "spacecraft": 2, "fsw": 2,
     # 3: systems and the driver
     "driver": 3, "systems": 3, "integrator": 3, "ensemble": 3, "modified": 3, "optimal": 3, "splitting": 3,
-    "system_ensembles": 3,
+    "system_ensembles": 3, "gpu": 3,
 }
 
 # Imports inside the core that run back up, each with its reason; the test fails when one

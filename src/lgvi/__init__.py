@@ -34,6 +34,7 @@ from .body import jd_to_inertia as jd_to_inertia
 from .ensemble import EnsembleTrajectory as EnsembleTrajectory
 from .ensemble import load_ensemble as load_ensemble
 from .ensemble import simulate_ensemble as simulate_ensemble
+from . import gpu as gpu  # provides simulate_ensemble(device="cuda"); imports no numba.cuda
 from . import environment as environment
 from .environment import Magnetorquers as Magnetorquers
 from .errors import AccuracyWarning as AccuracyWarning
@@ -90,6 +91,7 @@ __all__ = [
     "__version__",
     "control",
     "environment",
+    "gpu",
     "inertia_to_jd",
     "jd_to_inertia",
     "load",

@@ -653,7 +653,7 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
                       out_dir: str | os.PathLike[str] | None = None, resume: bool = False,
                       progress: Any = False, wheels: Any = None, controller: Any = None,
                       control_period: Any = None, environment: Any = None,
-                      magnetorquers: Any = None) -> EnsembleTrajectory | list[Path] | Any:
+                      magnetorquers: Any = None, device: str = "cpu") -> EnsembleTrajectory | list[Path] | Any:
     """Simulate ``B`` rigid bodies at once with the attitude LGVI, in parallel over cores.
 
     Body ``b`` follows bit for bit the trajectory of
@@ -729,6 +729,16 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
         :class:`lgvi.systems.gyrostat_ensemble.GyrostatEnsemble` (``ens[b]``, stacked ``R``,
         ``wheel_speed``, ..., and ``params``/``dispersions`` recording every member's inputs);
         ``client``, ``out_dir``, ``resume``, ``block_size`` and ``progress`` are not taken.
+    device : {"cpu", "cuda"}
+        Where the bodies run (``lgvi.registry.DEVICES``): ``"cpu"``, the machine's cores (the
+        default); ``"cuda"``, one NVIDIA GPU, one body a GPU thread, running the CPU kernels' own
+        per-body code compiled for the GPU by Numba's CUDA target (``pip install lgvi[cuda]``; see
+        ``docs/gpu.md`` and :mod:`lgvi.gpu`). On the GPU the samples come back to the host in
+        chunks that bound the device memory; progress, Ctrl-C and failures are as on the CPU.
+        Free bodies, the built-in torque models and their sums (one model per body too), both
+        forcings, the compositions and :class:`lgvi.torques.Compiled` models run there;
+        ``threads``, ``client``, ``out_dir``, ``resume``, ``block_size`` and the gyrostat's
+        ``wheels``/``controller`` (and their options) are CPU-only and refused.
 
     Returns
     -------
@@ -784,6 +794,13 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
     >>> bool(np.array_equal(ens.R[5], one.R)), ens.torque_model(5) == pd[5]
     (True, True)
     """
+    from .registry import DEVICES
+
+    choice(device, "device", DEVICES)
+    if device != "cpu":
+        _device_options(device, threads=threads, client=client, block_size=block_size, out_dir=out_dir,
+                        resume=resume, wheels=wheels, controller=controller, control_period=control_period,
+                        environment=environment, magnetorquers=magnetorquers)
     if any(x is not None for x in (wheels, controller, control_period, environment, magnetorquers)):
         from .systems.gyrostat import gyrostat_options
         from .systems.gyrostat_ensemble import simulate_gyrostat_ensemble
@@ -816,11 +833,49 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
     if resume and out_dir is None:
         raise ValueError("resume=True continues the blocks of an out_dir= run; give out_dir (the folder of the "
                          "interrupted run)")
+    if device != "cpu":
+        if not (isinstance(progress, bool) or callable(progress)):
+            raise TypeError(f"progress must be True, False or a callable progress(done, total), got {progress!r}")
+        return _device_run(device)(setup, progress)
     if client is not None:
         return _run_dask(setup, client, block_size, out_dir, progress, bool(resume))
     if out_dir is not None:
         return _run_blocks(setup, block_size, out_dir, progress, bool(resume))
     return _run_local(setup, progress)
+
+
+#: Runners of ``simulate_ensemble(device=...)`` other than ``"cpu"``, provided by the modules that
+#: define them (:mod:`lgvi.gpu` provides ``"cuda"``): ``run(setup, progress) -> EnsembleTrajectory``.
+_DEVICE_RUNS: dict[str, Any] = {}
+
+
+def provide_device(name: str, run: Any) -> None:
+    """Register ``run(setup, progress)`` as the runner of ``simulate_ensemble(device=name)`` (called by
+    the module that defines it on import, so that this module never imports it)."""
+    _DEVICE_RUNS[name] = run
+
+
+def _device_run(device: str) -> Any:
+    if device not in _DEVICE_RUNS:  # pragma: no cover - `import lgvi` imports lgvi.gpu, which provides it
+        raise RuntimeError(f"device={device!r} has no runner: import lgvi.gpu")
+    return _DEVICE_RUNS[device]
+
+
+def _device_options(device: str, **options: Any) -> None:
+    """Refuse the options of ``simulate_ensemble`` that run on the CPU only, naming each."""
+    for name in ("wheels", "controller", "control_period", "environment", "magnetorquers"):
+        if options[name] is not None:
+            raise ValueError(f"{name}= cannot be combined with device={device!r}: the gyrostat (reaction wheels "
+                             "and its compiled control loop) runs on the CPU only (see docs/gpu.md); drop "
+                             "device= to run it on the cores")
+    for name, what in (("threads", "CPU threads"), ("client", "Dask blocks"), ("block_size", "blocks of bodies"),
+                       ("out_dir", "blocks written to disk")):
+        if options[name] is not None:
+            raise ValueError(f"{name}={options[name]!r} ({what}) cannot be combined with device={device!r}; the "
+                             "GPU runs all bodies in one process and brings the samples back in chunks")
+    if options["resume"] is not False:
+        raise ValueError(f"resume={options['resume']!r} continues an out_dir= run, which device={device!r} "
+                         "does not write")
 
 
 class _Threads:
@@ -854,6 +909,8 @@ class _LocalRun:
     (``advance`` calls the compiled ensemble kernels; the kernels write at the global sample index)."""
 
     label = "ensemble"
+    #: whether the free body with Cayley may take the SIMD lockstep path (a GPU run steps one body a thread)
+    lockstep_allowed = True
 
     def __init__(self, s: _Setup, parallel: bool, first_body: int) -> None:
         from ._kernels import ensemble_kernels as ek
@@ -892,41 +949,42 @@ class _LocalRun:
 
             self.user_threads = numba.get_num_threads()
         # the free body with Cayley runs LANES bodies in lockstep (SIMD), the same values bit for bit
-        self.lockstep = s.legacy and s.code == METHOD_CAYLEY
+        self.lockstep = self.lockstep_allowed and s.legacy and s.code == METHOD_CAYLEY
         if self.lockstep:
             self.X = np.zeros(((B + ek.LANES - 1) // ek.LANES, ek.NF * ek.LANES))
             ek.pack_groups(self.R, self.Pi, self.G, self.Jd, s.ib, self.status, self.its, self.res, self.X)
 
+    def user_table(self) -> np.ndarray:
+        """The user's parameter rows of this run's bodies: (B, P), or (1, P) for all (C-contiguous)."""
+        m, body0 = self.s.model, getattr(self.s, "body0", 0)
+        table = m.params[body0:body0 + len(self.s)] if m.params.ndim == 2 else m.params.reshape(1, -1)
+        return np.ascontiguousarray(table, dtype=np.float64)
+
     def _advance_user(self, n: int, R_out: np.ndarray, Pi_out: np.ndarray) -> None:
-        """Steps ``k .. k + n - 1`` of a user's compiled model: one compiled call per body, with the
+        """Steps ``k .. k + n - 1`` of a user's compiled model: one compiled call per body
+        (:func:`lgvi._kernels.user_kernels.advance_user`, which the GPU's kernel calls too), with the
         body's parameter row, the same loop and values as :func:`lgvi.simulate`. The bodies are split
         into ``threads`` contiguous groups run in a pool of threads (the compiled loop releases the
         GIL; each thread has its own scratch arrays and each body its own state, so the numbers do not
         depend on the threads)."""
-        from ._kernels.user_kernels import run_chunk_user
+        from ._kernels.user_kernels import advance_user
 
         s, k, se = self.s, self.k, self.save_every
         m = s.model
         gidx = np.arange(self.G.shape[1], dtype=np.int64)
-        j0 = k // se + 1
         counts = np.zeros(0, dtype=np.int64)
-        body0 = getattr(s, "body0", 0)
+        table = self.user_table()
 
         def bodies(group: np.ndarray) -> None:
             Rs, Ps, it_buf, res_buf = np.zeros((3, 3)), np.zeros(3), np.zeros(n, np.int32), np.zeros(n)
             for b in group:
                 if self.status[b] != OK:
                     continue
-                q = s.ib[b]
-                st, kend, it_total, rmax, its, rn = run_chunk_user(
-                    m.moment_func, m.row(body0 + b), Rs, Ps, m.conservative, m.depends_on_momentum, s.code,
-                    self.Jd[q], self.J[q], self.J_inv[q], s.h, s.t0, s.gam, s.cum, self.A[self.ia[b]], self.R[b],
-                    self.Pi[b], self.G[b], gidx, self.S[b], s.codes, s.params, int(s.sym), k, n, s.tol, s.max_iter,
-                    s.alpha, se, se - k % se, R_out[b, j0:], Pi_out[b, j0:], it_buf, res_buf, _NO_HIST, counts)
-                self.its[b] += it_total
-                self.res[b] = max(self.res[b], rmax)
-                if st != OK:
-                    self.status[b], self.fail_step[b], self.fail_res[b], self.fail_its[b] = st, kend, rn, its
+                advance_user(int(b), m.moment_func, table, Rs, Ps, m.conservative, m.depends_on_momentum, s.code,
+                             self.Jd, self.J, self.J_inv, s.ib, s.h, s.t0, s.gam, s.cum, self.ia, self.A, self.R,
+                             self.Pi, self.G, gidx, self.S, s.codes, s.params, int(s.sym), k, n, s.tol, s.max_iter,
+                             s.alpha, se, 0, R_out, Pi_out, it_buf, res_buf, self.its, self.res, self.status,
+                             self.fail_step, self.fail_res, self.fail_its, _NO_HIST, counts)
 
         B = len(s)
         workers = min(self.user_threads, B)
@@ -1197,4 +1255,9 @@ def _run_dask(s: _Setup, client: Any, block_size: int | None, out_dir: Any,
     return concatenate(results)
 
 
-__all__ = ["EnsembleTrajectory", "concatenate", "load_ensemble", "simulate_ensemble"]
+#: The in-process run's pieces by public name, for the runs of other devices (:mod:`lgvi.gpu` builds
+#: its run and sink on them: the same set-up, records, failures and results)
+EnsembleSetup, LocalRun, LocalSink = _Setup, _LocalRun, _LocalSink
+
+__all__ = ["EnsembleSetup", "EnsembleTrajectory", "LocalRun", "LocalSink", "concatenate", "load_ensemble",
+           "provide_device", "simulate_ensemble"]

@@ -81,6 +81,13 @@ FORCING_DOCS: dict[str, str] = {
 }
 FORCINGS: tuple[str, ...] = tuple(FORCING_DOCS)
 
+#: Where ``simulate_ensemble(device=...)`` runs the bodies (``lgvi.gpu`` provides ``"cuda"``).
+DEVICE_DOCS: dict[str, str] = {
+    "cpu": "the machine's cores (Numba threads; Dask tasks with client=)",
+    "cuda": "one NVIDIA GPU, one body a thread, the CPU kernels compiled by Numba's CUDA target (lgvi.gpu)",
+}
+DEVICES: tuple[str, ...] = tuple(DEVICE_DOCS)
+
 
 # ------------------------------------------------------------------------------------ compositions
 @dataclass(frozen=True)
@@ -402,7 +409,8 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = ["COMPOSITIONS", "Composition", "DEFAULT_COMPOSITION", "DEFAULT_METHOD", "DEFAULT_SPLITTING", "FORCINGS",
+__all__ = ["COMPOSITIONS", "Composition", "DEFAULT_COMPOSITION", "DEFAULT_METHOD", "DEFAULT_SPLITTING", "DEVICES",
+           "DEVICE_DOCS", "FORCINGS",
            "FORCING_DOCS", "ORDERS", "SCHEMES", "SECOND_ORDER", "SOLVER_METHODS", "SPLITTINGS", "SolverMethod",
            "Splitting", "TORQUE_KINDS", "TORQUE_MODELS", "check_composable", "composition_for", "method_names",
            "splitting_for", "torque_kind"]

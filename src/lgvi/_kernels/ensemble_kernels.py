@@ -71,15 +71,10 @@ def init_histories(method, J, ib, hs, Pi, G):
             hPi[2] = 0.0
 
 
-@jit(_nrt=False)
-def advance_free(b, method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out,
-                 its, res, status, fail_step, fail_res, fail_its, hist):
-    """Free body, order 2: body ``b`` through steps ``k0 .. k0+n-1`` (the loop of
-    :func:`.stepping.run_chunk`, without per-step records)."""
-    st, k, it_sum, rmax, it, rn = free_steps(method, Jd[ib[b]], h, R[b], Pi[b], G[b, 0], hist[:0, None], k0, n,
-                                             tol, max_iter, alpha, save_every, save_every - k0 % save_every,
-                                             k0 // save_every + 1, R_out[b], Pi_out[b], 0, hist, hist, hist,
-                                             fail_its[:0])
+@jit(inline="always")
+def record_body(b, its, res, status, fail_step, fail_res, fail_its, it_sum, rmax, st, k, it, rn):
+    """Add a chunk's solver work ``it_sum`` and largest residual ``rmax`` to body ``b``'s records; on a
+    failure (``st``) record its status, the failed step ``k`` and that step's iterations and residual."""
     its[b] += it_sum
     if rmax > res[b]:
         res[b] = rmax
@@ -91,14 +86,27 @@ def advance_free(b, method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, sa
 
 
 @jit(_nrt=False)
+def advance_free(b, method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, save_every, out0, R_out, Pi_out,
+                 its, res, status, fail_step, fail_res, fail_its, hist):
+    """Free body, order 2: body ``b`` through steps ``k0 .. k0+n-1`` (the loop of
+    :func:`.stepping.run_chunk`, without per-step records). ``R_out[:, 0]`` holds sample ``out0``
+    (0: the buffers hold the whole run; the GPU's chunk buffers start at the chunk's first sample)."""
+    st, k, it_sum, rmax, it, rn = free_steps(method, Jd[ib[b]], h, R[b], Pi[b], G[b, 0], hist[:0, None], k0, n,
+                                             tol, max_iter, alpha, save_every, save_every - k0 % save_every,
+                                             k0 // save_every + 1 - out0, R_out[b], Pi_out[b], 0, hist, hist, hist,
+                                             fail_its[:0])
+    record_body(b, its, res, status, fail_step, fail_res, fail_its, it_sum, rmax, st, k, it, rn)
+
+
+@jit(_nrt=False)
 def advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, S, codes, params, sym, k0, n,
-                   tol, max_iter, alpha, save_every, R_out, Pi_out, its, res, status, fail_step, fail_res, fail_its,
-                   hist):
+                   tol, max_iter, alpha, save_every, out0, R_out, Pi_out, its, res, status, fail_step, fail_res,
+                   fail_its, hist):
     """Torque model and/or composition: body ``b`` through steps ``k0 .. k0+n-1``.
 
     The same substeps as :func:`.stepping.run_chunk_forced` (no explicit torque arrays). After a
     failure the body's state is left as the failing substep found it (the ensemble reports only
-    samples before the failing step).
+    samples before the failing step). ``R_out[:, 0]`` holds sample ``out0`` (see :func:`advance_free`).
     """
     s = gam.shape[0]
     Rb = R[b]
@@ -115,7 +123,7 @@ def advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G
     has_D = D0 != 0.0 or D1 != 0.0 or D2 != 0.0
     if Sb[6] == 0.0:
         init_moments(codes, pb, Jb, Jib, t0 + k0 * h, Rb, Pib, Sb, 0.0, 0.0, 0.0)
-    j = k0 // save_every + 1
+    j = k0 // save_every + 1 - out0
     countdown = save_every - k0 % save_every
     it_sum = its[b]
     rmax = res[b]
@@ -160,8 +168,8 @@ def run_free_parallel(method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, 
         if status[b] == OK:
             # np.int64: the prange index is uint64 in the compiled loop body but int64 when Numba
             # first types the loop, so a bare ``b`` compiles the per-body kernel twice
-            advance_free(np.int64(b), method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, save_every, R_out,
-                         Pi_out, its, res, status, fail_step, fail_res, fail_its, hist)
+            advance_free(np.int64(b), method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, save_every, 0,
+                         R_out, Pi_out, its, res, status, fail_step, fail_res, fail_its, hist)
 
 
 @jit
@@ -170,7 +178,7 @@ def run_free_serial(method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, sa
     """:func:`run_free_parallel` on the calling thread only."""
     for b in range(R.shape[0]):
         if status[b] == OK:
-            advance_free(b, method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out,
+            advance_free(b, method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, save_every, 0, R_out, Pi_out,
                          its, res, status, fail_step, fail_res, fail_its, hist)
 
 
@@ -182,8 +190,8 @@ def run_forced_parallel(method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi,
     for b in numba.prange(R.shape[0]):
         if status[b] == OK:
             advance_forced(np.int64(b), method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, S, codes, params,
-                           sym, k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out, its, res, status, fail_step,
-                           fail_res, fail_its, hist)      # np.int64: see run_free_parallel
+                           sym, k0, n, tol, max_iter, alpha, save_every, 0, R_out, Pi_out, its, res, status,
+                           fail_step, fail_res, fail_its, hist)      # np.int64: see run_free_parallel
 
 
 @jit
@@ -194,7 +202,7 @@ def run_forced_serial(method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G
     for b in range(R.shape[0]):
         if status[b] == OK:
             advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, S, codes, params, sym,
-                           k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out, its, res, status, fail_step,
+                           k0, n, tol, max_iter, alpha, save_every, 0, R_out, Pi_out, its, res, status, fail_step,
                            fail_res, fail_its, hist)
 
 

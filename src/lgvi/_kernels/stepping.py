@@ -256,7 +256,7 @@ def free_steps(method, Jd, h, R, Pi, G, U, k0, n, tol, max_iter, alpha, save_eve
         if its == 1:
             ones += 1
         elif nbins > 0:
-            counts[min(its, nbins - 1)] += 1
+            counts[its if its < nbins - 1 else nbins - 1] += 1      # not min(): see step_done
         c0, c1, c2 = b0, b1, b2
         b0, b1, b2 = a0, a1, a2
         a0, a1, a2 = g0, g1, g2
@@ -554,7 +554,8 @@ def step_done(k, k0, status, its_sum, rmax, rn, Rt, Pt, book, per_step, save_eve
         rimax = rmax
     nbins = counts.shape[0]
     if nbins > 0:
-        counts[min(its_sum, nbins - 1)] += 1
+        # a conditional, not min(): Numba's CUDA target cannot compile its overload of min (star-args)
+        counts[its_sum if its_sum < nbins - 1 else nbins - 1] += 1
     countdown -= 1
     if countdown == 0:
         countdown = save_every

@@ -22,6 +22,7 @@ import math
 
 from .._jit import jit
 from .codes import NOT_CONVERGED, OK
+from .ensemble_kernels import record_body
 from .solvers import EPS
 from .stepping import load_state, push_at, rotated_row, save_state, solve_warm, stage_done, step_done
 from .torque_kernels import model_moments, model_moments_s, momentum_diag
@@ -245,3 +246,25 @@ def user_potential_series(potential, t, R, up, Rs, out):
             for c in range(3):
                 Rs[a, c] = R[i, a, c]
         out[i] = float(potential(t[i], Rs, up))
+
+
+@jit(cache=False)
+def advance_user(b, moment, table, Rs, Ps, cons, mdep, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G,
+                 gidx, S, codes, params, sym, k0, n, tol, max_iter, alpha, save_every, out0, R_out, Pi_out, it_rec,
+                 res_rec, its, res, status, fail_step, fail_res, fail_its, hist, counts):
+    """Body ``b`` of an ensemble through steps ``k0 .. k0+n-1`` of :func:`run_chunk_user`, with the
+    ensemble's per-body arrays (as :func:`.ensemble_kernels.advance_forced`): its parameter row
+    ``table[b]`` (``table`` (B, P), or (1, P) for all), ``R_out[:, 0]`` holding sample ``out0``.
+    ``Rs`` (3, 3), ``Ps`` (3,), ``it_rec`` and ``res_rec`` (at least ``n // save_every`` entries,
+    the solver's record, not kept) are the caller's scratch. ``k0`` must be a multiple of
+    ``save_every``. The CPU ensemble calls this per body from its threads, the GPU's kernel per
+    thread (:mod:`.cuda_kernels`): one compiled function for both in the simulator.
+    """
+    q = ib[b]
+    up = table[b] if table.shape[0] > 1 else table[0]
+    j = k0 // save_every + 1 - out0
+    st, kend, it_total, rmax, it, rn = run_chunk_user(
+        moment, up, Rs, Ps, cons, mdep, method, Jd[q], J[q], J_inv[q], h, t0, gam, cum, A[ia[b]], R[b], Pi[b], G[b],
+        gidx, S[b], codes, params, sym, k0, n, tol, max_iter, alpha, save_every, save_every - k0 % save_every,
+        R_out[b, j:], Pi_out[b, j:], it_rec[:n], res_rec[:n], hist, counts)
+    record_body(b, its, res, status, fail_step, fail_res, fail_its, it_total, rmax, st, kend, it, rn)
