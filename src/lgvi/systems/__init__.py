@@ -9,8 +9,9 @@ the same for every system.
 
 The systems: the rigid body (:mod:`lgvi.systems.rigid_body`), the gyrostat, a body with reaction
 wheels (:mod:`lgvi.systems.gyrostat`), a rigid body in a central field (:mod:`lgvi.systems.orbit`)
-and two rigid bodies in mutual gravity (:mod:`lgvi.systems.two_body`); another is a new module
-plus a :func:`register` call.
+two rigid bodies in mutual gravity (:mod:`lgvi.systems.two_body`) and chains of spherical
+pendulums on ``(S^2)^n`` (:mod:`lgvi.systems.chain`); another is a new module plus a
+:func:`register` call.
 """
 
 from __future__ import annotations
@@ -53,6 +54,8 @@ class System:
         One line for help texts and docs.
     state : tuple of Field
         The state saved at every sample, in the order the run's ``advance`` takes its buffers.
+        A shape may name a dimension the run fixes (``("n", 3)``); the run then gives its
+        concrete fields with ``layout()`` (:func:`lgvi.driver.layout`).
     records : tuple of Field
         The per-step records of the solver (after the state buffers in ``advance``).
     kernels : callable
@@ -156,5 +159,6 @@ from . import rigid_body as rigid_body  # noqa: E402  (registers the rigid body)
 from . import orbit as orbit  # noqa: E402  (a body in a central field)
 from . import two_body as two_body  # noqa: E402  (two bodies in mutual gravity)
 from . import gyrostat as gyrostat  # noqa: E402  (registers the gyrostat: reaction wheels)
+from . import chain as chain  # noqa: E402  (chains of spherical pendulums on (S^2)^n)
 
 __all__ = ["CarriedState", "Field", "RUNS", "SYSTEMS", "System", "provide_run", "register"]
