@@ -176,13 +176,13 @@ class ChainRun(CarriedState):
     """One validated run of :func:`simulate_chain` (driven by :func:`lgvi.driver.drive`)."""
 
     system = CHAIN
-    CARRIED = ("q", "pi", "dprev", "hprev")
+    CARRIED = ("q", "pi", "lam", "hprev")
     full = False          # records: the largest per saved interval
     label = "chain simulation"
 
     def __init__(self, lengths: Any, masses: Any, q0: Any, qdot0: Any = None, *, h: Any, steps: Any,
                  link_masses: Any = None, gravity: Any = (0.0, 0.0, -G0), order: Any = 2, composition: Any = None,
-                 tol: Any = 1e-15, max_iter: Any = 30, save_every: Any = 1, t0: Any = 0.0) -> None:
+                 tol: Any = 1e-14, max_iter: Any = 30, save_every: Any = 1, t0: Any = 0.0) -> None:
         from ..._validation import as_int
 
         self.M, self.w = chain_parameters(lengths, masses, link_masses)
@@ -205,8 +205,9 @@ class ChainRun(CarriedState):
         check_memory(self.steps * n, self.save_every, False)
         self.chunk = max(self.save_every, (CHUNK_STEPS // self.save_every) * self.save_every)
         self.k = 0
-        self.dprev = np.zeros((n, 3))
-        self.hprev = np.zeros(1)
+        self.lam = np.zeros((3, n))
+        self.Minv = np.linalg.inv(self.M)
+        self.hprev = np.zeros(3)
         self.last = np.zeros(2)
         self.declaration = chain_invariants({"gravity": self.gravity})
         self.meta = {"system": CHAIN.name, "order": self.comp.order, "composition": self.comp.name,
@@ -239,7 +240,7 @@ class ChainRun(CarriedState):
     def advance(self, n: int, q_out, pi_out, it_out, res_out, partial) -> int:
         from ..._kernels.chain_kernels import run_chain
 
-        status, self.k = run_chain(self.M, self.w, self.gravity, self.gam, self.h, self.q, self.pi, self.dprev,
+        status, self.k = run_chain(self.M, self.Minv, self.w, self.gravity, self.gam, self.h, self.q, self.pi, self.lam,
                                    self.hprev, self.k, n, self.tol, self.max_iter, self.save_every, q_out, pi_out,
                                    it_out, res_out, self.last)
         return int(status)
@@ -268,7 +269,7 @@ def chain_from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state
 
 def simulate_chain(lengths: Any, masses: Any, q0: Any, qdot0: Any = None, *, h: float, steps: int,
                    link_masses: Any = None, gravity: Any = (0.0, 0.0, -G0), order: int = 2,
-                   composition: str | None = None, save_every: int = 1, t0: float = 0.0, tol: float = 1e-15,
+                   composition: str | None = None, save_every: int = 1, t0: float = 0.0, tol: float = 1e-14,
                    max_iter: int = 30, progress: Any = False) -> ChainTrajectory:
     r"""Simulate a chain of ``n`` spherical pendulums hanging from a fixed pivot, on ``(S^2)^n``.
 
