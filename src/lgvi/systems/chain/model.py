@@ -40,10 +40,10 @@ def chain_parameters(lengths: Any, masses: Any, link_masses: Any = None) -> tupl
         bad = np.flatnonzero(~(a > 0.0))
         if bad.size:
             raise ValueError(f"{name} must be {rule} (each link's {name[:-1]}, > 0), got {name}[{bad[0]}] = "
-                             f"{a[bad[0]]!r} in {_short(a)}")
+                             f"{float(a[bad[0]])!r} in {_short(a)}")
     bad = np.flatnonzero(~(rho >= 0.0))
     if bad.size:
-        raise ValueError(f"link_masses must be >= 0 (a rod's mass), got link_masses[{bad[0]}] = {rho[bad[0]]!r}")
+        raise ValueError(f"link_masses must be >= 0 (a rod's mass), got link_masses[{bad[0]}] = {float(rho[bad[0]])!r}")
     tail_m = np.cumsum(m[::-1])[::-1]                      # sum_{a >= i} m_a
     tail_r = np.concatenate([np.cumsum(rho[::-1])[::-1][1:], [0.0]])   # sum_{a > i} rho_a
     M = np.empty((n, n))
@@ -64,11 +64,11 @@ def unit_directions(q0: Any, n: int, name: str = "q0") -> np.ndarray:
     i = int(np.argmax(err))
     if err[i] > REPAIR_TOL:
         raise ValueError(f"{name} must hold unit vectors (| |q_i| - 1 | <= {REPAIR_TOL:g}), got |{name}[{i}]| = "
-                         f"{norm[i]!r} ({_short(q[i])})")
+                         f"{float(norm[i])!r} ({_short(q[i])})")
     if err[i] > ROTATION_TOL:
         from ...errors import AttitudeWarning
 
-        warnings.warn(f"{name}[{i}] has length {norm[i]!r}, {err[i]:.2g} from 1 (used as is up to {ROTATION_TOL:g}, "
+        warnings.warn(f"{name}[{i}] has length {float(norm[i])!r}, {err[i]:.2g} from 1 (used as is up to {ROTATION_TOL:g}, "
                       f"accepted up to {REPAIR_TOL:g}); dividing each direction by its length", AttitudeWarning,
                       stacklevel=4)
     return q / norm[:, None]
