@@ -40,43 +40,26 @@ from .codes import NOT_CONVERGED, NOT_FINITE, OK, SINGULAR
 
 
 @jit(inline="always")
-def lu_factor(A, piv, m):
-    """In-place LU factorisation with partial pivoting of ``A[:m, :m]``; False if singular."""
+def lu_factor(A, m):
+    """In-place LU factorisation of ``A[:m, :m]`` without pivoting (the Newton matrix is near the
+    Hadamard product of two positive definite matrices: its pivots are positive); False when a
+    pivot is not."""
     for c in range(m):
-        p = c
-        big = abs(A[c, c])
-        for r in range(c + 1, m):
-            v = abs(A[r, c])
-            if v > big:
-                big = v
-                p = r
-        if not big > 0.0:
+        p = A[c, c]
+        if not p > 0.0:
             return False
-        piv[c] = p
-        if p != c:
-            for s in range(m):
-                tmp = A[c, s]
-                A[c, s] = A[p, s]
-                A[p, s] = tmp
-        inv = 1.0 / A[c, c]
+        inv = 1.0 / p
         for r in range(c + 1, m):
             f = A[r, c] * inv
             A[r, c] = f
-            if f != 0.0:
-                for s in range(c + 1, m):
-                    A[r, s] -= f * A[c, s]
+            for s in range(c + 1, m):
+                A[r, s] -= f * A[c, s]
     return True
 
 
 @jit(inline="always")
-def lu_solve(A, piv, b, m):
+def lu_solve(A, b, m):
     """Solve ``A x = b`` in place in ``b`` with the factors of :func:`lu_factor`."""
-    for c in range(m):
-        p = piv[c]
-        if p != c:
-            tmp = b[c]
-            b[c] = b[p]
-            b[p] = tmp
     for r in range(1, m):
         s = b[r]
         for c in range(r):
@@ -90,77 +73,7 @@ def lu_solve(A, piv, b, m):
 
 
 @jit(inline="always")
-def lu_factor(A, piv, m):
-    """In-place LU factorisation with partial pivoting of ``A[:m, :m]``; False if singular."""
-    for c in range(m):
-        p = c
-        big = abs(A[c, c])
-        for r in range(c + 1, m):
-            v = abs(A[r, c])
-            if v > big:
-                big = v
-                p = r
-        if not big > 0.0:
-            return False
-        piv[c] = p
-        if p != c:
-            for s in range(m):
-                tmp = A[c, s]
-                A[c, s] = A[p, s]
-                A[p, s] = tmp
-        inv = 1.0 / A[c, c]
-        for r in range(c + 1, m):
-            f = A[r, c] * inv
-            A[r, c] = f
-            if f != 0.0:
-                for s in range(c + 1, m):
-                    A[r, s] -= f * A[c, s]
-    return True
-
-
-@jit(inline="always")
-def lu_solve(A, piv, b, m):
-    """Solve ``A x = b`` in place in ``b`` with the factors of :func:`lu_factor`."""
-    for c in range(m):
-        p = piv[c]
-        if p != c:
-            tmp = b[c]
-            b[c] = b[p]
-            b[p] = tmp
-    for r in range(1, m):
-        s = b[r]
-        for c in range(r):
-            s -= A[r, c] * b[c]
-        b[r] = s
-    for r in range(m - 1, -1, -1):
-        s = b[r]
-        for c in range(r + 1, m):
-            s -= A[r, c] * b[c]
-        b[r] = s / A[r, r]
-
-
-@jit(inline="always")
-def turn(d0, d1, d2, x0, x1, x2):
-    """``exp(hat(d)) x - x`` (Rodrigues), computed to the relative precision of ``|d|``."""
-    t2 = d0 * d0 + d1 * d1 + d2 * d2
-    if t2 < 1e-8:
-        a = 1.0 - t2 / 6.0 * (1.0 - t2 / 20.0)
-        b = 0.5 - t2 / 24.0 * (1.0 - t2 / 30.0)
-    else:
-        t = math.sqrt(t2)
-        a = math.sin(t) / t
-        b = (1.0 - math.cos(t)) / t2
-    c0 = d1 * x2 - d2 * x1
-    c1 = d2 * x0 - d0 * x2
-    c2 = d0 * x1 - d1 * x0
-    e0 = d1 * c2 - d2 * c1
-    e1 = d2 * c0 - d0 * c2
-    e2 = d0 * c1 - d1 * c0
-    return a * c0 + b * e0, a * c1 + b * e1, a * c2 + b * e2
-
-
-@jit(inline="always")
-def newton_matrix(Minv, q, D, A, piv, n):
+def newton_matrix(Minv, q, D, A, n):
     """Factor ``A_ji = dF_j / dlambda_i = Minv_ji (q_j + D_j) . q_i`` (False if singular)."""
     for j in range(n):
         x0 = q[j, 0] + D[j, 0]
@@ -168,14 +81,13 @@ def newton_matrix(Minv, q, D, A, piv, n):
         x2 = q[j, 2] + D[j, 2]
         for i in range(n):
             A[j, i] = Minv[j, i] * (x0 * q[i, 0] + x1 * q[i, 1] + x2 * q[i, 2])
-    return lu_factor(A, piv, n)
+    return lu_factor(A, n)
 
 
 @jit
-def chain_substep(M, Minv, w, g, h, q, pi, lam, hprev, D, Y, A, piv, r, tol, max_iter):
-    """One step of size ``h`` (module notes): ``q`` and ``pi`` updated in place; ``lam`` (3, n) holds
-    the multipliers ``lambda`` of the last three steps and ``hprev`` (3,) their sizes (0: none),
-    for the first guess. ``D``, ``Y`` (n, 3), ``A`` (n, n), ``piv``, ``r`` (n,)
+def chain_substep(M, Minv, w, g, h, q, pi, lam, D, Y, A, r, tol, max_iter):
+    """One step of size ``h`` (module notes): ``q`` and ``pi`` updated in place; ``lam`` (n,) is the first
+    guess of the multipliers ``lambda`` and gets their solution. ``D``, ``Y`` (n, 3), ``A`` (n, n), ``r`` (n,)
     are work arrays. Returns ``(status, iterations, residual)``, the residual
     ``max_j |q_j . D_j + |D_j|^2 / 2|`` relative to ``max_j |D_j|``."""
     n = q.shape[0]
@@ -193,22 +105,6 @@ def chain_substep(M, Minv, w, g, h, q, pi, lam, hprev, D, Y, A, piv, r, tol, max
         Y[i, 0] = b1 * q[i, 2] - b2 * q[i, 1]
         Y[i, 1] = b2 * q[i, 0] - b0 * q[i, 2]
         Y[i, 2] = b0 * q[i, 1] - b1 * q[i, 0]
-    # first guess of lambda (about h times a smooth function of time): the last three steps' values
-    # extrapolated (quadratically) when they had this step's size, else the last one scaled to it
-    if h == hprev[0] and h == hprev[1] and h == hprev[2]:
-        for i in range(n):
-            t = lam[0, i]
-            lam[0, i] = 3.0 * (t - lam[1, i]) + lam[2, i]
-            lam[2, i] = lam[1, i]
-            lam[1, i] = t
-    else:
-        ratio = h / hprev[0] if hprev[0] != 0.0 else 0.0
-        for i in range(n):
-            lam[2, i] = lam[1, i]
-            lam[1, i] = lam[0, i]
-            lam[0, i] *= ratio
-    hprev[2] = hprev[1] if hprev[1] == h else 0.0
-    hprev[1] = hprev[0] if hprev[0] == h else 0.0
     its = 0
     last = math.inf
     while True:
@@ -221,7 +117,7 @@ def chain_substep(M, Minv, w, g, h, q, pi, lam, hprev, D, Y, A, piv, r, tol, max
             d2 = 0.0
             for i in range(n):
                 m = Minv[j, i]
-                li = lam[0, i]
+                li = lam[i]
                 d0 += m * (Y[i, 0] + li * q[i, 0])
                 d1 += m * (Y[i, 1] + li * q[i, 1])
                 d2 += m * (Y[i, 2] + li * q[i, 2])
@@ -242,11 +138,11 @@ def chain_substep(M, Minv, w, g, h, q, pi, lam, hprev, D, Y, A, piv, r, tol, max
         # Newton: dF_j / dlambda_i = Minv_ji (q_j + D_j) . q_i; the first factors are kept while the
         # residual falls by 1e-6 an iteration (they change by the size of the first correction)
         if its == 0 or res > 1e-6 * last:
-            if not newton_matrix(Minv, q, D, A, piv, n):
+            if not newton_matrix(Minv, q, D, A, n):
                 return SINGULAR, its, res
-        lu_solve(A, piv, r, n)
+        lu_solve(A, r, n)
         for i in range(n):
-            lam[0, i] += r[i]
+            lam[i] += r[i]
         last = res
         its += 1
     # new momenta: pi_i^+ = q_i^+ x p_i, p_i = 1/h sum_j M_ij D_j + h/2 w_i g, written with
@@ -260,7 +156,7 @@ def chain_substep(M, Minv, w, g, h, q, pi, lam, hprev, D, Y, A, piv, r, tol, max
     fin = 0.0
     for i in range(n):
         c = hh * w[i]
-        li = lam[0, i]
+        li = lam[i]
         s0 = (Y[i, 0] + li * q[i, 0]) * ih + c * g[0]
         s1 = (Y[i, 1] + li * q[i, 1]) * ih + c * g[1]
         s2 = (Y[i, 2] + li * q[i, 2]) * ih + c * g[2]
@@ -284,37 +180,70 @@ def chain_substep(M, Minv, w, g, h, q, pi, lam, hprev, D, Y, A, piv, r, tol, max
         q[i, 2] = x2 * c
         for a in range(3):
             pi[i, a] = Y[i, a]
-    hprev[0] = h
     return OK, its, res
 
 
+@jit(inline="always")
+def first_guess(lam, hist, hh, c, cp, h, n):
+    """The first guess of ``lambda`` (about ``h`` times a smooth function of time) for substep ``c``
+    of size ``h`` into ``lam``: from ``hist[c]`` (4, n), its values at substep ``c`` of the last four
+    steps, extrapolated (cubic) when those had this size (``hh[c]`` (4,) their sizes, 0: none);
+    else the last solution (substep ``cp``, just before) scaled to this size; else 0."""
+    if hh[c, 0] == h and hh[c, 1] == h and hh[c, 2] == h and hh[c, 3] == h:
+        for i in range(n):
+            lam[i] = 4.0 * (hist[c, 0, i] + hist[c, 2, i]) - 6.0 * hist[c, 1, i] - hist[c, 3, i]
+    elif hh[cp, 0] != 0.0:
+        ratio = h / hh[cp, 0]
+        for i in range(n):
+            lam[i] = hist[cp, 0, i] * ratio
+    else:
+        for i in range(n):
+            lam[i] = 0.0
+
+
+@jit(inline="always")
+def push_history(lam, hist, hh, c, h, n):
+    """Record the solution ``lam`` of substep ``c`` (size ``h``) as the newest of ``hist[c]``."""
+    for a in range(3, 0, -1):
+        hh[c, a] = hh[c, a - 1]
+        for i in range(n):
+            hist[c, a, i] = hist[c, a - 1, i]
+    hh[c, 0] = h
+    for i in range(n):
+        hist[c, 0, i] = lam[i]
+
+
 @jit
-def run_chain(M, Minv, w, g, gam, h, q, pi, lam, hprev, k0, n_steps, tol, max_iter, save_every, q_out, pi_out,
+def run_chain(M, Minv, w, g, gam, h, q, pi, hist, hh, k0, n_steps, tol, max_iter, save_every, q_out, pi_out,
               it_out, res_out, last):
     """``n_steps`` steps from step ``k0``: each the composition of substeps ``gam[s] h`` (``gam =
-    (1,)``: the second-order step). Every ``save_every`` steps the state goes to ``q_out``,
-    ``pi_out`` (row ``j``) and the largest iterations and residual of the interval to ``it_out``,
-    ``res_out``. ``last`` (2,) gets the iterations and residual of the last substep.
-    Returns ``(status, steps done from k0)``."""
+    (1,)``: the second-order step). ``hist`` (S, 4, n) and ``hh`` (S, 4) are the multipliers of each
+    substep over the last four steps and their sizes (:func:`first_guess`). Every ``save_every``
+    steps the state goes to ``q_out``, ``pi_out`` (row ``j``) and the largest iterations and
+    residual of the interval to ``it_out``, ``res_out``. ``last`` (2,) gets the iterations and
+    residual of the last substep. Returns ``(status, steps done from k0)``."""
     n = q.shape[0]
+    S = gam.shape[0]
     D = np.empty((n, 3))
     Y = np.empty((n, 3))
     A = np.empty((n, n))
-    piv = np.zeros(n, dtype=np.int64)
     r = np.empty(n)
+    lam = np.empty(n)
     j = 0
     its_max = 0
     res_max = 0.0
     countdown = save_every
     for s in range(n_steps):
         k = k0 + s
-        for c in range(gam.shape[0]):
-            st, its, res = chain_substep(M, Minv, w, g, gam[c] * h, q, pi, lam, hprev, D, Y, A, piv, r, tol,
-                                         max_iter)
+        for c in range(S):
+            hc = gam[c] * h
+            first_guess(lam, hist, hh, c, (c - 1) % S, hc, n)
+            st, its, res = chain_substep(M, Minv, w, g, hc, q, pi, lam, D, Y, A, r, tol, max_iter)
             last[0] = its
             last[1] = res
             if st != OK:
                 return st, k
+            push_history(lam, hist, hh, c, hc, n)
             if its > its_max:
                 its_max = its
             if res > res_max:
@@ -334,4 +263,4 @@ def run_chain(M, Minv, w, g, gam, h, q, pi, lam, hprev, k0, n_steps, tol, max_it
     return OK, k0 + n_steps
 
 
-__all__ = ["chain_substep", "lu_factor", "lu_solve", "newton_matrix", "run_chain"]
+__all__ = ["chain_substep", "first_guess", "lu_factor", "lu_solve", "newton_matrix", "push_history", "run_chain"]

@@ -176,7 +176,7 @@ class ChainRun(CarriedState):
     """One validated run of :func:`simulate_chain` (driven by :func:`lgvi.driver.drive`)."""
 
     system = CHAIN
-    CARRIED = ("q", "pi", "lam", "hprev")
+    CARRIED = ("q", "pi", "hist", "hh")
     full = False          # records: the largest per saved interval
     label = "chain simulation"
 
@@ -205,9 +205,9 @@ class ChainRun(CarriedState):
         check_memory(self.steps * n, self.save_every, False)
         self.chunk = max(self.save_every, (CHUNK_STEPS // self.save_every) * self.save_every)
         self.k = 0
-        self.lam = np.zeros((3, n))
+        self.hist = np.zeros((len(self.gam), 4, n))
         self.Minv = np.linalg.inv(self.M)
-        self.hprev = np.zeros(3)
+        self.hh = np.zeros((len(self.gam), 4))
         self.last = np.zeros(2)
         self.declaration = chain_invariants({"gravity": self.gravity})
         self.meta = {"system": CHAIN.name, "order": self.comp.order, "composition": self.comp.name,
@@ -240,8 +240,8 @@ class ChainRun(CarriedState):
     def advance(self, n: int, q_out, pi_out, it_out, res_out, partial) -> int:
         from ..._kernels.chain_kernels import run_chain
 
-        status, self.k = run_chain(self.M, self.Minv, self.w, self.gravity, self.gam, self.h, self.q, self.pi, self.lam,
-                                   self.hprev, self.k, n, self.tol, self.max_iter, self.save_every, q_out, pi_out,
+        status, self.k = run_chain(self.M, self.Minv, self.w, self.gravity, self.gam, self.h, self.q, self.pi, self.hist,
+                                   self.hh, self.k, n, self.tol, self.max_iter, self.save_every, q_out, pi_out,
                                    it_out, res_out, self.last)
         return int(status)
 
