@@ -247,7 +247,7 @@ class ChainRun(CarriedState):
 
     def failure(self, status: int, residual: float, iterations: int, trajectory: Any, where: str = "") -> Exception:
         what = {NOT_FINITE: "the state became non-finite",
-                SINGULAR: "the Newton matrix is singular (a link turned by about pi in one step)",
+                SINGULAR: "the Newton matrix is singular (the step turns a link too far)",
                 NOT_CONVERGED: f"Newton's method did not reach tol = {self.tol:g} in {iterations} iterations "
                                f"(residual {residual:.3e}); a larger max_iter or tol may also do"}.get(status, "")
         return self.step_failure(what, residual, iterations, trajectory, where)
