@@ -183,3 +183,79 @@ def test_newton_record_and_failure_keeps_the_computed_part():
     partial = err.value.trajectory
     assert partial.meta.get("partial") and len(partial.t) >= 1
     assert np.array_equal(partial.q, traj.q[:len(partial.t)])
+
+
+# ------------------------------------------------------------------------------------------------
+# through the seam: streams, resume, members, interrupts (issue 30, part 4)
+# ------------------------------------------------------------------------------------------------
+CHAIN_ARGS = (L3, M3, Q0, QD0)
+CHAIN_KW = dict(h=1e-3, steps=3000, save_every=5, order=4)
+FIELDS = ("t", "q", "pi", "iterations", "residual", "lengths", "masses", "link_masses", "gravity")
+
+
+def same(a, b) -> None:
+    assert type(a) is type(b) is lgvi.ChainTrajectory and a.h == b.h
+    for name in FIELDS:
+        x, y = np.asarray(getattr(a, name)), np.asarray(getattr(b, name))
+        assert x.shape == y.shape and x.dtype == y.dtype and np.array_equal(x, y), name
+    assert a.meta["invariants"] == b.meta["invariants"]
+
+
+def test_stream_equals_memory_and_resumes_bit_for_bit(tmp_path):
+    from lgvi.io.streaming import read_stream, stream_system
+
+    ref = lgvi.simulate_chain(*CHAIN_ARGS, **CHAIN_KW)
+    stream_system(tmp_path / "full", "chain", *CHAIN_ARGS, chunk_steps=700, **CHAIN_KW)
+    same(read_stream(tmp_path / "full"), ref)
+
+    with pytest.raises(KeyboardInterrupt):
+        stream_system(tmp_path / "cut", "chain", *CHAIN_ARGS, chunk_steps=700, **CHAIN_KW,
+                      progress=lambda k, n: (_ for _ in ()).throw(KeyboardInterrupt) if k >= 1400 else None)
+    part = read_stream(tmp_path / "cut")
+    assert len(part.t) == 1400 // 5 + 1 and np.array_equal(part.q, ref.q[:len(part.t)])
+    with pytest.raises(ValueError, match=r"resume: .*a stream resumes only the same run \(differences: initial, masses\)"):
+        stream_system(tmp_path / "cut", "chain", L3, [1.0, 2.0, 1.0], Q0, QD0, chunk_steps=700, resume=True,
+                      **CHAIN_KW)
+    # resumed: the multipliers' history (the first guesses) carries over, so bit for bit
+    stream_system(tmp_path / "cut", "chain", *CHAIN_ARGS, chunk_steps=700, resume=True, **CHAIN_KW)
+    same(read_stream(tmp_path / "cut"), ref)
+
+
+def test_members_are_the_single_runs():
+    members = [dict(lengths=L3, masses=M3, q0=Q0, qdot0=QD0 * s, h=2e-3, steps=500, save_every=50)
+               for s in (0.5, 1.0, 1.5)]
+    ens = lgvi.simulate_members("chain", members, threads=2)
+    assert ens.stack("q").shape == (3, 11, 3, 3)
+    for b, kw in enumerate(members):
+        same(ens[b], lgvi.simulate_chain(**kw))
+    with pytest.raises(ValueError, match=r"member 1: .*masses"):
+        lgvi.simulate_members("chain", [members[0], dict(members[1], masses=[1.0, -1.0, 1.0])])
+
+
+def test_ctrl_c_keeps_the_computed_part():
+    ref = chain(1e-3, 4000)
+    from lgvi.systems.chain import ChainRun
+    from lgvi.driver import MemorySink, drive
+
+    run = ChainRun(*CHAIN_ARGS, h=1e-3, steps=4000)
+    run.chunk = 1000
+
+    def stop(k, n):
+        if k >= 2000:
+            raise KeyboardInterrupt
+    with pytest.raises(KeyboardInterrupt):
+        drive(run, MemorySink(run), progress=stop)
+    run2 = ChainRun(*CHAIN_ARGS, h=1e-3, steps=4000)
+    run2.chunk = 1000
+    state = None
+
+    def save(k, n):
+        nonlocal state
+        if k == 2000:
+            state = run2.state()
+    drive(run2, MemorySink(run2), progress=save)
+    run3 = ChainRun(*CHAIN_ARGS, h=1e-3, steps=4000)
+    run3.load_state(state)
+    sink = MemorySink(run3)
+    end = drive(run3, sink)
+    assert np.array_equal(end.q[-1], ref.q[-1]) and np.array_equal(end.pi[-1], ref.pi[-1])
