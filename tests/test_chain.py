@@ -259,3 +259,93 @@ def test_ctrl_c_keeps_the_computed_part():
     sink = MemorySink(run3)
     end = drive(run3, sink)
     assert np.array_equal(end.q[-1], ref.q[-1]) and np.array_equal(end.pi[-1], ref.pi[-1])
+
+
+# ------------------------------------------------------------------------------------------------
+# scenario files and the command line, through System.from_scenario (no io or cli code names it)
+# ------------------------------------------------------------------------------------------------
+SCENARIO = """
+name = "chain3"
+
+[chain]
+lengths = [1.0, 0.5, 0.5]
+masses = [1.0, 1.0, 1.0]
+q0 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]]
+qdot0 = [[0.0, 1.0, 0.0], [0.0, 0.0, 2.0], [1.0, 0.0, 0.0]]
+link_masses = [0.0, 0.2, 0.0]
+order = 4
+
+[integrator]
+h = 0.002
+steps = 1500
+save_every = 5
+"""
+
+
+def test_scenario_runs_the_chain_bit_for_bit(tmp_path):
+    from lgvi.io.scenario import load_scenario
+
+    path = tmp_path / "chain3.toml"
+    path.write_text(SCENARIO)
+    sc = load_scenario(path)
+    assert sc.kind == "chain" and sc.steps == 1500
+    got = sc.run()
+    ref = lgvi.simulate_chain(L3, M3, Q0, QD0, h=2e-3, steps=1500, save_every=5, link_masses=[0.0, 0.2, 0.0], order=4)
+    for name in FIELDS:
+        assert np.array_equal(getattr(got, name), getattr(ref, name)), name
+    assert got.meta["scenario_name"] == "chain3"
+
+
+@pytest.mark.parametrize("old, new, key, rule", [
+    ("masses = [1.0, 1.0, 1.0]", "masses = [1.0, 0.0, 1.0]", "chain.masses", r"positive.*masses\[1\] = 0\.0"),
+    ("order = 4", "order = 3", "chain.order", r"order must be 2, 4 or 6"),
+    ("order = 4", 'order = "4"', "chain.order", r"an integer"),
+    ("order = 4", "spring = 1.0", "chain.spring", r"unknown key"),
+    ("lengths = [1.0, 0.5, 0.5]\n", "", "chain.lengths", r"missing"),
+    ("q0 = [[1.0, 0.0, 0.0]", "q0 = [[2.0, 0.0, 0.0]", "chain.q0", r"unit vectors"),
+])
+def test_scenario_errors_name_the_key(tmp_path, old, new, key, rule):
+    import re
+
+    from lgvi.io.scenario import ScenarioError, load_scenario
+
+    path = tmp_path / "bad.toml"
+    assert old in SCENARIO
+    path.write_text(SCENARIO.replace(old, new))
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    assert info.value.key == key and re.search(rule, str(info.value)), str(info.value)
+
+
+def test_lgvi_run_writes_results_figure_summary_and_resumes(capsys, tmp_path):
+    import json
+
+    from lgvi import cli
+    from lgvi.io.outputs import read_trajectory
+    from lgvi.io.scenario import load_scenario
+
+    path = tmp_path / "chain3.toml"
+    path.write_text(SCENARIO)
+    sc = load_scenario(path)
+    whole = sc.run()
+
+    def ctrl_c(k, n):
+        if k >= 750:
+            raise KeyboardInterrupt
+    with pytest.raises(KeyboardInterrupt):
+        sc.run_stream(tmp_path / "out" / "stream", chunk_steps=250, progress=ctrl_c)
+    code = cli.main(["run", str(path), "-o", str(tmp_path / "out"), "--resume"])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    back = read_trajectory(tmp_path / "out" / "trajectory.npz")
+    assert isinstance(back, lgvi.ChainTrajectory)
+    for name in FIELDS:
+        assert np.array_equal(getattr(back, name), getattr(whole, name)), name
+    names = sorted(p.name for p in (tmp_path / "out").iterdir())
+    assert names == ["chain.png", "scenario.toml", "summary.json", "summary.txt", "trajectory.npz"]
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["system"] == "chain" and summary["drifts"]["angular_momentum_e3_rel"] < 1e-13
+    assert "a chain of 3 spherical pendulums" in (tmp_path / "out" / "summary.txt").read_text()
+    assert cli.main(["info", str(tmp_path / "out" / "trajectory.npz")]) == 0
+    out, _ = capsys.readouterr()
+    assert "q (301, 3, 3), pi (301, 3, 3)" in out

@@ -82,6 +82,21 @@ class System:
         A streamable run also has ``stream_meta()`` (JSON-serialisable: everything the result
         needs and everything that identifies the run, compared on resume) and its ``state()``
         carries everything the next step needs, JSON-serialisable.
+    from_scenario : callable or None
+        ``from_scenario(table) -> (args, kwargs)``: the arguments of its run factory from the plain
+        values of its scenario section (``[<scenario_section>]`` of a TOML file), raising
+        ``ValueError`` or ``TypeError`` whose message starts with the key it names
+        (``"chain.lengths: ..."``). With it, a scenario file with that section runs the system
+        (``lgvi.io.scenario``, ``lgvi run``, streams and ``--resume``) and nothing in ``io`` or
+        ``cli`` names it; ``[integrator]`` gives ``h``, ``steps`` or ``duration``,
+        ``save_every``, ``tol`` and ``max_iter``.
+    describe : callable or None
+        ``describe(result) -> list of str``: lines saying what was simulated, for summaries
+        (``lgvi run``'s ``summary.txt``); ``None``: the ``doc`` line.
+    saved_as : tuple or None
+        ``(format, load)``: the format tag in the header of the ``.npz`` its result's ``save``
+        writes, and the function that reads it back (``lgvi.io.outputs.read_trajectory``, ``lgvi
+        info``, ``lgvi plot`` find it by the tag).
     """
 
     name: str
@@ -94,6 +109,9 @@ class System:
     run_factory: Callable[..., Any] | None
     invariants: Callable[[Any], dict[str, dict[str, Any]]]
     from_stream: Callable[[dict[str, Any], dict[str, np.ndarray], dict[str, Any]], Any] | None = None
+    from_scenario: Callable[[dict[str, Any]], tuple[tuple[Any, ...], dict[str, Any]]] | None = None
+    describe: Callable[[Any], list[str]] | None = None
+    saved_as: tuple[str, Callable[[Any], Any]] | None = None
 
     def run(self, *args: Any, **kwargs: Any) -> Any:
         """A validated run of this system (see ``run_factory``)."""

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from ..._validation import REPAIR_TOL, ROTATION_TOL, _short, as_float_array
+from ..._validation import REPAIR_TOL, ROTATION_TOL, as_float_array
 
 #: Standard gravity, m/s^2 (the default ``g = (0, 0, -G0)``: ``e3`` up).
 G0 = 9.80665
@@ -36,11 +36,11 @@ def chain_parameters(lengths: Any, masses: Any, link_masses: Any = None) -> tupl
         raise ValueError("lengths must hold one length per link (at least one link), got an empty array")
     m = as_float_array(masses, "masses", (n,))
     rho = np.zeros(n) if link_masses is None else as_float_array(link_masses, "link_masses", (n,))
-    for name, a, rule in (("lengths", l, "positive"), ("masses", m, "positive")):
+    for name, a, what in (("lengths", l, "length"), ("masses", m, "point mass")):
         bad = np.flatnonzero(~(a > 0.0))
         if bad.size:
-            raise ValueError(f"{name} must be {rule} (each link's {name[:-1]}, > 0), got {name}[{bad[0]}] = "
-                             f"{float(a[bad[0]])!r} in {_short(a)}")
+            raise ValueError(f"{name} must be positive (each link's {what}, > 0), got {name}[{bad[0]}] = "
+                             f"{float(a[bad[0]])!r} in {a.tolist()}")
     bad = np.flatnonzero(~(rho >= 0.0))
     if bad.size:
         raise ValueError(f"link_masses must be >= 0 (a rod's mass), got link_masses[{bad[0]}] = {float(rho[bad[0]])!r}")
@@ -64,7 +64,7 @@ def unit_directions(q0: Any, n: int, name: str = "q0") -> np.ndarray:
     i = int(np.argmax(err))
     if err[i] > REPAIR_TOL:
         raise ValueError(f"{name} must hold unit vectors (| |q_i| - 1 | <= {REPAIR_TOL:g}), got |{name}[{i}]| = "
-                         f"{float(norm[i])!r} ({_short(q[i])})")
+                         f"{float(norm[i])!r} ({q[i].tolist()})")
     if err[i] > ROTATION_TOL:
         from ...errors import AttitudeWarning
 

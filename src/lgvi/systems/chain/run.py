@@ -32,7 +32,7 @@ from .system import CHAIN, chain_invariants
 
 #: Steps per compiled call (progress and Ctrl-C between chunks).
 CHUNK_STEPS = 1 << 16
-FORMAT = "lgvi.chain/1"
+FORMAT = CHAIN.saved_as[0]
 
 
 @dataclass
@@ -89,6 +89,11 @@ class ChainTrajectory:
     def positions(self) -> np.ndarray:
         """Outer ends of the links ``x_i = sum_{k <= i} l_k q_k`` (M, n, 3), the pivot at the origin."""
         return np.cumsum(self.lengths[None, :, None] * self.q, axis=1)
+
+    @property
+    def orthogonality_error(self) -> np.ndarray:
+        """``max_i ||q_i| - 1|`` (M,): the distance from the configuration space (round-off)."""
+        return np.abs(np.linalg.norm(self.q, axis=2) - 1.0).max(axis=1)
 
     @property
     def qdot(self) -> np.ndarray:
@@ -212,7 +217,8 @@ class ChainRun(CarriedState):
         self.declaration = chain_invariants({"gravity": self.gravity})
         self.meta = {"system": CHAIN.name, "order": self.comp.order, "composition": self.comp.name,
                      "invariants": self.declaration, "t0": self.t0, "save_every": self.save_every,
-                     "tol": self.tol, "lgvi_version": __version__}
+                     "method": "newton (multipliers of the unit lengths)", "tol": self.tol,
+                     "lgvi_version": __version__}
         self.initial = {"q": self.q.tolist(), "pi": self.pi.tolist()}
 
     def layout(self) -> tuple[tuple[Field, ...], tuple[Field, ...]]:
