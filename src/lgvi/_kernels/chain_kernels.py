@@ -105,25 +105,31 @@ def chain_substep(M, Minv, w, g, h, q, pi, lam, D, Y, A, r, tol, max_iter):
         Y[i, 0] = b1 * q[i, 2] - b2 * q[i, 1]
         Y[i, 1] = b2 * q[i, 0] - b0 * q[i, 2]
         Y[i, 2] = b0 * q[i, 1] - b1 * q[i, 0]
+    # D_j = sum_i Minv_ji (y_i + lambda_i q_i); after each Newton update of lambda it moves by
+    # sum_i Minv_ji dlambda_i q_i
+    for j in range(n):
+        d0 = 0.0
+        d1 = 0.0
+        d2 = 0.0
+        for i in range(n):
+            m = Minv[j, i]
+            li = lam[i]
+            d0 += m * (Y[i, 0] + li * q[i, 0])
+            d1 += m * (Y[i, 1] + li * q[i, 1])
+            d2 += m * (Y[i, 2] + li * q[i, 2])
+        D[j, 0] = d0
+        D[j, 1] = d1
+        D[j, 2] = d2
     its = 0
     last = math.inf
     while True:
-        # D_j = sum_i Minv_ji (y_i + lambda_i q_i), F_j = q_j . D_j + |D_j|^2 / 2
+        # F_j = q_j . D_j + |D_j|^2 / 2, relative to the largest component of D
         size = 0.0
         res = 0.0
         for j in range(n):
-            d0 = 0.0
-            d1 = 0.0
-            d2 = 0.0
-            for i in range(n):
-                m = Minv[j, i]
-                li = lam[i]
-                d0 += m * (Y[i, 0] + li * q[i, 0])
-                d1 += m * (Y[i, 1] + li * q[i, 1])
-                d2 += m * (Y[i, 2] + li * q[i, 2])
-            D[j, 0] = d0
-            D[j, 1] = d1
-            D[j, 2] = d2
+            d0 = D[j, 0]
+            d1 = D[j, 1]
+            d2 = D[j, 2]
             F = d0 * (q[j, 0] + 0.5 * d0) + d1 * (q[j, 1] + 0.5 * d1) + d2 * (q[j, 2] + 0.5 * d2)
             r[j] = -F
             size = max(size, abs(d0), abs(d1), abs(d2))
@@ -143,6 +149,18 @@ def chain_substep(M, Minv, w, g, h, q, pi, lam, D, Y, A, r, tol, max_iter):
         lu_solve(A, r, n)
         for i in range(n):
             lam[i] += r[i]
+        for j in range(n):
+            d0 = 0.0
+            d1 = 0.0
+            d2 = 0.0
+            for i in range(n):
+                m = Minv[j, i] * r[i]
+                d0 += m * q[i, 0]
+                d1 += m * q[i, 1]
+                d2 += m * q[i, 2]
+            D[j, 0] += d0
+            D[j, 1] += d1
+            D[j, 2] += d2
         last = res
         its += 1
     # new momenta: pi_i^+ = q_i^+ x p_i, p_i = 1/h sum_j M_ij D_j + h/2 w_i g, written with
