@@ -681,6 +681,75 @@ def _estimation() -> Any:
     return estimation
 
 
+def chain(**overrides: Any) -> lgvi.ChainTrajectory:
+    """``lgvi.simulate_chain`` with sound defaults (issue 30): two links, moving."""
+    kw: dict[str, Any] = dict(lengths=[1.0, 0.5], masses=[1.0, 2.0], q0=[[1.0, 0.0, 0.0], [0.0, 0.0, -1.0]],
+                              qdot0=[[0.0, 1.0, 0.0], [0.5, 0.0, 0.0]], h=H, steps=STEPS)
+    kw.update(overrides)
+    args = [kw.pop(k) for k in ("lengths", "masses", "q0")]
+    return lgvi.simulate_chain(*args, **kw)
+
+
+_Q_OFF = np.array([[1.0 + 1e-7, 0.0, 0.0], [0.0, 0.0, -1.0]])      # 1e-7 from unit: normalised, warned
+
+_ROWS += [
+    # ---- simulate_chain (issue 30) ----------------------------------------------------------
+    ("chain-length-zero", lambda: chain(lengths=[1.0, 0.0]), ValueError,
+     (r"\blengths\b", r"lengths\[1\] = 0\.0", r"positive")),
+    ("chain-length-negative", lambda: chain(lengths=[-1.0, 0.5]), ValueError,
+     (r"\blengths\b", r"-1\.0", r"positive")),
+    ("chain-mass-zero", lambda: chain(masses=[1.0, 0.0]), ValueError, (r"\bmasses\b", r"masses\[1\] = 0\.0", r"positive")),
+    ("chain-mass-negative", lambda: chain(masses=[-2.0, 1.0]), ValueError, (r"\bmasses\b", r"-2\.0", r"positive")),
+    ("chain-link-mass-negative", lambda: chain(link_masses=[0.0, -0.1]), ValueError,
+     (r"\blink_masses\b", r"-0\.1", r">= 0")),
+    ("chain-masses-shape", lambda: chain(masses=[1.0, 1.0, 1.0]), ValueError,
+     (r"\bmasses\b", r"shape \(3,\)", r"shape \(2,\)")),
+    ("chain-lengths-empty", lambda: chain(lengths=[], masses=[]), ValueError, (r"\blengths\b", r"empty", r"one length")),
+    ("chain-q0-not-unit", lambda: chain(q0=[[2.0, 0.0, 0.0], [0.0, 0.0, -1.0]]), ValueError,
+     (r"\bq0\b", r"\|q0\[0\]\| = 2\.0", r"unit vectors", r"1e-06")),
+    ("chain-q0-just-too-far", lambda: chain(q0=[[1.0, 0.0, 0.0], [0.0, 0.0, -1.0 - 3e-6]]), ValueError,
+     (r"\bq0\b", r"q0\[1\]", r"1\.000003", r"1e-06")),
+    ("chain-q0-zero", lambda: chain(q0=[[0.0, 0.0, 0.0], [0.0, 0.0, -1.0]]), ValueError,
+     (r"\bq0\b", r"= 0\.0", r"unit vectors")),
+    ("chain-q0-shape", lambda: chain(q0=[[1.0, 0.0, 0.0]]), ValueError, (r"\bq0\b", r"shape \(1, 3\)", r"\(2, 3\)")),
+    ("chain-q0-nan", lambda: chain(q0=[[NAN, 0.0, 0.0], [0.0, 0.0, -1.0]]), ValueError, (r"\bq0\b", r"nan", r"finite")),
+    ("chain-qdot0-not-tangent", lambda: chain(qdot0=[[0.1, 1.0, 0.0], [0.5, 0.0, 0.0]]), ValueError,
+     (r"\bqdot0\b", r"tangent", r"q\[0\] \. qdot0\[0\] = 0\.1", r"remove the component")),
+    ("chain-qdot0-shape", lambda: chain(qdot0=[0.0, 1.0, 0.0]), ValueError, (r"\bqdot0\b", r"shape \(3,\)", r"\(2, 3\)")),
+    ("chain-gravity-shape", lambda: chain(gravity=9.81), ValueError, (r"\bgravity\b", r"shape \(\)", r"\(3,\)")),
+    ("chain-order", lambda: chain(order=3), ValueError, (r"\border\b", r"\b3\b", r"2, 4 or 6")),
+    ("chain-h-zero", lambda: chain(h=0.0), ValueError, (r"\bh\b", r"0\.0", r"non-zero")),
+    ("chain-tol", lambda: chain(tol=0.1), ValueError, (r"\btol\b", r"0\.1", r"\(0, 1e-6\)")),
+]
+
+
+def test_chain_step_too_large_fails_with_the_computed_part():
+    with pytest.raises(lgvi.ConvergenceError, match=r"chain step 0 \(t = 0\) failed: .*Newton.*smaller step h") as info:
+        chain(h=5.0, steps=40)
+    part = info.value.trajectory
+    assert isinstance(part, lgvi.ChainTrajectory) and part.meta["partial"] and len(part.t) == 1
+    assert np.all(np.isfinite(part.q)) and np.all(np.isfinite(part.pi))
+
+
+def test_chain_direction_off_by_less_than_1e_6_is_normalised_with_a_warning():
+    with pytest.warns(lgvi.errors.AttitudeWarning, match=r"q0\[0\] has length 1\.0000001.*dividing"):
+        traj = chain(q0=_Q_OFF)
+    assert np.abs(np.linalg.norm(traj.q, axis=2) - 1.0).max() <= 2.3e-16
+    exact = chain(q0=_Q_OFF / np.linalg.norm(_Q_OFF, axis=1)[:, None])
+    assert np.array_equal(traj.q, exact.q)
+
+
+def test_chain_direction_within_1e_9_is_used_without_a_warning():
+    import warnings
+
+    q = _Q_OFF.copy()
+    q[0, 0] = 1.0 + 5e-10
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        traj = chain(q0=q)
+    assert np.abs(np.linalg.norm(traj.q, axis=2) - 1.0).max() <= 2.3e-16
+
+
 def _load_ensemble_text() -> Any:
     import os
     import tempfile

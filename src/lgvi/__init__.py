@@ -61,6 +61,8 @@ from .systems.two_body import PointMasses as PointMasses
 from .systems.two_body import Polyhedron as Polyhedron
 from .systems.two_body import TwoBodyTrajectory as TwoBodyTrajectory
 from .systems.two_body import simulate_two_body as simulate_two_body
+from .systems.chain import ChainTrajectory as ChainTrajectory
+from .systems.chain import simulate_chain as simulate_chain
 from .systems.gyrostat import ReactionWheels as ReactionWheels
 from .trajectory import Trajectory as Trajectory
 from .trajectory import load as load
@@ -71,6 +73,7 @@ _sys.modules.setdefault("lgvi.streaming", streaming)
 __all__ = [
     "AccuracyWarning",
     "AttitudeWarning",
+    "ChainTrajectory",
     "CollisionError",
     "ConvergenceError",
     "Ellipsoid",
@@ -98,6 +101,7 @@ __all__ = [
     "load_ensemble",
     "optimal",
     "simulate",
+    "simulate_chain",
     "simulate_ensemble",
     "simulate_members",
     "simulate_modified",

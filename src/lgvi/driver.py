@@ -218,6 +218,15 @@ class Sink(Protocol):
         """The run is complete: its result."""
 
 
+def layout(run: Any) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
+    """``(state, records)``: the fields (:class:`lgvi.systems.Field`) of ``run``'s buffers with their
+    concrete shapes. A system whose field shapes depend on the run (the chain's ``q`` is ``(n, 3)``
+    for ``n`` links; its declaration writes ``("n", 3)``) gives them with a ``run.layout()``
+    method; for the others the system's declared fields are the layout. The sinks allocate from it."""
+    own = getattr(run, "layout", None)
+    return own() if own is not None else (run.system.state, run.system.records)
+
+
 def record_every(run: Any) -> int:
     """Steps per entry of a run's per-step records: 1 (every step) or ``save_every`` (the largest
     over each saved interval, ``solver_record="interval"``)."""
@@ -235,11 +244,12 @@ class MemorySink:
         self.se = se = run.save_every
         M = run.steps // se + 1
         self.M = M
-        self.state = [f.empty(M) for f in run.system.state]
-        for buf, f in zip(self.state, run.system.state):
+        state, records = layout(run)
+        self.state = [f.empty(M) for f in state]
+        for buf, f in zip(self.state, state):
             buf[0] = getattr(run, f.name)
         self.per = per = record_every(run)
-        self.records = [f.zeros(run.steps // per) for f in run.system.records]
+        self.records = [f.zeros(run.steps // per) for f in records]
 
     def buffers(self, k0: int, n: int) -> list[np.ndarray]:
         j0 = k0 // self.se + 1
@@ -296,5 +306,5 @@ def drive(run: Any, sink: Sink, progress: Any = False) -> Any:
     return sink.finish()
 
 
-__all__ = ["Interrupts", "MemorySink", "Progress", "Sink", "check_memory", "drive", "initial_momentum",
+__all__ = ["Interrupts", "MemorySink", "Progress", "Sink", "check_memory", "drive", "initial_momentum", "layout",
            "physical_memory", "record_every", "run_solver_options", "sample_times", "time_grid"]

@@ -481,8 +481,12 @@ def _system_declaration(traj):
         what = f"a body in a central field ({meta.get('potential', '?')} potential" + (", J2)" if meta.get("J2") else ")")
         if meta.get("torque") not in (None, "none"):
             what += f" under an extra torque ({meta['torque']})"
-    else:
+    elif meta.get("system") == "two_body":
         what = f"two bodies in mutual gravity ({meta.get('potential', '?')} potential)"
+    else:                                   # another registered system: its one-line doc
+        from ..systems import SYSTEMS
+
+        what = SYSTEMS[meta["system"]].doc.split(":")[0]
     decl = declared(traj)
     return Declaration(decl.entries, what, decl.recorded)
 
@@ -496,6 +500,11 @@ def _system_lines(traj) -> list[str]:
         return [f"system:        {_SYSTEM_NAMES['orbit']}: mass {traj.mass:g} kg, mu = {traj.mu:g} m^3/s^2, "
                 f"{meta.get('potential')} potential{J2}",
                 f"orbit:         |x| from {r.min():.6g} to {r.max():.6g} m"]
+    if meta.get("system") != "two_body":    # another registered system describes itself
+        from ..systems import SYSTEMS
+
+        system = SYSTEMS[meta["system"]]
+        return system.describe(traj) if system.describe is not None else [f"system:        {system.doc}"]
     d = np.asarray(traj.distance)
     return [f"system:        {_SYSTEM_NAMES['two_body']}: masses {traj.masses[0]:g} and {traj.masses[1]:g} kg, "
             f"G = {traj.G:g}, {meta.get('potential')} mutual potential",
@@ -773,7 +782,7 @@ def cmd_info(args: argparse.Namespace) -> int:
     traj = _read(args.trajectory)
     if hasattr(traj, "members"):                    # a gyrostat ensemble
         return _info_ensemble(args.trajectory, traj)
-    if hasattr(traj, "x"):                          # a body in orbit, two bodies
+    if hasattr(traj, "x") or not hasattr(traj, "R"):    # a body in orbit, two bodies, another system
         return _info_system(args.trajectory, traj)
     meta = dict(traj.meta)
     scenario_text = meta.pop("scenario", None)
@@ -829,9 +838,11 @@ def _info_system(path: str, traj) -> int:
 
     meta = dict(traj.meta)
     system = meta.get("system")
+    from ..systems import SYSTEMS
+
     print(f"{path}: {_SYSTEM_NAMES.get(system, system)}")
-    print(f"  samples     {len(traj.t)}  (x {tuple(traj.x.shape)}, p {tuple(traj.p.shape)}, R {tuple(traj.R.shape)}, "
-          f"Pi {tuple(traj.Pi.shape)})")
+    shapes = ", ".join(f"{f.name} {tuple(np.shape(getattr(traj, f.name)))}" for f in SYSTEMS[system].state)
+    print(f"  samples     {len(traj.t)}  ({shapes})")
     print(f"  steps       {max(len(traj.t) - 1, 0) * int(meta.get('save_every', 1))}, h = {traj.h:g}")
     if len(traj.t):
         print(f"  time        {traj.t[0]:g} .. {traj.t[-1]:g} s")

@@ -318,10 +318,11 @@ def _npz_format(path: str | os.PathLike[str]) -> str | None:
 
 def _npz_readers() -> dict[str, Any]:
     """Readers of the ``.npz`` results of other systems, by the format in their header."""
-    from ..systems import gyrostat_ensemble, orbit, two_body
+    from ..systems import SYSTEMS, gyrostat_ensemble, orbit, two_body
 
     return {orbit.FORMAT: orbit.OrbitTrajectory.load, two_body.FORMAT: two_body.TwoBodyTrajectory.load,
-            gyrostat_ensemble.FORMAT: gyrostat_ensemble.GyrostatEnsemble.load}
+            gyrostat_ensemble.FORMAT: gyrostat_ensemble.GyrostatEnsemble.load,
+            **{s.saved_as[0]: s.saved_as[1] for s in SYSTEMS.values() if s.saved_as is not None}}
 
 
 def read_trajectory(path: str | os.PathLike[str]) -> Any:

@@ -672,7 +672,8 @@ class Scenario:
             For any invalid, missing or unknown key.
         """
         c = _Checker(source)
-        if isinstance(d, dict) and ("orbiting_body" in d or "two_body" in d):     # lgvi.simulate_orbit / simulate_two_body
+        if isinstance(d, dict) and any(k in d for k in _system_sections()):   # orbit, two bodies, any system
+                                                                                # with a scenario section
             return BodiesScenario.from_dict(d, source, text=text)  # type: ignore[return-value]
         d = c.table(d, "", _TOP_KEYS)
         for req in ("body", "initial", "integrator"):
@@ -962,6 +963,16 @@ def to_toml(d: dict[str, Any]) -> str:
 #: and the system each runs. (A spacecraft scenario's [orbit] is the orbit that drives its environment:
 #: lgvi.io.scenario_space.)
 _BODIES_SECTIONS = {"orbiting_body": "orbit", "two_body": "two_body"}
+
+
+def _system_sections() -> dict[str, str]:
+    """Scenario section -> system name: the two above and every registered system that reads its
+    own section (``System.from_scenario``, e.g. ``[chain]``)."""
+    from ..systems import SYSTEMS
+
+    out = dict(_BODIES_SECTIONS)
+    out.update({s.scenario_section: s.name for s in SYSTEMS.values() if s.from_scenario is not None})
+    return out
 _BODIES_TOP = ("name", "description", "initial", "integrator", "output")
 _BODIES_INTEGRATOR = ("h", "steps", "duration", "save_every", "tol", "max_iter")
 
@@ -1035,10 +1046,12 @@ def _position(c: _Checker, value: Any, key: str) -> np.ndarray:
 
 @dataclass(frozen=True)
 class BodiesScenario:
-    """A checked scenario of a body in orbit or of two bodies.
+    """A checked scenario of a body in orbit, of two bodies, or of another registered system.
 
     An ``[orbiting_body]`` section runs :func:`lgvi.simulate_orbit`, a ``[two_body]`` section
-    :func:`lgvi.simulate_two_body` (``lgvi run`` runs both; ``[output]`` takes ``formats = ["npz"]``,
+    :func:`lgvi.simulate_two_body`, the section of a system that reads its own
+    (``lgvi.systems.System.from_scenario``, e.g. ``[chain]`` for :func:`lgvi.simulate_chain`) that
+    system (``lgvi run`` runs them all; ``[output]`` takes ``formats = ["npz"]``,
     the only format of their results, and ``plots``). The schema::
 
         [orbiting_body]                      # a rigid body in a central field
@@ -1090,11 +1103,13 @@ class BodiesScenario:
     @classmethod
     def from_dict(cls, d: dict[str, Any], source: str = "<dict>", *, text: str | None = None) -> "BodiesScenario":
         c = _Checker(source)
-        sections = [k for k in _BODIES_SECTIONS if k in d]
+        known = _system_sections()
+        sections = [k for k in known if k in d]
         if len(sections) != 1:
-            raise c.error(None, "a scenario describes one system: [orbiting_body] or [two_body], not both")
+            raise c.error(None, "a scenario describes one system: one of "
+                          + ", ".join(f"[{k}]" for k in known) + f"; got {', '.join(f'[{k}]' for k in sections)}")
         section = sections[0]
-        kind = _BODIES_SECTIONS[section]
+        kind = known[section]
         d = c.table(d, "", _BODIES_TOP + (section,))
         if "integrator" not in d:
             raise c.error("integrator", "missing; expected an [integrator] table")
@@ -1124,7 +1139,20 @@ class BodiesScenario:
                     raise c.error(f"output.formats[{i}]", f"the result of an [{section}] scenario is saved as npz "
                                   f"only; got {f!r}")
         plots = c.boolean(out.get("plots", True), "output.plots")
-        if kind == "orbit":
+        if section not in _BODIES_SECTIONS:     # a system that reads its own section (System.from_scenario)
+            from ..systems import SYSTEMS
+
+            if "initial" in d:
+                raise c.error("initial", f"a [{section}] scenario gives its initial state in [{section}]")
+            try:
+                args, own = SYSTEMS[kind].from_scenario(d[section])
+            except (ValueError, TypeError) as exc:
+                key, _, rest = str(exc).partition(": ")
+                if key.startswith(section) and " " not in key and rest:
+                    raise c.error(key, rest) from None
+                raise c.error(section, str(exc)) from None
+            kw.update(own)
+        elif kind == "orbit":
             o = c.table(d[section], "orbiting_body", ("inertia", "matrix", "mass", "mu", "position", "velocity", "potential",
                                            "J2", "radius"))
             for req in ("mass", "mu", "position", "velocity"):
@@ -1181,6 +1209,10 @@ class BodiesScenario:
         try:
             sc._run(check_only=True)
         except (ValueError, TypeError) as exc:
+            # the run's own message names its argument first; a key of the section by that name is the key
+            word = str(exc).split(" ", 1)[0]
+            if section not in _BODIES_SECTIONS and isinstance(d[section], dict) and word in d[section]:
+                raise c.error(f"{section}.{word}", str(exc)) from None
             raise c.error(section, str(exc)) from None
         return sc
 
@@ -1189,6 +1221,12 @@ class BodiesScenario:
         from ..systems.two_body import TwoBodyRun, simulate_two_body
 
         grid = {"h": self.h, "steps": self.steps, "save_every": self.save_every}
+        if self.kind not in ("orbit", "two_body"):      # a system that reads its own section
+            from ..driver import MemorySink, drive
+            from ..systems import SYSTEMS
+
+            run = SYSTEMS[self.kind].run(*self.args, **self.kwargs, **grid)
+            return run if check_only else drive(run, MemorySink(run), progress=progress)
         if check_only:      # the library's own validation, without running
             kw = {**self.kwargs, **grid}
             if self.kind == "orbit":

@@ -41,7 +41,7 @@ from .._files import FolderLock, write_atomic, write_failure
 from .._untrusted import check_npz, inside
 from .._validation import as_int
 from .._version import __version__
-from ..driver import drive, record_every
+from ..driver import drive, layout, record_every
 from ..trajectory import Trajectory, check_arrays as _check_arrays, merge_summaries, summary_dict
 
 STREAM_FORMAT = "lgvi.stream/1"
@@ -590,15 +590,16 @@ class StreamSink:
         self.where = f" Complete chunks are in {folder}."
         self.interrupted = f"every complete chunk is in {folder} (resume=True continues it)"
         se = self.se = run.save_every
-        self.state = [f.empty(run.chunk // se) for f in run.system.state]
+        state, records = self.layout = layout(run)
+        self.state = [f.empty(run.chunk // se) for f in state]
         self.per = record_every(run)
-        self.records = [f.zeros(run.chunk // self.per) for f in run.system.records]
+        self.records = [f.zeros(run.chunk // self.per) for f in records]
         self.chunk_start: dict[str, Any] = {}
         #: a system with its own stream format (``system.from_stream``); else the rigid body's
         self.generic = run.system.from_stream is not None
         if run.k == 0 and not writer.manifest["chunks"] and run.steps == 0:
             self._append(run.times(0, 1), [getattr(run, f.name)[None].copy() for f in run.system.state],
-                         [f.zeros(0) for f in run.system.records], 0)
+                         [f.zeros(0) for f in records], 0)
 
     def _append(self, t: np.ndarray, state: list[np.ndarray], records: list[np.ndarray], steps: int) -> None:
         run = self.run
@@ -633,7 +634,7 @@ class StreamSink:
                 summary = merge_summaries(done.solver_summary, summary)
         except ValueError:  # no complete chunk yet
             parts = [(run.times(0, 1), *(start[f.name][None] for f in run.system.state),
-                      *(f.zeros(0) for f in run.system.records))]
+                      *(f.zeros(0) for f in self.layout[1]))]
         k0 = start["k0"]
         if k_done is not None and k_done > k0:
             m = (k_done - k0) // se

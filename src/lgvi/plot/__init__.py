@@ -1158,10 +1158,13 @@ def save_figures(traj: Trajectory, outdir: str | os.PathLike[str], *, prefix: st
         The files written, in the order above.
 
     A result of :func:`lgvi.simulate_orbit` gets ``{prefix}orbit.png`` (:func:`orbit`), one of
-    :func:`lgvi.simulate_two_body` ``{prefix}two_body.png`` (:func:`two_body`).
+    :func:`lgvi.simulate_two_body` ``{prefix}two_body.png`` (:func:`two_body`), one of
+    :func:`lgvi.simulate_chain` ``{prefix}chain.png`` (:func:`lgvi.plot.chain.chain`).
     """
+    from ..trajectory import Trajectory
+
     system = (getattr(traj, "meta", None) or {}).get("system")
-    if system in _SYSTEM_FIGURES and hasattr(traj, "x"):      # a body in orbit, two bodies
+    if system in _SYSTEM_FIGURES and not isinstance(traj, Trajectory):   # orbit, two bodies, chain
         out = Path(outdir)
         out.mkdir(parents=True, exist_ok=True)
         return [_save(_SYSTEM_FIGURES[system](traj), out / f"{prefix}{system}.png")]
@@ -1392,6 +1395,9 @@ def two_body(traj: Any) -> Figure:
 
 #: The figure of each other system's result, by ``meta["system"]`` (:func:`save_figures`).
 _SYSTEM_FIGURES: dict[str, Callable[[Any], Any]] = {"orbit": orbit, "two_body": two_body}
+from .chain import chain as chain  # noqa: E402  (a chain of spherical pendulums: lgvi.plot.chain)
+
+_SYSTEM_FIGURES["chain"] = chain
 
 
 __all__ = [
@@ -1402,6 +1408,7 @@ __all__ = [
     "FIGURE_PIXELS",
     "animate",
     "attitude",
+    "chain",
     "comparison",
     "conservation",
     "has_solver_record",

@@ -9,8 +9,9 @@ the same for every system.
 
 The systems: the rigid body (:mod:`lgvi.systems.rigid_body`), the gyrostat, a body with reaction
 wheels (:mod:`lgvi.systems.gyrostat`), a rigid body in a central field (:mod:`lgvi.systems.orbit`)
-and two rigid bodies in mutual gravity (:mod:`lgvi.systems.two_body`); another is a new module
-plus a :func:`register` call.
+two rigid bodies in mutual gravity (:mod:`lgvi.systems.two_body`) and chains of spherical
+pendulums on ``(S^2)^n`` (:mod:`lgvi.systems.chain`); another is a new module plus a
+:func:`register` call.
 """
 
 from __future__ import annotations
@@ -53,6 +54,8 @@ class System:
         One line for help texts and docs.
     state : tuple of Field
         The state saved at every sample, in the order the run's ``advance`` takes its buffers.
+        A shape may name a dimension the run fixes (``("n", 3)``); the run then gives its
+        concrete fields with ``layout()`` (:func:`lgvi.driver.layout`).
     records : tuple of Field
         The per-step records of the solver (after the state buffers in ``advance``).
     kernels : callable
@@ -79,6 +82,21 @@ class System:
         A streamable run also has ``stream_meta()`` (JSON-serialisable: everything the result
         needs and everything that identifies the run, compared on resume) and its ``state()``
         carries everything the next step needs, JSON-serialisable.
+    from_scenario : callable or None
+        ``from_scenario(table) -> (args, kwargs)``: the arguments of its run factory from the plain
+        values of its scenario section (``[<scenario_section>]`` of a TOML file), raising
+        ``ValueError`` or ``TypeError`` whose message starts with the key it names
+        (``"chain.lengths: ..."``). With it, a scenario file with that section runs the system
+        (``lgvi.io.scenario``, ``lgvi run``, streams and ``--resume``) and nothing in ``io`` or
+        ``cli`` names it; ``[integrator]`` gives ``h``, ``steps`` or ``duration``,
+        ``save_every``, ``tol`` and ``max_iter``.
+    describe : callable or None
+        ``describe(result) -> list of str``: lines saying what was simulated, for summaries
+        (``lgvi run``'s ``summary.txt``); ``None``: the ``doc`` line.
+    saved_as : tuple or None
+        ``(format, load)``: the format tag in the header of the ``.npz`` its result's ``save``
+        writes, and the function that reads it back (``lgvi.io.outputs.read_trajectory``, ``lgvi
+        info``, ``lgvi plot`` find it by the tag).
     """
 
     name: str
@@ -91,6 +109,9 @@ class System:
     run_factory: Callable[..., Any] | None
     invariants: Callable[[Any], dict[str, dict[str, Any]]]
     from_stream: Callable[[dict[str, Any], dict[str, np.ndarray], dict[str, Any]], Any] | None = None
+    from_scenario: Callable[[dict[str, Any]], tuple[tuple[Any, ...], dict[str, Any]]] | None = None
+    describe: Callable[[Any], list[str]] | None = None
+    saved_as: tuple[str, Callable[[Any], Any]] | None = None
 
     def run(self, *args: Any, **kwargs: Any) -> Any:
         """A validated run of this system (see ``run_factory``)."""
@@ -175,5 +196,6 @@ from . import rigid_body as rigid_body  # noqa: E402  (registers the rigid body)
 from . import orbit as orbit  # noqa: E402  (a body in a central field)
 from . import two_body as two_body  # noqa: E402  (two bodies in mutual gravity)
 from . import gyrostat as gyrostat  # noqa: E402  (registers the gyrostat: reaction wheels)
+from . import chain as chain  # noqa: E402  (chains of spherical pendulums on (S^2)^n)
 
 __all__ = ["CarriedState", "Field", "RUNS", "SYSTEMS", "System", "provide_run", "register"]
