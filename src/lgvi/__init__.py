@@ -38,6 +38,7 @@ from . import environment as environment
 from .environment import Magnetorquers as Magnetorquers
 from .errors import AccuracyWarning as AccuracyWarning
 from .errors import AttitudeWarning as AttitudeWarning
+from .errors import ComponentError as ComponentError
 from .errors import ConvergenceError as ConvergenceError
 from .errors import SimulationInterrupted as SimulationInterrupted
 from .errors import TorqueError as TorqueError
@@ -52,6 +53,11 @@ from .system_ensembles import SystemEnsemble as SystemEnsemble
 from .system_ensembles import simulate_members as simulate_members
 from .io import streaming as streaming  # the old name lgvi.streaming (imported here anyway)
 from .io.streaming import simulate_stream as simulate_stream
+from . import fsw as fsw
+from . import spacecraft as spacecraft
+from .fsw import FlightSoftware as FlightSoftware
+from .spacecraft import Spacecraft as Spacecraft
+from .systems import spacecraft as _spacecraft_system  # noqa: F401  (registers the system "spacecraft")
 from .systems.orbit import OrbitTrajectory as OrbitTrajectory
 from .systems.orbit import simulate_orbit as simulate_orbit
 from .systems.two_body import Ellipsoid as Ellipsoid
@@ -69,9 +75,11 @@ _sys.modules.setdefault("lgvi.streaming", streaming)
 __all__ = [
     "AccuracyWarning",
     "AttitudeWarning",
+    "ComponentError",
     "ConvergenceError",
     "Ellipsoid",
     "EnsembleTrajectory",
+    "FlightSoftware",
     "ImplicitSolution",
     "Magnetorquers",
     "OrbitTrajectory",
@@ -80,6 +88,7 @@ __all__ = [
     "ReactionWheels",
     "RigidBody",
     "SimulationInterrupted",
+    "Spacecraft",
     "StepResult",
     "SystemEnsemble",
     "TorqueError",
@@ -88,6 +97,7 @@ __all__ = [
     "__version__",
     "control",
     "environment",
+    "fsw",
     "inertia_to_jd",
     "jd_to_inertia",
     "load",
@@ -101,6 +111,7 @@ __all__ = [
     "simulate_stream",
     "simulate_two_body",
     "so3",
+    "spacecraft",
     "solve_implicit",
     "step",
     "torques",
