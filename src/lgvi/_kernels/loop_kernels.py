@@ -82,28 +82,44 @@ def clear_writes(bus, W, WS, a, b):
 
 
 @jit(inline="always")
+def run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
+    """Component ``c`` at ``t``; its status (1 when it wrote a value that is not finite), and
+    ``fail`` set when it is not 0."""
+    st = dispatch(user, codes[c], t, bus, P[po[c]:po[c + 1]], S[so[c]:so[c + 1]], W[wo[c]:wo[c + 1]])
+    if st == OK and not writes_finite(bus, W, WS, wo[c] + nr[c], wo[c + 1]):
+        st = 1
+    if st != OK:
+        fail[0] = c
+        fail[1] = st
+    return st
+
+
+@jit(inline="always")
 def run_components(user, t, k, bus, io, codes, spc, mask, nr, P, po, S, so, W, wo, WS, fail):
-    """Step 2 of the loop at step ``k``; returns the status."""
+    """Step 2 of the loop at step ``k``; returns the status.
+
+    When a mode component changes the mode, the components active in the old mode and not in the
+    new one have their outputs cleared (nothing they wrote stays held), and those of the new mode
+    that come before it in the order (guidance) and are due run at once, so that the new mode's
+    control reads its own reference at this very step."""
     mode = 0
     if io[IO_MODE] >= 0:
         mode = int(bus[io[IO_MODE]])
     for c in range(codes.shape[0]):
         if k % spc[c] != 0 or ((mask[c] >> mode) & 1) == 0:
             continue
-        st = dispatch(user, codes[c], t, bus, P[po[c]:po[c + 1]], S[so[c]:so[c + 1]], W[wo[c]:wo[c + 1]])
-        if st == OK and not writes_finite(bus, W, WS, wo[c] + nr[c], wo[c + 1]):
-            st = 1
-        if st != OK:
-            fail[0] = c
-            fail[1] = st
+        if run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
             return COMPONENT_FAILED
         if io[IO_MODE] >= 0:
             new = int(bus[io[IO_MODE]])
             if new != mode:
-                # components active before and not now leave nothing held on the bus
                 for d in range(codes.shape[0]):
                     if ((mask[d] >> mode) & 1) == 1 and ((mask[d] >> new) & 1) == 0:
                         clear_writes(bus, W, WS, wo[d] + nr[d], wo[d + 1])
+                for d in range(c):
+                    if k % spc[d] == 0 and ((mask[d] >> mode) & 1) == 0 and ((mask[d] >> new) & 1) == 1:
+                        if run_one(user, d, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
+                            return COMPONENT_FAILED
                 mode = new
     return OK
 
