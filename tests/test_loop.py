@@ -277,3 +277,21 @@ def test_bad_runs_name_the_rule():
         lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(record=["sigma_BR"]), **kw)
     with pytest.raises(ValueError, match="needs wheels"):
         lgvi.simulate(Spacecraft(CUBESAT), np.eye(3), fsw=FlightSoftware(actuators=RWMotorTorque()), **kw)
+
+
+def test_ensemble_members_fly_their_own_inertia_bit_for_bit():
+    inertias = [[0.18, 0.14, 0.06], [0.20, 0.14, 0.06], [0.18, 0.12, 0.08]]
+    scs = [Spacecraft(J, wheels=_wheels(), orbit=_orbit(), disturbances=[GravityGradient()]) for J in inertias]
+    fsw = [FlightSoftware(guidance=HillPointing(), control=MRPControl(K=K, P=0.04), actuators=RWMotorTorque(),
+                          rate=1.0) for K in (0.002, 0.004, 0.004)]
+    R0 = np.stack([np.eye(3)] * 3)
+    w0 = np.array([[0.0, 0.0, 1e-3]] * 3)
+    kw = dict(h=0.1, steps=300, save_every=10)
+    ens = lgvi.simulate_ensemble(scs, R0, omega0=w0, fsw=fsw, threads=2, **kw)
+    assert ens.signals["sigma_BR"].shape == (3, 30, 3)
+    assert np.allclose(ens.params["gravity_gradient.inertia"][1].reshape(3, 3), np.diag(inertias[1]))
+    assert ens.params["component.2.mrp_feedback"][:, 0].tolist() == [0.002, 0.004, 0.004]
+    for b in range(3):
+        one = lgvi.simulate(scs[b], R0[b], omega0=w0[b], fsw=fsw[b], **kw)
+        assert np.array_equal(ens[b].R, one.R) and np.array_equal(ens[b].wheel_momentum, one.wheel_momentum)
+    assert not np.array_equal(ens[1].R, ens[2].R)       # another inertia (and its own gravity gradient)

@@ -22,9 +22,12 @@ from ..driver import MemorySink, drive
 from ..errors import ComponentError
 from ..trajectory import RESULT_TYPES
 from . import Field, System, register
+from .._validation import as_float_array
 from .gyrostat import GYROSTAT, GyrostatRun, GyrostatTrajectory, _from_file as _gyro_from_file
+from .gyrostat_ensemble import GyrostatEnsemble, _per_member, drive_members
 
-__all__ = ["SPACECRAFT", "LoopRun", "SpacecraftTrajectory", "simulate_spacecraft"]
+__all__ = ["SPACECRAFT", "LoopRun", "SpacecraftEnsemble", "SpacecraftTrajectory", "simulate_spacecraft",
+           "simulate_spacecraft_ensemble"]
 
 #: Loop inputs and truth: the bus signals the loop itself reads or writes (``io`` of the kernel).
 _IO = ("R", "omega", "wheel_speed", "wheel_momentum", "wheel_command", "tau_dist_B", "tau_control_B", "mode")
@@ -343,6 +346,56 @@ def simulate_spacecraft(spacecraft: Any, R0: Any, Pi0: Any = None, *, omega0: An
     """:func:`lgvi.simulate` with a :class:`lgvi.Spacecraft` (see there and ``docs/loop.md``)."""
     run = LoopRun(spacecraft, R0, Pi0, omega0=omega0, h=h, steps=steps, fsw=fsw, **options)
     return drive(run, MemorySink(run), progress)
+
+
+class SpacecraftEnsemble(GyrostatEnsemble):
+    """A :class:`lgvi.systems.gyrostat_ensemble.GyrostatEnsemble` of spacecraft runs (members are
+    :class:`SpacecraftTrajectory`); ``signals`` stacks the records by name, (B, E, size);
+    ``params["component.<kind>"]`` holds each component's parameter row per member (B, P).
+    Saved with :meth:`save` it keeps the gyrostat's arrays, not the records."""
+
+    @cached_property
+    def signals(self) -> dict[str, np.ndarray]:
+        return {name: np.stack([m.signals[name] for m in self.members]) for name in self.members[0].signals}
+
+
+def simulate_spacecraft_ensemble(spacecraft: Any, R: np.ndarray, Pi0: Any = None, *, omega0: Any = None, h: Any,
+                                 steps: Any, fsw: Any = None, threads: Any = None,
+                                 **options: Any) -> SpacecraftEnsemble:
+    """:func:`lgvi.simulate_ensemble` with a :class:`lgvi.Spacecraft` (see there): ``spacecraft`` and
+    ``fsw`` one for all members or one per member (their inertias, wheels, gains, rates disperse);
+    member ``b`` equals ``lgvi.simulate(spacecraft[b], R[b], ..., fsw=fsw[b])`` bit for bit, and
+    its gravity gradient uses its own inertia. ``R`` (B, 3, 3) rotations validated by the caller."""
+    from ..fsw import FlightSoftware
+    from ..spacecraft import Spacecraft
+
+    B = len(R)
+    if (Pi0 is None) == (omega0 is None):
+        raise ValueError("give the initial body angular momenta Pi0 (B, 3) or the angular velocities omega0 (B, 3), "
+                         "one of the two")
+    init = as_float_array(Pi0 if omega0 is None else omega0, "Pi0" if omega0 is None else "omega0", (B, 3))
+    scs = _per_member(spacecraft, "spacecraft", B, Spacecraft)
+    fl = _per_member(FlightSoftware() if fsw is None else fsw, "fsw", B, FlightSoftware)
+    runs = []
+    for b in range(B):
+        kw = {"Pi0": init[b], "omega0": None} if omega0 is None else {"Pi0": None, "omega0": init[b]}
+        try:
+            runs.append(LoopRun(scs[b], R[b], kw["Pi0"], omega0=kw["omega0"], h=h, steps=steps, fsw=fl[b], **options))
+        except (TypeError, ValueError) as exc:
+            raise type(exc)(f"member {b}: {exc}") from exc
+    params: dict[str, np.ndarray] = {"inertia": np.stack([r.body.J for r in runs]), "R0": R.copy(),
+                                     "Pi0": np.stack([r.Pi for r in runs])}
+    first = runs[0]
+    if all(r.names == first.names and r.po.tolist() == first.po.tolist() for r in runs):
+        for c, name in enumerate(first.names):
+            params[f"component.{c}.{name}"] = np.stack([r.P[r.po[c]:r.po[c + 1]] for r in runs])
+    if first.gg:
+        params["gravity_gradient.inertia"] = np.stack([r.ggp[1:10] for r in runs])
+    members = drive_members(runs, threads)
+    meta = dict(members[0].meta, members=B)
+    for key in ("wheels", "solver_summary", "invariants"):
+        meta.pop(key, None)
+    return SpacecraftEnsemble(members=tuple(members), params=params, meta=meta)
 
 
 def _provide() -> None:
