@@ -295,3 +295,31 @@ def test_ensemble_members_fly_their_own_inertia_bit_for_bit():
         one = lgvi.simulate(scs[b], R0[b], omega0=w0[b], fsw=fsw[b], **kw)
         assert np.array_equal(ens[b].R, one.R) and np.array_equal(ens[b].wheel_momentum, one.wheel_momentum)
     assert not np.array_equal(ens[1].R, ens[2].R)       # another inertia (and its own gravity gradient)
+
+
+def test_a_stream_resumes_the_loop_bit_for_bit(tmp_path):
+    from lgvi.io.streaming import read_stream, stream_system
+
+    sc = Spacecraft(CUBESAT, wheels=_wheels(), orbit=_orbit(), disturbances=[GravityGradient()])
+
+    def fsw():
+        return FlightSoftware(guidance=HillPointing(), control=MRPControl(K=0.004, P=0.04, Ki=0.001),
+                              actuators=RWMotorTorque(), rate=1.0)
+
+    kw = dict(omega0=[0.01, 0.0, 0.0], h=0.1, steps=400, save_every=10)
+    memory = lgvi.simulate(sc, np.eye(3), fsw=fsw(), **kw)
+    folder = tmp_path / "loop"
+
+    def stop(done, total):
+        if done >= 200:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        stream_system(folder, "spacecraft", sc, np.eye(3), fsw=fsw(), chunk_steps=100, progress=stop, **kw)
+    stream_system(folder, "spacecraft", sc, np.eye(3), fsw=fsw(), chunk_steps=100, resume=True, **kw)
+    back = read_stream(folder)
+    assert type(back) is type(memory)
+    for name in ("R", "Pi", "wheel_momentum"):
+        assert np.array_equal(getattr(back, name), getattr(memory, name)), name
+    for name in memory.signals:
+        assert np.array_equal(back.signals[name], memory.signals[name]), name

@@ -49,6 +49,7 @@ SPACECRAFT = register(System(
     scenario_section="spacecraft",
     run_factory=None,
     invariants=_invariants,
+    from_stream=lambda meta, arrays, state: _from_stream(meta, arrays, state),
 ))
 
 
@@ -102,6 +103,20 @@ def _from_file(**fields: Any) -> SpacecraftTrajectory:
     width = sum(int(s) for _, _, s in base.meta.get("signals", []))
     if data.ndim != 2 or data.shape[1] != width:
         raise ValueError(f"field 'signal_data' must have shape (entries, {width}), got {data.shape}")
+    return SpacecraftTrajectory(**{f.name: getattr(base, f.name) for f in dataclasses.fields(GyrostatTrajectory)},
+                                signal_data=data)
+
+
+def _from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state: dict[str, Any]) -> SpacecraftTrajectory:
+    """The :class:`SpacecraftTrajectory` of a stream folder (``System.from_stream``)."""
+    from .gyrostat import _from_stream as gyro_from_stream
+
+    base = gyro_from_stream(meta, arrays, state)
+    width = sum(int(s) for _, _, s in meta.get("signals", []))
+    data = arrays["signals"].reshape(len(arrays["signals"]), -1) if arrays["signals"].size else \
+        np.zeros((len(arrays["signals"]), width))
+    if data.shape[1] != width:
+        raise ValueError(f"field 'signals' must have shape (entries, {width}), got {arrays['signals'].shape}")
     return SpacecraftTrajectory(**{f.name: getattr(base, f.name) for f in dataclasses.fields(GyrostatTrajectory)},
                                 signal_data=data)
 
