@@ -284,7 +284,7 @@ def cpu_of(fn, repeat: int) -> float:
 def first_call_fresh_process() -> float:
     """CPU seconds of the scenario's first call in a new process (the cache warm), the imports apart."""
     code = ("import time, sys; sys.path.insert(0, %r); import lgvi, loop_hill_pointing as m; c = time.process_time(); "
-            "m.lgvi_run(steps=10); print(time.process_time() - c)" % str(HERE))
+            "m.lgvi_run(steps=100); print(time.process_time() - c)" % str(HERE))
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True)
     return float(out.stdout.strip().splitlines()[-1])
 
@@ -331,11 +331,11 @@ def main() -> None:
     print(f"| Basilisk {fixture['bsk']} (ExecuteSimulation) | {bs_cpu:.3f} | 1 |")
     print(f"| lgvi loop (simulate, whole call) | {lg_cpu:.4f} | {bs_cpu / lg_cpu:.1f}x faster |")
     first = [first_call_fresh_process() for _ in range(repeat)]
-    print(f"\nfirst call in a fresh process, warm cache (10 steps, imports apart): median {np.median(first):.3f} s CPU")
+    print(f"\nfirst call in a fresh process, warm cache (100 steps, imports apart): median {np.median(first):.3f} s CPU")
     user = user_hill()
     from lgvi.fsw import HillPointing
 
-    lgvi_run(guidance=user, steps=10)                    # compiles the loop for it (in memory)
+    lgvi_run(guidance=user, steps=100)                   # compiles the loop for it (in memory)
     bi, us = [], []
     for _ in range(repeat):
         bi.append(cpu_of(lambda: lgvi_run(guidance=HillPointing(rate=DT), fsw_rate=FSW_DT), 1))

@@ -323,3 +323,27 @@ def test_a_stream_resumes_the_loop_bit_for_bit(tmp_path):
         assert np.array_equal(getattr(back, name), getattr(memory, name)), name
     for name in memory.signals:
         assert np.array_equal(back.signals[name], memory.signals[name]), name
+
+
+def test_one_orbit_of_hill_pointing_agrees_with_basilisk():
+    """benchmarks/loop_hill_pointing.py's scenario against its Basilisk 2.12.1 fixture (hillPoint,
+    attTrackingError, mrpFeedback, rwMotorTorque, GravityGradientEffector; RK4 at the same 0.1 s
+    step, flight software at 1 Hz): the attitudes agree to 1e-6 rad over the orbit (the issue's
+    goal; 1.75e-7 measured, the LGVI's and RK4's step errors and Basilisk's integrated orbit)."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "loop_hill_pointing.py"
+    spec = importlib.util.spec_from_file_location("loop_hill_pointing", path)
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    with np.load(bench.FIXTURE) as z:
+        fixture = {k: z[k] for k in z.files}
+    traj = bench.lgvi_run()
+    assert len(traj.t) == len(fixture["t"]) and np.allclose(traj.t, fixture["t"])
+    diff = bench.attitude_difference(traj, fixture)
+    assert diff.max() < 1e-6
+    assert np.abs(traj.wheel_speed - fixture["wheel_speed"]).max() < 1e-3      # of 50..200 rad/s
+    # the run is not trivial: the spacecraft starts 10 degrees off and ends on the Hill frame
+    err = 4 * np.arctan(np.linalg.norm(traj.signals["sigma_BR"], axis=1))
+    assert err[0] > np.radians(9.0) and err[-1] < np.radians(0.01)

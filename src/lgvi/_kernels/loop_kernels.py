@@ -243,4 +243,4 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
 run_loop = jit(_nrt=False)(loop_steps)
 #: :func:`loop_steps` with a user's component ``user(t, bus, p, s, w) -> int`` (a ``numba.njit``
 #: function), specialised for it and compiled in memory.
-run_loop_user = jit(cache=False)(loop_steps)
+run_loop_user = jit(cache=False, _nrt=False)(loop_steps)
