@@ -52,7 +52,7 @@ def test_inertial_pointing_equals_the_gyrostats_compiled_mrp_feedback_bit_for_bi
     # the records: the request mapped to the wheels, the error that drives it
     sig = tr.signals
     assert sig["wheel_command"].shape == (60, 4) and sig["sigma_BR"].shape == (60, 3)
-    assert np.allclose(sig["wheel_command"], sig["torque_request_B"] @ lgvi.control._wheel_map(PYRAMID).T,
+    assert np.allclose(sig["wheel_command"], sig["torque_request_B"] @ lgvi.control.wheel_map(PYRAMID).T,
                        rtol=0, atol=1e-18)
     sigma0 = lgvi.control.mrp_from_matrix(R_TARGET.T)
     assert np.allclose(sig["sigma_BR"][0], sigma0, atol=1e-15)

@@ -281,13 +281,13 @@ class RWMotorTorque(Component):
         self._map = np.zeros((0, 3))
 
     def setup(self, ctx: LoopContext) -> None:
-        from ..control import _wheel_map
+        from ..control import wheel_map
 
         wheels = ctx.spacecraft.wheels
         if wheels is None or len(wheels) == 0:
             raise ValueError("RWMotorTorque needs wheels: Spacecraft(..., wheels=lgvi.ReactionWheels(...))")
         if self.control_axes is None:
-            self._map = _wheel_map(wheels.axes)
+            self._map = wheel_map(wheels.axes)
         else:
             C = self.control_axes                                   # (m, 3)
             CG = C @ wheels.axes.T                                  # (m, N)
@@ -393,18 +393,18 @@ class FlightSoftware:
     def __init__(self, *, guidance: Any = None, control: Any = None, actuators: Any = None, modes: Any = None,
                  estimator: Any = None, components: Sequence[Any] = (), rate: Any = None,
                  record: Sequence[str] | None = None) -> None:
-        from ..spacecraft import _components
+        from ..spacecraft import components_of
 
-        self.guidance = _components(guidance, "guidance", ("guidance",))
-        self.control = _components(control, "control", ("control",))
-        self.actuators = _components(actuators, "actuators", ("actuator",))
-        self.modes = _components(modes, "modes", ("mode",))
+        self.guidance = components_of(guidance, "guidance", ("guidance",))
+        self.control = components_of(control, "control", ("control",))
+        self.actuators = components_of(actuators, "actuators", ("actuator",))
+        self.modes = components_of(modes, "modes", ("mode",))
         if len(self.modes) > 1:
             raise ValueError("modes takes one ModeRules (one mode manager)")
-        self.estimator = _components(estimator, "estimator", ("estimator",))
+        self.estimator = components_of(estimator, "estimator", ("estimator",))
         from ..components import FAMILIES
 
-        self.extra = _components(components, "components", FAMILIES)
+        self.extra = components_of(components, "components", FAMILIES)
         if rate is not None:
             Component(rate=rate)               # validates it
         self.rate = rate

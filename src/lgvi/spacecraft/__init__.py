@@ -14,7 +14,7 @@ from .._validation import as_float
 from ..body import RigidBody
 from ..components import COMPONENT_KINDS, Component, ComponentKind, LoopContext, kind_of, register_kind
 
-__all__ = ["Spacecraft", "OrbitTable", "FieldModel", "GravityGradient", "MagnetorquerRods", "ORBIT_TABLE_DT"]
+__all__ = ["Spacecraft", "OrbitTable", "FieldModel", "GravityGradient", "MagnetorquerRods", "ORBIT_TABLE_DT", "components_of"]
 
 #: Default spacing (s) of the tabulated orbit (cubic Hermite; relative position error about
 #: ``(n dt)^4 / 384``, 4e-11 in LEO).
@@ -234,9 +234,9 @@ class Spacecraft:
         self.orbit_dt = as_float(orbit_dt, "orbit_dt", positive=True)
         self.environment_rate = environment_rate
         self.magnetorquer_rate = magnetorquer_rate
-        self.disturbances = _components(disturbances, "disturbances", ("disturbance",))
-        self.sensors = _components(sensors, "sensors", ("sensor",))
-        self.environment = _components(environment, "environment", ("environment",))
+        self.disturbances = components_of(disturbances, "disturbances", ("disturbance",))
+        self.sensors = components_of(sensors, "sensors", ("sensor",))
+        self.environment = components_of(environment, "environment", ("environment",))
         for d in self.disturbances:
             if d.kind == "orbit_gravity_gradient" and orbit is None:
                 raise ValueError("disturbances: GravityGradient needs the spacecraft's orbit: give orbit=")
@@ -272,7 +272,7 @@ class Spacecraft:
         return "Spacecraft(" + ", ".join(parts) + ")"
 
 
-def _components(items: Any, name: str, families: tuple[str, ...]) -> list[Any]:
+def components_of(items: Any, name: str, families: tuple[str, ...]) -> list[Any]:
     """A list of components of ``families`` (each an object with ``kind`` registered in one of them)."""
     if isinstance(items, Component) or items is None:
         items = () if items is None else (items,)

@@ -29,7 +29,7 @@ from ..driver import MemorySink, drive
 from ..errors import ConvergenceError, TorqueError
 from .gyrostat import GyrostatRun, GyrostatTrajectory, ReactionWheels
 
-__all__ = ["FORMAT", "GyrostatEnsemble", "simulate_gyrostat_ensemble"]
+__all__ = ["FORMAT", "GyrostatEnsemble", "drive_members", "per_member", "simulate_gyrostat_ensemble"]
 
 #: Format of a saved gyrostat ensemble (the ``__lgvi__`` header of its ``.npz``).
 FORMAT = "lgvi.gyrostat_ensemble/1"
@@ -228,7 +228,7 @@ def _read(path: str) -> GyrostatEnsemble:
     return GyrostatEnsemble(members=tuple(members), params=params, meta=meta)
 
 
-def _per_member(value: Any, name: str, B: int, kind: type) -> list[Any]:
+def per_member(value: Any, name: str, B: int, kind: type) -> list[Any]:
     """``value`` for every member: one object (copied per member) or a sequence of ``B``."""
     if isinstance(value, (list, tuple)):
         if len(value) != B:
@@ -307,12 +307,12 @@ def simulate_gyrostat_ensemble(bodies: Sequence[Any], R: np.ndarray, Pi0: Any = 
         raise ValueError("give the initial body angular momenta Pi0 (B, 3) or the angular velocities omega0 (B, 3), "
                          "one of the two")
     init = as_float_array(Pi0 if omega0 is None else omega0, "Pi0" if omega0 is None else "omega0", (B, 3))
-    wl = _per_member(wheels, "wheels", B, ReactionWheels) if wheels is not None else [None] * B
+    wl = per_member(wheels, "wheels", B, ReactionWheels) if wheels is not None else [None] * B
     if wheels is not None:
         n = {len(w) for w in wl}
         if len(n) > 1:
             raise ValueError(f"wheels must have the same number of wheels in every member, got {sorted(n)}")
-    cl = _per_member(controller, "controller", B, Controller) if controller is not None else [None] * B
+    cl = per_member(controller, "controller", B, Controller) if controller is not None else [None] * B
     ctrl_params = _controller_params(cl) if controller is not None else {}     # before setup
     threads = _threads(threads, B)
     runs = []

@@ -23,8 +23,8 @@ from ..errors import ComponentError
 from ..trajectory import RESULT_TYPES
 from . import Field, System, register
 from .._validation import as_float_array
-from .gyrostat import GYROSTAT, GyrostatRun, GyrostatTrajectory, _from_file as _gyro_from_file
-from .gyrostat_ensemble import GyrostatEnsemble, _per_member, drive_members
+from .gyrostat import GYROSTAT, GyrostatRun, GyrostatTrajectory, gyrostat_from_file, gyrostat_from_stream
+from .gyrostat_ensemble import GyrostatEnsemble, drive_members, per_member
 
 __all__ = ["SPACECRAFT", "LoopRun", "SpacecraftEnsemble", "SpacecraftTrajectory", "simulate_spacecraft",
            "simulate_spacecraft_ensemble"]
@@ -99,7 +99,7 @@ class SpacecraftTrajectory(GyrostatTrajectory):
 
 def _from_file(**fields: Any) -> SpacecraftTrajectory:
     data = fields.pop("signal_data")
-    base = _gyro_from_file(**fields)
+    base = gyrostat_from_file(**fields)
     width = sum(int(s) for _, _, s in base.meta.get("signals", []))
     if data.ndim != 2 or data.shape[1] != width:
         raise ValueError(f"field 'signal_data' must have shape (entries, {width}), got {data.shape}")
@@ -109,9 +109,7 @@ def _from_file(**fields: Any) -> SpacecraftTrajectory:
 
 def _from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state: dict[str, Any]) -> SpacecraftTrajectory:
     """The :class:`SpacecraftTrajectory` of a stream folder (``System.from_stream``)."""
-    from .gyrostat import _from_stream as gyro_from_stream
-
-    base = gyro_from_stream(meta, arrays, state)
+    base = gyrostat_from_stream(meta, arrays, state)
     width = sum(int(s) for _, _, s in meta.get("signals", []))
     data = arrays["signals"].reshape(len(arrays["signals"]), -1) if arrays["signals"].size else \
         np.zeros((len(arrays["signals"]), width))
@@ -389,8 +387,8 @@ def simulate_spacecraft_ensemble(spacecraft: Any, R: np.ndarray, Pi0: Any = None
         raise ValueError("give the initial body angular momenta Pi0 (B, 3) or the angular velocities omega0 (B, 3), "
                          "one of the two")
     init = as_float_array(Pi0 if omega0 is None else omega0, "Pi0" if omega0 is None else "omega0", (B, 3))
-    scs = _per_member(spacecraft, "spacecraft", B, Spacecraft)
-    fl = _per_member(FlightSoftware() if fsw is None else fsw, "fsw", B, FlightSoftware)
+    scs = per_member(spacecraft, "spacecraft", B, Spacecraft)
+    fl = per_member(FlightSoftware() if fsw is None else fsw, "fsw", B, FlightSoftware)
     runs = []
     for b in range(B):
         kw = {"Pi0": init[b], "omega0": None} if omega0 is None else {"Pi0": None, "omega0": init[b]}
