@@ -16,7 +16,7 @@ import math
 from .._jit import jit
 from .gyrostat_kernels import mrp_error_at, mrp_request, reference_rates_at
 from .field_kernels import sh_field_ecef
-from .orbit_table_kernels import hermite_position
+from .orbit_table_kernels import hermite_interval, hermite_position
 
 OK = 0
 NOT_FINITE = 1
@@ -92,23 +92,14 @@ def body_of(bus, oR, v0, v1, v2):
 def hermite_velocity(t, p):
     """Inertial velocity at ``t``: the derivative of :func:`.orbit_table_kernels.hermite_position`'s
     cubic (NaN outside the table)."""
-    t0 = p[10]
-    dt = p[11]
-    K = int(p[12])
-    u = (t - t0) / dt
-    nan = math.nan
-    if not (u >= 0.0 and u <= K - 1.0):
-        return nan, nan, nan
-    k = int(math.floor(u))
-    if k >= K - 1:
-        k = K - 2
-    s = u - k
+    i, s, dt = hermite_interval(t, p)
+    if i < 0:
+        return math.nan, math.nan, math.nan
     s2 = s * s
     d00 = (6.0 * s2 - 6.0 * s) / dt
     d10 = 3.0 * s2 - 4.0 * s + 1.0
     d01 = (-6.0 * s2 + 6.0 * s) / dt
     d11 = 3.0 * s2 - 2.0 * s
-    i = 13 + 6 * k
     x = d00 * p[i] + d10 * p[i + 3] + d01 * p[i + 6] + d11 * p[i + 9]
     y = d00 * p[i + 1] + d10 * p[i + 4] + d01 * p[i + 7] + d11 * p[i + 10]
     z = d00 * p[i + 2] + d10 * p[i + 5] + d01 * p[i + 8] + d11 * p[i + 11]
@@ -436,6 +427,19 @@ def mode_dispatch(code, t, bus, p, s, w):
 # control (700-799)
 # ------------------------------------------------------------------------------------------------
 @jit(inline="always")
+def add_wheels(p, o, bus, orho, H0, H1, H2):
+    """``H + sum_i rho_i a_i``: ``p[o]`` wheels with axes ``p[o + 1:]`` (N x 3), momenta ``bus[orho:]``."""
+    n = int(p[o])
+    for i in range(n):
+        a = o + 1 + 3 * i
+        rho = bus[orho + i]
+        H0 += p[a] * rho
+        H1 += p[a + 1] * rho
+        H2 += p[a + 2] * rho
+    return H0, H1, H2
+
+
+@jit(inline="always")
 def mrp_control(t, bus, p, s, w):
     """Basilisk's ``mrpFeedback`` (:func:`.gyrostat_kernels.mrp_request`): reads the attitude
     (``w[0]``: ``R`` or ``R_est``), the rate (``w[1]``), the wheel momenta (``w[2]``, ``p[13]`` wheels,
@@ -450,17 +454,8 @@ def mrp_control(t, bus, p, s, w):
     w0 = bus[ow]
     w1 = bus[ow + 1]
     w2 = bus[ow + 2]
-    H0 = p[4] * w0 + p[5] * w1 + p[6] * w2
-    H1 = p[7] * w0 + p[8] * w1 + p[9] * w2
-    H2 = p[10] * w0 + p[11] * w1 + p[12] * w2
-    n = int(p[13])
-    orho = w[2]
-    for i in range(n):
-        a = 14 + 3 * i
-        rho = bus[orho + i]
-        H0 += p[a] * rho
-        H1 += p[a + 1] * rho
-        H2 += p[a + 2] * rho
+    H0, H1, H2 = add_wheels(p, 13, bus, w[2], p[4] * w0 + p[5] * w1 + p[6] * w2, p[7] * w0 + p[8] * w1 + p[9] * w2,
+                            p[10] * w0 + p[11] * w1 + p[12] * w2)
     L0, L1, L2 = mrp_request(p, 4, s, t, s0, s1, s2, r0, r1, r2, e0, e1, e2, w0, w1, w2, H0, H1, H2)
     put3(bus, w[6], s0, s1, s2)
     put3(bus, w[7], w0 - r0, w1 - r1, w2 - r2)
@@ -502,17 +497,7 @@ def dumping_control(t, bus, p, s, w):
     body (``p = [k, N, axes (3N)]``); reads ``B_N``, the attitude, ``wheel_momentum``; writes
     ``dipole_request_B``."""
     b0, b1, b2 = body_of(bus, w[1], bus[w[0]], bus[w[0] + 1], bus[w[0] + 2])
-    n = int(p[1])
-    h0 = 0.0
-    h1 = 0.0
-    h2 = 0.0
-    orho = w[2]
-    for i in range(n):
-        a = 2 + 3 * i
-        rho = bus[orho + i]
-        h0 += p[a] * rho
-        h1 += p[a + 1] * rho
-        h2 += p[a + 2] * rho
+    h0, h1, h2 = add_wheels(p, 1, bus, w[2], 0.0, 0.0, 0.0)
     bb = b0 * b0 + b1 * b1 + b2 * b2
     o = w[3]
     if bb == 0.0:

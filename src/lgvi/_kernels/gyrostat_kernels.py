@@ -223,6 +223,26 @@ def record_step(c_rec, e, per, its, rn, it_out, res_out, u_out, u_now, N):
 
 
 @jit(inline="always")
+def after_step(its, rn, rmax, counts, c_rec, e, per, it_out, res_out, u_out, u_now, c_save, j, save_every, R, Pi, rho,
+               R_out, Pi_out, rho_out):
+    """The bookkeeping after a step: the largest residual, the iteration histogram ``counts``, the
+    step's records (:func:`record_step`) and, every ``save_every`` steps, the sample ``j``
+    (:func:`save_sample`). Returns the next ``(rmax, c_rec, e, c_save, j)``."""
+    if rn > rmax:
+        rmax = rn
+    nb = counts.shape[0]
+    counts[its if its < nb else nb - 1] += 1
+    c_rec, e = record_step(c_rec, e, per, its, rn, it_out, res_out, u_out, u_now, rho.shape[0])
+    if c_save == 0:
+        j += 1
+        save_sample(j, R, Pi, rho, R_out, Pi_out, rho_out)
+    c_save += 1
+    if c_save == save_every:
+        c_save = 0
+    return rmax, c_rec, e, c_save, j
+
+
+@jit(inline="always")
 def save_sample(j, R, Pi, rho, R_out, Pi_out, rho_out):
     """Sample ``j`` of the state into the output buffers: ``R``, ``Pi`` and the wheel momenta ``rho``."""
     for a in range(3):
@@ -306,18 +326,10 @@ def reference_rates_at(cp, wr, dwr, R):
 def mrp_law(cp, cs, t, s0, s1, s2, r0, r1, r2, e0, e1, e2, w0, w1, w2, axes, rho, cmd, tau):
     """The feedback law of :func:`mrp_feedback` from the error ``sigma`` and the reference rates
     ``r``, ``e`` in the body frame (:func:`mrp_error`, :func:`reference_rates`)."""
-    J0 = cp[CP_J]
-    J1 = cp[CP_J + 1]
-    J2 = cp[CP_J + 2]
-    J3 = cp[CP_J + 3]
-    J4 = cp[CP_J + 4]
-    J5 = cp[CP_J + 5]
-    J6 = cp[CP_J + 6]
-    J7 = cp[CP_J + 7]
-    J8 = cp[CP_J + 8]
-    H0 = J0 * w0 + J1 * w1 + J2 * w2
-    H1 = J3 * w0 + J4 * w1 + J5 * w2
-    H2 = J6 * w0 + J7 * w1 + J8 * w2
+    j = CP_J
+    H0 = cp[j] * w0 + cp[j + 1] * w1 + cp[j + 2] * w2
+    H1 = cp[j + 3] * w0 + cp[j + 4] * w1 + cp[j + 5] * w2
+    H2 = cp[j + 6] * w0 + cp[j + 7] * w1 + cp[j + 8] * w2
     for i in range(rho.shape[0]):
         # h_s = Js (a . w + Omega_w) = rho (absolute axial momentum)
         H0 += axes[i, 0] * rho[i]
@@ -525,7 +537,6 @@ def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cm
     rmax = 0.0
     its = 0
     rn = 0.0
-    nb = counts.shape[0]
     m0 = 0.0
     m1 = 0.0
     m2 = 0.0
@@ -557,16 +568,8 @@ def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cm
         it_sum += it_add
         if st != OK:
             return st, k, it_sum, rmax, its, rn
-        if rn > rmax:
-            rmax = rn
-        counts[its if its < nb else nb - 1] += 1
-        c_rec, e = record_step(c_rec, e, per, its, rn, it_out, res_out, u_out, u_now, N)
-        if c_save == 0:
-            j += 1
-            save_sample(j, R, Pi, rho, R_out, Pi_out, rho_out)
-        c_save += 1
-        if c_save == save_every:
-            c_save = 0
+        rmax, c_rec, e, c_save, j = after_step(its, rn, rmax, counts, c_rec, e, per, it_out, res_out, u_out, u_now,
+                                               c_save, j, save_every, R, Pi, rho, R_out, Pi_out, rho_out)
     return OK, k0 + n, it_sum, rmax, its, rn
 
 

@@ -28,7 +28,7 @@ import math
 from .._jit import jit
 from .codes import NOT_FINITE, OK
 from .fsw_components import actuator_dispatch, control_dispatch, guidance_dispatch, mode_dispatch, orbit_field_dispatch
-from .gyrostat_kernels import body_rate, gyro_advance, record_step, save_sample, wheel_torque
+from .gyrostat_kernels import after_step, body_rate, gyro_advance, wheel_torque
 from .orbit_table_kernels import orbit_gravity_gradient_moment
 
 #: The status the loop returns when a component stopped it (``fail`` says which and why).
@@ -149,7 +149,6 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
     rmax = 0.0
     its = 0
     rn = 0.0
-    nb = counts.shape[0]
     m0 = 0.0
     m1 = 0.0
     m2 = 0.0
@@ -222,20 +221,12 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
                 fail[1] = 3
                 return COMPONENT_FAILED, k, it_sum, rmax, its, rn
             return st, k, it_sum, rmax, its, rn
-        # 4. records
-        if rn > rmax:
-            rmax = rn
-        counts[its if its < nb else nb - 1] += 1
+        # 4. records: the bus at the entry's first step, then the gyrostat's
         if c_rec == 0:
             for q in range(nsig):
                 sig_out[e, q] = bus[sig_idx[q]]
-        c_rec, e = record_step(c_rec, e, per, its, rn, it_out, res_out, u_out, u_now, N)
-        if c_save == 0:
-            j += 1
-            save_sample(j, R, Pi, rho, R_out, Pi_out, rho_out)
-        c_save += 1
-        if c_save == save_every:
-            c_save = 0
+        rmax, c_rec, e, c_save, j = after_step(its, rn, rmax, counts, c_rec, e, per, it_out, res_out, u_out, u_now,
+                                               c_save, j, save_every, R, Pi, rho, R_out, Pi_out, rho_out)
     return OK, k0 + n, it_sum, rmax, its, rn
 
 

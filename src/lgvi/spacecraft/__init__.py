@@ -221,12 +221,9 @@ class Spacecraft:
         if epoch is None:
             epoch = getattr(orbit, "epoch", None)
         if epoch is not None:
-            if isinstance(epoch, np.datetime64):
-                epoch = epoch.astype("datetime64[us]").item()
-            if not isinstance(epoch, _dt.datetime):
-                raise TypeError(f"epoch must be a datetime.datetime or numpy.datetime64 (UTC), got {epoch!r}")
-            if epoch.tzinfo is not None:
-                epoch = epoch.astimezone(_dt.timezone.utc).replace(tzinfo=None)
+            from ..environment.orbits import utc_epoch
+
+            epoch = utc_epoch(epoch)
         elif field is not None:
             raise ValueError("field needs epoch= (UTC of t = 0: the Earth's rotation angle and the field's date), "
                              "e.g. epoch=datetime.datetime(2026, 1, 1)")
