@@ -748,6 +748,72 @@ def test_chain_direction_within_1e_9_is_used_without_a_warning():
         warnings.simplefilter("error")
         traj = chain(q0=q)
     assert np.abs(np.linalg.norm(traj.q, axis=2) - 1.0).max() <= 2.3e-16
+    # the spacecraft and its flight software in the compiled loop (issue 25)
+    ("spacecraft-wheels-type", lambda: lgvi.Spacecraft(BODY, wheels=np.eye(3)), TypeError,
+     (r"\bwheels\b", r"ndarray", r"lgvi\.ReactionWheels")),
+    ("spacecraft-magnetorquers-type", lambda: lgvi.Spacecraft(BODY, magnetorquers="rods"), TypeError,
+     (r"\bmagnetorquers\b", r"\bstr\b", r"lgvi\.Magnetorquers")),
+    ("spacecraft-orbit-type", lambda: lgvi.Spacecraft(BODY, orbit=7e6), TypeError,
+     (r"\borbit\b", r"\bfloat\b", r"position_velocity")),
+    ("spacecraft-field-type", lambda: lgvi.Spacecraft(BODY, orbit=_circular(), field="igrf"), TypeError,
+     (r"\bfield\b", r"\bstr\b", r"field model")),
+    ("spacecraft-field-without-orbit", lambda: lgvi.Spacecraft(BODY, field=lgvi.environment.CentredDipole()),
+     ValueError, (r"\bfield\b", r"needs an orbit", r"orbit=")),
+    ("spacecraft-field-without-epoch", lambda: lgvi.Spacecraft(BODY, orbit=_circular(),
+                                                               field=lgvi.environment.CentredDipole()),
+     ValueError, (r"\bfield\b", r"epoch=", r"UTC of t = 0")),
+    ("spacecraft-epoch-type", lambda: lgvi.Spacecraft(BODY, orbit=_circular(), epoch="2026-01-01"), TypeError,
+     (r"\bepoch\b", r"2026-01-01", r"datetime")),
+    ("spacecraft-orbit-dt-zero", lambda: lgvi.Spacecraft(BODY, orbit=_circular(), orbit_dt=0.0), ValueError,
+     (r"\borbit_dt\b", r"0\.0", r"positive")),
+    ("spacecraft-disturbance-family", lambda: lgvi.Spacecraft(BODY, disturbances=[lgvi.fsw.BDotControl(1.0)]),
+     ValueError, (r"disturbances\[0\]", r"'bdot'", r"control component", r"disturbance")),
+    ("spacecraft-disturbance-type", lambda: lgvi.Spacecraft(BODY, disturbances=[3.0]), TypeError,
+     (r"disturbances\[0\]", r"\bfloat\b", r"registered kind")),
+    ("component-rate-negative", lambda: lgvi.fsw.MRPControl(1.0, 1.0, rate=-1.0), ValueError,
+     (r"\brate\b", r"-1\.0", r"> 0")),
+    ("component-rate-type", lambda: lgvi.fsw.MRPControl(1.0, 1.0, rate="1 Hz"), TypeError,
+     (r"\brate\b", r"1 Hz", r"number of seconds")),
+    ("component-modes-range", lambda: lgvi.fsw.HillPointing(modes=[0, 63]), ValueError,
+     (r"\bmodes\b", r"63", r"0\.\.62")),
+    ("mrp-control-P-nan", lambda: lgvi.fsw.MRPControl(1.0, NAN), ValueError, (r"\bP\b", r"nan", r"finite")),
+    ("mrp-control-limit-without-Ki", lambda: lgvi.fsw.MRPControl(1.0, 1.0, integral_limit=0.1), ValueError,
+     (r"\bintegral_limit\b", r"\bKi\b", r"give")),
+    ("bdot-control-derivative", lambda: lgvi.fsw.BDotControl(1.0, derivative="central"), ValueError,
+     (r"\bderivative\b", r"'central'", r"one of")),
+    ("dumping-control-gain-zero", lambda: lgvi.fsw.MomentumDumpingControl(0.0), ValueError,
+     (r"\bgain\b", r"0\.0", r"positive")),
+    ("sun-pointing-parallel-axes", lambda: lgvi.fsw.SunPointing([0, 0, 1], [0, 0, 2]), ValueError,
+     (r"\bsecondary\b", r"\[0\.0, 0\.0, 1\.0\]", r"not be parallel")),
+    ("mode-rule-condition", lambda: lgvi.fsw.ModeRules([(0, 1, "slow", 0.1)]), ValueError,
+     (r"rules\[0\] condition", r"'slow'", r"one of")),
+    ("mode-rule-to", lambda: lgvi.fsw.ModeRules([(0, -1, "time_after", 1.0)]), ValueError,
+     (r"rules\[0\] to", r"-1", r"0\.\.62")),
+    ("mode-rule-shape", lambda: lgvi.fsw.ModeRules([(0, 1, "time_after")]), TypeError,
+     (r"rules\[0\]", r"time_after", r"\(from, to, condition, threshold\)")),
+    ("fsw-two-mode-managers", lambda: lgvi.FlightSoftware(modes=[lgvi.fsw.ModeRules([(0, 1, "dwell", 1.0)])] * 2),
+     ValueError, (r"\bmodes\b", r"one ModeRules")),
+    ("fsw-rate-negative", lambda: lgvi.FlightSoftware(rate=-0.5), ValueError, (r"\brate\b", r"-0\.5", r"> 0")),
+    ("fsw-without-spacecraft", lambda: sim(fsw=lgvi.FlightSoftware()), TypeError,
+     (r"\bfsw=", r"\blist\b", r"lgvi\.Spacecraft")),
+    ("fsw-not-fsw", lambda: sim(body=lgvi.Spacecraft(BODY), fsw="mrp"), TypeError,
+     (r"\bfsw\b", r"\bstr\b", r"lgvi\.FlightSoftware")),
+    ("spacecraft-with-controller", lambda: sim(body=lgvi.Spacecraft(BODY), controller=lgvi.control.MRPFeedback(
+        1.0, 1.0), control_period=H), ValueError, (r"\bcontroller\b", r"control_period", r"not with an lgvi\.Spacecraft")),
+    ("fsw-component-rate-not-multiple", lambda: sim(body=lgvi.Spacecraft(BODY), fsw=lgvi.FlightSoftware(
+        guidance=lgvi.fsw.InertialPointing(rate=0.015))), ValueError,
+     (r"inertial_pointing", r"rate=0\.015", r"multiple of \|h\|")),
+    ("fsw-reads-nothing-written", lambda: sim(body=lgvi.Spacecraft(BODY), fsw=lgvi.FlightSoftware(
+        guidance=lgvi.fsw.HillPointing())), ValueError, (r"hill_pointing", r"'r_N'", r"no component")),
+    ("fsw-record-unknown", lambda: sim(body=lgvi.Spacecraft(BODY), fsw=lgvi.FlightSoftware(record=["mode"])),
+     ValueError, (r"\brecord\b", r"'mode'", r"not on this run's bus")),
+    ("fsw-rw-map-without-wheels", lambda: sim(body=lgvi.Spacecraft(BODY), fsw=lgvi.FlightSoftware(
+        actuators=lgvi.fsw.RWMotorTorque())), ValueError, (r"RWMotorTorque", r"needs wheels", r"wheels=")),
+]
+
+
+def _circular() -> Any:
+    return lgvi.environment.CircularOrbit(7.0e6, 1.0)
 
 
 def _load_ensemble_text() -> Any:

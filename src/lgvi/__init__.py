@@ -40,6 +40,7 @@ from .environment import Magnetorquers as Magnetorquers
 from .errors import AccuracyWarning as AccuracyWarning
 from .errors import AttitudeWarning as AttitudeWarning
 from .errors import CollisionError as CollisionError
+from .errors import ComponentError as ComponentError
 from .errors import ConvergenceError as ConvergenceError
 from .errors import SimulationInterrupted as SimulationInterrupted
 from .errors import TorqueError as TorqueError
@@ -54,6 +55,11 @@ from .system_ensembles import SystemEnsemble as SystemEnsemble
 from .system_ensembles import simulate_members as simulate_members
 from .io import streaming as streaming  # the old name lgvi.streaming (imported here anyway)
 from .io.streaming import simulate_stream as simulate_stream
+from . import fsw as fsw
+from . import spacecraft as spacecraft
+from .fsw import FlightSoftware as FlightSoftware
+from .spacecraft import Spacecraft as Spacecraft
+from .systems import spacecraft as _spacecraft_system  # noqa: F401  (registers the system "spacecraft")
 from .systems.orbit import OrbitTrajectory as OrbitTrajectory
 from .systems.orbit import simulate_orbit as simulate_orbit
 from .systems.two_body import Ellipsoid as Ellipsoid
@@ -75,9 +81,11 @@ __all__ = [
     "AttitudeWarning",
     "ChainTrajectory",
     "CollisionError",
+    "ComponentError",
     "ConvergenceError",
     "Ellipsoid",
     "EnsembleTrajectory",
+    "FlightSoftware",
     "ImplicitSolution",
     "Magnetorquers",
     "OrbitTrajectory",
@@ -86,6 +94,7 @@ __all__ = [
     "ReactionWheels",
     "RigidBody",
     "SimulationInterrupted",
+    "Spacecraft",
     "StepResult",
     "SystemEnsemble",
     "TorqueError",
@@ -95,6 +104,7 @@ __all__ = [
     "control",
     "environment",
     "gpu",
+    "fsw",
     "inertia_to_jd",
     "jd_to_inertia",
     "load",
@@ -109,6 +119,7 @@ __all__ = [
     "simulate_stream",
     "simulate_two_body",
     "so3",
+    "spacecraft",
     "solve_implicit",
     "step",
     "torques",

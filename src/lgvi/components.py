@@ -64,6 +64,7 @@ SIGNALS: dict[str, Signal] = _signals(
     ("R", 9, "1", "B->N", "true attitude"),
     ("omega", 3, "rad/s", "B", "true angular velocity of the hub"),
     ("wheel_speed", 0, "rad/s", "wheel", "wheel speeds relative to the body"),
+    ("wheel_momentum", 0, "N m s", "wheel", "absolute axial wheel momenta Js (a . omega + wheel_speed)"),
     # environment
     ("r_N", 3, "m", "N", "spacecraft position"),
     ("v_N", 3, "m/s", "N", "spacecraft velocity"),
@@ -146,3 +147,89 @@ def register_kind(kind: ComponentKind) -> ComponentKind:
             raise ValueError(f"component kind {kind.name!r}: signal {name!r} is neither standard nor declared in own")
     COMPONENT_KINDS[kind.name] = kind
     return kind
+
+
+# ------------------------------------------------------------------------------------------------
+# the Python side of a component (added by the loop issue): a base class and the run's context
+# ------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class LoopContext:
+    """What a component may need to build its parameter row, handed to ``Component.setup`` once per
+    run: the spacecraft (``lgvi.spacecraft.Spacecraft``: body, wheels, magnetorquers, orbit, field,
+    epoch), the step ``h``, the start ``t0`` and end ``t1`` of the run (seconds since its epoch)
+    and whether an estimator runs (``navigation``: the controllers then read ``R_est``,
+    ``omega_est``)."""
+
+    spacecraft: Any
+    h: float
+    t0: float
+    t1: float
+    navigation: bool = False
+
+
+class Component:
+    """Base of the components (``docs/components.md``, "The Python side").
+
+    ``kind`` names the registered :class:`ComponentKind`; ``rate`` is the period in seconds (a
+    whole multiple of the step ``h``; ``None``: every step); ``modes`` the indices of the modes it
+    runs in (``None``: all). Subclasses validate their arguments in ``__init__``, may read the run
+    in ``setup(ctx)`` (a :class:`LoopContext`), and give ``params()`` (1-D float64 row),
+    ``state0()`` (1-D float64) and ``sizes()`` (the sizes of size-0 signals they write)."""
+
+    kind: str = ""
+
+    def __init__(self, *, rate: Any = None, modes: Any = None) -> None:
+        import math
+
+        if rate is not None:
+            try:
+                rate = float(rate)
+            except (TypeError, ValueError) as exc:
+                raise TypeError(f"rate must be a number of seconds or None, got {rate!r}") from exc
+            if not (math.isfinite(rate) and rate > 0.0):
+                raise ValueError(f"rate must be a finite number of seconds > 0 (a multiple of h) or None, got {rate!r}")
+        self.rate = rate
+        if modes is not None:
+            if isinstance(modes, (int, float)) and not isinstance(modes, bool):
+                modes = (modes,)
+            try:
+                modes = tuple(int(m) for m in modes)
+            except (TypeError, ValueError) as exc:
+                raise TypeError(f"modes must be None or a sequence of mode indices (int), got {modes!r}") from exc
+            if not modes or any(m < 0 or m > 62 for m in modes):
+                raise ValueError(f"modes must be a non-empty sequence of mode indices in 0..62, got {modes!r}")
+        self.modes = modes
+
+    def setup(self, ctx: LoopContext) -> None:
+        """Read what the run gives (default: nothing)."""
+
+    def params(self) -> Any:
+        import numpy as np
+
+        return np.zeros(0)
+
+    def state0(self) -> Any:
+        import numpy as np
+
+        return np.zeros(0)
+
+    def sizes(self) -> dict[str, int]:
+        return {}
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(rate={self.rate!r})"
+
+
+def kind_of(component: Any) -> ComponentKind | None:
+    """The :class:`ComponentKind` of a component object: its registered kind, or for a user's
+    component (``kind == "user"``, :class:`lgvi.fsw.UserComponent`) one built from its own family,
+    signals and function (code 0); ``None`` if it has none."""
+    name = getattr(component, "kind", None)
+    if name == "user":
+        return ComponentKind(getattr(component, "name", "user"), component.family, 0, component.step,
+                             tuple(component.reads), tuple(component.writes), type(component),
+                             own=tuple(component.own))
+    return COMPONENT_KINDS.get(name) if isinstance(name, str) else None
+
+
+__all__ += ["Component", "LoopContext", "kind_of"]

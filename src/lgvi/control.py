@@ -156,6 +156,12 @@ def _wheel_map(axes: np.ndarray) -> np.ndarray:
     return hit.copy()
 
 
+def wheel_map(axes: Any) -> np.ndarray:
+    """(N, 3) the map from a body torque request to wheel motor torques, one column per body axis:
+    :func:`map_to_wheels` of the three body axes (the numbers :class:`MRPFeedback` uses)."""
+    return _wheel_map(np.asarray(axes, dtype=np.float64))
+
+
 def _wheel_map_of(axes: np.ndarray) -> np.ndarray:
     G = np.asarray(axes, dtype=np.float64).T
     if G.shape[1] >= 3:
@@ -366,4 +372,4 @@ class RotationPD(Controller):
         return f"RotationPD(kp={self.kp:g}, kd={self.kd:g}, error={self.error!r})"
 
 
-__all__ = ["Command", "Controller", "MRPFeedback", "RotationPD", "map_to_wheels", "matrix_from_mrp", "mrp_from_matrix"]
+__all__ = ["Command", "Controller", "MRPFeedback", "RotationPD", "map_to_wheels", "matrix_from_mrp", "mrp_from_matrix", "wheel_map"]

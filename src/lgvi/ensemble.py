@@ -653,7 +653,8 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
                       out_dir: str | os.PathLike[str] | None = None, resume: bool = False,
                       progress: Any = False, wheels: Any = None, controller: Any = None,
                       control_period: Any = None, environment: Any = None,
-                      magnetorquers: Any = None, device: str = "cpu") -> EnsembleTrajectory | list[Path] | Any:
+                      magnetorquers: Any = None, fsw: Any = None,
+                      device: str = "cpu") -> EnsembleTrajectory | list[Path] | Any:
     """Simulate ``B`` rigid bodies at once with the attitude LGVI, in parallel over cores.
 
     Body ``b`` follows bit for bit the trajectory of
@@ -739,6 +740,13 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
         forcings, the compositions and :class:`lgvi.torques.Compiled` models run there;
         ``threads``, ``client``, ``out_dir``, ``resume``, ``block_size`` and the gyrostat's
         ``wheels``/``controller`` (and their options) are CPU-only and refused.
+    fsw : lgvi.FlightSoftware or sequence of B, optional
+        With ``bodies`` an :class:`lgvi.Spacecraft` (or B of them): the members fly their
+        spacecraft with this flight software in the compiled loop (``docs/loop.md``), in
+        ``threads`` threads; member ``b`` equals ``lgvi.simulate(spacecraft[b], R0[b], ...,
+        fsw=fsw[b])`` bit for bit (its own inertia in its gravity gradient, its own gains). Returns
+        a :class:`lgvi.systems.spacecraft.SpacecraftEnsemble` (``signals`` (B, E, size) by name,
+        ``params["component.<i>.<kind>"]`` the members' parameter rows).
 
     Returns
     -------
@@ -801,6 +809,26 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
         _device_options(device, threads=threads, client=client, block_size=block_size, out_dir=out_dir,
                         resume=resume, wheels=wheels, controller=controller, control_period=control_period,
                         environment=environment, magnetorquers=magnetorquers)
+    first = bodies[0] if isinstance(bodies, (list, tuple)) and bodies else bodies
+    if fsw is not None or type(first).__name__ == "Spacecraft":        # the compiled loop (lgvi.systems.spacecraft)
+        from .systems.spacecraft import simulate_spacecraft_ensemble
+
+        given = {name: value for name, value in (("torque", torque), ("wheels", wheels), ("controller", controller),
+                                                 ("control_period", control_period), ("environment", environment),
+                                                 ("magnetorquers", magnetorquers), ("client", client),
+                                                 ("out_dir", out_dir), ("block_size", block_size))
+                 if value is not None}
+        given.update({name: True for name, value in (("resume", resume), ("progress", progress)) if value})
+        if forcing != "paper":
+            given["forcing"] = forcing
+        if device != "cpu":
+            given["device"] = device
+        if given:
+            raise ValueError(f"{', '.join(sorted(given))}: not with lgvi.Spacecraft members, whose descriptions and "
+                             "flight software (fsw=) say all of it (the members run in threads in this process)")
+        return simulate_spacecraft_ensemble(bodies, _rotations(R0), Pi0, omega0=omega0, h=h, steps=steps, fsw=fsw,
+                                            threads=threads, method=method, tol=tol, max_iter=max_iter, alpha=alpha,
+                                            save_every=save_every, t0=t0, order=order, composition=composition)
     if any(x is not None for x in (wheels, controller, control_period, environment, magnetorquers)):
         from .systems.gyrostat import gyrostat_options
         from .systems.gyrostat_ensemble import simulate_gyrostat_ensemble

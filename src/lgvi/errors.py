@@ -83,6 +83,19 @@ class TorqueError(RuntimeError):
         self.trajectory = trajectory
 
 
+class ComponentError(TorqueError):
+    """A component of the compiled loop (``docs/components.md``) stopped the run: it returned a
+    nonzero status or wrote a value that is not finite. ``component`` names it, ``status`` is its
+    code (``lgvi.components.STATUS``); ``step``, ``time`` and ``trajectory`` (the part computed
+    before that step) as for :class:`TorqueError`."""
+
+    def __init__(self, message: str, *, component: str = "", status: int = 0, step: int | None = None,
+                 time: float | None = None, trajectory: Any = None):
+        super().__init__(message, step=step, time=time, trajectory=trajectory)
+        self.component = component
+        self.status = status
+
+
 class AccuracyWarning(UserWarning):
     """The estimated error of a run (``simulate(..., error_estimate=True)``) exceeds its threshold
     ``error_warn``; the message gives the estimate and what to change."""

@@ -216,7 +216,7 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
              error_estimate: Any = False, error_warn: float | None = 0.01,
              solver_record: str = "interval", scheme: str | None = None, wheels: Any = None,
              controller: Any = None, control_period: Any = None, environment: Any = None,
-             magnetorquers: Any = None, duration: float | None = None) -> Trajectory:
+             magnetorquers: Any = None, duration: float | None = None, fsw: Any = None) -> Trajectory:
     r"""Simulate the attitude of a rigid body with the Lie group variational integrator.
 
     Each step solves ``hat(h Pi_k) = F_k Jd - Jd F_k^T`` for ``F_k`` in SO(3), then sets
@@ -225,8 +225,14 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
 
     Parameters
     ----------
-    body : RigidBody or array_like
-        The body, or its inertia: ``(3,)`` principal moments or ``(3, 3)`` matrix.
+    body : RigidBody, lgvi.Spacecraft or array_like
+        The body, or its inertia: ``(3,)`` principal moments or ``(3, 3)`` matrix; or a
+        :class:`lgvi.Spacecraft` (body, wheels, magnetorquers, orbit, field, disturbances), which
+        runs with its flight software ``fsw`` in the compiled loop (``docs/loop.md``; the result a
+        :class:`lgvi.systems.spacecraft.SpacecraftTrajectory` with the records by name in
+        ``signals``; ``torque``, ``wheels``, ``controller``, ``environment``, ``magnetorquers``,
+        ``forcing``, ``scheme`` and ``error_estimate`` are then refused: the spacecraft and its
+        flight software say all of it).
     R0 : (3, 3) array_like or scipy.spatial.transform.Rotation
         Initial attitude (body to inertial), a rotation to 1e-9 (to 1e-6: replaced by the
         nearest rotation, with an ``AttitudeWarning``).
@@ -322,6 +328,9 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
         Sampled at the control rate and handed to the controller (see :mod:`lgvi.control`).
     magnetorquers : object with ``torque(dipole, B_body) -> (3,)``, optional
         Turns a controller's dipole into a body torque held over the control period.
+    fsw : lgvi.FlightSoftware, optional
+        With a :class:`lgvi.Spacecraft` as ``body``: its flight software (guidance, control,
+        actuator maps, modes, estimator, each at its rate), compiled in the loop.
 
     Returns
     -------
@@ -381,6 +390,26 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     True
     """
     steps = steps_from(h, steps, duration)
+    if fsw is not None or type(body).__name__ == "Spacecraft":     # the compiled loop (lgvi.systems.spacecraft)
+        from .spacecraft import Spacecraft
+        from .systems.spacecraft import simulate_spacecraft
+
+        if not isinstance(body, Spacecraft):
+            raise TypeError(f"fsw= runs with a spacecraft: give body an lgvi.Spacecraft, got {type(body).__name__}")
+        given = {name: value for name, value in (("torque", torque), ("wheels", wheels), ("controller", controller),
+                                                 ("control_period", control_period), ("environment", environment),
+                                                 ("magnetorquers", magnetorquers), ("scheme", scheme))
+                 if value is not None}
+        if forcing != "paper":
+            given["forcing"] = forcing
+        if error_estimate:
+            given["error_estimate"] = error_estimate
+        if given:
+            raise ValueError(f"{', '.join(sorted(given))}: not with an lgvi.Spacecraft, whose description (wheels, "
+                             "magnetorquers, orbit, disturbances) and flight software (fsw=) say all of it")
+        return simulate_spacecraft(body, R0, Pi0, omega0=omega0, h=h, steps=steps, fsw=fsw, progress=progress,
+                                   method=method, tol=tol, max_iter=max_iter, alpha=alpha, save_every=save_every,
+                                   t0=t0, solver_record=solver_record, order=order, composition=composition)
     if wheels is not None or controller is not None or control_period is not None or environment is not None \
             or magnetorquers is not None or scheme == "rkmk4":   # the gyrostat (lgvi.systems.gyrostat)
         from .systems.gyrostat import gyrostat_options, simulate_gyrostat

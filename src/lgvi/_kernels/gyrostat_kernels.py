@@ -223,6 +223,26 @@ def record_step(c_rec, e, per, its, rn, it_out, res_out, u_out, u_now, N):
 
 
 @jit(inline="always")
+def after_step(its, rn, rmax, counts, c_rec, e, per, it_out, res_out, u_out, u_now, c_save, j, save_every, R, Pi, rho,
+               R_out, Pi_out, rho_out):
+    """The bookkeeping after a step: the largest residual, the iteration histogram ``counts``, the
+    step's records (:func:`record_step`) and, every ``save_every`` steps, the sample ``j``
+    (:func:`save_sample`). Returns the next ``(rmax, c_rec, e, c_save, j)``."""
+    if rn > rmax:
+        rmax = rn
+    nb = counts.shape[0]
+    counts[its if its < nb else nb - 1] += 1
+    c_rec, e = record_step(c_rec, e, per, its, rn, it_out, res_out, u_out, u_now, rho.shape[0])
+    if c_save == 0:
+        j += 1
+        save_sample(j, R, Pi, rho, R_out, Pi_out, rho_out)
+    c_save += 1
+    if c_save == save_every:
+        c_save = 0
+    return rmax, c_rec, e, c_save, j
+
+
+@jit(inline="always")
 def save_sample(j, R, Pi, rho, R_out, Pi_out, rho_out):
     """Sample ``j`` of the state into the output buffers: ``R``, ``Pi`` and the wheel momenta ``rho``."""
     for a in range(3):
@@ -236,8 +256,13 @@ def save_sample(j, R, Pi, rho, R_out, Pi_out, rho_out):
 @jit(inline="always")
 def mrp_error(cp, R):
     """The attitude error ``sigma`` (3 scalars) of ``R_ref^T R``, the set with ``|sigma| <= 1``."""
+    return mrp_error_at(cp, CP_RREF, R)
+
+
+@jit(inline="always")
+def mrp_error_at(cp, c, R):
+    """:func:`mrp_error` with ``R_ref`` (row-major) at ``cp[c:c + 9]`` (a parameter row or a bus)."""
     # C = R_ref^T R
-    c = CP_RREF
     C00 = cp[c] * R[0, 0] + cp[c + 3] * R[1, 0] + cp[c + 6] * R[2, 0]
     C01 = cp[c] * R[0, 1] + cp[c + 3] * R[1, 1] + cp[c + 6] * R[2, 1]
     C02 = cp[c] * R[0, 2] + cp[c + 3] * R[1, 2] + cp[c + 6] * R[2, 2]
@@ -282,8 +307,12 @@ def mrp_error(cp, R):
 @jit(inline="always")
 def reference_rates(cp, R):
     """The reference rate and its derivative in the body frame, ``R^T omega_ref``, ``R^T domega_ref``."""
-    wr = CP_WREF
-    dwr = CP_DWREF
+    return reference_rates_at(cp, CP_WREF, CP_DWREF, R)
+
+
+@jit(inline="always")
+def reference_rates_at(cp, wr, dwr, R):
+    """:func:`reference_rates` with ``omega_ref`` at ``cp[wr:wr + 3]``, ``domega_ref`` at ``cp[dwr:dwr + 3]``."""
     r0 = R[0, 0] * cp[wr] + R[1, 0] * cp[wr + 1] + R[2, 0] * cp[wr + 2]
     r1 = R[0, 1] * cp[wr] + R[1, 1] * cp[wr + 1] + R[2, 1] * cp[wr + 2]
     r2 = R[0, 2] * cp[wr] + R[1, 2] * cp[wr + 1] + R[2, 2] * cp[wr + 2]
@@ -297,21 +326,49 @@ def reference_rates(cp, R):
 def mrp_law(cp, cs, t, s0, s1, s2, r0, r1, r2, e0, e1, e2, w0, w1, w2, axes, rho, cmd, tau):
     """The feedback law of :func:`mrp_feedback` from the error ``sigma`` and the reference rates
     ``r``, ``e`` in the body frame (:func:`mrp_error`, :func:`reference_rates`)."""
+    j = CP_J
+    H0 = cp[j] * w0 + cp[j + 1] * w1 + cp[j + 2] * w2
+    H1 = cp[j + 3] * w0 + cp[j + 4] * w1 + cp[j + 5] * w2
+    H2 = cp[j + 6] * w0 + cp[j + 7] * w1 + cp[j + 8] * w2
+    for i in range(rho.shape[0]):
+        # h_s = Js (a . w + Omega_w) = rho (absolute axial momentum)
+        H0 += axes[i, 0] * rho[i]
+        H1 += axes[i, 1] * rho[i]
+        H2 += axes[i, 2] * rho[i]
+    L0, L1, L2 = mrp_request(cp, CP_J, cs, t, s0, s1, s2, r0, r1, r2, e0, e1, e2, w0, w1, w2, H0, H1, H2)
+    n = rho.shape[0]
+    if n == 0:
+        tau[0] = L0
+        tau[1] = L1
+        tau[2] = L2
+    else:
+        for i in range(n):
+            m = CP_MAP + 3 * i
+            cmd[i] = cp[m] * L0 + cp[m + 1] * L1 + cp[m + 2] * L2
+
+
+@jit(inline="always")
+def mrp_request(cp, jo, cs, t, s0, s1, s2, r0, r1, r2, e0, e1, e2, w0, w1, w2, H0, H1, H2):
+    """The body torque request ``L`` (3 scalars) of Basilisk's ``mrpFeedback``: gains ``K, P, Ki``
+    and the integral limit at ``cp[0:4]``, the inertia ``J`` (row-major) at ``cp[jo:jo + 9]``,
+    the integral state ``cs`` (int_sigma (3), prior time, has prior), the error ``sigma``, the
+    reference rates ``r``, ``e`` and the rate ``w`` in the body frame and the total momentum
+    ``H = J w + sum rho_i a_i``."""
     K = cp[CP_K]
     P = cp[CP_P]
     Ki = cp[CP_KI]
     dw0 = w0 - r0
     dw1 = w1 - r1
     dw2 = w2 - r2
-    J0 = cp[CP_J]
-    J1 = cp[CP_J + 1]
-    J2 = cp[CP_J + 2]
-    J3 = cp[CP_J + 3]
-    J4 = cp[CP_J + 4]
-    J5 = cp[CP_J + 5]
-    J6 = cp[CP_J + 6]
-    J7 = cp[CP_J + 7]
-    J8 = cp[CP_J + 8]
+    J0 = cp[jo]
+    J1 = cp[jo + 1]
+    J2 = cp[jo + 2]
+    J3 = cp[jo + 3]
+    J4 = cp[jo + 4]
+    J5 = cp[jo + 5]
+    J6 = cp[jo + 6]
+    J7 = cp[jo + 7]
+    J8 = cp[jo + 8]
     z0 = 0.0
     z1 = 0.0
     z2 = 0.0
@@ -330,14 +387,6 @@ def mrp_law(cp, cs, t, s0, s1, s2, r0, r1, r2, e0, e1, e2, w0, w1, w2, axes, rho
     L0 = K * s0 + P * dw0 + P * Ki * z0
     L1 = K * s1 + P * dw1 + P * Ki * z1
     L2 = K * s2 + P * dw2 + P * Ki * z2
-    H0 = J0 * w0 + J1 * w1 + J2 * w2
-    H1 = J3 * w0 + J4 * w1 + J5 * w2
-    H2 = J6 * w0 + J7 * w1 + J8 * w2
-    for i in range(rho.shape[0]):
-        # h_s = Js (a . w + Omega_w) = rho (absolute axial momentum)
-        H0 += axes[i, 0] * rho[i]
-        H1 += axes[i, 1] * rho[i]
-        H2 += axes[i, 2] * rho[i]
     v0 = r0 + Ki * z0
     v1 = r1 + Ki * z1
     v2 = r2 + Ki * z2
@@ -350,15 +399,118 @@ def mrp_law(cp, cs, t, s0, s1, s2, r0, r1, r2, e0, e1, e2, w0, w1, w2, axes, rho
     L0 = -(L0 + J0 * k0 + J1 * k1 + J2 * k2)
     L1 = -(L1 + J3 * k0 + J4 * k1 + J5 * k2)
     L2 = -(L2 + J6 * k0 + J7 * k1 + J8 * k2)
-    n = rho.shape[0]
-    if n == 0:
-        tau[0] = L0
-        tau[1] = L1
-        tau[2] = L2
-    else:
-        for i in range(n):
-            m = CP_MAP + 3 * i
-            cmd[i] = cp[m] * L0 + cp[m + 1] * L1 + cp[m + 2] * L2
+    return L0, L1, L2
+
+
+@jit(inline="always")
+def gyro_advance(moment, up, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now, ta0, ta1, ta2, m0, m1, m2, tol,
+                 max_iter):
+    """Step ``k`` of the gyrostat in place on ``R``, ``Pi``, ``rho``, ``G`` (see :func:`gyro_steps`):
+    the substeps ``gam[i] h`` with the wheels' torques ``u_now[N:]`` and the body torque ``ta``
+    held over the step, and, with ``moment``, the model's moment ``m`` at the step's start in the
+    variational form. Returns ``(status, iterations, residual, iterations_added, m)`` (``m`` the
+    moment at the step's end, the next step's start)."""
+    N = rho.shape[0]
+    d00 = JdB[0, 0]
+    d01 = JdB[0, 1]
+    d02 = JdB[0, 2]
+    d10 = JdB[1, 0]
+    d11 = JdB[1, 1]
+    d12 = JdB[1, 2]
+    d20 = JdB[2, 0]
+    d21 = JdB[2, 1]
+    d22 = JdB[2, 2]
+    s = gam.shape[0]
+    it_sum = 0
+    its = 0
+    rn = 0.0
+    its_k = 0
+    rn_k = 0.0
+    cum = 0.0
+    for sub in range(s):
+        hs = gam[sub] * h
+        hh = 0.5 * hs
+        f0 = ta0
+        f1 = ta1
+        f2 = ta2
+        if moment is not None:
+            f0 = ta0 + m0
+            f1 = ta1 + m1
+            f2 = ta2 + m2
+        g0 = 0.0
+        g1 = 0.0
+        g2 = 0.0
+        for i in range(N):
+            rb = rho[i] + hh * u_now[N + i]
+            g0 += axes[i, 0] * rb
+            g1 += axes[i, 1] * rb
+            g2 += axes[i, 2] * rb
+        # A = Jd_B + hs/2 hat(g)
+        a01 = d01 - hh * g2
+        a02 = d02 + hh * g1
+        a10 = d10 + hh * g2
+        a12 = d12 - hh * g0
+        a20 = d20 - hh * g1
+        a21 = d21 + hh * g0
+        p0 = hs * (Pi[0] - g0) + hs * hh * f0
+        p1 = hs * (Pi[1] - g1) + hs * hh * f1
+        p2 = hs * (Pi[2] - g2) + hs * hh * f2
+        q0, q1, q2 = predict_at(G, sub)
+        (x0, x1, x2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its,
+         rn, st) = solve_shifted(d00, a01, a02, a10, d11, a12, a20, a21, d22, p0, p1, p2, q0, q1, q2, tol,
+                                 max_iter)
+        its_k += its
+        it_sum += its
+        n0 = ta0
+        n1 = ta1
+        n2 = ta2
+        e0 = 0.0
+        e1 = 0.0
+        e2 = 0.0
+        if moment is not None and st == OK:
+            # the model's moment at the substep's end (R_k F, its time)
+            cum += gam[sub]
+            t_end = t0 + (k + 1) * h if sub == s - 1 else t0 + k * h + cum * h
+            for i in range(3):
+                Rs[i, 0], Rs[i, 1], Rs[i, 2] = rotated_row(R[i, 0], R[i, 1], R[i, 2], E00, E01, E02, E10, E11,
+                                                           E12, E20, E21, E22)
+            mm = moment(t_end, Rs, Pi, up)
+            e0 = float(mm[0])
+            e1 = float(mm[1])
+            e2 = float(mm[2])
+            if not (math.isfinite(e0) and math.isfinite(e1) and math.isfinite(e2)):
+                st = NOT_FINITE
+            n0 = ta0 + e0
+            n1 = ta1 + e1
+            n2 = ta2 + e2
+        if st == OK:
+            b0 = Pi[0] + hh * f0
+            b1 = Pi[1] + hh * f1
+            b2 = Pi[2] + hh * f2
+            c0, c1, c2, l0, l1, l2 = momentum_step(b0, b1, b2, G[sub, 4, 0], G[sub, 4, 1], G[sub, 4, 2], E00,
+                                                   E01, E02, E10, E11, E12, E20, E21, E22, hh * n0, hh * n1,
+                                                   hh * n2)
+            if not (math.isfinite(c0) and math.isfinite(c1) and math.isfinite(c2)):
+                st = OVERFLOW
+        if st != OK:
+            return st, its_k, rn, it_sum, m0, m1, m2
+        if rn > rn_k:
+            rn_k = rn
+        push_at(G, sub, x0, x1, x2)
+        G[sub, 4, 0] = l0
+        G[sub, 4, 1] = l1
+        G[sub, 4, 2] = l2
+        rotate(R, E00, E01, E02, E10, E11, E12, E20, E21, E22)
+        Pi[0] = c0
+        Pi[1] = c1
+        Pi[2] = c2
+        for i in range(N):
+            rho[i] += hs * u_now[N + i]
+        if moment is not None:
+            m0 = e0
+            m1 = e1
+            m2 = e2
+    return OK, its_k, rn_k, it_sum, m0, m1, m2
 
 
 def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cmd, tau, u_now, ctrl, cp, cs,
@@ -381,21 +533,10 @@ def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cm
     substep at its own times; a non-finite moment stops the run (``NOT_FINITE``).
     """
     N = rho.shape[0]
-    d00 = JdB[0, 0]
-    d01 = JdB[0, 1]
-    d02 = JdB[0, 2]
-    d10 = JdB[1, 0]
-    d11 = JdB[1, 1]
-    d12 = JdB[1, 2]
-    d20 = JdB[2, 0]
-    d21 = JdB[2, 1]
-    d22 = JdB[2, 2]
-    s = gam.shape[0]
     it_sum = 0
     rmax = 0.0
     its = 0
     rn = 0.0
-    nb = counts.shape[0]
     m0 = 0.0
     m1 = 0.0
     m2 = 0.0
@@ -422,107 +563,13 @@ def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cm
         # wheel torques: saturated motor command plus friction, held over the step
         for i in range(N):
             wheel_torque(i, cmd, rho, axes, wp, w0, w1, w2, u_now, N)
-        ta0 = tau[0]
-        ta1 = tau[1]
-        ta2 = tau[2]
-        its_k = 0
-        rn_k = 0.0
-        cum = 0.0
-        for sub in range(s):
-            hs = gam[sub] * h
-            hh = 0.5 * hs
-            f0 = ta0
-            f1 = ta1
-            f2 = ta2
-            if moment is not None:
-                f0 = ta0 + m0
-                f1 = ta1 + m1
-                f2 = ta2 + m2
-            g0 = 0.0
-            g1 = 0.0
-            g2 = 0.0
-            for i in range(N):
-                rb = rho[i] + hh * u_now[N + i]
-                g0 += axes[i, 0] * rb
-                g1 += axes[i, 1] * rb
-                g2 += axes[i, 2] * rb
-            # A = Jd_B + hs/2 hat(g)
-            a01 = d01 - hh * g2
-            a02 = d02 + hh * g1
-            a10 = d10 + hh * g2
-            a12 = d12 - hh * g0
-            a20 = d20 - hh * g1
-            a21 = d21 + hh * g0
-            p0 = hs * (Pi[0] - g0) + hs * hh * f0
-            p1 = hs * (Pi[1] - g1) + hs * hh * f1
-            p2 = hs * (Pi[2] - g2) + hs * hh * f2
-            q0, q1, q2 = predict_at(G, sub)
-            (x0, x1, x2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its,
-             rn, st) = solve_shifted(d00, a01, a02, a10, d11, a12, a20, a21, d22, p0, p1, p2, q0, q1, q2, tol,
-                                     max_iter)
-            its_k += its
-            it_sum += its
-            n0 = ta0
-            n1 = ta1
-            n2 = ta2
-            e0 = 0.0
-            e1 = 0.0
-            e2 = 0.0
-            if moment is not None and st == OK:
-                # the model's moment at the substep's end (R_k F, its time)
-                cum += gam[sub]
-                t_end = t0 + (k + 1) * h if sub == s - 1 else t0 + k * h + cum * h
-                for i in range(3):
-                    Rs[i, 0], Rs[i, 1], Rs[i, 2] = rotated_row(R[i, 0], R[i, 1], R[i, 2], E00, E01, E02, E10, E11,
-                                                               E12, E20, E21, E22)
-                mm = moment(t_end, Rs, Pi, up)
-                e0 = float(mm[0])
-                e1 = float(mm[1])
-                e2 = float(mm[2])
-                if not (math.isfinite(e0) and math.isfinite(e1) and math.isfinite(e2)):
-                    st = NOT_FINITE
-                n0 = ta0 + e0
-                n1 = ta1 + e1
-                n2 = ta2 + e2
-            if st == OK:
-                b0 = Pi[0] + hh * f0
-                b1 = Pi[1] + hh * f1
-                b2 = Pi[2] + hh * f2
-                c0, c1, c2, l0, l1, l2 = momentum_step(b0, b1, b2, G[sub, 4, 0], G[sub, 4, 1], G[sub, 4, 2], E00,
-                                                       E01, E02, E10, E11, E12, E20, E21, E22, hh * n0, hh * n1,
-                                                       hh * n2)
-                if not (math.isfinite(c0) and math.isfinite(c1) and math.isfinite(c2)):
-                    st = OVERFLOW
-            if st != OK:
-                return st, k, it_sum, rmax, its_k, rn
-            if rn > rn_k:
-                rn_k = rn
-            push_at(G, sub, x0, x1, x2)
-            G[sub, 4, 0] = l0
-            G[sub, 4, 1] = l1
-            G[sub, 4, 2] = l2
-            rotate(R, E00, E01, E02, E10, E11, E12, E20, E21, E22)
-            Pi[0] = c0
-            Pi[1] = c1
-            Pi[2] = c2
-            for i in range(N):
-                rho[i] += hs * u_now[N + i]
-            if moment is not None:
-                m0 = e0
-                m1 = e1
-                m2 = e2
-        its = its_k
-        rn = rn_k
-        if rn > rmax:
-            rmax = rn
-        counts[its if its < nb else nb - 1] += 1
-        c_rec, e = record_step(c_rec, e, per, its, rn, it_out, res_out, u_out, u_now, N)
-        if c_save == 0:
-            j += 1
-            save_sample(j, R, Pi, rho, R_out, Pi_out, rho_out)
-        c_save += 1
-        if c_save == save_every:
-            c_save = 0
+        st, its, rn, it_add, m0, m1, m2 = gyro_advance(moment, up, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now,
+                                                      tau[0], tau[1], tau[2], m0, m1, m2, tol, max_iter)
+        it_sum += it_add
+        if st != OK:
+            return st, k, it_sum, rmax, its, rn
+        rmax, c_rec, e, c_save, j = after_step(its, rn, rmax, counts, c_rec, e, per, it_out, res_out, u_out, u_now,
+                                               c_save, j, save_every, R, Pi, rho, R_out, Pi_out, rho_out)
     return OK, k0 + n, it_sum, rmax, its, rn
 
 

@@ -18,26 +18,33 @@ _HEAD = 13
 
 
 @jit(inline="always")
-def hermite_position(t, p):
-    """Inertial position at ``t`` from the table in ``p`` (NaN outside it)."""
+def hermite_interval(t, p):
+    """``(i, s, dt)``: the table index ``i`` of the interval's first node and ``t``'s place ``s`` in it
+    (0..1); ``i = -1`` outside the table."""
     t0 = p[10]
     dt = p[11]
     K = int(p[12])
     u = (t - t0) / dt
-    nan = math.nan
     if not (u >= 0.0 and u <= K - 1.0):
-        return nan, nan, nan
+        return -1, 0.0, dt
     k = int(math.floor(u))
     if k >= K - 1:
         k = K - 2
-    s = u - k
+    return _HEAD + 6 * k, u - k, dt
+
+
+@jit(inline="always")
+def hermite_position(t, p):
+    """Inertial position at ``t`` from the table in ``p`` (NaN outside it)."""
+    i, s, dt = hermite_interval(t, p)
+    if i < 0:
+        return math.nan, math.nan, math.nan
     s2 = s * s
     s3 = s2 * s
     h00 = 2.0 * s3 - 3.0 * s2 + 1.0
     h10 = (s3 - 2.0 * s2 + s) * dt
     h01 = -2.0 * s3 + 3.0 * s2
     h11 = (s3 - s2) * dt
-    i = _HEAD + 6 * k
     x = h00 * p[i] + h10 * p[i + 3] + h01 * p[i + 6] + h11 * p[i + 9]
     y = h00 * p[i + 1] + h10 * p[i + 4] + h01 * p[i + 7] + h11 * p[i + 10]
     z = h00 * p[i + 2] + h10 * p[i + 5] + h01 * p[i + 8] + h11 * p[i + 11]

@@ -373,6 +373,17 @@ def _mrp(R: np.ndarray) -> np.ndarray:
     return out.reshape(R.shape[:-2] + (3,))
 
 
+def utc_epoch(epoch: Any) -> _dt.datetime:
+    """``epoch`` (a ``datetime.datetime`` or ``numpy.datetime64``) as a naive UTC ``datetime``."""
+    if isinstance(epoch, np.datetime64):
+        epoch = epoch.astype("datetime64[us]").item()
+    if not isinstance(epoch, _dt.datetime):
+        raise TypeError(f"epoch must be a datetime.datetime or numpy.datetime64 (UTC), got {epoch!r}")
+    if epoch.tzinfo is not None:
+        epoch = epoch.astimezone(_dt.timezone.utc).replace(tzinfo=None)
+    return epoch
+
+
 class OrbitEnvironment:
     r"""What a controller reads along an orbit: ``sample(t)`` for ``lgvi.simulate(..., environment=)``.
 
@@ -413,12 +424,7 @@ class OrbitEnvironment:
         if epoch is None:
             epoch = orbit_epoch
         if epoch is not None:
-            if isinstance(epoch, np.datetime64):
-                epoch = epoch.astype("datetime64[us]").item()
-            if not isinstance(epoch, _dt.datetime):
-                raise TypeError(f"epoch must be a datetime.datetime or numpy.datetime64 (UTC), got {epoch!r}")
-            if epoch.tzinfo is not None:
-                epoch = epoch.astimezone(_dt.timezone.utc).replace(tzinfo=None)
+            epoch = utc_epoch(epoch)
         elif field is not None:
             raise ValueError("epoch is required with a field (the Earth's rotation angle and the field's date at "
                              "t = 0): OrbitEnvironment(orbit, field, epoch=datetime.datetime(2026, 1, 1))")

@@ -376,6 +376,8 @@ def _from_file(**fields: Any) -> GyrostatTrajectory:
 
 
 RESULT_TYPES["gyrostat"] = (("wheel_momentum", "wheel_torque", "wheel_axes", "spin_inertia"), _from_file)
+#: Public name of the file reader (systems built on the gyrostat's result extend it).
+gyrostat_from_file = _from_file
 
 
 # ------------------------------------------------------------------------------------------------
@@ -769,6 +771,10 @@ def _from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state: dic
                               spin_inertia=Js)
 
 
+#: Public name of the stream reader (systems built on the gyrostat's result extend it).
+gyrostat_from_stream = _from_stream
+
+
 def _check_command(cmd: Any, n: int, k: int, t: float) -> tuple[Any, Any, Any]:
     if not isinstance(cmd, Command):
         raise TorqueError(f"controller.command must return an lgvi.control.Command, got {type(cmd).__name__}")
@@ -938,5 +944,6 @@ def _provide() -> None:
 
 _provide()
 
-__all__ = ["GYROSTAT", "GyrostatRun", "GyrostatTrajectory", "ReactionWheels", "controller_state", "gyrostat_options",
+__all__ = ["GYROSTAT", "GyrostatRun", "GyrostatTrajectory", "ReactionWheels", "controller_state", "gyrostat_from_file",
+           "gyrostat_from_stream", "gyrostat_options",
            "gyrostat_run", "load_controller_state", "scheme_run_class", "simulate_gyrostat"]

@@ -29,7 +29,7 @@ from ..driver import MemorySink, drive
 from ..errors import ConvergenceError, TorqueError
 from .gyrostat import GyrostatRun, GyrostatTrajectory, ReactionWheels
 
-__all__ = ["FORMAT", "GyrostatEnsemble", "simulate_gyrostat_ensemble"]
+__all__ = ["FORMAT", "GyrostatEnsemble", "drive_members", "per_member", "simulate_gyrostat_ensemble"]
 
 #: Format of a saved gyrostat ensemble (the ``__lgvi__`` header of its ``.npz``).
 FORMAT = "lgvi.gyrostat_ensemble/1"
@@ -228,7 +228,7 @@ def _read(path: str) -> GyrostatEnsemble:
     return GyrostatEnsemble(members=tuple(members), params=params, meta=meta)
 
 
-def _per_member(value: Any, name: str, B: int, kind: type) -> list[Any]:
+def per_member(value: Any, name: str, B: int, kind: type) -> list[Any]:
     """``value`` for every member: one object (copied per member) or a sequence of ``B``."""
     if isinstance(value, (list, tuple)):
         if len(value) != B:
@@ -272,6 +272,30 @@ def _controller_params(ctrls: Sequence[Any]) -> dict[str, np.ndarray]:
     return out
 
 
+def _threads(threads: Any, B: int) -> int:
+    return min(B, os.cpu_count() or 1) if threads is None else as_int(threads, "threads", minimum=1)
+
+
+def drive_members(runs: Sequence[Any], threads: Any) -> list[Any]:
+    """Drive each run into its own :class:`lgvi.driver.MemorySink`, in ``threads`` threads (default one
+    per core); a failure names its member (``err.body``)."""
+    B = len(runs)
+    threads = _threads(threads, B)
+
+    def one(b: int) -> Any:
+        try:
+            return drive(runs[b], MemorySink(runs[b]), False)
+        except (ConvergenceError, TorqueError) as exc:
+            exc.body = b
+            exc.args = (f"member {b}: {exc.args[0]}",) + exc.args[1:] if exc.args else exc.args
+            raise
+
+    if threads == 1 or B == 1:
+        return [one(b) for b in range(B)]
+    with ThreadPoolExecutor(max_workers=min(threads, B)) as pool:
+        return list(pool.map(one, range(B)))
+
+
 def simulate_gyrostat_ensemble(bodies: Sequence[Any], R: np.ndarray, Pi0: Any = None, *, omega0: Any = None,
                                h: Any, steps: Any, wheels: Any = None, controller: Any = None,
                                control_period: Any = None, environment: Any = None, magnetorquers: Any = None,
@@ -283,16 +307,14 @@ def simulate_gyrostat_ensemble(bodies: Sequence[Any], R: np.ndarray, Pi0: Any = 
         raise ValueError("give the initial body angular momenta Pi0 (B, 3) or the angular velocities omega0 (B, 3), "
                          "one of the two")
     init = as_float_array(Pi0 if omega0 is None else omega0, "Pi0" if omega0 is None else "omega0", (B, 3))
-    wl = _per_member(wheels, "wheels", B, ReactionWheels) if wheels is not None else [None] * B
+    wl = per_member(wheels, "wheels", B, ReactionWheels) if wheels is not None else [None] * B
     if wheels is not None:
         n = {len(w) for w in wl}
         if len(n) > 1:
             raise ValueError(f"wheels must have the same number of wheels in every member, got {sorted(n)}")
-    cl = _per_member(controller, "controller", B, Controller) if controller is not None else [None] * B
+    cl = per_member(controller, "controller", B, Controller) if controller is not None else [None] * B
     ctrl_params = _controller_params(cl) if controller is not None else {}     # before setup
-    if threads is None:
-        threads = min(B, os.cpu_count() or 1)
-    threads = as_int(threads, "threads", minimum=1)
+    threads = _threads(threads, B)
     runs = []
     for b in range(B):
         kw = {"Pi0": init[b], "omega0": None} if omega0 is None else {"Pi0": None, "omega0": init[b]}
@@ -312,19 +334,7 @@ def simulate_gyrostat_ensemble(bodies: Sequence[Any], R: np.ndarray, Pi0: Any = 
             params[f"wheels.{key}"] = np.stack([np.asarray(w.describe()[key], dtype=np.float64) for w in wl])
     params.update(ctrl_params)
 
-    def one(b: int) -> GyrostatTrajectory:
-        try:
-            return drive(runs[b], MemorySink(runs[b]), False)
-        except (ConvergenceError, TorqueError) as exc:
-            exc.body = b
-            exc.args = (f"member {b}: {exc.args[0]}",) + exc.args[1:] if exc.args else exc.args
-            raise
-
-    if threads == 1 or B == 1:
-        members = [one(b) for b in range(B)]
-    else:
-        with ThreadPoolExecutor(max_workers=min(threads, B)) as pool:
-            members = list(pool.map(one, range(B)))
+    members = drive_members(runs, threads)
     meta = dict(members[0].meta, members=B, threads=min(threads, B))
     for key in ("wheels", "controller", "solver_summary", "invariants"):
         meta.pop(key, None)

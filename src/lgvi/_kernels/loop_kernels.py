@@ -1,0 +1,237 @@
+"""The compiled attitude control loop: the gyrostat step with components on a bus (``docs/loop.md``).
+
+At step ``k`` (time ``t = t0 + k h``) the loop
+
+1. writes the truth on the bus (``io``: the offsets of ``R``, ``omega``, ``wheel_speed``,
+   ``wheel_momentum``; ``-1`` for a signal the run does not carry);
+2. runs every component due at ``k`` (``k % spc[c] == 0``) and active in the current mode
+   (bit ``mode`` of ``mask[c]``), in the order given (the Python side sorts them by family):
+   ``<family>_dispatch(code, t, bus, p, s, w)`` on the component's slices of ``P`` (parameters),
+   ``S`` (state) and ``W`` (bus offsets of the signals it reads, then writes); a user's component
+   (code 0) is the function ``user``. A nonzero status, or a written value that is not finite,
+   stops the loop: ``fail = [component, status]``, the state is that of the step's start;
+3. takes the held wheel commands ``wheel_command`` and the body torque ``tau_dist_B +
+   tau_control_B`` and makes the gyrostat step (:func:`.gyrostat_kernels.gyro_advance`), with the
+   gravity gradient along the tabulated orbit in the variational form when ``gg`` (``ggp`` the
+   member's row: its own inertia);
+4. records: the solver's and the wheels' records as the gyrostat does, and the bus entries
+   ``sig_idx`` at each record entry's first step into ``sig_out``.
+
+A family absent from a run has no component in the list and costs nothing; adding a family is
+one import and one ``elif`` in :func:`dispatch`.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .._jit import jit
+from .codes import NOT_FINITE, OK
+from .fsw_components import actuator_dispatch, control_dispatch, guidance_dispatch, mode_dispatch, orbit_field_dispatch
+from .gyrostat_kernels import after_step, body_rate, gyro_advance, wheel_torque
+from .orbit_table_kernels import orbit_gravity_gradient_moment
+
+#: The status the loop returns when a component stopped it (``fail`` says which and why).
+COMPONENT_FAILED = 100
+#: ``io`` entries: bus offsets of the loop's own signals (``-1``: absent).
+IO_R, IO_OMEGA, IO_SPEED, IO_RHO, IO_CMD, IO_DIST, IO_CTRL, IO_MODE = 0, 1, 2, 3, 4, 5, 6, 7
+
+
+@jit(inline="always")
+def dispatch(user, code, t, bus, p, s, w):
+    """One component: a user's (code 0) or a built-in kind by its family (``code // 100``)."""
+    if code == 0:
+        if user is not None:
+            return user(t, bus, p, s, w)
+        return 3
+    fam = code // 100
+    if fam == 1:
+        return orbit_field_dispatch(code, t, bus, p, s, w)
+    if fam == 5:
+        return guidance_dispatch(code, t, bus, p, s, w)
+    if fam == 6:
+        return mode_dispatch(code, t, bus, p, s, w)
+    if fam == 7:
+        return control_dispatch(code, t, bus, p, s, w)
+    if fam == 8:
+        return actuator_dispatch(code, t, bus, p, s, w)
+    return 3
+
+
+@jit(inline="always")
+def writes_finite(bus, W, WS, a, b):
+    """Whether the signals ``W[a:b]`` (sizes ``WS``) hold finite values."""
+    for j in range(a, b):
+        o = W[j]
+        if o < 0:
+            continue
+        for i in range(WS[j]):
+            if not math.isfinite(bus[o + i]):
+                return False
+    return True
+
+
+@jit(inline="always")
+def clear_writes(bus, W, WS, a, b):
+    for j in range(a, b):
+        o = W[j]
+        if o < 0:
+            continue
+        for i in range(WS[j]):
+            bus[o + i] = 0.0
+
+
+@jit(inline="always")
+def run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
+    """Component ``c`` at ``t``; its status (1 when it wrote a value that is not finite), and
+    ``fail`` set when it is not 0."""
+    st = dispatch(user, codes[c], t, bus, P[po[c]:po[c + 1]], S[so[c]:so[c + 1]], W[wo[c]:wo[c + 1]])
+    if st == OK and not writes_finite(bus, W, WS, wo[c] + nr[c], wo[c + 1]):
+        st = 1
+    if st != OK:
+        fail[0] = c
+        fail[1] = st
+    return st
+
+
+@jit(inline="always")
+def run_components(user, t, k, bus, io, codes, spc, mask, nr, P, po, S, so, W, wo, WS, fail):
+    """Step 2 of the loop at step ``k``; returns the status.
+
+    When a mode component changes the mode, the components active in the old mode and not in the
+    new one have their outputs cleared (nothing they wrote stays held), and those of the new mode
+    that come before it in the order (guidance) and are due run at once, so that the new mode's
+    control reads its own reference at this very step."""
+    mode = 0
+    if io[IO_MODE] >= 0:
+        mode = int(bus[io[IO_MODE]])
+    for c in range(codes.shape[0]):
+        if k % spc[c] != 0 or ((mask[c] >> mode) & 1) == 0:
+            continue
+        if run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
+            return COMPONENT_FAILED
+        if io[IO_MODE] >= 0:
+            new = int(bus[io[IO_MODE]])
+            if new != mode:
+                for d in range(codes.shape[0]):
+                    if ((mask[d] >> mode) & 1) == 1 and ((mask[d] >> new) & 1) == 0:
+                        clear_writes(bus, W, WS, wo[d] + nr[d], wo[d + 1])
+                for d in range(c):
+                    if k % spc[d] == 0 and ((mask[d] >> mode) & 1) == 0 and ((mask[d] >> new) & 1) == 1:
+                        if run_one(user, d, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
+                            return COMPONENT_FAILED
+                mode = new
+    return OK
+
+
+@jit(_nrt=False)
+def advance_free(ggp, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now, ta0, ta1, ta2, m0, m1, m2, tol, max_iter):
+    """The gyrostat step without the gravity gradient (a function of its own: compiled once)."""
+    return gyro_advance(None, ggp, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now, ta0, ta1, ta2, m0, m1, m2, tol,
+                        max_iter)
+
+
+@jit(_nrt=False)
+def advance_gg(ggp, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now, ta0, ta1, ta2, m0, m1, m2, tol, max_iter):
+    """The gyrostat step with the gravity gradient along the tabulated orbit ``ggp`` (variational)."""
+    return gyro_advance(orbit_gravity_gradient_moment, ggp, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now, ta0,
+                        ta1, ta2, m0, m1, m2, tol, max_iter)
+
+
+def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cmd, u_now, bus, io, codes, spc,
+               mask, nr, P, po, S, so, W, wo, WS, sig_idx, k0, n, kb, tol, max_iter, save_every, per, R_out, Pi_out,
+               rho_out, u_out, it_out, res_out, sig_out, counts, fail):
+    """Steps ``k0 .. k0 + n - 1`` of the loop (see the module's text) in place on ``R``, ``Pi``,
+    ``rho``, ``G``, ``bus``, ``S``; buffers as :func:`.gyrostat_kernels.gyro_steps` plus ``sig_out``
+    (entries, len(sig_idx)). Returns ``(status, k, iterations_total, residual_max, its, residual)``."""
+    N = rho.shape[0]
+    it_sum = 0
+    rmax = 0.0
+    its = 0
+    rn = 0.0
+    m0 = 0.0
+    m1 = 0.0
+    m2 = 0.0
+    if gg:
+        m0, m1, m2 = orbit_gravity_gradient_moment(t0 + k0 * h, R, Pi, ggp)
+        if not (math.isfinite(m0) and math.isfinite(m1) and math.isfinite(m2)):
+            fail[0] = -1
+            fail[1] = 3
+            return COMPONENT_FAILED, k0, 0, 0.0, 0, 0.0
+    e = (k0 - kb) // per
+    c_rec = (k0 - kb) % per
+    c_save = (k0 + 1 - kb) % save_every
+    j = (k0 - kb) // save_every - 1
+    oR = io[IO_R]
+    ow = io[IO_OMEGA]
+    osp = io[IO_SPEED]
+    orh = io[IO_RHO]
+    ocmd = io[IO_CMD]
+    odist = io[IO_DIST]
+    octl = io[IO_CTRL]
+    nsig = sig_idx.shape[0]
+    for k in range(k0, k0 + n):
+        t = t0 + k * h
+        w0, w1, w2 = body_rate(JBi, Pi, axes, rho)
+        # 1. the truth
+        if oR >= 0:
+            for a in range(3):
+                for b in range(3):
+                    bus[oR + 3 * a + b] = R[a, b]
+        if ow >= 0:
+            bus[ow] = w0
+            bus[ow + 1] = w1
+            bus[ow + 2] = w2
+        for i in range(N):
+            if orh >= 0:
+                bus[orh + i] = rho[i]
+            if osp >= 0:
+                bus[osp + i] = rho[i] / wp[i, 0] - (axes[i, 0] * w0 + axes[i, 1] * w1 + axes[i, 2] * w2)
+        # 2. the components due
+        st = run_components(user, t, k, bus, io, codes, spc, mask, nr, P, po, S, so, W, wo, WS, fail)
+        if st != OK:
+            return st, k, it_sum, rmax, 0, 0.0
+        # 3. the step, with what the bus holds
+        if ocmd >= 0:
+            for i in range(N):
+                cmd[i] = bus[ocmd + i]
+        for i in range(N):
+            wheel_torque(i, cmd, rho, axes, wp, w0, w1, w2, u_now, N)
+        ta0 = 0.0
+        ta1 = 0.0
+        ta2 = 0.0
+        if odist >= 0:
+            ta0 += bus[odist]
+            ta1 += bus[odist + 1]
+            ta2 += bus[odist + 2]
+        if octl >= 0:
+            ta0 += bus[octl]
+            ta1 += bus[octl + 1]
+            ta2 += bus[octl + 2]
+        if gg:
+            st, its, rn, it_add, m0, m1, m2 = advance_gg(ggp, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now, ta0,
+                                                        ta1, ta2, m0, m1, m2, tol, max_iter)
+        else:
+            st, its, rn, it_add, m0, m1, m2 = advance_free(ggp, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now,
+                                                          ta0, ta1, ta2, m0, m1, m2, tol, max_iter)
+        it_sum += it_add
+        if st != OK:
+            if st == NOT_FINITE and gg and not (math.isfinite(m0) and math.isfinite(m1) and math.isfinite(m2)):
+                fail[0] = -1
+                fail[1] = 3
+                return COMPONENT_FAILED, k, it_sum, rmax, its, rn
+            return st, k, it_sum, rmax, its, rn
+        # 4. records: the bus at the entry's first step, then the gyrostat's
+        if c_rec == 0:
+            for q in range(nsig):
+                sig_out[e, q] = bus[sig_idx[q]]
+        rmax, c_rec, e, c_save, j = after_step(its, rn, rmax, counts, c_rec, e, per, it_out, res_out, u_out, u_now,
+                                               c_save, j, save_every, R, Pi, rho, R_out, Pi_out, rho_out)
+    return OK, k0 + n, it_sum, rmax, its, rn
+
+
+#: :func:`loop_steps` with the built-in components only (``user=None``; cached on disk).
+run_loop = jit(_nrt=False)(loop_steps)
+#: :func:`loop_steps` with a user's component ``user(t, bus, p, s, w) -> int`` (a ``numba.njit``
+#: function), specialised for it and compiled in memory.
+run_loop_user = jit(cache=False, _nrt=False)(loop_steps)

@@ -1,0 +1,420 @@
+"""The spacecraft with its flight software in the compiled loop (``docs/loop.md``).
+
+``lgvi.simulate(spacecraft, R0, omega0=..., h=..., steps=..., fsw=...)`` runs this system: the
+gyrostat (:mod:`lgvi.systems.gyrostat`) stepped by the compiled loop
+(:mod:`lgvi._kernels.loop_kernels`), with the spacecraft's and the flight software's components
+(:mod:`lgvi.components`) on a bus, each at its rate, and their signals recorded by name.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+
+from ..components import FAMILIES, SIGNALS, LoopContext, kind_of
+from ..driver import MemorySink, drive
+from ..errors import ComponentError
+from ..trajectory import RESULT_TYPES
+from . import Field, System, register
+from .._validation import as_float_array
+from .gyrostat import GYROSTAT, GyrostatRun, GyrostatTrajectory, gyrostat_from_file, gyrostat_from_stream
+from .gyrostat_ensemble import GyrostatEnsemble, drive_members, per_member
+
+__all__ = ["SPACECRAFT", "LoopRun", "SpacecraftEnsemble", "SpacecraftTrajectory", "simulate_spacecraft",
+           "simulate_spacecraft_ensemble"]
+
+#: Loop inputs and truth: the bus signals the loop itself reads or writes (``io`` of the kernel).
+_IO = ("R", "omega", "wheel_speed", "wheel_momentum", "wheel_command", "tau_dist_B", "tau_control_B", "mode")
+_TRUTH = ("R", "omega", "wheel_speed", "wheel_momentum")
+
+
+def _invariants(spec: Any = None) -> dict[str, dict[str, Any]]:
+    return {}
+
+
+SPACECRAFT = register(System(
+    name="spacecraft",
+    doc="a spacecraft with its flight software in the compiled loop: the gyrostat's state and the bus signals",
+    state=GYROSTAT.state,
+    records=GYROSTAT.records + (Field("signals", (0,), np.float64, "the recorded bus signals at each entry's first "
+                                                                    "step"),),
+    kernels=lambda: {"run_loop": __import__("lgvi._kernels.loop_kernels", fromlist=["run_loop"]).run_loop},
+    results=GYROSTAT.results + ("signals",),
+    scenario_section="spacecraft",
+    run_factory=None,
+    invariants=_invariants,
+    from_stream=lambda meta, arrays, state: _from_stream(meta, arrays, state),
+))
+
+
+@dataclass(frozen=True, eq=False)
+class SpacecraftTrajectory(GyrostatTrajectory):
+    """A :class:`lgvi.systems.gyrostat.GyrostatTrajectory` with the flight software's records.
+
+    Extra attributes
+    ----------------
+    signal_data : (E, S) ndarray
+        The recorded bus signals, one row per record entry (the bus after the components ran at
+        the entry's first step: every ``save_every`` steps, or every step with
+        ``solver_record="full"``); ``meta["signals"]`` gives each name's columns.
+
+    ``signals`` is a dict name -> (E, size) array (``sigma_BR``, ``omega_BR_B``,
+    ``torque_request_B``, ``wheel_command``, ``dipole_request_B``, ``dipole_B``, ``B_N``, ``mode``,
+    ...), ``signal_t`` (E,) their times.
+    """
+
+    signal_data: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.signal_data is not None:
+            self.signal_data.flags.writeable = False
+
+    @cached_property
+    def signals(self) -> dict[str, np.ndarray]:
+        out = {}
+        for name, start, size in self.meta.get("signals", []):
+            a = self.signal_data[:, start:start + size]
+            out[name] = a[:, 0] if name == "mode" else a
+        return out
+
+    @cached_property
+    def signal_t(self) -> np.ndarray:
+        per = 1 if self.meta.get("solver_record") == "full" else int(self.meta.get("save_every", 1))
+        return float(self.meta.get("t0", 0.0)) + self.h * per * np.arange(len(self.signal_data))
+
+    def __repr__(self) -> str:
+        return super().__repr__().replace("GyrostatTrajectory", "SpacecraftTrajectory", 1) + \
+            f", signals {sorted(self.signals)}"
+
+    def _extra_arrays(self) -> dict[str, np.ndarray]:
+        return dict(super()._extra_arrays(), signal_data=self.signal_data)
+
+
+def _from_file(**fields: Any) -> SpacecraftTrajectory:
+    data = fields.pop("signal_data")
+    base = gyrostat_from_file(**fields)
+    width = sum(int(s) for _, _, s in base.meta.get("signals", []))
+    if data.ndim != 2 or data.shape[1] != width:
+        raise ValueError(f"field 'signal_data' must have shape (entries, {width}), got {data.shape}")
+    return SpacecraftTrajectory(**{f.name: getattr(base, f.name) for f in dataclasses.fields(GyrostatTrajectory)},
+                                signal_data=data)
+
+
+def _from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state: dict[str, Any]) -> SpacecraftTrajectory:
+    """The :class:`SpacecraftTrajectory` of a stream folder (``System.from_stream``)."""
+    base = gyrostat_from_stream(meta, arrays, state)
+    width = sum(int(s) for _, _, s in meta.get("signals", []))
+    data = arrays["signals"].reshape(len(arrays["signals"]), -1) if arrays["signals"].size else \
+        np.zeros((len(arrays["signals"]), width))
+    if data.shape[1] != width:
+        raise ValueError(f"field 'signals' must have shape (entries, {width}), got {arrays['signals'].shape}")
+    return SpacecraftTrajectory(**{f.name: getattr(base, f.name) for f in dataclasses.fields(GyrostatTrajectory)},
+                                signal_data=data)
+
+
+RESULT_TYPES["spacecraft"] = (RESULT_TYPES["gyrostat"][0] + ("signal_data",), _from_file)
+
+
+def _period(rate: Any, h: float, what: str) -> int:
+    if rate is None:
+        return 1
+    ratio = float(rate) / abs(h)
+    m = int(round(ratio))
+    if m < 1 or abs(ratio - m) > 1e-9 * max(1.0, ratio):
+        raise ValueError(f"{what}: rate must be a positive multiple of |h|; got rate={float(rate):g}, h={h:g} "
+                         f"(ratio {ratio:.12g})")
+    return m
+
+
+class LoopRun(GyrostatRun):
+    """One validated run of a spacecraft and its flight software, driven by :func:`lgvi.driver.drive`."""
+
+    def __init__(self, spacecraft: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: Any, steps: Any,
+                 fsw: Any = None, method: str = "newton", tol: Any = 1e-14, max_iter: Any = 50, alpha: Any = 1.0,
+                 save_every: Any = 1, t0: Any = 0.0, solver_record: str = "interval", order: Any = 2,
+                 composition: Any = None) -> None:
+        from ..fsw import FlightSoftware
+        from ..spacecraft import Spacecraft
+
+        if not isinstance(spacecraft, Spacecraft):
+            raise TypeError(f"spacecraft must be an lgvi.Spacecraft, got {type(spacecraft).__name__}")
+        if fsw is None:
+            fsw = FlightSoftware()
+        if not isinstance(fsw, FlightSoftware):
+            raise TypeError(f"fsw must be an lgvi.FlightSoftware or None, got {type(fsw).__name__}")
+        super().__init__(spacecraft.body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=spacecraft.wheels,
+                         method=method, tol=tol, max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0,
+                         solver_record=solver_record, order=order, composition=composition)
+        self.spacecraft, self.fsw = spacecraft, fsw
+        ctx = LoopContext(spacecraft, self.h, self.t0, self.t0 + self.steps * self.h, navigation=bool(fsw.estimator))
+        own_fsw = {id(c) for c in fsw.components()}
+        items = []
+        for c in spacecraft.components() + fsw.components():
+            kind = kind_of(c)
+            in_fsw = id(c) in own_fsw
+            c = copy.copy(c)                   # its setup is this run's (a shared description stays as given)
+            c.setup(ctx)
+            rate = c.rate if c.rate is not None or not in_fsw else fsw.rate
+            items.append((FAMILIES.index(kind.family), len(items), c, kind, rate))
+        items.sort(key=lambda x: (x[0], x[1]))
+        self.gg = 0
+        self.ggp = np.zeros(13 + 12)
+        comps = []
+        for _, _, c, kind, rate in items:
+            if kind.extra.get("variational"):
+                if self.gg:
+                    raise ValueError("disturbances: give one GravityGradient")
+                self.gg, self.ggp = 1, np.ascontiguousarray(c.params(), dtype=np.float64)
+                continue
+            comps.append((c, kind, rate))
+        self._wire(comps, ctx)
+        self.label = "simulation"
+        self.meta["system"] = "spacecraft"
+        self.meta["spacecraft"] = repr(spacecraft)
+        self.meta["fsw"] = repr(fsw)
+        self.meta["signals"] = [list(x) for x in self.record_layout]
+        self.meta["components"] = [f"{kind.name} every {spc * abs(self.h):g} s" for (c, kind, _), spc in
+                                   zip(comps, self.spc_c.tolist())]
+        self.meta["torque_model"] = "the spacecraft loop (" + ", ".join(self.meta["components"]) + ")" + (
+            " with the gravity gradient along the orbit" if self.gg else "")
+        self.external = True
+        n = self.N
+        self.system = dataclasses.replace(
+            SPACECRAFT, state=self.system.state,
+            records=self.system.records + (Field("signals", (len(self.sig_idx),), np.float64,
+                                                 SPACECRAFT.records[-1].doc),))
+
+    # -------------------------------------------------------------- the bus
+    def _size(self, name: str, comp: Any, own: dict[str, Any]) -> int:
+        if name in own:
+            return int(own[name].size)
+        size = SIGNALS[name].size
+        if size:
+            return size
+        if name.startswith("wheel_"):
+            return self.N
+        got = comp.sizes().get(name) if comp is not None else None
+        if got is None:
+            raise ValueError(f"signal {name!r} has a size set by the spacecraft, and no component gives it (sizes())")
+        return int(got)
+
+    def _wire(self, comps: list[Any], ctx: LoopContext) -> None:
+        offsets: dict[str, int] = {}
+        sizes: dict[str, int] = {}
+        nbus = 0
+        own: dict[str, Any] = {}
+        for c, kind, _ in comps:
+            for sig in kind.own:
+                own[sig.name] = sig
+
+        def place(name: str, comp: Any) -> int:
+            nonlocal nbus
+            if name not in offsets:
+                sizes[name] = self._size(name, comp, own)
+                offsets[name] = nbus
+                nbus += sizes[name]
+            return offsets[name]
+
+        for name in ("R", "omega") + (("wheel_speed", "wheel_momentum") if self.N else ()):
+            place(name, None)
+        writers: dict[str, list[str]] = {name: ["the loop (truth)"] for name in offsets}
+        wired = []
+        for c, kind, rate in comps:
+            nav = ctx.navigation and kind.extra.get("navigation", False)
+            reads = tuple({"R": "R_est", "omega": "omega_est"}.get(r, r) if nav else r for r in kind.reads)
+            for name in kind.writes:
+                place(name, c)
+                writers.setdefault(name, []).append(kind.name)
+            wired.append((c, kind, rate, reads))
+        W, WS = [], []
+        codes, spc, mask, nr, po, so, wo = [], [], [], [], [0], [0], [0]
+        P, S = [], []
+        users = []
+        for c, kind, rate, reads in wired:
+            for name in reads:
+                if name not in writers:
+                    if name in kind.extra.get("optional", ()):
+                        W.append(-1)
+                        WS.append(0)
+                        continue
+                    if name.startswith("wheel_") and self.N == 0:
+                        raise ValueError(f"{kind.name}: reads {name!r}, and the spacecraft has no wheels: give "
+                                         "Spacecraft(..., wheels=lgvi.ReactionWheels(...))")
+                    raise ValueError(f"{kind.name}: reads the signal {name!r}, which no component of the spacecraft "
+                                     "or the flight software writes (a family missing: an orbit for r_N, v_N, a "
+                                     "field for B_N, a guidance law for R_ref, an estimator for R_est)")
+                W.append(offsets[name])
+                WS.append(sizes[name])
+            for name in kind.writes:
+                W.append(offsets[name])
+                WS.append(sizes[name])
+            codes.append(kind.code)
+            spc.append(_period(rate, self.h, f"{kind.name}"))
+            modes = getattr(c, "modes", None)
+            mask.append(-1 if modes is None else sum(1 << m for m in modes))
+            nr.append(len(reads))
+            p = np.ascontiguousarray(c.params(), dtype=np.float64).reshape(-1)
+            s = np.ascontiguousarray(c.state0(), dtype=np.float64).reshape(-1)
+            if not np.all(np.isfinite(p)):
+                raise ValueError(f"{kind.name}: params() holds values that are not finite")
+            P.append(p)
+            S.append(s)
+            po.append(po[-1] + len(p))
+            so.append(so[-1] + len(s))
+            wo.append(len(W))
+            if kind.code == 0:
+                users.append(kind.step)
+        if len({id(u) for u in users}) > 1:
+            raise ValueError("the loop takes one user component function per run (several components may share it "
+                             f"with their own params); got {len({id(u) for u in users})}")
+        self.user = users[0] if users else None
+        self.names = [kind.name for _, kind, _, _ in wired]
+        i64 = np.int64
+        self.codes, self.spc_c, self.mask = np.array(codes, i64), np.array(spc, i64), np.array(mask, i64)
+        self.nr, self.po, self.so, self.wo = (np.array(nr, i64), np.array(po, i64), np.array(so, i64),
+                                              np.array(wo, i64))
+        self.P = np.concatenate(P) if P else np.zeros(0)
+        self.S = np.concatenate(S) if S else np.zeros(0)
+        self.W, self.WS = np.array(W, i64), np.array(WS, i64)
+        self.bus = np.zeros(max(nbus, 1))
+        self.io = np.array([offsets.get(name, -1) for name in _IO], i64)
+        modes = [c for c, kind, _, _ in wired if kind.family == "mode"]
+        if modes:
+            self.bus[offsets["mode"]] = float(getattr(modes[0], "initial", 0))
+        record = self.fsw.record
+        if record is None:
+            record = [name for name in offsets if name not in _TRUTH]
+        layout, idx = [], []
+        for name in record:
+            if name not in offsets:
+                raise ValueError(f"record names {name!r}, which is not on this run's bus; on it: {sorted(offsets)}")
+            layout.append((name, len(idx), sizes[name]))
+            idx += range(offsets[name], offsets[name] + sizes[name])
+        self.record_layout = layout
+        self.sig_idx = np.array(idx, i64)
+        self.offsets, self.sizes = offsets, sizes
+        self.fail = np.zeros(2, i64)
+
+    # -------------------------------------------------------------- stepping
+    def _kernel(self, k0: int, n: int, kb: int, R_out, Pi_out, rho_out, it_out, res_out, u_out, sig_out) -> int:
+        from .._kernels.loop_kernels import run_loop, run_loop_user
+
+        per = 1 if self.full else self.save_every
+        kernel = run_loop if self.user is None else run_loop_user
+        status, k, it_sum, rmax, its, rn = kernel(
+            self.user, self.gg, self.ggp, self.Rs, self.JdB, self.JB_inv, self.h, self.gam, self.t0, self.R, self.Pi,
+            self.wheel_momentum, self.G, self.wheels.axes, self.wp, self.cmd, self.u_now, self.bus, self.io, self.codes,
+            self.spc_c, self.mask, self.nr, self.P, self.po, self.S, self.so, self.W, self.wo, self.WS, self.sig_idx,
+            k0, n, kb, self.tol, self.max_iter, self.save_every, per, R_out, Pi_out, rho_out, u_out, it_out, res_out,
+            sig_out, self.counts, self.fail)
+        self.k = int(k)
+        self.it_total += int(it_sum) - (int(its) if status != 0 else 0)
+        self.res_max = max(self.res_max, float(rmax))
+        self.last_its, self.last_res = int(its), float(rn)
+        return int(status)
+
+    def advance(self, n: int, R_out, Pi_out, rho_out, it_out, res_out, u_out, sig_out, partial) -> int:
+        return self._kernel(self.k, n, self.k, R_out, Pi_out, rho_out, it_out, res_out, u_out, sig_out)
+
+    def trajectory(self, t, R_out, Pi_out, rho_out, it_out, res_out, u_out, sig_out,
+                   partial: bool = False) -> SpacecraftTrajectory:
+        base = super().trajectory(t, R_out, Pi_out, rho_out, it_out, res_out, u_out, partial=partial)
+        return SpacecraftTrajectory(**{f.name: getattr(base, f.name) for f in dataclasses.fields(GyrostatTrajectory)},
+                                    signal_data=sig_out)
+
+    def failure(self, status: int, residual: float, iterations: int, trajectory: Any, where: str = "") -> Exception:
+        from .._kernels.loop_kernels import COMPONENT_FAILED
+        from ..components import STATUS
+
+        if status != COMPONENT_FAILED:
+            return super().failure(status, residual, iterations, trajectory, where)
+        c, st = int(self.fail[0]), int(self.fail[1])
+        name = "orbit_gravity_gradient (the orbit table ended)" if c < 0 else f"{self.names[c]} (component {c})"
+        k = self.k
+        t = self.t0 + k * self.h
+        return ComponentError(f"{name} stopped the run at step {k} (t = {t:g} s): status {st}, "
+                              f"{STATUS.get(st, 'unknown status')}. The run up to step {k} is in .trajectory." + where,
+                              component=name.split(" ")[0], status=st, step=k, time=t, trajectory=trajectory)
+
+    def state(self) -> dict[str, Any]:
+        st = super().state()
+        st.update(S=self.S.copy(), bus=self.bus.copy())
+        return st
+
+    def load_state(self, st: dict[str, Any]) -> None:
+        super().load_state(st)
+        self.S[...] = np.asarray(st["S"], dtype=np.float64)
+        self.bus[...] = np.asarray(st["bus"], dtype=np.float64)
+
+
+def simulate_spacecraft(spacecraft: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: Any, steps: Any,
+                        fsw: Any = None, progress: Any = False, **options: Any) -> SpacecraftTrajectory:
+    """:func:`lgvi.simulate` with a :class:`lgvi.Spacecraft` (see there and ``docs/loop.md``)."""
+    run = LoopRun(spacecraft, R0, Pi0, omega0=omega0, h=h, steps=steps, fsw=fsw, **options)
+    return drive(run, MemorySink(run), progress)
+
+
+class SpacecraftEnsemble(GyrostatEnsemble):
+    """A :class:`lgvi.systems.gyrostat_ensemble.GyrostatEnsemble` of spacecraft runs (members are
+    :class:`SpacecraftTrajectory`); ``signals`` stacks the records by name, (B, E, size);
+    ``params["component.<kind>"]`` holds each component's parameter row per member (B, P).
+    Saved with :meth:`save` it keeps the gyrostat's arrays, not the records."""
+
+    @cached_property
+    def signals(self) -> dict[str, np.ndarray]:
+        return {name: np.stack([m.signals[name] for m in self.members]) for name in self.members[0].signals}
+
+
+def simulate_spacecraft_ensemble(spacecraft: Any, R: np.ndarray, Pi0: Any = None, *, omega0: Any = None, h: Any,
+                                 steps: Any, fsw: Any = None, threads: Any = None,
+                                 **options: Any) -> SpacecraftEnsemble:
+    """:func:`lgvi.simulate_ensemble` with a :class:`lgvi.Spacecraft` (see there): ``spacecraft`` and
+    ``fsw`` one for all members or one per member (their inertias, wheels, gains, rates disperse);
+    member ``b`` equals ``lgvi.simulate(spacecraft[b], R[b], ..., fsw=fsw[b])`` bit for bit, and
+    its gravity gradient uses its own inertia. ``R`` (B, 3, 3) rotations validated by the caller."""
+    from ..fsw import FlightSoftware
+    from ..spacecraft import Spacecraft
+
+    B = len(R)
+    if (Pi0 is None) == (omega0 is None):
+        raise ValueError("give the initial body angular momenta Pi0 (B, 3) or the angular velocities omega0 (B, 3), "
+                         "one of the two")
+    init = as_float_array(Pi0 if omega0 is None else omega0, "Pi0" if omega0 is None else "omega0", (B, 3))
+    scs = per_member(spacecraft, "spacecraft", B, Spacecraft)
+    fl = per_member(FlightSoftware() if fsw is None else fsw, "fsw", B, FlightSoftware)
+    runs = []
+    for b in range(B):
+        kw = {"Pi0": init[b], "omega0": None} if omega0 is None else {"Pi0": None, "omega0": init[b]}
+        try:
+            runs.append(LoopRun(scs[b], R[b], kw["Pi0"], omega0=kw["omega0"], h=h, steps=steps, fsw=fl[b], **options))
+        except (TypeError, ValueError) as exc:
+            raise type(exc)(f"member {b}: {exc}") from exc
+    params: dict[str, np.ndarray] = {"inertia": np.stack([r.body.J for r in runs]), "R0": R.copy(),
+                                     "Pi0": np.stack([r.Pi for r in runs])}
+    first = runs[0]
+    if all(r.names == first.names and r.po.tolist() == first.po.tolist() for r in runs):
+        for c, name in enumerate(first.names):
+            params[f"component.{c}.{name}"] = np.stack([r.P[r.po[c]:r.po[c + 1]] for r in runs])
+    if first.gg:
+        params["gravity_gradient.inertia"] = np.stack([r.ggp[1:10] for r in runs])
+    members = drive_members(runs, threads)
+    meta = dict(members[0].meta, members=B)
+    for key in ("wheels", "solver_summary", "invariants"):
+        meta.pop(key, None)
+    return SpacecraftEnsemble(members=tuple(members), params=params, meta=meta)
+
+
+def _provide() -> None:
+    from . import provide_run
+
+    provide_run(SPACECRAFT, LoopRun)
+
+
+_provide()
