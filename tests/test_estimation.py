@@ -213,3 +213,17 @@ def test_components_interpreted_match_compiled():
     for name in out["0"]:
         np.testing.assert_allclose(np.array(out["1"][name]), np.array(out["0"][name]), rtol=1e-12, atol=1e-18,
                                    err_msg=name)
+
+
+def test_mekf_state_rows_per_member():
+    R0 = Rotation.from_rotvec([[0.1, 0.2, 0.3], [3.0, 0.1, 0.0], [0.0, 0.0, 0.0]])
+    est = MEKF(arw=1e-4, rrw=1e-6, R0=R0, P0=np.ones(6))
+    rows = est.state0()
+    assert rows.shape == (3, 50)
+    for i in range(3):
+        q = rows[i, :4]
+        assert q[3] >= 0.0 and np.allclose(Rotation.from_quat(q).as_matrix(), R0[i].as_matrix(), atol=1e-15)
+        assert np.array_equal(MEKF(arw=1e-4, rrw=1e-6, R0=R0[i], P0=np.ones(6)).state0(), rows[i], equal_nan=True)
+    assert MEKF(arw=1e-4, rrw=1e-6, bias0=np.zeros((2, 3)), P0=np.ones(6)).state0().shape == (2, 50)
+    with pytest.raises(ValueError, match=r"same number of members"):
+        MEKF(arw=1e-4, rrw=1e-6, R0=R0, bias0=np.zeros((2, 3)), P0=np.ones(6))
