@@ -25,10 +25,11 @@ STEPS = 1200            # 120 s
 MEMBERS = 100
 
 
-def truth(omega0):
+def truth(omega0, steps=STEPS):
+    """``steps`` samples (``steps - 1`` LGVI steps of ``H``) of a free tumble from ``omega0``."""
     R0 = Rotation.from_rotvec([0.4, -0.3, 1.0]).as_matrix()
-    traj = lgvi.simulate(BODY, R0, omega0=omega0, h=H, steps=STEPS - 1)
-    return {"R": traj.R.reshape(STEPS, 9), "omega": traj.omega}
+    traj = lgvi.simulate(BODY, R0, omega0=omega0, h=H, steps=steps - 1)
+    return {"R": traj.R.reshape(steps, 9), "omega": traj.omega}
 
 
 TUMBLING = [0.1, -0.2, 0.15]
@@ -59,7 +60,7 @@ def member(tr, seed, *, att_sd, output="mean", sensors="st", st_rate=0.5, **mekf
         if sensors != "st" else None
     run = run_components(comps, tr, H, record=["est_error", "gyro_bias", "bias_est", "P_diag"],
                          record_state={"P": (len(comps) - 1, np.arange(7, 43))}, constants=consts)
-    assert run.status == 0 and run.rows == STEPS
+    assert run.status == 0 and run.rows == len(tr["R"])
     e = np.concatenate([run.records["est_error"], run.records["gyro_bias"] - run.records["bias_est"]], axis=1)
     return e, run.records["P"].reshape(-1, 6, 6)
 

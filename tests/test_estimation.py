@@ -107,29 +107,31 @@ def test_mekf_converges_from_ten_degrees_and_its_three_sigma_bounds_cover_the_er
     at >= 99% of all outputs from the first (99.7% for a consistent filter).
 
     With the magnetometer (2 Hz) and the fine sun sensor (1 Hz) only, the first updates are far from
-    linear and, as any EKF's, leave the filter overconfident for a while (the RMS of error / sigma is
-    4 at 30 s, 2 at 60 s, 1.05 at 105 s; from a 1-degree prior it is 1.0 throughout): after 30 s
-    the attitude sigma is below 0.5 degree and the error below 3 degrees (converged from 10), and
-    from 105 s on the error matches its sigma (RMS of error / sigma over members, axes and outputs
-    within 20% of 1) and its 3-sigma bounds cover it at >= 99% of the outputs.
+    linear and, as any EKF's, leave the filter overconfident for a while (over 40 members the RMS of
+    error / sigma is 4.5 at 30 s, 2.1 at 60 s, 1.3 at 105 s and 0.97-1.05 from 150 s to 300 s; from a
+    1-degree prior it is 1.0 throughout): after 30 s the attitude sigma is below 0.5 degree and the
+    error below 3 degrees (converged from 10), and from 150 s on the error matches its sigma (RMS of
+    error / sigma over members, axes and outputs within 15% of 1) and its 3-sigma bounds cover it at
+    >= 99% of the outputs.
     """
     covered = []
     for seed in range(20):
         e, P = member(tumbling, 2500 + seed, att_sd=math.radians(10.0))
         covered.append(np.abs(e) <= 3 * np.sqrt(np.einsum("nii->ni", P)))
     assert np.mean(covered) >= 0.99
+    long = truth(TUMBLING, steps=3000)
     covered, late, start = [], [], []
     for seed in range(20):
-        e, P = member(tumbling, 2000 + seed, att_sd=math.radians(10.0), sensors="vectors")
+        e, P = member(long, 2000 + seed, att_sd=math.radians(10.0), sensors="vectors")
         sd = np.sqrt(np.einsum("nii->ni", P))
         err0 = np.random.default_rng(2000 + seed).normal(size=(2, 3))[1] * math.radians(10.0)   # member's draw
         start.append(np.linalg.norm(err0))
         assert sd[300:, :3].max() < math.radians(0.5)
         assert np.linalg.norm(e[300:, :3], axis=1).max() < math.radians(3.0)
-        late.append(e[1050:, :3] / sd[1050:, :3])
-        covered.append(np.abs(e[1050:]) <= 3 * sd[1050:])
+        late.append(e[1500:, :3] / sd[1500:, :3])
+        covered.append(np.abs(e[1500:]) <= 3 * sd[1500:])
     assert np.median(start) > math.radians(10.0)           # a 10-degree start, per axis
-    assert abs(math.sqrt(np.mean(np.square(late))) - 1.0) < 0.2
+    assert abs(math.sqrt(np.mean(np.square(late))) - 1.0) < 0.15
     assert np.mean(covered) >= 0.99
 
 
@@ -178,7 +180,7 @@ from estimation_cases import H, truth, TUMBLING
 from lgvi.fsw import MEKF
 from lgvi.fsw._drive import run_components
 from lgvi.spacecraft import CoarseSunSensors, FineSunSensor, Gyro, Magnetometer, StarTracker
-tr = {{k: v[:40] for k, v in truth(TUMBLING).items()}}
+tr = truth(TUMBLING, steps=40)
 st = StarTracker(rate=0.5, sigma_cross=5e-5, sigma_about=4e-4, sun_exclusion=0.2, seed=3)
 comps = [Gyro(rate=H, arw=1e-4, rrw=1e-5, lsb=1e-7, saturation=1.0, output="mean", seed=3), st,
          Magnetometer(rate=0.2, sigma=1e-7, seed=3), CoarseSunSensors(np.eye(3), sigma=0.01, seed=3),
@@ -213,3 +215,17 @@ def test_components_interpreted_match_compiled():
     for name in out["0"]:
         np.testing.assert_allclose(np.array(out["1"][name]), np.array(out["0"][name]), rtol=1e-12, atol=1e-18,
                                    err_msg=name)
+
+
+def test_mekf_state_rows_per_member():
+    R0 = Rotation.from_rotvec([[0.1, 0.2, 0.3], [3.0, 0.1, 0.0], [0.0, 0.0, 0.0]])
+    est = MEKF(arw=1e-4, rrw=1e-6, R0=R0, P0=np.ones(6))
+    rows = est.state0()
+    assert rows.shape == (3, 50)
+    for i in range(3):
+        q = rows[i, :4]
+        assert q[3] >= 0.0 and np.allclose(Rotation.from_quat(q).as_matrix(), R0[i].as_matrix(), atol=1e-15)
+        assert np.array_equal(MEKF(arw=1e-4, rrw=1e-6, R0=R0[i], P0=np.ones(6)).state0(), rows[i], equal_nan=True)
+    assert MEKF(arw=1e-4, rrw=1e-6, bias0=np.zeros((2, 3)), P0=np.ones(6)).state0().shape == (2, 50)
+    with pytest.raises(ValueError, match=r"same number of members"):
+        MEKF(arw=1e-4, rrw=1e-6, R0=R0, bias0=np.zeros((2, 3)), P0=np.ones(6))

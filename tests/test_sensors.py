@@ -282,3 +282,15 @@ def test_sensor_kinds_are_registered_with_their_codes():
                        ("fine_sun_sensor", 305)):
         kind = components.COMPONENT_KINDS[name]
         assert kind.family == "sensor" and kind.code == code and kind.cls.kind == name
+
+
+def test_rows_per_member_and_sizes():
+    """A sequence of seeds gives one parameter row per member (the rest of the row shared); each
+    member's row drives the stream of its own seed."""
+    one = Gyro(rate=0.1, arw=1e-3, seed=4).params()
+    rows = Gyro(rate=0.1, arw=1e-3, seed=[4, 5, 6]).params()
+    assert rows.shape == (3, one.size) and np.array_equal(rows[0], one)
+    assert np.array_equal(rows[:, 0], [4.0, 5.0, 6.0]) and np.all(rows[:, 1:] == one[1:])
+    assert CoarseSunSensors(np.eye(3)).sizes() == {"css": 3} and StarTracker(sigma_cross=0, sigma_about=0).sizes() == {}
+    with pytest.raises(TypeError, match=r"seed must be an integer"):
+        Gyro(rate=0.1, seed=1.5)

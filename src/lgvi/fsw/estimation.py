@@ -151,7 +151,9 @@ class MEKF:
         The magnetometer's noise (T); None: no magnetometer update.
     sun_sigma : float or None
         The sun sensor's noise (rad); None: no sun update.
-    R0 : (3, 3) rotation, or a scipy Rotation: the initial estimate.   bias0 : (3,) rad/s.
+    R0 : (3, 3) rotation, or a scipy Rotation: the initial estimate; (B, 3, 3) (or a stack of
+        rotations): one per member of an ensemble, and ``state0()`` gives one row per member.
+    bias0 : (3,) rad/s, or (B, 3): one per member.
     P0 : (6,) diagonal or (6, 6) symmetric positive definite initial covariance (rad^2, (rad/s)^2).
     max_variance : float
         A covariance diagonal entry above this (or not finite) stops the run with status 2.
@@ -179,8 +181,16 @@ class MEKF:
         if star_tracker is not None and min(star_tracker.sigma_cross, star_tracker.sigma_about) <= 0.0:
             raise ValueError("star_tracker must have positive sigma_cross and sigma_about for the filter's update, "
                              f"got {star_tracker.sigma_cross} and {star_tracker.sigma_about}")
-        self.R0 = np.eye(3) if R0 is None else as_rotation(R0, "R0")
-        self.bias0 = as_float_array(bias0, "bias0", (3,))
+        if R0 is not None and hasattr(R0, "as_matrix") and not R0.single:
+            R0 = R0.as_matrix()
+        if R0 is not None and np.ndim(R0) == 3:
+            self.R0 = np.stack([as_rotation(R, f"R0[{i}]") for i, R in enumerate(np.asarray(R0, dtype=float))])
+        else:
+            self.R0 = np.eye(3) if R0 is None else as_rotation(R0, "R0")
+        self.bias0 = as_float_array(bias0, "bias0", (3,) if np.ndim(bias0) < 2 else (None, 3))
+        members = {a.shape[0] for a, d in ((self.R0, 3), (self.bias0, 2)) if a.ndim == d}
+        if len(members) > 1:
+            raise ValueError(f"R0 and bias0 must give the same number of members, got {sorted(members)}")
         self.P0 = _spd(P0, "P0", 6)
         self.max_variance = as_float(max_variance, "max_variance", positive=True)
         if gyro_output not in ("rate", "mean"):
@@ -197,12 +207,15 @@ class MEKF:
                                 self.max_variance, float(self.gyro_output == "mean")]])
 
     def state0(self) -> np.ndarray:
+        """The initial state: one row, or one row per member when ``R0`` or ``bias0`` has one per member."""
         from scipy.spatial.transform import Rotation
         q = Rotation.from_matrix(self.R0).as_quat()
-        if q[3] < 0.0:
-            q = -q
-        return np.concatenate([q, self.bias0, self.P0.ravel(), [math.nan, 0.0, 0.0, 0.0, -math.inf, -math.inf,
-                                                                 -math.inf]])
+        q = np.where(q[..., 3:] < 0.0, -q, q)
+        B = max(q.shape[0] if q.ndim == 2 else 1, self.bias0.shape[0] if self.bias0.ndim == 2 else 1)
+        tail = np.array([math.nan, 0.0, 0.0, 0.0, -math.inf, -math.inf, -math.inf])
+        rows = np.concatenate([np.broadcast_to(q, (B, 4)), np.broadcast_to(self.bias0, (B, 3)),
+                               np.broadcast_to(self.P0.ravel(), (B, 36)), np.broadcast_to(tail, (B, 7))], axis=1)
+        return rows[0] if q.ndim == 1 and self.bias0.ndim == 1 else rows
 
     def sizes(self) -> dict[str, int]:
         return {}
