@@ -387,7 +387,6 @@ def test_torque_errors_name_step_and_keep_the_run(body):
 def test_rk4_runs_on_the_driver_in_chunks_and_ctrl_c_keeps_the_part(body, monkeypatch, path):
     """``rk4`` runs in chunks of lgvi.driver: the chunked run is the one-chunk run bit for bit, progress
     is reported between chunks, and a Ctrl-C in the middle keeps the part computed."""
-    import os
     import signal
 
     def nudge(t, R, Pi):
@@ -406,7 +405,7 @@ def test_rk4_runs_on_the_driver_in_chunks_and_ctrl_c_keeps_the_part(body, monkey
 
     def stop(k, n):
         if k == 16:
-            os.kill(os.getpid(), signal.SIGINT)
+            signal.raise_signal(signal.SIGINT)   # delivered to this (the main) thread before it returns
 
     with pytest.raises(lgvi.SimulationInterrupted, match="rk4 interrupted after 16 of 64 steps") as info:
         rk4(body, np.eye(3), progress=stop, **kw)

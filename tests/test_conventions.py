@@ -233,3 +233,18 @@ def test_view_rates_on_their_own_axes_when_one_would_flatten_the_others():
     plain = lgvi.view.figure(lgvi.simulate(BODY, np.eye(3), steps=3000, **KW))      # comparable ranges
     assert [a.text for a in plain.layout.annotations if a.text and a.text.startswith("body rate")] == [
         "body rates ω (rad/s)"]
+
+
+def test_literal_options_are_the_registries():
+    """simulate's string options are typed as Literal (an editor completes them); the Literals are
+    exactly the registries' names, so the two cannot drift."""
+    import typing
+
+    from lgvi.registry import FORCINGS, SCHEMES, SOLVER_METHODS
+
+    hints = typing.get_type_hints(lgvi.simulate)
+    assert set(typing.get_args(hints["method"])) == set(SOLVER_METHODS)
+    assert set(typing.get_args(hints["forcing"])) == set(FORCINGS)
+    assert set(typing.get_args(hints["solver_record"])) == {"interval", "full"}
+    (scheme,) = [a for a in typing.get_args(hints["scheme"]) if a is not type(None)]
+    assert set(typing.get_args(scheme)) == set(SCHEMES)

@@ -135,7 +135,7 @@ def test_progress_and_interrupt(monkeypatch):
 
     def interrupt(done, total):
         if done == 20:
-            os.kill(os.getpid(), signal.SIGINT)
+            signal.raise_signal(signal.SIGINT)   # delivered to this (the main) thread before it returns
 
     with pytest.raises(lgvi.SimulationInterrupted) as info:
         lgvi.simulate_ensemble(FULL, R0, Pi0, h=0.01, steps=50, save_every=5, progress=interrupt)

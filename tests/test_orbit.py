@@ -6,7 +6,6 @@ for its orbit (``tr(J) / (m r^2) ~ 0.1``) so that orbit and attitude are strongl
 
 from __future__ import annotations
 
-import os
 import signal
 
 import numpy as np
@@ -165,7 +164,7 @@ def test_chunks_and_progress_match_one_run_and_ctrl_c_keeps_the_part():
 
         def stop(k, n):
             if k == 16:
-                os.kill(os.getpid(), signal.SIGINT)
+                signal.raise_signal(signal.SIGINT)   # delivered to this (the main) thread before it returns
 
         with pytest.raises(lgvi.SimulationInterrupted) as info:
             run(0.05, 64, save_every=2, progress=stop)

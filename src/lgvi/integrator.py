@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, Literal
 
 import numpy as np
 
@@ -210,11 +210,12 @@ def step(body: Any, R: Any, Pi: Any, *, h: float, u: Any = None, method: str = "
 
 
 def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: float, steps: int | None = None,
-             torque: Any = None, method: str = "newton", tol: float = 1e-14, max_iter: int = 50,
-             alpha: float = 1.0, save_every: int = 1, t0: float = 0.0, forcing: str = "paper",
-             order: int = 2, composition: str | None = None, progress: Any = False,
-             error_estimate: Any = False, error_warn: float | None = 0.01,
-             solver_record: str = "interval", scheme: str | None = None, wheels: Any = None,
+             torque: Any = None, method: Literal["newton", "cayley", "paper"] = "newton", tol: float = 1e-14,
+             max_iter: int = 50, alpha: float = 1.0, save_every: int = 1, t0: float = 0.0,
+             forcing: Literal["paper", "symmetric"] = "paper", order: int = 2, composition: str | None = None,
+             progress: Any = False, error_estimate: Any = False, error_warn: float | None = 0.01,
+             solver_record: Literal["interval", "full"] = "interval",
+             scheme: Literal["lgvi", "splitting", "rkmk4"] | None = None, wheels: Any = None,
              controller: Any = None, control_period: Any = None, environment: Any = None,
              magnetorquers: Any = None, duration: float | None = None, fsw: Any = None) -> Trajectory:
     r"""Simulate the attitude of a rigid body with the Lie group variational integrator.
