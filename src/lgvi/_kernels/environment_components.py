@@ -324,33 +324,20 @@ def _add_torque(bus, o, d, tx, ty, tz):
 
 
 @jit(inline="always")
-def _facet_load(bus, ot, of, cx, cy, cz, gx, gy, gz):
-    """Add a facet's force ``g`` (body frame) at ``of`` and its moment ``c x g`` at ``ot``."""
-    bus[of] += gx
-    bus[of + 1] += gy
-    bus[of + 2] += gz
-    bus[ot] += cy * gz - cz * gy
-    bus[ot + 1] += cz * gx - cx * gz
-    bus[ot + 2] += cx * gy - cy * gx
+def _facet_add(fx, fy, fz, tx, ty, tz, cx, cy, cz, gx, gy, gz):
+    """The sums of force and moment with a facet's force ``g`` at ``c`` added: ``F + g``, ``tau + c x g``
+    (kept in registers: summing in the bus instead cost 60 ns an evaluation)."""
+    return (fx + gx, fy + gy, fz + gz, tx + (cy * gz - cz * gy), ty + (cz * gx - cx * gz),
+            tz + (cx * gy - cy * gx))
 
 
 @jit(inline="always")
-def _facet_start(bus, ot, of):
-    for i in range(3):
-        bus[ot + i] = 0.0
-        bus[of + i] = 0.0
-
-
-@jit(inline="always")
-def _facet_finish(bus, Ro, ot, od, of):
-    """The force at ``of``, summed in the body frame, to the inertial frame (``F_N = R F_B``); the
-    torque at ``ot`` added into ``tau_dist_B`` at ``od``; the status."""
-    fx = bus[of]
-    fy = bus[of + 1]
-    fz = bus[of + 2]
+def _facet_finish(bus, Ro, ot, od, of, fx, fy, fz, tx, ty, tz):
+    """``F_N = R F_B`` written at ``of``; the torque written at ``ot`` and added into ``tau_dist_B``
+    at ``od``; the status."""
     for i in range(3):
         bus[of + i] = bus[Ro + 3 * i] * fx + bus[Ro + 3 * i + 1] * fy + bus[Ro + 3 * i + 2] * fz
-    return _add_torque(bus, ot, od, bus[ot], bus[ot + 1], bus[ot + 2])
+    return _add_torque(bus, ot, od, tx, ty, tz)
 
 
 @jit(inline="always")
@@ -371,7 +358,7 @@ def facet_drag_step(t, bus, p, s, w):
     rho = bus[w[1]]
     vx, vy, vz = _to_body(bus, Ro, w[2])
     V = math.sqrt(vx * vx + vy * vy + vz * vz)
-    _facet_start(bus, w[3], w[5])
+    fx = fy = fz = tx = ty = tz = 0.0
     if V > 1e-12:
         ux = vx / V
         uy = vy / V
@@ -382,8 +369,9 @@ def facet_drag_step(t, bus, p, s, w):
             A = p[j] * (p[j + 2] * ux + p[j + 3] * uy + p[j + 4] * uz)
             if A > 0.0:
                 k = -q * p[j + 1] * A
-                _facet_load(bus, w[3], w[5], p[j + 5], p[j + 6], p[j + 7], k * ux, k * uy, k * uz)
-    return _facet_finish(bus, Ro, w[3], w[4], w[5])
+                fx, fy, fz, tx, ty, tz = _facet_add(fx, fy, fz, tx, ty, tz, p[j + 5], p[j + 6], p[j + 7], k * ux,
+                                                    k * uy, k * uz)
+    return _facet_finish(bus, Ro, w[3], w[4], w[5], fx, fy, fz, tx, ty, tz)
 
 
 @jit(inline="always")
@@ -403,7 +391,7 @@ def facet_srp_step(t, bus, p, s, w):
     sz /= n
     au = p[3] / bus[w[2]]
     P = p[1] / p[2] * au * au * bus[w[3]]
-    _facet_start(bus, w[4], w[6])
+    fx = fy = fz = tx = ty = tz = 0.0
     for i in range(int(p[0])):
         j = 4 + 9 * i
         nx = p[j + 1]
@@ -415,9 +403,9 @@ def facet_srp_step(t, bus, p, s, w):
             spec = p[j + 7]
             a = -P * A * (1.0 - spec)
             b = -P * A * 2.0 * (p[j + 8] / 3.0 + spec * cth)
-            _facet_load(bus, w[4], w[6], p[j + 4], p[j + 5], p[j + 6], a * sx + b * nx, a * sy + b * ny,
-                        a * sz + b * nz)
-    return _facet_finish(bus, Ro, w[4], w[5], w[6])
+            fx, fy, fz, tx, ty, tz = _facet_add(fx, fy, fz, tx, ty, tz, p[j + 4], p[j + 5], p[j + 6],
+                                                a * sx + b * nx, a * sy + b * ny, a * sz + b * nz)
+    return _facet_finish(bus, Ro, w[4], w[5], w[6], fx, fy, fz, tx, ty, tz)
 
 
 @jit(inline="always")
