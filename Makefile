@@ -21,7 +21,7 @@ FLOORS_TESTS := tests/test_dependencies.py tests/test_api.py tests/test_so3.py t
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[test,plot]"
+	$(BIN)/python -m pip install --quiet -e ".[test,plot,validation]"
 	touch $(STAMP)
 
 # The demo's own stamp: the package and matplotlib, nothing else (seconds, not minutes). After
