@@ -171,3 +171,9 @@ def test_splitting_flow_cost_quick():
     proc = _run("splitting_flow_cost.py", "--quick", "--compare", "src", "src")
     _check(proc, "old us/step", "new ns/flow", "new/old", "saba4 h=24 s, gravity gradient", "no torque")
     assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
+def test_loop_hill_pointing_quick():
+    proc = _run("loop_hill_pointing.py", "--quick")
+    _check(proc, "max attitude difference lgvi - Basilisk", "final pointing error")
