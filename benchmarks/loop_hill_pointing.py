@@ -2,8 +2,8 @@
 
 Usage::
 
-    python benchmarks/loop_hill_pointing.py --write-fixture --bsk-python /work/bsk-venv/bin/python
-    python benchmarks/loop_hill_pointing.py --bsk-python /work/bsk-venv/bin/python   # agreement and CPU time
+    python benchmarks/loop_hill_pointing.py --write-fixture --bsk-python /path/to/bsk-venv/bin/python
+    python benchmarks/loop_hill_pointing.py --bsk-python /path/to/bsk-venv/bin/python   # agreement and CPU time
     python benchmarks/loop_hill_pointing.py --quick         # against the fixture only (no Basilisk)
 
 The scenario: inertia diag(0.18, 0.14, 0.06) kg m^2 (Basilisk's hub inertia, lgvi's locked inertia:
