@@ -2,8 +2,8 @@
 
 Usage::
 
-    python benchmarks/loop_hill_pointing.py --write-fixture --bsk-python /work/bsk-venv/bin/python
-    python benchmarks/loop_hill_pointing.py --bsk-python /work/bsk-venv/bin/python   # agreement and CPU time
+    python benchmarks/loop_hill_pointing.py --write-fixture --bsk-python /path/to/bsk-venv/bin/python
+    python benchmarks/loop_hill_pointing.py --bsk-python /path/to/bsk-venv/bin/python   # agreement and CPU time
     python benchmarks/loop_hill_pointing.py --quick         # against the fixture only (no Basilisk)
 
 The scenario: inertia diag(0.18, 0.14, 0.06) kg m^2 (Basilisk's hub inertia, lgvi's locked inertia:
@@ -330,6 +330,16 @@ def main() -> None:
     print("|---|---|---|")
     print(f"| Basilisk {fixture['bsk']} (ExecuteSimulation) | {bs_cpu:.3f} | 1 |")
     print(f"| lgvi loop (simulate, whole call) | {lg_cpu:.4f} | {bs_cpu / lg_cpu:.1f}x faster |")
+    # the loop against the gyrostat's own compiled MRP feedback, same inertial-target run (no orbit)
+    gy, lp = [], []
+    gyro_call, loop_call = inertial_pair()
+    gyro_call(), loop_call()
+    for _ in range(repeat):
+        gy.append(cpu_of(gyro_call, 1))
+        lp.append(cpu_of(loop_call, 1))
+    print(f"| lgvi gyrostat, compiled MRPFeedback, inertial target (no orbit) | {np.median(gy):.4f} | - |")
+    print(f"| lgvi loop, InertialPointing + MRPControl + RWMotorTorque (same run) | {np.median(lp):.4f} | "
+          f"loop / gyrostat {np.median(lp) / np.median(gy):.2f} |")
     first = [first_call_fresh_process() for _ in range(repeat)]
     print(f"\nfirst call in a fresh process, warm cache (100 steps, imports apart): median {np.median(first):.3f} s CPU")
     user = user_hill()
@@ -342,6 +352,26 @@ def main() -> None:
         us.append(cpu_of(lambda: lgvi_run(guidance=user_hill_every_step(user), fsw_rate=FSW_DT), 1))
     print(f"guidance at every step: built-in HillPointing {np.median(bi):.4f} s, the user's njit Hill guidance "
           f"{np.median(us):.4f} s: ratio {np.median(us) / np.median(bi):.2f}")
+
+
+def inertial_pair():
+    """Two calls of the same run (inertial target, no orbit, the scenario's wheels and gains, one
+    orbit's steps): the gyrostat's compiled ``MRPFeedback`` loop, and the spacecraft loop."""
+    import lgvi
+    from lgvi.control import MRPFeedback
+    from lgvi.fsw import FlightSoftware, InertialPointing, MRPControl, RWMotorTorque
+    from lgvi.spacecraft import Spacecraft
+
+    r0, v0, R0, omega0 = initial_state()
+    wheels = lgvi.ReactionWheels(AXES, JS, speed0=SPEED0, max_torque=U_MAX)
+    body = lgvi.RigidBody(INERTIA)
+    kw = dict(omega0=omega0, h=DT, steps=STEPS, save_every=DECIMATE)
+    ctrl = MRPFeedback(K, P, target=np.eye(3))
+    sc = Spacecraft(body, wheels=wheels)
+    fsw = FlightSoftware(guidance=InertialPointing(), control=MRPControl(K=K, P=P), actuators=RWMotorTorque(),
+                         rate=FSW_DT)
+    return (lambda: lgvi.simulate(body, R0, wheels=wheels, controller=ctrl, control_period=FSW_DT, **kw),
+            lambda: lgvi.simulate(sc, R0, fsw=fsw, **kw))
 
 
 def user_hill_every_step(user):

@@ -183,3 +183,10 @@ def test_bench_estimation_quick():
     _check(proc, "called ns", "gyro (ARW, RRW, bias, misalignment, scale)",
            "MEKF propagation + star tracker update", "star tracker update alone")
     assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
+def test_loop_hill_pointing_quick():
+    proc = _run("loop_hill_pointing.py", "--quick")
+    _check(proc, "max attitude difference lgvi - Basilisk", "final pointing error")
+    assert "Traceback" not in proc.stderr

@@ -209,7 +209,7 @@ def test_components_interpreted_match_compiled():
     for flag in ("0", "1"):
         env = dict(os.environ, NUMBA_DISABLE_JIT=flag, PYTHONPATH=src)
         proc = subprocess.run([sys.executable, "-W", "ignore", "-c", script], capture_output=True, text=True,
-                              env=env, timeout=600)
+                              env=env)
         assert proc.returncode == 0, proc.stderr[-3000:]
         out[flag] = json.loads(proc.stdout.strip().splitlines()[-1])
     for name in out["0"]:

@@ -347,3 +347,53 @@ def test_one_orbit_of_hill_pointing_agrees_with_basilisk():
     # the run is not trivial: the spacecraft starts 10 degrees off and ends on the Hill frame
     err = 4 * np.arctan(np.linalg.norm(traj.signals["sigma_BR"], axis=1))
     assert err[0] > np.radians(9.0) and err[-1] < np.radians(0.01)
+
+
+@numba.njit
+def _user_estimator(t, bus, p, s, w):
+    """R_est, omega_est: the truth (p[0] == 0) or the fixed attitude p[1:10] and zero rate (p[0] == 1)."""
+    for i in range(9):
+        bus[w[2] + i] = bus[w[0] + i] if p[0] == 0.0 else p[1 + i]
+    for i in range(3):
+        bus[w[3] + i] = bus[w[1] + i] if p[0] == 0.0 else 0.0
+    return 0
+
+
+def test_the_controllers_read_the_estimate_when_an_estimator_runs():
+    sc = Spacecraft(CUBESAT, wheels=_wheels())
+    kw = dict(omega0=[0.01, -0.02, 0.015], h=0.1, steps=200, save_every=10)
+    control = dict(guidance=InertialPointing(R_TARGET), control=MRPControl(K=0.004, P=0.04), actuators=RWMotorTorque(),
+                   rate=1.0)
+    truth = lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(**control), **kw)
+
+    def estimator(mode, R):
+        return UserComponent(_user_estimator, family="estimator", reads=("R", "omega"), writes=("R_est", "omega_est"),
+                             params=np.append(mode, R.ravel()))
+
+    perfect = lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(estimator=estimator(0.0, np.eye(3)), **control), **kw)
+    assert np.array_equal(perfect.R, truth.R) and np.array_equal(perfect.signals["sigma_BR"], truth.signals["sigma_BR"])
+    fooled = lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(estimator=estimator(1.0, R_TARGET), **control), **kw)
+    assert np.abs(fooled.signals["sigma_BR"]).max() < 1e-15          # it believes it is on target
+    assert np.abs(fooled.signals["omega_BR_B"]).max() == 0.0
+    assert not np.allclose(fooled.R, truth.R)
+
+
+def test_a_python_controller_runs_at_its_period_beside_the_components():
+    """A Python controller (lgvi.control) in the loop: its commands held on the bus, the same run as
+    the gyrostat's Python loop (bit for bit: the same controller calls and the same step)."""
+    from lgvi.control import RotationPD
+
+    orbit = _orbit()
+    kw = dict(omega0=[0.01, -0.02, 0.015], h=0.1, steps=300, save_every=10)
+    ref = lgvi.simulate(lgvi.RigidBody(CUBESAT), np.eye(3), wheels=_wheels(),
+                        controller=RotationPD(0.004, 0.04, target=R_TARGET), control_period=0.5,
+                        environment=OrbitEnvironment(orbit), **kw)
+    sc = Spacecraft(CUBESAT, wheels=_wheels(), orbit=orbit)
+    fsw = FlightSoftware(guidance=HillPointing(), controller=RotationPD(0.004, 0.04, target=R_TARGET),
+                         control_period=0.5, rate=1.0)
+    tr = lgvi.simulate(sc, np.eye(3), fsw=fsw, **kw)
+    assert np.array_equal(tr.R, ref.R) and np.array_equal(tr.wheel_momentum, ref.wheel_momentum)
+    # with wheels its request goes to the wheels, no body torque
+    assert np.abs(tr.signals["wheel_command"]).max() > 0 and not np.any(tr.signals["tau_command_B"])
+    assert np.array_equal(tr.signals["wheel_command"], ref.wheel_torque[:-1])      # no saturation here
+    assert "R_ref" in tr.signals                      # the compiled guidance ran beside it

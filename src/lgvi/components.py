@@ -103,6 +103,7 @@ SIGNALS: dict[str, Signal] = _signals(
     ("wheel_command", 0, "N m", "wheel", "wheel motor torque commands"),
     ("dipole_B", 3, "A m^2", "B", "applied magnetic dipole"),
     ("tau_control_B", 3, "N m", "B", "body torque of the actuators other than the wheels"),
+    ("tau_command_B", 3, "N m", "B", "body torque of a Python controller (its Command.torque and magnetorquer torque)"),
 )
 
 

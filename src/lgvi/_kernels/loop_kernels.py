@@ -11,7 +11,7 @@ At step ``k`` (time ``t = t0 + k h``) the loop
    (code 0) is the function ``user``. A nonzero status, or a written value that is not finite,
    stops the loop: ``fail = [component, status]``, the state is that of the step's start;
 3. takes the held wheel commands ``wheel_command`` and the body torque ``tau_dist_B +
-   tau_control_B`` and makes the gyrostat step (:func:`.gyrostat_kernels.gyro_advance`), with the
+   tau_control_B + tau_command_B`` (a Python controller's torque) and makes the gyrostat step (:func:`.gyrostat_kernels.gyro_advance`), with the
    gravity gradient along the tabulated orbit in the variational form when ``gg`` (``ggp`` the
    member's row: its own inertia);
 4. records: the solver's and the wheels' records as the gyrostat does, and the bus entries
@@ -34,7 +34,7 @@ from .orbit_table_kernels import orbit_gravity_gradient_moment
 #: The status the loop returns when a component stopped it (``fail`` says which and why).
 COMPONENT_FAILED = 100
 #: ``io`` entries: bus offsets of the loop's own signals (``-1``: absent).
-IO_R, IO_OMEGA, IO_SPEED, IO_RHO, IO_CMD, IO_DIST, IO_CTRL, IO_MODE = 0, 1, 2, 3, 4, 5, 6, 7
+IO_R, IO_OMEGA, IO_SPEED, IO_RHO, IO_CMD, IO_DIST, IO_CTRL, IO_MODE, IO_PY = 0, 1, 2, 3, 4, 5, 6, 7, 8
 
 
 @jit(inline="always")
@@ -169,6 +169,7 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
     ocmd = io[IO_CMD]
     odist = io[IO_DIST]
     octl = io[IO_CTRL]
+    opy = io[IO_PY]
     nsig = sig_idx.shape[0]
     for k in range(k0, k0 + n):
         t = t0 + k * h
@@ -208,6 +209,10 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
             ta0 += bus[octl]
             ta1 += bus[octl + 1]
             ta2 += bus[octl + 2]
+        if opy >= 0:
+            ta0 += bus[opy]
+            ta1 += bus[opy + 1]
+            ta2 += bus[opy + 2]
         if gg:
             st, its, rn, it_add, m0, m1, m2 = advance_gg(ggp, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now, ta0,
                                                         ta1, ta2, m0, m1, m2, tol, max_iter)

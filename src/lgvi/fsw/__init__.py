@@ -379,6 +379,15 @@ class FlightSoftware:
         The default period (s) of every part given without its own ``rate``.
     record : sequence of str, optional
         The signals recorded (default: every signal written by a component).
+    controller : lgvi.control.Controller, optional
+        A controller called from Python every ``control_period`` seconds (as in
+        ``lgvi.simulate(..., controller=)``): it reads the truth and the environment of the
+        spacecraft's orbit and field (an :class:`lgvi.environment.OrbitEnvironment`); its
+        ``Command`` goes on the bus, held: the wheel torques as ``wheel_command``, the body torque
+        and the magnetorquers' torque of its dipole as ``tau_command_B``. The compiled components
+        run beside it (no actuator may then write ``wheel_command``).
+    control_period : float, optional
+        Seconds between the controller's calls, a multiple of ``h``.
 
     Examples
     --------
@@ -392,7 +401,15 @@ class FlightSoftware:
 
     def __init__(self, *, guidance: Any = None, control: Any = None, actuators: Any = None, modes: Any = None,
                  estimator: Any = None, components: Sequence[Any] = (), rate: Any = None,
-                 record: Sequence[str] | None = None) -> None:
+                 record: Sequence[str] | None = None, controller: Any = None, control_period: Any = None) -> None:
+        from ..control import Controller
+
+        if controller is not None and not isinstance(controller, Controller):
+            raise TypeError(f"controller must be an lgvi.control.Controller (called from Python), got "
+                            f"{type(controller).__name__}")
+        if (controller is None) != (control_period is None):
+            raise ValueError("give controller and control_period (seconds, a multiple of h) together")
+        self.controller, self.control_period = controller, control_period
         from ..spacecraft import components_of
 
         self.guidance = components_of(guidance, "guidance", ("guidance",))

@@ -30,7 +30,8 @@ __all__ = ["SPACECRAFT", "LoopRun", "SpacecraftEnsemble", "SpacecraftTrajectory"
            "simulate_spacecraft_ensemble"]
 
 #: Loop inputs and truth: the bus signals the loop itself reads or writes (``io`` of the kernel).
-_IO = ("R", "omega", "wheel_speed", "wheel_momentum", "wheel_command", "tau_dist_B", "tau_control_B", "mode")
+_IO = ("R", "omega", "wheel_speed", "wheel_momentum", "wheel_command", "tau_dist_B", "tau_control_B", "mode",
+       "tau_command_B")
 _TRUTH = ("R", "omega", "wheel_speed", "wheel_momentum")
 
 
@@ -149,15 +150,27 @@ class LoopRun(GyrostatRun):
             fsw = FlightSoftware()
         if not isinstance(fsw, FlightSoftware):
             raise TypeError(f"fsw must be an lgvi.FlightSoftware or None, got {type(fsw).__name__}")
+        py = fsw.controller
+        env = None
+        if py is not None and spacecraft.orbit is not None:
+            from ..environment.orbits import OrbitEnvironment
+
+            env = OrbitEnvironment(spacecraft.orbit, spacecraft.field, epoch=spacecraft.epoch)
         super().__init__(spacecraft.body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=spacecraft.wheels,
+                         controller=py, control_period=fsw.control_period, environment=env,
+                         magnetorquers=spacecraft.magnetorquers if py is not None else None,
                          method=method, tol=tol, max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0,
                          solver_record=solver_record, order=order, composition=composition)
+        # a Python controller runs from Python at its period, its commands held on the bus
+        self.ctrl, self.python_controller = 0, py is not None
         self.spacecraft, self.fsw = spacecraft, fsw
         ctx = LoopContext(spacecraft, self.h, self.t0, self.t0 + self.steps * self.h, navigation=bool(fsw.estimator))
         own_fsw = {id(c) for c in fsw.components()}
         items = []
         for c in spacecraft.components() + fsw.components():
             kind = kind_of(c)
+            if py is not None and kind.name == "magnetorquers":
+                continue                        # the Python controller's dipole goes to the rods in Python
             in_fsw = id(c) in own_fsw
             c = copy.copy(c)                   # its setup is this run's (a shared description stays as given)
             c.setup(ctx)
@@ -225,11 +238,18 @@ class LoopRun(GyrostatRun):
         for name in ("R", "omega") + (("wheel_speed", "wheel_momentum") if self.N else ()):
             place(name, None)
         writers: dict[str, list[str]] = {name: ["the loop (truth)"] for name in offsets}
+        if self.python_controller:
+            for name in ("tau_command_B",) + (("wheel_command",) if self.N else ()):
+                place(name, None)
+                writers[name] = ["the Python controller"]
         wired = []
         for c, kind, rate in comps:
             nav = ctx.navigation and kind.extra.get("navigation", False)
             reads = tuple({"R": "R_est", "omega": "omega_est"}.get(r, r) if nav else r for r in kind.reads)
             for name in kind.writes:
+                if self.python_controller and name == "wheel_command":
+                    raise ValueError(f"{kind.name} writes wheel_command, which the Python controller "
+                                     f"{self.controller!r} commands: give one of the two")
                 place(name, c)
                 writers.setdefault(name, []).append(kind.name)
             wired.append((c, kind, rate, reads))
@@ -321,7 +341,23 @@ class LoopRun(GyrostatRun):
         return int(status)
 
     def advance(self, n: int, R_out, Pi_out, rho_out, it_out, res_out, u_out, sig_out, partial) -> int:
-        return self._kernel(self.k, n, self.k, R_out, Pi_out, rho_out, it_out, res_out, u_out, sig_out)
+        kb = self.k
+        end = kb + n
+        if not self.python_controller:
+            return self._kernel(kb, n, kb, R_out, Pi_out, rho_out, it_out, res_out, u_out, sig_out)
+        oc, ot = self.offsets.get("wheel_command"), self.offsets["tau_command_B"]
+        while self.k < end:
+            k = self.k
+            if k % self.spc == 0:
+                self._call_controller(k, partial)         # GyrostatRun's: self.cmd, self.tau
+                if oc is not None:
+                    self.bus[oc:oc + self.N] = self.cmd
+                self.bus[ot:ot + 3] = self.tau
+            m = min(end, (k // self.spc + 1) * self.spc) - k
+            status = self._kernel(k, m, kb, R_out, Pi_out, rho_out, it_out, res_out, u_out, sig_out)
+            if status != 0:
+                return status
+        return 0
 
     def trajectory(self, t, R_out, Pi_out, rho_out, it_out, res_out, u_out, sig_out,
                    partial: bool = False) -> SpacecraftTrajectory:
