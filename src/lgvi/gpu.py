@@ -237,6 +237,7 @@ def run_cuda(s: EnsembleSetup, progress: Any = False) -> EnsembleTrajectory:
     """Run the validated ensemble ``s`` on the GPU (``simulate_ensemble(..., device="cuda")``)."""
     from .driver import drive
 
+    s.meta = dict(s.meta, device="cuda")     # the result says where it ran (bits differ from the CPU's on a GPU)
     run = CudaRun(s)
     return drive(run, CudaSink(run), progress)
 
