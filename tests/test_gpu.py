@@ -120,7 +120,7 @@ def test_torque_models_agree_with_cpu(cuda, monkeypatch, case):
     monkeypatch.setattr(gpu, "DEVICE_SAMPLE_BYTES", B * 96 * 2)   # chunks of 2 samples (6 steps)
     dev = lgvi.simulate_ensemble(inertia, R0, device="cuda", **opts)
     _same(cpu, dev, exact=not HARDWARE)
-    assert dev.meta == cpu.meta
+    assert dev.meta == dict(cpu.meta, device="cuda")
     if cpu.potential is not None:
         np.testing.assert_array_equal(cpu.potential, dev.potential)
     if isinstance(opts["torque"], list):

@@ -10,10 +10,12 @@ its own file, for ensembles larger than memory. Every body gives bit for bit the
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import math
 import os
+import warnings
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -906,6 +908,16 @@ def _device_options(device: str, **options: Any) -> None:
                          "does not write")
 
 
+@contextlib.contextmanager
+def quiet_function_argument() -> Any:
+    """Silence Numba's note that passing the user's function on to another compiled function (the
+    per-body :func:`lgvi._kernels.user_kernels.advance_user` to the loop it calls) is an experimental
+    feature: it is what a :class:`lgvi.torques.Compiled` model is, tested bit for bit."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="First-class function type feature is experimental")
+        yield
+
+
 class _Threads:
     """Set Numba's thread count for the calling thread during a run, and restore it."""
 
@@ -1016,11 +1028,12 @@ class _LocalRun:
 
         B = len(s)
         workers = min(self.user_threads, B)
-        if workers <= 1:
-            bodies(np.arange(B))
-            return
-        with ThreadPoolExecutor(max_workers=workers) as pool:
-            list(pool.map(bodies, np.array_split(np.arange(B), workers)))
+        with quiet_function_argument():
+            if workers <= 1:
+                bodies(np.arange(B))
+                return
+            with ThreadPoolExecutor(max_workers=workers) as pool:
+                list(pool.map(bodies, np.array_split(np.arange(B), workers)))
 
     def advance(self, n: int, R_out: np.ndarray, Pi_out: np.ndarray, partial: Any) -> int:
         """Steps ``k .. k + n - 1`` of every body; on a failure ``k`` is the first failed step."""
@@ -1288,4 +1301,4 @@ def _run_dask(s: _Setup, client: Any, block_size: int | None, out_dir: Any,
 EnsembleSetup, LocalRun, LocalSink = _Setup, _LocalRun, _LocalSink
 
 __all__ = ["EnsembleSetup", "EnsembleTrajectory", "LocalRun", "LocalSink", "concatenate", "load_ensemble",
-           "provide_device", "simulate_ensemble"]
+           "provide_device", "quiet_function_argument", "simulate_ensemble"]

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from ._kernels.codes import OK
-from .ensemble import EnsembleSetup, EnsembleTrajectory, LocalRun, LocalSink, provide_device
+from .ensemble import EnsembleSetup, EnsembleTrajectory, LocalRun, LocalSink, provide_device, quiet_function_argument
 
 #: Device memory for one chunk's samples (``R`` and ``Pi``, 96 bytes a body and sample); a chunk
 #: holds at least one sample of every body.
@@ -192,7 +192,8 @@ class CudaRun(LocalRun):
     def _launch(self, n: int) -> None:
         args = tuple(self.wrap(a) for a in self._args(n))
         try:
-            self.kernel[self.blocks, self.threads_per_block](*args)
+            with quiet_function_argument():
+                self.kernel[self.blocks, self.threads_per_block](*args)
         except Exception as exc:
             if not self.user or self.sim:
                 raise
@@ -237,6 +238,7 @@ def run_cuda(s: EnsembleSetup, progress: Any = False) -> EnsembleTrajectory:
     """Run the validated ensemble ``s`` on the GPU (``simulate_ensemble(..., device="cuda")``)."""
     from .driver import drive
 
+    s.meta = dict(s.meta, device="cuda")     # the result says where it ran (bits differ from the CPU's on a GPU)
     run = CudaRun(s)
     return drive(run, CudaSink(run), progress)
 
