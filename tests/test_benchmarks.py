@@ -171,3 +171,11 @@ def test_splitting_flow_cost_quick():
     proc = _run("splitting_flow_cost.py", "--quick", "--compare", "src", "src")
     _check(proc, "old us/step", "new ns/flow", "new/old", "saba4 h=24 s, gravity gradient", "no torque")
     assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
+def test_bench_chain_quick():
+    """The chain benchmark prints its step-cost table and its time-to-accuracy table against DOP853."""
+    proc = _run("bench_chain.py", "--quick")
+    _check(proc, "Table 1", "ns/step", "/rigid body", "chain, 3 links, order 2", "Table 2", "lgvi order 2",
+           "scipy DOP853", "DOP853/lgvi")

@@ -147,7 +147,9 @@ def save_result_npz(path: Any, fmt: str, arrays: dict[str, np.ndarray], meta: di
     write_atomic(os.fspath(path), lambda fh: np.savez(fh, __lgvi__=np.array(header), **arrays))
 
 
-def load_result_npz(path: Any, fmt: str, names: tuple[str, ...]) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+def read_result_npz(path: Any, fmt: str, names: tuple[str, ...]) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """``(arrays, meta)`` of a result written by :func:`save_result_npz` in format ``fmt``: the
+    arrays ``names`` (an untrusted file is checked first), ValueError naming the file otherwise."""
     from .._untrusted import check_npz
 
     path = os.fspath(path)
@@ -160,6 +162,11 @@ def load_result_npz(path: Any, fmt: str, names: tuple[str, ...]) -> tuple[dict[s
         raise ValueError(f"cannot read {fmt} result {path}: {type(exc).__name__}: {exc}") from exc
     if header.get("format") != fmt:
         raise ValueError(f"{path} is not a {fmt} result (format {header.get('format')!r})")
+    return arrays, header.get("meta", {})
+
+
+def load_result_npz(path: Any, fmt: str, names: tuple[str, ...]) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    arrays, meta = read_result_npz(path, fmt, names)
     M = arrays["t"].shape[0] if arrays["t"].ndim == 1 else -1
     per = 2 if fmt.startswith("lgvi.two_body") else 0
     want = {"x": (M,) + ((2, 3) if per else (3,)), "p": (M,) + ((2, 3) if per else (3,)),
@@ -170,7 +177,7 @@ def load_result_npz(path: Any, fmt: str, names: tuple[str, ...]) -> tuple[dict[s
         if M < 0 or a.shape != shape or a.dtype.kind not in "iuf":
             raise ValueError(f"cannot read {fmt} result {path}: field {key!r} has shape {a.shape} and dtype "
                              f"{a.dtype}, expected shape {shape} of real numbers")
-    return arrays, header.get("meta", {})
+    return arrays, meta
 
 
 @dataclass
