@@ -166,8 +166,8 @@ def test_rod_mass_matrix_against_quadrature():
         base = tip
     assert abs(T - T_ref) < 1e-13 * T_ref
     # the potential's weights: the height of the centre of mass
-    com = sum(masses[i] * (lengths[:i + 1] @ q[:i + 1, 2]) + rods[i] * (lengths[:i] @ q[:i, 2] + 0.5 * lengths[i] * q[i, 2])
-              for i in range(3))
+    com = sum(masses[i] * (lengths[:i + 1] @ q[:i + 1, 2])
+              + rods[i] * (lengths[:i] @ q[:i, 2] + 0.5 * lengths[i] * q[i, 2]) for i in range(3))
     assert abs(w @ q[:, 2] - com) < 1e-14
 
 
@@ -225,7 +225,7 @@ def test_stream_equals_memory_and_resumes_bit_for_bit(tmp_path):
                       progress=lambda k, n: (_ for _ in ()).throw(KeyboardInterrupt) if k >= 1400 else None)
     part = read_stream(tmp_path / "cut")
     assert len(part.t) == 1400 // 5 + 1 and np.array_equal(part.q, ref.q[:len(part.t)])
-    with pytest.raises(ValueError, match=r"resume: .*a stream resumes only the same run \(differences: initial, masses\)"):
+    with pytest.raises(ValueError, match=r"resume: .*resumes only the same run \(differences: initial, masses\)"):
         stream_system(tmp_path / "cut", "chain", L3, [1.0, 2.0, 1.0], Q0, QD0, chunk_steps=700, resume=True,
                       **CHAIN_KW)
     # resumed: the multipliers' history (the first guesses) carries over, so bit for bit

@@ -217,9 +217,9 @@ class ChainRun(CarriedState):
     def advance(self, n: int, q_out, pi_out, it_out, res_out, partial) -> int:
         from ..._kernels.chain_kernels import run_chain
 
-        status, self.k = run_chain(self.M, self.Minv, self.w, self.gravity, self.gam, self.h, self.q, self.pi, self.hist,
-                                   self.hh, self.k, n, self.tol, self.max_iter, self.save_every, q_out, pi_out,
-                                   it_out, res_out, self.last)
+        status, self.k = run_chain(self.M, self.Minv, self.w, self.gravity, self.gam, self.h, self.q, self.pi,
+                                   self.hist, self.hh, self.k, n, self.tol, self.max_iter, self.save_every, q_out,
+                                   pi_out, it_out, res_out, self.last)
         return int(status)
 
     def failure(self, status: int, residual: float, iterations: int, trajectory: Any, where: str = "") -> Exception:
