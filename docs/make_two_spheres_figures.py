@@ -4,15 +4,15 @@ Lie group variational integrator on (S^2)^5 against an explicit Runge-Kutta meth
 Usage::
 
     python docs/make_two_spheres_figures.py                       # full size, into docs/figures/
-    python docs/make_two_spheres_figures.py --quick --out /tmp/f  # short runs (what the tests do)
+    python docs/make_two_spheres_figures.py --quick --out /tmp/f  # a short smoke run (20 s)
 
-Case (the setting of the chain example of Lee, Leok and McClamroch, IJNME 79 (2009) 1147,
-Sect. 5): five links of 1 m with 1 kg at each joint, hanging from a fixed pivot under standard
-gravity, started stretched horizontally along e1 and moving (qdot_i = (0, 0.5 i, 0.3)/i ... see
-``initial()``), simulated for 200 s. lgvi: ``simulate_chain`` at h = 1e-3 s. Runge-Kutta: SciPy's
-RK45 with its default tolerances (rtol 1e-3, atol 1e-6, as MATLAB's ode45, the paper's baseline)
-and at rtol = atol = 1e-8, both on the same mechanics in R^3 with the unit lengths as
-constraints (``lgvi.systems.chain.chain_equations``).
+Case (in the spirit of the chain example of Lee, Leok and McClamroch, IJNME 79 (2009) 1147; its
+own parameters were not available to this work): five links of 1 m with 1 kg at each joint,
+hanging from a fixed pivot under standard gravity, started stretched horizontally along e1 with
+``qdot_i = (0, 0.5, +-0.3)`` (alternating signs), simulated for 200 s. lgvi: ``simulate_chain``
+at h = 1e-3 s. Runge-Kutta: SciPy's RK45 with its default tolerances (rtol 1e-3, atol 1e-6, as
+MATLAB's ode45) and at rtol = atol = 1e-8, both on the same mechanics in R^3 with the unit
+lengths as constraints (``lgvi.systems.chain.chain_equations``).
 """
 
 from __future__ import annotations

@@ -190,3 +190,11 @@ def test_loop_hill_pointing_quick():
     proc = _run("loop_hill_pointing.py", "--quick")
     _check(proc, "max attitude difference lgvi - Basilisk", "final pointing error")
     assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
+def test_bench_chain_quick():
+    """The chain benchmark prints its step-cost table and its time-to-accuracy table against DOP853."""
+    proc = _run("bench_chain.py", "--quick")
+    _check(proc, "Table 1", "ns/step", "/rigid body", "chain, 3 links, order 2", "Table 2", "lgvi order 2",
+           "scipy DOP853", "DOP853/lgvi")

@@ -153,7 +153,9 @@ class CarriedState:
     """Base of a run whose state between chunks is the step count ``k`` and the float arrays
     named in :attr:`CARRIED`: its ``state()`` copies them and ``load_state()`` writes them back in
     place (so a run continued from a saved state is bit for bit the uninterrupted run), and
-    ``step_failure`` words the :class:`lgvi.ConvergenceError` of a failed step."""
+    ``step_failure`` words the :class:`lgvi.ConvergenceError` of a failed step. With ``last``
+    (the kernel's iterations and residual of the last step), ``t0``, ``h`` and ``save_every``, it
+    gives ``last_its``, ``last_res`` and ``times`` too."""
 
     #: Names of the arrays the compiled kernel carries from step to step.
     CARRIED: tuple[str, ...] = ()
@@ -165,6 +167,22 @@ class CarriedState:
         self.k = int(st["k"])
         for key in self.CARRIED:
             getattr(self, key)[...] = np.asarray(st[key], dtype=np.float64)
+
+    @property
+    def last_its(self) -> int:
+        """Solver iterations of the last step (``self.last[0]``, written by the kernel)."""
+        return int(self.last[0])
+
+    @property
+    def last_res(self) -> float:
+        """Final solver residual of the last step (``self.last[1]``)."""
+        return float(self.last[1])
+
+    def times(self, j0: int, j1: int) -> np.ndarray:
+        """Times of samples ``j0 .. j1 - 1`` (``t0 + j h save_every``)."""
+        from ..driver import sample_times
+
+        return sample_times(self.t0, self.h * self.save_every, j0, j1)
 
     def step_failure(self, what: str, residual: float, iterations: int, trajectory: Any, where: str) -> Exception:
         t = self.t0 + self.k * self.h

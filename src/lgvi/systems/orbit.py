@@ -30,7 +30,7 @@ from ..accuracy import check_options, with_estimate
 from .._version import __version__
 from ..body import RigidBody
 from ..errors import InitialContactError
-from ..driver import MemorySink, Progress, check_memory, drive, initial_momentum, sample_times, time_grid
+from ..driver import MemorySink, Progress, check_memory, drive, initial_momentum, time_grid
 from ..invariants import BOUNDED, EXACT
 from . import CarriedState, Field, System, register
 
@@ -149,7 +149,9 @@ def save_result_npz(path: Any, fmt: str, arrays: dict[str, np.ndarray], meta: di
     write_atomic(os.fspath(path), lambda fh: np.savez(fh, __lgvi__=np.array(header), **arrays))
 
 
-def load_result_npz(path: Any, fmt: str, names: tuple[str, ...]) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+def read_result_npz(path: Any, fmt: str, names: tuple[str, ...]) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """``(arrays, meta)`` of a result written by :func:`save_result_npz` in format ``fmt``: the
+    arrays ``names`` (an untrusted file is checked first), ValueError naming the file otherwise."""
     from .._untrusted import check_npz
 
     path = os.fspath(path)
@@ -162,6 +164,11 @@ def load_result_npz(path: Any, fmt: str, names: tuple[str, ...]) -> tuple[dict[s
         raise ValueError(f"cannot read {fmt} result {path}: {type(exc).__name__}: {exc}") from exc
     if header.get("format") != fmt:
         raise ValueError(f"{path} is not a {fmt} result (format {header.get('format')!r})")
+    return arrays, header.get("meta", {})
+
+
+def load_result_npz(path: Any, fmt: str, names: tuple[str, ...]) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    arrays, meta = read_result_npz(path, fmt, names)
     M = arrays["t"].shape[0] if arrays["t"].ndim == 1 else -1
     per = 2 if fmt.startswith("lgvi.two_body") else 0
     want = {"x": (M,) + ((2, 3) if per else (3,)), "p": (M,) + ((2, 3) if per else (3,)),
@@ -172,7 +179,7 @@ def load_result_npz(path: Any, fmt: str, names: tuple[str, ...]) -> tuple[dict[s
         if M < 0 or a.shape != shape or a.dtype.kind not in "iuf":
             raise ValueError(f"cannot read {fmt} result {path}: field {key!r} has shape {a.shape} and dtype "
                              f"{a.dtype}, expected shape {shape} of real numbers")
-    return arrays, header.get("meta", {})
+    return arrays, meta
 
 
 def estimate_of(meta: dict[str, Any]) -> Any:
@@ -367,17 +374,6 @@ class OrbitRun(CarriedState):
         :func:`_from_stream` needs and what identifies the run (compared on resume)."""
         return dict(self.meta, h=self.h, steps=self.steps, inertia=self.body.J.tolist(), mass=self.mass, mu=self.mu,
                     max_iter=self.max_iter, initial=self.initial, torque_values=array_digest(self.U))
-
-    @property
-    def last_its(self) -> int:
-        return int(self.last[0])
-
-    @property
-    def last_res(self) -> float:
-        return float(self.last[1])
-
-    def times(self, j0: int, j1: int) -> np.ndarray:
-        return sample_times(self.t0, self.h * self.save_every, j0, j1)
 
     def advance(self, n: int, x_out, p_out, R_out, Pi_out, it_out, res_out, partial) -> int:
         from .._kernels.orbit_kernels import run_orbit

@@ -26,12 +26,12 @@ from typing import Any
 import numpy as np
 
 from .._kernels.codes import COLLISION, NOT_FINITE, OVERFLOW
-from .._validation import as_float, as_float_array, as_rotation, choice
+from .._validation import as_float_array, as_rotation, choice
 from ..accuracy import check_options, with_estimate
 from .._version import __version__
 from ..body import RigidBody
 from ..errors import InitialContactError
-from ..driver import MemorySink, Progress, check_memory, drive, initial_momentum, sample_times, time_grid
+from ..driver import MemorySink, Progress, check_memory, drive, initial_momentum, time_grid
 from ..invariants import BOUNDED, EXACT
 from . import CarriedState, Field, System, register
 from .orbit import estimate_of, load_result_npz, positive_number, save_result_npz
@@ -692,17 +692,6 @@ class TwoBodyRun(CarriedState):
         return dict(self.meta, h=self.h, steps=self.steps, G=self.G, masses=[self.b1.mass, self.b2.mass],
                     max_iter=self.max_iter, initial=self.initial,
                     moments={k: {"shape": list(a[k].shape), "values": a[k].ravel().tolist()} for k in MOMENT_KEYS})
-
-    @property
-    def last_its(self) -> int:
-        return int(self.last[0])
-
-    @property
-    def last_res(self) -> float:
-        return float(self.last[1])
-
-    def times(self, j0: int, j1: int) -> np.ndarray:
-        return sample_times(self.t0, self.h * self.save_every, j0, j1)
 
     def advance(self, n: int, x_out, p_out, R_out, Pi_out, it_out, res_out, partial) -> int:
         from .._kernels.two_body_kernels import run_two_body

@@ -68,7 +68,8 @@ def unit_directions(q0: Any, n: int, name: str = "q0") -> np.ndarray:
     if err[i] > ROTATION_TOL:
         from ...errors import AttitudeWarning
 
-        warnings.warn(f"{name}[{i}] has length {float(norm[i])!r}, {err[i]:.2g} from 1 (used as is up to {ROTATION_TOL:g}, "
+        warnings.warn(f"{name}[{i}] has length {float(norm[i])!r}, {err[i]:.2g} from 1 (used as is up to "
+                      f"{ROTATION_TOL:g}, "
                       f"accepted up to {REPAIR_TOL:g}); dividing each direction by its length", AttitudeWarning,
                       stacklevel=4)
     return q / norm[:, None]

@@ -22,10 +22,10 @@ import numpy as np
 from ..._kernels.codes import NOT_CONVERGED, NOT_FINITE, SINGULAR
 from ..._validation import as_float, as_float_array
 from ..._version import __version__
-from ...driver import MemorySink, Progress, check_memory, drive, sample_times, time_grid
+from ...driver import MemorySink, Progress, check_memory, drive, time_grid
 from ...registry import composition_for
 from .. import CarriedState, Field, provide_run
-from ..orbit import array_digest, save_result_npz
+from ..orbit import array_digest, read_result_npz, save_result_npz
 from .model import (G0, chain_parameters, kinetic_energy, potential_energy, tangent_velocities, unit_directions,
                     velocities)
 from .system import CHAIN, chain_invariants
@@ -137,28 +137,10 @@ class ChainTrajectory:
     @classmethod
     def load(cls, path: str | os.PathLike) -> "ChainTrajectory":
         """Read a result written by :meth:`save` (ValueError naming the file if it is not one)."""
-        arrays, meta = _load_npz(path, cls.ARRAYS + ("scalars",))
+        arrays, meta = read_result_npz(path, FORMAT, cls.ARRAYS + ("scalars",))
         _check_shapes(arrays, ValueError, f"cannot read {FORMAT} result {path}: ")
         h = float(arrays.pop("scalars")[0])
         return cls(h=h, meta=meta, **arrays)
-
-
-def _load_npz(path: Any, names: tuple[str, ...]) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-    import json
-
-    from ..._untrusted import check_npz
-
-    path = os.fspath(path)
-    try:
-        check_npz(path)     # no object arrays, no declared size beyond the file's bytes
-        with np.load(path, allow_pickle=False) as z:
-            header = json.loads(str(z["__lgvi__"]))
-            arrays = {k: np.array(z[k]) for k in names}
-    except Exception as exc:
-        raise ValueError(f"cannot read {FORMAT} result {path}: {type(exc).__name__}: {exc}") from exc
-    if header.get("format") != FORMAT:
-        raise ValueError(f"{path} is not a {FORMAT} result (format {header.get('format')!r})")
-    return arrays, header.get("meta", {})
 
 
 def _check_shapes(arrays: dict[str, np.ndarray], exc: type, prefix: str) -> None:
@@ -232,23 +214,12 @@ class ChainRun(CarriedState):
                     link_masses=self.link_masses.tolist(), gravity=self.gravity.tolist(), max_iter=self.max_iter,
                     initial={k: array_digest(np.asarray(v)) for k, v in self.initial.items()})
 
-    @property
-    def last_its(self) -> int:
-        return int(self.last[0])
-
-    @property
-    def last_res(self) -> float:
-        return float(self.last[1])
-
-    def times(self, j0: int, j1: int) -> np.ndarray:
-        return sample_times(self.t0, self.h * self.save_every, j0, j1)
-
     def advance(self, n: int, q_out, pi_out, it_out, res_out, partial) -> int:
         from ..._kernels.chain_kernels import run_chain
 
-        status, self.k = run_chain(self.M, self.Minv, self.w, self.gravity, self.gam, self.h, self.q, self.pi, self.hist,
-                                   self.hh, self.k, n, self.tol, self.max_iter, self.save_every, q_out, pi_out,
-                                   it_out, res_out, self.last)
+        status, self.k = run_chain(self.M, self.Minv, self.w, self.gravity, self.gam, self.h, self.q, self.pi,
+                                   self.hist, self.hh, self.k, n, self.tol, self.max_iter, self.save_every, q_out,
+                                   pi_out, it_out, res_out, self.last)
         return int(status)
 
     def failure(self, status: int, residual: float, iterations: int, trajectory: Any, where: str = "") -> Exception:
