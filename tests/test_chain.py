@@ -385,7 +385,7 @@ def test_kernel_interpreted_matches_compiled():
     for jit in (False, True):
         if jit:
             env.pop("NUMBA_DISABLE_JIT")
-        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
         assert proc.returncode == 0, proc.stderr
         results.append(np.array(eval(proc.stdout.strip().splitlines()[-1])))
     np.testing.assert_allclose(results[0], results[1], rtol=0, atol=1e-13)
