@@ -28,6 +28,10 @@ def _short(value: Any) -> str:
 
 def as_float_array(value: Any, name: str, shape: tuple[int | None, ...] | None = None) -> np.ndarray:
     """Convert to a float64 array, check its shape (``None`` entries are free) and finiteness."""
+    if getattr(getattr(value, "dtype", None), "kind", None) in ("c", "U", "S") or isinstance(value, (str, bytes)):
+        # NumPy would drop an imaginary part, and read the text "1.0" as the number 1.0
+        raise TypeError(f"{name} must be an array of real numbers, got {_short(value)}"
+                        + (" (complex values)" if np.iscomplexobj(value) else ""))
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:

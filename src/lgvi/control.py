@@ -32,6 +32,9 @@ import numpy as np
 
 from ._validation import as_float, as_float_array, as_rotation
 
+#: How far a wheel axis given to :func:`map_to_wheels` may be from unit length (as ``lgvi.ReactionWheels``).
+AXIS_TOL = 1e-6
+
 
 class Command(NamedTuple):
     """A controller's output, held until its next call.
@@ -103,9 +106,19 @@ def mrp_from_matrix(R: Any) -> np.ndarray:
     For lgvi's ``R`` (body to inertial) that is Basilisk's ``sigma_BN``; for ``R_ref.T @ R`` it is
     ``sigma_BR``. Vectorised over leading axes: ``(..., 3, 3) -> (..., 3)``.
     """
-    from .so3 import matrix_to_quat
+    from ._validation import REPAIR_TOL
+    from .so3 import matrix_to_quat, orthogonality_error
 
-    q = matrix_to_quat(np.asarray(R, dtype=np.float64))     # scalar-last
+    R = as_float_array(R, "R")
+    if R.ndim < 2 or R.shape[-2:] != (3, 3):
+        raise ValueError(f"R must have shape (..., 3, 3), got shape {R.shape}")
+    err, det = orthogonality_error(R), np.linalg.det(R)
+    bad = ~(err <= REPAIR_TOL) | ~(det > 0.0)
+    if np.any(bad):     # a zero or scaled matrix has no MRP (matrix_to_quat would return one anyway)
+        i = tuple(int(x) for x in np.argwhere(np.atleast_1d(bad))[0]) if R.ndim > 2 else ()
+        raise ValueError(f"R must hold rotation matrices (orthogonal to {REPAIR_TOL:g}, determinant +1); R{list(i) if i else ''} "
+                         f"has |R^T R - I| = {float(np.asarray(err)[i]):.3g}, det = {float(np.asarray(det)[i]):.3g}")
+    q = matrix_to_quat(R)     # scalar-last
     q = np.where(q[..., 3:4] < 0.0, -q, q)
     return q[..., :3] / (1.0 + q[..., 3:4])
 
@@ -114,13 +127,18 @@ def matrix_from_mrp(sigma: Any) -> np.ndarray:
     """The rotation matrix of the MRP ``sigma`` (inverse of :func:`mrp_from_matrix`): ``(..., 3) -> (..., 3, 3)``."""
     from .so3 import quat_to_matrix
 
-    s = np.asarray(sigma, dtype=np.float64)
+    s = as_float_array(sigma, "sigma")
+    if s.ndim < 1 or s.shape[-1] != 3:
+        raise ValueError(f"sigma must have shape (..., 3), got shape {s.shape}")
     if s.shape == (3,):
         R = _matrix_from_mrp3(*s.tolist())
         if R is not None:
             return R
     s2 = np.sum(s * s, axis=-1, keepdims=True)
     q = np.concatenate([2.0 * s, 1.0 - s2], axis=-1) / (1.0 + s2)
+    if not np.all(np.isfinite(q)):
+        raise ValueError(f"sigma must give a quaternion of finite, non-zero norm; |sigma|^2 overflows for "
+                         f"{np.asarray(s).reshape(-1, 3)[np.flatnonzero(~np.isfinite(q).all(axis=-1))[0]].tolist()}")
     return quat_to_matrix(q)
 
 
@@ -179,8 +197,16 @@ def map_to_wheels(torque_request: Any, axes: Any) -> np.ndarray:
     ``-G u`` (``G`` = ``axes.T``, (3, N)), so ``u = -G^T (G G^T)^-1 L`` for three or more wheels
     spanning space; otherwise the least-squares minimum-norm ``u = -pinv(G) L``.
     """
-    G = np.asarray(axes, dtype=np.float64).T
-    L = np.asarray(torque_request, dtype=np.float64)
+    L = as_float_array(torque_request, "torque_request", (3,))
+    a = as_float_array(axes, "axes")
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise ValueError(f"axes must have shape (N, 3) (one unit vector per wheel), got shape {a.shape}")
+    norms = np.linalg.norm(a, axis=1)
+    if np.any(np.abs(norms - 1.0) > AXIS_TOL):   # a zero axis would silently give no torque
+        i = int(np.argmax(np.abs(norms - 1.0) > AXIS_TOL))
+        raise ValueError(f"axes must be unit vectors (to {AXIS_TOL:g}), as lgvi.ReactionWheels takes them; axis {i} "
+                         f"{a[i].tolist()} has norm {norms[i]:.9g}")
+    G = a.T
     if G.shape[1] >= 3:
         M = G @ G.T
         if np.linalg.cond(M) < 1e12:
@@ -225,6 +251,17 @@ def _reference_callable(target: Callable[[float], Any], t: float) -> tuple[np.nd
     w = np.zeros(3) if w is None else as_float_array(w, "target(t)[1] (omega_ref)", (3,))
     dw = np.zeros(3) if dw is None else as_float_array(dw, "target(t)[2] (domega_ref)", (3,))
     return R_ref, w, dw
+
+
+def _inertia_matrix(inertia: Any) -> np.ndarray:
+    """The (3, 3) inertia a control law uses: symmetric positive definite, as a body's."""
+    J = as_float_array(inertia, "inertia", (3, 3))
+    if not np.allclose(J, J.T, rtol=1e-12, atol=1e-12 * float(np.abs(J).max())):
+        raise ValueError(f"inertia must be a symmetric (3, 3) matrix, got {J.tolist()}")
+    eig = np.linalg.eigvalsh(J)
+    if not eig[0] > 0.0:
+        raise ValueError(f"inertia must be positive definite (an inertia matrix); got eigenvalues {eig.tolist()}")
+    return J
 
 
 class MRPFeedback(Controller):
@@ -285,7 +322,7 @@ class MRPFeedback(Controller):
         self.R_ref: np.ndarray | None = None
         if target is not None and not callable(target):
             self.R_ref = as_rotation(target, "target")
-        self._inertia = None if inertia is None else as_float_array(inertia, "inertia", (3, 3))
+        self._inertia = None if inertia is None else _inertia_matrix(inertia)
         self.J = self._inertia if self._inertia is not None else np.zeros((3, 3))
         self.axes = np.zeros((0, 3))
         self.spin_inertia = np.zeros(0)

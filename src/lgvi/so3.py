@@ -119,7 +119,13 @@ _CAYLEY_TINY = 1e-14
 
 def _as_stack(x: Any, name: str, trailing: tuple[int, ...]) -> FloatArray:
     """``x`` as a float64 array whose trailing shape is ``trailing``, or a ValueError."""
-    a = np.asarray(x, dtype=np.float64)
+    if getattr(getattr(x, "dtype", None), "kind", None) in ("c", "U", "S") or isinstance(x, (str, bytes)):
+        raise TypeError(f"{name} must be an array of real numbers, got {str(x)[:60]!r}"
+                        + (" (complex values)" if np.iscomplexobj(x) else ""))   # NumPy would drop an imaginary part
+    try:
+        a = np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be an array of real numbers, got {str(x)[:60]!r} ({exc})") from None
     k = len(trailing)
     if a.ndim < k or a.shape[a.ndim - k :] != trailing:
         expected = "(..., " + ", ".join(str(n) for n in trailing) + ")"
@@ -127,12 +133,23 @@ def _as_stack(x: Any, name: str, trailing: tuple[int, ...]) -> FloatArray:
     return a
 
 
+def _finite(a: FloatArray, name: str) -> FloatArray:
+    """``a`` if every entry is finite; else a ValueError naming ``name`` and the first bad entry
+    (a NaN vector has no rotation: ``exp(nan)`` would be a NaN matrix returned as a result)."""
+    if not np.isfinite(a).all():
+        bad = tuple(int(i) for i in np.argwhere(~np.isfinite(a))[0])
+        raise ValueError(f"{name} must be finite (no NaN or inf), found {a[bad]} at index {bad}")
+    return a
+
+
 def _vec3(x: Any, name: str) -> FloatArray:
-    return _as_stack(x, name, (3,))
+    """Vectors (..., 3), finite (rotation vectors, Cayley parameters)."""
+    return _finite(_as_stack(x, name, (3,)), name)
 
 
 def _vec4(x: Any, name: str) -> FloatArray:
-    return _as_stack(x, name, (4,))
+    """Quaternions (..., 4), finite."""
+    return _finite(_as_stack(x, name, (4,)), name)
 
 
 def _mat3(x: Any, name: str) -> FloatArray:
