@@ -60,10 +60,10 @@ def time_grid(h: Any, t0: Any, steps: Any, save_every: Any) -> tuple[float, floa
     t0 = as_float(t0, "t0")
     steps = as_int(steps, "steps", minimum=0)
     save_every = as_int(save_every, "save_every", minimum=1)
-    for name, n in (("steps", steps), ("save_every", save_every)):
-        if n > MAX_STEPS:       # the compiled loop counts in 64-bit integers: refused here, not by Numba
-            raise ValueError(f"{name} must be at most 2**62 = {MAX_STEPS} (the compiled loop counts steps in "
-                             f"64-bit integers), got {n}")
+    if steps > MAX_STEPS or save_every > MAX_STEPS:   # the compiled loop counts in int64: refused here, not by Numba
+        name, n = ("steps", steps) if steps > MAX_STEPS else ("save_every", save_every)
+        raise ValueError(f"{name} must be at most 2**62 = {MAX_STEPS} (the compiled loop counts steps in "
+                         f"64-bit integers), got {n}")
     if steps % save_every != 0:
         raise ValueError(f"save_every must divide steps so that the final state is saved; got "
                          f"steps={steps}, save_every={save_every} (steps % save_every = {steps % save_every})")

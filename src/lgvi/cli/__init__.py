@@ -1026,7 +1026,8 @@ def build_parser() -> argparse.ArgumentParser:
                      help="continue an interrupted or killed run from its last complete chunk in DIR/stream "
                           "(the result equals an uninterrupted run bit for bit)")
     run.add_argument("--keep-stream", action="store_true",
-                     help="keep the chunk files of DIR/stream after a successful run")
+                     help="keep the chunk files of DIR/stream after a successful run (without it, only the "
+                          "files the run wrote there are removed; anything else in DIR/stream is kept)")
     run.add_argument("--solver-record", default="interval", choices=("interval", "full"),
                      help="resolution of the solver's iterations/residual record: the largest per saved "
                      "interval (default; outputs sized by the saved states) or every step")
