@@ -44,45 +44,7 @@ import lgvi
 from lgvi import _files, cli
 from lgvi.io import streaming
 
-SCENARIO = """\
-name = "spin"
-
-[body]
-inertia = [1.0, 2.0, 3.0]
-
-[initial]
-omega = [0.01, 1.0, 0.01]
-
-[integrator]
-h = 0.01
-steps = 20
-
-[output]
-plots = false
-"""
-STREAM = dict(h=0.01, steps=40, save_every=2)
-
-
-@pytest.fixture
-def tree(tmp_path, monkeypatch):
-    """``root/work`` (the current folder) and ``root/elsewhere/victim.txt``."""
-    root = tmp_path / "root"
-    (root / "work").mkdir(parents=True)
-    (root / "elsewhere").mkdir()
-    (root / "elsewhere" / "victim.txt").write_text("precious\n")
-    monkeypatch.chdir(root / "work")
-    return root
-
-
-def run_cli(capsys, *argv) -> tuple[int, str]:
-    code = cli.main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out + err
-
-
-def _stream(folder: Path, steps: int = 40) -> Path:
-    return lgvi.simulate_stream(folder, [1.0, 2.0, 3.0], np.eye(3), omega0=[0.1, 1.0, 0.2], chunk_steps=20,
-                                **dict(STREAM, steps=steps))
+from test_hostile import SCENARIO, STREAM, _interrupted, _stream, run_cli, tree  # noqa: F401  (tests/ on the path)
 
 
 def _manifest(folder: Path) -> dict:
@@ -260,20 +222,6 @@ def test_a_manifest_declaring_other_sample_counts_is_refused(tree):
         streaming.read_stream(folder)
 
 
-def _interrupted(tree: Path) -> Path:
-    """A stream of 40 steps cut after its first chunk (20 steps), as a killed run leaves it."""
-    folder = _stream(tree / "work" / "run")
-    half = _stream(tree / "work" / "half", steps=20)
-    manifest = _manifest(folder)
-    manifest["chunks"] = manifest["chunks"][:1]
-    manifest["state"] = _manifest(half)["state"]
-    manifest["complete"] = False
-    _set_manifest(folder, manifest)
-    (folder / "chunk-000001.npz").unlink()
-    shutil.rmtree(half)
-    return folder
-
-
 def _resume(folder: Path):
     return lgvi.simulate_stream(folder, [1.0, 2.0, 3.0], np.eye(3), omega0=[0.1, 1.0, 0.2], chunk_steps=20,
                                 resume=True, **STREAM)
@@ -281,7 +229,7 @@ def _resume(folder: Path):
 
 @pytest.mark.parametrize("hack", ["R=2I", "Pi*10", "Pi-missing"])
 def test_resume_state_is_checked_against_the_last_chunk(tree, hack):
-    folder = _interrupted(tree)
+    folder, _ = _interrupted(tree)
     manifest = _manifest(folder)
     st = manifest["state"]
     if hack == "R=2I":
@@ -298,7 +246,7 @@ def test_resume_state_is_checked_against_the_last_chunk(tree, hack):
 
 
 def test_resume_refuses_an_attitude_that_is_not_a_rotation_in_state_and_chunk(tree):
-    folder = _interrupted(tree)
+    folder, _ = _interrupted(tree)
     with np.load(folder / "chunk-000000.npz") as z:
         arrays = {k: z[k] for k in z.files}
     arrays["R"][-1] = 2.0 * np.eye(3)
@@ -314,7 +262,7 @@ def test_resume_refuses_an_attitude_that_is_not_a_rotation_in_state_and_chunk(tr
 
 def test_an_honest_resume_still_continues_bit_for_bit(tree):
     ref = streaming.read_stream(_stream(tree / "work" / "ref"))
-    folder = _interrupted(tree)
+    folder, _ = _interrupted(tree)
     got = streaming.read_stream(_resume(folder))
     assert np.array_equal(got.R, ref.R) and np.array_equal(got.Pi, ref.Pi) and np.array_equal(got.t, ref.t)
 
