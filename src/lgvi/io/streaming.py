@@ -251,28 +251,28 @@ def _check_times(t: np.ndarray, where: str) -> None:
     """The times of a stream's samples are finite and monotonic (a run forwards or backwards;
     equal neighbours only where ``h`` is below the resolution of ``t``); reordered or repeated
     chunks would make them run back."""
-    dt = np.diff(t)
-    if not np.all(np.isfinite(t)) or (len(dt) and not (np.all(dt >= 0) or np.all(dt <= 0))):
-        bad = np.flatnonzero(~np.isfinite(t)) if not np.all(np.isfinite(t)) else \
-            np.flatnonzero(dt * np.sign(t[-1] - t[0]) < 0) + 1
-        i = int(bad[0]) if len(bad) else 0
+    from .._kernels.check_kernels import first_time_back
+
+    i = int(first_time_back(np.ascontiguousarray(t, dtype=np.float64)))
+    if i >= 0:
         raise ValueError(f"{where}: the times must be finite and run in one direction; sample {i} has t = "
                          f"{t[i]!r} after t = {t[i - 1] if i else None!r} (chunks reordered, repeated or damaged)")
 
 
 def _check_rotations(R: np.ndarray, where: str) -> None:
-    """Every attitude in ``R`` (..., 3, 3) is a rotation to :data:`ROTATION_TOL`."""
+    """Every attitude in ``R`` (..., 3, 3) is a rotation to :data:`ROTATION_TOL` (a compiled pass)."""
+    from .._kernels.check_kernels import first_non_rotation
+
     R = np.asarray(R, dtype=np.float64)
     if not R.size:
         return
-    err = np.abs(np.swapaxes(R, -1, -2) @ R - np.eye(3)).max(axis=(-1, -2))
-    det = np.linalg.det(R)
-    bad = ~(err <= ROTATION_TOL) | ~(det > 0)
-    if np.any(bad):
-        i = np.argwhere(bad)[0]
-        raise ValueError(f"{where}: attitude {tuple(int(x) for x in i)} is not a rotation (|R^T R - I| = "
-                         f"{float(err[tuple(i)]):.3g}, det R = {float(det[tuple(i)]):.3g}; a run keeps it within "
-                         f"{ROTATION_TOL:g})")
+    k = int(first_non_rotation(np.ascontiguousarray(R).reshape(-1, 3, 3), ROTATION_TOL))
+    if k >= 0:
+        i = tuple(int(x) for x in np.unravel_index(k, R.shape[:-2]))
+        Ri = R[i]
+        err = float(np.abs(Ri.T @ Ri - np.eye(3)).max())
+        raise ValueError(f"{where}: attitude {i} is not a rotation (|R^T R - I| = {err:.3g}, det R = "
+                         f"{float(np.linalg.det(Ri)):.3g}; a run keeps it within {ROTATION_TOL:g})")
 
 
 def _check_state_against_chunks(folder: Path, manifest: dict[str, Any], mpath: Path) -> None:
