@@ -387,7 +387,7 @@ _ROWS += [
     ("torque-array-overflows-Pi", lambda: sim(h=2.0, steps=1, Pi0=[0, 0, 0.1], torque=[[1.7e308, 0.0, 0.0]]),
      lgvi.ConvergenceError, (r"\bPi\b", r"not finite", r"torque")),
     ("steps-beyond-any-memory", lambda: sim(steps=10**20), ValueError,
-     (r"\bsteps\b", r"100000000000000000000", r"save_every|simulate_stream")),
+     (r"\bsteps\b", r"100000000000000000000", r"save_every|simulate_stream|at most 2\*\*62")),
     ("callable-raises-TorqueError", lambda: sim(torque=from_step(5, lgvi.TorqueError("controller saturated"))),
      lgvi.TorqueError, (r"controller saturated", r"step 5", r"\.trajectory")),
 ]
@@ -888,6 +888,13 @@ _ROWS += [
     ("clock-epoch-type", lambda: _clock.Clock("2026-01-01"), TypeError,
      (r"\bepoch\b", r"2026-01-01", r"datetime\.datetime")),
 ]
+
+
+# ---- issue 29: helpers that checked nothing, untyped errors, and a row per numeric argument of the
+# public functions and each way it can be wrong (generated: tests/bad_input_rows.py) ----------------
+from bad_input_rows import ROWS as _ISSUE29_ROWS  # noqa: E402  (tests/ is on the path)
+
+_ROWS += _ISSUE29_ROWS
 
 CASES = [pytest.param(call, exc, patterns, id=name) for name, call, exc, patterns in _ROWS] + [
     pytest.param(call, exc, patterns, id=name, marks=pytest.mark.xfail(strict=True, reason=reason))

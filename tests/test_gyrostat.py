@@ -558,5 +558,5 @@ def test_matrix_from_mrp_of_one_mrp_is_the_batch_bit_for_bit():
     assert matrix_from_mrp(list(S[0])).tobytes() == batch[0].tobytes()
     with np.errstate(over="ignore", invalid="ignore"):
         for bad in ([np.nan, 0.0, 0.0], [1e200, 0.0, 0.0]):
-            with pytest.raises(ValueError, match="finite, non-zero norm"):
+            with pytest.raises(ValueError, match="finite, non-zero norm|sigma must be finite"):
                 matrix_from_mrp(bad)

@@ -45,8 +45,8 @@ def test_scenario_is_the_python_run():
 
 def test_sgp4_orbit_takes_the_tle_epoch():
     pytest.importorskip("sgp4")
-    tle = {"type": "sgp4", "line1": "1 25544U 98067A   26079.50000000  .00016717  00000-0  10270-3 0  9005",
-           "line2": "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815361  2041"}
+    tle = {"type": "sgp4", "line1": "1 25544U 98067A   26079.50000000  .00016717  00000-0  10270-3 0  9006",
+           "line2": "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815361  2048"}
     sc = Scenario.from_dict(_scenario(orbit=tle))
     assert sc.environment.epoch == dt.datetime(2026, 3, 20, 12)
 

@@ -3,6 +3,8 @@
 * :func:`write_atomic`: write a file under a temporary name, flush it to disk and rename it into
   place, so that a reader (or a retried Dask task) never sees a half-written file, whatever
   happens to the writer (killed, out of space); on failure the temporary file is removed.
+* :func:`write_text`, :func:`refuse_link`: every file lgvi writes goes through
+  :func:`write_atomic`, never through a symbolic link.
 * :func:`write_failure`: the ``OSError`` of a failed write, re-raised with a message naming the
   file and its folder (and, for a full disk or quota, saying so and what is still there).
 * :class:`FolderLock`: an exclusive lock on a folder (the file ``.lgvi.lock`` holding the
@@ -15,7 +17,7 @@ from __future__ import annotations
 
 import errno
 import os
-import uuid
+import secrets
 import warnings
 from pathlib import Path
 from typing import Any, Callable
@@ -34,46 +36,107 @@ NO_SPACE = tuple(e for e in (getattr(errno, "ENOSPC", None), getattr(errno, "EDQ
 def lgvi_header(data: Any, expected: str) -> dict[str, Any]:
     """The JSON ``__lgvi__`` header of an opened lgvi ``.npz`` whose format must be ``expected``;
     ValueError saying what is wrong otherwise."""
-    import json
+    from ._untrusted import load_json
 
     if "__lgvi__" not in data.files:
         raise ValueError("no '__lgvi__' header")
-    header = json.loads(str(data["__lgvi__"]))
+    header = load_json(str(data["__lgvi__"]), "the '__lgvi__' header")
     if not isinstance(header, dict) or header.get("format") != expected:
         what = header.get("format") if isinstance(header, dict) else header
         raise ValueError(f"format {what!r}, expected {expected!r}")
     return header
 
 
-def write_atomic(path: str | os.PathLike[str], write: Callable[[Any], Any]) -> None:
+class WriteFailed(OSError):
+    """A failed write whose message already names the file and its folder; ``reason`` is the
+    operating system's own words (``strerror``), so :func:`write_failure` can name it again."""
+
+    def __init__(self, err: int | None, message: str, reason: str) -> None:
+        super().__init__(err, message)
+        self.reason = reason
+
+
+def _temporary(path: Path) -> Path:
+    """An unpredictable hidden name next to ``path`` (128 random bits: a name planted in advance,
+    a link included, is never the one used; it is created with ``O_EXCL`` anyway)."""
+    return path.with_name(f".{path.name}.{secrets.token_hex(16)}.tmp{path.suffix}")  # the suffix kept: some
+    # writers (Pillow, ffmpeg) choose the format by it
+
+
+def refuse_link(path: str | os.PathLike[str], what: str = "file") -> None:
+    """Raise :class:`WriteFailed` (``errno.ELOOP``) if ``path`` is a symbolic link: lgvi never
+    writes through, nor replaces, a link it did not make (a planted ``out.png -> ../victim``)."""
+    path = Path(path)
+    if path.is_symlink():
+        raise WriteFailed(errno.ELOOP, f"cannot write the {what} {path.name} in the folder {path.parent}: it is a "
+                          f"symbolic link (to {os.readlink(path)}), and lgvi never writes through a link; remove "
+                          "it or choose another folder", "a symbolic link")
+
+
+def write_atomic(path: str | os.PathLike[str], write: Callable[[Any], Any], *, by_path: bool = False,
+                 what: str = "file") -> None:
     """Write ``path`` as ``write(fh)`` does into a binary file, atomically.
 
-    The data go to a hidden temporary file in the same folder (a unique name, so that two
-    attempts of one task never share it), are flushed to disk and renamed over ``path``. On any
-    error the temporary file is removed and the error is raised; ``path`` is then untouched.
+    The data go to a hidden temporary file in the same folder (an unpredictable name, created
+    exclusively, so that two attempts of one task never share it and a planted name or link is
+    never written through), are flushed to disk and renamed over ``path``. ``path`` itself must
+    not be a symbolic link (:func:`refuse_link`). On any error the temporary file is removed and
+    the error is raised, an ``OSError`` as :class:`WriteFailed` naming the file and its folder (a
+    full disk says so); ``path`` is then untouched. With ``by_path=True`` the writer is called
+    with the temporary file's path instead (for libraries that open files by name: netCDF,
+    animations), the file already created empty.
     """
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}-{uuid.uuid4().hex[:8]}.tmp")
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
+    refuse_link(path, what)
+    tmp = _temporary(path)
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_BINARY", 0)
     try:
-        with open(fd, "wb") as fh:
-            write(fh)
-            fh.flush()
-            os.fsync(fh.fileno())
+        fd = os.open(tmp, flags, 0o666)
+    except OSError as exc:
+        raise _named(exc, path, what) from exc
+    try:
+        if by_path:
+            os.close(fd)
+            write(tmp)
+            fd = os.open(tmp, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+        else:
+            with open(fd, "wb") as fh:
+                write(fh)
+                fh.flush()
+                os.fsync(fh.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
         except OSError:
             pass
+        if isinstance(exc, OSError) and not isinstance(exc, WriteFailed):
+            raise _named(exc, path, what) from exc
         raise
+
+
+def _named(exc: OSError, path: Path, what: str) -> WriteFailed:
+    reason = exc.strerror or str(exc)
+    text = f"the disk is full ({reason})" if exc.errno in NO_SPACE else reason
+    return WriteFailed(exc.errno, f"cannot write the {what} {path.name} in the folder {path.parent}: {text}", reason)
+
+
+def write_text(path: str | os.PathLike[str], text: str, what: str = "file") -> Path:
+    """Write ``text`` (UTF-8) to ``path`` with :func:`write_atomic`; returns ``path``."""
+    data = text.encode("utf-8")
+    write_atomic(path, lambda fh: fh.write(data), what=what)
+    return Path(path)
 
 
 def write_failure(exc: OSError, path: str | os.PathLike[str], what: str, kept: str) -> OSError:
     """``exc`` (a failed write of ``path``) as an ``OSError`` of the same kind whose message names
     the file and its folder; ``what`` says what was written, ``kept`` what is still usable."""
     path = Path(path)
-    reason = exc.strerror or str(exc)
+    reason = exc.reason if isinstance(exc, WriteFailed) else (exc.strerror or str(exc))
     if exc.errno in NO_SPACE:
         reason = f"the disk is full ({reason})"
     return OSError(exc.errno, f"cannot write {what} {path.name} in the folder {path.parent}: {reason}. {kept}")

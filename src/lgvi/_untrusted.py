@@ -4,8 +4,12 @@ have been written by someone else: see ``SECURITY.md``.
 * :func:`name_problem` / :func:`safe_name`: a name from a file never becomes a path outside the
   folder it is put in (no separators, ``..``, absolute paths, control characters, huge lengths).
 * :func:`inside`: a path (after following symbolic links) lies in a folder.
-* :func:`check_npz`: an ``.npz`` archive holds no object (pickled) arrays and declares no array
-  larger than the bytes it holds, checked from the headers before anything is read or allocated.
+* :func:`check_npz`: an ``.npz`` archive holds only ``NAME.npy`` members, no object (pickled)
+  arrays and declares no array larger than the bytes it holds, checked from the headers before
+  anything is read or allocated.
+* :func:`load_json`: JSON text from a file; nesting too deep is a clear ValueError, not
+  Python's ``RecursionError``.
+* :func:`check_count`: a size a file declares (samples, steps) against a limit.
 """
 
 from __future__ import annotations
@@ -25,17 +29,42 @@ MAX_NAME = 100
 MAX_SLUG = 64
 #: Deflate expands at most ~1032:1; a member declaring more than this ratio is damaged or hostile.
 MAX_DEFLATE_RATIO = 1100
+def load_json(text: str | bytes, what: str) -> object:
+    """``json.loads(text)`` of JSON read from a file, ``what`` naming it: a ValueError for a
+    syntax error (``json.JSONDecodeError``, a ValueError) or for nesting too deep for Python's
+    parser (which raises a bare ``RecursionError``), naming the file."""
+    import json
+
+    try:
+        return json.loads(text)
+    except RecursionError:
+        raise ValueError(f"{what}: JSON nested too deeply to read (lgvi writes a few levels); damaged or hostile "
+                         "file") from None
+
+
+def check_count(value: object, limit: int, what: str, where: str) -> int:
+    """A count a file declares (``what``: samples, steps) as an int in ``0 .. limit``; ValueError
+    naming ``where`` (the file) otherwise."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= int(value) <= limit:
+        raise ValueError(f"{where} declares {what} = {str(value)[:40]}, expected an integer from 0 to {limit}")
+    return int(value)
+
+
+#: Unicode categories refused in names: control, format (bidirectional overrides such as U+202E,
+#: zero-width characters), surrogates, private use, unassigned, line and paragraph separators.
+_HIDDEN = ("Cc", "Cf", "Cs", "Co", "Cn", "Zl", "Zp")
 
 
 def name_problem(name: str) -> str | None:
     """Why ``name`` cannot name a run (``None`` if it can): the rule it breaks, for a message."""
-    rule = (f"a name of 1 to {MAX_NAME} characters without path separators ('/', '\\', ':'), control "
-            "characters or a leading '.'; it names the default output folder NAME_output")
+    rule = (f"a name of 1 to {MAX_NAME} characters without path separators ('/', '\\', ':'), control or "
+            "invisible formatting characters (bidirectional overrides, zero-width characters, line separators) or "
+            "a leading '.'; it names the default output folder NAME_output")
     if not name.strip():
         return f"expected {rule}; got an empty name"
     if len(name) > MAX_NAME:
         return f"expected {rule}; got {len(name)} characters"
-    bad = sorted({c for c in name if c in "/\\:" or unicodedata.category(c) in ("Cc", "Cs")})
+    bad = sorted({c for c in name if c in "/\\:" or unicodedata.category(c) in _HIDDEN})
     if bad:
         return f"expected {rule}; got {name[:60]!r} (contains {', '.join(repr(c) for c in bad)})"
     if name.startswith("."):
@@ -72,9 +101,10 @@ def check_npz(path: str | os.PathLike[str]) -> None:
     """
     with zipfile.ZipFile(path) as zf:
         for info in zf.infolist():
-            if not info.filename.endswith(".npy"):
-                continue
-            what = f"member {info.filename!r}"
+            what = f"member {info.filename[:80]!r}"
+            if not info.filename.endswith(".npy"):   # numpy would read a member 'R' as the array R, unchecked
+                raise ValueError(f"{what} is not an array file NAME.npy; an lgvi .npz holds only those, so the "
+                                 "file is refused")
             if info.compress_type != zipfile.ZIP_STORED and \
                     info.file_size > MAX_DEFLATE_RATIO * info.compress_size + 65536:
                 raise ValueError(f"{what} declares {info.file_size} bytes from {info.compress_size} compressed "

@@ -26,8 +26,21 @@ def _short(value: Any) -> str:
     return text if len(text) <= 120 else text[:117] + "..."
 
 
+def _not_real(value: Any, name: str) -> None:
+    raise TypeError(f"{name} must be an array of real numbers, got {_short(value)}"
+                    + (" (complex values)" if np.iscomplexobj(value) else ""))
+
+
 def as_float_array(value: Any, name: str, shape: tuple[int | None, ...] | None = None) -> np.ndarray:
     """Convert to a float64 array, check its shape (``None`` entries are free) and finiteness."""
+    # NumPy would drop an imaginary part, and read the text "1.0" as the number 1.0 (lists, the common
+    # case, skip the checks: NumPy refuses a complex number in a list itself)
+    if type(value) is np.ndarray:
+        if value.dtype.kind in "cUS":
+            _not_real(value, name)
+    elif type(value) is not list and type(value) is not tuple and (
+            isinstance(value, (str, bytes)) or getattr(getattr(value, "dtype", None), "kind", "") in ("c", "U", "S")):
+        _not_real(value, name)
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:

@@ -33,6 +33,9 @@ import numpy as np
 from ._validation import as_float, as_float_array, as_rotation
 from .so3 import matrix_from_mrp, mrp_from_matrix  # noqa: F401  (lgvi.control's names of lgvi.so3's MRPs)
 
+#: How far a wheel axis given to :func:`map_to_wheels` may be from unit length (as ``lgvi.ReactionWheels``).
+AXIS_TOL = 1e-6
+
 
 class Command(NamedTuple):
     """A controller's output, held until its next call.
@@ -130,8 +133,16 @@ def map_to_wheels(torque_request: Any, axes: Any) -> np.ndarray:
     ``-G u`` (``G`` = ``axes.T``, (3, N)), so ``u = -G^T (G G^T)^-1 L`` for three or more wheels
     spanning space; otherwise the least-squares minimum-norm ``u = -pinv(G) L``.
     """
-    G = np.asarray(axes, dtype=np.float64).T
-    L = np.asarray(torque_request, dtype=np.float64)
+    L = as_float_array(torque_request, "torque_request", (3,))
+    a = as_float_array(axes, "axes")
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise ValueError(f"axes must have shape (N, 3) (one unit vector per wheel), got shape {a.shape}")
+    norms = np.linalg.norm(a, axis=1)
+    if np.any(np.abs(norms - 1.0) > AXIS_TOL):   # a zero axis would silently give no torque
+        i = int(np.argmax(np.abs(norms - 1.0) > AXIS_TOL))
+        raise ValueError(f"axes must be unit vectors (to {AXIS_TOL:g}), as lgvi.ReactionWheels takes them; axis {i} "
+                         f"{a[i].tolist()} has norm {norms[i]:.9g}")
+    G = a.T
     if G.shape[1] >= 3:
         M = G @ G.T
         if np.linalg.cond(M) < 1e12:
@@ -182,6 +193,17 @@ def _reference_callable(target: Callable[[float], Any], t: float) -> tuple[np.nd
     w = np.zeros(3) if w is None else as_float_array(w, "target(t)[1] (omega_ref)", (3,))
     dw = np.zeros(3) if dw is None else as_float_array(dw, "target(t)[2] (domega_ref)", (3,))
     return R_ref, w, dw
+
+
+def _inertia_matrix(inertia: Any) -> np.ndarray:
+    """The (3, 3) inertia a control law uses: symmetric positive definite, as a body's."""
+    J = as_float_array(inertia, "inertia", (3, 3))
+    if not np.allclose(J, J.T, rtol=1e-12, atol=1e-12 * float(np.abs(J).max())):
+        raise ValueError(f"inertia must be a symmetric (3, 3) matrix, got {J.tolist()}")
+    eig = np.linalg.eigvalsh(J)
+    if not eig[0] > 0.0:
+        raise ValueError(f"inertia must be positive definite (an inertia matrix); got eigenvalues {eig.tolist()}")
+    return J
 
 
 class MRPFeedback(Controller):
@@ -242,7 +264,7 @@ class MRPFeedback(Controller):
         self.R_ref: np.ndarray | None = None
         if target is not None and not callable(target):
             self.R_ref = as_rotation(target, "target")
-        self._inertia = None if inertia is None else as_float_array(inertia, "inertia", (3, 3))
+        self._inertia = None if inertia is None else _inertia_matrix(inertia)
         self.J = self._inertia if self._inertia is not None else np.zeros((3, 3))
         self.axes = np.zeros((0, 3))
         self.spin_inertia = np.zeros(0)

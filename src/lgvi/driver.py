@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import _signal  # signal.signal without its enum conversions: the same C call, ~4 us less a run
 import functools
+import math
 import os
 import signal
 import sys
@@ -49,6 +50,10 @@ def initial_momentum(body: Any, Pi0: Any, omega0: Any) -> np.ndarray:
     return body.J @ as_float_array(omega0, "omega0", (3,))
 
 
+#: Largest ``steps`` and ``save_every`` a run takes (the kernels count steps in int64).
+MAX_STEPS = 2**62
+
+
 def time_grid(h: Any, t0: Any, steps: Any, save_every: Any) -> tuple[float, float, int, int]:
     """Validated ``(h, t0, steps, save_every)`` of a run: ``h != 0``, ``steps >= 0``,
     ``save_every >= 1`` dividing ``steps`` (so that the final state is saved)."""
@@ -56,9 +61,20 @@ def time_grid(h: Any, t0: Any, steps: Any, save_every: Any) -> tuple[float, floa
     t0 = as_float(t0, "t0")
     steps = as_int(steps, "steps", minimum=0)
     save_every = as_int(save_every, "save_every", minimum=1)
+    if steps > MAX_STEPS or save_every > MAX_STEPS:   # the compiled loop counts in int64: refused here, not by Numba
+        name, n = ("steps", steps) if steps > MAX_STEPS else ("save_every", save_every)
+        raise ValueError(f"{name} must be at most 2**62 = {MAX_STEPS} (the compiled loop counts steps in "
+                         f"64-bit integers), got {n}")
     if steps % save_every != 0:
         raise ValueError(f"save_every must divide steps so that the final state is saved; got "
                          f"steps={steps}, save_every={save_every} (steps % save_every = {steps % save_every})")
+    t_end = t0 + steps * h
+    if not math.isfinite(t_end):
+        raise ValueError(f"the final time t0 + steps*h must be finite; got t0 = {t0!r}, h = {h!r}, steps = {steps} "
+                         f"(t = {t_end}): shift t0 or shorten the run")
+    if steps and t0 + h == t0:
+        raise ValueError(f"h = {h!r} is below the resolution of the time t0 = {t0!r} (t0 + h == t0): every sample "
+                         "would carry the same time; measure t from a nearer origin (a smaller t0)")
     return h, t0, steps, save_every
 
 
@@ -276,13 +292,30 @@ class MemorySink:
         return self.run.trajectory(self.run.times(0, self.M), *self.state, *self.records)
 
 
+def _keep_partial(exc: BaseException, sink: Sink, k: int) -> None:
+    """Attach the run up to step ``k`` (the chunks completed before the failing one) to ``exc`` as
+    ``.trajectory``, unless it carries one already (a TorqueError of a Python callable does), with
+    a note saying so: an error escaping the compiled loop never loses the computed part."""
+    if getattr(exc, "trajectory", None) is not None:
+        return
+    try:
+        part = sink.partial(k)
+        exc.trajectory = part           # type: ignore[attr-defined]
+    except Exception:                   # noqa: BLE001 - the original error matters more
+        return
+    exc.add_note(f"lgvi: the run up to step {k} (the chunks completed before the failing one) is in the "
+                 "exception's .trajectory")
+
+
 def drive(run: Any, sink: Sink, progress: Any = False) -> Any:
     """Run ``run`` from step ``run.k`` to its end in chunks of ``run.chunk`` steps into ``sink``.
 
     Between chunks: progress is reported (``progress`` as in :func:`lgvi.simulate`) and a Ctrl-C
     is honoured (:class:`lgvi.SimulationInterrupted` with the partial result in ``.trajectory``);
-    a failed step raises the run's error (``run.failure``) with the run up to that step. A run may
-    name itself in the messages (``run.label``, default ``"simulation"``).
+    a failed step raises the run's error (``run.failure``) with the run up to that step; any other
+    exception escaping a chunk (a user's compiled model raising inside the loop) is raised with
+    the chunks completed before it in ``.trajectory``. A run may name itself in the messages
+    (``run.label``, default ``"simulation"``).
 
     Returns
     -------
@@ -293,7 +326,11 @@ def drive(run: Any, sink: Sink, progress: Any = False) -> Any:
         while run.k < steps:
             k0 = run.k
             n = min(run.chunk, steps - k0)
-            status = run.advance(n, *sink.buffers(k0, n), sink.partial)
+            try:
+                status = run.advance(n, *sink.buffers(k0, n), sink.partial)
+            except Exception as exc:    # raised inside the compiled loop (a user's njit model): keep the part done
+                _keep_partial(exc, sink, run.k)
+                raise
             if status != OK:
                 residual, iterations = sink.failed(k0, run.k)
                 raise run.failure(status, residual, iterations, sink.partial(run.k), where=sink.where)

@@ -26,7 +26,7 @@ import numpy as np
 
 from ._files import lgvi_header, write_atomic, write_failure
 from ._kernels.codes import METHOD_CAYLEY, OK
-from ._untrusted import check_npz, inside
+from ._untrusted import check_npz, inside, load_json
 from ._validation import REPAIR_TOL, ROTATION_TOL, as_float_array, as_int, choice, is_scipy_rotation, warn_repaired
 from ._version import __version__
 from .body import RigidBody
@@ -1192,7 +1192,7 @@ def _done_block(path: Path, sub: _Setup, index: int, start: int, total: int) -> 
             raise ValueError("not a regular file")
         check_npz(path)
         with np.load(path, allow_pickle=False) as data:
-            header = json.loads(str(data["__lgvi__"]))
+            header = load_json(str(data["__lgvi__"]), f"{path}: the '__lgvi__' header")
         meta = header["meta"]
     except Exception as exc:
         raise ValueError(f"resume: {path} is not a readable ensemble block ({type(exc).__name__}: {exc}); remove "

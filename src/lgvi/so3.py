@@ -121,7 +121,13 @@ _CAYLEY_TINY = 1e-14
 
 def _as_stack(x: Any, name: str, trailing: tuple[int, ...]) -> FloatArray:
     """``x`` as a float64 array whose trailing shape is ``trailing``, or a ValueError."""
-    a = np.asarray(x, dtype=np.float64)
+    if getattr(getattr(x, "dtype", None), "kind", None) in ("c", "U", "S") or isinstance(x, (str, bytes)):
+        raise TypeError(f"{name} must be an array of real numbers, got {str(x)[:60]!r}"
+                        + (" (complex values)" if np.iscomplexobj(x) else ""))   # NumPy would drop an imaginary part
+    try:
+        a = np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be an array of real numbers, got {str(x)[:60]!r} ({exc})") from None
     k = len(trailing)
     if a.ndim < k or a.shape[a.ndim - k :] != trailing:
         expected = "(..., " + ", ".join(str(n) for n in trailing) + ")"
@@ -129,12 +135,23 @@ def _as_stack(x: Any, name: str, trailing: tuple[int, ...]) -> FloatArray:
     return a
 
 
+def _finite(a: FloatArray, name: str) -> FloatArray:
+    """``a`` if every entry is finite; else a ValueError naming ``name`` and the first bad entry
+    (a NaN vector has no rotation: ``exp(nan)`` would be a NaN matrix returned as a result)."""
+    if not np.isfinite(a).all():
+        bad = tuple(int(i) for i in np.argwhere(~np.isfinite(a))[0])
+        raise ValueError(f"{name} must be finite (no NaN or inf), found {a[bad]} at index {bad}")
+    return a
+
+
 def _vec3(x: Any, name: str) -> FloatArray:
-    return _as_stack(x, name, (3,))
+    """Vectors (..., 3), finite (rotation vectors, Cayley parameters)."""
+    return _finite(_as_stack(x, name, (3,)), name)
 
 
 def _vec4(x: Any, name: str) -> FloatArray:
-    return _as_stack(x, name, (4,))
+    """Quaternions (..., 4), finite."""
+    return _finite(_as_stack(x, name, (4,)), name)
 
 
 def _mat3(x: Any, name: str) -> FloatArray:
@@ -990,20 +1007,39 @@ def mrp_from_matrix(R: Any) -> np.ndarray:
     >>> bool(np.allclose(sigma, [0.0, 0.0, np.tan(np.pi / 8)]))
     True
     """
-    q = matrix_to_quat(np.asarray(R, dtype=np.float64))     # scalar-last
+    from ._validation import REPAIR_TOL, as_float_array
+
+    R = as_float_array(R, "R")
+    if R.ndim < 2 or R.shape[-2:] != (3, 3):
+        raise ValueError(f"R must have shape (..., 3, 3), got shape {R.shape}")
+    err, det = orthogonality_error(R), np.linalg.det(R)
+    bad = ~(err <= REPAIR_TOL) | ~(det > 0.0)
+    if np.any(bad):     # a zero or scaled matrix has no MRP (matrix_to_quat would return one anyway)
+        i = tuple(int(x) for x in np.argwhere(np.atleast_1d(bad))[0]) if R.ndim > 2 else ()
+        raise ValueError(f"R must hold rotation matrices (orthogonal to {REPAIR_TOL:g}, determinant +1); "
+                         f"R{list(i) if i else ''} has |R^T R - I| = {float(np.asarray(err)[i]):.3g}, "
+                         f"det = {float(np.asarray(det)[i]):.3g}")
+    q = matrix_to_quat(R)     # scalar-last
     q = np.where(q[..., 3:4] < 0.0, -q, q)
     return q[..., :3] / (1.0 + q[..., 3:4])
 
 
 def matrix_from_mrp(sigma: Any) -> np.ndarray:
     """The rotation matrix of the MRP ``sigma`` (inverse of :func:`mrp_from_matrix`): ``(..., 3) -> (..., 3, 3)``."""
-    s = np.asarray(sigma, dtype=np.float64)
+    from ._validation import as_float_array
+
+    s = as_float_array(sigma, "sigma")
+    if s.ndim < 1 or s.shape[-1] != 3:
+        raise ValueError(f"sigma must have shape (..., 3), got shape {s.shape}")
     if s.shape == (3,):
         R = _matrix_from_mrp3(*s.tolist())
         if R is not None:
             return R
     s2 = np.sum(s * s, axis=-1, keepdims=True)
     q = np.concatenate([2.0 * s, 1.0 - s2], axis=-1) / (1.0 + s2)
+    if not np.all(np.isfinite(q)):
+        raise ValueError(f"sigma must give a quaternion of finite, non-zero norm; |sigma|^2 overflows for "
+                         f"{np.asarray(s).reshape(-1, 3)[np.flatnonzero(~np.isfinite(q).all(axis=-1))[0]].tolist()}")
     return quat_to_matrix(q)
 
 

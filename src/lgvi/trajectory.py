@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from ._untrusted import check_npz
+from ._untrusted import check_npz, load_json
 from ._version import __version__
 
 if TYPE_CHECKING:  # annotations only: none of these is imported at run time here
@@ -504,7 +504,7 @@ def _read(path: str) -> tuple[dict[str, Any], dict[str, np.ndarray], np.ndarray 
     with np.load(path, allow_pickle=False) as data:
         if "__lgvi__" not in data.files:
             raise ValueError(f"{path} is not an lgvi trajectory (no '__lgvi__' header)")
-        header = json.loads(str(data["__lgvi__"]))
+        header = load_json(str(data["__lgvi__"]), f"{path}: the '__lgvi__' header")
         if not isinstance(header, dict):
             raise ValueError(f"{path} is not an lgvi trajectory (the '__lgvi__' header is not a JSON object)")
         if header.get("format") != FORMAT:

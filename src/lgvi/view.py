@@ -587,11 +587,10 @@ def write_html(traj: Any, path: str | os.PathLike[str], **kwargs: Any) -> Path:
     """
     text = html(traj, **kwargs)
     path = Path(path)
+    from ._files import write_text
+
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
-    return path
+    return write_text(path, text, "page")   # an unpredictable temporary name; a link is refused
 
 
 def mimebundle(traj: Any, include: Any = None, exclude: Any = None) -> dict[str, str]:

@@ -35,7 +35,6 @@ import importlib
 import json
 import os
 import platform
-import shutil
 import sys
 import time
 import warnings
@@ -43,6 +42,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from .._files import write_text
 
 DEMO_INERTIA = (1.0, 2.0, 3.0)
 DEMO_OMEGA0 = (1e-3, 1.0, 1e-3)
@@ -294,7 +295,7 @@ def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], 
     }
     data["error_estimate"] = traj.meta.get("error_estimate")  # lgvi.accuracy, when the scenario asks for it
     js = outdir / "summary.json"
-    js.write_text(json.dumps(data, indent=2) + "\n")
+    write_text(js, json.dumps(data, indent=2) + "\n", "summary")
     rate = "n/a" if data["steps_per_s"] is None else f"{data['steps_per_s']:.4g}"
     lines = [
         f"lgvi {lgvi.__version__} run of scenario {scenario.name!r} ({scenario.source})",
@@ -322,7 +323,7 @@ def write_summary(outdir: Path, traj, scenario, wall: float, files: list[Path], 
     at = next((i for i, line in enumerate(lines) if line.startswith("files:")), len(lines))
     lines[at:at] = _accuracy_lines(traj)
     txt = outdir / "summary.txt"
-    txt.write_text("\n".join(lines))
+    write_text(txt, "\n".join(lines), "summary")
     return txt, js
 
 
@@ -347,6 +348,30 @@ def _default_outdir(scenario) -> Path:
     return Path.cwd() / f"{safe_name(scenario.name)}_output"
 
 
+def _outdir(args: argparse.Namespace, scenario) -> Path:
+    """The output folder: ``-o DIR`` as given, or the default ``./SLUG_output``, which is refused
+    when it is a symbolic link (a link planted under the default name never redirects the results,
+    nor the removal of the stream folder, elsewhere)."""
+    if args.output:
+        return Path(args.output)
+    outdir = _default_outdir(scenario)
+    if outdir.is_symlink():
+        raise UsageError(f"the default output folder {outdir} is a symbolic link (to {os.readlink(outdir)}); lgvi "
+                         "does not follow it: remove it, or name the folder with -o")
+    return outdir
+
+
+def _remove_stream(stream: Path) -> None:
+    """Remove what the run wrote in ``stream`` (its manifest, chunks and lock), and the folder
+    itself only if nothing else is left in it: a folder holding the user's own files is kept."""
+    from ..io.streaming import remove_stream
+
+    left = remove_stream(stream)
+    if left:
+        _err(f"note: {stream} is kept: it holds {len(left)} file(s) lgvi did not write "
+             f"({', '.join(sorted(left)[:5])}{', ...' if len(left) > 5 else ''})")
+
+
 def _check_outdir(outdir: Path) -> None:
     """Refuse an output folder holding a symbolic link that points outside it (a folder from
     elsewhere must not redirect where the results are written)."""
@@ -365,9 +390,9 @@ def _write_results(traj, scenario, outdir: Path, formats: tuple[str, ...], plots
                    status: str = "complete", message: str = "", kernel_load: float | None = None) -> list[Path]:
     from ..io.outputs import write_trajectory
 
-    outdir.mkdir(parents=True, exist_ok=True)
+    outdir.mkdir(parents=True, exist_ok=True)   # -o DIR as named (a default folder that is a link is refused)
     files = write_trajectory(traj, outdir, formats)
-    (outdir / "scenario.toml").write_text(scenario.text)
+    write_text(outdir / "scenario.toml", scenario.text, "scenario copy")
     files.append(outdir / "scenario.toml")
     if plots:
         files += _save_figures(traj, outdir)
@@ -402,7 +427,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         return _run_system(args, scenario)
     formats = _parse_formats(args.format, scenario.formats)
     plots = scenario.plots and not args.no_plots
-    outdir = Path(args.output) if args.output else _default_outdir(scenario)
+    outdir = _outdir(args, scenario)
     _check_outdir(outdir)
     if "netcdf" in formats:  # fail before a long run, not after it
         try:
@@ -453,7 +478,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"lgvi run: {scenario.name}: done in {wall:.3g} s ({rate:.3g} steps/s)", file=sys.stderr, flush=True)
     files = _write_results(traj, scenario, outdir, formats, plots, wall, kernel_load=t_load)
     if not args.keep_stream:
-        shutil.rmtree(stream, ignore_errors=True)
+        _remove_stream(stream)
     print(f"{scenario.name}: {traj.steps} steps in {wall:.3g} s; wrote {len(files)} files to {outdir}")
     for p in files:
         print(f"  {p.name}")
@@ -540,7 +565,7 @@ def write_system_summary(outdir: Path, traj, scenario, wall: float, files: list[
         "drifts": drifts, "invariants": decl.labels(), "files": [p.name for p in files], "scenario": scenario.text,
     }
     js = outdir / "summary.json"
-    js.write_text(json.dumps(data, indent=2) + "\n")
+    write_text(js, json.dumps(data, indent=2) + "\n", "summary")
     rate = "n/a" if data["steps_per_s"] is None else f"{data['steps_per_s']:.4g}"
     times = (f", t = {data['t_start']:g} .. {data['t_end']:g} s" if len(traj.t) else "")
     lines = [
@@ -565,16 +590,16 @@ def write_system_summary(outdir: Path, traj, scenario, wall: float, files: list[
         "",
     ]
     txt = outdir / "summary.txt"
-    txt.write_text("\n".join(lines))
+    write_text(txt, "\n".join(lines), "summary")
     return txt, js
 
 
 def _write_system_results(traj, scenario, outdir: Path, plots: bool, wall: float, *, status: str = "complete",
                           message: str = "", kernel_load: float | None = None) -> list[Path]:
-    outdir.mkdir(parents=True, exist_ok=True)
+    outdir.mkdir(parents=True, exist_ok=True)   # -o DIR as named (a default folder that is a link is refused)
     traj.save(outdir / "trajectory.npz")
     files = [outdir / "trajectory.npz"]
-    (outdir / "scenario.toml").write_text(scenario.text)
+    write_text(outdir / "scenario.toml", scenario.text, "scenario copy")
     files.append(outdir / "scenario.toml")
     if plots:
         files += _save_figures(traj, outdir)
@@ -595,7 +620,7 @@ def _run_system(args: argparse.Namespace, scenario) -> int:
         raise UsageError(f"--format: the results of an [orbiting_body] or [two_body] scenario are saved as npz "
                          f"only; got {args.format!r}")
     plots = scenario.plots and not args.no_plots
-    outdir = Path(args.output) if args.output else _default_outdir(scenario)
+    outdir = _outdir(args, scenario)
     _check_outdir(outdir)
     t_load = time.perf_counter()
     if scenario.steps:   # load (or compile) the kernels, so that the timing excludes it
@@ -639,7 +664,7 @@ def _run_system(args: argparse.Namespace, scenario) -> int:
         print(f"lgvi run: {scenario.name}: done in {wall:.3g} s ({rate:.3g} steps/s)", file=sys.stderr, flush=True)
     files = _write_system_results(traj, scenario, outdir, plots, wall, kernel_load=t_load)
     if not args.keep_stream:
-        shutil.rmtree(stream, ignore_errors=True)
+        _remove_stream(stream)
     print(f"{scenario.name}: {scenario.steps} steps in {wall:.3g} s; wrote {len(files)} files to {outdir}")
     for p in files:
         print(f"  {p.name}")
@@ -726,9 +751,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
         for key, _, traj in done:
             traj.save(out / f"{key}.npz")
             written.append(out / f"{key}.npz")
-        (out / "compare.json").write_text(json.dumps({"scenario_name": scenario.name, "rtol": args.rtol,
-                                                      "invariants": decl.labels(), "runs": rows,
-                                                      "scenario": scenario.text}, indent=2) + "\n")
+        write_text(out / "compare.json", json.dumps({"scenario_name": scenario.name, "rtol": args.rtol,
+                                                    "invariants": decl.labels(), "runs": rows,
+                                                    "scenario": scenario.text}, indent=2) + "\n", "comparison")
         written.append(out / "compare.json")
         if not args.no_plots and done:
             plot = _plot_module()
@@ -1031,7 +1056,8 @@ def build_parser() -> argparse.ArgumentParser:
                      help="continue an interrupted or killed run from its last complete chunk in DIR/stream "
                           "(the result equals an uninterrupted run bit for bit)")
     run.add_argument("--keep-stream", action="store_true",
-                     help="keep the chunk files of DIR/stream after a successful run")
+                     help="keep the chunk files of DIR/stream after a successful run (without it, only the "
+                          "files the run wrote there are removed; anything else in DIR/stream is kept)")
     run.add_argument("--solver-record", default="interval", choices=("interval", "full"),
                      help="resolution of the solver's iterations/residual record: the largest per saved "
                      "interval (default; outputs sized by the saved states) or every step")

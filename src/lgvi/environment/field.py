@@ -21,6 +21,7 @@ components ``X`` (north), ``Y`` (east), ``Z`` (down) that magnetic tables list.
 from __future__ import annotations
 
 import datetime as _dt
+import math
 import importlib.util
 from pathlib import Path
 from typing import Any
@@ -91,7 +92,10 @@ def ned_frame(lat: Any, lon: Any) -> np.ndarray:
 
     Returns ``(..., 3, 3)``; ``ned_frame(lat, lon).T @ b_ecef`` is ``(X, Y, Z)``.
     """
-    phi = np.radians(as_float_array(lat, "lat"))
+    lat = as_float_array(lat, "lat")
+    if np.any(np.abs(lat) > 90.0):   # as geodetic_to_ecef: a latitude beyond a pole names no place
+        raise ValueError(f"lat must be in [-90, 90] degrees, got {lat[np.abs(lat) > 90.0].ravel()[0]}")
+    phi = np.radians(lat)
     lam = np.radians(as_float_array(lon, "lon"))
     phi, lam = np.broadcast_arrays(phi, lam)
     sp, cp, sl, cl = np.sin(phi), np.cos(phi), np.sin(lam), np.cos(lam)
@@ -221,42 +225,86 @@ class SphericalHarmonicField:
         return np.einsum("...ji,...j->...i", ned_frame(lat, lon) * np.ones(r.shape[:-1] + (1, 1)), b)
 
 
+#: Largest degree accepted from a coefficient file (IGRF: 13, WMM: 12; high-degree models ~ 133).
+MAX_FILE_DEGREE = 200
+
+
+def _coefficient_file(path: Path, kind: str, parse: Any) -> Any:
+    """``parse(lines)`` of the coefficient file ``path``; anything wrong with it (not text, a
+    missing or malformed field, a degree or order out of range) is a ValueError naming the file
+    and the format expected, not an IndexError from inside the parser."""
+    try:
+        text = path.read_text(encoding="ascii")
+    except (UnicodeDecodeError, IsADirectoryError) as exc:
+        raise ValueError(f"{path} is not {kind} coefficient file (plain ASCII text expected): {exc}") from None
+    try:
+        return parse(text.splitlines())
+    except (IndexError, ValueError, OverflowError) as exc:
+        raise ValueError(f"{path} is not {kind} coefficient file as expected: {type(exc).__name__}: {exc}") from None
+
+
+def _degree_order(n: int, m: int, nmax: int) -> None:
+    if not (1 <= n <= nmax and abs(m) <= n):
+        raise ValueError(f"row of degree {n}, order {m}: expected 1 <= n <= {nmax} and |m| <= n")
+
+
 def _read_shc(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    lines = [ln for ln in path.read_text().splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-    head = lines[0].split()
-    nmax = int(head[1])
-    times = np.array([float(v) for v in lines[1].split()])
-    G = np.zeros((times.size, nmax + 1, nmax + 1))
-    H = np.zeros_like(G)
-    for ln in lines[2:]:
-        vals = ln.split()
-        n, m = int(vals[0]), int(vals[1])
-        coef = np.array([float(v) for v in vals[2:]])
-        if coef.size != times.size:
-            raise ValueError(f"{path}: row {n} {m} has {coef.size} values for {times.size} epochs")
-        if m >= 0:
-            G[:, n, m] = coef
-        else:
-            H[:, n, -m] = coef
-    return times, G, H
+    def parse(raw: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        lines = [ln for ln in raw if ln.strip() and not ln.lstrip().startswith("#")]
+        if len(lines) < 3:
+            raise ValueError(f"{len(lines)} data lines, expected a header, the epochs and coefficient rows")
+        head = lines[0].split()
+        nmax = int(head[1])
+        if not 1 <= nmax <= MAX_FILE_DEGREE:
+            raise ValueError(f"the header declares degree {nmax}, expected 1 to {MAX_FILE_DEGREE}")
+        times = np.array([float(v) for v in lines[1].split()])
+        if not times.size or not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):
+            raise ValueError(f"the epochs must be finite and increasing, got {lines[1][:80]!r}")
+        G = np.zeros((times.size, nmax + 1, nmax + 1))
+        H = np.zeros_like(G)
+        for ln in lines[2:]:
+            vals = ln.split()
+            n, m = int(vals[0]), int(vals[1])
+            _degree_order(n, m, nmax)
+            coef = np.array([float(v) for v in vals[2:]])
+            if coef.size != times.size or not np.all(np.isfinite(coef)):
+                raise ValueError(f"row {n} {m} has {coef.size} values for {times.size} epochs (all finite expected)")
+            if m >= 0:
+                G[:, n, m] = coef
+            else:
+                H[:, n, -m] = coef
+        return times, G, H
+
+    return _coefficient_file(path, "an IGRF .shc", parse)
 
 
 def _read_cof(path: Path) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    lines = path.read_text().splitlines()
-    epoch = float(lines[0].split()[0])
-    rows = []
-    for ln in lines[1:]:
-        vals = ln.split()
-        if len(vals) != 6:
-            break                    # the 9999... trailer
-        rows.append([float(v) for v in vals])
-    rows = np.array(rows)
-    nmax = int(rows[:, 0].max())
-    g, h, gd, hd = (np.zeros((nmax + 1, nmax + 1)) for _ in range(4))
-    for n, m, a, b, c, d in rows:
-        n, m = int(n), int(m)
-        g[n, m], h[n, m], gd[n, m], hd[n, m] = a, b, c, d
-    return epoch, g, h, gd, hd
+    def parse(lines: list[str]) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        epoch = float(lines[0].split()[0])
+        rows = []
+        for ln in lines[1:]:
+            vals = ln.split()
+            if len(vals) != 6:
+                break                    # the 9999... trailer
+            rows.append([float(v) for v in vals])
+        if not rows:
+            raise ValueError("no coefficient rows (n m g h dg dh) after the header")
+        rows = np.array(rows)
+        if not np.all(np.isfinite(rows)) or not math.isfinite(epoch):
+            raise ValueError("the epoch and coefficients must be finite")
+        nmax = int(rows[:, 0].max())
+        if not 1 <= nmax <= MAX_FILE_DEGREE:
+            raise ValueError(f"the rows reach degree {nmax}, expected 1 to {MAX_FILE_DEGREE}")
+        g, h, gd, hd = (np.zeros((nmax + 1, nmax + 1)) for _ in range(4))
+        for n, m, a, b, c, d in rows:
+            n, m = int(n), int(m)
+            if m < 0:
+                raise ValueError(f"row of degree {n}, order {m}: orders are >= 0 in a .COF file")
+            _degree_order(n, m, nmax)
+            g[n, m], h[n, m], gd[n, m], hd[n, m] = a, b, c, d
+        return epoch, g, h, gd, hd
+
+    return _coefficient_file(path, "a WMM .COF", parse)
 
 
 class IGRF(SphericalHarmonicField):

@@ -126,8 +126,17 @@ def _check_elements(a, e, inclination, raan, arg_perigee, mean_anomaly, mu):
     inclination = as_float(inclination, "inclination")
     if not 0.0 <= inclination <= np.pi:
         raise ValueError(f"inclination must lie in [0, pi] radians, got {inclination}")
+    mu = as_float(mu, "mu", positive=True)
+    try:
+        n = math.sqrt(mu / a ** 3) * math.sqrt(mu * a)     # the mean motion and the speed scale, in floats
+        ok = math.isfinite(n) and n > 0.0 and a ** 3 > 0.0
+    except (OverflowError, ZeroDivisionError):
+        ok = False
+    if not ok:   # a = 1e-120 m: a^3 underflows to 0 and the mean motion divides by it
+        raise ValueError(f"a = {a!r} m with mu = {mu!r} m^3/s^2 gives no finite mean motion sqrt(mu/a^3) and "
+                         "speed sqrt(mu a) in double precision; give the semi-major axis in metres")
     return (a, e, inclination, as_float(raan, "raan"), as_float(arg_perigee, "arg_perigee"),
-            as_float(mean_anomaly, "mean_anomaly"), as_float(mu, "mu", positive=True))
+            as_float(mean_anomaly, "mean_anomaly"), mu)
 
 
 class KeplerOrbit(Orbit):
@@ -245,6 +254,45 @@ class J2Orbit(KeplerOrbit):
         return self.raan + dO * t, self.arg_perigee + dw * t, self.mean_anomaly + dM * t
 
 
+def _tle_checksum(line: str) -> int:
+    """The TLE checksum of a line: the sum of its digits in columns 1-68, each '-' counting 1, modulo 10."""
+    return sum(int(c) if c.isdigit() else (c == "-") for c in line[:68]) % 10
+
+
+def check_tle(line1: str, line2: str) -> tuple[str, str]:
+    """The two lines of a TLE, checked as the format defines them (ValueError naming the line and
+    the rule): ASCII only (a Unicode digit, which ``int`` reads, shifts the epoch silently), 69
+    columns (trailing blanks dropped), the checksum in column 69, the same satellite number on both
+    lines, and an epoch day of year from 1 to the last day (plus fraction) of the epoch's year
+    (SGP4 rolls day 400 into the next year)."""
+    lines = []
+    for name, line in (("line1", line1), ("line2", line2)):
+        line = line.rstrip()
+        if not line.isascii():
+            bad = next(c for c in line if not c.isascii())
+            raise ValueError(f"{name} must hold ASCII characters only (a TLE line); got {bad!r} at column "
+                             f"{line.index(bad) + 1}")
+        if len(line) != 69:
+            raise ValueError(f"{name} must have 69 columns (a TLE line), got {len(line)}: {line[:75]!r}")
+        if not line[68].isdigit() or int(line[68]) != _tle_checksum(line):
+            raise ValueError(f"{name} fails its checksum: column 69 is {line[68]!r}, the sum of its digits (each '-' "
+                             f"counting 1) modulo 10 is {_tle_checksum(line)}; the line is damaged or mistyped")
+        lines.append(line)
+    line1, line2 = lines
+    if line1[2:7] != line2[2:7]:
+        raise ValueError(f"line1 and line2 must be of one satellite: numbers {line1[2:7]!r} and {line2[2:7]!r}")
+    field = line1[18:32]
+    try:
+        yy, day = int(field[:2]), float(field[2:])
+    except ValueError:
+        raise ValueError(f"line1's epoch (columns 19-32) must be YYDDD.DDDDDDDD, got {field!r}") from None
+    year = 1900 + yy if yy >= 57 else 2000 + yy              # the TLE convention
+    days = 366 if (year % 4 == 0 and year % 100 != 0) or year % 400 == 0 else 365
+    if not 1.0 <= day < days + 1.0:
+        raise ValueError(f"line1's epoch day of year must be from 1 to {days}.99999999 in {year}, got {field[2:]!r}")
+    return line1, line2
+
+
 class SGP4Orbit(Orbit):
     """SGP4 from a two-line element set (the ``sgp4`` package; the ``space`` extra installs it).
 
@@ -269,6 +317,7 @@ class SGP4Orbit(Orbit):
         if not (line1.startswith("1 ") and line2.startswith("2 ")):
             raise ValueError(f"line1 must start with '1 ' and line2 with '2 ' (a TLE), got {line1[:10]!r}, "
                              f"{line2[:10]!r}")
+        line1, line2 = check_tle(line1, line2)
         sat = Satrec.twoline2rv(line1, line2)
         if sat.error != 0:
             raise ValueError(f"the TLE does not parse or initialise (SGP4 error {sat.error})")

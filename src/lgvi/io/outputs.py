@@ -36,6 +36,8 @@ from typing import Any, Iterable
 
 import numpy as np
 
+from .._files import write_atomic, write_text
+from .._untrusted import load_json
 from .._version import __version__
 from ..trajectory import Trajectory, check_arrays as _check_arrays, load
 
@@ -122,8 +124,8 @@ def write_csv(traj: Trajectory, path: str | os.PathLike[str]) -> Path:
         cols.append(np.asarray(traj.potential)[:, None])
         names.append("potential")
     data = np.hstack(cols)
-    with open(path, "w", newline="") as fh:
-        np.savetxt(fh, data, delimiter=",", fmt="%.17g", header=",".join(names), comments="")
+    write_atomic(path, lambda fh: np.savetxt(fh, data, delimiter=",", fmt="%.17g", header=",".join(names),
+                                             comments="", encoding="utf-8"), what="CSV file")
     side = {
         "format": CSV_FORMAT,
         "lgvi_version": __version__,
@@ -139,9 +141,8 @@ def write_csv(traj: Trajectory, path: str | os.PathLike[str]) -> Path:
         "samples": M,
         "meta": _meta(traj),
     }
-    with open(sidecar_path(path), "w") as fh:
-        json.dump(side, fh, indent=2, default=_jsonable, allow_nan=True)
-        fh.write("\n")
+    write_text(sidecar_path(path), json.dumps(side, indent=2, default=_jsonable, allow_nan=True) + "\n",
+               "CSV sidecar")
     return path
 
 
@@ -184,7 +185,7 @@ def read_csv(path: str | os.PathLike[str], *, inertia: Any = None) -> Trajectory
     sp = sidecar_path(path)
     if sp.exists():
         try:
-            side = json.loads(sp.read_text())
+            side = load_json(sp.read_text(), str(sp))
         except (OSError, ValueError) as exc:  # JSONDecodeError, UnicodeDecodeError
             raise ValueError(f"cannot read the sidecar {sp} of {path}: {exc}") from exc
         if not isinstance(side, dict):
@@ -248,12 +249,26 @@ def write_netcdf(traj: Trajectory, path: str | os.PathLike[str]) -> Path:
                 "lgvi_format": NETCDF_FORMAT, "lgvi_version": __version__, "h": float(traj.h),
                 "lgvi_meta": json.dumps(meta, default=_jsonable), "scenario": str(meta.get("scenario", ""))}
     try:
-        ds.to_netcdf(path)
+        write_atomic(path, lambda tmp: ds.to_netcdf(tmp), by_path=True, what="netCDF file")
     except ValueError as exc:
         if "engine" in str(exc).lower():
             raise ImportError(f"no netCDF engine found for xarray: {IO_HINT} ({exc})") from exc
         raise
     return path
+
+
+def _check_declared_size(ds: Any, path: Path) -> None:
+    """Refuse a netCDF file whose variables declare more data than its bytes could hold, even
+    compressed (:data:`lgvi._untrusted.MAX_DEFLATE_RATIO`): a small file declaring 2e8 samples
+    would otherwise make the reader allocate gigabytes of fill values."""
+    from .._untrusted import MAX_DEFLATE_RATIO
+
+    declared = sum(int(v.size) * v.dtype.itemsize for v in ds.variables.values())
+    held = path.stat().st_size
+    if declared > MAX_DEFLATE_RATIO * held + 2**20:
+        dims = ", ".join(f"{k} = {v}" for k, v in ds.sizes.items())
+        raise ValueError(f"its variables declare {declared} bytes ({dims}) but the file holds {held} bytes; "
+                         "damaged or hostile file, refused before reading")
 
 
 def read_netcdf(path: str | os.PathLike[str]) -> Trajectory:
@@ -271,6 +286,7 @@ def read_netcdf(path: str | os.PathLike[str]) -> Trajectory:
     path = Path(path)
     try:
         with xr.open_dataset(path) as ds:
+            _check_declared_size(ds, path)       # before anything is read into memory
             ds = ds.load()
     except (ImportError, MemoryError):
         raise
@@ -280,7 +296,7 @@ def read_netcdf(path: str | os.PathLike[str]) -> Trajectory:
         raise ValueError(f"{path} is not an lgvi netCDF trajectory (attribute lgvi_format = "
                          f"{ds.attrs.get('lgvi_format')!r}, expected {NETCDF_FORMAT!r})")
     try:
-        meta = json.loads(ds.attrs.get("lgvi_meta", "{}"))
+        meta = load_json(ds.attrs.get("lgvi_meta", "{}"), f"{path}: the attribute lgvi_meta")
         if not isinstance(meta, dict):
             raise ValueError(f"attribute lgvi_meta must hold a JSON object, got {type(meta).__name__}")
         fields = dict(t=ds["time"].values.astype(np.float64), R=ds["R"].values.astype(np.float64),
@@ -309,7 +325,7 @@ def _npz_format(path: str | os.PathLike[str]) -> str | None:
         with np.load(path, allow_pickle=False) as data:
             if "__lgvi__" not in data.files:
                 return None
-            header = json.loads(str(data["__lgvi__"]))
+            header = load_json(str(data["__lgvi__"]), f"{path}: the '__lgvi__' header")
     except Exception:  # noqa: BLE001 - lgvi.load reports the problem
         return None
     fmt = header.get("format") if isinstance(header, dict) else None

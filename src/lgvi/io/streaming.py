@@ -37,8 +37,8 @@ from typing import Any
 
 import numpy as np
 
-from .._files import FolderLock, write_atomic, write_failure
-from .._untrusted import check_npz, inside
+from .._files import LOCK_NAME, FolderLock, write_atomic, write_failure
+from .._untrusted import check_npz, inside, load_json
 from .._validation import as_int
 from .._version import __version__
 from ..driver import drive, layout, record_every
@@ -52,6 +52,18 @@ def _fsync_write(path: Path, write) -> None:
     """Write ``path`` atomically (a unique hidden temporary name, flushed, renamed into place): a
     leftover or planted temporary file, or a symbolic link, is never written through."""
     write_atomic(path, write)
+
+
+def stream_folder(folder: Any) -> Path:
+    """``folder`` as a path; an empty name (which ``Path`` reads as the current folder) or a value
+    that is not a path is refused, naming the rule."""
+    if not isinstance(folder, (str, os.PathLike)):
+        raise TypeError(f"folder must be a path (str or os.PathLike), got {type(folder).__name__}")
+    name = os.fspath(folder)
+    if not isinstance(name, str) or not name.strip():
+        raise ValueError(f"folder must name a stream folder, got {name!r} (an empty name would stream into the "
+                         "current folder; pass '.' to mean it)")
+    return Path(name)
 
 
 class StreamWriter:
@@ -84,7 +96,7 @@ class StreamWriter:
 
     def __init__(self, folder: str | os.PathLike[str], meta: dict[str, Any], *, resume: bool = False,
                  check: Any = None):
-        self.folder = Path(folder)
+        self.folder = stream_folder(folder)
         self.folder.mkdir(parents=True, exist_ok=True)
         self.lock = FolderLock(self.folder, "stream folder").acquire()
         try:
@@ -95,6 +107,7 @@ class StreamWriter:
                                           "it or choose another folder")
                 self.manifest = read_manifest(self.folder)
                 _check_resume_state(self.manifest, manifest)
+                _check_state_against_chunks(self.folder, self.manifest, manifest)
                 if check is not None and self.manifest.get("state") is not None:
                     check(self.manifest)
             else:
@@ -151,7 +164,7 @@ class StreamWriter:
         if not self.lock.held:
             raise ValueError(f"this writer of the stream {self.folder} is closed; open a new one (resume=True)")
         index = len(self.manifest["chunks"])
-        name = f"chunk-{index:06d}.npz"
+        name = chunk_name(index)
         t = arrays["t"]
         self._write(name, lambda fh: np.savez(fh, **arrays), "the stream chunk", index)
         before = dict(self.manifest, chunks=list(self.manifest["chunks"]))
@@ -214,7 +227,7 @@ def read_manifest(folder: str | os.PathLike[str]) -> dict[str, Any]:
     if path.exists() and not path.is_file():
         raise ValueError(f"{path} is not a regular file")
     try:
-        manifest = json.loads(path.read_text())
+        manifest = load_json(path.read_text(), str(path))
     except FileNotFoundError as exc:
         raise ValueError(f"{folder} is not an lgvi stream (no {MANIFEST})") from exc
     except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
@@ -225,6 +238,68 @@ def read_manifest(folder: str | os.PathLike[str]) -> dict[str, Any]:
 
 
 _CHUNK_FIELDS = ("t", "R", "Pi", "iterations", "residual")
+#: How far a stored attitude may be from a rotation, ``max |R^T R - I|`` (a run keeps round-off).
+ROTATION_TOL = 1e-9
+
+
+def chunk_name(i: int) -> str:
+    """The file name of chunk ``i`` of a stream (``chunk-000007.npz``)."""
+    return f"chunk-{i:06d}.npz"
+
+
+def _check_times(t: np.ndarray, where: str) -> None:
+    """The times of a stream's samples are finite and monotonic (a run forwards or backwards;
+    equal neighbours only where ``h`` is below the resolution of ``t``); reordered or repeated
+    chunks would make them run back."""
+    from .._kernels.check_kernels import first_time_back
+
+    i = int(first_time_back(np.ascontiguousarray(t, dtype=np.float64)))
+    if i >= 0:
+        raise ValueError(f"{where}: the times must be finite and run in one direction; sample {i} has t = "
+                         f"{t[i]!r} after t = {t[i - 1] if i else None!r} (chunks reordered, repeated or damaged)")
+
+
+def _check_rotations(R: np.ndarray, where: str) -> None:
+    """Every attitude in ``R`` (..., 3, 3) is a rotation to :data:`ROTATION_TOL` (a compiled pass)."""
+    from .._kernels.check_kernels import first_non_rotation
+
+    R = np.asarray(R, dtype=np.float64)
+    if not R.size:
+        return
+    k = int(first_non_rotation(np.ascontiguousarray(R).reshape(-1, 3, 3), ROTATION_TOL))
+    if k >= 0:
+        i = tuple(int(x) for x in np.unravel_index(k, R.shape[:-2]))
+        Ri = R[i]
+        err = float(np.abs(Ri.T @ Ri - np.eye(3)).max())
+        raise ValueError(f"{where}: attitude {i} is not a rotation (|R^T R - I| = {err:.3g}, det R = "
+                         f"{float(np.linalg.det(Ri)):.3g}; a run keeps it within {ROTATION_TOL:g})")
+
+
+def _check_state_against_chunks(folder: Path, manifest: dict[str, Any], mpath: Path) -> None:
+    """The resume state is the end of the last listed chunk: each state field (``R``, ``Pi``,
+    the wheels' momenta, ``x``, ``p``) equal bit for bit to that chunk's last sample (so its energy
+    and momenta are those of the run), and its attitudes rotations."""
+    chunks, state = manifest["chunks"], manifest.get("state")
+    if not chunks or not isinstance(state, dict):
+        return
+    system = _stream_system(manifest["meta"], mpath)
+    names = tuple(f.name for f in system.state)
+    last = _chunk_arrays(folder, mpath, len(chunks) - 1, chunks[-1], ("t",) + names)
+    where = f"{mpath} is damaged: the resume state"
+    for name in names:
+        if name not in state:
+            raise ValueError(f"{where} has no {name!r}")
+        try:
+            got = np.asarray(state[name], dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{where}'s {name!r} is not an array of numbers ({exc})") from None
+        want = np.asarray(last[name][-1])
+        if got.shape != want.shape or not np.array_equal(got, want):
+            raise ValueError(f"{where}'s {name!r} is not the last sample of {chunks[-1]['file']} (a resumed run "
+                             f"continues from where its chunks end): {str(got.tolist())[:80]} against "
+                             f"{str(want.tolist())[:80]}")
+        if name == "R":
+            _check_rotations(got, f"{where}")
 
 
 def _chunk_file(folder: str | os.PathLike[str], mpath: Path, i: int, entry: Any) -> Path:
@@ -232,6 +307,9 @@ def _chunk_file(folder: str | os.PathLike[str], mpath: Path, i: int, entry: Any)
     name = entry.get("file") if isinstance(entry, dict) else None
     if not isinstance(name, str) or not name or Path(name).name != name or name.startswith("."):
         raise ValueError(f"{mpath} is damaged: chunk {i} must name a file in the stream folder, got {entry!r}")
+    if name != chunk_name(i):   # the writer names chunk i so: a repeated, reordered or foreign entry is refused
+        raise ValueError(f"{mpath} is damaged: chunk {i} must be the file {chunk_name(i)} (the chunks are listed "
+                         f"once each, in the order written), got {name[:80]!r}")
     path = Path(folder) / name
     if not inside(folder, path):
         raise ValueError(f"{mpath}: chunk {i} ({name}) is a symbolic link to {os.path.realpath(path)}, outside "
@@ -267,6 +345,9 @@ def _chunk_arrays(folder: Any, mpath: Path, i: int, entry: Any, required: tuple[
             if missing:
                 raise ValueError(f"missing field(s) {', '.join(missing)}")
             arrays: dict[str, Any] = {k: data[k] for k in required + optional if k in data.files}
+        declared = entry.get("samples")
+        if "t" in arrays and declared is not None and declared != len(arrays["t"]):
+            raise ValueError(f"the manifest lists {declared!r} samples, the file holds {len(arrays['t'])}")
         if totals is not None:
             arrays["totals"] = totals(arrays)
         return arrays
@@ -302,6 +383,9 @@ def system_arrays(folder: str | os.PathLike[str]) -> tuple[dict[str, Any], dict[
         if len(arrays[f.name]) != M:
             raise ValueError(f"the chunks of the stream {folder} do not fit together: {len(arrays[f.name])} samples "
                              f"of {f.name!r}, {M} times")
+    _check_times(np.asarray(arrays["t"], dtype=np.float64), f"the stream {folder}")
+    if "R" in arrays:
+        _check_rotations(arrays["R"], f"the stream {folder}")
     return manifest, arrays
 
 
@@ -379,6 +463,8 @@ def read_stream(folder: str | os.PathLike[str]) -> Any:
         _check_arrays(dict(inertia=inertia, **{k: cat[k] for k in _CHUNK_FIELDS}), cat.get("potential"))
     except ValueError as exc:
         raise ValueError(f"the chunks of the stream {folder} do not fit together: {exc}") from exc
+    _check_times(cat["t"], f"the stream {folder}")
+    _check_rotations(cat["R"], f"the stream {folder}")
     if "solver_summary" in meta and len(cat["iterations"]):
         summary = meta["solver_summary"]
         meta["solver_summary"] = dict(summary, iterations_max=max(int(summary["iterations_max"]),
@@ -449,6 +535,7 @@ def simulate_stream(folder: str | os.PathLike[str], body: Any, R0: Any, Pi0: Any
     """
     from ..integrator import Run
 
+    folder = stream_folder(folder)
     if wheels is not None or controller is not None or control_period is not None or environment is not None \
             or magnetorquers is not None or scheme == "rkmk4":   # the gyrostat (lgvi.systems.gyrostat)
         from ..systems.gyrostat import gyrostat_options, scheme_run_class
@@ -514,6 +601,7 @@ def stream_system(folder: str | os.PathLike[str], system: str, *args: Any, progr
     from ..driver import Progress
     from ..systems import SYSTEMS
 
+    stream_folder(folder)
     streamable = tuple(k for k, v in SYSTEMS.items() if v.from_stream is not None)
     choice(system, "system", streamable)
     Progress(progress, 0)   # validates progress before any work
@@ -525,9 +613,9 @@ def stream_run(folder: str | os.PathLike[str], run: Any, *, resume: bool = False
                chunk_steps: int | None = None, meta: dict[str, Any] | None = None) -> Path:
     """Drive a validated run of a streamable system (its ``system.from_stream`` set, with
     ``stream_meta()``, ``state()`` and ``load_state()``) into the stream folder ``folder``."""
+    folder = stream_folder(folder)
     _chunk_steps(run, chunk_steps)
     stream_meta = json.loads(json.dumps(dict(run.stream_meta(), **(meta or {}))))
-    folder = Path(folder)
     ignore = {"lgvi_version", *(meta or {})}
     return _drive_stream(folder, run, stream_meta, resume, progress,
                          lambda manifest: _check_resume_system(manifest["meta"], stream_meta, folder, ignore))
@@ -544,6 +632,14 @@ def _drive_stream(folder: Path, run: Any, stream_meta: dict[str, Any], resume: b
     """Open the stream folder (``check(manifest)`` refuses to resume another run), continue from
     its saved state when resuming (an already complete stream is left as it is), and drive the run
     into it chunk by chunk."""
+    remaining = run.steps
+    if resume and (folder / MANIFEST).is_file():
+        try:
+            k = read_manifest(folder).get("state", {}).get("k")
+            remaining = run.steps - k if isinstance(k, int) and 0 <= k <= run.steps else run.steps
+        except (ValueError, AttributeError):   # the writer below reports a damaged manifest
+            pass
+    check_disk_space(folder, run, remaining)      # before anything is written
     writer = StreamWriter(folder, stream_meta, resume=resume, check=check)
     if resume and writer.state is not None:
         try:
@@ -558,6 +654,48 @@ def _drive_stream(folder: Path, run: Any, stream_meta: dict[str, Any], resume: b
     with writer:
         drive(run, sink, progress)  # lgvi.driver: chunks, progress, Ctrl-C, failures
     return folder
+
+
+#: Bytes of a chunk file beyond its arrays (zip directory, ``.npy`` headers), a generous bound.
+CHUNK_OVERHEAD = 4096
+
+
+def estimated_bytes(run: Any, steps: int) -> int:
+    """The bytes ``steps`` more steps of ``run`` write to a stream: the saved samples (``t`` and
+    the system's state fields), the per-step or per-interval records and each chunk's overhead."""
+    samples = steps // run.save_every + 1
+    per_sample = 8 + sum(int(np.prod(f.shape, dtype=np.int64)) * np.dtype(f.dtype).itemsize for f in run.system.state)
+    per_record = sum(int(np.prod(f.shape, dtype=np.int64)) * np.dtype(f.dtype).itemsize for f in run.system.records)
+    chunks = steps // max(1, int(getattr(run, "chunk", steps) or 1)) + 1
+    return samples * per_sample + (steps // record_every(run)) * per_record + chunks * CHUNK_OVERHEAD
+
+
+def check_disk_space(folder: str | os.PathLike, run: Any, steps: int) -> None:
+    """``OSError`` (``errno.ENOSPC``) naming ``folder``, the estimate and the free space when the
+    stream of ``steps`` more steps of ``run`` would not fit on its disk: checked before a long run
+    starts, so that it does not stop hours later on a full disk (an estimate: the final result
+    files written next to it need about as much again)."""
+    import errno
+    import shutil
+
+    need = estimated_bytes(run, steps)
+    where = Path(folder).absolute()
+    while not where.exists() and where.parent != where:   # the folder is made later: its nearest existing parent
+        where = where.parent
+    free = shutil.disk_usage(where).free
+    if need > free:
+        raise OSError(errno.ENOSPC, f"the stream of {steps} steps (about {_size(need)}: {steps // run.save_every + 1} "
+                                    f"saved states) would not fit in the folder {folder}, whose disk has "
+                                    f"{_size(free)} free; make room, save fewer states (a larger save_every) or "
+                                    "stream to another disk")
+
+
+def _size(n: int) -> str:
+    """``n`` bytes for a message: ``'812 kB'``, ``'16.2 GB'``."""
+    for unit, scale in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= scale:
+            return f"{n / scale:.3g} {unit}"
+    return f"{n} bytes"
 
 
 def _check_resume_system(old: dict[str, Any], new: dict[str, Any], folder: Path, ignore: set[str]) -> None:
@@ -670,6 +808,33 @@ class StreamSink:
         return self.folder
 
 
+def remove_stream(folder: str | os.PathLike) -> list[str]:
+    """Remove the stream in ``folder``: the chunks its manifest lists, the manifest and the lock,
+    then the folder if nothing else is left. Anything else (files the user keeps there) is never
+    touched; returns their names (empty when the folder was removed). A folder that is a
+    symbolic link, or holds no lgvi stream, is left alone."""
+    folder = Path(folder)
+    if folder.is_symlink() or not folder.is_dir():
+        return []
+    try:
+        manifest = read_manifest(folder)
+    except ValueError:
+        return sorted(p.name for p in folder.iterdir())
+    chunks = manifest.get("chunks") if isinstance(manifest.get("chunks"), list) else []
+    ours = {chunk_name(i) for i in range(len(chunks))} | {MANIFEST, LOCK_NAME}
+    for name in sorted(ours):
+        path = folder / name
+        if path.is_file() or path.is_symlink():
+            try:
+                path.unlink()
+            except FileNotFoundError:
+                pass
+    left = sorted(p.name for p in folder.iterdir())
+    if not left:
+        folder.rmdir()
+    return left
+
+
 def _check_resume(old: dict[str, Any], new: dict[str, Any], folder: Path) -> None:
     keys = ("method", "tol", "max_iter", "alpha", "save_every", "forcing", "order", "composition", "torque",
             "torque_model", "t0", "h", "steps", "inertia", "solver_record", "scheme")
@@ -681,5 +846,6 @@ def _check_resume(old: dict[str, Any], new: dict[str, Any], folder: Path) -> Non
                          f"{new.get(k)!r}; a stream resumes only the same run (differences: {', '.join(diff)})")
 
 
-__all__ = ["StreamSink", "StreamWriter", "read_manifest", "read_stream", "simulate_stream", "stream_run",
+__all__ = ["StreamSink", "StreamWriter", "chunk_name", "read_manifest", "read_stream", "remove_stream",
+           "simulate_stream", "stream_run",
            "stream_system", "system_arrays"]

@@ -83,12 +83,41 @@ def reachable_angle(inertia_min: float, p0: float, pf: float, a: float, T: float
     so ``|Pi(t)| <= min(p0 + a t, pf + a (T - t))``, and the rotation angle between the end
     attitudes is at most the path length ``int |Omega| dt <= int |Pi| dt / J_min``. For a sphere
     at rest at both ends this is the eigenaxis bang-bang angle ``a T^2 / (4 J)``.
+
+    ``inertia_min`` must be > 0, the magnitudes ``p0``, ``pf``, the torque bound ``a`` and the
+    time ``T`` >= 0, all finite (ValueError naming the argument otherwise).
     """
+    inertia_min = as_float(inertia_min, "inertia_min", positive=True)
+    for name, value in (("p0", p0), ("pf", pf), ("a", a), ("T", T)):
+        if as_float(value, name) < 0.0:
+            raise ValueError(f"{name} must be >= 0 (a magnitude, a torque bound, a duration), got {value!r}")
+    p0, pf, a, T = float(p0), float(pf), float(a), float(T)
     if a <= 0.0:
         return (p0 * T) / inertia_min if abs(p0 - pf) == 0.0 else 0.0
     ts = min(max((pf - p0 + a * T) / (2.0 * a), 0.0), T)
     area = p0 * ts + 0.5 * a * ts * ts + pf * (T - ts) + 0.5 * a * (T - ts) ** 2
     return area / inertia_min
+
+
+#: Bytes a transfer holds per control step (the rollout's attitudes, momenta, adjoints and
+#: gradients, with room for the solver's vectors), a generous bound.
+BYTES_PER_STEP = 2048
+#: Methods whose solver keeps a dense (3 nu)^2 matrix (SciPy's SLSQP and trust-constr).
+DENSE_METHODS = ("SLSQP", "trust-constr")
+
+
+def _check_size(nu: int, method: str) -> None:
+    """Refuse a transfer of ``nu`` control steps whose arrays cannot fit in this machine's memory
+    (a clear ValueError before NumPy's MemoryError)."""
+    from ..driver import physical_memory
+
+    need = BYTES_PER_STEP * nu + (8 * (3 * nu) ** 2 if method in DENSE_METHODS else 0)
+    have = physical_memory()
+    if need > have:
+        raise ValueError(f"N = {nu} control steps with method={method!r} need about {need / 2**30:.3g} GiB"
+                         + (" (its dense (3N)^2 matrix)" if method in DENSE_METHODS else "")
+                         + f", more than this machine's {have / 2**30:.3g} GiB: use fewer steps"
+                         + ("" if method not in DENSE_METHODS else " or method='ipopt' (sparse)"))
 
 
 def _rate(value: Any, name: str) -> np.ndarray:
@@ -194,6 +223,7 @@ def transfer(body: Any, R0: Any, Rf: Any, T: Any, N: Any, *, omega0: Any = 0, om
     if cost == "time" and umax is None:
         raise InfeasibleTransferError("cost='time' needs max_torque: without a torque bound the minimum time is 0")
     nu = N + 1 if sym else N
+    _check_size(nu, method)
     if u0 is not None:
         u0 = as_float_array(u0, "u0", (nu, 3))
 

@@ -32,6 +32,8 @@ from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
 
 import numpy as np
 
+from .._files import write_atomic
+
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
@@ -1057,7 +1059,8 @@ def animate(traj: Trajectory, path: str | os.PathLike[str], *, fps: int = 30, ma
 
     anim = animation.FuncAnimation(fig, draw, frames=len(frames), blit=False)
     path.parent.mkdir(parents=True, exist_ok=True)
-    anim.save(os.fspath(path), writer=writer, dpi=dpi)
+    write_atomic(path, lambda tmp: anim.save(os.fspath(tmp), writer=writer, dpi=dpi), by_path=True,
+                 what="animation")
     return path
 
 
@@ -1077,8 +1080,8 @@ def _save(fig: Figure, path: Path) -> Path:
     # curve, so the long lines are cut here, into pieces that share their end vertices.
     undo = _cut_long_lines(fig, AGG_CHUNK)
     try:
-        with matplotlib.rc_context({"agg.path.chunksize": 0}):
-            fig.savefig(path, dpi=DPI, format="png")
+        with matplotlib.rc_context({"agg.path.chunksize": 0}):   # atomically, never through a link
+            write_atomic(path, lambda fh: fig.savefig(fh, dpi=DPI, format="png"), what="figure")
     finally:
         undo()
     return path

@@ -123,6 +123,11 @@ class ReactionWheels:
         self.min_torque = _per_wheel(min_torque, "min_torque", n, minimum=0.0)
         self.max_power = _per_wheel(max_power, "max_power", n, minimum=0.0, strict=True, none=0.0)
         self.max_speed = _per_wheel(max_speed, "max_speed", n, minimum=0.0, strict=True, none=0.0)
+        above = (self.max_torque > 0.0) & (self.min_torque > self.max_torque)   # max_torque 0: no limit
+        if np.any(above):   # the deadband would swallow every torque the motor can give
+            i = int(np.argmax(above))
+            raise ValueError(f"min_torque (the deadband) must not exceed max_torque; wheel {i} has min_torque = "
+                             f"{self.min_torque[i]:g} N m > max_torque = {self.max_torque[i]:g} N m")
         if friction is None:
             friction = {}
         if not isinstance(friction, dict):

@@ -152,13 +152,13 @@ def save_result_npz(path: Any, fmt: str, arrays: dict[str, np.ndarray], meta: di
 def read_result_npz(path: Any, fmt: str, names: tuple[str, ...]) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """``(arrays, meta)`` of a result written by :func:`save_result_npz` in format ``fmt``: the
     arrays ``names`` (an untrusted file is checked first), ValueError naming the file otherwise."""
-    from .._untrusted import check_npz
+    from .._untrusted import check_npz, load_json
 
     path = os.fspath(path)
     try:
         check_npz(path)     # no object arrays, no declared size beyond the file's bytes
         with np.load(path, allow_pickle=False) as z:
-            header = json.loads(str(z["__lgvi__"]))
+            header = load_json(str(z["__lgvi__"]), f"{path}: the '__lgvi__' header")
             arrays = {k: np.array(z[k]) for k in names}
     except Exception as exc:
         raise ValueError(f"cannot read {fmt} result {path}: {type(exc).__name__}: {exc}") from exc
