@@ -633,7 +633,7 @@ def test_public_names():
         "hat", "vee", "exp", "exp_minus_identity", "log", "left_jacobian", "right_jacobian",
         "left_jacobian_inv", "right_jacobian_inv", "cayley", "cayley_inv", "quat_to_matrix",
         "matrix_to_quat", "quat_multiply", "quat_continuous", "project", "orthogonality_error",
-        "is_rotation",
+        "is_rotation", "mrp_from_matrix", "matrix_from_mrp",
     }
     for name in so3.__all__:
         assert getattr(so3, name).__doc__
