@@ -685,8 +685,14 @@ class Compiled(TorqueModel):
     The loop is specialised for the user's functions and compiled in memory (once per process
     and function; Numba cannot cache it on disk). A trial call at ``R = I``, ``Pi = 0``,
     ``t = 0`` checks that the functions compile and return finite values of the right shape.
+    Before each run the functions are tried once more in their Python form (``.py_func``) at
+    the run's first sample (:meth:`check_sample`; each body's in an ensemble): an index past
+    ``params`` (which compiled code, without bounds checks, reads from memory past the array),
+    a division by zero or a wrong return shape is a :class:`lgvi.TorqueError` naming the model.
     No invariants are declared. A non-finite moment during a run stops it with
-    :class:`lgvi.ConvergenceError` holding the partial trajectory.
+    :class:`lgvi.ConvergenceError` holding the partial trajectory; an exception the moment raises
+    inside the compiled loop stops it with :class:`lgvi.TorqueError`, the part computed before
+    that step in ``.trajectory``.
 
     Examples
     --------
