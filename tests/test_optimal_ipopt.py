@@ -122,3 +122,15 @@ def test_ipopt_without_casadi_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "casadi", None)          # import casadi raises ImportError
     with pytest.raises(ImportError, match=r"pip install lgvi\[ipopt\]"):
         transfer(SPHERE, np.eye(3), so3.exp(2.0 * AXIS), 1.0, 10, method="ipopt")
+
+
+def test_minimum_time_uses_ipopt_when_casadi_is_installed_and_says_which(monkeypatch):
+    # issue 29: cost="time" with SciPy's SLSQP took 780 s at N = 200 where IPOPT takes 0.3 s
+    args = (SPHERE, np.eye(3), so3.exp([1.0, 0.0, 0.0]), 2.5, 10)
+    if HAVE_CASADI:
+        res = transfer(*args, cost="time", max_torque=1.0)
+        assert res.stats["method"] == "ipopt" and "CasADi is installed" in res.stats["method_choice"]
+    monkeypatch.setitem(sys.modules, "casadi", None)          # as without CasADi: import casadi fails
+    res = transfer(*args, cost="time", max_torque=1.0)
+    assert res.stats["method"] == "SLSQP" and "pip install lgvi[ipopt]" in res.stats["method_choice"]
+    assert transfer(*args).stats["method"] == "SLSQP"        # cost="energy": SLSQP by default

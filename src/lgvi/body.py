@@ -523,7 +523,8 @@ class RigidBody:
         [0.2, 2.2, 2.2]
         """
         w, q, rho = sphere_moments(masses, positions, radii, "RigidBody.from_masses", order=2)[:3]
-        J = np.einsum("a,ai,aj->ij", -w, q, q) + (w @ np.einsum("ai,ai->a", q, q) + 0.4 * (w @ rho ** 2)) * np.eye(3)
+        per = np.einsum("ai,ai->a", q, q)[:, None, None] * np.eye(3) - np.einsum("ai,aj->aij", q, q)
+        J = np.einsum("a,aij->ij", w, per) + 0.4 * (w @ rho ** 2) * np.eye(3)
         return cls(J)
 
 

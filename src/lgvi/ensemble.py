@@ -25,7 +25,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ._files import lgvi_header, write_atomic, write_failure
-from ._kernels.codes import METHOD_CAYLEY, OK
+from ._kernels.codes import METHOD_CAYLEY, OK, USER_RAISED
 from ._untrusted import check_npz, inside, load_json
 from ._validation import REPAIR_TOL, ROTATION_TOL, as_float_array, as_int, choice, is_scipy_rotation, warn_repaired
 from ._version import __version__
@@ -540,6 +540,10 @@ class _Setup:
         if getattr(self.model, "moment_func", None) is not None and user.ndim == 2 and user.shape[0] != B:
             raise ValueError(f"Compiled: params of shape {user.shape} must have one row per body ({B} bodies) "
                              "or shape (P,) for all")
+        if getattr(self.model, "moment_func", None) is not None:   # its Python form at each body's first sample
+            for b in range(B):
+                self.model.check_sample(self.t0, self.R[b], self.Pi[b], b if user.ndim == 2 else None,
+                                        where=f"the first sample of body {b}")
         if threads is not None:
             threads = as_int(threads, "threads", minimum=1)
         self.threads = threads
@@ -1020,6 +1024,7 @@ class _LocalRun:
             for b in group:
                 if self.status[b] != OK:
                     continue
+                Rs[0, 0] = 0.0          # the mark of a user function that raised (user_kernels.user_moment)
                 advance_user(int(b), m.moment_func, table, Rs, Ps, m.conservative, m.depends_on_momentum, s.code,
                              self.Jd, self.J, self.J_inv, s.ib, s.h, s.t0, s.gam, s.cum, self.ia, self.A, self.R,
                              self.Pi, self.G, gidx, self.S, s.codes, s.params, int(s.sym), k, n, s.tol, s.max_iter,
@@ -1077,6 +1082,12 @@ class _LocalRun:
         t_fail = s.t0 + kf * h
         hnorm = abs(h) * float(np.linalg.norm(self.Pi[b]))
         body = self.first_body + b
+        if int(self.status[b]) == USER_RAISED:      # lgvi.torques.Compiled: its function raised in the loop
+            row = getattr(s, "body0", 0) + b if s.model.params.ndim == 2 else None
+            err = s.model.raised_error(kf, t_fail, h, self.R[b], self.Pi[b], row, trajectory,
+                                       f" (the ensemble up to step {kf}, all bodies){where}")
+            err.body = body  # type: ignore[attr-defined]
+            return err
         more = f" ({failed.size} of {B} bodies failed)" if failed.size > 1 else ""
         msg = (f"body {body} failed at step {kf} (t = {t_fail:g}){more}: "
                + failure_message(int(self.status[b]), float(self.fail_res[b]), int(self.fail_its[b]), hnorm, s.tol,

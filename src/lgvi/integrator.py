@@ -23,7 +23,7 @@ from typing import Any, Callable, Literal
 import numpy as np
 
 from . import so3
-from ._kernels.codes import METHOD_CAYLEY, OK
+from ._kernels.codes import METHOD_CAYLEY, OK, USER_RAISED
 from ._validation import as_float, as_float_array, as_rotation, choice
 from ._version import __version__
 from .accuracy import check_options, provide_simulate
@@ -496,6 +496,7 @@ class Run:
             self.model = torque
             if getattr(torque, "moment_func", None) is not None:
                 torque.row()                  # lgvi.torques.Compiled: params (P,) for one body
+                torque.check_sample(self.t0, self.R, self.Pi)     # its Python form, before the run
         elif kind == "callable":
             self.func = torque
         elif kind == "array":
@@ -583,9 +584,11 @@ class Run:
         self.res_max = max(self.res_max, float(rmax))
 
     def failure(self, status: int, residual: float, iterations: int, trajectory: Any,
-                where: str = "") -> ConvergenceError:
+                where: str = "") -> Exception:
         k = self.k
         t_fail = self.t0 + k * self.h
+        if status == USER_RAISED:         # lgvi.torques.Compiled: its function raised in the compiled loop
+            return self.model.raised_error(k, t_fail, self.h, self.R, self.Pi, None, trajectory, where)
         hnorm = abs(self.h) * float(np.linalg.norm(self.Pi))
         hint = ""
         if self.legacy and self.func is None and self.kind == "none":

@@ -162,6 +162,7 @@ class SplittingRun(Run):
             self.model = torque
             if getattr(torque, "moment_func", None) is not None:
                 torque.row()
+                torque.check_sample(self.t0, self.R, self.Pi)     # its Python form, before the run
         self.codes, self.params = self.model.encode() if self.model is not None else (_NO_CODES, np.zeros(0))
         self.I, self.ax, self.symax, self.Pax, self.diag = principal_data(body)
         self.drift, self.weight, self.node = sp.arrays()

@@ -685,8 +685,14 @@ class Compiled(TorqueModel):
     The loop is specialised for the user's functions and compiled in memory (once per process
     and function; Numba cannot cache it on disk). A trial call at ``R = I``, ``Pi = 0``,
     ``t = 0`` checks that the functions compile and return finite values of the right shape.
+    Before each run the functions are tried once more in their Python form (``.py_func``) at
+    the run's first sample (:meth:`check_sample`; each body's in an ensemble): an index past
+    ``params`` (which compiled code, without bounds checks, reads from memory past the array),
+    a division by zero or a wrong return shape is a :class:`lgvi.TorqueError` naming the model.
     No invariants are declared. A non-finite moment during a run stops it with
-    :class:`lgvi.ConvergenceError` holding the partial trajectory.
+    :class:`lgvi.ConvergenceError` holding the partial trajectory; an exception the moment raises
+    inside the compiled loop stops it with :class:`lgvi.TorqueError`, the part computed before
+    that step in ``.trajectory``.
 
     Examples
     --------
@@ -744,6 +750,81 @@ class Compiled(TorqueModel):
                                 f"{type(exc).__name__}: {exc}") from exc
             if u.shape != () or not np.isfinite(u):
                 raise ValueError(f"Compiled: {pname}(t, R, params) must return a finite float, got {u!r}")
+
+    def _python_call(self, func: Any, args: tuple) -> tuple[Any, BaseException | None]:
+        """``func``'s Python form (``.py_func``) on ``args``, with a float division by zero raising as
+        it does compiled: ``(value, None)`` or ``(None, the exception)``."""
+        py = getattr(func, "py_func", func)
+        try:
+            with np.errstate(divide="raise"):
+                return py(*args), None
+        except KeyboardInterrupt:
+            raise
+        except Exception as exc:
+            return None, exc
+
+    def check_sample(self, t: float, R: Any, Pi: Any, b: int | None = None, where: str = "the first sample") -> None:
+        """Try the user's functions once outside Numba, in their Python form (``.py_func``), at
+        ``(t, R, Pi)`` with the parameters (of body ``b``), before a run: an index past ``params``
+        (which the compiled loop, without bounds checks, would read from memory past the array),
+        a division by zero or a return of the wrong shape is a :class:`lgvi.TorqueError` naming
+        the model and the sample. A function whose Python form cannot run at all (it uses what
+        only Numba provides) is tried compiled instead."""
+        from .errors import TorqueError
+
+        row = self.row(b)
+        who = f"{self!r}{'' if b is None else f' (body {b})'}"
+        for kind, func, args in (("moment", self.moment_func, (float(t), np.array(R, dtype=np.float64),
+                                                                 np.array(Pi, dtype=np.float64), row.copy())),
+                                 ("potential", self.potential_func, (float(t), np.array(R, dtype=np.float64),
+                                                                     row.copy()))):
+            if func is None:
+                continue
+            name = getattr(func, "__name__", kind)
+            value, exc = self._python_call(func, args)
+            if exc is not None and not isinstance(exc, (ArithmeticError, IndexError, KeyError, ValueError)):
+                try:            # not a fault of the values: a Python form that cannot run; the compiled call decides
+                    value, exc = func(*args), None
+                except Exception as compiled:
+                    exc = compiled
+            if exc is not None:
+                past = isinstance(exc, IndexError)
+                what = f"indexes past the end of an array (params has size {row.size}): " if past else ""
+                then = "read memory past the array" if past else "stop the run"
+                raise TorqueError(f"{who}: {kind} {name}(t, R, {'Pi, ' if kind == 'moment' else ''}params) {what}"
+                                  f"raised {type(exc).__name__}: {exc} in its Python form ({name}.py_func) at {where} "
+                                  f"(t = {float(t):g}); compiled, this would {then}; fix the function or its params",
+                                  step=0, time=float(t)) from exc
+            try:
+                arr = np.asarray(value, dtype=np.float64)
+            except (TypeError, ValueError):
+                arr = np.asarray([np.nan])
+            want = (3,) if kind == "moment" else ()
+            if arr.shape != want or not np.all(np.isfinite(arr)):
+                raise TorqueError(f"{who}: {kind} {name} must return {'3 finite numbers' if kind == 'moment' else 'a finite float'}"
+                                  f", got {value!r} at {where} (t = {float(t):g}) in its Python form",
+                                  step=0, time=float(t))
+
+    def raised_error(self, step: int, t: float, h: float, R: Any, Pi: Any, b: int | None, trajectory: Any,
+                     where: str = "") -> Exception:
+        """The :class:`lgvi.TorqueError` of a run whose compiled loop caught an exception of the user's
+        moment at ``step`` (``USER_RAISED``, time ``t``, step ``h``); ``R``, ``Pi`` the state at the
+        start of that step. Its Python form is tried there (at ``t`` and ``t + h``) to name the
+        exception."""
+        from .errors import TorqueError
+
+        name = getattr(self.moment_func, "__name__", "moment")
+        said = ""
+        for when, tt in (("at the start of the step", t), ("at its end time with that state", t + h)):
+            _, exc = self._python_call(self.moment_func, (float(tt), np.array(R, dtype=np.float64),
+                                                          np.array(Pi, dtype=np.float64), self.row(b).copy()))
+            if exc is not None:
+                said = f" ({name}.py_func {when}, t = {tt:g}, raises {type(exc).__name__}: {exc})"
+                break
+        who = f"{self!r}{'' if b is None else f' of body {b}'}"
+        return TorqueError(f"the moment of {who} raised an exception inside the compiled loop at step {step} "
+                           f"(t = {t:g}){said}. The run up to step {step} is in .trajectory.{where}", step=step,
+                           time=t, trajectory=trajectory)
 
     def __repr__(self) -> str:
         text = f"Compiled({getattr(self.moment_func, '__name__', '?')}"

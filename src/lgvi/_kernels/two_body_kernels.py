@@ -375,14 +375,14 @@ def run_two_body(code, G, m1, m2, S, T3, t3, T4, Q4, q4, Q1, w1, Q2, w2, Y, Z, A
             for r in range(3):
                 Rn[i, r, 0], Rn[i, r, 1], Rn[i, r, 2] = rotated_row(R[i, r, 0], R[i, r, 1], R[i, r, 2], E00, E01,
                                                                     E02, E10, E11, E12, E20, E21, E22)
+        Xn[0, 0] = y0
+        Xn[0, 1] = y1
+        Xn[0, 2] = y2
+        Xn[1, 0] = z0
+        Xn[1, 1] = z1
+        Xn[1, 2] = z2
         dn = math.sqrt((z0 - y0) ** 2 + (z1 - y1) ** 2 + (z2 - y2) ** 2)
         if dn < bound:
-            Xn[0, 0] = y0
-            Xn[0, 1] = y1
-            Xn[0, 2] = y2
-            Xn[1, 0] = z0
-            Xn[1, 1] = z1
-            Xn[1, 2] = z2
             if shapes_overlap(Xn, Rn, E1, A1, E2, A2) >= 0:
                 contact[0] = 3.0
                 contact[1] = dn
@@ -412,12 +412,9 @@ def run_two_body(code, G, m1, m2, S, T3, t3, T4, Q4, q4, Q1, w1, Q2, w2, Y, Z, A
             push_at(Gh, i, g0, g1, g2)
         if not math.isfinite(fin):
             return OVERFLOW, k
-        X[0, 0] = y0
-        X[0, 1] = y1
-        X[0, 2] = y2
-        X[1, 0] = z0
-        X[1, 1] = z1
-        X[1, 2] = z2
+        for a in range(3):
+            X[0, a] = Xn[0, a]
+            X[1, a] = Xn[1, a]
         P[0, 0] += n0
         P[0, 1] += n1
         P[0, 2] += n2

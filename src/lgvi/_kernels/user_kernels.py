@@ -14,6 +14,8 @@ The user's moment goes into the conservative part ``P`` when the model has a pot
 momentum equation ``Pi = b + hs/2 (P + N(Pi))`` implicit; it is solved by fixed-point
 iteration (``NOT_CONVERGED`` when it does not converge in ``max_iter`` evaluations).
 The user's function receives ``R`` and ``Pi`` in the scratch arrays ``Rs`` (3,3), ``Ps`` (3,).
+An exception it raises inside the loop is caught (:func:`user_moment`): the step fails with
+``USER_RAISED`` and the part computed before it is kept.
 """
 
 from __future__ import annotations
@@ -21,22 +23,42 @@ from __future__ import annotations
 import math
 
 from .._jit import jit
-from .codes import NOT_CONVERGED, OK
+from .codes import NOT_CONVERGED, OK, USER_RAISED
 from .ensemble_kernels import record_body
 from .solvers import EPS
 from .stepping import load_state, push_at, rotated_row, save_state, solve_warm, stage_done, step_done
 from .torque_kernels import model_moments, model_moments_s, momentum_diag
 
 
-@jit(inline="always")
+@jit(cache=False)
 def user_moment(moment, up, Rs, Ps, t, Rt, p0, p1, p2):
-    """The user's moment at ``(t, R, Pi)`` as three numbers (a returned tuple or array)."""
+    """The user's moment at ``(t, R, Pi)`` as three numbers (a returned tuple or array).
+
+    An exception raised by the user's function (a division by zero, an error it raises) is caught:
+    the moment is NaN, so the step fails, and ``Rs[0, 0]`` is set to NaN, the mark
+    :func:`user_raised` reads (a rotation passed to the function is never NaN); once marked, the
+    function is not called again in that chunk. Not inlined: Numba's exception handling, inlined at
+    each of the five call sites, would make the loop's compilation about six times slower."""
+    if Rs[0, 0] != Rs[0, 0]:
+        return math.nan, math.nan, math.nan
     Rs[0, 0], Rs[0, 1], Rs[0, 2], Rs[1, 0], Rs[1, 1], Rs[1, 2], Rs[2, 0], Rs[2, 1], Rs[2, 2] = Rt
     Ps[0] = p0
     Ps[1] = p1
     Ps[2] = p2
-    m = moment(t, Rs, Ps, up)
-    return float(m[0]), float(m[1]), float(m[2])
+    try:
+        m = moment(t, Rs, Ps, up)
+        return float(m[0]), float(m[1]), float(m[2])
+    except Exception:
+        Rs[0, 0] = math.nan
+        return math.nan, math.nan, math.nan
+
+
+@jit(inline="always")
+def user_raised(st, Rs):
+    """``USER_RAISED`` for a failed substep whose user function raised (see :func:`user_moment`)."""
+    if st != OK and Rs[0, 0] != Rs[0, 0]:
+        return USER_RAISED
+    return st
 
 
 @jit(inline="always")
@@ -171,6 +193,7 @@ def run_chunk_user(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, h, t0, 
                    codes, params, sym, k0, n, tol, max_iter, alpha, save_every, countdown, R_out, Pi_out, it_out,
                    res_out, hist, counts):
     """:func:`.stepping.run_chunk_forced` (no torque array) with the user's moment; same outputs.
+    A step whose user function raised fails with ``USER_RAISED`` (``Rs`` (3, 3) zeros on entry).
 
     The first sample is stored after ``countdown`` steps (``save_every`` when ``k0`` is a multiple
     of it) at ``R_out[0]``, then every ``save_every`` steps.
@@ -197,6 +220,7 @@ def run_chunk_user(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, h, t0, 
                                                    t1, Rx, Px, Mx, G, gidx[i], codes, params, D0, D1, D2, has_D, A,
                                                    i, sym, tol, max_iter, alpha, hist)
             its_sum, rmax, st = stage_done(its_sum, rmax, its, rn, st, Px, Mx)
+            st = user_raised(st, Rs)
             if st != OK:
                 status = st
                 break

@@ -499,6 +499,8 @@ class GyrostatRun:
         self.environment = environment
         self.magnetorquers = magnetorquers
         self.model = _torque_model(torque)
+        if self.model is not None:
+            self.model.check_sample(self.t0, self.R, self.Pi)      # its Python form, before the run
         self.Rs = np.zeros((3, 3))
         self.cp = np.zeros(0)
         self.cs = np.zeros(5)

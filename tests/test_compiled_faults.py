@@ -1,0 +1,99 @@
+"""A user's compiled moment (``lgvi.torques.Compiled``) that is wrong is reported, never run blind
+(issue 29, part 3): its Python form is tried at the first sample, so an index past ``params``
+(which Numba would read from memory past the array), a division by zero or a wrong return shape
+is a ``TorqueError`` naming the model before the run; an exception inside the compiled loop
+stops the run at its step with the part computed kept."""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+import pytest
+
+import lgvi
+from lgvi.torques import Compiled
+
+BODY = lgvi.RigidBody([1.0, 2.0, 3.0])
+W0 = [0.3, 0.5, 0.9]
+
+
+@numba.njit
+def reads_past(t, R, Pi, p):
+    return (p[100000], 0.0, 0.0)
+
+
+@numba.njit
+def divides(t, R, Pi, p):
+    return (1.0 / (t - p[0]), 0.0, 0.0)
+
+
+@numba.njit
+def two_late(t, R, Pi, p):
+    if Pi[0] > 0.1:
+        return np.zeros(2)              # passes the construction's trial at Pi = 0
+    return np.zeros(3)
+
+
+@numba.njit
+def fails_late(t, R, Pi, p):
+    # a spring about e3, and from t = p[0] on a division by zero (0 < p[0]: never at the first sample)
+    c = 0.0 if t < p[0] else 1.0 / (t - t)
+    return (-0.1 * R[2, 1] + c, 0.1 * R[2, 0], 0.0)
+
+
+@numba.njit
+def spring(t, R, Pi, p):
+    return (-0.1 * R[2, 1], 0.1 * R[2, 0], 0.0)
+
+
+def test_an_index_past_params_is_refused_before_the_run():
+    model = Compiled(reads_past, params=[1.0])     # compiled, the trial at R = I reads garbage and passes
+    for call in (lambda: lgvi.simulate(BODY, np.eye(3), omega0=W0, h=0.01, steps=10, torque=model),
+                 lambda: lgvi.simulate_ensemble(BODY, np.stack([np.eye(3)] * 2), omega0=np.ones((2, 3)), h=0.01,
+                                                steps=10, torque=model)):
+        with pytest.raises(lgvi.TorqueError, match=r"Compiled\(reads_past, params shape \(1,\)\): moment reads_past"
+                                                   r".*indexes past the end of an array \(params has size 1\).*"
+                                                   r"IndexError.*first sample") as info:
+            call()
+        assert isinstance(info.value.__cause__, IndexError) and info.value.trajectory is None
+
+
+def test_a_division_by_zero_or_a_wrong_shape_at_the_first_sample_is_refused():
+    with pytest.raises(lgvi.TorqueError, match=r"divides.*(ZeroDivisionError|FloatingPointError: divide by zero).*at the first sample "
+                                               r"\(t = 2\)"):
+        lgvi.simulate(BODY, np.eye(3), omega0=W0, h=0.01, steps=10, t0=2.0, torque=Compiled(divides, params=[2.0]))
+    # one row per body: body 1's row divides by zero at its first sample, and the message names it
+    rows = np.array([[5.0], [2.0]])
+    with pytest.raises(lgvi.TorqueError, match=r"\(body 1\).*first sample of body 1"):
+        lgvi.simulate_ensemble(BODY, np.stack([np.eye(3)] * 2), omega0=np.ones((2, 3)), h=0.01, steps=10, t0=2.0,
+                               torque=Compiled(divides, params=rows))
+    with pytest.raises(lgvi.TorqueError, match=r"two_late must return 3 finite numbers, got array\(\[0., 0.\]\)"):
+        lgvi.simulate(BODY, np.eye(3), omega0=W0, h=0.01, steps=10, torque=Compiled(two_late))
+
+
+def test_an_exception_in_the_compiled_loop_stops_at_its_step_and_keeps_the_part():
+    kw = dict(h=0.01, steps=300, save_every=3)
+    with pytest.raises(lgvi.TorqueError, match=r"Compiled\(fails_late.*raised an exception inside the compiled loop "
+                                               r"at step 149 \(t = 1.49\).*ZeroDivisionError") as info:
+        lgvi.simulate(BODY, np.eye(3), omega0=W0, torque=Compiled(fails_late, params=[1.5]), **kw)
+    err = info.value
+    part = err.trajectory
+    # the step from t = 1.49 evaluates the moment at 1.5: it fails there, the part up to it is the clean run's
+    clean = lgvi.simulate(BODY, np.eye(3), omega0=W0, torque=Compiled(fails_late, params=[1e9]), **kw)
+    assert err.step == 149 and err.time == pytest.approx(1.49) and part.meta["partial"]
+    assert len(part.t) == 50 and np.array_equal(part.R, clean.R[:50]) and np.array_equal(part.Pi, clean.Pi[:50])
+
+
+def test_an_exception_in_one_body_of_an_ensemble_names_it_and_spares_the_others():
+    rows = np.array([[1e9], [1.5], [1e9], [0.7]])       # bodies 1 and 3 fail, 3 first
+    R0 = np.stack([np.eye(3)] * 4)
+    w0 = np.tile(W0, (4, 1))
+    with pytest.raises(lgvi.TorqueError, match="body 3") as info:
+        lgvi.simulate_ensemble(BODY, R0, omega0=w0, h=0.01, steps=200, threads=1,
+                               torque=Compiled(fails_late, params=rows))
+    err = info.value
+    assert err.body == 3 and err.step == 69
+    part = err.trajectory
+    clean = lgvi.simulate(BODY, np.eye(3), omega0=W0, h=0.01, steps=200, torque=Compiled(fails_late, params=[1e9]))
+    # body 2 follows body 1 in the same thread: its part is the clean run's
+    assert part.R.shape[1] == err.step + 1 and np.array_equal(part.R[2], clean.R[:err.step + 1])
