@@ -1011,7 +1011,7 @@ class _LocalRun:
         into ``threads`` contiguous groups run in a pool of threads (the compiled loop releases the
         GIL; each thread has its own scratch arrays and each body its own state, so the numbers do not
         depend on the threads)."""
-        from ._kernels.user_kernels import advance_user
+        from ._kernels.user_kernels import advance_user, guarded
 
         s, k, se = self.s, self.k, self.save_every
         m = s.model
@@ -1025,7 +1025,7 @@ class _LocalRun:
                 if self.status[b] != OK:
                     continue
                 Rs[0, 0] = 0.0          # the mark of a user function that raised (user_kernels.user_moment)
-                advance_user(int(b), m.moment_func, table, Rs, Ps, m.conservative, m.depends_on_momentum, s.code,
+                advance_user(int(b), guarded(m.moment_func), table, Rs, Ps, m.conservative, m.depends_on_momentum, s.code,
                              self.Jd, self.J, self.J_inv, s.ib, s.h, s.t0, s.gam, s.cum, self.ia, self.A, self.R,
                              self.Pi, self.G, gidx, self.S, s.codes, s.params, int(s.sym), k, n, s.tol, s.max_iter,
                              s.alpha, se, 0, R_out, Pi_out, it_buf, res_buf, self.its, self.res, self.status,

@@ -644,10 +644,10 @@ class Run:
                                           it_out, res_out, _NO_HIST, self.counts)
             self.tally(status, *tot)
         elif getattr(self.model, "moment_func", None) is not None:   # lgvi.torques.Compiled
-            from ._kernels.user_kernels import run_chunk_user
+            from ._kernels.user_kernels import guarded, run_chunk_user
 
             m = self.model
-            status, self.k, *tot = run_chunk_user(m.moment_func, m.row(), np.zeros((3, 3)), np.zeros(3),
+            status, self.k, *tot = run_chunk_user(guarded(m.moment_func), m.row(), np.zeros((3, 3)), np.zeros(3),
                                                   m.conservative, m.depends_on_momentum, self.code, body.Jd, body.J,
                                                   body.J_inv, self.h, self.t0, self.gam, self.cum, self.A, self.R,
                                                   self.Pi, self.G, self.gidx, self.S, self.codes, self.params,

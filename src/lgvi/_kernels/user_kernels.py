@@ -30,27 +30,47 @@ from .stepping import load_state, push_at, rotated_row, save_state, solve_warm, 
 from .torque_kernels import model_moments, model_moments_s, momentum_diag
 
 
-@jit(cache=False)
+@jit(inline="always")
 def user_moment(moment, up, Rs, Ps, t, Rt, p0, p1, p2):
     """The user's moment at ``(t, R, Pi)`` as three numbers (a returned tuple or array).
 
-    An exception raised by the user's function (a division by zero, an error it raises) is caught:
-    the moment is NaN, so the step fails, and ``Rs[0, 0]`` is set to NaN, the mark
-    :func:`user_raised` reads (a rotation passed to the function is never NaN); once marked, the
-    function is not called again in that chunk. Not inlined: Numba's exception handling, inlined at
-    each of the five call sites, would make the loop's compilation about six times slower."""
+    On the CPU ``moment`` is the user's function wrapped by :func:`guarded`: an exception it raises
+    (a division by zero, an error it raises) is caught there, the moment is NaN, so the step fails,
+    and ``Rs[0, 0]`` is set to NaN, the mark :func:`user_raised` reads (a rotation passed to the
+    function is never NaN); once marked, the function is not called again in that chunk. On the
+    GPU (:mod:`.cuda_kernels`) the user's function is called as it is: the CUDA target has no
+    exception handling."""
     if Rs[0, 0] != Rs[0, 0]:
         return math.nan, math.nan, math.nan
     Rs[0, 0], Rs[0, 1], Rs[0, 2], Rs[1, 0], Rs[1, 1], Rs[1, 2], Rs[2, 0], Rs[2, 1], Rs[2, 2] = Rt
     Ps[0] = p0
     Ps[1] = p1
     Ps[2] = p2
-    try:
-        m = moment(t, Rs, Ps, up)
-        return float(m[0]), float(m[1]), float(m[2])
-    except Exception:
-        Rs[0, 0] = math.nan
-        return math.nan, math.nan, math.nan
+    m = moment(t, Rs, Ps, up)
+    return float(m[0]), float(m[1]), float(m[2])
+
+
+_GUARDED: dict = {}
+
+
+def guarded(moment):
+    """The user's ``moment(t, R, Pi, params)`` wrapped for the CPU loops: an exception it raises is
+    caught, the moment is NaN and ``R[0, 0]`` (the loop's scratch ``Rs``) is set to NaN, the mark of
+    :func:`user_raised`. Compiled once per function (not inlined: Numba's exception handling inlined
+    at each call site of the loop would make its compilation about six times slower)."""
+    call = _GUARDED.get(moment)
+    if call is None:
+        @jit(cache=False)
+        def call(t, R, P, p):
+            try:
+                m = moment(t, R, P, p)
+                return float(m[0]), float(m[1]), float(m[2])
+            except Exception:
+                R[0, 0] = math.nan
+                return math.nan, math.nan, math.nan
+
+        _GUARDED[moment] = call
+    return call
 
 
 @jit(inline="always")
