@@ -672,6 +672,10 @@ class Scenario:
             For any invalid, missing or unknown key.
         """
         c = _Checker(source)
+        if isinstance(d, dict) and ("spacecraft" in d or "fsw" in d):   # the compiled loop (issue 25)
+            from .scenario_loop import LoopScenario
+
+            return LoopScenario.from_dict(d, source, text=text)  # type: ignore[return-value]
         if isinstance(d, dict) and any(k in d for k in _system_sections()):   # orbit, two bodies, any system
                                                                                 # with a scenario section
             return BodiesScenario.from_dict(d, source, text=text)  # type: ignore[return-value]

@@ -1,0 +1,388 @@
+"""Scenario sections of the compiled spacecraft loop (issue 25): ``[spacecraft]`` and ``[fsw]``,
+read by :mod:`lgvi.io.scenario` into an :class:`lgvi.Spacecraft` and an :class:`lgvi.FlightSoftware`
+(``docs/loop.md``), run by ``lgvi run`` (:class:`LoopScenario`).
+
+Every component table names a registered kind with ``type`` (``lgvi.components.COMPONENT_KINDS``,
+the one source of truth: a kind's class and the keyword arguments of its constructor are the keys
+the table takes; a few short aliases: guidance ``"inertial"``, ``"nadir"`` (lgvi's LVLH),
+``"hill"`` (Basilisk's ``hillPoint``), ``"velocity"``, ``"sun"``, ``"target"``; disturbance
+``"gravity_gradient"``)::
+
+    name = "nadir_pointing"
+    [initial]                            # attitude (any form of the rigid body's [initial])
+    omega = [0.0, 0.0, 0.0011]           # and omega [rad/s] or Pi
+
+    [integrator]
+    h = 0.1                              # [s]
+    duration = 5677.0                    # or steps; save_every; method, tol, max_iter
+    save_every = 10
+
+    [spacecraft]
+    orbit_dt = 10.0                      # optional: spacing of the orbit table [s]
+    magnetorquer_rate = 1.0              # optional [s]; environment_rate too
+    epoch = 2026-03-20T00:00:00Z         # optional: UTC of t = 0 (else [spacecraft.orbit]'s epoch)
+    [spacecraft.body]                    # as the rigid body's [body]: inertia, matrix or shape
+    inertia = [0.18, 0.14, 0.06]
+    [[spacecraft.wheel]]                 # as the rigid body's [[wheel]]
+    axis = [0.577, 0.577, 0.577]
+    spin_inertia = 1e-4
+    [[spacecraft.magnetorquer]]          # as [[magnetorquer]]: axis, max_dipole
+    [spacecraft.orbit]                   # as [orbit]: "circular", "kepler", "j2", "sgp4" (TLE lines)
+    type = "circular"
+    radius = 6878137.0
+    inclination = 97.4                   # [deg]
+    [spacecraft.field]                   # as [field]: model = "igrf", "wmm" or "dipole"
+    [[spacecraft.disturbance]]           # any disturbance kind; also [[spacecraft.sensor]] and
+    type = "gravity_gradient"            # [[spacecraft.environment]] of their families
+
+    [fsw]
+    rate = 1.0                           # default period of every part [s]
+    record = ["sigma_BR", "mode"]        # optional: the signals recorded (default all written)
+    [[fsw.guidance]]                     # one table, or several with modes = [...]
+    type = "hill"
+    [[fsw.control]]
+    type = "mrp_feedback"
+    K = 0.0035
+    P = 0.035
+    [[fsw.actuator]]
+    type = "rw_motor_torque"
+    [fsw.modes]                          # the mode manager: rules [from, to, condition, threshold];
+    rules = [["any", 1, "rate_below", 0.01]]   # from "any" for any mode
+    initial = 0
+    # [[fsw.estimator]] of the estimator family
+
+Attitude-valued keys (``R_ref`` of the inertial guidance) take any form of ``[initial]``
+(``R_ref = { euler = { sequence = "ZYX", angles = [30.0, 0.0, 0.0], unit = "deg" } }``).
+Errors are :class:`lgvi.io.scenario.ScenarioError` naming the file and the dotted key
+(``fsw.control[0].K``); the run is then built once (without a step) so that what the loop refuses
+(a rate that is not a multiple of ``h``, a controller without wheels, a guidance without an orbit)
+is named before any step runs.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import inspect
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["LoopScenario", "ALIASES", "SPACECRAFT_KEYS", "FSW_KEYS", "SPACECRAFT_LISTS", "FSW_LISTS"]
+
+#: Short names of component kinds in a file (``type = "hill"``) -> the registered kind.
+ALIASES: dict[str, dict[str, str]] = {
+    "guidance": {"inertial": "inertial_pointing", "nadir": "nadir_pointing", "hill": "hill_pointing",
+                 "velocity": "velocity_pointing", "sun": "sun_pointing", "target": "target_pointing"},
+    "disturbance": {"gravity_gradient": "orbit_gravity_gradient"},
+}
+#: [spacecraft] component lists: file key -> family.
+SPACECRAFT_LISTS = {"disturbance": "disturbance", "sensor": "sensor", "environment": "environment"}
+#: [fsw] component lists: file key -> family.
+FSW_LISTS = {"estimator": "estimator", "guidance": "guidance", "control": "control", "actuator": "actuator"}
+SPACECRAFT_KEYS = ("body", "wheel", "magnetorquer", "orbit", "field", "epoch", "orbit_dt", "environment_rate",
+                   "magnetorquer_rate") + tuple(k for k in SPACECRAFT_LISTS if k != "environment")
+FSW_KEYS = ("rate", "record", "modes") + tuple(FSW_LISTS)
+_TOP = ("name", "description", "initial", "integrator", "output", "spacecraft", "fsw")
+_INTEGRATOR = ("h", "steps", "duration", "save_every", "method", "tol", "max_iter")
+#: kinds the spacecraft adds itself from its own keys (orbit, field, magnetorquers): not in a list
+_BUILT_IN = ("orbit", "field", "magnetorquers")
+
+
+def _prefixed(c: Any, prefix: str) -> Any:
+    """A checker of :mod:`lgvi.io.scenario` whose keys are under ``prefix`` (``spacecraft.``)."""
+    base = type(c)
+
+    class Prefixed(base):  # type: ignore[valid-type, misc]
+        def error(self, key: str | None, message: str):
+            return base.error(self, prefix.rstrip(".") if not key else prefix + key, message)
+
+    return Prefixed(c.source)
+
+
+def _kinds(family: str) -> dict[str, Any]:
+    """Registered kinds of ``family`` a file may name, with a class to build them."""
+    from .. import fsw as _fsw  # noqa: F401  (registers the flight software's kinds)
+    from .. import spacecraft as _sc  # noqa: F401
+    from ..components import COMPONENT_KINDS
+
+    return {name: k for name, k in COMPONENT_KINDS.items()
+            if k.family == family and k.cls is not None and name not in _BUILT_IN}
+
+
+def _value(c: Any, v: Any, key: str) -> Any:
+    """A TOML value as a component's constructor takes it (an attitude table -> a rotation matrix)."""
+    from .scenario import _ATTITUDE_KEYS, _attitude
+
+    if isinstance(v, dict):
+        if v and all(k in _ATTITUDE_KEYS for k in v):
+            return _attitude(c, v, key)
+        raise c.expected(key, "a number, a string, an array or an attitude table (as [initial])", v)
+    return v
+
+
+def component(c: Any, tbl: Any, key: str, family: str) -> Any:
+    """One component of ``family`` from its table: ``type`` (a registered kind or alias) and the
+    keyword arguments of the kind's class (``lgvi.components.COMPONENT_KINDS[type].cls``)."""
+    kinds = _kinds(family)
+    aliases = ALIASES.get(family, {})
+    names = tuple(aliases) + tuple(kinds)
+    if not isinstance(tbl, dict):
+        raise c.expected(key, "a table", tbl)
+    if "type" not in tbl:
+        raise c.expected(f"{key}.type", "one of " + ", ".join(f'"{n}"' for n in names))
+    name = c.string(tbl["type"], f"{key}.type", names)
+    kind = kinds[aliases.get(name, name)]
+    sig = inspect.signature(kind.cls.__init__)
+    params = {p.name: p for p in list(sig.parameters.values())[1:]
+              if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+    c.table(tbl, key, ("type",) + tuple(params))
+    for p in params.values():
+        if p.default is p.empty and p.name not in tbl:
+            raise c.expected(f"{key}.{p.name}", f"a value (a required argument of {kind.cls.__name__})")
+    kw = {k: _value(c, v, f"{key}.{k}") for k, v in tbl.items() if k != "type"}
+    try:
+        return kind.cls(**kw)
+    except (ValueError, TypeError) as exc:
+        first = str(exc).split(" ", 1)[0].rstrip(":")
+        where = f"{key}.{first}" if first in kw else key
+        raise c.error(where, f"invalid {name} ({kind.cls.__name__}): {exc}") from None
+
+
+def components(c: Any, value: Any, key: str, family: str) -> list[Any]:
+    """``[[key]]`` (an array of tables) or ``[key]`` (one table) of components of ``family``."""
+    tables = [value] if isinstance(value, dict) else value
+    if not isinstance(tables, list):
+        raise c.expected(key, f"a table or an array of tables ([[{key}]])", value)
+    return [component(c, t, f"{key}[{i}]" if isinstance(value, list) else key, family) for i, t in enumerate(tables)]
+
+
+def _modes(c: Any, tbl: Any) -> Any:
+    from ..fsw import ModeRules
+
+    tbl = c.table(tbl, "fsw.modes", ("rules", "initial", "rate"))
+    if "rules" not in tbl:
+        raise c.expected("fsw.modes.rules", 'an array of [from, to, condition, threshold] ("any" as from: any mode)')
+    rules = tbl["rules"]
+    if not isinstance(rules, list):
+        raise c.expected("fsw.modes.rules", "an array of [from, to, condition, threshold]", rules)
+    out = []
+    for i, r in enumerate(rules):
+        if not isinstance(r, list) or len(r) != 4:
+            raise c.expected(f"fsw.modes.rules[{i}]", "[from, to, condition, threshold]", r)
+        out.append((None if r[0] == "any" else r[0], *r[1:]))
+    kw = {k: tbl[k] for k in ("initial", "rate") if k in tbl}
+    try:
+        return ModeRules(out, **kw)
+    except (ValueError, TypeError) as exc:
+        msg = str(exc)
+        where = "fsw.modes." + msg.split(" ", 2)[0] if msg.startswith(("rules[", "initial", "rate")) else "fsw.modes"
+        raise c.error(where.split(" ")[0] if msg.startswith("rules[") else where, msg) from None
+
+
+def spacecraft(c: Any, tbl: Any) -> Any:
+    """``[spacecraft]``: an :class:`lgvi.Spacecraft`."""
+    from ..spacecraft import Spacecraft
+    from . import scenario_space
+    from .scenario import _body, _wheels
+
+    tbl = c.table(tbl, "spacecraft", SPACECRAFT_KEYS + ("environment",))
+    if "body" not in tbl:
+        raise c.error("spacecraft.body", "missing; expected a [spacecraft.body] table (inertia, matrix or shape)")
+    p = _prefixed(c, "spacecraft.")
+    body = _body(p, tbl["body"])
+    kw: dict[str, Any] = {}
+    if "wheel" in tbl:
+        kw["wheels"] = _wheels(p, tbl["wheel"], body)
+    if "magnetorquer" in tbl:
+        kw["magnetorquers"] = scenario_space.magnetorquers(p, tbl["magnetorquer"])
+    epoch = tbl.get("epoch")
+    if epoch is not None and not isinstance(epoch, _dt.datetime):
+        raise c.expected("spacecraft.epoch", "a date-time (UTC), e.g. 2026-03-20T00:00:00Z", epoch)
+    sub = {k: tbl[k] for k in ("orbit", "field") if k in tbl}
+    if "field" in sub and "orbit" in sub and epoch is not None and isinstance(sub["orbit"], dict) \
+            and "epoch" not in sub["orbit"]:
+        sub["orbit"] = {**sub["orbit"], "epoch": epoch}       # the field's date from spacecraft.epoch
+    env = scenario_space.environment(p, sub)
+    if env is not None:
+        kw.update(orbit=env.orbit, field=env.field)
+        epoch = epoch if epoch is not None else getattr(env, "epoch", None)
+    if epoch is not None:
+        kw["epoch"] = epoch
+    for k in ("orbit_dt", "environment_rate", "magnetorquer_rate"):
+        if k in tbl:
+            kw[k] = c.number(tbl[k], f"spacecraft.{k}", positive=True)
+    for k, fam in SPACECRAFT_LISTS.items():
+        if k in tbl:
+            kw[{"disturbance": "disturbances", "sensor": "sensors"}.get(k, k)] = \
+                components(c, tbl[k], f"spacecraft.{k}", fam)
+    try:
+        return Spacecraft(body, **kw)
+    except (ValueError, TypeError) as exc:
+        raise c.error("spacecraft", str(exc)) from None
+
+
+def flight_software(c: Any, tbl: Any) -> Any:
+    """``[fsw]``: an :class:`lgvi.FlightSoftware`."""
+    from ..components import SIGNALS
+    from ..fsw import FlightSoftware
+
+    tbl = c.table(tbl, "fsw", FSW_KEYS)
+    kw: dict[str, Any] = {}
+    if "rate" in tbl:
+        kw["rate"] = c.number(tbl["rate"], "fsw.rate", positive=True)
+    if "record" in tbl:
+        rec = tbl["record"]
+        if not isinstance(rec, list):
+            raise c.expected("fsw.record", "an array of signal names", rec)
+        kw["record"] = [c.string(r, f"fsw.record[{i}]") for i, r in enumerate(rec)]
+        for i, r in enumerate(kw["record"]):
+            if r not in SIGNALS and not r.startswith("tau_"):
+                raise c.error(f"fsw.record[{i}]", f"not a signal: {r!r}; expected one of lgvi.components.SIGNALS")
+    if "modes" in tbl:
+        kw["modes"] = _modes(c, tbl["modes"])
+    for k, fam in FSW_LISTS.items():
+        if k in tbl:
+            kw[{"actuator": "actuators"}.get(k, k)] = components(c, tbl[k], f"fsw.{k}", fam)
+    return FlightSoftware(**kw)
+
+
+@dataclass(frozen=True, eq=False)
+class LoopScenario:
+    """A checked scenario of a spacecraft and its flight software in the compiled loop."""
+
+    name: str
+    description: str
+    spacecraft: Any
+    fsw: Any
+    R0: np.ndarray
+    h: float
+    steps: int
+    omega0: np.ndarray | None = None
+    Pi0: np.ndarray | None = None
+    save_every: int = 1
+    options: dict[str, Any] = field(default_factory=dict)
+    formats: tuple[str, ...] = ("npz",)
+    plots: bool = True
+    source: str = "<dict>"
+    text: str = field(default="", repr=False)
+    kind: str = "spacecraft"
+
+    def __repr__(self) -> str:
+        return f"LoopScenario(name={self.name!r}, steps={self.steps}, h={self.h:g}, source={self.source!r})"
+
+    @property
+    def samples(self) -> int:
+        return self.steps // self.save_every + 1
+
+    def kwargs(self) -> dict[str, Any]:
+        """Keyword arguments of :func:`lgvi.simulate` after the spacecraft and ``R0``."""
+        return dict(Pi0=self.Pi0, omega0=self.omega0, h=self.h, steps=self.steps, fsw=self.fsw,
+                    save_every=self.save_every, **self.options)
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any], source: str = "<dict>", *, text: str | None = None) -> "LoopScenario":
+        from .._untrusted import name_problem
+        from .scenario import FORMATS, _ATTITUDE_KEYS, METHODS, _attitude, _Checker, _omega, _steps, to_toml
+
+        c = _Checker(source)
+        d = c.table(d, "", _TOP)
+        for req in ("spacecraft", "integrator"):
+            if req not in d:
+                raise c.error(req, f"missing; expected a [{req}] table")
+        name = c.string(d.get("name", Path(source).stem if not source.startswith("<") else "scenario"), "name")
+        if "name" in d and (problem := name_problem(name)):
+            raise c.error("name", problem)
+        description = c.string(d.get("description", ""), "description")
+        integ = c.table(d["integrator"], "integrator", _INTEGRATOR)
+        h, steps = _steps(c, integ)
+        save_every = c.integer(integ.get("save_every", 1), "integrator.save_every", minimum=1)
+        if steps % save_every:
+            raise c.error("integrator.save_every", f"expected a divisor of the number of steps ({steps}) so the "
+                          f"final state is saved; got {save_every}")
+        options: dict[str, Any] = {}
+        if "method" in integ:
+            options["method"] = c.string(integ["method"], "integrator.method", METHODS)
+        if "tol" in integ:
+            options["tol"] = c.number(integ["tol"], "integrator.tol", nonnegative=True)
+        if "max_iter" in integ:
+            options["max_iter"] = c.integer(integ["max_iter"], "integrator.max_iter", minimum=1)
+        init = c.table(d.get("initial", {}), "initial", _ATTITUDE_KEYS + ("omega", "Pi"))
+        R0 = _attitude(c, init, "initial")
+        if "omega" in init and "Pi" in init:
+            raise c.error("initial", "expected at most one of initial.omega [rad/s] or initial.Pi [kg m^2/s]; got both")
+        omega0 = _omega(c, init["omega"], "initial.omega") if "omega" in init else None
+        Pi0 = c.vector(init["Pi"], "initial.Pi") if "Pi" in init else None
+        if omega0 is None and Pi0 is None:
+            omega0 = np.zeros(3)
+        sc = spacecraft(c, d["spacecraft"])
+        fsw = flight_software(c, d.get("fsw", {}))
+        out = c.table(d.get("output", {}), "output", ("formats", "plots"))
+        formats: tuple[str, ...] = ("npz",)
+        if "formats" in out:
+            raw = out["formats"]
+            if not isinstance(raw, list) or not raw:
+                raise c.expected("output.formats", 'a non-empty array holding "npz"', raw)
+            for i, f in enumerate(raw):
+                if c.string(f, f"output.formats[{i}]", FORMATS) != "npz":
+                    raise c.error(f"output.formats[{i}]", f"the result of a [spacecraft] scenario is saved as npz "
+                                  f"only; got {f!r}")
+        plots = c.boolean(out.get("plots", True), "output.plots")
+        scen = cls(name=name, description=description, spacecraft=sc, fsw=fsw, R0=R0, h=h, steps=steps,
+                   omega0=omega0, Pi0=Pi0, save_every=save_every, options=options, formats=formats, plots=plots,
+                   source=source, text=to_toml(d) if text is None else text)
+        scen.check(c)
+        return scen
+
+    def check(self, c: Any) -> None:
+        """Build the run once, without a step: what the loop refuses is named before any step."""
+        from ..systems.spacecraft import LoopRun
+
+        try:
+            LoopRun(self.spacecraft, self.R0, **self.kwargs())
+        except (ValueError, TypeError) as exc:
+            msg = str(exc)
+            key = "fsw" if any(w in msg for w in ("rate", "guidance", "control", "actuator", "mode", "Pointing",
+                                                   "Control", "RWMotor", "estimator")) else "spacecraft"
+            raise c.error(key, msg) from None
+
+    def run(self, progress: Any = False):
+        """Simulate (:func:`lgvi.simulate` with the spacecraft and ``fsw=``); the result's ``meta``
+        holds the scenario text, name and source."""
+        from ..systems.spacecraft import simulate_spacecraft
+
+        return self._attached(lambda: simulate_spacecraft(self.spacecraft, self.R0, progress=progress,
+                                                          **self.kwargs()))
+
+    def run_stream(self, folder: Any, *, resume: bool = False, progress: Any = False,
+                   chunk_steps: int | None = None):
+        """Simulate into a crash-safe stream folder (``resume=True`` continues it bit for bit)."""
+        from .streaming import read_stream, stream_system
+
+        def go():
+            kw = self.kwargs()
+            stream_system(folder, "spacecraft", self.spacecraft, self.R0, kw.pop("Pi0"), progress=progress,
+                          resume=resume, chunk_steps=chunk_steps, meta={"scenario_name": self.name}, **kw)
+            return read_stream(folder)
+
+        return self._attached(go)
+
+    def short(self) -> "LoopScenario":
+        """The same scenario for one saved interval (to load or compile the kernels first)."""
+        return replace(self, steps=min(self.steps, self.save_every))
+
+    def _attached(self, go: Any):
+        try:
+            traj = go()
+        except (KeyboardInterrupt, RuntimeError) as exc:
+            part = getattr(exc, "trajectory", None)
+            if part is not None:
+                exc.trajectory = self.attach(part)
+            raise
+        return self.attach(traj)
+
+    def attach(self, traj):
+        meta = dict(traj.meta)
+        meta.update(scenario=self.text, scenario_name=self.name, scenario_source=self.source)
+        return replace(traj, meta=meta)
