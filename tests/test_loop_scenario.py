@@ -5,6 +5,7 @@ its key before any step runs."""
 from __future__ import annotations
 
 import copy
+import json
 import datetime as dt
 from pathlib import Path
 
@@ -136,3 +137,56 @@ def test_every_guidance_alias_names_a_registered_kind():
     for family, table in ALIASES.items():
         for alias, name in table.items():
             assert COMPONENT_KINDS[name].family == family, alias
+
+
+def _cli(capsys, *argv):
+    from lgvi import cli
+
+    code = cli.main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_lgvi_run_draws_and_summarises_the_records(capsys, tmp_path):
+    """``lgvi run`` of a detumble-then-point scenario: the figures of what it recorded, and a summary
+    whose numbers are those of the saved records (recomputed here from trajectory.npz)."""
+    pytest.importorskip("matplotlib")
+    from lgvi.io.scenario import to_toml
+
+    d = _dict()
+    d["integrator"]["duration"] = 400.0
+    path = tmp_path / "detumble.toml"
+    path.write_text(to_toml(d))
+    code, out, err = _cli(capsys, "run", path, "-o", tmp_path / "out")
+    assert code == 0, err
+    o = tmp_path / "out"
+    names = {p.name for p in o.iterdir()}
+    assert {"trajectory.npz", "summary.json", "summary.txt", "pointing.png", "dipoles.png", "modes.png",
+            "wheels.png", "rates.png"} <= names
+    s = json.loads((o / "summary.json").read_text())["pointing"]
+    traj = lgvi.load(o / "trajectory.npz")
+    t, sig = traj.signal_t, traj.signals
+    err_deg = np.degrees(4 * np.arctan(np.linalg.norm(sig["sigma_BR"], axis=1)))
+    k = np.searchsorted(t, s["settle_time_s"])
+    assert t[k] == s["settle_time_s"] and err_deg[k:].max() < s["settle_deg"] <= err_deg[k - 1]
+    assert s["error_deg"]["max"] == err_deg[k:].max() and s["error_deg"]["mean"] == pytest.approx(err_deg[k:].mean())
+    assert s["error_deg"]["p95"] == pytest.approx(np.percentile(err_deg[k:], 95))
+    assert s["rate_final_deg_s"] == pytest.approx(np.degrees(np.linalg.norm(traj.omega[-1])), rel=1e-12)
+    hw = 1e-4 * (traj.omega @ np.array(AXES).T + traj.wheel_speed)
+    assert s["wheel_momentum_peak_Nms"] == pytest.approx(np.abs(hw).max(), rel=1e-12)
+    switch = t[np.argmax(np.ravel(sig["mode"]) == 1)]
+    assert s["modes"] == [{"mode": 0, "from_s": 0.0}, {"mode": 1, "from_s": switch}]
+    txt = (o / "summary.txt").read_text()
+    assert f"settled below 0.1 deg at t = {s['settle_time_s']:g} s" in txt and f"1 from {switch:g} s" in txt
+
+
+def test_loop_summary_of_a_run_that_never_settles():
+    from lgvi.io.scenario_loop import loop_summary
+
+    sat, fsw = _sixu_python()
+    traj = lgvi.simulate(sat, np.eye(3), omega0=[0.0, 0.0, 0.0011], h=0.1, steps=100, fsw=fsw, save_every=10)
+    s = loop_summary(traj)
+    assert s["settle_time_s"] is None and s["error_deg"] is None and s["error_final_deg"] > 10.0
+    assert "wheel_momentum_peak_Nms" not in s                          # no wheels given: not reported
+    with pytest.raises(ValueError, match="settle_deg must be a positive number"):
+        loop_summary(traj, settle_deg=0.0)

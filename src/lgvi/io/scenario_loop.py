@@ -276,9 +276,9 @@ class LoopScenario:
     def samples(self) -> int:
         return self.steps // self.save_every + 1
 
-    def kwargs(self) -> dict[str, Any]:
-        """Keyword arguments of :func:`lgvi.simulate` after the spacecraft and ``R0``."""
-        return dict(Pi0=self.Pi0, omega0=self.omega0, h=self.h, steps=self.steps, fsw=self.fsw,
+    def simulate_kwargs(self) -> dict[str, Any]:
+        """Keyword arguments of :func:`lgvi.simulate` after the spacecraft, ``R0`` and ``Pi0``."""
+        return dict(omega0=self.omega0, h=self.h, steps=self.steps, fsw=self.fsw,
                     save_every=self.save_every, **self.options)
 
     @classmethod
@@ -340,7 +340,7 @@ class LoopScenario:
         from ..systems.spacecraft import LoopRun
 
         try:
-            LoopRun(self.spacecraft, self.R0, **self.kwargs())
+            LoopRun(self.spacecraft, self.R0, self.Pi0, **self.simulate_kwargs())
         except (ValueError, TypeError) as exc:
             msg = str(exc)
             key = "fsw" if any(w in msg for w in ("rate", "guidance", "control", "actuator", "mode", "Pointing",
@@ -352,8 +352,8 @@ class LoopScenario:
         holds the scenario text, name and source."""
         from ..systems.spacecraft import simulate_spacecraft
 
-        return self._attached(lambda: simulate_spacecraft(self.spacecraft, self.R0, progress=progress,
-                                                          **self.kwargs()))
+        return self._attached(lambda: simulate_spacecraft(self.spacecraft, self.R0, self.Pi0, progress=progress,
+                                                          **self.simulate_kwargs()))
 
     def run_stream(self, folder: Any, *, resume: bool = False, progress: Any = False,
                    chunk_steps: int | None = None):
@@ -361,9 +361,9 @@ class LoopScenario:
         from .streaming import read_stream, stream_system
 
         def go():
-            kw = self.kwargs()
-            stream_system(folder, "spacecraft", self.spacecraft, self.R0, kw.pop("Pi0"), progress=progress,
-                          resume=resume, chunk_steps=chunk_steps, meta={"scenario_name": self.name}, **kw)
+            stream_system(folder, "spacecraft", self.spacecraft, self.R0, self.Pi0, progress=progress,
+                          resume=resume, chunk_steps=chunk_steps, meta={"scenario_name": self.name},
+                          **self.simulate_kwargs())
             return read_stream(folder)
 
         return self._attached(go)
@@ -386,3 +386,93 @@ class LoopScenario:
         meta = dict(traj.meta)
         meta.update(scenario=self.text, scenario_name=self.name, scenario_source=self.source)
         return replace(traj, meta=meta)
+
+
+#: Pointing error (degrees) under which a run counts as settled, by default.
+SETTLE_DEG = 0.1
+
+
+def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DEG) -> dict[str, Any]:
+    """What a run of the compiled loop achieved, from its records (``traj.signals``).
+
+    Parameters
+    ----------
+    traj : lgvi.systems.spacecraft.SpacecraftTrajectory
+    wheels : lgvi.ReactionWheels, optional
+        The spacecraft's wheels (their spin inertias and axes give the wheel momenta).
+    settle_deg : float
+        The pointing error, degrees, under which the run counts as settled.
+
+    Returns
+    -------
+    dict
+        ``settle_deg``; ``settle_time_s``: the first record time from which the attitude error
+        ``4 atan |sigma_BR|`` stays below ``settle_deg`` to the end (``None`` if it never does,
+        or no control law wrote ``sigma_BR``); ``error_deg``: ``mean``, ``p95`` (95th
+        percentile), ``max`` of the error over the records from the settle time on (``None``
+        when not settled); ``error_final_deg``; ``rate_final_deg_s``: ``|omega|`` at the last
+        saved state; ``rate_error_final_deg_s``: ``|omega_BR_B|`` at the last record;
+        ``wheel_momentum_peak_Nms``: the largest ``|Js_i (a_i . omega + Omega_i)|`` of any wheel
+        over the saved states, ``wheel_momentum_total_peak_Nms``: the largest norm of their sum
+        ``sum_i a_i h_i`` (body frame); ``modes``: the modes visited, in order, with the time
+        each was entered.
+    """
+    import math
+
+    if not (isinstance(settle_deg, (int, float)) and math.isfinite(settle_deg) and settle_deg > 0):
+        raise ValueError(f"settle_deg must be a positive number of degrees, got {settle_deg!r}")
+    sig, ts = traj.signals, np.asarray(traj.signal_t)
+    out: dict[str, Any] = {"settle_deg": float(settle_deg), "settle_time_s": None, "error_deg": None,
+                           "error_final_deg": None, "rate_error_final_deg_s": None, "records": int(len(ts))}
+    omega = np.asarray(traj.omega)
+    out["rate_final_deg_s"] = float(np.degrees(np.linalg.norm(omega[-1]))) if len(omega) else None
+    if "sigma_BR" in sig and len(ts):
+        err = np.degrees(4.0 * np.arctan(np.linalg.norm(sig["sigma_BR"], axis=1)))
+        out["error_final_deg"] = float(err[-1])
+        above = np.flatnonzero(~(err < settle_deg))
+        first = 0 if not above.size else int(above[-1]) + 1
+        if first < len(err):
+            tail = err[first:]
+            out["settle_time_s"] = float(ts[first])
+            out["error_deg"] = {"mean": float(tail.mean()), "p95": float(np.percentile(tail, 95.0)),
+                                "max": float(tail.max())}
+    if "omega_BR_B" in sig and len(ts):
+        out["rate_error_final_deg_s"] = float(np.degrees(np.linalg.norm(sig["omega_BR_B"][-1])))
+    speed = getattr(traj, "wheel_speed", None)
+    if wheels is not None and speed is not None and len(omega):
+        axes = np.asarray(wheels.axes)
+        hw = np.asarray(wheels.spin_inertia) * (omega @ axes.T + np.asarray(speed))      # (M, N)
+        out["wheel_momentum_peak_Nms"] = float(np.abs(hw).max())
+        out["wheel_momentum_total_peak_Nms"] = float(np.linalg.norm(hw @ axes, axis=1).max())
+    if "mode" in sig and len(ts):
+        m = np.asarray(sig["mode"]).reshape(len(ts), -1)[:, 0]
+        start = np.concatenate([[0], np.flatnonzero(np.diff(m)) + 1])
+        out["modes"] = [{"mode": int(m[i]), "from_s": float(ts[i])} for i in start]
+    return out
+
+
+def summary_lines(s: dict[str, Any]) -> list[str]:
+    """The lines of ``summary.txt`` for :func:`loop_summary`'s ``s``."""
+    lines = []
+    if s["error_final_deg"] is None:
+        lines.append("pointing:      no control law wrote sigma_BR")
+    elif s["settle_time_s"] is None:
+        lines.append(f"pointing:      not settled below {s['settle_deg']:g} deg (final error "
+                     f"{s['error_final_deg']:.3g} deg)")
+    else:
+        e = s["error_deg"]
+        lines.append(f"pointing:      settled below {s['settle_deg']:g} deg at t = {s['settle_time_s']:g} s; error "
+                     f"after it mean {e['mean']:.3g}, 95th percentile {e['p95']:.3g}, max {e['max']:.3g} deg")
+    rate = f"final rate:    |omega| {s['rate_final_deg_s']:.4g} deg/s"
+    if s["rate_error_final_deg_s"] is not None:
+        rate += f", |omega_BR| {s['rate_error_final_deg_s']:.3g} deg/s"
+    lines.append(rate)
+    if "wheel_momentum_peak_Nms" in s:
+        lines.append(f"wheels:        momentum peak {s['wheel_momentum_peak_Nms']:.4g} N m s (one wheel), "
+                     f"{s['wheel_momentum_total_peak_Nms']:.4g} N m s (all, body frame)")
+    if s.get("modes"):
+        lines.append("modes:         " + ", ".join(f"{m['mode']} from {m['from_s']:g} s" for m in s["modes"]))
+    return lines
+
+
+__all__ += ["loop_summary", "summary_lines", "SETTLE_DEG"]
