@@ -102,6 +102,8 @@ A complete example (every key shown; comments say which keys are alternatives)::
     period = 0.1                         # [s], a multiple of integrator.h
     # target = { ... }                   # optional, any attitude form of [initial]; default I
     # [orbit], [field], [[magnetorquer]] and type = "bdot": see lgvi.io.scenario_space
+    # a spacecraft with its flight software in the compiled loop: [spacecraft] and [fsw] instead of
+    # [body], [[wheel]], [controller]: see lgvi.io.scenario_loop
 
     [output]
     formats = ["npz", "csv"]             # any of "npz" (default), "csv", "netcdf"
