@@ -373,19 +373,14 @@ class LoopScenario:
         return replace(self, steps=min(self.steps, self.save_every))
 
     def _attached(self, go: Any):
-        try:
-            traj = go()
-        except (KeyboardInterrupt, RuntimeError) as exc:
-            part = getattr(exc, "trajectory", None)
-            if part is not None:
-                exc.trajectory = self.attach(part)
-            raise
-        return self.attach(traj)
+        from .scenario import BodiesScenario
+
+        return BodiesScenario._attached(self, go)    # the scenario's text, name and source in meta
 
     def attach(self, traj):
-        meta = dict(traj.meta)
-        meta.update(scenario=self.text, scenario_name=self.name, scenario_source=self.source)
-        return replace(traj, meta=meta)
+        from .scenario import BodiesScenario
+
+        return BodiesScenario.attach(self, traj)
 
 
 #: Pointing error (degrees) under which a run counts as settled, by default.
