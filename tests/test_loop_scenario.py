@@ -176,6 +176,7 @@ def test_lgvi_run_draws_and_summarises_the_records(capsys, tmp_path):
     assert s["wheel_momentum_peak_Nms"] == pytest.approx(np.abs(hw).max(), rel=1e-12)
     switch = t[np.argmax(np.ravel(sig["mode"]) == 1)]
     assert s["modes"] == [{"mode": 0, "from_s": 0.0}, {"mode": 1, "from_s": switch}]
+    np.testing.assert_array_equal(traj.R, Scenario.from_dict(d).run().R)      # the stream is the run
     txt = (o / "summary.txt").read_text()
     assert f"settled below 0.1 deg at t = {s['settle_time_s']:g} s" in txt and f"1 from {switch:g} s" in txt
 
@@ -190,3 +191,19 @@ def test_loop_summary_of_a_run_that_never_settles():
     assert "wheel_momentum_peak_Nms" not in s                          # no wheels given: not reported
     with pytest.raises(ValueError, match="settle_deg must be a positive number"):
         loop_summary(traj, settle_deg=0.0)
+
+
+def test_tle_orbit_and_field_take_the_tle_epoch():
+    """[spacecraft.orbit] type = "sgp4" (a TLE): the spacecraft's epoch is the TLE's, the field's date too."""
+    pytest.importorskip("sgp4")
+    d = _dict()
+    d["spacecraft"].pop("epoch")
+    d["spacecraft"]["orbit"] = {
+        "type": "sgp4", "line1": "1 25544U 98067A   26079.50000000  .00016717  00000-0  10270-3 0  9005",
+        "line2": "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815361  2041"}
+    sc = Scenario.from_dict(d)
+    assert type(sc.spacecraft.orbit).__name__ == "SGP4Orbit"
+    assert sc.spacecraft.epoch.replace(tzinfo=None) == dt.datetime(2026, 3, 20, 12)
+    d["spacecraft"]["orbit"] = {"type": "circular", "radius": 6878137.0}      # no epoch anywhere: the field
+    with pytest.raises(ScenarioError, match=r"spacecraft\.orbit\.epoch.*needs a date"):
+        Scenario.from_dict(d)

@@ -1280,3 +1280,11 @@ class BodiesScenario:
         meta = dict(traj.meta)
         meta.update(scenario=self.text, scenario_name=self.name, scenario_source=self.source)
         return replace(traj, meta=meta)
+
+
+# ------------------------------------------------------------------------------------ shared with section modules
+#: The readers the section modules share (:mod:`lgvi.io.scenario_loop` reads ``[spacecraft.body]``,
+#: ``[[spacecraft.wheel]]`` and ``[initial]`` with them), under public names.
+Checker = _Checker
+ATTITUDE_KEYS = _ATTITUDE_KEYS
+read_body, read_wheels, read_attitude, read_omega, read_steps = _body, _wheels, _attitude, _omega, _steps

@@ -113,11 +113,11 @@ def _kinds(family: str) -> dict[str, Any]:
 
 def _value(c: Any, v: Any, key: str) -> Any:
     """A TOML value as a component's constructor takes it (an attitude table -> a rotation matrix)."""
-    from .scenario import _ATTITUDE_KEYS, _attitude
+    from .scenario import ATTITUDE_KEYS, read_attitude
 
     if isinstance(v, dict):
-        if v and all(k in _ATTITUDE_KEYS for k in v):
-            return _attitude(c, v, key)
+        if v and all(k in ATTITUDE_KEYS for k in v):
+            return read_attitude(c, v, key)
         raise c.expected(key, "a number, a string, an array or an attitude table (as [initial])", v)
     return v
 
@@ -185,16 +185,16 @@ def spacecraft(c: Any, tbl: Any) -> Any:
     """``[spacecraft]``: an :class:`lgvi.Spacecraft`."""
     from ..spacecraft import Spacecraft
     from . import scenario_space
-    from .scenario import _body, _wheels
+    from .scenario import read_body, read_wheels
 
     tbl = c.table(tbl, "spacecraft", SPACECRAFT_KEYS + ("environment",))
     if "body" not in tbl:
         raise c.error("spacecraft.body", "missing; expected a [spacecraft.body] table (inertia, matrix or shape)")
     p = _prefixed(c, "spacecraft.")
-    body = _body(p, tbl["body"])
+    body = read_body(p, tbl["body"])
     kw: dict[str, Any] = {}
     if "wheel" in tbl:
-        kw["wheels"] = _wheels(p, tbl["wheel"], body)
+        kw["wheels"] = read_wheels(p, tbl["wheel"], body)
     if "magnetorquer" in tbl:
         kw["magnetorquers"] = scenario_space.magnetorquers(p, tbl["magnetorquer"])
     epoch = tbl.get("epoch")
@@ -284,9 +284,10 @@ class LoopScenario:
     @classmethod
     def from_dict(cls, d: dict[str, Any], source: str = "<dict>", *, text: str | None = None) -> "LoopScenario":
         from .._untrusted import name_problem
-        from .scenario import FORMATS, _ATTITUDE_KEYS, METHODS, _attitude, _Checker, _omega, _steps, to_toml
+        from .scenario import (ATTITUDE_KEYS, FORMATS, METHODS, Checker, read_attitude, read_omega, read_steps,
+                               to_toml)
 
-        c = _Checker(source)
+        c = Checker(source)
         d = c.table(d, "", _TOP)
         for req in ("spacecraft", "integrator"):
             if req not in d:
@@ -296,7 +297,7 @@ class LoopScenario:
             raise c.error("name", problem)
         description = c.string(d.get("description", ""), "description")
         integ = c.table(d["integrator"], "integrator", _INTEGRATOR)
-        h, steps = _steps(c, integ)
+        h, steps = read_steps(c, integ)
         save_every = c.integer(integ.get("save_every", 1), "integrator.save_every", minimum=1)
         if steps % save_every:
             raise c.error("integrator.save_every", f"expected a divisor of the number of steps ({steps}) so the "
@@ -308,11 +309,11 @@ class LoopScenario:
             options["tol"] = c.number(integ["tol"], "integrator.tol", nonnegative=True)
         if "max_iter" in integ:
             options["max_iter"] = c.integer(integ["max_iter"], "integrator.max_iter", minimum=1)
-        init = c.table(d.get("initial", {}), "initial", _ATTITUDE_KEYS + ("omega", "Pi"))
-        R0 = _attitude(c, init, "initial")
+        init = c.table(d.get("initial", {}), "initial", ATTITUDE_KEYS + ("omega", "Pi"))
+        R0 = read_attitude(c, init, "initial")
         if "omega" in init and "Pi" in init:
             raise c.error("initial", "expected at most one of initial.omega [rad/s] or initial.Pi [kg m^2/s]; got both")
-        omega0 = _omega(c, init["omega"], "initial.omega") if "omega" in init else None
+        omega0 = read_omega(c, init["omega"], "initial.omega") if "omega" in init else None
         Pi0 = c.vector(init["Pi"], "initial.Pi") if "Pi" in init else None
         if omega0 is None and Pi0 is None:
             omega0 = np.zeros(3)
