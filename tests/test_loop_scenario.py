@@ -100,10 +100,12 @@ def test_modes_bdot_and_magnetorquers_are_the_python_run():
     (lambda d: d["fsw"]["control"][1].update(Kp=1.0), "fsw.control[1].Kp", "unknown key"),
     (lambda d: d["fsw"]["guidance"][0].update(type="hil"), "fsw.guidance[0].type", "did you mean 'hill'"),
     (lambda d: d["fsw"]["guidance"][0].update(type="mrp_feedback"), "fsw.guidance[0].type", "expected one of"),
-    (lambda d: d["fsw"].update(rate=0.7), "fsw", "multiple"),
+    (lambda d: d["fsw"].update(rate=0.7), "fsw.rate", "multiple"),
+    (lambda d: d["fsw"]["control"][1].update(rate=0.75), "fsw.control[1].rate", "multiple"),
+    (lambda d: d["spacecraft"].update(magnetorquer_rate=0.3), "spacecraft.magnetorquer_rate", "multiple"),
     (lambda d: d["fsw"]["modes"].update(rules=[[0, 1, "rate_under", 0.03]]), "fsw.modes.rules[0]", "condition"),
     (lambda d: d["fsw"].update(record=["sigma_XY"]), "fsw.record[0]", "not a signal"),
-    (lambda d: d["spacecraft"].pop("wheel"), "fsw", "wheels"),
+    (lambda d: d["spacecraft"].pop("wheel"), "fsw.actuator[0]", "wheels"),
     (lambda d: d["spacecraft"]["body"].update(inertia=[1.0, 2.0]), "spacecraft.body.inertia", "3 numbers"),
     (lambda d: d["spacecraft"]["wheel"][0].pop("spin_inertia"), "spacecraft.wheel[0].spin_inertia", "missing"),
     (lambda d: d["spacecraft"]["orbit"].update(type="halo"), "spacecraft.orbit.type", "expected one of"),
@@ -126,7 +128,7 @@ def test_guidance_without_orbit_is_refused_before_a_step():
     for k in ("orbit", "field", "magnetorquer", "magnetorquer_rate"):
         d["spacecraft"].pop(k)
     d["fsw"] = {"guidance": {"type": "hill"}}
-    with pytest.raises(ScenarioError, match=r"<dict>: fsw: .*r_N"):
+    with pytest.raises(ScenarioError, match=r"<dict>: fsw.guidance: .*r_N"):
         Scenario.from_dict(d)
 
 

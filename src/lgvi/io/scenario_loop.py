@@ -143,11 +143,13 @@ def component(c: Any, tbl: Any, key: str, family: str) -> Any:
             raise c.expected(f"{key}.{p.name}", f"a value (a required argument of {kind.cls.__name__})")
     kw = {k: _value(c, v, f"{key}.{k}") for k, v in tbl.items() if k != "type"}
     try:
-        return kind.cls(**kw)
+        obj = kind.cls(**kw)
     except (ValueError, TypeError) as exc:
         first = str(exc).split(" ", 1)[0].rstrip(":")
         where = f"{key}.{first}" if first in kw else key
         raise c.error(where, f"invalid {name} ({kind.cls.__name__}): {exc}") from None
+    obj.scenario_key = key           # where the run's own refusals (LoopScenario.check) point
+    return obj
 
 
 def components(c: Any, value: Any, key: str, family: str) -> list[Any]:
@@ -343,10 +345,27 @@ class LoopScenario:
         try:
             LoopRun(self.spacecraft, self.R0, self.Pi0, **self.simulate_kwargs())
         except (ValueError, TypeError) as exc:
-            msg = str(exc)
-            key = "fsw" if any(w in msg for w in ("rate", "guidance", "control", "actuator", "mode", "Pointing",
-                                                   "Control", "RWMotor", "estimator")) else "spacecraft"
-            raise c.error(key, msg) from None
+            raise c.error(self._key_of(str(exc)), str(exc)) from None
+
+    def _key_of(self, msg: str) -> str:
+        """The file key of a refusal of the run: the component it names first (its kind or class),
+        its ``rate`` for a rate; else ``fsw`` or ``spacecraft``."""
+        rate = " rate " in f" {msg} "
+        head = msg.split(":", 1)[0].split(" ", 1)[0]
+        built = {"orbit": "spacecraft.orbit", "field": "spacecraft.field", "magnetorquers": "spacecraft.magnetorquer"}
+        if head in built:
+            return ("spacecraft.magnetorquer_rate" if head == "magnetorquers" else "spacecraft.environment_rate") \
+                if rate else built[head]
+        own = [c for c in self.fsw.components() + self.spacecraft.components()
+               if head in (getattr(c, "kind", None), type(c).__name__) and hasattr(c, "scenario_key")]
+        if len(own) != 1:
+            return "fsw" if self.fsw.components() and not rate else ("fsw.rate" if rate else "spacecraft")
+        c = own[0]
+        if not rate:
+            return c.scenario_key
+        if c.rate is not None or not c.scenario_key.startswith("fsw."):
+            return f"{c.scenario_key}.rate"
+        return "fsw.rate"
 
     def run(self, progress: Any = False):
         """Simulate (:func:`lgvi.simulate` with the spacecraft and ``fsw=``); the result's ``meta``
