@@ -40,7 +40,11 @@ def pointing(traj: Any, axes: Sequence[Any] | None = None, *, max_points: int | 
     s = sig["sigma_BR"]
     err = np.degrees(4.0 * np.arctan(np.linalg.norm(s, axis=1)))
     tt, yy = _thin_minmax(t, np.maximum(err, 1e-12), n)
+    from ..io.scenario_loop import SETTLE_DEG
+
     axs[0].semilogy(tt, yy, lw=1.2, color="k")
+    axs[0].axhline(SETTLE_DEG, ls=":", lw=1.0, color="tab:orange", label=f"settled below {SETTLE_DEG:g} deg (summary)")
+    axs[0].legend(loc="upper right", fontsize="small", framealpha=0.85)
     axs[0].set_ylabel("error angle (deg)")
     axs[0].set_title("Attitude error relative to the guidance reference")
     panels = [(axs[1], s, r"$\sigma_{BR}$ (MRP)")]
