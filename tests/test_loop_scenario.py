@@ -209,3 +209,20 @@ def test_tle_orbit_and_field_take_the_tle_epoch():
     d["spacecraft"]["orbit"] = {"type": "circular", "radius": 6878137.0}      # no epoch anywhere: the field
     with pytest.raises(ScenarioError, match=r"spacecraft\.orbit\.epoch.*needs a date"):
         Scenario.from_dict(d)
+
+
+def test_environment_models_take_the_spacecraft_epoch():
+    """[[spacecraft.environment]] type = "sun": the class's required epoch is the spacecraft's."""
+    from lgvi.io.scenario import Checker
+    from lgvi.io.scenario_loop import spacecraft
+
+    tbl = _dict()["spacecraft"]
+    tbl["environment"] = [{"type": "sun"}, {"type": "shadow"}]
+    sc = spacecraft(Checker("m.toml"), tbl)
+    assert [type(e).__name__ for e in sc.environment] == ["Sun", "Shadow"]
+    assert sc.environment[0].clock.epoch.replace(tzinfo=None) == dt.datetime(2026, 1, 1)
+    tbl.pop("epoch")
+    tbl["orbit"] = {"type": "circular", "radius": 6878137.0}
+    tbl.pop("field")
+    with pytest.raises(ScenarioError, match=r"m.toml: spacecraft.environment\[0\].epoch: missing"):
+        spacecraft(Checker("m.toml"), tbl)

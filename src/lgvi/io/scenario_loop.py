@@ -122,9 +122,11 @@ def _value(c: Any, v: Any, key: str) -> Any:
     return v
 
 
-def component(c: Any, tbl: Any, key: str, family: str) -> Any:
+def component(c: Any, tbl: Any, key: str, family: str, defaults: dict[str, Any] | None = None) -> Any:
     """One component of ``family`` from its table: ``type`` (a registered kind or alias) and the
-    keyword arguments of the kind's class (``lgvi.components.COMPONENT_KINDS[type].cls``)."""
+    keyword arguments of the kind's class (``lgvi.components.COMPONENT_KINDS[type].cls``);
+    ``defaults`` fill arguments the class takes and the table leaves out (the spacecraft's
+    ``epoch`` for a sun model)."""
     kinds = _kinds(family)
     aliases = ALIASES.get(family, {})
     names = tuple(aliases) + tuple(kinds)
@@ -138,6 +140,9 @@ def component(c: Any, tbl: Any, key: str, family: str) -> Any:
     params = {p.name: p for p in list(sig.parameters.values())[1:]
               if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
     c.table(tbl, key, ("type",) + tuple(params))
+    for k, v in (defaults or {}).items():
+        if k in params and k not in tbl and v is not None:
+            tbl = {**tbl, k: v}
     for p in params.values():
         if p.default is p.empty and p.name not in tbl:
             raise c.expected(f"{key}.{p.name}", f"a value (a required argument of {kind.cls.__name__})")
@@ -152,12 +157,13 @@ def component(c: Any, tbl: Any, key: str, family: str) -> Any:
     return obj
 
 
-def components(c: Any, value: Any, key: str, family: str) -> list[Any]:
+def components(c: Any, value: Any, key: str, family: str, defaults: dict[str, Any] | None = None) -> list[Any]:
     """``[[key]]`` (an array of tables) or ``[key]`` (one table) of components of ``family``."""
     tables = [value] if isinstance(value, dict) else value
     if not isinstance(tables, list):
         raise c.expected(key, f"a table or an array of tables ([[{key}]])", value)
-    return [component(c, t, f"{key}[{i}]" if isinstance(value, list) else key, family) for i, t in enumerate(tables)]
+    return [component(c, t, f"{key}[{i}]" if isinstance(value, list) else key, family, defaults)
+            for i, t in enumerate(tables)]
 
 
 def _modes(c: Any, tbl: Any) -> Any:
@@ -218,7 +224,7 @@ def spacecraft(c: Any, tbl: Any) -> Any:
     for k, fam in SPACECRAFT_LISTS.items():
         if k in tbl:
             kw[{"disturbance": "disturbances", "sensor": "sensors"}.get(k, k)] = \
-                components(c, tbl[k], f"spacecraft.{k}", fam)
+                components(c, tbl[k], f"spacecraft.{k}", fam, {"epoch": epoch})
     try:
         return Spacecraft(body, **kw)
     except (ValueError, TypeError) as exc:
