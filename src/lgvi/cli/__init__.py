@@ -208,7 +208,12 @@ def _load(path: str, *, systems: bool = False):
     scenarios (``lgvi run``; ``lgvi compare``'s baselines integrate a single body only)."""
     from ..io.scenario import BodiesScenario, ScenarioError, load_scenario
 
+    from ..io.scenario_loop import LoopScenario
+
     sc = load_scenario(path)
+    if isinstance(sc, LoopScenario) and not systems:
+        raise ScenarioError(path, "spacecraft", "lgvi compare runs the baselines of a single rigid body; a "
+                            "[spacecraft] scenario runs with lgvi run")
     if isinstance(sc, BodiesScenario) and not systems:
         raise ScenarioError(path, sc.kind, "lgvi compare runs the baselines of a single rigid body; an "
                             "[orbiting_body] or [two_body] scenario runs with lgvi run")
@@ -422,8 +427,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     from ..errors import AccuracyWarning, ConvergenceError, SimulationInterrupted, TorqueError
     from ..io.scenario import BodiesScenario
 
+    from ..io.scenario_loop import LoopScenario
+
     scenario = _load(args.scenario, systems=True)
-    if isinstance(scenario, BodiesScenario):    # a body in orbit, two bodies (lgvi.systems)
+    if isinstance(scenario, (BodiesScenario, LoopScenario)):    # a body in orbit, two bodies, the spacecraft loop
         return _run_system(args, scenario)
     formats = _parse_formats(args.format, scenario.formats)
     plots = scenario.plots and not args.no_plots
@@ -564,6 +571,12 @@ def write_system_summary(outdir: Path, traj, scenario, wall: float, files: list[
         "residual_max": float(res.max()) if res.size else None,
         "drifts": drifts, "invariants": decl.labels(), "files": [p.name for p in files], "scenario": scenario.text,
     }
+    loop_lines: list[str] = []
+    if traj.meta.get("system") == "spacecraft" and len(traj.t):   # the compiled loop: what it achieved
+        from ..io.scenario_loop import loop_summary, summary_lines
+
+        data["pointing"] = loop_summary(traj, wheels=getattr(getattr(scenario, "spacecraft", None), "wheels", None))
+        loop_lines = summary_lines(data["pointing"])
     js = outdir / "summary.json"
     write_text(js, json.dumps(data, indent=2) + "\n", "summary")
     rate = "n/a" if data["steps_per_s"] is None else f"{data['steps_per_s']:.4g}"
@@ -583,6 +596,7 @@ def write_system_summary(outdir: Path, traj, scenario, wall: float, files: list[
          f"{data['residual_max']:.3e}"
          if its.size else "solver:        no steps recorded"),
         *(_conservation_lines(decl, drifts, width=50) if len(traj.t) else []),
+        *loop_lines,
         f"files:         {', '.join(data['files'])}",
         "",
         "scenario:",

@@ -102,6 +102,8 @@ A complete example (every key shown; comments say which keys are alternatives)::
     period = 0.1                         # [s], a multiple of integrator.h
     # target = { ... }                   # optional, any attitude form of [initial]; default I
     # [orbit], [field], [[magnetorquer]] and type = "bdot": see lgvi.io.scenario_space
+    # a spacecraft with its flight software in the compiled loop: [spacecraft] and [fsw] instead of
+    # [body], [[wheel]], [controller]: see lgvi.io.scenario_loop
 
     [output]
     formats = ["npz", "csv"]             # any of "npz" (default), "csv", "netcdf"
@@ -672,6 +674,10 @@ class Scenario:
             For any invalid, missing or unknown key.
         """
         c = _Checker(source)
+        if isinstance(d, dict) and ("spacecraft" in d or "fsw" in d):   # the compiled loop (issue 25)
+            from .scenario_loop import LoopScenario
+
+            return LoopScenario.from_dict(d, source, text=text)  # type: ignore[return-value]
         if isinstance(d, dict) and any(k in d for k in _system_sections()):   # orbit, two bodies, any system
                                                                                 # with a scenario section
             return BodiesScenario.from_dict(d, source, text=text)  # type: ignore[return-value]
@@ -1274,3 +1280,11 @@ class BodiesScenario:
         meta = dict(traj.meta)
         meta.update(scenario=self.text, scenario_name=self.name, scenario_source=self.source)
         return replace(traj, meta=meta)
+
+
+# ------------------------------------------------------------------------------------ shared with section modules
+#: The readers the section modules share (:mod:`lgvi.io.scenario_loop` reads ``[spacecraft.body]``,
+#: ``[[spacecraft.wheel]]`` and ``[initial]`` with them), under public names.
+Checker = _Checker
+ATTITUDE_KEYS = _ATTITUDE_KEYS
+read_body, read_wheels, read_attitude, read_omega, read_steps = _body, _wheels, _attitude, _omega, _steps

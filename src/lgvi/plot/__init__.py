@@ -1185,6 +1185,10 @@ def save_figures(traj: Trajectory, outdir: str | os.PathLike[str], *, prefix: st
         written.append(_save(fig, out / f"{prefix}{name}.png"))
     if getattr(traj, "wheel_speed", None) is not None:     # a run with reaction wheels
         written.append(_save(wheels(traj), out / f"{prefix}wheels.png"))
+    if isinstance(getattr(traj, "signals", None), dict):   # the compiled loop's records (lgvi.plot.loop)
+        from .loop import save_loop_figures
+
+        written += save_loop_figures(traj, out, prefix=prefix)
     return written
 
 
