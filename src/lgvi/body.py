@@ -582,7 +582,7 @@ def sphere_moments(masses: ArrayLike, positions: ArrayLike, radii: ArrayLike | N
     S = np.einsum("a,ai,aj->ij", w, q, q) + s2.sum() * np.eye(3)
     moments = np.linalg.eigvalsh(np.trace(S) * np.eye(3) - S)
     if not moments[0] > 1e-12 * moments[-1]:
-        raise ValueError(f"{who}: the points must not all lie on one line: a rigid body needs three non-zero "
+        raise ValueError(f"{who}: the positions must not all lie on one line: a rigid body needs three non-zero "
                          f"principal moments of inertia, got {moments.tolist()} (give the spheres radii, or add a "
                          "point off the line, e.g. a light cross bar)")
     if order == 2:
