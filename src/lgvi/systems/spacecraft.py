@@ -304,7 +304,7 @@ class LoopRun(GyrostatRun):
             self.bus[offsets["mode"]] = float(getattr(modes[0], "initial", 0))
         record = self.fsw.record
         if record is None:
-            record = [name for name in offsets if name not in _TRUTH]
+            record = [name for name in offsets if name not in _TRUTH and name in writers]
         layout, idx = [], []
         for name in record:
             if name not in offsets:
