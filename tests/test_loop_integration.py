@@ -151,3 +151,5 @@ def test_an_ensemble_member_with_sensors_equals_its_lone_run(threads):
     assert "mag_B" not in ens[0].signals             # read by the MEKF, written by no sensor: not recorded
     with pytest.raises(ValueError, match="one per member"):
         lgvi.simulate(sc, R[0], omega0=w0[0], fsw=fsw, **kw)
+    with pytest.raises(ValueError, match="gyro: params.. gives 2 rows .one per member., and the ensemble has 3"):
+        lgvi.simulate_ensemble(sc, np.stack([np.eye(3)] * 3), omega0=np.zeros((3, 3)), fsw=fsw, **kw)

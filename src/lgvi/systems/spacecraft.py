@@ -139,7 +139,7 @@ class LoopRun(GyrostatRun):
     def __init__(self, spacecraft: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: Any, steps: Any,
                  fsw: Any = None, method: str = "newton", tol: Any = 1e-14, max_iter: Any = 50, alpha: Any = 1.0,
                  save_every: Any = 1, t0: Any = 0.0, solver_record: str = "interval", order: Any = 2,
-                 composition: Any = None, member: int | None = None) -> None:
+                 composition: Any = None, member: tuple[int, int] | None = None) -> None:
         from ..fsw import FlightSoftware
         from ..spacecraft import Spacecraft
 
@@ -153,8 +153,10 @@ class LoopRun(GyrostatRun):
                          method=method, tol=tol, max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0,
                          solver_record=solver_record, order=order, composition=composition)
         self.spacecraft, self.fsw = spacecraft, fsw
+        # member: (b, B) for member b of an ensemble of B (rows given per member are picked by b)
+        self._members = None if member is None else int(member[1])
         ctx = LoopContext(spacecraft, self.h, self.t0, self.t0 + self.steps * self.h, navigation=bool(fsw.estimator),
-                          member=member)
+                          member=None if member is None else int(member[0]))
         own_fsw = {id(c) for c in fsw.components()}
         items = []
         for c in spacecraft.components() + fsw.components():
@@ -267,8 +269,8 @@ class LoopRun(GyrostatRun):
             modes = getattr(c, "modes", None)
             mask.append(-1 if modes is None else sum(1 << m for m in modes))
             nr.append(len(reads))
-            p = self._member_row(c.params(), kind.name, "params()", ctx.member)
-            s = self._member_row(c.state0(), kind.name, "state0()", ctx.member)
+            p = self._member_row(c.params(), kind.name, "params()", ctx.member, self._members)
+            s = self._member_row(c.state0(), kind.name, "state0()", ctx.member, self._members)
             if np.any(np.isnan(p)):             # inf is a value some rows hold (no saturation, no ceiling)
                 raise ValueError(f"{kind.name}: params() holds NaN")
             P.append(p)
@@ -317,7 +319,7 @@ class LoopRun(GyrostatRun):
         self.fail = np.zeros(2, i64)
 
     @staticmethod
-    def _member_row(rows: Any, name: str, what: str, member: int | None) -> np.ndarray:
+    def _member_row(rows: Any, name: str, what: str, member: int | None, members: int | None) -> np.ndarray:
         """A component's row for this run: ``rows`` itself (1-D), or row ``member`` of a (B, n) array
         (one row per member of an ensemble; a lone run takes it only when B is 1)."""
         a = np.asarray(rows, dtype=np.float64)
@@ -328,9 +330,9 @@ class LoopRun(GyrostatRun):
                                      "run takes one: give one value set, or run it with lgvi.simulate_ensemble")
                 a = a[0]
             else:
-                if not 0 <= member < a.shape[0]:
-                    raise ValueError(f"{name}: {what} gives {a.shape[0]} rows (one per member), and this is member "
-                                     f"{member}: give one row per member of the ensemble")
+                if a.shape[0] != members:
+                    raise ValueError(f"{name}: {what} gives {a.shape[0]} rows (one per member), and the ensemble has "
+                                     f"{members} members: give one row per member")
                 a = a[member]
         elif a.ndim != 1:
             raise ValueError(f"{name}: {what} must be one row (1-D) or one row per member (2-D), got shape {a.shape}")
@@ -427,7 +429,7 @@ def simulate_spacecraft_ensemble(spacecraft: Any, R: np.ndarray, Pi0: Any = None
     for b in range(B):
         kw = {"Pi0": init[b], "omega0": None} if omega0 is None else {"Pi0": None, "omega0": init[b]}
         try:
-            runs.append(LoopRun(scs[b], R[b], kw["Pi0"], omega0=kw["omega0"], h=h, steps=steps, fsw=fl[b], member=b,
+            runs.append(LoopRun(scs[b], R[b], kw["Pi0"], omega0=kw["omega0"], h=h, steps=steps, fsw=fl[b], member=(b, B),
                                 **options))
         except (TypeError, ValueError) as exc:
             raise type(exc)(f"member {b}: {exc}") from exc
