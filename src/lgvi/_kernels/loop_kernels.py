@@ -265,9 +265,8 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
     return OK, k0 + n, it_sum, rmax, its, rn
 
 
-#: :func:`loop_steps` with the built-in components only (``user=None``; cached on disk). With Numba's
-#: runtime: the MEKF's kernel (family 4) allocates its small matrices.
-run_loop = jit(loop_steps)
+#: :func:`loop_steps` with the built-in components only (``user=None``; cached on disk).
+run_loop = jit(_nrt=False)(loop_steps)
 #: :func:`loop_steps` with a user's component ``user(t, bus, p, s, w) -> int`` (a ``numba.njit``
 #: function), specialised for it and compiled in memory.
-run_loop_user = jit(cache=False)(loop_steps)
+run_loop_user = jit(cache=False, _nrt=False)(loop_steps)

@@ -214,7 +214,8 @@ class MEKF(Component):
         B = max(q.shape[0] if q.ndim == 2 else 1, self.bias0.shape[0] if self.bias0.ndim == 2 else 1)
         tail = np.array([math.nan, 0.0, 0.0, 0.0, -math.inf, -math.inf, -math.inf])
         rows = np.concatenate([np.broadcast_to(q, (B, 4)), np.broadcast_to(self.bias0, (B, 3)),
-                               np.broadcast_to(self.P0.ravel(), (B, 36)), np.broadcast_to(tail, (B, 7))], axis=1)
+                               np.broadcast_to(self.P0.ravel(), (B, 36)), np.broadcast_to(tail, (B, 7)),
+                               np.zeros((B, _k.STATE_SIZE - 50))], axis=1)      # the kernel's work space
         return rows[0] if q.ndim == 1 and self.bias0.ndim == 1 else rows
 
     def sizes(self) -> dict[str, int]:
