@@ -16,6 +16,7 @@ import lgvi
 from lgvi import components
 from lgvi.fsw import MEKF, davenport, triad
 from lgvi.fsw._drive import run_components
+from lgvi._kernels.estimation_components import STATE_SIZE
 from lgvi.spacecraft import Gyro, StarTracker
 
 from estimation_cases import (ARW, BODY, H, MEMBERS, POINTING, RRW, ST_ABOUT, ST_CROSS, STEPS, TUMBLING, member,
@@ -221,11 +222,11 @@ def test_mekf_state_rows_per_member():
     R0 = Rotation.from_rotvec([[0.1, 0.2, 0.3], [3.0, 0.1, 0.0], [0.0, 0.0, 0.0]])
     est = MEKF(arw=1e-4, rrw=1e-6, R0=R0, P0=np.ones(6))
     rows = est.state0()
-    assert rows.shape == (3, 50)
+    assert rows.shape == (3, STATE_SIZE)
     for i in range(3):
         q = rows[i, :4]
         assert q[3] >= 0.0 and np.allclose(Rotation.from_quat(q).as_matrix(), R0[i].as_matrix(), atol=1e-15)
         assert np.array_equal(MEKF(arw=1e-4, rrw=1e-6, R0=R0[i], P0=np.ones(6)).state0(), rows[i], equal_nan=True)
-    assert MEKF(arw=1e-4, rrw=1e-6, bias0=np.zeros((2, 3)), P0=np.ones(6)).state0().shape == (2, 50)
+    assert MEKF(arw=1e-4, rrw=1e-6, bias0=np.zeros((2, 3)), P0=np.ones(6)).state0().shape == (2, STATE_SIZE)
     with pytest.raises(ValueError, match=r"same number of members"):
         MEKF(arw=1e-4, rrw=1e-6, R0=R0, bias0=np.zeros((2, 3)), P0=np.ones(6))

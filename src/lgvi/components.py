@@ -159,13 +159,15 @@ class LoopContext:
     run: the spacecraft (``lgvi.spacecraft.Spacecraft``: body, wheels, magnetorquers, orbit, field,
     epoch), the step ``h``, the start ``t0`` and end ``t1`` of the run (seconds since its epoch)
     and whether an estimator runs (``navigation``: the controllers then read ``R_est``,
-    ``omega_est``)."""
+    ``omega_est``); ``member`` is the index of the ensemble member the run is (``None``: a lone
+    run), by which a component given one parameter row per member picks its own."""
 
     spacecraft: Any
     h: float
     t0: float
     t1: float
     navigation: bool = False
+    member: int | None = None
 
 
 class Component:
@@ -178,6 +180,8 @@ class Component:
     ``state0()`` (1-D float64) and ``sizes()`` (the sizes of size-0 signals they write)."""
 
     kind: str = ""
+    rate: Any = None
+    modes: Any = None
 
     def __init__(self, *, rate: Any = None, modes: Any = None) -> None:
         import math

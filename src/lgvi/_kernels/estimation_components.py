@@ -31,6 +31,14 @@ from .attitude_kernels import (exp_coefficients, mat_t_vec, quat_from_matrix, qu
 
 MEKF = 401
 _P = 7          # offset of P in the state
+#: The state's work space (after the 50 entries of the filter): the small matrices of the
+#: propagation and the updates live there, so the kernel allocates nothing (the loop is compiled
+#: without Numba's runtime). Offsets: A, B (propagation), M; PH, S, Si, K, KS (update); H, Rm, R.
+_WA, _WB, _WM = 50, 59, 68
+_WPH, _WS, _WSI, _WK, _WKS = 86, 104, 113, 122, 140
+_WH, _WRM, _WR = 158, 167, 176
+#: The length of the state: the filter's 50 entries and the work space.
+STATE_SIZE = 185
 
 
 @jit(inline="always")
@@ -62,8 +70,8 @@ def propagate(s, ax, ay, az, wx, wy, wz, dt, sv2, su2):
     else:
         t = math.sqrt(t2)
         c2 = (t - math.sin(t)) / (t2 * t)
-    A = np.empty((3, 3))
-    B = np.empty((3, 3))
+    A = s[_WA:_WA + 9].reshape((3, 3))
+    B = s[_WB:_WB + 9].reshape((3, 3))
     h00 = -(py * py + pz * pz)                             # hat(phi)^2 = phi phi^T - t2 I
     h11 = -(px * px + pz * pz)
     h22 = -(px * px + py * py)
@@ -89,7 +97,7 @@ def propagate(s, ax, ay, az, wx, wy, wz, dt, sv2, su2):
     B[1, 2] = -dt * (ca * px + c2 * h12)
     B[2, 1] = -dt * (-ca * px + c2 * h12)
     # M = Phi P: rows 0..2 = A P[0:3, :] + B P[3:6, :], rows 3..5 = P[3:6, :]
-    M = np.empty((3, 6))
+    M = s[_WM:_WM + 18].reshape((3, 6))
     for i in range(3):
         for j in range(6):
             M[i, j] = (A[i, 0] * s[_P + j] + A[i, 1] * s[_P + 6 + j] + A[i, 2] * s[_P + 12 + j]
@@ -121,11 +129,11 @@ def update(s, H, y0, y1, y2, Rm):
     ``v ~ N(0, Rm)``), in Joseph form, then the reset of the error into ``q`` and ``b``.
     Returns False when the innovation covariance is not positive definite."""
     # PH = P[:, 0:3] H^T (6x3), S = H PH[0:3] + Rm
-    PH = np.empty((6, 3))
+    PH = s[_WPH:_WPH + 18].reshape((6, 3))
     for i in range(6):
         for j in range(3):
             PH[i, j] = s[_P + 6 * i] * H[j, 0] + s[_P + 6 * i + 1] * H[j, 1] + s[_P + 6 * i + 2] * H[j, 2]
-    S = np.empty((3, 3))
+    S = s[_WS:_WS + 9].reshape((3, 3))
     for i in range(3):
         for j in range(3):
             S[i, j] = H[i, 0] * PH[0, j] + H[i, 1] * PH[1, j] + H[i, 2] * PH[2, j] + Rm[i, j]
@@ -136,7 +144,7 @@ def update(s, H, y0, y1, y2, Rm):
     det = S[0, 0] * c00 + S[0, 1] * c01 + S[0, 2] * c02
     if not (det > 0.0 and S[0, 0] > 0.0 and S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0] > 0.0):
         return False
-    Si = np.empty((3, 3))
+    Si = s[_WSI:_WSI + 9].reshape((3, 3))
     Si[0, 0] = c00 / det
     Si[1, 0] = c01 / det
     Si[2, 0] = c02 / det
@@ -146,12 +154,12 @@ def update(s, H, y0, y1, y2, Rm):
     Si[0, 2] = (S[0, 1] * S[1, 2] - S[0, 2] * S[1, 1]) / det
     Si[1, 2] = (S[0, 2] * S[1, 0] - S[0, 0] * S[1, 2]) / det
     Si[2, 2] = (S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]) / det
-    K = np.empty((6, 3))
+    K = s[_WK:_WK + 18].reshape((6, 3))
     for i in range(6):
         for j in range(3):
             K[i, j] = PH[i, 0] * Si[0, j] + PH[i, 1] * Si[1, j] + PH[i, 2] * Si[2, j]
     # Joseph form: P - K (PH)^T - PH K^T + K S K^T
-    KS = np.empty((6, 3))
+    KS = s[_WKS:_WKS + 18].reshape((6, 3))
     for i in range(6):
         for j in range(3):
             KS[i, j] = K[i, 0] * S[0, j] + K[i, 1] * S[1, j] + K[i, 2] * S[2, j]
@@ -177,14 +185,16 @@ def vector_update(s, R, bx, by, bz, mx, my, mz, sigma):
     """Update with a measured body-frame vector ``m`` of the inertial vector ``b``: the prediction
     ``p = R_est^T b``, ``H = hat(p)``, noise ``sigma^2 I``."""
     px, py, pz = mat_t_vec(R, 0, bx, by, bz)
-    H = np.zeros((3, 3))
+    H = s[_WH:_WH + 9].reshape((3, 3))
+    H[:, :] = 0.0
     H[0, 1] = -pz
     H[0, 2] = py
     H[1, 0] = pz
     H[1, 2] = -px
     H[2, 0] = -py
     H[2, 1] = px
-    Rm = np.zeros((3, 3))
+    Rm = s[_WRM:_WRM + 9].reshape((3, 3))
+    Rm[:, :] = 0.0
     v = sigma * sigma
     Rm[0, 0] = v
     Rm[1, 1] = v
@@ -212,18 +222,19 @@ def mekf_step(t, bus, p, s, w):
     s[45] = my
     s[46] = mz
     ok = True
-    R = np.empty(9)
+    R = s[_WR:_WR + 9]
     # star tracker: the attitude error measured directly, H = I, noise C diag(sx^2, sx^2, sz^2) C^T
     if p[15] != 0.0 and bus[w[2]] != 0.0 and bus[w[3]] > s[47]:
         s[47] = bus[w[3]]
         o = w[1]
         e0, e1, e2, e3 = quat_mul(-s[0], -s[1], -s[2], s[3], bus[o], bus[o + 1], bus[o + 2], bus[o + 3])
         y0, y1, y2 = quat_rotvec(e0, e1, e2, e3)
-        H = np.zeros((3, 3))
+        H = s[_WH:_WH + 9].reshape((3, 3))
+        H[:, :] = 0.0
         H[0, 0] = 1.0
         H[1, 1] = 1.0
         H[2, 2] = 1.0
-        Rm = np.empty((3, 3))
+        Rm = s[_WRM:_WRM + 9].reshape((3, 3))
         vx = p[2] * p[2]
         vz = p[3] * p[3]
         for i in range(3):

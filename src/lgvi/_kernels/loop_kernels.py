@@ -4,8 +4,9 @@ At step ``k`` (time ``t = t0 + k h``) the loop
 
 1. writes the truth on the bus (``io``: the offsets of ``R``, ``omega``, ``wheel_speed``,
    ``wheel_momentum``; ``-1`` for a signal the run does not carry);
-2. runs every component due at ``k`` (``k % spc[c] == 0``) and active in the current mode
-   (bit ``mode`` of ``mask[c]``), in the order given (the Python side sorts them by family):
+2. sets ``tau_dist_B`` to the sum of the held torques of the disturbances not due at ``k``
+   (``io[IO_NDIST]`` of them, indices after it), then runs every component due at ``k``
+   (``k % spc[c] == 0``) and active in the current mode (bit ``mode`` of ``mask[c]``), in the order given (the Python side sorts them by family):
    ``<family>_dispatch(code, t, bus, p, s, w)`` on the component's slices of ``P`` (parameters),
    ``S`` (state) and ``W`` (bus offsets of the signals it reads, then writes); a user's component
    (code 0) is the function ``user``. A nonzero status, or a written value that is not finite,
@@ -27,14 +28,39 @@ import math
 
 from .._jit import jit
 from .codes import NOT_FINITE, OK
+from .environment_components import disturbance_dispatch, environment_dispatch
+from .estimation_components import estimator_dispatch
 from .fsw_components import actuator_dispatch, control_dispatch, guidance_dispatch, mode_dispatch, orbit_field_dispatch
 from .gyrostat_kernels import after_step, body_rate, gyro_advance, wheel_torque
 from .orbit_table_kernels import orbit_gravity_gradient_moment
+from .sensor_components import sensor_dispatch
 
 #: The status the loop returns when a component stopped it (``fail`` says which and why).
 COMPONENT_FAILED = 100
 #: ``io`` entries: bus offsets of the loop's own signals (``-1``: absent).
 IO_R, IO_OMEGA, IO_SPEED, IO_RHO, IO_CMD, IO_DIST, IO_CTRL, IO_MODE, IO_PY = 0, 1, 2, 3, 4, 5, 6, 7, 8
+#: ``io[IO_NDIST]``: the number of disturbance components that add into ``tau_dist_B``; their
+#: component indices follow it (each writes its own torque first, ``tau_<name>_B``).
+IO_NDIST = 9
+
+
+@jit(inline="always")
+def sum_held_disturbances(k, bus, io, spc, nr, W, wo):
+    """Zero ``tau_dist_B`` and add the held torques of the disturbances not due at step ``k``
+    (those due add theirs when they run), so it is the sum of every disturbance's latest torque."""
+    od = io[IO_DIST]
+    if od < 0 or io.shape[0] <= IO_NDIST:
+        return
+    bus[od] = 0.0
+    bus[od + 1] = 0.0
+    bus[od + 2] = 0.0
+    for j in range(io[IO_NDIST]):
+        c = io[IO_NDIST + 1 + j]
+        if k % spc[c] != 0:
+            o = W[wo[c] + nr[c]]
+            bus[od] += bus[o]
+            bus[od + 1] += bus[o + 1]
+            bus[od + 2] += bus[o + 2]
 
 
 @jit(inline="always")
@@ -46,7 +72,15 @@ def dispatch(user, code, t, bus, p, s, w):
         return 3
     fam = code // 100
     if fam == 1:
+        if code < 190:
+            return environment_dispatch(code, t, bus, p, s, w)
         return orbit_field_dispatch(code, t, bus, p, s, w)
+    if fam == 2:
+        return disturbance_dispatch(code, t, bus, p, s, w)
+    if fam == 3:
+        return sensor_dispatch(code, t, bus, p, s, w)
+    if fam == 4:
+        return estimator_dispatch(code, t, bus, p, s, w)
     if fam == 5:
         return guidance_dispatch(code, t, bus, p, s, w)
     if fam == 6:
@@ -188,7 +222,8 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
                 bus[orh + i] = rho[i]
             if osp >= 0:
                 bus[osp + i] = rho[i] / wp[i, 0] - (axes[i, 0] * w0 + axes[i, 1] * w1 + axes[i, 2] * w2)
-        # 2. the components due
+        # 2. the components due (the disturbances' sum first set to the held ones)
+        sum_held_disturbances(k, bus, io, spc, nr, W, wo)
         st = run_components(user, t, k, bus, io, codes, spc, mask, nr, P, po, S, so, W, wo, WS, fail)
         if st != OK:
             return st, k, it_sum, rmax, 0, 0.0

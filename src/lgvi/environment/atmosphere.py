@@ -23,7 +23,7 @@ import numpy as np
 from .._kernels.environment_components import (EXPONENTIAL_ATMOSPHERE, TABULATED_ATMOSPHERE,
                                                exponential_atmosphere_step, tabulated_atmosphere_step)
 from .._validation import as_float, as_float_array
-from ..components import ComponentKind, register_kind
+from ..components import Component, ComponentKind, LoopContext, register_kind
 from ._evaluate import evaluate
 from .clock import Clock
 from .field import WGS84_A, WGS84_F
@@ -41,7 +41,7 @@ def _rate(rate: Any) -> float | None:
     return None if rate is None else as_float(rate, "rate", positive=True)
 
 
-class ExponentialAtmosphere:
+class ExponentialAtmosphere(Component):
     """``rho = base_density exp(-(|r| - planet_radius) / scale_height)`` (Basilisk's exponentialAtmosphere).
 
     Parameters
@@ -124,7 +124,7 @@ def ecef_to_geodetic(r: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.degrees(lat), np.degrees(np.arctan2(y, x)), h
 
 
-class TabulatedAtmosphere:
+class TabulatedAtmosphere(Component):
     """A density tabulated along the orbit, ``density[k]`` at ``t0 + k dt``, interpolated in the loop
     by the not-a-knot cubic spline of ``log rho`` (evaluated as cubic Hermite pieces with the spline's
     slopes). Outside ``[t0, t0 + (K - 1) dt]`` the run stops (status 3).
@@ -208,6 +208,14 @@ class TabulatedAtmosphere:
         out = pymsis.calculate(dates, lon, lat, alt / 1e3, version=version, **kw)
         rho = np.asarray(out[:, 0], dtype=np.float64)
         return cls(0.0, dt, rho, omega=omega, rate=rate)
+
+    def setup(self, ctx: LoopContext) -> None:
+        """The table must cover the run (seconds of the run's clock), checked before any step."""
+        lo, hi = self.span
+        a, b = min(ctx.t0, ctx.t1), max(ctx.t0, ctx.t1)
+        if a < lo or b > hi:
+            raise ValueError(f"TabulatedAtmosphere: the run's times [{a:g}, {b:g}] s must lie in the table's span "
+                             f"[{lo:g}, {hi:g}] s")
 
     def __repr__(self) -> str:
         return f"TabulatedAtmosphere(t0={self.t0:g}, dt={self.dt:g}, {self.density.size} samples)"

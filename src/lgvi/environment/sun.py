@@ -18,7 +18,7 @@ import numpy as np
 
 from .._kernels.environment_components import SHADOW, SUN, shadow_step, sun_many, sun_step
 from .._validation import as_float, as_float_array, choice
-from ..components import ComponentKind, register_kind
+from ..components import Component, ComponentKind, LoopContext, register_kind
 from ._evaluate import evaluate
 from .clock import Clock
 
@@ -52,13 +52,14 @@ def sun_position(epoch: Any, t: Any = 0.0) -> np.ndarray:
     return sun_many(np.ascontiguousarray(days.ravel()), 1.0).reshape(days.shape + (3,))
 
 
-class Sun:
+class Sun(Component):
     """The sun seen from the spacecraft: writes ``sun_N`` (unit, inertial) and ``sun_distance`` (m).
 
     Parameters
     ----------
-    epoch : datetime.datetime, numpy.datetime64 or Clock
-        UTC date of the run's ``t = 0`` (1950 to 2050).
+    epoch : datetime.datetime, numpy.datetime64 or Clock, optional
+        UTC date of the run's ``t = 0`` (1950 to 2050). In the loop the spacecraft's ``epoch`` is
+        the one clock: ``None`` takes it, and a different one is refused.
     interpolation : float
         Seconds between the series' evaluations: the sun's geocentric position is the straight line
         between its values at the multiples of ``interpolation`` around ``t`` (60 s: 2e-11 rad from
@@ -69,17 +70,33 @@ class Sun:
 
     kind = "sun"
 
-    def __init__(self, epoch: Any, *, interpolation: float = 60.0, rate: float | None = None):
-        self.clock = _clock(epoch)
+    def __init__(self, epoch: Any = None, *, interpolation: float = 60.0, rate: float | None = None):
+        self.clock = None if epoch is None else _clock(epoch)
         self.interpolation = as_float(interpolation, "interpolation")
         if self.interpolation < 0.0:
             raise ValueError(f"interpolation must be >= 0 seconds (0: no interpolation), got {self.interpolation}")
         self.rate = None if rate is None else as_float(rate, "rate", positive=True)
 
     def __repr__(self) -> str:
-        return f"Sun(epoch={self.clock.epoch.isoformat()})"
+        return "Sun()" if self.clock is None else f"Sun(epoch={self.clock.epoch.isoformat()})"
+
+    def setup(self, ctx: LoopContext) -> None:
+        """The run's clock: the spacecraft's ``epoch`` (one clock for the field, the orbit and the sun)."""
+        epoch = ctx.spacecraft.epoch
+        if epoch is None:
+            if self.clock is None:
+                raise ValueError("Sun needs a date: give Spacecraft(..., epoch=datetime.datetime(...)) (or an orbit "
+                                 "with an epoch)")
+            return
+        clock = _clock(epoch)
+        if self.clock is not None and self.clock.epoch != clock.epoch:
+            raise ValueError(f"Sun(epoch={self.clock.epoch.isoformat()}) differs from the spacecraft's epoch "
+                             f"{clock.epoch.isoformat()}: the run has one clock; give Sun() without an epoch")
+        self.clock = clock
 
     def params(self) -> np.ndarray:
+        if self.clock is None:
+            raise ValueError("Sun has no epoch: give Sun(epoch) or run it on a Spacecraft with an epoch")
         return np.array([self.clock.epoch_days_tt, self.interpolation])
 
     def state0(self) -> np.ndarray:
@@ -94,7 +111,7 @@ class Sun:
         return evaluate(self, t, r_N=r_N)
 
 
-class Shadow:
+class Shadow(Component):
     """The fraction of the solar disc visible from the spacecraft: writes ``shadow``.
 
     Parameters

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from .._validation import as_float, as_float_array, as_rotation
-from ..components import ComponentKind, Signal, register_kind
+from ..components import Component, ComponentKind, LoopContext, Signal, register_kind
 from .._kernels import estimation_components as _k
 from ..spacecraft.sensors import MAG_TIME, ST_TIME, SUN_TIME, StarTracker, describe
 
@@ -129,7 +129,7 @@ def _spd(value: Any, name: str, n: int) -> np.ndarray:
     return 0.5 * (arr + arr.T)
 
 
-class MEKF:
+class MEKF(Component):
     """The multiplicative extended Kalman filter (Lefferts, Markley and Shuster 1982) as a component.
 
     Propagates the attitude with the gyro (``gyro_B``, bias-corrected, trapezoidal between the last
@@ -214,11 +214,26 @@ class MEKF:
         B = max(q.shape[0] if q.ndim == 2 else 1, self.bias0.shape[0] if self.bias0.ndim == 2 else 1)
         tail = np.array([math.nan, 0.0, 0.0, 0.0, -math.inf, -math.inf, -math.inf])
         rows = np.concatenate([np.broadcast_to(q, (B, 4)), np.broadcast_to(self.bias0, (B, 3)),
-                               np.broadcast_to(self.P0.ravel(), (B, 36)), np.broadcast_to(tail, (B, 7))], axis=1)
+                               np.broadcast_to(self.P0.ravel(), (B, 36)), np.broadcast_to(tail, (B, 7)),
+                               np.zeros((B, _k.STATE_SIZE - 50))], axis=1)      # the kernel's work space
         return rows[0] if q.ndim == 1 and self.bias0.ndim == 1 else rows
 
     def sizes(self) -> dict[str, int]:
         return {}
+
+    def setup(self, ctx: LoopContext) -> None:
+        """Each update the filter makes needs its sensor (and the reference vector) on the spacecraft."""
+        sc = ctx.spacecraft
+        have = {getattr(c, "kind", "") for c in sc.components()}
+        need = [("gyro", True, "a Gyro (the filter propagates with gyro_B)"),
+                ("star_tracker", self.star_tracker is not None, "a StarTracker (star_tracker= is given)"),
+                ("magnetometer", self.mag_sigma is not None, "a Magnetometer (mag_sigma= is given)"),
+                ("field", self.mag_sigma is not None, "a field model for B_N (mag_sigma= is given): field="),
+                ("fine_sun_sensor", self.sun_sigma is not None, "a FineSunSensor (sun_sigma= is given)"),
+                ("sun", self.sun_sigma is not None, "a Sun in environment= for sun_N (sun_sigma= is given)")]
+        for kind, wanted, what in need:
+            if wanted and kind not in have:
+                raise ValueError(f"MEKF: the spacecraft needs {what}; its components are {sorted(have)}")
 
     def __repr__(self) -> str:
         return (f"MEKF(rate={self.rate}, star_tracker={self.star_tracker is not None}, "
@@ -230,4 +245,7 @@ register_kind(ComponentKind(
     ("gyro_B", "st_q", "st_valid", "st_time", "mag_B", "mag_time", "B_N", "sun_B", "sun_valid", "sun_time",
      "sun_N", "R"),
     ("R_est", "omega_est", "bias_est", "P_diag", "est_error"),
-    cls=MEKF, own=(ST_TIME, MAG_TIME, SUN_TIME, EST_ERROR), doc=MEKF.__doc__.splitlines()[0]))
+    cls=MEKF, own=(ST_TIME, MAG_TIME, SUN_TIME, EST_ERROR), doc=MEKF.__doc__.splitlines()[0],
+    extra={"zeros": ("st_q", "st_valid", "st_time", "mag_B", "mag_time", "B_N", "sun_B", "sun_valid", "sun_time",
+                     "sun_N"),
+           "initial": {"st_time": math.nan, "mag_time": math.nan, "sun_time": math.nan}}))

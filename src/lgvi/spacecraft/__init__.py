@@ -175,8 +175,10 @@ class Spacecraft:
     sensors : sequence of components, optional
         Sensor models (components of the ``"sensor"`` family).
     environment : sequence of components, optional
-        Further environment models (sun, shadow, atmosphere: components of the ``"environment"``
-        family), run after the orbit and the field.
+        Further environment models (:class:`lgvi.environment.Sun`, ``Shadow``,
+        ``ExponentialAtmosphere``, ``TabulatedAtmosphere``: components of the ``"environment"``
+        family), run after the orbit and the field, in the order of their codes (the sun before the
+        shadow); they read the spacecraft's ``epoch`` (one clock).
     orbit_dt : float
         Spacing of the orbit table, s (default 10).
     environment_rate, magnetorquer_rate : float, optional
@@ -245,7 +247,10 @@ class Spacecraft:
             out.append(OrbitTable(dt=self.orbit_dt, rate=self.environment_rate))
         if self.field is not None:
             out.append(FieldModel(rate=self.environment_rate))
-        out += self.environment + self.disturbances + self.sensors
+        # the environment by code (sun, shadow, atmospheres: each reads what the ones before write), a
+        # user's own last
+        env = sorted(self.environment, key=lambda c: kind_of(c).code or 10 ** 6)
+        out += env + self.disturbances + self.sensors
         if self.magnetorquers is not None:
             out.append(MagnetorquerRods(self.magnetorquers, rate=self.magnetorquer_rate))
         return out

@@ -24,7 +24,7 @@ import numpy as np
 from .._kernels.environment_components import (FACET_DRAG, FACET_SRP, RESIDUAL_DIPOLE, facet_drag_step,
                                                facet_srp_step, residual_dipole_step)
 from .._validation import as_float, as_float_array
-from ..components import ComponentKind, Signal, register_kind
+from ..components import Component, ComponentKind, Signal, register_kind
 from ..environment._evaluate import evaluate
 
 __all__ = ["FacetDrag", "FacetSRP", "ResidualDipole", "SOLAR_FLUX", "SPEED_OF_LIGHT", "AU"]
@@ -97,7 +97,7 @@ def _fraction(value: Any, name: str, shape: tuple[int, int]) -> np.ndarray:
     return x
 
 
-class _Disturbance:
+class _Disturbance(Component):
     rate: float | None = None
 
     def state0(self) -> np.ndarray:

@@ -24,7 +24,7 @@ import numpy as np
 
 from .._validation import as_float, as_float_array, as_rotation
 from ..so3 import exp as _so3_exp
-from ..components import ComponentKind, Signal, register_kind
+from ..components import Component, ComponentKind, LoopContext, Signal, register_kind
 from .._kernels import sensor_components as _k
 
 __all__ = ["Gyro", "StarTracker", "Magnetometer", "CoarseSunSensors", "FineSunSensor", "period_steps",
@@ -88,7 +88,7 @@ def _frame(value: Any, name: str) -> np.ndarray:
     return as_rotation(value, name)
 
 
-class Sensor:
+class Sensor(Component):
     """Common part: ``rate`` (seconds between samples, or None: every step), ``seed``, ``stream``."""
 
     kind: str = ""
@@ -219,6 +219,15 @@ class StarTracker(Sensor):
                                                                            math.pi)
         self.earth_radius = as_float(earth_radius, "earth_radius", positive=True)
 
+    def setup(self, ctx: LoopContext) -> None:
+        """The exclusions need the environment: a sun model for ``sun_N``, an orbit for ``r_N``."""
+        sc = ctx.spacecraft
+        if self.sun_exclusion is not None and not any(getattr(c, "kind", "") == "sun" for c in sc.components()):
+            raise ValueError("StarTracker(sun_exclusion=...) needs the sun's direction: give "
+                             "Spacecraft(..., environment=[lgvi.environment.Sun()])")
+        if self.earth_exclusion is not None and sc.orbit is None:
+            raise ValueError("StarTracker(earth_exclusion=...) needs the spacecraft's position: give Spacecraft(..., orbit=...)")
+
     def params(self) -> np.ndarray:
         cos_sun = 2.0 if self.sun_exclusion is None else math.cos(self.sun_exclusion)
         earth = -1.0 if self.earth_exclusion is None else self.earth_exclusion
@@ -309,16 +318,18 @@ def _register() -> None:
                                 cls=Gyro, own=(GYRO_BIAS,), doc=Gyro.__doc__.splitlines()[0]))
     register_kind(ComponentKind("star_tracker", "sensor", _k.STAR_TRACKER, _k.star_tracker_step,
                                 ("R", "sun_N", "r_N"), ("st_q", "st_valid", "st_time"), cls=StarTracker,
-                                own=(ST_TIME,), doc=StarTracker.__doc__.splitlines()[0]))
+                                own=(ST_TIME,), doc=StarTracker.__doc__.splitlines()[0],
+                                extra={"zeros": ("sun_N", "r_N"), "initial": {"st_time": math.nan}}))
     register_kind(ComponentKind("magnetometer", "sensor", _k.MAGNETOMETER, _k.magnetometer_step, ("R", "B_N"),
                                 ("mag_B", "mag_time"), cls=Magnetometer, own=(MAG_TIME,),
-                                doc=Magnetometer.__doc__.splitlines()[0]))
+                                doc=Magnetometer.__doc__.splitlines()[0], extra={"initial": {"mag_time": math.nan}}))
     register_kind(ComponentKind("coarse_sun_sensors", "sensor", _k.COARSE_SUN_SENSORS, _k.coarse_sun_sensors_step,
                                 ("R", "sun_N", "shadow"), ("css",), cls=CoarseSunSensors,
                                 doc=CoarseSunSensors.__doc__.splitlines()[0]))
     register_kind(ComponentKind("fine_sun_sensor", "sensor", _k.FINE_SUN_SENSOR, _k.fine_sun_sensor_step,
                                 ("R", "sun_N", "shadow"), ("sun_B", "sun_valid", "sun_time"), cls=FineSunSensor,
-                                own=(SUN_TIME,), doc=FineSunSensor.__doc__.splitlines()[0]))
+                                own=(SUN_TIME,), doc=FineSunSensor.__doc__.splitlines()[0],
+                                extra={"initial": {"sun_time": math.nan}}))
 
 
 _register()

@@ -140,7 +140,7 @@ class LoopRun(GyrostatRun):
     def __init__(self, spacecraft: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: Any, steps: Any,
                  fsw: Any = None, method: str = "newton", tol: Any = 1e-14, max_iter: Any = 50, alpha: Any = 1.0,
                  save_every: Any = 1, t0: Any = 0.0, solver_record: str = "interval", order: Any = 2,
-                 composition: Any = None) -> None:
+                 composition: Any = None, member: tuple[int, int] | None = None) -> None:
         from ..fsw import FlightSoftware
         from ..spacecraft import Spacecraft
 
@@ -164,7 +164,10 @@ class LoopRun(GyrostatRun):
         # a Python controller runs from Python at its period, its commands held on the bus
         self.ctrl, self.python_controller = 0, py is not None
         self.spacecraft, self.fsw = spacecraft, fsw
-        ctx = LoopContext(spacecraft, self.h, self.t0, self.t0 + self.steps * self.h, navigation=bool(fsw.estimator))
+        # member: (b, B) for member b of an ensemble of B (rows given per member are picked by b)
+        self._members = None if member is None else int(member[1])
+        ctx = LoopContext(spacecraft, self.h, self.t0, self.t0 + self.steps * self.h, navigation=bool(fsw.estimator),
+                          member=None if member is None else int(member[0]))
         own_fsw = {id(c) for c in fsw.components()}
         items = []
         for c in spacecraft.components() + fsw.components():
@@ -257,9 +260,15 @@ class LoopRun(GyrostatRun):
         codes, spc, mask, nr, po, so, wo = [], [], [], [], [0], [0], [0]
         P, S = [], []
         users = []
+        initial: dict[str, float] = {}
+        for c, kind, rate, reads in wired:
+            initial.update(kind.extra.get("initial", {}))
+            for name in reads:
+                if name not in writers and name in kind.extra.get("zeros", ()):
+                    place(name, c)          # nothing writes it: a slot held at its initial value
         for c, kind, rate, reads in wired:
             for name in reads:
-                if name not in writers:
+                if name not in writers and name not in offsets:
                     if name in kind.extra.get("optional", ()):
                         W.append(-1)
                         WS.append(0)
@@ -280,10 +289,10 @@ class LoopRun(GyrostatRun):
             modes = getattr(c, "modes", None)
             mask.append(-1 if modes is None else sum(1 << m for m in modes))
             nr.append(len(reads))
-            p = np.ascontiguousarray(c.params(), dtype=np.float64).reshape(-1)
-            s = np.ascontiguousarray(c.state0(), dtype=np.float64).reshape(-1)
-            if not np.all(np.isfinite(p)):
-                raise ValueError(f"{kind.name}: params() holds values that are not finite")
+            p = self._member_row(c.params(), kind.name, "params()", ctx.member, self._members)
+            s = self._member_row(c.state0(), kind.name, "state0()", ctx.member, self._members)
+            if np.any(np.isnan(p)):             # inf is a value some rows hold (no saturation, no ceiling)
+                raise ValueError(f"{kind.name}: params() holds NaN")
             P.append(p)
             S.append(s)
             po.append(po[-1] + len(p))
@@ -304,13 +313,20 @@ class LoopRun(GyrostatRun):
         self.S = np.concatenate(S) if S else np.zeros(0)
         self.W, self.WS = np.array(W, i64), np.array(WS, i64)
         self.bus = np.zeros(max(nbus, 1))
-        self.io = np.array([offsets.get(name, -1) for name in _IO], i64)
+        for name, value in initial.items():
+            if name in offsets:
+                self.bus[offsets[name]:offsets[name] + sizes[name]] = value
+        # the disturbances that add into tau_dist_B (their own torque first): the loop sums the held ones
+        dist = [i for i, (c, kind, _, _) in enumerate(wired) if kind.family == "disturbance"
+                and "tau_dist_B" in kind.writes and kind.writes[0] != "tau_dist_B"
+                and SIGNALS.get(kind.writes[0]) is None and sizes.get(kind.writes[0]) == 3]
+        self.io = np.array([offsets.get(name, -1) for name in _IO] + [len(dist)] + dist, i64)
         modes = [c for c, kind, _, _ in wired if kind.family == "mode"]
         if modes:
             self.bus[offsets["mode"]] = float(getattr(modes[0], "initial", 0))
         record = self.fsw.record
         if record is None:
-            record = [name for name in offsets if name not in _TRUTH]
+            record = [name for name in offsets if name not in _TRUTH and name in writers]
         layout, idx = [], []
         for name in record:
             if name not in offsets:
@@ -321,6 +337,26 @@ class LoopRun(GyrostatRun):
         self.sig_idx = np.array(idx, i64)
         self.offsets, self.sizes = offsets, sizes
         self.fail = np.zeros(2, i64)
+
+    @staticmethod
+    def _member_row(rows: Any, name: str, what: str, member: int | None, members: int | None) -> np.ndarray:
+        """A component's row for this run: ``rows`` itself (1-D), or row ``member`` of a (B, n) array
+        (one row per member of an ensemble; a lone run takes it only when B is 1)."""
+        a = np.asarray(rows, dtype=np.float64)
+        if a.ndim == 2:
+            if member is None:
+                if a.shape[0] != 1:
+                    raise ValueError(f"{name}: {what} gives {a.shape[0]} rows (one per member of an ensemble); a lone "
+                                     "run takes one: give one value set, or run it with lgvi.simulate_ensemble")
+                a = a[0]
+            else:
+                if a.shape[0] != members:
+                    raise ValueError(f"{name}: {what} gives {a.shape[0]} rows (one per member), and the ensemble has "
+                                     f"{members} members: give one row per member")
+                a = a[member]
+        elif a.ndim != 1:
+            raise ValueError(f"{name}: {what} must be one row (1-D) or one row per member (2-D), got shape {a.shape}")
+        return np.ascontiguousarray(a)
 
     # -------------------------------------------------------------- stepping
     def _kernel(self, k0: int, n: int, kb: int, R_out, Pi_out, rho_out, it_out, res_out, u_out, sig_out) -> int:
@@ -429,7 +465,8 @@ def simulate_spacecraft_ensemble(spacecraft: Any, R: np.ndarray, Pi0: Any = None
     for b in range(B):
         kw = {"Pi0": init[b], "omega0": None} if omega0 is None else {"Pi0": None, "omega0": init[b]}
         try:
-            runs.append(LoopRun(scs[b], R[b], kw["Pi0"], omega0=kw["omega0"], h=h, steps=steps, fsw=fl[b], **options))
+            runs.append(LoopRun(scs[b], R[b], kw["Pi0"], omega0=kw["omega0"], h=h, steps=steps, fsw=fl[b], member=(b, B),
+                                **options))
         except (TypeError, ValueError) as exc:
             raise type(exc)(f"member {b}: {exc}") from exc
     params: dict[str, np.ndarray] = {"inertia": np.stack([r.body.J for r in runs]), "R0": R.copy(),
