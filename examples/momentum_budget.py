@@ -70,11 +70,11 @@ def six_u():
     return np.array(area), np.array(normal), np.array(centre), a, s, d
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=None, help="folder for momentum_budget.png")
     ap.add_argument("--quick", action="store_true", help="a quarter of the orbit")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     period = ORBIT.period
     t = np.arange(0.0, (0.25 if args.quick else 1.0) * period, 10.0)
     area, normal, centre, absorbed, specular, diffuse = six_u()
@@ -135,7 +135,8 @@ def main() -> None:
         fig.tight_layout()
         fig.savefig(args.out / "momentum_budget.png", dpi=120)
         print(f"figure: {args.out / 'momentum_budget.png'}")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

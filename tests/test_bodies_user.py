@@ -73,7 +73,7 @@ def test_orbit_section_errors_name_the_key(path, value, key, rule):
     (lambda d: d["two_body"]["body2"]["points"].update(masses=[1.0]), r"two_body\.body2\.points",
      "as many masses as positions"),
     (lambda d: d.update(initial={"omega": [0, 0, 1]}), r"\binitial\b", r"\[two_body\.body1\]"),
-    (lambda d: d.update(orbiting_body=ORBIT["orbiting_body"]), None, "not both"),
+    (lambda d: d.update(orbiting_body=ORBIT["orbiting_body"]), None, "describes one system"),
 ])
 def test_two_body_section_errors_name_the_key(edit, key, rule):
     import copy

@@ -140,7 +140,7 @@ def test_every_script_is_tested():
     # uncertainty.py runs in tests/test_ensemble.py (with the ensemble it exercises)
     tested = {"dzhanibekov.py", "heavy_top.py", "pendulum3d.py", "slew_pd.py", "gravity_gradient.py", "kepler.py",
               "uncertainty.py", "optimal_slew.py", "orbit_attitude.py", "binary_asteroid.py",
-              "wheel_slew.py", "bdot_detumble.py", "nadir_dumping.py"}
+              "wheel_slew.py", "bdot_detumble.py", "nadir_dumping.py", "momentum_budget.py"}
     scripts = {p.name for p in EXAMPLES.glob("*.py")}
     assert scripts <= tested, f"example scripts without a test here: {sorted(scripts - tested)}"
 
