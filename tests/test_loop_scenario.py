@@ -201,8 +201,8 @@ def test_tle_orbit_and_field_take_the_tle_epoch():
     d = _dict()
     d["spacecraft"].pop("epoch")
     d["spacecraft"]["orbit"] = {
-        "type": "sgp4", "line1": "1 25544U 98067A   26079.50000000  .00016717  00000-0  10270-3 0  9005",
-        "line2": "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815361  2041"}
+        "type": "sgp4", "line1": "1 25544U 98067A   26079.50000000  .00016717  00000-0  10270-3 0  9006",
+        "line2": "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815361  2048"}
     sc = Scenario.from_dict(d)
     assert type(sc.spacecraft.orbit).__name__ == "SGP4Orbit"
     assert sc.spacecraft.epoch.replace(tzinfo=None) == dt.datetime(2026, 3, 20, 12)
@@ -224,5 +224,9 @@ def test_environment_models_take_the_spacecraft_epoch():
     tbl.pop("epoch")
     tbl["orbit"] = {"type": "circular", "radius": 6878137.0}
     tbl.pop("field")
-    with pytest.raises(ScenarioError, match=r"m.toml: spacecraft.environment\[0\].epoch: missing"):
-        spacecraft(Checker("m.toml"), tbl)
+    sc = spacecraft(Checker("m.toml"), tbl)          # the sun's date comes from the run's spacecraft
+    assert sc.environment[0].clock is None
+    from lgvi.components import LoopContext
+
+    with pytest.raises(ValueError, match=r"Sun needs a date"):     # and none is there: refused before a step
+        sc.environment[0].setup(LoopContext(sc, 0.1, 0.0, 1.0))
