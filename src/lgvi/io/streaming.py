@@ -663,9 +663,10 @@ CHUNK_OVERHEAD = 4096
 def estimated_bytes(run: Any, steps: int) -> int:
     """The bytes ``steps`` more steps of ``run`` write to a stream: the saved samples (``t`` and
     the system's state fields), the per-step or per-interval records and each chunk's overhead."""
+    state, records = layout(run)     # the run's concrete shapes (a chain's q is (n, 3))
     samples = steps // run.save_every + 1
-    per_sample = 8 + sum(int(np.prod(f.shape, dtype=np.int64)) * np.dtype(f.dtype).itemsize for f in run.system.state)
-    per_record = sum(int(np.prod(f.shape, dtype=np.int64)) * np.dtype(f.dtype).itemsize for f in run.system.records)
+    per_sample = 8 + sum(int(np.prod(f.shape, dtype=np.int64)) * np.dtype(f.dtype).itemsize for f in state)
+    per_record = sum(int(np.prod(f.shape, dtype=np.int64)) * np.dtype(f.dtype).itemsize for f in records)
     chunks = steps // max(1, int(getattr(run, "chunk", steps) or 1)) + 1
     return samples * per_sample + (steps // record_every(run)) * per_record + chunks * CHUNK_OVERHEAD
 
