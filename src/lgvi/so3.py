@@ -992,6 +992,10 @@ def is_rotation(R: ArrayLike, tol: float = 1e-9) -> NDArray[np.bool_]:
 # --------------------------------------------------------------------------------------------
 # Modified Rodrigues parameters (Basilisk's attitude coordinates; lgvi.control keeps these names)
 # --------------------------------------------------------------------------------------------
+#: How far from a rotation a matrix given to :func:`mrp_from_matrix` may be (``lgvi._validation.REPAIR_TOL``).
+_MRP_TOL = 1e-6
+
+
 def mrp_from_matrix(R: Any) -> np.ndarray:
     """The MRP ``sigma`` (``|sigma| <= 1``) of the rotation ``R = exp(hat(phi e))``: ``e tan(phi/4)``.
 
@@ -1007,16 +1011,12 @@ def mrp_from_matrix(R: Any) -> np.ndarray:
     >>> bool(np.allclose(sigma, [0.0, 0.0, np.tan(np.pi / 8)]))
     True
     """
-    from ._validation import REPAIR_TOL, as_float_array
-
-    R = as_float_array(R, "R")
-    if R.ndim < 2 or R.shape[-2:] != (3, 3):
-        raise ValueError(f"R must have shape (..., 3, 3), got shape {R.shape}")
+    R = _mat3(R, "R")
     err, det = orthogonality_error(R), np.linalg.det(R)
-    bad = ~(err <= REPAIR_TOL) | ~(det > 0.0)
+    bad = ~(err <= _MRP_TOL) | ~(det > 0.0)
     if np.any(bad):     # a zero or scaled matrix has no MRP (matrix_to_quat would return one anyway)
         i = tuple(int(x) for x in np.argwhere(np.atleast_1d(bad))[0]) if R.ndim > 2 else ()
-        raise ValueError(f"R must hold rotation matrices (orthogonal to {REPAIR_TOL:g}, determinant +1); "
+        raise ValueError(f"R must hold rotation matrices (orthogonal to {_MRP_TOL:g}, determinant +1); "
                          f"R{list(i) if i else ''} has |R^T R - I| = {float(np.asarray(err)[i]):.3g}, "
                          f"det = {float(np.asarray(det)[i]):.3g}")
     q = matrix_to_quat(R)     # scalar-last
@@ -1026,11 +1026,7 @@ def mrp_from_matrix(R: Any) -> np.ndarray:
 
 def matrix_from_mrp(sigma: Any) -> np.ndarray:
     """The rotation matrix of the MRP ``sigma`` (inverse of :func:`mrp_from_matrix`): ``(..., 3) -> (..., 3, 3)``."""
-    from ._validation import as_float_array
-
-    s = as_float_array(sigma, "sigma")
-    if s.ndim < 1 or s.shape[-1] != 3:
-        raise ValueError(f"sigma must have shape (..., 3), got shape {s.shape}")
+    s = _as_stack(sigma, "sigma", (3,))
     if s.shape == (3,):
         R = _matrix_from_mrp3(*s.tolist())
         if R is not None:

@@ -39,13 +39,20 @@ def _invariants(spec: Any = None) -> dict[str, dict[str, Any]]:
     return {}
 
 
+def _loop_kernel() -> Any:
+    """The compiled loop (imported when asked for: importing the system compiles nothing)."""
+    from .._kernels.loop_kernels import run_loop
+
+    return run_loop
+
+
 SPACECRAFT = register(System(
     name="spacecraft",
     doc="a spacecraft with its flight software in the compiled loop: the gyrostat's state and the bus signals",
     state=GYROSTAT.state,
     records=GYROSTAT.records + (Field("signals", (0,), np.float64, "the recorded bus signals at each entry's first "
                                                                     "step"),),
-    kernels=lambda: {"run_loop": __import__("lgvi._kernels.loop_kernels", fromlist=["run_loop"]).run_loop},
+    kernels=lambda: {"run_loop": _loop_kernel()},
     results=GYROSTAT.results + ("signals",),
     scenario_section="spacecraft",
     run_factory=None,
