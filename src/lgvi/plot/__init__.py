@@ -440,9 +440,12 @@ def attitude(traj: Trajectory, kind: str = "euler", sequence: str = "ZYX", ax: A
         ax.set_title(f"Attitude: {'intrinsic' if intrinsic else 'extrinsic'} {sequence} Euler angles "
                      "(unwrapped), body to inertial")
     elif kind == "mrp":
-        from ..so3 import mrp_from_matrix
+        from ..so3 import mrp_from_matrix, orthogonality_error, project
 
-        sigma = mrp_from_matrix(np.asarray(traj.R))
+        R = np.asarray(traj.R)
+        if not np.all(orthogonality_error(R) <= 1e-9):   # a baseline (RK45, RK4) drifts off SO(3):
+            R = project(R)                                 # the attitude drawn is the nearest rotation's
+        sigma = mrp_from_matrix(R)
         window = _oscillation_window(sigma)
         tw, sw = t[window], sigma[window]
         # the switch to the other side at a half turn is a jump (|d sigma| ~ 2): the curves break there
