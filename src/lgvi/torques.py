@@ -733,6 +733,8 @@ class Compiled(TorqueModel):
 
     def _trial(self, row: np.ndarray) -> None:
         name = getattr(self.moment_func, "__name__", "moment")
+        if isinstance(self._python_call(self.moment_func, (0.0, np.eye(3), np.zeros(3), row.copy()))[1], IndexError):
+            return      # compiled, this call would read memory past params (anything): check_sample refuses it at the run
         try:
             m = np.asarray(self.moment_func(0.0, np.eye(3), np.zeros(3), row), dtype=np.float64)
         except Exception as exc:
