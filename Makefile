@@ -16,7 +16,7 @@ FLOORS_STAMP := $(FLOORS)/.installed
 # interactive page (plotly). The netCDF reader on corrupted files (tests/test_fuzz.py's subprocess fuzz)
 # runs in the newest stage only: at the floors (netCDF4 1.7.1.post1 to 1.7.4 with xarray 2023.1 and
 # NumPy 1.24) the netCDF/HDF5 C library segfaults on one mutation of the file this version writes
-# (seed 7), where the newest stack raises; an open finding of issue 29, not a check that passes.
+# (seed 7), where the newest stack raises: found when the issues of this round were merged, still open.
 FLOORS_TESTS := tests/test_dependencies.py tests/test_api.py tests/test_so3.py tests/test_outputs.py tests/test_libraries.py \
                 tests/test_scenario.py tests/test_cli.py tests/test_view.py
 
