@@ -69,6 +69,8 @@ from .systems.two_body import TwoBodyTrajectory as TwoBodyTrajectory
 from .systems.two_body import simulate_two_body as simulate_two_body
 from .systems.chain import ChainTrajectory as ChainTrajectory
 from .systems.chain import simulate_chain as simulate_chain
+from .systems.slosh import SloshTrajectory as SloshTrajectory
+from .systems.slosh import simulate_slosh as simulate_slosh
 from .systems.gyrostat import ReactionWheels as ReactionWheels
 from .trajectory import Trajectory as Trajectory
 from .trajectory import load as load
@@ -80,6 +82,7 @@ __all__ = [
     "AccuracyWarning",
     "AttitudeWarning",
     "ChainTrajectory",
+    "SloshTrajectory",
     "CollisionError",
     "ComponentError",
     "ConvergenceError",
@@ -112,6 +115,7 @@ __all__ = [
     "optimal",
     "simulate",
     "simulate_chain",
+    "simulate_slosh",
     "simulate_ensemble",
     "simulate_members",
     "simulate_modified",

@@ -215,5 +215,6 @@ from . import orbit as orbit  # noqa: E402  (a body in a central field)
 from . import two_body as two_body  # noqa: E402  (two bodies in mutual gravity)
 from . import gyrostat as gyrostat  # noqa: E402  (registers the gyrostat: reaction wheels)
 from . import chain as chain  # noqa: E402  (chains of spherical pendulums on (S^2)^n)
+from . import slosh as slosh  # noqa: E402  (a hub with slosh pendulums on SO(3) x (S^2)^n)
 
 __all__ = ["CarriedState", "Field", "RUNS", "SYSTEMS", "System", "provide_run", "register"]
