@@ -333,18 +333,31 @@ def slosh_substep(Jd, c, Ct, M, Minv, sA, h, R, Pi, q, pi, w, lam, ws, piv, tol,
 
 
 @jit
-def damping_kick(Jp, c, M, k, tau, R, Pi, q, pi):
-    """The momenta after a time ``tau`` of the damping alone at fixed configuration, by the
-    implicit midpoint rule (linear: one solve). Generalised velocities ``u = (Omega, a_1..a_n)``,
+def kick_workspace(n):
+    """Scratch of :func:`kick_build` / :func:`kick_apply` for ``n`` pendulums."""
+    m = 3 + 2 * n
+    return (np.empty((n, 3)), np.empty((n, 3, 2)), np.empty((m, m)), np.empty((n, 3, m)), np.empty((m, m)),
+            np.empty((m, m)), np.empty((m, m)), np.empty(m), np.empty(m), np.empty(m))
+
+
+@jit
+def kick_build(Jp, c, M, k, tau, R, q, kw):
+    """Build the damping kick of duration ``tau`` at the configuration ``(R, q)`` into ``kw``
+    (:func:`kick_workspace`); False when a matrix is singular.
+
+    The momenta after a time ``tau`` of the damping alone at fixed configuration, by the implicit
+    midpoint rule (linear: one solve). Generalised velocities ``u = (Omega, a_1..a_n)``,
     ``vb_i = E_i a_i`` (``E_i`` (3, 2) an orthonormal basis across ``qb_i``); mass matrix ``G``,
     damping matrix ``K`` from ``omega_rel_i = qb_i x vb_i - (Omega less its part along qb_i)``.
-    ``(G + tau/2 K) u^+ = (G - tau/2 K) u`` and the momenta change by ``-tau K (u + u^+)/2``."""
+    ``(G + tau/2 K) u^+ = (G - tau/2 K) u`` and the momenta change by ``-tau K (u + u^+)/2``
+    (:func:`kick_apply`)."""
+    qb, E, G, W, K, A, B, p, u, rhs = kw
     n = q.shape[0]
     m = 3 + 2 * n
-    qb = np.empty((n, 3))
-    E = np.empty((n, 3, 2))
-    G = np.zeros((m, m))
-    W = np.zeros((n, 3, m))
+    for a in range(m):
+        for b in range(m):
+            G[a, b] = 0.0
+            K[a, b] = 0.0
     for i in range(n):
         for a in range(3):
             qb[i, a] = R[0, a] * q[i, 0] + R[1, a] * q[i, 1] + R[2, a] * q[i, 2]
@@ -391,8 +404,11 @@ def damping_kick(Jp, c, M, k, tau, R, Pi, q, pi):
                 for t in range(2):
                     G[3 + 2 * i + s, 3 + 2 * j + t] = M[i, j] * (E[i, 0, s] * E[j, 0, t] + E[i, 1, s] * E[j, 1, t]
                                                                + E[i, 2, s] * E[j, 2, t])
-    # W_i u = omega_rel_i = qb_i x E_i a_i - (I - qb_i qb_i^T) Omega;  K = sum_i k_i W_i^T W_i
+    # W_i u = omega_rel_i = qb_i x E_i a_i - (I - qb_i qb_i^T) Omega (only the columns of Omega and
+    # a_i are non-zero);  K = sum_i k_i W_i^T W_i
     for i in range(n):
+        if k[i] == 0.0:
+            continue
         for a in range(3):
             for b in range(3):
                 W[i, a, b] = qb[i, a] * qb[i, b] - (1.0 if a == b else 0.0)
@@ -403,18 +419,25 @@ def damping_kick(Jp, c, M, k, tau, R, Pi, q, pi):
             W[i, 0, 3 + 2 * i + s] = qb[i, 1] * e2 - qb[i, 2] * e1
             W[i, 1, 3 + 2 * i + s] = qb[i, 2] * e0 - qb[i, 0] * e2
             W[i, 2, 3 + 2 * i + s] = qb[i, 0] * e1 - qb[i, 1] * e0
-    K = np.zeros((m, m))
-    for i in range(n):
-        if k[i] == 0.0:
-            continue
-        for a in range(m):
-            for b in range(m):
-                s = 0.0
-                for x in range(3):
-                    s += W[i, x, a] * W[i, x, b]
-                K[a, b] += k[i] * s
+        for ia in range(5):
+            a = ia if ia < 3 else 3 + 2 * i + ia - 3
+            for ib in range(5):
+                b = ib if ib < 3 else 3 + 2 * i + ib - 3
+                K[a, b] += k[i] * (W[i, 0, a] * W[i, 0, b] + W[i, 1, a] * W[i, 1, b] + W[i, 2, a] * W[i, 2, b])
+    for a in range(m):
+        for b in range(m):
+            A[a, b] = G[a, b]
+            B[a, b] = G[a, b] + 0.5 * tau * K[a, b]
+    return lu_factor(A, m) and lu_factor(B, m)
+
+
+@jit
+def kick_apply(tau, R, Pi, pi, kw):
+    """Apply the kick built by :func:`kick_build` (same ``tau``, same configuration) to the momenta."""
+    qb, E, G, W, K, A, B, p, u, rhs = kw
+    n = qb.shape[0]
+    m = 3 + 2 * n
     # momenta p = (Pi, E_i^T (pib_i x qb_i)) -> u = G^-1 p
-    p = np.empty(m)
     for a in range(3):
         p[a] = Pi[a]
     for i in range(n):
@@ -426,24 +449,16 @@ def damping_kick(Jp, c, M, k, tau, R, Pi, q, pi):
         g2 = p0 * qb[i, 1] - p1 * qb[i, 0]
         for s in range(2):
             p[3 + 2 * i + s] = E[i, 0, s] * g0 + E[i, 1, s] * g1 + E[i, 2, s] * g2
-    A = G.copy()
-    u = p.copy()
-    if not lu_factor(A, m):
-        return SINGULAR
+    for a in range(m):
+        u[a] = p[a]
     lu_solve(A, u, m)
     # (G + tau/2 K) u^+ = (G - tau/2 K) u = p - tau/2 K u
-    rhs = np.empty(m)
     for a in range(m):
         s = 0.0
         for b in range(m):
             s += K[a, b] * u[b]
         rhs[a] = p[a] - 0.5 * tau * s
-    for a in range(m):
-        for b in range(m):
-            A[a, b] = G[a, b] + 0.5 * tau * K[a, b]
-    if not lu_factor(A, m):
-        return SINGULAR
-    lu_solve(A, rhs, m)
+    lu_solve(B, rhs, m)
     # dp = -tau K (u + u^+)/2
     for a in range(m):
         u[a] = 0.5 * (u[a] + rhs[a])
@@ -464,25 +479,26 @@ def damping_kick(Jp, c, M, k, tau, R, Pi, q, pi):
         b2 = qb[i, 0] * g1 - qb[i, 1] * g0
         for a in range(3):
             pi[i, a] += R[a, 0] * b0 + R[a, 1] * b1 + R[a, 2] * b2
-    if not math.isfinite(Pi[0] + Pi[1] + Pi[2]):
-        return NOT_FINITE
-    return OK
+    return math.isfinite(Pi[0] + Pi[1] + Pi[2])
 
 
 @jit
-def run_slosh(Jd, Jp, c, Ct, M, Minv, k, damped, sA, gam, h, R, Pi, q, pi, whist, hist, hh, k0, n_steps, tol,
-              max_iter, save_every, R_out, Pi_out, q_out, pi_out, it_out, res_out, last):
+def run_slosh(Jd, Jp, c, Ct, M, Minv, k, damped, sA, gam, h, R, Pi, q, pi, hist, hh, k0, n_steps, tol, max_iter,
+              save_every, R_out, Pi_out, q_out, pi_out, it_out, res_out, last):
     """``n_steps`` steps from step ``k0``, each the composition of substeps ``gam[s] h`` (each: damping
-    kick ``gam h / 2`` if ``damped``, conservative step, kick). ``whist`` (S, 3) holds the last rotation
-    vector of each substep (its first guess), ``hist`` (S, 4, n) and ``hh`` (S, 4) the multipliers'
-    history (:func:`lgvi._kernels.chain_kernels.first_guess`). Every ``save_every`` steps the state
-    goes to row ``j`` of the outputs, with the largest iterations and residual of the interval.
-    Returns ``(status, steps done from k0)``."""
+    kick ``gam h / 2`` if ``damped``, conservative step, kick). ``hist`` (S, 4, n + 3) and ``hh`` (S, 4)
+    hold the solutions ``(lambda, w)`` of each substep over the last four steps and their sizes, the
+    first guess of the next (:func:`lgvi._kernels.chain_kernels.first_guess`: cubic extrapolation).
+    Every ``save_every`` steps the state goes to row ``j`` of the outputs, with the largest iterations
+    and residual of the interval. Returns ``(status, steps done from k0)``."""
     n = q.shape[0]
     S = gam.shape[0]
-    lam = np.empty(n)
-    w = np.empty(3)
+    x = np.empty(n + 3)
+    lam = x[:n]
+    w = x[n:]
     ws = workspace(n)
+    kw = kick_workspace(n)
+    built = 0.0                  # the tau of the kick built at the current configuration (0: none)
     piv = np.empty(3 + n, dtype=np.int64)
     j = 0
     its_max = 0
@@ -492,30 +508,26 @@ def run_slosh(Jd, Jp, c, Ct, M, Minv, k, damped, sA, gam, h, R, Pi, q, pi, whist
         kk = k0 + s
         for cc in range(S):
             hc = gam[cc] * h
-            first_guess(lam, hist, hh, cc, (cc - 1) % S, hc, n)
-            if hh[cc, 0] != 0.0:
-                ratio = hc / hh[cc, 0]
-                for a in range(3):
-                    w[a] = whist[cc, a] * ratio
-            else:
-                for a in range(3):
-                    w[a] = 0.0
+            first_guess(x, hist, hh, cc, (cc - 1) % S, hc, n + 3)
             if damped:
-                st = damping_kick(Jp, c, M, k, 0.5 * hc, R, Pi, q, pi)
-                if st != OK:
-                    return st, kk
+                if built != 0.5 * hc:        # the last kick's matrices serve when tau is the same
+                    if not kick_build(Jp, c, M, k, 0.5 * hc, R, q, kw):
+                        return SINGULAR, kk
+                    built = 0.5 * hc
+                if not kick_apply(0.5 * hc, R, Pi, pi, kw):
+                    return NOT_FINITE, kk
             st, its, res = slosh_substep(Jd, c, Ct, M, Minv, sA, hc, R, Pi, q, pi, w, lam, ws, piv, tol, max_iter)
             last[0] = its
             last[1] = res
             if st != OK:
                 return st, kk
             if damped:
-                st = damping_kick(Jp, c, M, k, 0.5 * hc, R, Pi, q, pi)
-                if st != OK:
-                    return st, kk
-            push_history(lam, hist, hh, cc, hc, n)
-            for a in range(3):
-                whist[cc, a] = w[a]
+                if not kick_build(Jp, c, M, k, 0.5 * hc, R, q, kw):
+                    return SINGULAR, kk
+                built = 0.5 * hc
+                if not kick_apply(0.5 * hc, R, Pi, pi, kw):
+                    return NOT_FINITE, kk
+            push_history(x, hist, hh, cc, hc, n + 3)
             if its > its_max:
                 its_max = its
             if res > res_max:
@@ -539,4 +551,4 @@ def run_slosh(Jd, Jp, c, Ct, M, Minv, k, damped, sA, gam, h, R, Pi, q, pi, whist
     return OK, k0 + n_steps
 
 
-__all__ = ["damping_kick", "exp_minus_identity", "lu_pivot_solve", "right_jacobian", "run_slosh", "slosh_substep", "workspace"]
+__all__ = ["kick_apply", "kick_build", "kick_workspace", "exp_minus_identity", "lu_pivot_solve", "right_jacobian", "run_slosh", "slosh_substep", "workspace"]

@@ -147,7 +147,7 @@ class SloshRun(CarriedState):
     """One validated run of :func:`simulate_slosh` (driven by :func:`lgvi.driver.drive`)."""
 
     system = SLOSH
-    CARRIED = ("R", "Pi", "q", "pi", "whist", "hist", "hh")
+    CARRIED = ("R", "Pi", "q", "pi", "hist", "hh")
     full = False
     label = "slosh simulation"
 
@@ -186,8 +186,7 @@ class SloshRun(CarriedState):
         self.chunk = max(self.save_every, (CHUNK_STEPS // self.save_every) * self.save_every)
         self.k = 0
         S = len(self.gam)
-        self.whist = np.zeros((S, 3))
-        self.hist = np.zeros((S, 4, n))
+        self.hist = np.zeros((S, 4, n + 3))      # (lambda, w) of each substep, last four steps
         self.hh = np.zeros((S, 4))
         self.last = np.zeros(2)
         self.kcoef = self.damping * P["lengths"] ** 2
@@ -218,7 +217,7 @@ class SloshRun(CarriedState):
         P = self.P
         status, self.k = run_slosh(P["Jd"], P["Jp"], P["c"], P["Ct"], P["M"], P["Minv"], self.kcoef,
                                    bool(self.kcoef.any()), self.sA, self.gam, self.h, self.R, self.Pi, self.q,
-                                   self.pi, self.whist, self.hist, self.hh, self.k, n, self.tol, self.max_iter,
+                                   self.pi, self.hist, self.hh, self.k, n, self.tol, self.max_iter,
                                    self.save_every, R_out, Pi_out, q_out, pi_out, it_out, res_out, self.last)
         return int(status)
 

@@ -25,7 +25,7 @@ def _kernels() -> dict[str, Any]:
     from ..._kernels import slosh_kernels
 
     return {"run_slosh": slosh_kernels.run_slosh, "slosh_substep": slosh_kernels.slosh_substep,
-            "damping_kick": slosh_kernels.damping_kick}
+            "kick_build": slosh_kernels.kick_build, "kick_apply": slosh_kernels.kick_apply}
 
 
 def _load(path: Any) -> Any:
