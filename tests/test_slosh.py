@@ -237,3 +237,83 @@ def test_bad_input_names_the_argument_and_the_rule(over, words):
         _bad(**over)
     for w in words:
         assert __import__("re").search(w, str(info.value)), (w, str(info.value))
+
+
+SCENARIO = """
+name = "slosh2"
+
+[slosh]
+inertia = [900.0, 800.0, 600.0]
+hub_mass = 1500.0
+pivots = [[0.5, 0.1, 0.2], [-0.3, 0.4, -0.1]]
+lengths = [0.3, 0.4]
+masses = [40.0, 60.0]
+q0 = [[0.0, 0.0, -1.0], [0.6, 0.0, -0.8]]
+qdot0 = [[0.5, 0.2, 0.0], [0.0, 1.0, 0.0]]
+omega0 = [0.3, -0.2, 0.5]
+damping = [30.0, 50.0]
+order = 4
+
+[integrator]
+h = 0.01
+steps = 600
+save_every = 5
+"""
+FIELDS = ("t", "R", "Pi", "q", "pi", "iterations", "residual", "damping")
+
+
+def test_lgvi_run_of_a_scenario_writes_results_figure_summary_and_resumes(capsys, tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from lgvi import cli
+    from lgvi.io.outputs import read_trajectory
+    from lgvi.io.scenario import load_scenario
+
+    path = tmp_path / "slosh2.toml"
+    path.write_text(SCENARIO)
+    sc = load_scenario(path)
+    assert sc.kind == "slosh" and sc.steps == 600
+    whole = sc.run()
+    ref = slosh(0.01, 600, save_every=5, damping=DAMP, order=4)
+    for name in FIELDS:
+        assert np.array_equal(getattr(whole, name), getattr(ref, name)), name
+
+    def ctrl_c(k, n):
+        if k >= 300:
+            raise KeyboardInterrupt
+    with pytest.raises(KeyboardInterrupt):
+        sc.run_stream(tmp_path / "out" / "stream", chunk_steps=100, progress=ctrl_c)
+    code = cli.main(["run", str(path), "-o", str(tmp_path / "out"), "--resume"])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    back = read_trajectory(tmp_path / "out" / "trajectory.npz")
+    assert isinstance(back, lgvi.SloshTrajectory)
+    for name in FIELDS:
+        assert np.array_equal(getattr(back, name), getattr(whole, name)), name
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [
+        "scenario.toml", "slosh.png", "summary.json", "summary.txt", "trajectory.npz"]
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["system"] == "slosh" and summary["drifts"]["angular_momentum_rel"] < 1e-13
+    assert "2 spherical slosh pendulums" in (tmp_path / "out" / "summary.txt").read_text()
+
+
+@pytest.mark.parametrize("old, new, key, rule", [
+    ("masses = [40.0, 60.0]", "masses = [40.0, 0.0]", "slosh.masses", r"positive.*masses\[1\] = 0\.0"),
+    ("hub_mass = 1500.0", 'hub_mass = "1500"', "slosh.hub_mass", r"a number"),
+    ("order = 4", "order = 3", "slosh.order", r"order must be 2, 4 or 6"),
+    ("order = 4", "gravity = 1.0", "slosh.gravity", r"unknown key"),
+    ("lengths = [0.3, 0.4]\n", "", "slosh.lengths", r"missing"),
+    ("damping = [30.0, 50.0]", "damping = [30.0, -50.0]", "slosh.damping", r">= 0"),
+])
+def test_scenario_errors_name_the_key(tmp_path, old, new, key, rule):
+    import re
+
+    from lgvi.io.scenario import ScenarioError, load_scenario
+
+    path = tmp_path / "bad.toml"
+    assert old in SCENARIO
+    path.write_text(SCENARIO.replace(old, new))
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    assert info.value.key == key and re.search(rule, str(info.value)), str(info.value)

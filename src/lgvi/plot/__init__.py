@@ -1408,6 +1408,9 @@ _SYSTEM_FIGURES: dict[str, Callable[[Any], Any]] = {"orbit": orbit, "two_body": 
 from .chain import chain as chain  # noqa: E402  (a chain of spherical pendulums: lgvi.plot.chain)
 
 _SYSTEM_FIGURES["chain"] = chain
+from .slosh import slosh as slosh  # noqa: E402  (a hub with slosh pendulums: lgvi.plot.slosh)
+
+_SYSTEM_FIGURES["slosh"] = slosh
 
 
 __all__ = [
@@ -1430,6 +1433,7 @@ __all__ = [
     "sampling_note",
     "save_comparison",
     "save_figures",
+    "slosh",
     "two_body",
     "wheels",
 ]

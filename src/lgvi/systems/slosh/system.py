@@ -63,6 +63,55 @@ SLOSH = register(System(
     run_factory=None,
     invariants=slosh_invariants,
     from_stream=_from_stream,
+    from_scenario=lambda table: slosh_scenario(table),
     describe=slosh_description,
     saved_as=("lgvi.slosh/1", _load),
 ))
+
+
+#: The keys of a scenario's ``[slosh]`` section: required, then optional.
+SCENARIO_KEYS = ("inertia", "hub_mass", "pivots", "lengths", "masses", "q0", "R0", "qdot0", "omega0", "damping",
+                 "order", "composition")
+_REQUIRED = SCENARIO_KEYS[:6]
+
+
+def slosh_scenario(table: Any) -> tuple[tuple[Any, ...], dict[str, Any]]:
+    """``(args, kwargs)`` of :func:`lgvi.simulate_slosh` from a scenario's ``[slosh]`` section::
+
+        [slosh]
+        inertia = [900.0, 800.0, 600.0]           # hub, about its centre of mass [kg m^2]: (3,) or (3, 3)
+        hub_mass = 1500.0                         # [kg]
+        pivots = [[0.5, 0.1, 0.2], [-0.3, 0.4, -0.1]]   # body frame, from the hub's centre of mass [m]
+        lengths = [0.3, 0.4]                      # [m]
+        masses = [40.0, 60.0]                     # [kg]
+        q0 = [[0.0, 0.0, -1.0], [0.6, 0.0, -0.8]] # directions, body frame
+        R0 = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]    # optional: hub attitude (default identity)
+        qdot0 = [[0.5, 0.2, 0.0], [0.0, 1.0, 0.0]]   # optional: rates relative to the hub [1/s]
+        omega0 = [0.3, -0.2, 0.5]                 # optional: hub rate, body [rad/s]
+        damping = [30.0, 50.0]                    # optional [N s/m]
+        order = 4                                 # optional: 2, 4 or 6
+
+    The values are checked by the run; a wrong key or type raises ``ValueError`` or ``TypeError``
+    naming ``slosh.<key>``."""
+    if not isinstance(table, dict):
+        raise TypeError(f"slosh: expected a table ([slosh] with {', '.join(_REQUIRED)}), got {type(table).__name__}")
+    unknown = [k for k in table if k not in SCENARIO_KEYS]
+    if unknown:
+        raise ValueError(f"slosh.{unknown[0]}: unknown key; expected one of {', '.join(SCENARIO_KEYS)}")
+    for key in _REQUIRED:
+        if key not in table:
+            raise ValueError(f"slosh.{key}: missing (the slosh system needs {', '.join(_REQUIRED)})")
+    for key, kind, what in (("order", int, "an integer (2, 4 or 6)"), ("composition", str, "a string")):
+        if key in table and (not isinstance(table[key], kind) or isinstance(table[key], bool)):
+            raise TypeError(f"slosh.{key}: expected {what}, got {table[key]!r}")
+    if not isinstance(table["hub_mass"], (int, float)) or isinstance(table["hub_mass"], bool):
+        raise TypeError(f"slosh.hub_mass: expected a number (kg), got {table['hub_mass']!r}")
+    for key in ("inertia", "pivots", "lengths", "masses", "q0", "R0", "qdot0", "omega0"):
+        if key in table and not isinstance(table[key], list):
+            raise TypeError(f"slosh.{key}: expected an array, got {table[key]!r}")
+    if "damping" in table and not isinstance(table["damping"], (list, int, float)):
+        raise TypeError(f"slosh.damping: expected a number or an array (N s/m), got {table['damping']!r}")
+    args = (table["inertia"], table["hub_mass"], table["pivots"], table["lengths"], table["masses"],
+            table.get("R0", np.eye(3).tolist()), table["q0"])
+    kwargs = {k: table[k] for k in SCENARIO_KEYS[7:] if k in table}
+    return args, kwargs
