@@ -63,6 +63,34 @@ def cpu(fn):
     return out, time.process_time() - t
 
 
+def timed(fn, rounds):
+    """``(result, median CPU seconds)`` of ``rounds`` calls of ``fn``."""
+    ts, out = [], None
+    for _ in range(rounds):
+        out, t = cpu(fn)
+        ts.append(t)
+    return out, statistics.median(ts)
+
+
+def step_table(cases, steps, rounds, width):
+    """Print CPU ns a step of each ``cases[name](steps)`` (median of interleaved rounds, after a
+    compiling call), its ratio to the first case and its mean Newton iterations."""
+    for fn in cases.values():
+        fn(10)                                   # compile (or load) outside the timing
+    times = {k: [] for k in cases}
+    its = {}
+    for _ in range(rounds):
+        for k, fn in cases.items():
+            out, t = cpu(lambda: fn(steps))
+            times[k].append(t)
+            its[k] = float(np.mean(out.iterations))
+    base = statistics.median(times[next(iter(cases))])
+    print(f"{'case':<{width}}{'ns/step':>10}{'/rigid body':>13}{'iterations':>12}")
+    for k in cases:
+        t = statistics.median(times[k])
+        print(f"{k:<{width}}{1e9 * t / steps:>10.0f}{t / base:>13.2f}{its[k]:>12.2f}")
+
+
 def speed(steps, rounds):
     se = 1000 if steps % 1000 == 0 else steps
     gravity = lgvi.torques.UniformGravity(mass=1.0, com=[0.0, 0.0, 0.3])
@@ -77,21 +105,8 @@ def speed(steps, rounds):
         "chain, 3 links, order 4": lambda n: lgvi.simulate_chain(LENGTHS, MASSES, Q0, QD0, h=1e-3, steps=n,
                                                                  order=4, save_every=se if n == steps else 1),
     }
-    for fn in cases.values():
-        fn(10)                                   # compile (or load) outside the timing
-    times = {k: [] for k in cases}
-    its = {}
-    for _ in range(rounds):
-        for k, fn in cases.items():
-            out, t = cpu(lambda: fn(steps))
-            times[k].append(t)
-            its[k] = float(np.mean(out.iterations))
-    base = statistics.median(times["rigid body (free)"])
     print(f"\nTable 1: CPU time per step, {steps} steps, median of {rounds} interleaved rounds (one core)")
-    print(f"{'case':<30}{'ns/step':>10}{'/rigid body':>13}{'iterations':>12}")
-    for k in cases:
-        t = statistics.median(times[k])
-        print(f"{k:<30}{1e9 * t / steps:>10.0f}{t / base:>13.2f}{its[k]:>12.2f}")
+    step_table(cases, steps, rounds, 30)
 
 
 def accuracy(T, rounds):
@@ -108,13 +123,6 @@ def accuracy(T, rounds):
     def err(q):
         return float(np.abs(np.ravel(q) - ref).max())
 
-    def timed(fn):
-        ts, out = [], None
-        for _ in range(rounds):
-            out, t = cpu(fn)
-            ts.append(t)
-        return out, statistics.median(ts)
-
     print(f"\nTable 2: error of q at T = {T:g} s against DOP853 (rtol 1e-13; its distance to rtol 1e-12: "
           f"{check:.1e}), CPU time, median of {rounds}")
     print(f"{'solver':<22}{'h or rtol':>11}{'error':>11}{'nfev':>8}{'CPU s':>10}{'DOP853/lgvi':>13}")
@@ -123,7 +131,7 @@ def accuracy(T, rounds):
             steps = int(round(T / h))
             lgvi.simulate_chain(LENGTHS, MASSES, Q0, QD0, h=h, steps=2, order=order)
             tr, t = timed(lambda: lgvi.simulate_chain(LENGTHS, MASSES, Q0, QD0, h=h, steps=steps, order=order,
-                                                       save_every=steps))
+                                                       save_every=steps), rounds)
             e = err(tr.q[-1])
             rtol = None
             for r in (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12):
@@ -134,7 +142,7 @@ def accuracy(T, rounds):
             if rtol is None:
                 print(f"{'scipy DOP853':<22}{'none':>11} (no tolerance down to 1e-12 reaches this error)")
                 continue
-            sol, td = timed(lambda: dop(rtol))
+            sol, td = timed(lambda: dop(rtol), rounds)
             print(f"{'scipy DOP853':<22}{rtol:>11.0e}{err(sol.y[:9, -1]):>11.2e}{sol.nfev:>8}{td:>10.4f}"
                   f"{td / t:>13.1f}")
 

@@ -198,3 +198,12 @@ def test_bench_chain_quick():
     proc = _run("bench_chain.py", "--quick")
     _check(proc, "Table 1", "ns/step", "/rigid body", "chain, 3 links, order 2", "Table 2", "lgvi order 2",
            "scipy DOP853", "DOP853/lgvi")
+
+
+@pytest.mark.slow
+def test_bench_slosh_quick():
+    """The slosh benchmark prints its step-cost table and its time-to-accuracy table against DOP853."""
+    proc = _run("bench_slosh.py", "--quick")
+    _check(proc, "Table 1", "ns/step", "/rigid body", "2 pendulums, order 2", "2 pendulums, damped", "Table 2",
+           "lgvi order 4", "scipy DOP853", "DOP853/lgvi")
+    assert "Traceback" not in proc.stderr

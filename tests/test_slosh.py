@@ -317,3 +317,31 @@ def test_scenario_errors_name_the_key(tmp_path, old, new, key, rule):
     with pytest.raises(ScenarioError) as info:
         load_scenario(path)
     assert info.value.key == key and re.search(rule, str(info.value)), str(info.value)
+
+
+def test_kernel_interpreted_matches_compiled():
+    """The slosh kernel run as plain Python (NUMBA_DISABLE_JIT=1) gives the compiled result (order 2
+    undamped, order 4 damped), to round-off."""
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import numpy as np, lgvi\n"
+        "out = []\n"
+        "for kw in (dict(order=2), dict(order=4, damping=[30.0, 50.0])):\n"
+        "    t = lgvi.simulate_slosh([900.0, 800.0, 600.0], 1500.0, [[0.5, 0.1, 0.2], [-0.3, 0.4, -0.1]], [0.3, 0.4],\n"
+        "                            [40.0, 60.0], np.eye(3), [[0.0, 0.0, -1.0], [0.6, 0.0, -0.8]],\n"
+        "                            [[0.5, 0.2, 0.0], [0.0, 1.0, 0.0]], omega0=[0.3, -0.2, 0.5], h=0.01, steps=20, **kw)\n"
+        "    out.append(np.concatenate([t.R[-1].ravel(), t.Pi[-1], t.q[-1].ravel(), t.pi[-1].ravel()]).tolist())\n"
+        "print(out)\n"
+    )
+    env = dict(os.environ, NUMBA_DISABLE_JIT="1")
+    results = []
+    for jit in (False, True):
+        if jit:
+            env.pop("NUMBA_DISABLE_JIT")
+        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+        assert proc.returncode == 0, proc.stderr
+        results.append(np.array(eval(proc.stdout.strip().splitlines()[-1])))
+    np.testing.assert_allclose(results[0], results[1], rtol=0, atol=1e-12)

@@ -84,7 +84,7 @@ def newton_matrix(Minv, q, D, A, n):
     return lu_factor(A, n)
 
 
-@jit
+@jit(_nrt=False)
 def chain_substep(M, Minv, w, g, h, q, pi, lam, D, Y, A, r, tol, max_iter):
     """One step of size ``h`` (module notes): ``q`` and ``pi`` updated in place; ``lam`` (n,) is the first
     guess of the multipliers ``lambda`` and gets their solution. ``D``, ``Y`` (n, 3), ``A`` (n, n), ``r`` (n,)
@@ -231,22 +231,20 @@ def push_history(lam, hist, hh, c, h, n):
         hist[c, 0, i] = lam[i]
 
 
-@jit
+@jit(_nrt=False)
 def run_chain(M, Minv, w, g, gam, h, q, pi, hist, hh, k0, n_steps, tol, max_iter, save_every, q_out, pi_out,
-              it_out, res_out, last):
+              it_out, res_out, last, D, Y, A, r, lam):
     """``n_steps`` steps from step ``k0``: each the composition of substeps ``gam[s] h`` (``gam =
     (1,)``: the second-order step). ``hist`` (S, 4, n) and ``hh`` (S, 4) are the multipliers of each
     substep over the last four steps and their sizes (:func:`first_guess`). Every ``save_every``
     steps the state goes to ``q_out``, ``pi_out`` (row ``j``) and the largest iterations and
     residual of the interval to ``it_out``, ``res_out``. ``last`` (2,) gets the iterations and
-    residual of the last substep. Returns ``(status, steps done from k0)``."""
+    residual of the last substep. ``D``, ``Y`` (n, 3), ``A`` (n, n), ``r``, ``lam`` (n,) are scratch,
+    allocated by the run: the kernels are compiled without Numba's runtime (``_nrt=False``), so
+    passing arrays between them costs no reference counting (a third of a 3-link step with it).
+    Returns ``(status, steps done from k0)``."""
     n = q.shape[0]
     S = gam.shape[0]
-    D = np.empty((n, 3))
-    Y = np.empty((n, 3))
-    A = np.empty((n, n))
-    r = np.empty(n)
-    lam = np.empty(n)
     j = 0
     its_max = 0
     res_max = 0.0

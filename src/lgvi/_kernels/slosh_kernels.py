@@ -126,15 +126,16 @@ def lu_pivot_solve(A, b, piv, m):
     return True
 
 
-@jit
 def workspace(n):
-    """Scratch arrays of :func:`slosh_substep` for ``n`` pendulums (allocated once per chunk)."""
+    """Scratch arrays of :func:`slosh_substep` for ``n`` pendulums (allocated by the run, once: the
+    kernels are compiled without Numba's runtime, ``_nrt=False``, so that passing arrays costs no
+    reference counting)."""
     m = 3 + n
     return (np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3, 3)),
             np.empty((3, 3)), np.empty((3, 3)), np.empty((m, m)), np.empty(m), np.empty((3, 3)))
 
 
-@jit
+@jit(_nrt=False)
 def slosh_substep(Jd, c, Ct, M, Minv, sA, h, R, Pi, q, pi, w, lam, ws, piv, tol, max_iter):
     """One conservative step of size ``h`` (module notes); ``R``, ``Pi``, ``q``, ``pi`` updated in
     place. ``w`` (3,) and ``lam`` (n,) are the first guesses of the rotation vector of ``F`` and of
@@ -332,15 +333,14 @@ def slosh_substep(Jd, c, Ct, M, Minv, sA, h, R, Pi, q, pi, w, lam, ws, piv, tol,
     return OK, its, res
 
 
-@jit
 def kick_workspace(n):
-    """Scratch of :func:`kick_build` / :func:`kick_apply` for ``n`` pendulums."""
+    """Scratch of :func:`kick_build` / :func:`kick_apply` for ``n`` pendulums (see :func:`workspace`)."""
     m = 3 + 2 * n
     return (np.empty((n, 3)), np.empty((n, 3, 2)), np.empty((m, m)), np.empty((n, 3, m)), np.empty((m, m)),
             np.empty((m, m)), np.empty((m, m)), np.empty(m), np.empty(m), np.empty(m))
 
 
-@jit
+@jit(_nrt=False)
 def kick_build(Jp, c, M, k, tau, R, q, kw):
     """Build the damping kick of duration ``tau`` at the configuration ``(R, q)`` into ``kw``
     (:func:`kick_workspace`); False when a matrix is singular.
@@ -431,7 +431,7 @@ def kick_build(Jp, c, M, k, tau, R, q, kw):
     return lu_factor(A, m) and lu_factor(B, m)
 
 
-@jit
+@jit(_nrt=False)
 def kick_apply(tau, R, Pi, pi, kw):
     """Apply the kick built by :func:`kick_build` (same ``tau``, same configuration) to the momenta."""
     qb, E, G, W, K, A, B, p, u, rhs = kw
@@ -482,24 +482,21 @@ def kick_apply(tau, R, Pi, pi, kw):
     return math.isfinite(Pi[0] + Pi[1] + Pi[2])
 
 
-@jit
+@jit(_nrt=False)
 def run_slosh(Jd, Jp, c, Ct, M, Minv, k, damped, sA, gam, h, R, Pi, q, pi, hist, hh, k0, n_steps, tol, max_iter,
-              save_every, R_out, Pi_out, q_out, pi_out, it_out, res_out, last):
+              save_every, R_out, Pi_out, q_out, pi_out, it_out, res_out, last, x, piv, ws, kw):
     """``n_steps`` steps from step ``k0``, each the composition of substeps ``gam[s] h`` (each: damping
     kick ``gam h / 2`` if ``damped``, conservative step, kick). ``hist`` (S, 4, n + 3) and ``hh`` (S, 4)
     hold the solutions ``(lambda, w)`` of each substep over the last four steps and their sizes, the
     first guess of the next (:func:`lgvi._kernels.chain_kernels.first_guess`: cubic extrapolation).
     Every ``save_every`` steps the state goes to row ``j`` of the outputs, with the largest iterations
-    and residual of the interval. Returns ``(status, steps done from k0)``."""
+    and residual of the interval. ``x`` (n + 3,), ``piv`` (n + 3,) int, ``ws`` (:func:`workspace`) and
+    ``kw`` (:func:`kick_workspace`) are scratch. Returns ``(status, steps done from k0)``."""
     n = q.shape[0]
     S = gam.shape[0]
-    x = np.empty(n + 3)
     lam = x[:n]
     w = x[n:]
-    ws = workspace(n)
-    kw = kick_workspace(n)
     built = 0.0                  # the tau of the kick built at the current configuration (0: none)
-    piv = np.empty(3 + n, dtype=np.int64)
     j = 0
     its_max = 0
     res_max = 0.0

@@ -217,9 +217,14 @@ class ChainRun(CarriedState):
     def advance(self, n: int, q_out, pi_out, it_out, res_out, partial) -> int:
         from ..._kernels.chain_kernels import run_chain
 
+        if not hasattr(self, "_scratch"):     # D, Y, A, r, lambda (the kernel allocates nothing)
+            links = self.n
+            self._scratch = (np.empty((links, 3)), np.empty((links, 3)), np.empty((links, links)), np.empty(links),
+                             np.empty(links))
+
         status, self.k = run_chain(self.M, self.Minv, self.w, self.gravity, self.gam, self.h, self.q, self.pi,
                                    self.hist, self.hh, self.k, n, self.tol, self.max_iter, self.save_every, q_out,
-                                   pi_out, it_out, res_out, self.last)
+                                   pi_out, it_out, res_out, self.last, *self._scratch)
         return int(status)
 
     def failure(self, status: int, residual: float, iterations: int, trajectory: Any, where: str = "") -> Exception:

@@ -212,13 +212,17 @@ class SloshRun(CarriedState):
                     initial={k: array_digest(np.asarray(v)) for k, v in self.initial.items()})
 
     def advance(self, n: int, R_out, Pi_out, q_out, pi_out, it_out, res_out, partial) -> int:
-        from ..._kernels.slosh_kernels import run_slosh
+        from ..._kernels.slosh_kernels import kick_workspace, run_slosh, workspace
 
         P = self.P
+        if not hasattr(self, "_scratch"):
+            self._scratch = (np.empty(self.n + 3), np.empty(self.n + 3, dtype=np.int64), workspace(self.n),
+                             kick_workspace(self.n))
         status, self.k = run_slosh(P["Jd"], P["Jp"], P["c"], P["Ct"], P["M"], P["Minv"], self.kcoef,
                                    bool(self.kcoef.any()), self.sA, self.gam, self.h, self.R, self.Pi, self.q,
                                    self.pi, self.hist, self.hh, self.k, n, self.tol, self.max_iter,
-                                   self.save_every, R_out, Pi_out, q_out, pi_out, it_out, res_out, self.last)
+                                   self.save_every, R_out, Pi_out, q_out, pi_out, it_out, res_out, self.last,
+                                   *self._scratch)
         return int(status)
 
     def failure(self, status: int, residual: float, iterations: int, trajectory: Any, where: str = "") -> Exception:
