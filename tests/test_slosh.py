@@ -345,3 +345,13 @@ def test_kernel_interpreted_matches_compiled():
         assert proc.returncode == 0, proc.stderr
         results.append(np.array(eval(proc.stdout.strip().splitlines()[-1])))
     np.testing.assert_allclose(results[0], results[1], rtol=0, atol=1e-12)
+
+
+def test_members_are_the_single_runs():
+    members = [dict(body=J, hub_mass=M0, pivots=PIV, lengths=LEN, masses=MASS, R0=np.eye(3), q0=Q0, qdot0=QD0 * s,
+                    omega0=W0, damping=DAMP, h=0.01, steps=200, save_every=20) for s in (0.5, 1.0)]
+    ens = lgvi.simulate_members("slosh", members, threads=2)
+    for b, kw in enumerate(members):
+        one = lgvi.simulate_slosh(**kw)
+        for name in FIELDS:
+            assert np.array_equal(getattr(ens[b], name), getattr(one, name)), name
