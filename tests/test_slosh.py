@@ -187,6 +187,12 @@ def test_save_load_round_trip(tmp_path):
     for name in lgvi.SloshTrajectory.ARRAYS:
         assert np.array_equal(getattr(back, name), getattr(traj, name)), name
     assert back.h == traj.h and back.hub_mass == traj.hub_mass and back.meta == traj.meta
+    # a file whose arrays do not fit together is refused, naming the field
+    z = dict(np.load(tmp_path / "s.npz", allow_pickle=False))
+    z["q"] = z["q"][:, :1]
+    np.savez(tmp_path / "bad.npz", **z)
+    with pytest.raises(ValueError, match=r"field 'q' must have shape \(11, 2, 3\)"):
+        lgvi.SloshTrajectory.load(tmp_path / "bad.npz")
 
 
 def test_stream_equals_memory_and_resumes_bit_for_bit(tmp_path):

@@ -139,8 +139,27 @@ class SloshTrajectory:
     def load(cls, path: str | os.PathLike) -> "SloshTrajectory":
         """Read a result written by :meth:`save`."""
         arrays, meta = read_result_npz(path, FORMAT, cls.ARRAYS + ("scalars",))
-        h, m0 = (float(x) for x in arrays.pop("scalars")[:2])
+        _check_shapes(arrays, f"cannot read {FORMAT} result {path}: ")
+        if np.shape(arrays["scalars"]) != (2,):
+            raise ValueError(f"cannot read {FORMAT} result {path}: field 'scalars' must have shape (2,) (h, hub_mass), "
+                             f"got {np.shape(arrays['scalars'])}")
+        h, m0 = (float(x) for x in arrays.pop("scalars"))
         return cls(h=h, hub_mass=m0, meta=meta, **arrays)
+
+
+def _check_shapes(arrays: dict[str, np.ndarray], prefix: str) -> None:
+    """Refuse arrays (read from a file or a stream) whose shapes do not fit ``M`` samples of ``n``
+    pendulums, with a ValueError naming the field."""
+    M = len(arrays["t"])
+    n = np.shape(arrays["lengths"])[0] if np.ndim(arrays["lengths"]) == 1 else -1
+    want = {"R": (M, 3, 3), "Pi": (M, 3), "q": (M, n, 3), "pi": (M, n, 3), "iterations": (max(M - 1, 0),),
+            "residual": (max(M - 1, 0),), "inertia": (3, 3), "pivots": (n, 3), "lengths": (n,), "masses": (n,),
+            "damping": (n,)}
+    for name, shape in want.items():
+        a = np.asarray(arrays[name])
+        if a.shape != shape or a.dtype.kind not in "iuf":
+            raise ValueError(f"{prefix}field {name!r} must have shape {shape} of real numbers (M = {M} samples, "
+                             f"n = {n} pendulums), got shape {a.shape} and dtype {a.dtype}")
 
 
 class SloshRun(CarriedState):
@@ -244,6 +263,7 @@ class SloshRun(CarriedState):
 def slosh_from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state: dict[str, Any]) -> SloshTrajectory:
     """The :class:`SloshTrajectory` of a stream folder (``System.from_stream``)."""
     par = {k: np.asarray(meta[k], dtype=np.float64) for k in ("inertia", "pivots", "lengths", "masses", "damping")}
+    _check_shapes(dict(arrays, **par), "")
     return SloshTrajectory(t=arrays["t"], R=arrays["R"], Pi=arrays["Pi"], q=arrays["q"], pi=arrays["pi"],
                            iterations=arrays["iterations"], residual=arrays["residual"], h=float(meta["h"]),
                            hub_mass=float(meta["hub_mass"]), meta=dict(meta), **par)
