@@ -3,7 +3,7 @@
 
 Run with the ``bench`` extra (Basilisk 2.12.1)::
 
-    /work/bsk-venv/bin/python benchmarks/basilisk_slosh.py     # writes benchmarks/basilisk_slosh.npz
+    PY benchmarks/basilisk_slosh.py     # PY: a Python with the bench extra; writes benchmarks/basilisk_slosh.npz
 
 The scenario (free space: no gravity body, no external force or torque): Basilisk's own unit-test
 hub (1500 kg, inertia diag(900, 800, 600) kg m^2), here with its centre of mass at the body point
