@@ -140,3 +140,53 @@ def test_lgvi_run_of_the_example_summarises_the_mission(capsys, tmp_path):
     assert s["detumble_time_s"] is None and s["modes"] == [{"mode": 0, "from_s": 0.0}]
     assert set(s["disturbances"]) == {"facet_drag", "facet_srp", "residual_dipole", "gravity_gradient"}
     assert "disturbances:" in (tmp_path / "out" / "summary.txt").read_text()
+
+
+def _monte_carlo():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("mission_monte_carlo", ROOT / "benchmarks" / "mission_monte_carlo.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_sgp4_orbit_copies_and_pickles():
+    """An ensemble deep-copies each member's spacecraft (and Dask pickles it): an SGP4 orbit used to
+    refuse ("cannot pickle 'Satrec' object"); it is rebuilt from its TLE, the same positions."""
+    import copy
+    import pickle
+
+    from lgvi.environment import SGP4Orbit
+
+    d = tomllib.loads(examples.text("cubesat_mission"))["spacecraft"]["orbit"]
+    orbit = SGP4Orbit(d["line1"], d["line2"])
+    t = np.array([0.0, 1234.5, 17040.0])
+    for other in (copy.deepcopy(orbit), pickle.loads(pickle.dumps(orbit))):
+        assert other.epoch == orbit.epoch
+        for a, b in zip(other.position_velocity(t), orbit.position_velocity(t)):
+            np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_monte_carlo_member_is_its_lone_run(threads):
+    """benchmarks/mission_monte_carlo.py: member b of a dispersed ensemble (its own inertia, axes,
+    sensors, seeds, coefficients, gains) equals its lone run bit for bit, on one and two threads;
+    its draws depend on b alone (the same member built twice is the same)."""
+    mc = _monte_carlo()
+    base = mc.nominal()
+    built = [mc.member(b, base=base) for b in (0, 1, 2)]
+    again = mc.member(1, base=base)
+    np.testing.assert_array_equal(again[0].body.J, built[1][0].body.J)
+    assert not np.array_equal(built[0][0].body.J, built[1][0].body.J)
+    kw = dict(h=base.h, steps=2000, save_every=base.save_every)
+    ens = lgvi.simulate_ensemble([m[0] for m in built], np.stack([m[2] for m in built]),
+                                 omega0=np.stack([m[3] for m in built]), fsw=[m[1] for m in built], threads=threads,
+                                 **kw)
+    for b in (1, 2):
+        lone = lgvi.simulate(built[b][0], built[b][2], omega0=built[b][3], fsw=built[b][1], **kw)
+        np.testing.assert_array_equal(ens.members[b].R, lone.R)
+        np.testing.assert_array_equal(ens.members[b].wheel_speed, lone.wheel_speed)
+        for name in lone.signals:
+            np.testing.assert_array_equal(ens.members[b].signals[name], lone.signals[name], err_msg=name)
+    assert not np.array_equal(ens.members[1].signals["est_error"], ens.members[2].signals["est_error"])
