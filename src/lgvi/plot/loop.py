@@ -44,7 +44,7 @@ def pointing(traj: Any, axes: Sequence[Any] | None = None, *, max_points: int | 
     fig, axs = _axes_list(axes, 3 if has_rate else 2, "pointing")
     s = sig["sigma_BR"]
     err = np.degrees(4.0 * np.arctan(np.linalg.norm(s, axis=1)))
-    tt, yy = _thin_minmax(t, np.maximum(err, 1e-12), n)
+    tt, yy = _thin_minmax(t, np.where(err > 0.0, err, np.nan), n)      # cleared (a mode without the law): a gap
     from ..io.scenario_loop import SETTLE_DEG
 
     axs[0].semilogy(tt, yy, lw=1.2, color="k")
