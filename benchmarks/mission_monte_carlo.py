@@ -216,6 +216,32 @@ def table(rows: dict) -> list[str]:
     return out
 
 
+def split(m: int, orbits: float, seed: int) -> int:
+    """Process time of each part of a member's run, averaged over ``m`` lone members."""
+    from lgvi.systems.spacecraft import LoopRun
+
+    base = nominal()
+    steps = int(round(orbits * PERIOD / base.h / base.save_every)) * base.save_every
+    run(range(1), seed=seed, steps=base.save_every, threads=1, max_speed=math.inf, batch=1)      # load the loop
+    t = dict.fromkeys(("dispersions drawn", "run built", "simulate", "summary"), 0.0)
+    for b in range(m):
+        c = time.process_time()
+        sat, fsw, R0, omega0 = member(b, seed=seed, base=base)
+        t["dispersions drawn"] += time.process_time() - c
+        c = time.process_time()
+        LoopRun(sat, R0, None, omega0=omega0, h=base.h, steps=steps, fsw=fsw, save_every=base.save_every)
+        t["run built"] += time.process_time() - c
+        c = time.process_time()
+        traj = lgvi.simulate(sat, R0, omega0=omega0, h=base.h, steps=steps, fsw=fsw, save_every=base.save_every)
+        t["simulate"] += time.process_time() - c
+        c = time.process_time()
+        loop_summary(traj)
+        t["summary"] += time.process_time() - c
+    print(f"CPU a member ({m} lone members, {orbits:g} orbits, {steps} steps): "
+          + ", ".join(f"{k} {v / m:.4f} s" for k, v in t.items()) + " (simulate builds the run again)")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--members", type=int, default=100)
@@ -225,7 +251,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--batch", type=int, default=50, help="members flown together (memory: records of a batch)")
     ap.add_argument("--max-speed", type=float, default=628.3, help="wheel speed counted as saturated [rad/s]")
     ap.add_argument("--quick", action="store_true", help="8 members, one orbit")
+    ap.add_argument("--split", type=int, default=0, metavar="M",
+                    help="instead: where the CPU of M lone members goes (draws, build, simulate, summary)")
     args = ap.parse_args(argv)
+    if args.split:
+        return split(args.split, args.orbits, args.seed)
     if args.quick:
         args.members, args.orbits = 8, 1.0
     if args.members < 1:
