@@ -190,3 +190,21 @@ def test_monte_carlo_member_is_its_lone_run(threads):
         for name in lone.signals:
             np.testing.assert_array_equal(ens.members[b].signals[name], lone.signals[name], err_msg=name)
     assert not np.array_equal(ens.members[1].signals["est_error"], ens.members[2].signals["est_error"])
+
+
+def test_bad_inputs_of_the_mission_parts():
+    """MEKF(star_tracker=True) needs exactly one StarTracker on the spacecraft; loop_summary's
+    inertia is a 3x3 matrix; each refusal names the argument and the rule."""
+    orbit = CircularOrbit(6878137.0, np.radians(97.4))
+    sat = Spacecraft([0.18, 0.14, 0.06], orbit=orbit, sensors=[Gyro(rate=0.5, arw=1e-5, seed=1)])
+    fsw = FlightSoftware(estimator=MEKF(rate=0.5, arw=1e-5, rrw=0.0, star_tracker=True, P0=[1e-4] * 3 + [1e-8] * 3))
+    with pytest.raises(ValueError, match=r"MEKF\(star_tracker=True\) takes the spacecraft's one StarTracker; "
+                                         r"its sensors hold 0"):
+        lgvi.simulate(sat, np.eye(3), omega0=np.zeros(3), h=0.1, steps=10, fsw=fsw)
+    with pytest.raises(TypeError, match="star_tracker must be a StarTracker, True"):
+        MEKF(rate=0.5, arw=1e-5, rrw=0.0, star_tracker="yes", P0=[1e-4] * 6)
+    st = StarTracker(rate=0.5, sigma_cross=1e-5, sigma_about=1e-4, seed=1)
+    sat = Spacecraft([0.18, 0.14, 0.06], orbit=orbit, sensors=[Gyro(rate=0.5, arw=1e-5, seed=1), st])
+    traj = lgvi.simulate(sat, np.eye(3), omega0=np.zeros(3), h=0.1, steps=10, fsw=fsw)
+    with pytest.raises(ValueError, match="inertia"):
+        loop_summary(traj, inertia=[1.0, 2.0])

@@ -507,9 +507,13 @@ def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DE
     out["disturbances"] = {}
     torques = {name[4:-2]: np.asarray(sig[name]) for name in sorted(sig) if name.startswith("tau_")
                and name.endswith("_B") and name not in ("tau_dist_B", "tau_control_B", "tau_command_B")}
+    if inertia is not None:
+        from .._validation import as_float_array
+
+        inertia = as_float_array(inertia, "inertia", (3, 3))
     inertia = getattr(traj, "inertia", None) if inertia is None else inertia
     if inertia is not None and "r_N" in sig and len(R):
-        J = np.asarray(inertia, dtype=np.float64).reshape(3, 3)
+        J = np.asarray(inertia, dtype=np.float64)
         r = np.asarray(sig["r_N"])
         b = np.einsum("nji,nj->ni", R[np.searchsorted(np.asarray(traj.t), ts)], r)      # R^T r_N
         torques["gravity_gradient"] = 3.0 * mu / np.linalg.norm(r, axis=1)[:, None] ** 5 * np.cross(b, b @ J.T)
