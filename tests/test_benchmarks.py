@@ -207,3 +207,12 @@ def test_bench_slosh_quick():
     _check(proc, "Table 1", "ns/step", "/rigid body", "2 pendulums, order 2", "2 pendulums, damped", "Table 2",
            "lgvi order 4", "scipy DOP853", "DOP853/lgvi")
     assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
+def test_mission_monte_carlo_quick():
+    """Issue 28: the mission's Monte Carlo (8 members, one orbit) prints its wall time, its failures and its table."""
+    proc = _run("mission_monte_carlo.py", "--quick")
+    _check(proc, "members x 1 orbits", "1000 members x 3 orbits at this rate", "reached nadir pointing",
+           "mean [95 % CI]", "95th percentile [95 % CI]", "control error p95 (deg)")
+    assert "Traceback" not in proc.stderr

@@ -144,13 +144,14 @@ def test_quick_start_is_the_two_commands():
 def test_readme_is_a_page_for_users():
     """Short; installable as shown; no dates, machine loads or history (CHANGELOG.md has those);
     no relative links to pages, which break where the README is shown off the repository (PyPI):
-    documents are named as plain paths, and the one figure is the only relative target."""
+    documents are named as plain paths, and the two figures (the opening one, the showcase's) are
+    the only relative targets."""
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     assert len(readme.splitlines()) <= 150
     assert "pip install lgvi" in readme and "CITATION.cff" in readme and "LICENSE" in readme
     assert not re.search(r"\b20\d\d-\d\d-\d\d\b|\bload \d|\bUTC\b|\bsession\b", readme)
     targets = [t for t in LINK.findall(readme) if "://" not in t]
-    assert targets == ["docs/figures/dzhanibekov_comparison.png"], targets
+    assert targets == ["docs/figures/dzhanibekov_comparison.png", "docs/figures/cubesat_mission.png"], targets
     for path in re.findall(r"\b((?:docs|examples)/[\w./-]*\w|[A-Z]+\.(?:md|cff)|LICENSE)\b", readme):
         if not path.startswith("docs/_build") and "NAME" not in path:    # made by `make docs`; a pattern
             assert (ROOT / path).exists(), f"the README names {path}, which does not exist"

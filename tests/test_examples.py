@@ -137,10 +137,11 @@ def test_optimal_slew(tmp_path):
 
 
 def test_every_script_is_tested():
-    # uncertainty.py runs in tests/test_ensemble.py (with the ensemble it exercises)
+    # uncertainty.py runs in tests/test_ensemble.py (with the ensemble it exercises), cubesat_mission.py in
+    # tests/test_mission.py (against its scenario file)
     tested = {"dzhanibekov.py", "heavy_top.py", "pendulum3d.py", "slew_pd.py", "gravity_gradient.py", "kepler.py",
               "uncertainty.py", "optimal_slew.py", "orbit_attitude.py", "binary_asteroid.py",
-              "wheel_slew.py", "bdot_detumble.py", "nadir_dumping.py", "momentum_budget.py"}
+              "wheel_slew.py", "bdot_detumble.py", "nadir_dumping.py", "momentum_budget.py", "cubesat_mission.py"}
     scripts = {p.name for p in EXAMPLES.glob("*.py")}
     assert scripts <= tested, f"example scripts without a test here: {sorted(scripts - tested)}"
 

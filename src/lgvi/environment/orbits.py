@@ -341,6 +341,11 @@ class SGP4Orbit(Orbit):
             raise ValueError(f"SGP4 failed at t = {flat[i]:g} s: {SGP4_ERRORS.get(int(err[i]), err[i])}")
         return r.reshape(t.shape + (3,)) * 1e3, v.reshape(t.shape + (3,)) * 1e3
 
+    def __reduce__(self) -> tuple[Any, tuple[str, str]]:
+        """Copies and pickles rebuild the orbit from its TLE (sgp4's ``Satrec`` does not pickle): an
+        ensemble copies each member's spacecraft, a Dask task pickles it."""
+        return type(self), (self.line1, self.line2)
+
     def __repr__(self) -> str:
         return f"SGP4Orbit(satnum={self.satrec.satnum_str!r}, epoch={self.epoch.isoformat()})"
 

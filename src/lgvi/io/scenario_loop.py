@@ -413,16 +413,25 @@ class LoopScenario:
 SETTLE_DEG = 0.1
 
 
-def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DEG) -> dict[str, Any]:
+def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DEG, inertia: Any = None,
+                 mu: float = 3.986004418e14) -> dict[str, Any]:
     """What a run of the compiled loop achieved, from its records (``traj.signals``).
 
     Parameters
     ----------
     traj : lgvi.systems.spacecraft.SpacecraftTrajectory
     wheels : lgvi.ReactionWheels, optional
-        The spacecraft's wheels (their spin inertias and axes give the wheel momenta).
+        The spacecraft's wheels (their spin inertias and axes give the wheel momenta); default the
+        run's own (``traj.wheel_axes``, ``traj.spin_inertia``).
     settle_deg : float
         The pointing error, degrees, under which the run counts as settled.
+    inertia : (3, 3) array_like, optional
+        The spacecraft's inertia (kg m^2; default the run's ``traj.inertia``): with the position
+        ``r_N`` recorded, the gravity
+        gradient ``3 mu / |r|^5 b x J b`` (``b = R^T r_N``; it is in the variational step, not a
+        recorded torque) joins the disturbance budget as ``gravity_gradient``.
+    mu : float
+        The Earth's gravitational parameter for it (m^3/s^2).
 
     Returns
     -------
@@ -435,8 +444,17 @@ def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DE
         saved state; ``rate_error_final_deg_s``: ``|omega_BR_B|`` at the last record;
         ``wheel_momentum_peak_Nms``: the largest ``|Js_i (a_i . omega + Omega_i)|`` of any wheel
         over the saved states, ``wheel_momentum_total_peak_Nms``: the largest norm of their sum
-        ``sum_i a_i h_i`` (body frame); ``modes``: the modes visited, in order, with the time
-        each was entered.
+        ``sum_i a_i h_i`` (body frame), ``wheel_momentum_final_Nms`` that norm at the end;
+        ``modes``: the modes visited, in order, with the time each was entered;
+        ``detumble_time_s``: the time the mode manager first left its initial mode (the detumble
+        of a mission that starts in it; ``None`` without modes or if it never left);
+        ``control_error_deg``: the true pointing error, the angle of ``R_ref^T R`` (the truth
+        against the guidance's reference, whatever the controller reads), and
+        ``knowledge_error_deg``: the estimator's true error ``|est_error|``, each ``mean``,
+        ``p95``, ``max`` over the records from the settle time on (``None`` when not settled
+        or not recorded); ``disturbances``: for each disturbance torque recorded
+        (``tau_<kind>_B``), its largest and RMS norm (N m) and the momentum it adds in the body
+        frame, ``|integral tau dt|`` (N m s, trapezoid over the records).
     """
     import math
 
@@ -460,16 +478,64 @@ def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DE
     if "omega_BR_B" in sig and len(ts):
         out["rate_error_final_deg_s"] = float(np.degrees(np.linalg.norm(sig["omega_BR_B"][-1])))
     speed = getattr(traj, "wheel_speed", None)
+    if wheels is None and np.size(getattr(traj, "wheel_axes", ())):
+        wheels = _Wheels(np.asarray(traj.wheel_axes), np.asarray(traj.spin_inertia))   # the run's own wheels
     if wheels is not None and speed is not None and len(omega):
         axes = np.asarray(wheels.axes)
         hw = np.asarray(wheels.spin_inertia) * (omega @ axes.T + np.asarray(speed))      # (M, N)
         out["wheel_momentum_peak_Nms"] = float(np.abs(hw).max())
         out["wheel_momentum_total_peak_Nms"] = float(np.linalg.norm(hw @ axes, axis=1).max())
+        out["wheel_momentum_final_Nms"] = float(np.linalg.norm(hw[-1] @ axes))
+    out["detumble_time_s"] = None
     if "mode" in sig and len(ts):
         m = np.asarray(sig["mode"]).reshape(len(ts), -1)[:, 0]
         start = np.concatenate([[0], np.flatnonzero(np.diff(m)) + 1])
         out["modes"] = [{"mode": int(m[i]), "from_s": float(ts[i])} for i in start]
+        if len(start) > 1:
+            out["detumble_time_s"] = float(ts[start[1]])
+    window = slice(None) if out["settle_time_s"] is None else slice(int(np.searchsorted(ts, out["settle_time_s"])),
+                                                                      None)
+    out["control_error_deg"] = out["knowledge_error_deg"] = None
+    R = np.asarray(getattr(traj, "R", np.zeros((0, 3, 3))))
+    if out["settle_time_s"] is not None and "R_ref" in sig and len(R):
+        at = np.searchsorted(np.asarray(traj.t), ts[window])           # the saved states at the records
+        R_ref = np.asarray(sig["R_ref"])[window].reshape(-1, 3, 3)
+        cos = np.clip((np.einsum("nij,nij->n", R_ref, R[at]) - 1.0) / 2.0, -1.0, 1.0)     # tr(R_ref^T R)
+        out["control_error_deg"] = _stats(np.degrees(np.arccos(cos)))
+    if out["settle_time_s"] is not None and "est_error" in sig:
+        out["knowledge_error_deg"] = _stats(np.degrees(np.linalg.norm(np.asarray(sig["est_error"])[window], axis=1)))
+    out["disturbances"] = {}
+    torques = {name[4:-2]: np.asarray(sig[name]) for name in sorted(sig) if name.startswith("tau_")
+               and name.endswith("_B") and name not in ("tau_dist_B", "tau_control_B", "tau_command_B")}
+    if inertia is not None:
+        from .._validation import as_float_array
+
+        inertia = as_float_array(inertia, "inertia", (3, 3))
+    inertia = getattr(traj, "inertia", None) if inertia is None else inertia
+    if inertia is not None and "r_N" in sig and len(R):
+        J = np.asarray(inertia, dtype=np.float64)
+        r = np.asarray(sig["r_N"])
+        b = np.einsum("nji,nj->ni", R[np.searchsorted(np.asarray(traj.t), ts)], r)      # R^T r_N
+        torques["gravity_gradient"] = 3.0 * mu / np.linalg.norm(r, axis=1)[:, None] ** 5 * np.cross(b, b @ J.T)
+    for name, tau in torques.items():
+        if len(ts) > 1:
+            norm = np.linalg.norm(tau, axis=1)
+            out["disturbances"][name] = {
+                "max_Nm": float(norm.max()), "rms_Nm": float(np.sqrt(np.mean(norm ** 2))),
+                "momentum_Nms": float(np.linalg.norm(0.5 * (np.diff(ts)[:, None] * (tau[1:] + tau[:-1])).sum(axis=0)))}
     return out
+
+
+@dataclass(frozen=True)
+class _Wheels:
+    axes: np.ndarray
+    spin_inertia: np.ndarray
+
+
+def _stats(x: np.ndarray) -> dict[str, float] | None:
+    if not len(x):
+        return None
+    return {"mean": float(x.mean()), "p95": float(np.percentile(x, 95.0)), "max": float(x.max())}
 
 
 def summary_lines(s: dict[str, Any]) -> list[str]:
@@ -493,6 +559,20 @@ def summary_lines(s: dict[str, Any]) -> list[str]:
                      f"{s['wheel_momentum_total_peak_Nms']:.4g} N m s (all, body frame)")
     if s.get("modes"):
         lines.append("modes:         " + ", ".join(f"{m['mode']} from {m['from_s']:g} s" for m in s["modes"]))
+    if s.get("detumble_time_s") is not None:
+        lines.append(f"detumble:      left mode {s['modes'][0]['mode']} at t = {s['detumble_time_s']:g} s")
+    for key, what in (("control_error_deg", "control error (truth vs reference)"),
+                      ("knowledge_error_deg", "knowledge error (estimate vs truth)")):
+        if s.get(key) is not None:
+            e = s[key]
+            lines.append(f"{what}: mean {e['mean']:.3g}, 95th percentile {e['p95']:.3g}, max {e['max']:.3g} deg "
+                         "after settling")
+    if s.get("wheel_momentum_final_Nms") is not None:
+        lines.append(f"wheels:        momentum at the end {s['wheel_momentum_final_Nms']:.4g} N m s (all, body frame)")
+    if s.get("disturbances"):
+        lines.append("disturbances:  " + "; ".join(
+            f"{k} max {d['max_Nm']:.2e} N m, rms {d['rms_Nm']:.2e} N m, momentum {d['momentum_Nms']:.2e} N m s"
+            for k, d in s["disturbances"].items()))
     return lines
 
 

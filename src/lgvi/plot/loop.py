@@ -1,7 +1,9 @@
 """Figures of what the compiled loop recorded (``traj.signals``, ``docs/loop.md``): the attitude
 error and rate error (:func:`pointing`), the requested and applied magnetic dipoles
-(:func:`dipoles`) and the active mode (:func:`modes`); :func:`save_loop_figures` writes those the
-run has. The wheel speeds and motor torques are :func:`lgvi.plot.wheels`, the body rates
+(:func:`dipoles`), the active mode (:func:`modes`), the estimator's error with its 3-sigma bounds
+(:func:`knowledge`), the disturbance torques (:func:`disturbances`) and a mission's overview
+(:func:`mission`: rate, modes, control and knowledge errors, wheel momentum);
+:func:`save_loop_figures` writes those the run has. The wheel speeds and motor torques are :func:`lgvi.plot.wheels`, the body rates
 :func:`lgvi.plot.rates`."""
 
 from __future__ import annotations
@@ -12,7 +14,10 @@ from typing import Any, Sequence
 
 import numpy as np
 
-__all__ = ["pointing", "dipoles", "modes", "save_loop_figures"]
+__all__ = ["pointing", "dipoles", "modes", "knowledge", "disturbances", "mission", "save_loop_figures"]
+
+#: Colours of the modes in :func:`mission` (mode index modulo the length).
+MODE_COLOURS = ("#f4cccc", "#fff2cc", "#d9ead3", "#cfe2f3", "#d9d2e9")
 
 
 def _signals(traj: Any, name: str, need: Sequence[str]) -> tuple[dict[str, np.ndarray], np.ndarray]:
@@ -39,7 +44,7 @@ def pointing(traj: Any, axes: Sequence[Any] | None = None, *, max_points: int | 
     fig, axs = _axes_list(axes, 3 if has_rate else 2, "pointing")
     s = sig["sigma_BR"]
     err = np.degrees(4.0 * np.arctan(np.linalg.norm(s, axis=1)))
-    tt, yy = _thin_minmax(t, np.maximum(err, 1e-12), n)
+    tt, yy = _thin_minmax(t, np.where(err > 0.0, err, np.nan), n)      # cleared (a mode without the law): a gap
     from ..io.scenario_loop import SETTLE_DEG
 
     axs[0].semilogy(tt, yy, lw=1.2, color="k")
@@ -104,9 +109,130 @@ def modes(traj: Any, ax: Any = None) -> Any:
     return fig
 
 
+def knowledge(traj: Any, axes: Sequence[Any] | None = None, *, max_points: int | None = None) -> Any:
+    """The estimator's true attitude error ``est_error`` (``R = R_est Exp(est_error)``, body axes,
+    degrees, its absolute value on a log scale) and its 3-sigma bound from the covariance
+    ``P_diag``, one panel per axis."""
+    from . import MAX_POINTS, _UNITS, _axes_list, _thin_minmax
+
+    sig, t = _signals(traj, "knowledge", ("est_error",))
+    n = max_points or MAX_POINTS
+    fig, axs = _axes_list(axes, 3, "knowledge")
+    err = np.degrees(np.asarray(sig["est_error"]))
+    bound = 3.0 * np.degrees(np.sqrt(np.asarray(sig["P_diag"])[:, :3])) if "P_diag" in sig else None
+    for i, ax in enumerate(axs):          # log scale: a detumble's large errors and a pointing's small ones
+        tt, yy = _thin_minmax(t, np.maximum(np.abs(err[:, i]), 1e-9), n)
+        ax.semilogy(tt, yy, lw=0.6, color=("tab:red", "tab:green", "tab:blue")[i], label=f"|error {'xyz'[i]}|")
+        if bound is not None:
+            tb, bb = _thin_minmax(t, np.maximum(bound[:, i], 1e-9), n)
+            ax.semilogy(tb, bb, "k-", lw=0.9, label=r"$3\sigma$")
+            ax.set_ylim(max(np.percentile(bound[:, i], 1.0) * 1e-3, 1e-9), bound[:, i].max() * 3.0)
+        ax.set_ylabel(f"{'xyz'[i]} (deg)")
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="upper right", fontsize="small", ncols=2, framealpha=0.85)
+    axs[0].set_title("Knowledge error: estimate against truth, body axes, with the filter's 3-sigma bounds")
+    axs[-1].set_xlabel(_UNITS["t"])
+    return fig
+
+
+def _torques(traj: Any, sig: dict[str, np.ndarray], t: np.ndarray, inertia: Any, mu: float) -> dict[str, np.ndarray]:
+    out = {name[4:-2]: np.asarray(sig[name]) for name in sorted(sig) if name.startswith("tau_")
+           and name.endswith("_B") and name not in ("tau_dist_B", "tau_control_B", "tau_command_B")}
+    if inertia is not None and "r_N" in sig:
+        J = np.asarray(inertia, dtype=np.float64).reshape(3, 3)
+        r = np.asarray(sig["r_N"])
+        b = np.einsum("nji,nj->ni", np.asarray(traj.R)[np.searchsorted(np.asarray(traj.t), t)], r)
+        out["gravity_gradient"] = 3.0 * mu / np.linalg.norm(r, axis=1)[:, None] ** 5 * np.cross(b, b @ J.T)
+    return out
+
+
+def _shade_shadow(ax: Any, sig: dict[str, np.ndarray], t: np.ndarray) -> None:
+    if "shadow" not in sig:
+        return
+    dark = np.asarray(sig["shadow"]).reshape(len(t), -1)[:, 0] < 0.5
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], dark.astype(np.int8), [0]])))
+    for k, (a, b) in enumerate(zip(edges[::2], edges[1::2])):
+        ax.axvspan(t[a], t[min(b, len(t) - 1)], color="0.88", zorder=0, label="eclipse" if k == 0 else None)
+
+
+def disturbances(traj: Any, ax: Any = None, *, mu: float = 3.986004418e14, max_points: int | None = None) -> Any:
+    """The norm of each disturbance torque recorded (``tau_<kind>_B``; with ``r_N`` recorded, also
+    the gravity gradient of the variational step, ``3 mu / |r|^5 b x J b`` with the run's
+    ``inertia``), N m, log scale, eclipses shaded."""
+    from . import MAX_POINTS, _UNITS, _axes, _thin_minmax
+
+    sig, t = _signals(traj, "disturbances", tuple(n for n in getattr(traj, "signals", {}) or {}
+                                                  if n.startswith("tau_") and n not in ("tau_dist_B", "tau_control_B",
+                                                                                       "tau_command_B")) or ("tau_",))
+    n = max_points or MAX_POINTS
+    fig, ax = _axes(ax, (9.0, 3.8))
+    for name, tau in _torques(traj, sig, t, getattr(traj, "inertia", None), mu).items():
+        norm = np.linalg.norm(tau, axis=1)
+        tt, yy = _thin_minmax(t, np.where(norm > 0.0, norm, np.nan), n)         # none in the shadow: a gap
+        ax.semilogy(tt, yy, lw=1.0, label=name.replace("_", " "))
+    _shade_shadow(ax, sig, t)
+    ax.set_ylabel("|torque| (N m)")
+    ax.set_xlabel(_UNITS["t"])
+    ax.set_title("Disturbance torques")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(loc="lower right", fontsize="small", ncols=3, framealpha=0.85)
+    return fig
+
+
+def mission(traj: Any, axes: Sequence[Any] | None = None, *, max_points: int | None = None) -> Any:
+    """A mission at a glance: the body rate ``|omega|`` (deg/s, log), the true pointing error (the
+    angle of ``R_ref^T R``) and the knowledge error ``|est_error|`` (deg, log), and, for a run with
+    wheels, their total momentum in the body frame (N m s); the modes shaded."""
+    from . import MAX_POINTS, _UNITS, _axes_list, _thin_minmax
+
+    sig, t = _signals(traj, "mission", ("mode",))
+    n = max_points or MAX_POINTS
+    hw = getattr(traj, "wheel_momentum", None)
+    wheels = hw is not None and np.size(hw) > 0
+    fig, axs = _axes_list(axes, 3 if wheels else 2, "mission")
+    at = np.searchsorted(np.asarray(traj.t), t)
+    omega = np.asarray(traj.omega)[at]
+    tt, yy = _thin_minmax(t, np.degrees(np.linalg.norm(omega, axis=1)), n)
+    axs[0].semilogy(tt, yy, color="k", lw=1.0)
+    axs[0].set_ylabel(r"$|\omega|$ (deg/s)")
+    axs[0].set_title("Mission: body rate, pointing and knowledge errors" + (", wheel momentum" if wheels else "") + "; modes shaded")
+    if "R_ref" in sig:
+        R_ref = np.asarray(sig["R_ref"]).reshape(-1, 3, 3)
+        live = np.abs(R_ref).sum(axis=(1, 2)) > 0.0                      # a reference is set (its mode runs)
+        cos = np.clip((np.einsum("nij,nij->n", R_ref, np.asarray(traj.R)[at]) - 1.0) / 2.0, -1.0, 1.0)
+        err = np.where(live, np.degrees(np.arccos(cos)), np.nan)
+        tt, yy = _thin_minmax(t, np.maximum(err, 1e-9), n)
+        axs[1].semilogy(tt, yy, color="tab:blue", lw=0.8, label="control error (truth vs reference)")
+    if "est_error" in sig:
+        tt, yy = _thin_minmax(t, np.maximum(np.degrees(np.linalg.norm(np.asarray(sig["est_error"]), axis=1)), 1e-9), n)
+        axs[1].semilogy(tt, yy, color="tab:orange", lw=0.8, label="knowledge error (estimate vs truth)")
+    axs[1].set_ylabel("error (deg)")
+    axs[1].legend(loc="upper right", fontsize="small", framealpha=0.85)
+    if wheels:
+        tt, yy = _thin_minmax(t, np.linalg.norm(np.asarray(hw)[at] @ np.asarray(traj.wheel_axes), axis=1), n)
+        axs[2].plot(tt, yy, color="tab:purple", lw=1.0)
+        axs[2].set_ylabel("wheel momentum (N m s)")
+    m = np.asarray(sig["mode"]).reshape(len(t), -1)[:, 0]
+    start = np.concatenate([[0], np.flatnonzero(np.diff(m)) + 1, [len(t) - 1]])
+    seen: set[int] = set()
+    for a, b in zip(start[:-1], start[1:]):
+        mode = int(m[a])
+        for ax in axs:
+            ax.axvspan(t[a], t[b], color=MODE_COLOURS[mode % len(MODE_COLOURS)], zorder=0, lw=0,
+                       label=f"mode {mode}" if ax is axs[0] and mode not in seen else None)
+        seen.add(mode)
+    axs[0].legend(loc="upper right", fontsize="small", ncols=len(seen), framealpha=0.85)
+    for ax in axs:
+        ax.grid(True, which="both", alpha=0.3)
+    axs[-1].set_xlabel(_UNITS["t"])
+    return fig
+
+
 def save_loop_figures(traj: Any, outdir: str | os.PathLike[str], *, prefix: str = "") -> list[Path]:
-    """Write ``pointing.png``, ``dipoles.png`` and ``modes.png``, each where the run recorded what it
-    draws (``sigma_BR``; ``dipole_B`` or ``dipole_request_B``; ``mode``). Returns the files."""
+    """Write ``pointing.png``, ``dipoles.png``, ``modes.png``, ``knowledge.png``,
+    ``disturbances.png`` and ``mission.png``, each where the run recorded what it draws
+    (``sigma_BR``; ``dipole_B`` or ``dipole_request_B``; ``mode``; ``est_error``; a disturbance
+    torque; ``mode``). Returns the files."""
     from . import _save
 
     sig = getattr(traj, "signals", None) or {}
@@ -116,7 +242,11 @@ def save_loop_figures(traj: Any, outdir: str | os.PathLike[str], *, prefix: str 
     out.mkdir(parents=True, exist_ok=True)
     written = []
     for name, fn, need in (("pointing", pointing, ("sigma_BR",)), ("dipoles", dipoles, ("dipole_B", "dipole_request_B")),
-                           ("modes", modes, ("mode",))):
+                           ("modes", modes, ("mode",)), ("knowledge", knowledge, ("est_error",)),
+                           ("disturbances", disturbances,
+                            tuple(n for n in sig if n.startswith("tau_") and n not in ("tau_dist_B", "tau_control_B",
+                                                                                      "tau_command_B"))),
+                           ("mission", mission, ("mode",))):
         if any(n in sig for n in need):
             written.append(_save(fn(traj), out / f"{prefix}{name}.png"))
     return written

@@ -321,7 +321,10 @@ class LoopRun(GyrostatRun):
         self.W, self.WS = np.array(W, i64), np.array(WS, i64)
         self.bus = np.zeros(max(nbus, 1))
         for name, value in initial.items():
-            if name in offsets:
+            # a reader's initial value (the MEKF's NaN time: "nothing measured yet") is for a slot nothing
+            # writes; a slot a component writes starts at zero, as its writer's state does, since the loop
+            # refuses a writer leaving a value that is not finite (a star tracker excluded at its first sample)
+            if name in offsets and name not in writers:
                 self.bus[offsets[name]:offsets[name] + sizes[name]] = value
         # the disturbances that add into tau_dist_B (their own torque first): the loop sums the held ones
         dist = [i for i, (c, kind, _, _) in enumerate(wired) if kind.family == "disturbance"

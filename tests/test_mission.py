@@ -1,0 +1,210 @@
+"""The CubeSat ADCS mission of issue 28 (``examples/cubesat_mission.toml``): the loop fixes it
+showed, a short run of the file, its summary and figures, and the Monte Carlo's member equal to
+its lone run."""
+
+from __future__ import annotations
+
+import json
+import sys
+import tomllib
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+import lgvi
+from lgvi.io import examples
+from lgvi.io.scenario_loop import loop_summary
+from lgvi.environment import CircularOrbit
+from lgvi.fsw import MEKF, FlightSoftware
+from lgvi.spacecraft import Gyro, Spacecraft, StarTracker
+
+
+def test_star_tracker_excluded_at_its_first_sample_with_an_mekf():
+    """A star tracker whose boresight is inside the Earth's limb at t = 0 measures nothing then; with
+    an MEKF in the run the loop used to start its time st_time at the MEKF's NaN ("nothing yet"), so
+    the tracker 'wrote' a value that is not finite and the run stopped at step 0. It must run, take
+    no measurement while excluded, and the filter must use the first one once the Earth leaves the
+    field of view (the body turns at 0.05 rad/s: ~26 s to clear the limb plus 0.1 rad)."""
+    orbit = CircularOrbit(6878137.0, np.radians(97.4))
+    r0 = np.asarray(orbit.position_velocity(np.array([0.0]))[0]).reshape(3)
+    z = -r0 / np.linalg.norm(r0)                                  # boresight (body z) at nadir
+    x = np.cross([0.0, 0.0, 1.0], z)
+    x /= np.linalg.norm(x)
+    R0 = np.column_stack([x, np.cross(z, x), z])
+    st = StarTracker(rate=0.5, sigma_cross=1e-5, sigma_about=1e-4, earth_exclusion=0.1, seed=1)
+    sat = Spacecraft([0.18, 0.14, 0.06], orbit=orbit, sensors=[Gyro(rate=0.5, arw=1e-5, seed=1), st])
+    est = MEKF(rate=0.5, arw=1e-5, rrw=0.0, star_tracker=True, R0=lgvi.so3.exp([2e-3, -1e-3, 1e-3]) @ R0,
+               P0=[1e-5] * 3 + [1e-10] * 3)
+    tr = lgvi.simulate(sat, R0, omega0=[0.05, 0.0, 0.0], h=0.1, steps=600, fsw=FlightSoftware(estimator=est),
+                       save_every=5)
+    valid = tr.signals["st_valid"].ravel()
+    assert valid[0] == 0.0 and valid[-1] == 1.0
+    first = int(np.argmax(valid == 1.0))
+    assert 20.0 < tr.signal_t[first] < 40.0
+    assert np.all(np.isfinite(tr.signals["st_time"]))
+    err = np.linalg.norm(tr.signals["est_error"], axis=1)
+    assert err[first - 1] > 1e-3                      # the 2.4e-3 rad first estimate, not corrected yet
+    assert err[-1] < 2e-4                             # corrected by the star tracker (1e-5 rad across)
+
+
+ROOT = Path(__file__).resolve().parents[1]
+QUICK = 70000                       # 7000 s: the detumble, the sun-safe mode and the start of nadir pointing
+
+
+def _scenario(steps: int = QUICK):
+    from lgvi.io.scenario import Scenario
+
+    sc = Scenario.from_dict(tomllib.loads(examples.text("cubesat_mission")), "cubesat_mission.toml")
+    return replace(sc, steps=steps)
+
+
+@pytest.fixture(scope="module")
+def flown():
+    sc = _scenario()
+    return sc, sc.run()
+
+
+def test_mission_file_flies_the_three_modes(flown):
+    """The shipped file (7000 s of it): B-dot brings 10 deg/s below 0.8 deg/s within one orbit,
+    sun-safe holds 15 minutes, then the Hill frame is held to better than 0.1 deg (the truth
+    against the reference, whatever the filter says) with the MEKF's error ten times smaller."""
+    sc, traj = flown
+    s = loop_summary(traj)
+    assert [m["mode"] for m in s["modes"]] == [0, 1, 2]
+    assert np.degrees(np.linalg.norm(traj.omega[0])) == pytest.approx(10.0, abs=1e-3)
+    assert 2000.0 < s["detumble_time_s"] < 5677.0
+    assert s["modes"][2]["from_s"] - s["modes"][1]["from_s"] == pytest.approx(900.0, abs=1.0)
+    assert s["settle_time_s"] is not None and s["settle_time_s"] < s["modes"][2]["from_s"] + 600.0
+    assert s["control_error_deg"]["p95"] < 0.1
+    assert s["knowledge_error_deg"]["p95"] < 0.02
+    # the control error recomputed from the saved states and the reference
+    k = np.searchsorted(traj.signal_t, s["settle_time_s"])
+    R_ref = traj.signals["R_ref"][k:].reshape(-1, 3, 3)
+    R = traj.R[np.searchsorted(traj.t, traj.signal_t[k:])]
+    angle = np.degrees(Rotation.from_matrix(np.swapaxes(R_ref, 1, 2) @ R).magnitude())
+    assert s["control_error_deg"]["max"] == pytest.approx(angle.max(), rel=1e-6)
+    # the budget: the residual dipole is the largest torque of this 6U, radiation pressure the least
+    d = s["disturbances"]
+    assert set(d) == {"facet_drag", "facet_srp", "residual_dipole", "gravity_gradient"}
+    assert max(d, key=lambda k: d[k]["rms_Nm"]) == "residual_dipole"
+    assert min(d, key=lambda k: d[k]["rms_Nm"]) == "facet_srp"
+    # the gravity gradient of the budget is 3 mu / r^5 b x J b at one record, done by hand
+    j = len(traj.signal_t) // 2
+    r = traj.signals["r_N"][j]
+    b = traj.R[np.searchsorted(traj.t, traj.signal_t[j])].T @ r
+    tau = 3 * 3.986004418e14 / np.linalg.norm(r) ** 5 * np.cross(b, sc.spacecraft.body.J @ b)
+    assert d["gravity_gradient"]["max_Nm"] >= np.linalg.norm(tau) > 1e-9
+
+
+def test_python_example_is_the_file_bit_for_bit(flown):
+    """examples/cubesat_mission.py builds the same mission from the classes: the same run, bit for bit."""
+    sys.path.insert(0, str(ROOT / "examples"))
+    try:
+        import cubesat_mission as cm
+    finally:
+        sys.path.pop(0)
+    sc, traj = flown
+    sat, fsw, R0, omega0 = cm.mission()
+    mine = lgvi.simulate(sat, R0, omega0=omega0, h=0.1, steps=QUICK, fsw=fsw, save_every=50)
+    np.testing.assert_array_equal(mine.R, traj.R)
+    np.testing.assert_array_equal(mine.wheel_speed, traj.wheel_speed)
+    assert sorted(mine.signals) == sorted(traj.signals)
+    for name in traj.signals:
+        np.testing.assert_array_equal(mine.signals[name], traj.signals[name], err_msg=name)
+
+
+def test_mission_figures(flown, tmp_path):
+    pytest.importorskip("matplotlib")
+    from lgvi.plot.loop import save_loop_figures
+
+    files = {p.name for p in save_loop_figures(flown[1], tmp_path)}
+    assert {"mission.png", "knowledge.png", "disturbances.png", "pointing.png", "modes.png", "dipoles.png"} <= files
+
+
+def test_lgvi_run_of_the_example_summarises_the_mission(capsys, tmp_path):
+    """``lgvi example cubesat_mission`` then ``lgvi run`` of its first 700 s: the summary's new lines."""
+    from lgvi import cli
+    from lgvi.io.scenario import to_toml
+
+    d = tomllib.loads(examples.text("cubesat_mission"))
+    d["integrator"]["duration"] = 700.0
+    d["output"] = {"formats": ["npz"], "plots": False}
+    path = tmp_path / "mission.toml"
+    path.write_text(to_toml(d))
+    assert cli.main(["run", str(path), "-o", str(tmp_path / "out")]) == 0
+    capsys.readouterr()
+    s = json.loads((tmp_path / "out" / "summary.json").read_text())["pointing"]
+    assert s["detumble_time_s"] is None and s["modes"] == [{"mode": 0, "from_s": 0.0}]
+    assert set(s["disturbances"]) == {"facet_drag", "facet_srp", "residual_dipole", "gravity_gradient"}
+    assert "disturbances:" in (tmp_path / "out" / "summary.txt").read_text()
+
+
+def _monte_carlo():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("mission_monte_carlo", ROOT / "benchmarks" / "mission_monte_carlo.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_sgp4_orbit_copies_and_pickles():
+    """An ensemble deep-copies each member's spacecraft (and Dask pickles it): an SGP4 orbit used to
+    refuse ("cannot pickle 'Satrec' object"); it is rebuilt from its TLE, the same positions."""
+    import copy
+    import pickle
+
+    from lgvi.environment import SGP4Orbit
+
+    d = tomllib.loads(examples.text("cubesat_mission"))["spacecraft"]["orbit"]
+    orbit = SGP4Orbit(d["line1"], d["line2"])
+    t = np.array([0.0, 1234.5, 17040.0])
+    for other in (copy.deepcopy(orbit), pickle.loads(pickle.dumps(orbit))):
+        assert other.epoch == orbit.epoch
+        for a, b in zip(other.position_velocity(t), orbit.position_velocity(t)):
+            np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_monte_carlo_member_is_its_lone_run(threads):
+    """benchmarks/mission_monte_carlo.py: member b of a dispersed ensemble (its own inertia, axes,
+    sensors, seeds, coefficients, gains) equals its lone run bit for bit, on one and two threads;
+    its draws depend on b alone (the same member built twice is the same)."""
+    mc = _monte_carlo()
+    base = mc.nominal()
+    built = [mc.member(b, base=base) for b in (0, 1, 2)]
+    again = mc.member(1, base=base)
+    np.testing.assert_array_equal(again[0].body.J, built[1][0].body.J)
+    assert not np.array_equal(built[0][0].body.J, built[1][0].body.J)
+    kw = dict(h=base.h, steps=2000, save_every=base.save_every)
+    ens = lgvi.simulate_ensemble([m[0] for m in built], np.stack([m[2] for m in built]),
+                                 omega0=np.stack([m[3] for m in built]), fsw=[m[1] for m in built], threads=threads,
+                                 **kw)
+    for b in (1, 2):
+        lone = lgvi.simulate(built[b][0], built[b][2], omega0=built[b][3], fsw=built[b][1], **kw)
+        np.testing.assert_array_equal(ens.members[b].R, lone.R)
+        np.testing.assert_array_equal(ens.members[b].wheel_speed, lone.wheel_speed)
+        for name in lone.signals:
+            np.testing.assert_array_equal(ens.members[b].signals[name], lone.signals[name], err_msg=name)
+    assert not np.array_equal(ens.members[1].signals["est_error"], ens.members[2].signals["est_error"])
+
+
+def test_bad_inputs_of_the_mission_parts():
+    """MEKF(star_tracker=True) needs exactly one StarTracker on the spacecraft; loop_summary's
+    inertia is a 3x3 matrix; each refusal names the argument and the rule."""
+    orbit = CircularOrbit(6878137.0, np.radians(97.4))
+    sat = Spacecraft([0.18, 0.14, 0.06], orbit=orbit, sensors=[Gyro(rate=0.5, arw=1e-5, seed=1)])
+    fsw = FlightSoftware(estimator=MEKF(rate=0.5, arw=1e-5, rrw=0.0, star_tracker=True, P0=[1e-4] * 3 + [1e-8] * 3))
+    with pytest.raises(ValueError, match=r"MEKF\(star_tracker=True\) takes the spacecraft's one StarTracker; "
+                                         r"its sensors hold 0"):
+        lgvi.simulate(sat, np.eye(3), omega0=np.zeros(3), h=0.1, steps=10, fsw=fsw)
+    with pytest.raises(TypeError, match="star_tracker must be a StarTracker, True"):
+        MEKF(rate=0.5, arw=1e-5, rrw=0.0, star_tracker="yes", P0=[1e-4] * 6)
+    st = StarTracker(rate=0.5, sigma_cross=1e-5, sigma_about=1e-4, seed=1)
+    sat = Spacecraft([0.18, 0.14, 0.06], orbit=orbit, sensors=[Gyro(rate=0.5, arw=1e-5, seed=1), st])
+    traj = lgvi.simulate(sat, np.eye(3), omega0=np.zeros(3), h=0.1, steps=10, fsw=fsw)
+    with pytest.raises(ValueError, match="inertia"):
+        loop_summary(traj, inertia=[1.0, 2.0])
