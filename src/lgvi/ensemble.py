@@ -35,6 +35,7 @@ from .implicit import failure_message
 from .invariants import combine, declaration_of, forcing_used
 from .so3 import project
 from .registry import torque_kind
+from .torques import tried_rows
 from .trajectory import ARRAY_FIELDS, Trajectory, freeze_arrays
 
 #: Body-substeps per compiled call (about 0.1-0.5 s); Ctrl-C and progress are handled between calls.
@@ -540,8 +541,8 @@ class _Setup:
         if getattr(self.model, "moment_func", None) is not None and user.ndim == 2 and user.shape[0] != B:
             raise ValueError(f"Compiled: params of shape {user.shape} must have one row per body ({B} bodies) "
                              "or shape (P,) for all")
-        if getattr(self.model, "moment_func", None) is not None:   # its Python form at each body's first sample
-            for b in range(B):
+        if getattr(self.model, "moment_func", None) is not None:   # its Python form at bodies' first samples
+            for b in tried_rows(B):
                 self.model.check_sample(self.t0, self.R[b], self.Pi[b], b if user.ndim == 2 else None,
                                         where=f"the first sample of body {b}")
         if threads is not None:
@@ -632,9 +633,7 @@ class _Setup:
             return None
         U = np.empty(R_out.shape[:2])
         if getattr(self.model, "moment_func", None) is not None:   # lgvi.torques.Compiled: per-body params
-            for b in range(len(U)):
-                U[b] = self.model.potential(t, R_out[b], None, b=getattr(self, "body0", 0) + b)
-            return U
+            return self.model.potential_of_bodies(t, R_out, getattr(self, "body0", 0))
         if self.models is not None:       # one model per body: once per group of equal bodies and models
             ia, reps = self.groups()
             order = np.argsort(ia, kind="stable")
@@ -922,6 +921,7 @@ def quiet_function_argument() -> Any:
         yield
 
 
+
 class _Threads:
     """Set Numba's thread count for the calling thread during a run, and restore it."""
 
@@ -1008,10 +1008,11 @@ class _LocalRun:
         """Steps ``k .. k + n - 1`` of a user's compiled model: one compiled call per body
         (:func:`lgvi._kernels.user_kernels.advance_user`, which the GPU's kernel calls too), with the
         body's parameter row, the same loop and values as :func:`lgvi.simulate`. The bodies are split
-        into ``threads`` contiguous groups run in a pool of threads (the compiled loop releases the
+        into ``threads`` contiguous groups run in a pool of threads, one compiled call a group
+        (:func:`lgvi._kernels.user_kernels.advance_users`) (the compiled loop releases the
         GIL; each thread has its own scratch arrays and each body its own state, so the numbers do not
         depend on the threads)."""
-        from ._kernels.user_kernels import advance_user, guarded
+        from ._kernels.user_kernels import advance_users, guarded
 
         s, k, se = self.s, self.k, self.save_every
         m = s.model
@@ -1021,15 +1022,12 @@ class _LocalRun:
 
         def bodies(group: np.ndarray) -> None:
             Rs, Ps, it_buf, res_buf = np.zeros((3, 3)), np.zeros(3), np.zeros(n, np.int32), np.zeros(n)
-            for b in group:
-                if self.status[b] != OK:
-                    continue
-                Rs[0, 0] = 0.0          # the mark of a user function that raised (user_kernels.user_moment)
-                advance_user(int(b), guarded(m.moment_func), table, Rs, Ps, m.conservative, m.depends_on_momentum, s.code,
-                             self.Jd, self.J, self.J_inv, s.ib, s.h, s.t0, s.gam, s.cum, self.ia, self.A, self.R,
-                             self.Pi, self.G, gidx, self.S, s.codes, s.params, int(s.sym), k, n, s.tol, s.max_iter,
-                             s.alpha, se, 0, R_out, Pi_out, it_buf, res_buf, self.its, self.res, self.status,
-                             self.fail_step, self.fail_res, self.fail_its, _NO_HIST, counts)
+            advance_users(np.ascontiguousarray(group, dtype=np.int64), guarded(m.moment_func), table, Rs, Ps,
+                          m.conservative, m.depends_on_momentum, s.code, self.Jd, self.J, self.J_inv, s.ib, s.h, s.t0,
+                          s.gam, s.cum, self.ia, self.A, self.R, self.Pi, self.G, gidx, self.S, s.codes, s.params,
+                          int(s.sym), k, n, s.tol, s.max_iter, s.alpha, se, 0, R_out, Pi_out, it_buf, res_buf,
+                          self.its, self.res, self.status, self.fail_step, self.fail_res, self.fail_its, _NO_HIST,
+                          counts)
 
         B = len(s)
         workers = min(self.user_threads, B)

@@ -279,6 +279,22 @@ def user_moment_series(moment, t, R, Pi, up, Rs, Ps, out):
 
 
 @jit(cache=False)
+def user_potential_bodies(potential, t, R, table, Rs, out):
+    """The user's potential of every body's samples in one compiled loop: ``out[b, i] =
+    potential(t[i], R[b, i], row)`` with ``row = table[b]`` (``table`` (B, P)) or ``table[0]`` for all.
+
+    ``t`` (M,), ``R`` (B, M, 3, 3), ``out`` (B, M); ``Rs`` (3, 3) scratch.
+    """
+    for b in range(R.shape[0]):
+        up = table[b] if table.shape[0] > 1 else table[0]
+        for i in range(t.shape[0]):
+            for a in range(3):
+                for c in range(3):
+                    Rs[a, c] = R[b, i, a, c]
+            out[b, i] = float(potential(t[i], Rs, up))
+
+
+@jit(cache=False)
 def user_potential_series(potential, t, R, up, Rs, out):
     """The user's potential at each sample: ``out[i] = potential(t[i], R[i], up)``.
 
@@ -312,3 +328,20 @@ def advance_user(b, moment, table, Rs, Ps, cons, mdep, method, Jd, J, J_inv, ib,
         gidx, S[b], codes, params, sym, k0, n, tol, max_iter, alpha, save_every, save_every - k0 % save_every,
         R_out[b, j:], Pi_out[b, j:], it_rec[:n], res_rec[:n], hist, counts)
     record_body(b, its, res, status, fail_step, fail_res, fail_its, it_total, rmax, st, kend, it, rn)
+
+
+@jit(cache=False)
+def advance_users(group, moment, table, Rs, Ps, cons, mdep, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi,
+                  G, gidx, S, codes, params, sym, k0, n, tol, max_iter, alpha, save_every, out0, R_out, Pi_out,
+                  it_rec, res_rec, its, res, status, fail_step, fail_res, fail_its, hist, counts):
+    """:func:`advance_user` for the bodies ``group`` (int64) whose status is still ``OK``, in one
+    compiled call: the CPU ensemble's threads each call this once a chunk with their group (a call per
+    body cost tens of microseconds of dispatch under the GIL, which serialised the threads)."""
+    for i in range(group.shape[0]):
+        b = group[i]
+        if status[b] != OK:
+            continue
+        Rs[0, 0] = 0.0          # the mark of a user function that raised (user_moment)
+        advance_user(b, moment, table, Rs, Ps, cons, mdep, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi,
+                     G, gidx, S, codes, params, sym, k0, n, tol, max_iter, alpha, save_every, out0, R_out, Pi_out,
+                     it_rec, res_rec, its, res, status, fail_step, fail_res, fail_its, hist, counts)
