@@ -145,8 +145,10 @@ class MEKF(Component):
         Period of the filter in seconds (None: every step); run it at the gyro's rate.
     arw, rrw : float
         The gyro's angle random walk (rad/s^0.5) and rate random walk (rad/s^1.5) the filter assumes.
-    star_tracker : StarTracker or None
-        Its ``sigma_cross``, ``sigma_about`` and ``case`` set the update's noise; None: no update.
+    star_tracker : StarTracker, True or None
+        Its ``sigma_cross``, ``sigma_about`` and ``case`` set the update's noise; ``True``: those of
+        the spacecraft's one star tracker, found when the run is built (what a scenario file's
+        ``star_tracker = true`` says); None: no update.
     mag_sigma : float or None
         The magnetometer's noise (T); None: no magnetometer update.
     sun_sigma : float or None
@@ -173,14 +175,14 @@ class MEKF(Component):
         for name, v in (("arw", self.arw), ("rrw", self.rrw)):
             if v < 0.0:
                 raise ValueError(f"{name} must be a nonnegative noise density, got {v}")
-        if star_tracker is not None and not isinstance(star_tracker, StarTracker):
-            raise TypeError(f"star_tracker must be a StarTracker or None, got {type(star_tracker).__name__}")
+        if star_tracker is not None and star_tracker is not True and not isinstance(star_tracker, StarTracker):
+            raise TypeError("star_tracker must be a StarTracker, True (the spacecraft's) or None, got "
+                            f"{star_tracker!r}")
         self.star_tracker = star_tracker
         self.mag_sigma = None if mag_sigma is None else as_float(mag_sigma, "mag_sigma", positive=True)
         self.sun_sigma = None if sun_sigma is None else as_float(sun_sigma, "sun_sigma", positive=True)
-        if star_tracker is not None and min(star_tracker.sigma_cross, star_tracker.sigma_about) <= 0.0:
-            raise ValueError("star_tracker must have positive sigma_cross and sigma_about for the filter's update, "
-                             f"got {star_tracker.sigma_cross} and {star_tracker.sigma_about}")
+        if isinstance(star_tracker, StarTracker):
+            self._check_star_tracker(star_tracker)
         if R0 is not None and hasattr(R0, "as_matrix") and not R0.single:
             R0 = R0.as_matrix()
         if R0 is not None and np.ndim(R0) == 3:
@@ -197,8 +199,17 @@ class MEKF(Component):
             raise ValueError(f"gyro_output must be 'rate' or 'mean' (the gyro's output), got {gyro_output!r}")
         self.gyro_output = gyro_output
 
+    @staticmethod
+    def _check_star_tracker(st: StarTracker) -> None:
+        if min(st.sigma_cross, st.sigma_about) <= 0.0:
+            raise ValueError("star_tracker must have positive sigma_cross and sigma_about for the filter's update, "
+                             f"got {st.sigma_cross} and {st.sigma_about}")
+
     def params(self) -> np.ndarray:
         st = self.star_tracker
+        if st is True:
+            raise ValueError("MEKF(star_tracker=True): the star tracker is the spacecraft's, known once the run is "
+                             "built (Component.setup); params() needs it")
         case = np.eye(3) if st is None else st.case
         return np.concatenate([[self.arw, self.rrw, 0.0 if st is None else st.sigma_cross,
                                 0.0 if st is None else st.sigma_about], case.ravel(),
@@ -234,6 +245,13 @@ class MEKF(Component):
         for kind, wanted, what in need:
             if wanted and kind not in have:
                 raise ValueError(f"MEKF: the spacecraft needs {what}; its components are {sorted(have)}")
+        if self.star_tracker is True:             # this run's copy takes the spacecraft's star tracker
+            found = [c for c in sc.components() if isinstance(c, StarTracker)]
+            if len(found) != 1:
+                raise ValueError(f"MEKF(star_tracker=True) takes the spacecraft's star tracker and needs exactly one; "
+                                 f"the spacecraft has {len(found)}: give the StarTracker itself")
+            self._check_star_tracker(found[0])
+            self.star_tracker = found[0]
 
     def __repr__(self) -> str:
         return (f"MEKF(rate={self.rate}, star_tracker={self.star_tracker is not None}, "

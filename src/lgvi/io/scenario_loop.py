@@ -436,7 +436,10 @@ def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DE
         ``wheel_momentum_peak_Nms``: the largest ``|Js_i (a_i . omega + Omega_i)|`` of any wheel
         over the saved states, ``wheel_momentum_total_peak_Nms``: the largest norm of their sum
         ``sum_i a_i h_i`` (body frame); ``modes``: the modes visited, in order, with the time
-        each was entered.
+        each was entered; ``knowledge`` (where an estimator recorded ``est_error``, see
+        :func:`knowledge_summary`); with an estimator the control law points the estimate, so
+        ``error_deg`` is the error it sees and ``true_error_deg`` (``mean``, ``p95``, ``max`` from
+        the settle time on; ``R_ref``, ``R_est`` and ``est_error`` recorded) that of the truth.
     """
     import math
 
@@ -465,10 +468,57 @@ def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DE
         hw = np.asarray(wheels.spin_inertia) * (omega @ axes.T + np.asarray(speed))      # (M, N)
         out["wheel_momentum_peak_Nms"] = float(np.abs(hw).max())
         out["wheel_momentum_total_peak_Nms"] = float(np.linalg.norm(hw @ axes, axis=1).max())
+    if "est_error" in sig and len(ts):
+        out["knowledge"] = knowledge_summary(sig)
+        if out["settle_time_s"] is not None and "R_ref" in sig and "R_est" in sig:
+            from ..so3 import exp, log
+
+            # the controller points the estimate (sigma_BR); the truth is R = R_est Exp(est_error)
+            k = int(np.searchsorted(ts, out["settle_time_s"]))
+            R_ref = np.asarray(sig["R_ref"])[k:].reshape(-1, 3, 3)
+            R = np.asarray(sig["R_est"])[k:].reshape(-1, 3, 3) @ exp(np.asarray(sig["est_error"])[k:])
+            true = np.degrees(np.linalg.norm(log(np.swapaxes(R_ref, 1, 2) @ R), axis=1))
+            out["true_error_deg"] = {"mean": float(true.mean()), "p95": float(np.percentile(true, 95.0)),
+                                     "max": float(true.max())}
     if "mode" in sig and len(ts):
         m = np.asarray(sig["mode"]).reshape(len(ts), -1)[:, 0]
         start = np.concatenate([[0], np.flatnonzero(np.diff(m)) + 1])
         out["modes"] = [{"mode": int(m[i]), "from_s": float(ts[i])} for i in start]
+    return out
+
+
+ARCSEC = 180.0 / np.pi * 3600.0       # arcseconds per radian
+
+
+def knowledge_summary(sig: dict[str, np.ndarray]) -> dict[str, Any]:
+    """Attitude knowledge statistics from an estimator's records (``est_error``, ``R = R_est
+    Exp(est_error)``; ``P_diag``, its covariance diagonal, when recorded).
+
+    Returns
+    -------
+    dict
+        ``error_arcsec``: ``mean``, ``p95``, ``max`` and ``final`` of the angle ``|est_error|``
+        over all records, and ``steady``: the same over the second half of the records (after the
+        filter's transient); ``rms_axis_arcsec``: the RMS of each body-axis component over the
+        second half; where ``P_diag`` was recorded, ``sigma3_final_arcsec``: ``3 sqrt(P_diag[:3])``
+        at the last record and ``inside_3sigma``: the fraction of axis components within their
+        3-sigma bound, over all records and over the second half.
+    """
+    e = np.asarray(sig["est_error"], dtype=float) * ARCSEC
+    ang = np.linalg.norm(e, axis=1)
+    half = len(ang) // 2
+
+    def stats(a: np.ndarray) -> dict[str, float]:
+        return {"mean": float(a.mean()), "p95": float(np.percentile(a, 95.0)), "max": float(a.max()),
+                "final": float(a[-1])}
+
+    out: dict[str, Any] = {"error_arcsec": {**stats(ang), "steady": stats(ang[half:])},
+                           "rms_axis_arcsec": np.sqrt(np.mean(e[half:] ** 2, axis=0)).tolist()}
+    if "P_diag" in sig:
+        s3 = 3.0 * np.sqrt(np.maximum(np.asarray(sig["P_diag"], dtype=float)[:, :3], 0.0)) * ARCSEC
+        inside = np.abs(e) <= s3
+        out["sigma3_final_arcsec"] = s3[-1].tolist()
+        out["inside_3sigma"] = {"all": float(inside.mean()), "steady": float(inside[half:].mean())}
     return out
 
 
@@ -484,6 +534,10 @@ def summary_lines(s: dict[str, Any]) -> list[str]:
         e = s["error_deg"]
         lines.append(f"pointing:      settled below {s['settle_deg']:g} deg at t = {s['settle_time_s']:g} s; error "
                      f"after it mean {e['mean']:.3g}, 95th percentile {e['p95']:.3g}, max {e['max']:.3g} deg")
+    if s.get("true_error_deg") is not None:
+        e = s["true_error_deg"]
+        lines.append(f"               (the estimate's; the truth's after it: mean {e['mean']:.3g}, 95th percentile "
+                     f"{e['p95']:.3g}, max {e['max']:.3g} deg)")
     rate = f"final rate:    |omega| {s['rate_final_deg_s']:.4g} deg/s"
     if s["rate_error_final_deg_s"] is not None:
         rate += f", |omega_BR| {s['rate_error_final_deg_s']:.3g} deg/s"
@@ -491,9 +545,20 @@ def summary_lines(s: dict[str, Any]) -> list[str]:
     if "wheel_momentum_peak_Nms" in s:
         lines.append(f"wheels:        momentum peak {s['wheel_momentum_peak_Nms']:.4g} N m s (one wheel), "
                      f"{s['wheel_momentum_total_peak_Nms']:.4g} N m s (all, body frame)")
+    k = s.get("knowledge")
+    if k is not None:
+        e, st = k["error_arcsec"], k["error_arcsec"]["steady"]
+        lines.append(f"knowledge:     |est_error| mean {e['mean']:.3g}, 95th percentile {e['p95']:.3g}, max "
+                     f"{e['max']:.3g}, final {e['final']:.3g} arcsec; second half mean {st['mean']:.3g}, 95th "
+                     f"percentile {st['p95']:.3g} arcsec, RMS per axis "
+                     + ", ".join(f"{v:.3g}" for v in k["rms_axis_arcsec"]) + " arcsec")
+        if "inside_3sigma" in k:
+            lines.append(f"               inside 3 sigma {k['inside_3sigma']['all']:.1%} of axis values "
+                         f"({k['inside_3sigma']['steady']:.1%} in the second half); final 3 sigma "
+                         + ", ".join(f"{v:.3g}" for v in k["sigma3_final_arcsec"]) + " arcsec")
     if s.get("modes"):
         lines.append("modes:         " + ", ".join(f"{m['mode']} from {m['from_s']:g} s" for m in s["modes"]))
     return lines
 
 
-__all__ += ["loop_summary", "summary_lines", "SETTLE_DEG"]
+__all__ += ["loop_summary", "knowledge_summary", "summary_lines", "SETTLE_DEG"]

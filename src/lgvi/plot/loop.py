@@ -1,7 +1,7 @@
 """Figures of what the compiled loop recorded (``traj.signals``, ``docs/loop.md``): the attitude
 error and rate error (:func:`pointing`), the requested and applied magnetic dipoles
-(:func:`dipoles`) and the active mode (:func:`modes`); :func:`save_loop_figures` writes those the
-run has. The wheel speeds and motor torques are :func:`lgvi.plot.wheels`, the body rates
+(:func:`dipoles`), the active mode (:func:`modes`) and the estimator's error with its 3-sigma
+bounds (:func:`estimation`); :func:`save_loop_figures` writes those the run has. The wheel speeds and motor torques are :func:`lgvi.plot.wheels`, the body rates
 :func:`lgvi.plot.rates`."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-__all__ = ["pointing", "dipoles", "modes", "save_loop_figures"]
+__all__ = ["pointing", "dipoles", "modes", "estimation", "save_loop_figures"]
 
 
 def _signals(traj: Any, name: str, need: Sequence[str]) -> tuple[dict[str, np.ndarray], np.ndarray]:
@@ -104,9 +104,76 @@ def modes(traj: Any, ax: Any = None) -> Any:
     return fig
 
 
+ARCSEC = 180.0 / np.pi * 3600.0          # arcseconds per radian
+DEG_H = 180.0 / np.pi * 3600.0           # deg/h per rad/s
+
+
+def _band_limits(err: np.ndarray, sig3: np.ndarray) -> tuple[float, float]:
+    """Half-height of a panel: 1.3 x the largest of |error| and 3 sigma after the first tenth of the
+    records (the filter's transient), and the peak over all records (drawn off the axis if larger)."""
+    tail = slice(len(err) // 10, None)
+    lim = 1.3 * float(max(np.nanmax(np.abs(err[tail])), np.nanmax(sig3[tail])))
+    peak = float(max(np.nanmax(np.abs(err)), np.nanmax(sig3)))
+    return (lim if lim > 0.0 else 1.0), peak
+
+
+def estimation(traj: Any, axes: Sequence[Any] | None = None, *, max_points: int | None = None) -> Any:
+    """The estimator's attitude error ``est_error`` (``R = R_est Exp(est_error)``, arcsec, one panel
+    per body axis) inside its 3-sigma bounds ``3 sqrt(P_diag[:3])`` (shaded), and, where the gyro's
+    true bias ``gyro_bias`` and the estimate ``bias_est`` were recorded, the bias error (deg/h)
+    inside ``3 sqrt(P_diag[3:])``, against time.
+
+    Each panel's height is set by the run after its first tenth (the filter's transient); a larger
+    early error is drawn off the axis and its peak written in the panel."""
+    from . import MAX_POINTS, _UNITS, _axes_list, _figure, _thin_minmax
+
+    sig, t = _signals(traj, "estimation", ("est_error",))
+    if "P_diag" not in sig:
+        raise ValueError("estimation: the run recorded est_error but not P_diag (the MEKF's covariance diagonal); "
+                         "record both")
+    n = max_points or MAX_POINTS
+    P = np.asarray(sig["P_diag"])
+    panels = [(np.asarray(sig["est_error"]) * ARCSEC, np.sqrt(np.maximum(P[:, :3], 0.0)) * 3 * ARCSEC,
+               "attitude", "arcsec")]
+    if "gyro_bias" in sig and "bias_est" in sig:
+        panels.append(((np.asarray(sig["gyro_bias"]) - np.asarray(sig["bias_est"])) * DEG_H,
+                       np.sqrt(np.maximum(P[:, 3:6], 0.0)) * 3 * DEG_H, "bias", "deg/h"))
+    if axes is None:
+        fig = _figure((9.0, 1.7 * 3 * len(panels) + 0.6))
+        axs = list(fig.subplots(3 * len(panels), 1, sharex=True))
+    else:
+        fig, axs = _axes_list(axes, 3 * len(panels), "estimation")
+    colours = ("tab:red", "tab:green", "tab:blue")
+    for j, (err, sig3, what, unit) in enumerate(panels):
+        for i in range(3):
+            ax = axs[3 * j + i]
+            tt, hi = _thin_minmax(t, sig3[:, i], n)
+            ax.fill_between(tt, -hi, hi, color=colours[i], alpha=0.15, lw=0,
+                            label=r"$\pm 3\sigma$ (covariance)")
+            ax.plot(tt, hi, lw=0.6, color=colours[i], alpha=0.6)
+            ax.plot(tt, -hi, lw=0.6, color=colours[i], alpha=0.6)
+            tt, yy = _thin_minmax(t, err[:, i], n)
+            ax.plot(tt, yy, lw=0.9, color="k", label="error")
+            lim, peak = _band_limits(err[:, i], sig3[:, i])
+            ax.set_ylim(-lim, lim)
+            if peak > lim:
+                ax.text(0.01, 0.95, f"early transient off the axis (peak {peak:.3g} {unit})", transform=ax.transAxes,
+                        va="top", fontsize="x-small", color="0.3")
+            inside = np.mean(np.abs(err[:, i]) <= sig3[:, i])
+            ax.set_ylabel(f"{what} {'xyz'[i]}\n({unit})")
+            ax.text(0.99, 0.05, f"inside 3$\\sigma$: {inside:.1%}", transform=ax.transAxes, ha="right",
+                    va="bottom", fontsize="x-small")
+            ax.grid(True, alpha=0.3)
+    axs[0].legend(loc="upper right", fontsize="small", ncols=2, framealpha=0.85)
+    axs[0].set_title("Estimation error (truth vs estimate, body frame) and the filter's 3-sigma bounds")
+    axs[-1].set_xlabel(_UNITS["t"])
+    return fig
+
+
 def save_loop_figures(traj: Any, outdir: str | os.PathLike[str], *, prefix: str = "") -> list[Path]:
-    """Write ``pointing.png``, ``dipoles.png`` and ``modes.png``, each where the run recorded what it
-    draws (``sigma_BR``; ``dipole_B`` or ``dipole_request_B``; ``mode``). Returns the files."""
+    """Write ``pointing.png``, ``dipoles.png``, ``modes.png`` and ``estimation.png``, each where the
+    run recorded what it draws (``sigma_BR``; ``dipole_B`` or ``dipole_request_B``; ``mode``;
+    ``est_error`` and ``P_diag``). Returns the files."""
     from . import _save
 
     sig = getattr(traj, "signals", None) or {}
@@ -116,7 +183,7 @@ def save_loop_figures(traj: Any, outdir: str | os.PathLike[str], *, prefix: str 
     out.mkdir(parents=True, exist_ok=True)
     written = []
     for name, fn, need in (("pointing", pointing, ("sigma_BR",)), ("dipoles", dipoles, ("dipole_B", "dipole_request_B")),
-                           ("modes", modes, ("mode",))):
-        if any(n in sig for n in need):
+                           ("modes", modes, ("mode",)), ("estimation", estimation, ("est_error", "P_diag"))):
+        if all(n in sig for n in need) if name == "estimation" else any(n in sig for n in need):
             written.append(_save(fn(traj), out / f"{prefix}{name}.png"))
     return written
