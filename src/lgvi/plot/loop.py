@@ -1,8 +1,8 @@
 """Figures of what the compiled loop recorded (``traj.signals``, ``docs/loop.md``): the attitude
 error and rate error (:func:`pointing`), the requested and applied magnetic dipoles
 (:func:`dipoles`), the active mode (:func:`modes`) and the estimator's error with its 3-sigma
-bounds (:func:`estimation`); :func:`save_loop_figures` writes those the run has. The wheel speeds and motor torques are :func:`lgvi.plot.wheels`, the body rates
-:func:`lgvi.plot.rates`."""
+bounds (:func:`estimation`); :func:`save_loop_figures` writes those the run has. The wheel
+speeds and motor torques are :func:`lgvi.plot.wheels`, the body rates :func:`lgvi.plot.rates`."""
 
 from __future__ import annotations
 
@@ -182,8 +182,9 @@ def save_loop_figures(traj: Any, outdir: str | os.PathLike[str], *, prefix: str 
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
     written = []
-    for name, fn, need in (("pointing", pointing, ("sigma_BR",)), ("dipoles", dipoles, ("dipole_B", "dipole_request_B")),
-                           ("modes", modes, ("mode",)), ("estimation", estimation, ("est_error", "P_diag"))):
+    figures = (("pointing", pointing, ("sigma_BR",)), ("dipoles", dipoles, ("dipole_B", "dipole_request_B")),
+               ("modes", modes, ("mode",)), ("estimation", estimation, ("est_error", "P_diag")))
+    for name, fn, need in figures:
         if all(n in sig for n in need) if name == "estimation" else any(n in sig for n in need):
             written.append(_save(fn(traj), out / f"{prefix}{name}.png"))
     return written
