@@ -16,7 +16,7 @@ The same spacecraft and flight software as the scenario file (``lgvi example cub
 
 It prints the summary of ``lgvi run`` (detumble and settle times, control and knowledge errors,
 wheel momentum, disturbance budget) and with ``--out DIR`` draws ``mission.png``,
-``knowledge.png``, ``disturbances.png`` and ``pointing.png``. ``--quick``: the first 7000 s (the
+``estimation.png``, ``disturbances.png`` and ``pointing.png``. ``--quick``: the first 7000 s (the
 detumble, the sun-safe mode and the start of nadir pointing).
 
 Usage::
@@ -113,7 +113,7 @@ def main(argv: list[str] | None = None) -> int:
         from lgvi.plot import loop
 
         args.out.mkdir(parents=True, exist_ok=True)
-        for name, fig in (("mission", loop.mission(traj)), ("knowledge", loop.knowledge(traj)),
+        for name, fig in (("mission", loop.mission(traj)), ("estimation", loop.estimation(traj)),
                           ("disturbances", loop.disturbances(traj)), ("pointing", loop.pointing(traj))):
             fig.savefig(args.out / f"{name}.png", dpi=110)
             print(f"figure: {args.out / (name + '.png')}")

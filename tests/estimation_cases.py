@@ -25,11 +25,13 @@ STEPS = 1200            # 120 s
 MEMBERS = 100
 
 
-def truth(omega0, steps=STEPS):
-    """``steps`` samples (``steps - 1`` LGVI steps of ``H``) of a free tumble from ``omega0``."""
+def truth(omega0, steps=STEPS, sub=1):
+    """``steps`` samples, every ``H``, of a free tumble from ``omega0``, integrated by the LGVI with
+    steps of ``H / sub`` (``sub > 1``: sampled rates consistent with the sampled attitudes to the
+    LGVI's error at the finer step, for the gyro's ``"rate"`` output)."""
     R0 = Rotation.from_rotvec([0.4, -0.3, 1.0]).as_matrix()
-    traj = lgvi.simulate(BODY, R0, omega0=omega0, h=H, steps=steps - 1)
-    return {"R": traj.R.reshape(steps, 9), "omega": traj.omega}
+    traj = lgvi.simulate(BODY, R0, omega0=omega0, h=H / sub, steps=(steps - 1) * sub)
+    return {"R": traj.R[::sub].reshape(steps, 9), "omega": traj.omega[::sub]}
 
 
 TUMBLING = [0.1, -0.2, 0.15]

@@ -141,7 +141,8 @@ def test_every_script_is_tested():
     # tests/test_mission.py (against its scenario file)
     tested = {"dzhanibekov.py", "heavy_top.py", "pendulum3d.py", "slew_pd.py", "gravity_gradient.py", "kepler.py",
               "uncertainty.py", "optimal_slew.py", "orbit_attitude.py", "binary_asteroid.py",
-              "wheel_slew.py", "bdot_detumble.py", "nadir_dumping.py", "momentum_budget.py", "cubesat_mission.py"}
+              "wheel_slew.py", "bdot_detumble.py", "nadir_dumping.py", "momentum_budget.py", "cubesat_mission.py",
+              "estimation_budget.py"}
     scripts = {p.name for p in EXAMPLES.glob("*.py")}
     assert scripts <= tested, f"example scripts without a test here: {sorted(scripts - tested)}"
 
@@ -206,3 +207,17 @@ def test_momentum_budget(tmp_path):
     assert 3e-8 < drag < 1e-6 and 1e-7 < dipole < 2e-6 and srp < drag / 5
     assert "dominant torque:" in out
     assert (tmp_path / "figs" / "momentum_budget.png").exists()
+
+
+def test_estimation_budget(tmp_path):
+    """Issue 27, part 6: the 6U's knowledge and control budgets from a Monte Carlo (20 members)."""
+    out = run_example("estimation_budget.py", "--quick", "--out", str(tmp_path / "figs"), cwd=tmp_path)
+    x, y, z = (number(rf"knowledge about {a}\s+RMS\s+([0-9.]+)", out) for a in "xyz")
+    # the filter averages the star tracker (10 arcsec across the boresight, body x; 83 about it)
+    # with the gyro: below the tracker's own noise on every axis, and the boresight axis worst
+    assert max(y, z) < 10.0 and x < 83.0 and x > 2.0 * max(y, z)
+    assert number(r"3-sigma bounds: ([0-9.]+)%", out) > 98.0     # 99.7 % for a consistent filter
+    # the truth is the estimate times the knowledge error: the mean squares add up to cross terms
+    rss = number(r"RSS of knowledge and control RMS ([0-9.]+)", out)
+    assert abs(number(r"pointing RMS ([0-9.]+)", out) - rss) < 0.1 * rss
+    assert (tmp_path / "figs" / "estimation_budget.png").exists()

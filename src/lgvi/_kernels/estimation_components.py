@@ -34,6 +34,8 @@ _P = 7          # offset of P in the state
 #: The state's work space (after the 50 entries of the filter): the small matrices of the
 #: propagation and the updates live there, so the kernel allocates nothing (the loop is compiled
 #: without Numba's runtime). Offsets: A, B (propagation), M; PH, S, Si, K, KS (update); H, Rm, R.
+#: They are indexed flat, row-major (``s[_WK + 3 * i + j]`` is ``K[i, j]``): reshaped views of
+#: slices cost a call each, which was a third of the filter's time.
 _WA, _WB, _WM = 50, 59, 68
 _WPH, _WS, _WSI, _WK, _WKS = 86, 104, 113, 122, 140
 _WH, _WRM, _WR = 158, 167, 176
@@ -70,38 +72,36 @@ def propagate(s, ax, ay, az, wx, wy, wz, dt, sv2, su2):
     else:
         t = math.sqrt(t2)
         c2 = (t - math.sin(t)) / (t2 * t)
-    A = s[_WA:_WA + 9].reshape((3, 3))
-    B = s[_WB:_WB + 9].reshape((3, 3))
     h00 = -(py * py + pz * pz)                             # hat(phi)^2 = phi phi^T - t2 I
     h11 = -(px * px + pz * pz)
     h22 = -(px * px + py * py)
     h01 = px * py
     h02 = px * pz
     h12 = py * pz
-    A[0, 0] = 1.0 + ca * h00
-    A[1, 1] = 1.0 + ca * h11
-    A[2, 2] = 1.0 + ca * h22
-    A[0, 1] = sa * pz + ca * h01
-    A[1, 0] = -sa * pz + ca * h01
-    A[0, 2] = -sa * py + ca * h02
-    A[2, 0] = sa * py + ca * h02
-    A[1, 2] = sa * px + ca * h12
-    A[2, 1] = -sa * px + ca * h12
-    B[0, 0] = -dt * (1.0 + c2 * h00)
-    B[1, 1] = -dt * (1.0 + c2 * h11)
-    B[2, 2] = -dt * (1.0 + c2 * h22)
-    B[0, 1] = -dt * (ca * pz + c2 * h01)
-    B[1, 0] = -dt * (-ca * pz + c2 * h01)
-    B[0, 2] = -dt * (-ca * py + c2 * h02)
-    B[2, 0] = -dt * (ca * py + c2 * h02)
-    B[1, 2] = -dt * (ca * px + c2 * h12)
-    B[2, 1] = -dt * (-ca * px + c2 * h12)
+    s[_WA] = 1.0 + ca * h00
+    s[_WA + 4] = 1.0 + ca * h11
+    s[_WA + 8] = 1.0 + ca * h22
+    s[_WA + 1] = sa * pz + ca * h01
+    s[_WA + 3] = -sa * pz + ca * h01
+    s[_WA + 2] = -sa * py + ca * h02
+    s[_WA + 6] = sa * py + ca * h02
+    s[_WA + 5] = sa * px + ca * h12
+    s[_WA + 7] = -sa * px + ca * h12
+    s[_WB] = -dt * (1.0 + c2 * h00)
+    s[_WB + 4] = -dt * (1.0 + c2 * h11)
+    s[_WB + 8] = -dt * (1.0 + c2 * h22)
+    s[_WB + 1] = -dt * (ca * pz + c2 * h01)
+    s[_WB + 3] = -dt * (-ca * pz + c2 * h01)
+    s[_WB + 2] = -dt * (-ca * py + c2 * h02)
+    s[_WB + 6] = -dt * (ca * py + c2 * h02)
+    s[_WB + 5] = -dt * (ca * px + c2 * h12)
+    s[_WB + 7] = -dt * (-ca * px + c2 * h12)
     # M = Phi P: rows 0..2 = A P[0:3, :] + B P[3:6, :], rows 3..5 = P[3:6, :]
-    M = s[_WM:_WM + 18].reshape((3, 6))
     for i in range(3):
         for j in range(6):
-            M[i, j] = (A[i, 0] * s[_P + j] + A[i, 1] * s[_P + 6 + j] + A[i, 2] * s[_P + 12 + j]
-                       + B[i, 0] * s[_P + 18 + j] + B[i, 1] * s[_P + 24 + j] + B[i, 2] * s[_P + 30 + j])
+            s[_WM + 6 * i + j] = (s[_WA + 3 * i] * s[_P + j] + s[_WA + 3 * i + 1] * s[_P + 6 + j]
+                                  + s[_WA + 3 * i + 2] * s[_P + 12 + j] + s[_WB + 3 * i] * s[_P + 18 + j]
+                                  + s[_WB + 3 * i + 1] * s[_P + 24 + j] + s[_WB + 3 * i + 2] * s[_P + 30 + j])
     # P' = M Phi^T + Qd
     q11 = sv2 * dt + su2 * dt * dt * dt / 3.0
     q12 = -0.5 * su2 * dt * dt
@@ -110,13 +110,13 @@ def propagate(s, ax, ay, az, wx, wy, wz, dt, sv2, su2):
         for j in range(i, 3):
             v = 0.0
             for k in range(3):
-                v += M[i, k] * A[j, k] + M[i, 3 + k] * B[j, k]
+                v += s[_WM + 6 * i + k] * s[_WA + 3 * j + k] + s[_WM + 6 * i + 3 + k] * s[_WB + 3 * j + k]
             if i == j:
                 v += q11
             s[_P + 6 * i + j] = v
             s[_P + 6 * j + i] = v
         for j in range(3):
-            v = M[i, 3 + j] + (q12 if i == j else 0.0)
+            v = s[_WM + 6 * i + 3 + j] + (q12 if i == j else 0.0)
             s[_P + 6 * i + 3 + j] = v
             s[_P + 6 * (3 + j) + i] = v
     for i in range(3):
@@ -124,82 +124,102 @@ def propagate(s, ax, ay, az, wx, wy, wz, dt, sv2, su2):
 
 
 @jit(inline="always")
-def update(s, H, y0, y1, y2, Rm):
+def update(s, y0, y1, y2):
     """The Kalman update with the measurement ``y = H dtheta + v`` (``H`` 3x3 on the attitude block,
-    ``v ~ N(0, Rm)``), in Joseph form, then the reset of the error into ``q`` and ``b``.
+    ``v ~ N(0, Rm)``; both in the work space, row-major at ``_WH`` and ``_WRM``), in Joseph form,
+    then the reset of the error into ``q`` and ``b``.
     Returns False when the innovation covariance is not positive definite."""
     # PH = P[:, 0:3] H^T (6x3), S = H PH[0:3] + Rm
-    PH = s[_WPH:_WPH + 18].reshape((6, 3))
     for i in range(6):
         for j in range(3):
-            PH[i, j] = s[_P + 6 * i] * H[j, 0] + s[_P + 6 * i + 1] * H[j, 1] + s[_P + 6 * i + 2] * H[j, 2]
-    S = s[_WS:_WS + 9].reshape((3, 3))
+            s[_WPH + 3 * i + j] = (s[_P + 6 * i] * s[_WH + 3 * j] + s[_P + 6 * i + 1] * s[_WH + 3 * j + 1]
+                                   + s[_P + 6 * i + 2] * s[_WH + 3 * j + 2])
     for i in range(3):
         for j in range(3):
-            S[i, j] = H[i, 0] * PH[0, j] + H[i, 1] * PH[1, j] + H[i, 2] * PH[2, j] + Rm[i, j]
+            s[_WS + 3 * i + j] = (s[_WH + 3 * i] * s[_WPH + j] + s[_WH + 3 * i + 1] * s[_WPH + 3 + j]
+                                  + s[_WH + 3 * i + 2] * s[_WPH + 6 + j] + s[_WRM + 3 * i + j])
+    return update_with(s, y0, y1, y2)
+
+
+@jit(inline="always")
+def update_attitude(s, y0, y1, y2):
+    """:func:`update` with ``H = I`` (the star tracker's): ``PH = P[:, 0:3]`` and
+    ``S = P[0:3, 0:3] + Rm`` taken as they are, the same numbers as the products with ``I``."""
+    for i in range(6):
+        for j in range(3):
+            s[_WPH + 3 * i + j] = s[_P + 6 * i + j]
+    for i in range(3):
+        for j in range(3):
+            s[_WS + 3 * i + j] = s[_WPH + 3 * i + j] + s[_WRM + 3 * i + j]
+    return update_with(s, y0, y1, y2)
+
+
+@jit(inline="always")
+def update_with(s, y0, y1, y2):
+    """The gain, the Joseph-form covariance and the reset, from ``PH = P H^T`` and ``S``."""
     # S^-1 by cofactors (S symmetric positive definite)
-    c00 = S[1, 1] * S[2, 2] - S[1, 2] * S[2, 1]
-    c01 = S[1, 2] * S[2, 0] - S[1, 0] * S[2, 2]
-    c02 = S[1, 0] * S[2, 1] - S[1, 1] * S[2, 0]
-    det = S[0, 0] * c00 + S[0, 1] * c01 + S[0, 2] * c02
-    if not (det > 0.0 and S[0, 0] > 0.0 and S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0] > 0.0):
+    c00 = s[_WS + 4] * s[_WS + 8] - s[_WS + 5] * s[_WS + 7]
+    c01 = s[_WS + 5] * s[_WS + 6] - s[_WS + 3] * s[_WS + 8]
+    c02 = s[_WS + 3] * s[_WS + 7] - s[_WS + 4] * s[_WS + 6]
+    det = s[_WS] * c00 + s[_WS + 1] * c01 + s[_WS + 2] * c02
+    if not (det > 0.0 and s[_WS] > 0.0 and s[_WS] * s[_WS + 4] - s[_WS + 1] * s[_WS + 3] > 0.0):
         return False
-    Si = s[_WSI:_WSI + 9].reshape((3, 3))
-    Si[0, 0] = c00 / det
-    Si[1, 0] = c01 / det
-    Si[2, 0] = c02 / det
-    Si[0, 1] = (S[0, 2] * S[2, 1] - S[0, 1] * S[2, 2]) / det
-    Si[1, 1] = (S[0, 0] * S[2, 2] - S[0, 2] * S[2, 0]) / det
-    Si[2, 1] = (S[0, 1] * S[2, 0] - S[0, 0] * S[2, 1]) / det
-    Si[0, 2] = (S[0, 1] * S[1, 2] - S[0, 2] * S[1, 1]) / det
-    Si[1, 2] = (S[0, 2] * S[1, 0] - S[0, 0] * S[1, 2]) / det
-    Si[2, 2] = (S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]) / det
-    K = s[_WK:_WK + 18].reshape((6, 3))
+    s[_WSI] = c00 / det
+    s[_WSI + 3] = c01 / det
+    s[_WSI + 6] = c02 / det
+    s[_WSI + 1] = (s[_WS + 2] * s[_WS + 7] - s[_WS + 1] * s[_WS + 8]) / det
+    s[_WSI + 4] = (s[_WS] * s[_WS + 8] - s[_WS + 2] * s[_WS + 6]) / det
+    s[_WSI + 7] = (s[_WS + 1] * s[_WS + 6] - s[_WS] * s[_WS + 7]) / det
+    s[_WSI + 2] = (s[_WS + 1] * s[_WS + 5] - s[_WS + 2] * s[_WS + 4]) / det
+    s[_WSI + 5] = (s[_WS + 2] * s[_WS + 3] - s[_WS] * s[_WS + 5]) / det
+    s[_WSI + 8] = (s[_WS] * s[_WS + 4] - s[_WS + 1] * s[_WS + 3]) / det
     for i in range(6):
         for j in range(3):
-            K[i, j] = PH[i, 0] * Si[0, j] + PH[i, 1] * Si[1, j] + PH[i, 2] * Si[2, j]
+            s[_WK + 3 * i + j] = (s[_WPH + 3 * i] * s[_WSI + j] + s[_WPH + 3 * i + 1] * s[_WSI + 3 + j]
+                                  + s[_WPH + 3 * i + 2] * s[_WSI + 6 + j])
     # Joseph form: P - K (PH)^T - PH K^T + K S K^T
-    KS = s[_WKS:_WKS + 18].reshape((6, 3))
     for i in range(6):
         for j in range(3):
-            KS[i, j] = K[i, 0] * S[0, j] + K[i, 1] * S[1, j] + K[i, 2] * S[2, j]
+            s[_WKS + 3 * i + j] = (s[_WK + 3 * i] * s[_WS + j] + s[_WK + 3 * i + 1] * s[_WS + 3 + j]
+                                   + s[_WK + 3 * i + 2] * s[_WS + 6 + j])
     for i in range(6):
         for j in range(i, 6):
             v = s[_P + 6 * i + j]
             for k in range(3):
-                v += -K[i, k] * PH[j, k] - PH[i, k] * K[j, k] + KS[i, k] * K[j, k]
+                v += (-s[_WK + 3 * i + k] * s[_WPH + 3 * j + k] - s[_WPH + 3 * i + k] * s[_WK + 3 * j + k]
+                      + s[_WKS + 3 * i + k] * s[_WK + 3 * j + k])
             s[_P + 6 * i + j] = v
             s[_P + 6 * j + i] = v
     # the error estimate and the reset: q <- q Exp(dtheta), b <- b + db
-    dx = K[0, 0] * y0 + K[0, 1] * y1 + K[0, 2] * y2
-    dy = K[1, 0] * y0 + K[1, 1] * y1 + K[1, 2] * y2
-    dz = K[2, 0] * y0 + K[2, 1] * y1 + K[2, 2] * y2
+    dx = s[_WK] * y0 + s[_WK + 1] * y1 + s[_WK + 2] * y2
+    dy = s[_WK + 3] * y0 + s[_WK + 4] * y1 + s[_WK + 5] * y2
+    dz = s[_WK + 6] * y0 + s[_WK + 7] * y1 + s[_WK + 8] * y2
     for i in range(3):
-        s[4 + i] += K[3 + i, 0] * y0 + K[3 + i, 1] * y1 + K[3 + i, 2] * y2
+        s[4 + i] += s[_WK + 3 * (3 + i)] * y0 + s[_WK + 3 * (3 + i) + 1] * y1 + s[_WK + 3 * (3 + i) + 2] * y2
     turn(s, dx, dy, dz)
     return True
 
 
 @jit(inline="always")
-def vector_update(s, R, bx, by, bz, mx, my, mz, sigma):
+def vector_update(s, bx, by, bz, mx, my, mz, sigma):
     """Update with a measured body-frame vector ``m`` of the inertial vector ``b``: the prediction
     ``p = R_est^T b``, ``H = hat(p)``, noise ``sigma^2 I``."""
-    px, py, pz = mat_t_vec(R, 0, bx, by, bz)
-    H = s[_WH:_WH + 9].reshape((3, 3))
-    H[:, :] = 0.0
-    H[0, 1] = -pz
-    H[0, 2] = py
-    H[1, 0] = pz
-    H[1, 2] = -px
-    H[2, 0] = -py
-    H[2, 1] = px
-    Rm = s[_WRM:_WRM + 9].reshape((3, 3))
-    Rm[:, :] = 0.0
+    quat_to_matrix(s[0], s[1], s[2], s[3], s, _WR)
+    px, py, pz = mat_t_vec(s, _WR, bx, by, bz)
+    for i in range(9):
+        s[_WH + i] = 0.0
+        s[_WRM + i] = 0.0
+    s[_WH + 1] = -pz
+    s[_WH + 2] = py
+    s[_WH + 3] = pz
+    s[_WH + 5] = -px
+    s[_WH + 6] = -py
+    s[_WH + 7] = px
     v = sigma * sigma
-    Rm[0, 0] = v
-    Rm[1, 1] = v
-    Rm[2, 2] = v
-    return update(s, H, mx - px, my - py, mz - pz, Rm)
+    s[_WRM] = v
+    s[_WRM + 4] = v
+    s[_WRM + 8] = v
+    return update(s, mx - px, my - py, mz - pz)
 
 
 @jit(inline="always")
@@ -222,38 +242,29 @@ def mekf_step(t, bus, p, s, w):
     s[45] = my
     s[46] = mz
     ok = True
-    R = s[_WR:_WR + 9]
     # star tracker: the attitude error measured directly, H = I, noise C diag(sx^2, sx^2, sz^2) C^T
     if p[15] != 0.0 and bus[w[2]] != 0.0 and bus[w[3]] > s[47]:
         s[47] = bus[w[3]]
         o = w[1]
         e0, e1, e2, e3 = quat_mul(-s[0], -s[1], -s[2], s[3], bus[o], bus[o + 1], bus[o + 2], bus[o + 3])
         y0, y1, y2 = quat_rotvec(e0, e1, e2, e3)
-        H = s[_WH:_WH + 9].reshape((3, 3))
-        H[:, :] = 0.0
-        H[0, 0] = 1.0
-        H[1, 1] = 1.0
-        H[2, 2] = 1.0
-        Rm = s[_WRM:_WRM + 9].reshape((3, 3))
         vx = p[2] * p[2]
         vz = p[3] * p[3]
         for i in range(3):
             for j in range(3):
-                Rm[i, j] = vx * (p[4 + 3 * i] * p[4 + 3 * j] + p[5 + 3 * i] * p[5 + 3 * j]) \
+                s[_WRM + 3 * i + j] = vx * (p[4 + 3 * i] * p[4 + 3 * j] + p[5 + 3 * i] * p[5 + 3 * j]) \
                     + vz * p[6 + 3 * i] * p[6 + 3 * j]
-        ok = update(s, H, y0, y1, y2, Rm)
+        ok = update_attitude(s, y0, y1, y2)
     if ok and p[16] != 0.0 and bus[w[5]] > s[48]:
         s[48] = bus[w[5]]
-        quat_to_matrix(s[0], s[1], s[2], s[3], R, 0)
         f = w[6]
         m = w[4]
-        ok = vector_update(s, R, bus[f], bus[f + 1], bus[f + 2], bus[m], bus[m + 1], bus[m + 2], p[13])
+        ok = vector_update(s, bus[f], bus[f + 1], bus[f + 2], bus[m], bus[m + 1], bus[m + 2], p[13])
     if ok and p[17] != 0.0 and bus[w[8]] != 0.0 and bus[w[9]] > s[49]:
         s[49] = bus[w[9]]
-        quat_to_matrix(s[0], s[1], s[2], s[3], R, 0)
         f = w[10]
         m = w[7]
-        ok = vector_update(s, R, bus[f], bus[f + 1], bus[f + 2], bus[m], bus[m + 1], bus[m + 2], p[14])
+        ok = vector_update(s, bus[f], bus[f + 1], bus[f + 2], bus[m], bus[m + 1], bus[m + 2], p[14])
     # outputs: R_est, omega_est, bias_est, P_diag, est_error
     quat_to_matrix(s[0], s[1], s[2], s[3], bus, w[12])
     o = w[13]

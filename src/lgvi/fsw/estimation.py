@@ -146,9 +146,9 @@ class MEKF(Component):
     arw, rrw : float
         The gyro's angle random walk (rad/s^0.5) and rate random walk (rad/s^1.5) the filter assumes.
     star_tracker : StarTracker, True or None
-        Its ``sigma_cross``, ``sigma_about`` and ``case`` set the update's noise; ``True``: the
-        spacecraft's own star tracker (the one ``StarTracker`` among its sensors, found when the run
-        is built: what a scenario file writes, ``star_tracker = true``); None: no update.
+        Its ``sigma_cross``, ``sigma_about`` and ``case`` set the update's noise; ``True``: those of
+        the spacecraft's one star tracker, found when the run is built (what a scenario file's
+        ``star_tracker = true`` says); None: no update.
     mag_sigma : float or None
         The magnetometer's noise (T); None: no magnetometer update.
     sun_sigma : float or None
@@ -175,18 +175,13 @@ class MEKF(Component):
         for name, v in (("arw", self.arw), ("rrw", self.rrw)):
             if v < 0.0:
                 raise ValueError(f"{name} must be a nonnegative noise density, got {v}")
-        if star_tracker is True:
-            self.spacecraft_star_tracker = True          # found on the spacecraft by setup()
-            star_tracker = None
-        elif star_tracker is not None and not isinstance(star_tracker, StarTracker):
-            raise TypeError(f"star_tracker must be a StarTracker, True (the spacecraft's own) or None, got "
+        if star_tracker is not None and star_tracker is not True and not isinstance(star_tracker, StarTracker):
+            raise TypeError("star_tracker must be a StarTracker, True (the spacecraft's) or None, got "
                             f"{star_tracker!r}")
-        else:
-            self.spacecraft_star_tracker = False
         self.star_tracker = star_tracker
         self.mag_sigma = None if mag_sigma is None else as_float(mag_sigma, "mag_sigma", positive=True)
         self.sun_sigma = None if sun_sigma is None else as_float(sun_sigma, "sun_sigma", positive=True)
-        if star_tracker is not None:
+        if isinstance(star_tracker, StarTracker):
             self._check_star_tracker(star_tracker)
         if R0 is not None and hasattr(R0, "as_matrix") and not R0.single:
             R0 = R0.as_matrix()
@@ -212,6 +207,9 @@ class MEKF(Component):
 
     def params(self) -> np.ndarray:
         st = self.star_tracker
+        if st is True:
+            raise ValueError("MEKF(star_tracker=True): the star tracker is the spacecraft's, known once the run is "
+                             "built (Component.setup); params() needs it")
         case = np.eye(3) if st is None else st.case
         return np.concatenate([[self.arw, self.rrw, 0.0 if st is None else st.sigma_cross,
                                 0.0 if st is None else st.sigma_about], case.ravel(),
@@ -237,13 +235,6 @@ class MEKF(Component):
     def setup(self, ctx: LoopContext) -> None:
         """Each update the filter makes needs its sensor (and the reference vector) on the spacecraft."""
         sc = ctx.spacecraft
-        if self.spacecraft_star_tracker:
-            found = [c for c in sc.components() if isinstance(c, StarTracker)]
-            if len(found) != 1:
-                raise ValueError(f"MEKF(star_tracker=True) takes the spacecraft's one StarTracker; its sensors hold "
-                                 f"{len(found)}")
-            self._check_star_tracker(found[0])
-            self.star_tracker = found[0]
         have = {getattr(c, "kind", "") for c in sc.components()}
         need = [("gyro", True, "a Gyro (the filter propagates with gyro_B)"),
                 ("star_tracker", self.star_tracker is not None, "a StarTracker (star_tracker= is given)"),
@@ -254,6 +245,13 @@ class MEKF(Component):
         for kind, wanted, what in need:
             if wanted and kind not in have:
                 raise ValueError(f"MEKF: the spacecraft needs {what}; its components are {sorted(have)}")
+        if self.star_tracker is True:             # this run's copy takes the spacecraft's star tracker
+            found = [c for c in sc.components() if isinstance(c, StarTracker)]
+            if len(found) != 1:
+                raise ValueError(f"MEKF(star_tracker=True) takes the spacecraft's star tracker and needs exactly one; "
+                                 f"the spacecraft has {len(found)}: give the StarTracker itself")
+            self._check_star_tracker(found[0])
+            self.star_tracker = found[0]
 
     def __repr__(self) -> str:
         return (f"MEKF(rate={self.rate}, star_tracker={self.star_tracker is not None}, "

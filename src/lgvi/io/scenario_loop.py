@@ -454,7 +454,11 @@ def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DE
         ``p95``, ``max`` over the records from the settle time on (``None`` when not settled
         or not recorded); ``disturbances``: for each disturbance torque recorded
         (``tau_<kind>_B``), its largest and RMS norm (N m) and the momentum it adds in the body
-        frame, ``|integral tau dt|`` (N m s, trapezoid over the records).
+        frame, ``|integral tau dt|`` (N m s, trapezoid over the records); ``knowledge`` (where an
+        estimator recorded ``est_error``, see
+        :func:`knowledge_summary`); with an estimator the control law points the estimate, so
+        ``error_deg`` is the error it sees and ``true_error_deg`` (``mean``, ``p95``, ``max`` from
+        the settle time on; ``R_ref``, ``R_est`` and ``est_error`` recorded) that of the truth.
     """
     import math
 
@@ -487,6 +491,24 @@ def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DE
         out["wheel_momentum_total_peak_Nms"] = float(np.linalg.norm(hw @ axes, axis=1).max())
         out["wheel_momentum_final_Nms"] = float(np.linalg.norm(hw[-1] @ axes))
     out["detumble_time_s"] = None
+
+    if "est_error" in sig and len(ts):
+        out["knowledge"] = knowledge_summary(sig)
+        if out["settle_time_s"] is not None and "R_ref" in sig and "R_est" in sig:
+            from ..so3 import exp, log
+
+            # the controller points the estimate (sigma_BR); the truth is R = R_est Exp(est_error)
+            k = int(np.searchsorted(ts, out["settle_time_s"]))
+            R_ref = np.asarray(sig["R_ref"])[k:].reshape(-1, 3, 3)
+            R_est = np.asarray(sig["R_est"])[k:].reshape(-1, 3, 3)
+            # records where a guidance law wrote a reference and the filter an estimate (a mode without
+            # guidance, a detumble, leaves R_ref zero)
+            live = (np.linalg.det(R_ref) > 0.5) & (np.linalg.det(R_est) > 0.5)
+            if live.any():
+                R = R_est[live] @ exp(np.asarray(sig["est_error"])[k:][live])
+                true = np.degrees(np.linalg.norm(log(np.swapaxes(R_ref[live], 1, 2) @ R), axis=1))
+                out["true_error_deg"] = {"mean": float(true.mean()), "p95": float(np.percentile(true, 95.0)),
+                                         "max": float(true.max())}
     if "mode" in sig and len(ts):
         m = np.asarray(sig["mode"]).reshape(len(ts), -1)[:, 0]
         start = np.concatenate([[0], np.flatnonzero(np.diff(m)) + 1])
@@ -537,6 +559,40 @@ def _stats(x: np.ndarray) -> dict[str, float] | None:
         return None
     return {"mean": float(x.mean()), "p95": float(np.percentile(x, 95.0)), "max": float(x.max())}
 
+ARCSEC = 180.0 / np.pi * 3600.0       # arcseconds per radian
+
+
+def knowledge_summary(sig: dict[str, np.ndarray]) -> dict[str, Any]:
+    """Attitude knowledge statistics from an estimator's records (``est_error``, ``R = R_est
+    Exp(est_error)``; ``P_diag``, its covariance diagonal, when recorded).
+
+    Returns
+    -------
+    dict
+        ``error_arcsec``: ``mean``, ``p95``, ``max`` and ``final`` of the angle ``|est_error|``
+        over all records, and ``steady``: the same over the second half of the records (after the
+        filter's transient); ``rms_axis_arcsec``: the RMS of each body-axis component over the
+        second half; where ``P_diag`` was recorded, ``sigma3_final_arcsec``: ``3 sqrt(P_diag[:3])``
+        at the last record and ``inside_3sigma``: the fraction of axis components within their
+        3-sigma bound, over all records and over the second half.
+    """
+    e = np.asarray(sig["est_error"], dtype=float) * ARCSEC
+    ang = np.linalg.norm(e, axis=1)
+    half = len(ang) // 2
+
+    def stats(a: np.ndarray) -> dict[str, float]:
+        return {"mean": float(a.mean()), "p95": float(np.percentile(a, 95.0)), "max": float(a.max()),
+                "final": float(a[-1])}
+
+    out: dict[str, Any] = {"error_arcsec": {**stats(ang), "steady": stats(ang[half:])},
+                           "rms_axis_arcsec": np.sqrt(np.mean(e[half:] ** 2, axis=0)).tolist()}
+    if "P_diag" in sig:
+        s3 = 3.0 * np.sqrt(np.maximum(np.asarray(sig["P_diag"], dtype=float)[:, :3], 0.0)) * ARCSEC
+        inside = np.abs(e) <= s3
+        out["sigma3_final_arcsec"] = s3[-1].tolist()
+        out["inside_3sigma"] = {"all": float(inside.mean()), "steady": float(inside[half:].mean())}
+    return out
+
 
 def summary_lines(s: dict[str, Any]) -> list[str]:
     """The lines of ``summary.txt`` for :func:`loop_summary`'s ``s``."""
@@ -550,6 +606,10 @@ def summary_lines(s: dict[str, Any]) -> list[str]:
         e = s["error_deg"]
         lines.append(f"pointing:      settled below {s['settle_deg']:g} deg at t = {s['settle_time_s']:g} s; error "
                      f"after it mean {e['mean']:.3g}, 95th percentile {e['p95']:.3g}, max {e['max']:.3g} deg")
+    if s.get("true_error_deg") is not None:
+        e = s["true_error_deg"]
+        lines.append(f"               (the estimate's; the truth's after it: mean {e['mean']:.3g}, 95th percentile "
+                     f"{e['p95']:.3g}, max {e['max']:.3g} deg)")
     rate = f"final rate:    |omega| {s['rate_final_deg_s']:.4g} deg/s"
     if s["rate_error_final_deg_s"] is not None:
         rate += f", |omega_BR| {s['rate_error_final_deg_s']:.3g} deg/s"
@@ -557,6 +617,17 @@ def summary_lines(s: dict[str, Any]) -> list[str]:
     if "wheel_momentum_peak_Nms" in s:
         lines.append(f"wheels:        momentum peak {s['wheel_momentum_peak_Nms']:.4g} N m s (one wheel), "
                      f"{s['wheel_momentum_total_peak_Nms']:.4g} N m s (all, body frame)")
+    k = s.get("knowledge")
+    if k is not None:
+        e, st = k["error_arcsec"], k["error_arcsec"]["steady"]
+        lines.append(f"knowledge:     |est_error| mean {e['mean']:.3g}, 95th percentile {e['p95']:.3g}, max "
+                     f"{e['max']:.3g}, final {e['final']:.3g} arcsec; second half mean {st['mean']:.3g}, 95th "
+                     f"percentile {st['p95']:.3g} arcsec, RMS per axis "
+                     + ", ".join(f"{v:.3g}" for v in k["rms_axis_arcsec"]) + " arcsec")
+        if "inside_3sigma" in k:
+            lines.append(f"               inside 3 sigma {k['inside_3sigma']['all']:.1%} of axis values "
+                         f"({k['inside_3sigma']['steady']:.1%} in the second half); final 3 sigma "
+                         + ", ".join(f"{v:.3g}" for v in k["sigma3_final_arcsec"]) + " arcsec")
     if s.get("modes"):
         lines.append("modes:         " + ", ".join(f"{m['mode']} from {m['from_s']:g} s" for m in s["modes"]))
     if s.get("detumble_time_s") is not None:
@@ -576,4 +647,4 @@ def summary_lines(s: dict[str, Any]) -> list[str]:
     return lines
 
 
-__all__ += ["loop_summary", "summary_lines", "SETTLE_DEG"]
+__all__ += ["loop_summary", "knowledge_summary", "summary_lines", "SETTLE_DEG"]

@@ -1,10 +1,10 @@
 """Figures of what the compiled loop recorded (``traj.signals``, ``docs/loop.md``): the attitude
 error and rate error (:func:`pointing`), the requested and applied magnetic dipoles
 (:func:`dipoles`), the active mode (:func:`modes`), the estimator's error with its 3-sigma bounds
-(:func:`knowledge`), the disturbance torques (:func:`disturbances`) and a mission's overview
+(:func:`estimation`), the disturbance torques (:func:`disturbances`) and a mission's overview
 (:func:`mission`: rate, modes, control and knowledge errors, wheel momentum);
-:func:`save_loop_figures` writes those the run has. The wheel speeds and motor torques are :func:`lgvi.plot.wheels`, the body rates
-:func:`lgvi.plot.rates`."""
+:func:`save_loop_figures` writes those the run has. The wheel speeds and motor torques are
+:func:`lgvi.plot.wheels`, the body rates :func:`lgvi.plot.rates`."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-__all__ = ["pointing", "dipoles", "modes", "knowledge", "disturbances", "mission", "save_loop_figures"]
+__all__ = ["pointing", "dipoles", "modes", "estimation", "disturbances", "mission", "save_loop_figures"]
 
 #: Colours of the modes in :func:`mission` (mode index modulo the length).
 MODE_COLOURS = ("#f4cccc", "#fff2cc", "#d9ead3", "#cfe2f3", "#d9d2e9")
@@ -106,32 +106,6 @@ def modes(traj: Any, ax: Any = None) -> Any:
     ax.set_xlabel(_UNITS["t"])
     ax.set_title("Active mode (ModeRules)")
     ax.grid(True, alpha=0.3)
-    return fig
-
-
-def knowledge(traj: Any, axes: Sequence[Any] | None = None, *, max_points: int | None = None) -> Any:
-    """The estimator's true attitude error ``est_error`` (``R = R_est Exp(est_error)``, body axes,
-    degrees, its absolute value on a log scale) and its 3-sigma bound from the covariance
-    ``P_diag``, one panel per axis."""
-    from . import MAX_POINTS, _UNITS, _axes_list, _thin_minmax
-
-    sig, t = _signals(traj, "knowledge", ("est_error",))
-    n = max_points or MAX_POINTS
-    fig, axs = _axes_list(axes, 3, "knowledge")
-    err = np.degrees(np.asarray(sig["est_error"]))
-    bound = 3.0 * np.degrees(np.sqrt(np.asarray(sig["P_diag"])[:, :3])) if "P_diag" in sig else None
-    for i, ax in enumerate(axs):          # log scale: a detumble's large errors and a pointing's small ones
-        tt, yy = _thin_minmax(t, np.maximum(np.abs(err[:, i]), 1e-9), n)
-        ax.semilogy(tt, yy, lw=0.6, color=("tab:red", "tab:green", "tab:blue")[i], label=f"|error {'xyz'[i]}|")
-        if bound is not None:
-            tb, bb = _thin_minmax(t, np.maximum(bound[:, i], 1e-9), n)
-            ax.semilogy(tb, bb, "k-", lw=0.9, label=r"$3\sigma$")
-            ax.set_ylim(max(np.percentile(bound[:, i], 1.0) * 1e-3, 1e-9), bound[:, i].max() * 3.0)
-        ax.set_ylabel(f"{'xyz'[i]} (deg)")
-        ax.grid(True, alpha=0.3)
-        ax.legend(loc="upper right", fontsize="small", ncols=2, framealpha=0.85)
-    axs[0].set_title("Knowledge error: estimate against truth, body axes, with the filter's 3-sigma bounds")
-    axs[-1].set_xlabel(_UNITS["t"])
     return fig
 
 
@@ -228,11 +202,77 @@ def mission(traj: Any, axes: Sequence[Any] | None = None, *, max_points: int | N
     return fig
 
 
+ARCSEC = 180.0 / np.pi * 3600.0          # arcseconds per radian
+DEG_H = 180.0 / np.pi * 3600.0           # deg/h per rad/s
+
+
+def _band_limits(err: np.ndarray, sig3: np.ndarray) -> tuple[float, float]:
+    """Half-height of a panel: 1.3 x the largest of |error| and 3 sigma after the first tenth of the
+    records (the filter's transient), and the peak over all records (drawn off the axis if larger)."""
+    tail = slice(len(err) // 10, None)
+    lim = 1.3 * float(max(np.nanmax(np.abs(err[tail])), np.nanmax(sig3[tail])))
+    peak = float(max(np.nanmax(np.abs(err)), np.nanmax(sig3)))
+    return (lim if lim > 0.0 else 1.0), peak
+
+
+def estimation(traj: Any, axes: Sequence[Any] | None = None, *, max_points: int | None = None) -> Any:
+    """The estimator's attitude error ``est_error`` (``R = R_est Exp(est_error)``, arcsec, one panel
+    per body axis) inside its 3-sigma bounds ``3 sqrt(P_diag[:3])`` (shaded), and, where the gyro's
+    true bias ``gyro_bias`` and the estimate ``bias_est`` were recorded, the bias error (deg/h)
+    inside ``3 sqrt(P_diag[3:])``, against time.
+
+    Each panel's height is set by the run after its first tenth (the filter's transient); a larger
+    early error is drawn off the axis and its peak written in the panel."""
+    from . import MAX_POINTS, _UNITS, _axes_list, _figure, _thin_minmax
+
+    sig, t = _signals(traj, "estimation", ("est_error",))
+    if "P_diag" not in sig:
+        raise ValueError("estimation: the run recorded est_error but not P_diag (the MEKF's covariance diagonal); "
+                         "record both")
+    n = max_points or MAX_POINTS
+    P = np.asarray(sig["P_diag"])
+    panels = [(np.asarray(sig["est_error"]) * ARCSEC, np.sqrt(np.maximum(P[:, :3], 0.0)) * 3 * ARCSEC,
+               "attitude", "arcsec")]
+    if "gyro_bias" in sig and "bias_est" in sig:
+        panels.append(((np.asarray(sig["gyro_bias"]) - np.asarray(sig["bias_est"])) * DEG_H,
+                       np.sqrt(np.maximum(P[:, 3:6], 0.0)) * 3 * DEG_H, "bias", "deg/h"))
+    if axes is None:
+        fig = _figure((9.0, 1.7 * 3 * len(panels) + 0.6))
+        axs = list(fig.subplots(3 * len(panels), 1, sharex=True))
+    else:
+        fig, axs = _axes_list(axes, 3 * len(panels), "estimation")
+    colours = ("tab:red", "tab:green", "tab:blue")
+    for j, (err, sig3, what, unit) in enumerate(panels):
+        for i in range(3):
+            ax = axs[3 * j + i]
+            tt, hi = _thin_minmax(t, sig3[:, i], n)
+            ax.fill_between(tt, -hi, hi, color=colours[i], alpha=0.15, lw=0,
+                            label=r"$\pm 3\sigma$ (covariance)")
+            ax.plot(tt, hi, lw=0.6, color=colours[i], alpha=0.6)
+            ax.plot(tt, -hi, lw=0.6, color=colours[i], alpha=0.6)
+            tt, yy = _thin_minmax(t, err[:, i], n)
+            ax.plot(tt, yy, lw=0.9, color="k", label="error")
+            lim, peak = _band_limits(err[:, i], sig3[:, i])
+            ax.set_ylim(-lim, lim)
+            if peak > lim:
+                ax.text(0.01, 0.95, f"early transient off the axis (peak {peak:.3g} {unit})", transform=ax.transAxes,
+                        va="top", fontsize="x-small", color="0.3")
+            inside = np.mean(np.abs(err[:, i]) <= sig3[:, i])
+            ax.set_ylabel(f"{what} {'xyz'[i]}\n({unit})")
+            ax.text(0.99, 0.05, f"inside 3$\\sigma$: {inside:.1%}", transform=ax.transAxes, ha="right",
+                    va="bottom", fontsize="x-small")
+            ax.grid(True, alpha=0.3)
+    axs[0].legend(loc="upper right", fontsize="small", ncols=2, framealpha=0.85)
+    axs[0].set_title("Estimation error (truth vs estimate, body frame) and the filter's 3-sigma bounds")
+    axs[-1].set_xlabel(_UNITS["t"])
+    return fig
+
+
 def save_loop_figures(traj: Any, outdir: str | os.PathLike[str], *, prefix: str = "") -> list[Path]:
-    """Write ``pointing.png``, ``dipoles.png``, ``modes.png``, ``knowledge.png``,
+    """Write ``pointing.png``, ``dipoles.png``, ``modes.png``, ``estimation.png``,
     ``disturbances.png`` and ``mission.png``, each where the run recorded what it draws
-    (``sigma_BR``; ``dipole_B`` or ``dipole_request_B``; ``mode``; ``est_error``; a disturbance
-    torque; ``mode``). Returns the files."""
+    (``sigma_BR``; ``dipole_B`` or ``dipole_request_B``; ``mode``; ``est_error`` and ``P_diag``;
+    a disturbance torque; ``mode``). Returns the files."""
     from . import _save
 
     sig = getattr(traj, "signals", None) or {}
@@ -241,12 +281,11 @@ def save_loop_figures(traj: Any, outdir: str | os.PathLike[str], *, prefix: str 
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
     written = []
-    for name, fn, need in (("pointing", pointing, ("sigma_BR",)), ("dipoles", dipoles, ("dipole_B", "dipole_request_B")),
-                           ("modes", modes, ("mode",)), ("knowledge", knowledge, ("est_error",)),
-                           ("disturbances", disturbances,
-                            tuple(n for n in sig if n.startswith("tau_") and n not in ("tau_dist_B", "tau_control_B",
-                                                                                      "tau_command_B"))),
-                           ("mission", mission, ("mode",))):
-        if any(n in sig for n in need):
+    torques = tuple(n for n in sig if n.startswith("tau_") and n not in ("tau_dist_B", "tau_control_B", "tau_command_B"))
+    figures = (("pointing", pointing, ("sigma_BR",)), ("dipoles", dipoles, ("dipole_B", "dipole_request_B")),
+               ("modes", modes, ("mode",)), ("estimation", estimation, ("est_error", "P_diag")),
+               ("disturbances", disturbances, torques), ("mission", mission, ("mode",)))
+    for name, fn, need in figures:
+        if all(n in sig for n in need) if name == "estimation" else any(n in sig for n in need):
             written.append(_save(fn(traj), out / f"{prefix}{name}.png"))
     return written
