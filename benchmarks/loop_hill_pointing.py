@@ -115,10 +115,9 @@ def matrix_of(sigma: np.ndarray) -> np.ndarray:
 def run_basilisk() -> dict:
     """The scenario in Basilisk; the logged arrays every ``DECIMATE`` steps and the CPU time of
     ``ExecuteSimulation()``."""
-    from Basilisk.architecture import messaging
-    from Basilisk.fswAlgorithms import attTrackingError, hillPoint, mrpFeedback, rwMotorTorque
-    from Basilisk.simulation import GravityGradientEffector, reactionWheelStateEffector, simpleNav, spacecraft
-    from Basilisk.utilities import SimulationBaseClass, macros, simHelpers, simIncludeGravBody, simIncludeRW
+    from Basilisk.utilities import SimulationBaseClass, macros
+
+    import _basilisk as bsk
 
     r0, v0, R0, omega0 = initial_state()
     sim = SimulationBaseClass.SimBaseClass()
@@ -126,62 +125,19 @@ def run_basilisk() -> dict:
     dyn_step, fsw_step = macros.sec2nano(DT), macros.sec2nano(FSW_DT)
     proc.addTask(sim.CreateNewTask("dyn", dyn_step), 200)          # the dynamics first at a common time
     proc.addTask(sim.CreateNewTask("fsw", fsw_step), 100)
-    sc = spacecraft.Spacecraft()
-    sc.ModelTag = "cubesat"
-    sc.hub.mHub = 8.0
-    sc.hub.r_BcB_B = [[0.0], [0.0], [0.0]]
-    sc.hub.IHubPntBc_B = simHelpers.np2EigenMatrix3d(INERTIA.ravel().tolist())
+    sc = bsk.hub("cubesat", 8.0, INERTIA, r0, v0, mrp_of(R0), omega0)
     sim.AddModelToTask("dyn", sc, 1)
-    grav = simIncludeGravBody.gravBodyFactory()
-    earth = grav.createEarth()
-    earth.isCentralBody = True
-    grav.addBodiesTo(sc)
-    rwf = simIncludeRW.rwFactory()
-    for a, w in zip(AXES, SPEED0):
-        rwf.create("custom", a.tolist(), Js=JS, Omega=float(w) * 60.0 / (2.0 * np.pi), u_max=U_MAX,
-                   RWModel=messaging.BalancedWheels)
-    rwe = reactionWheelStateEffector.ReactionWheelStateEffector()
-    rwf.addToSpacecraft("rw", rwe, sc)
+    planet = bsk.earth(sc)
+    rwe, rwf = bsk.wheels(sc, AXES, JS, SPEED0, U_MAX)
     sim.AddModelToTask("dyn", rwe, 2)
-    gg = GravityGradientEffector.GravityGradientEffector()
-    gg.ModelTag = sc.ModelTag
-    gg.addPlanetName(earth.planetName)
-    sc.addDynamicEffector(gg)
+    gg = bsk.gravity_gradient(sc, planet, tag=sc.ModelTag)
     sim.AddModelToTask("dyn", gg, 3)
-    nav = simpleNav.SimpleNav()
-    sim.AddModelToTask("dyn", nav, 0)
-    hp = hillPoint.hillPoint()
-    sim.AddModelToTask("fsw", hp, 10)
-    err = attTrackingError.attTrackingError()
-    sim.AddModelToTask("fsw", err, 9)
-    ctrl = mrpFeedback.mrpFeedback()
-    sim.AddModelToTask("fsw", ctrl, 8)
-    ctrl.K, ctrl.Ki, ctrl.P = K, -1.0, P
-    mt = rwMotorTorque.rwMotorTorque()
-    sim.AddModelToTask("fsw", mt, 7)
-    mt.controlAxes_B = [1, 0, 0, 0, 1, 0, 0, 0, 1]
+    fsw = bsk.hill_pointing_fsw(sim, "dyn", "fsw", sc, rwe, rwf, INERTIA, K, P)  # noqa: F841 (kept alive)
     every = macros.sec2nano(DT * DECIMATE)
     state_log = sc.scStateOutMsg.recorder(every)
     speed_log = rwe.rwSpeedOutMsg.recorder(every)
     for log in (state_log, speed_log):
         sim.AddModelToTask("dyn", log)
-    vc = messaging.VehicleConfigMsg().write(messaging.VehicleConfigMsgPayload(ISCPntB_B=INERTIA.ravel().tolist()))
-    rw_params = rwf.getConfigMessage()
-    sc.hub.r_CN_NInit = r0.tolist()
-    sc.hub.v_CN_NInit = v0.tolist()
-    sc.hub.sigma_BNInit = [[s] for s in mrp_of(R0)]
-    sc.hub.omega_BN_BInit = [[w] for w in omega0]
-    nav.scStateInMsg.subscribeTo(sc.scStateOutMsg)
-    hp.transNavInMsg.subscribeTo(nav.transOutMsg)
-    err.attNavInMsg.subscribeTo(nav.attOutMsg)
-    err.attRefInMsg.subscribeTo(hp.attRefOutMsg)
-    ctrl.guidInMsg.subscribeTo(err.attGuidOutMsg)
-    ctrl.vehConfigInMsg.subscribeTo(vc)
-    ctrl.rwParamsInMsg.subscribeTo(rw_params)
-    ctrl.rwSpeedsInMsg.subscribeTo(rwe.rwSpeedOutMsg)
-    mt.rwParamsInMsg.subscribeTo(rw_params)
-    mt.vehControlInMsg.subscribeTo(ctrl.cmdTorqueOutMsg)
-    rwe.rwMotorCmdInMsg.subscribeTo(mt.rwMotorTorqueOutMsg)
     sim.InitializeSimulation()
     sim.ConfigureStopTime(macros.sec2nano(STEPS * DT))
     c0 = time.process_time()
