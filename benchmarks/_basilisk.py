@@ -211,3 +211,20 @@ def shadow_of(recorder) -> np.ndarray:
     """The visible fraction from an ``eclipse`` recorder (``illuminationFactor``, or ``shadowFactor``)."""
     return np.asarray(recorder.illuminationFactor if hasattr(recorder, "illuminationFactor")
                       else recorder.shadowFactor)
+
+
+def run_child(script: str, python: str | None, *args: str) -> dict:
+    """Runs ``script --basilisk-only OUT *args`` with ``python`` (an interpreter with Basilisk;
+    ``None``: this one) and returns the arrays it saved in ``OUT``, ``cpu`` as a float."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    out = Path(os.environ.get("TMPDIR", "/tmp")) / f"lgvi_bsk_{Path(script).stem}_{os.getpid()}.npz"
+    subprocess.run([python or sys.executable, str(script), "--basilisk-only", str(out), *args], check=True)
+    with np.load(out) as z:
+        d = {k: z[k] for k in z.files}
+    out.unlink()
+    d["cpu"] = float(d["cpu"])
+    return d

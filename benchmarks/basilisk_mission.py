@@ -37,8 +37,6 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import json
-import os
-import subprocess
 import sys
 import time
 import tomllib
@@ -159,14 +157,9 @@ def run_basilisk(h: float = H) -> dict:
 
 def basilisk_in(python: str | None, h: float = H) -> dict:
     """:func:`run_basilisk` in a child process (``python``: an interpreter with Basilisk)."""
-    out = Path(os.environ.get("TMPDIR", "/tmp")) / f"lgvi_bsk_mission_{os.getpid()}.npz"
-    subprocess.run([python or sys.executable, str(Path(__file__).resolve()), "--basilisk-only", str(out),
-                    "--h", repr(h)], check=True)
-    with np.load(out) as z:
-        d = {k: z[k] for k in z.files}
-    out.unlink()
-    d["cpu"] = float(d["cpu"])
-    return d
+    import _basilisk as bsk
+
+    return bsk.run_child(__file__, python, "--h", repr(h))
 
 
 # ------------------------------------------------------------------------------------------------

@@ -25,8 +25,6 @@ running at every step. ``loop_hill_pointing.npz`` beside this script keeps Basil
 from __future__ import annotations
 
 import argparse
-import json
-import os
 import subprocess
 import sys
 import time
@@ -153,14 +151,9 @@ def run_basilisk() -> dict:
 def basilisk_in(python: str | None, repeat: int = 1) -> dict:
     """:func:`run_basilisk` ``repeat`` times in a child process (``python``: an interpreter with
     Basilisk; ``None``: this one): the first run's arrays, the median CPU time."""
-    out = Path(os.environ.get("TMPDIR", "/tmp")) / f"lgvi_bsk_hill_{os.getpid()}.npz"
-    subprocess.run([python or sys.executable, str(Path(__file__).resolve()), "--basilisk-only", str(out),
-                    "--repeat", str(repeat)], check=True)
-    with np.load(out) as z:
-        d = {k: z[k] for k in z.files}
-    out.unlink()
-    d["cpu"] = float(d["cpu"])
-    return d
+    import _basilisk as bsk
+
+    return bsk.run_child(__file__, python, "--repeat", str(repeat))
 
 
 # ------------------------------------------------------------------------------------------------
