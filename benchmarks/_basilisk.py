@@ -74,7 +74,6 @@ def hill_pointing_fsw(sim, dyn: str, fsw: str, sc, rwe, rwf, inertia, K: float, 
     """Perfect navigation (``simpleNav``, no noise, priority 0 in ``dyn``), then in ``fsw``:
     ``hillPoint`` -> ``attTrackingError`` -> ``mrpFeedback`` (no integral term) -> ``rwMotorTorque``
     (body axes) -> the wheels. Returns the modules by name (the messages must outlive the run)."""
-    from Basilisk.architecture import messaging
     from Basilisk.fswAlgorithms import attTrackingError, hillPoint, mrpFeedback, rwMotorTorque
     from Basilisk.simulation import simpleNav
 
@@ -90,13 +89,24 @@ def hill_pointing_fsw(sim, dyn: str, fsw: str, sc, rwe, rwf, inertia, K: float, 
     mt = rwMotorTorque.rwMotorTorque()
     sim.AddModelToTask(fsw, mt, 7)
     mt.controlAxes_B = [1, 0, 0, 0, 1, 0, 0, 0, 1]
+    hp.transNavInMsg.subscribeTo(nav.transOutMsg)
+    vc, rw_params = connect_mrp_chain(sc, rwe, rwf, inertia, nav, hp.attRefOutMsg, err, ctrl, mt)
+    return dict(nav=nav, hp=hp, err=err, ctrl=ctrl, mt=mt, vc=vc, rw_params=rw_params)
+
+
+def connect_mrp_chain(sc, rwe, rwf, inertia, nav, ref_msg, err, ctrl, mt):
+    """Subscribes ``nav`` (``simpleNav``) to ``sc``, ``err`` (``attTrackingError``) to the
+    navigation and the reference message ``ref_msg``, ``ctrl`` (``mrpFeedback``) to ``err``, the
+    vehicle (``inertia``) and the wheels, ``mt`` (``rwMotorTorque``) to ``ctrl`` and the wheels
+    ``rwe`` to ``mt``. Returns the vehicle and wheel configuration messages (keep them alive)."""
+    from Basilisk.architecture import messaging
+
     vc = messaging.VehicleConfigMsg().write(messaging.VehicleConfigMsgPayload(
         ISCPntB_B=np.asarray(inertia, dtype=float).ravel().tolist()))
     rw_params = rwf.getConfigMessage()
     nav.scStateInMsg.subscribeTo(sc.scStateOutMsg)
-    hp.transNavInMsg.subscribeTo(nav.transOutMsg)
     err.attNavInMsg.subscribeTo(nav.attOutMsg)
-    err.attRefInMsg.subscribeTo(hp.attRefOutMsg)
+    err.attRefInMsg.subscribeTo(ref_msg)
     ctrl.guidInMsg.subscribeTo(err.attGuidOutMsg)
     ctrl.vehConfigInMsg.subscribeTo(vc)
     ctrl.rwParamsInMsg.subscribeTo(rw_params)
@@ -104,7 +114,7 @@ def hill_pointing_fsw(sim, dyn: str, fsw: str, sc, rwe, rwf, inertia, K: float, 
     mt.rwParamsInMsg.subscribeTo(rw_params)
     mt.vehControlInMsg.subscribeTo(ctrl.cmdTorqueOutMsg)
     rwe.rwMotorCmdInMsg.subscribeTo(mt.rwMotorTorqueOutMsg)
-    return dict(nav=nav, hp=hp, err=err, ctrl=ctrl, mt=mt, vc=vc, rw_params=rw_params)
+    return vc, rw_params
 
 
 def ephemeris_module(t_nodes, sun_nodes, gmst_nodes, node: float):
@@ -228,3 +238,26 @@ def run_child(script: str, python: str | None, *args: str) -> dict:
     out.unlink()
     d["cpu"] = float(d["cpu"])
     return d
+
+
+def record_and_run(sim, task: str, sc, rwe, every: float, stop: float) -> dict:
+    """Records the hub's state and the wheel speeds (four wheels) every ``every`` s in ``task``,
+    runs to ``stop`` s; the records, ``cpu`` (CPU seconds of ``ExecuteSimulation()``) and ``bsk``
+    (Basilisk's version)."""
+    import time
+
+    from Basilisk import __version__ as bsk_version
+    from Basilisk.utilities import macros
+
+    state_log = sc.scStateOutMsg.recorder(macros.sec2nano(every))
+    speed_log = rwe.rwSpeedOutMsg.recorder(macros.sec2nano(every))
+    for log in (state_log, speed_log):
+        sim.AddModelToTask(task, log)
+    sim.InitializeSimulation()
+    sim.ConfigureStopTime(macros.sec2nano(stop))
+    c0 = time.process_time()
+    sim.ExecuteSimulation()
+    cpu = time.process_time() - c0
+    return {"t": state_log.times() * 1e-9, "sigma": np.array(state_log.sigma_BN),
+            "omega": np.array(state_log.omega_BN_B), "wheel_speed": np.array(speed_log.wheelSpeeds)[:, :4],
+            "r": np.array(state_log.r_BN_N), "cpu": cpu, "bsk": str(bsk_version)}

@@ -131,21 +131,7 @@ def run_basilisk() -> dict:
     gg = bsk.gravity_gradient(sc, planet, tag=sc.ModelTag)
     sim.AddModelToTask("dyn", gg, 3)
     fsw = bsk.hill_pointing_fsw(sim, "dyn", "fsw", sc, rwe, rwf, INERTIA, K, P)  # noqa: F841 (kept alive)
-    every = macros.sec2nano(DT * DECIMATE)
-    state_log = sc.scStateOutMsg.recorder(every)
-    speed_log = rwe.rwSpeedOutMsg.recorder(every)
-    for log in (state_log, speed_log):
-        sim.AddModelToTask("dyn", log)
-    sim.InitializeSimulation()
-    sim.ConfigureStopTime(macros.sec2nano(STEPS * DT))
-    c0 = time.process_time()
-    sim.ExecuteSimulation()
-    cpu = time.process_time() - c0
-    from Basilisk import __version__ as bsk_version
-
-    return {"t": state_log.times() * 1e-9, "sigma": np.array(state_log.sigma_BN),
-            "omega": np.array(state_log.omega_BN_B), "wheel_speed": np.array(speed_log.wheelSpeeds)[:, :4],
-            "r": np.array(state_log.r_BN_N), "cpu": cpu, "bsk": str(bsk_version)}
+    return bsk.record_and_run(sim, "dyn", sc, rwe, DT * DECIMATE, STEPS * DT)
 
 
 def basilisk_in(python: str | None, repeat: int = 1) -> dict:
