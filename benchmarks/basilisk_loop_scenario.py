@@ -88,119 +88,32 @@ def ephemeris() -> None:
 
 
 def basilisk() -> None:
-    from Basilisk.architecture import messaging, sysModel
-    from Basilisk.simulation import (GravityGradientEffector, MtbEffector, eclipse, exponentialAtmosphere,
-                                     magneticFieldCenteredDipole, spacecraft, zeroWindModel)
-    from Basilisk.utilities import SimulationBaseClass, macros, simIncludeGravBody
+    from Basilisk.utilities import SimulationBaseClass, macros
 
     sys.path.insert(0, str(HERE))
-    from basilisk_environment import drag_effector, srp_effector
+    import _basilisk as bsk
 
     eph = json.loads(EPHEMERIS.read_text())
     assert eph["epoch"] == EPOCH.isoformat()
-    tn, sun_n, gmst_n = np.array(eph["t"]), np.array(eph["sun"]), np.array(eph["gmst"])
     fac = np.load(HERE / "basilisk_environment.npz")
-
-    class Ephemeris(sysModel.SysModel):
-        """Writes the sun (lgvi's nodes, interpolated) and the Earth (origin, J20002Pfix = R3(GMST))."""
-
-        def __init__(self):
-            super().__init__()
-            self.sunOutMsg = messaging.SpicePlanetStateMsg()
-            self.earthOutMsg = messaging.SpicePlanetStateMsg()
-
-        def UpdateState(self, CurrentSimNanos):
-            t = CurrentSimNanos * 1e-9
-            k = int(math.floor(t / NODE)) + 1                  # node k is at (k - 1) * NODE
-            q = t / NODE - math.floor(t / NODE)
-            sun = sun_n[k] + q * (sun_n[k + 1] - sun_n[k])
-            theta = gmst_n[k] + q * (gmst_n[k + 1] - gmst_n[k])
-            c, s = math.cos(theta), math.sin(theta)
-            sp = messaging.SpicePlanetStateMsgPayload()
-            sp.PositionVector = list(sun)
-            sp.PlanetName = "sun"
-            self.sunOutMsg.write(sp, CurrentSimNanos, self.moduleID)
-            ep = messaging.SpicePlanetStateMsgPayload()
-            ep.PositionVector = [0.0, 0.0, 0.0]
-            ep.PlanetName = "earth"
-            ep.J20002Pfix = [[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]
-            w = (gmst_n[k + 1] - gmst_n[k]) / NODE
-            ep.J20002Pfix_dot = [[-s * w, c * w, 0.0], [-c * w, -s * w, 0.0], [0.0, 0.0, 0.0]]
-            self.earthOutMsg.write(ep, CurrentSimNanos, self.moduleID)
 
     sim = SimulationBaseClass.SimBaseClass()
     proc = sim.CreateNewProcess("p")
     proc.addTask(sim.CreateNewTask("dyn", macros.sec2nano(H)))
-    eph_mod = Ephemeris()
-    eph_mod.ModelTag = "ephemeris"
+    eph_mod = bsk.ephemeris_module(eph["t"], eph["sun"], eph["gmst"], NODE)
     sim.AddModelToTask("dyn", eph_mod, 100)
 
-    sc = spacecraft.Spacecraft()
-    sc.ModelTag = "sixU"
-    sc.hub.mHub = MASS
-    sc.hub.IHubPntBc_B = J.tolist()
-    sc.hub.r_BcB_B = [[0.0], [0.0], [0.0]]
     u, i = 0.0, INC
     r0 = RADIUS * np.array([math.cos(u), math.cos(i) * math.sin(u), math.sin(i) * math.sin(u)])
     vmag = math.sqrt(MU / RADIUS)
     v0 = vmag * np.array([-math.sin(u), math.cos(i) * math.cos(u), math.sin(i) * math.cos(u)])
-    sc.hub.r_CN_NInit = r0.tolist()
-    sc.hub.v_CN_NInit = v0.tolist()
-    sc.hub.sigma_BNInit = SIGMA0.tolist()
-    sc.hub.omega_BN_BInit = OMEGA0.tolist()
-    grav = simIncludeGravBody.gravBodyFactory()
-    earth = grav.createEarth()
-    earth.isCentralBody = True
-    earth.mu = MU
-    grav.addBodiesTo(sc)
-
-    ggEff = GravityGradientEffector.GravityGradientEffector()
-    ggEff.addPlanetName(earth.planetName)
-    sc.addDynamicEffector(ggEff)
-
-    ecl = eclipse.Eclipse()
-    ecl.sunInMsg.subscribeTo(eph_mod.sunOutMsg)
-    ecl.addPlanetToModel(eph_mod.earthOutMsg)
-    ecl.addSpacecraftToModel(sc.scStateOutMsg)
-
-    atm = exponentialAtmosphere.ExponentialAtmosphere()
-    atm.baseDensity, atm.scaleHeight, atm.planetRadius = RHO0_H[0], RHO0_H[1], 6378136.6
-    atm.addSpacecraftToModel(sc.scStateOutMsg)
-    wind = zeroWindModel.ZeroWindModel()
-    wind.setPlanetOmega_N([0.0, 0.0, OMEGA_EARTH])
-    wind.setUseSpiceOmegaFlag(False)
-    wind.planetPosInMsg.subscribeTo(eph_mod.earthOutMsg)
-    wind.addSpacecraftToModel(sc.scStateOutMsg)
-
-    drag = drag_effector(fac)
-    drag.atmoDensInMsg.subscribeTo(atm.envOutMsgs[0])
-    drag.windVelInMsg.subscribeTo(wind.envOutMsgs[0])
-    sc.addDynamicEffector(drag)
-
-    srp = srp_effector(fac)
-    srp.sunInMsg.subscribeTo(eph_mod.sunOutMsg)
-    srp.sunEclipseInMsg.subscribeTo(ecl.eclipseOutMsgs[0])
-    sc.addDynamicEffector(srp)
-
-    mag = magneticFieldCenteredDipole.MagneticFieldCenteredDipole()
-    mag.g10, mag.g11, mag.h11 = (G10_G11_H11 * 1e-9).tolist()
-    mag.planetRadius = 6371.2e3
-    mag.planetPosInMsg.subscribeTo(eph_mod.earthOutMsg)
-    mag.addSpacecraftToModel(sc.scStateOutMsg)
-    mtb = MtbEffector.MtbEffector()
-    cmd = messaging.MTBCmdMsg().write(messaging.MTBCmdMsgPayload(mtbDipoleCmds=DIPOLE.tolist()))
-    pmsg = messaging.MTBArrayConfigMsg().write(messaging.MTBArrayConfigMsgPayload(
-        numMTB=3, GtMatrix_B=list(np.eye(3).ravel()), maxMtbDipoles=[10.0, 10.0, 10.0]))
-    mtb.mtbCmdInMsg.subscribeTo(cmd)
-    mtb.magInMsg.subscribeTo(mag.envOutMsgs[0])
-    mtb.mtbParamsInMsg.subscribeTo(pmsg)
-    sc.addDynamicEffector(mtb)
-
-    # at each time t_k the spacecraft integrates first (from t_{k-1} to t_k), then the ephemeris and the
-    # environment run on the state at t_k, then the effectors read them: held over [t_k, t_k+1]
-    for prio, model in ((110, sc), (90, ecl), (89, atm), (88, wind), (87, mag), (40, drag), (40, srp), (40, mtb),
-                        (40, ggEff)):
-        sim.AddModelToTask("dyn", model, prio)
+    sc = bsk.hub("sixU", MASS, J, r0, v0, SIGMA0, OMEGA0)
+    earth = bsk.earth(sc, MU)
+    ggEff = bsk.gravity_gradient(sc, earth)
+    env = bsk.disturbances(sc, eph_mod, fac, rho0=RHO0_H[0], H=RHO0_H[1], planet_radius=6378136.6,
+                           omega_earth=OMEGA_EARTH, g10_g11_h11=G10_G11_H11, dipole=DIPOLE)
+    ecl, atm, mag = env["ecl"], env["atm"], env["mag"]
+    bsk.add_environment(sim, "dyn", sc, env, ggEff)
     every = macros.sec2nano(SAVE)
     rec = {"sc": sc.scStateOutMsg.recorder(every), "ecl": ecl.eclipseOutMsgs[0].recorder(every),
            "atm": atm.envOutMsgs[0].recorder(every), "mag": mag.envOutMsgs[0].recorder(every)}
@@ -209,9 +122,7 @@ def basilisk() -> None:
     sim.InitializeSimulation()
     sim.ConfigureStopTime(macros.sec2nano(DURATION))
     sim.ExecuteSimulation()
-    ecl_data = rec["ecl"]
-    shadow = np.asarray(getattr(ecl_data, "illuminationFactor", None) if hasattr(ecl_data, "illuminationFactor")
-                        else ecl_data.shadowFactor)
+    shadow = bsk.shadow_of(rec["ecl"])
     out = dict(t=rec["sc"].times() * 1e-9, sigma=np.asarray(rec["sc"].sigma_BN), omega=np.asarray(rec["sc"].omega_BN_B),
                r=np.asarray(rec["sc"].r_BN_N), v=np.asarray(rec["sc"].v_BN_N), shadow=shadow,
                density=np.asarray(rec["atm"].neutralDensity), B_N=np.asarray(rec["mag"].magField_N), epoch=EPOCH.isoformat(), mu=MU, r0=r0, v0=v0, J=J,

@@ -126,8 +126,6 @@ def run_basilisk(dt: float = DT, ki: float | None = None) -> dict:
     torque_log = mt.rwMotorTorqueOutMsg.recorder(step)
     for log in (state_log, speed_log, torque_log):
         sim.AddModelToTask("simTask", log)
-    vc = messaging.VehicleConfigMsg().write(messaging.VehicleConfigMsgPayload(ISCPntB_B=HUB_INERTIA.ravel().tolist()))
-    rw_params = rwf.getConfigMessage()
     oe = orbitalMotion.ClassicElements()
     oe.a, oe.e, oe.i = 10000000.0, 0.01, 33.3 * macros.D2R
     oe.Omega, oe.omega, oe.f = 48.2 * macros.D2R, 347.8 * macros.D2R, 85.3 * macros.D2R
@@ -136,16 +134,10 @@ def run_basilisk(dt: float = DT, ki: float | None = None) -> dict:
     sc.hub.v_CN_NInit = vN
     sc.hub.sigma_BNInit = [[s] for s in SIGMA0]
     sc.hub.omega_BN_BInit = [[w] for w in OMEGA0]
-    nav.scStateInMsg.subscribeTo(sc.scStateOutMsg)
-    err.attNavInMsg.subscribeTo(nav.attOutMsg)
-    err.attRefInMsg.subscribeTo(ref.attRefOutMsg)
-    ctrl.guidInMsg.subscribeTo(err.attGuidOutMsg)
-    ctrl.vehConfigInMsg.subscribeTo(vc)
-    ctrl.rwParamsInMsg.subscribeTo(rw_params)
-    ctrl.rwSpeedsInMsg.subscribeTo(rwe.rwSpeedOutMsg)
-    mt.rwParamsInMsg.subscribeTo(rw_params)
-    mt.vehControlInMsg.subscribeTo(ctrl.cmdTorqueOutMsg)
-    rwe.rwMotorCmdInMsg.subscribeTo(mt.rwMotorTorqueOutMsg)
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import _basilisk as bsk
+
+    msgs = bsk.connect_mrp_chain(sc, rwe, rwf, HUB_INERTIA, nav, ref.attRefOutMsg, err, ctrl, mt)  # noqa: F841
     sim.InitializeSimulation()
     sim.ConfigureStopTime(macros.sec2nano(T_END))
     t0, c0 = time.perf_counter(), time.process_time()

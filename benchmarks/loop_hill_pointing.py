@@ -25,8 +25,6 @@ running at every step. ``loop_hill_pointing.npz`` beside this script keeps Basil
 from __future__ import annotations
 
 import argparse
-import json
-import os
 import subprocess
 import sys
 import time
@@ -115,10 +113,9 @@ def matrix_of(sigma: np.ndarray) -> np.ndarray:
 def run_basilisk() -> dict:
     """The scenario in Basilisk; the logged arrays every ``DECIMATE`` steps and the CPU time of
     ``ExecuteSimulation()``."""
-    from Basilisk.architecture import messaging
-    from Basilisk.fswAlgorithms import attTrackingError, hillPoint, mrpFeedback, rwMotorTorque
-    from Basilisk.simulation import GravityGradientEffector, reactionWheelStateEffector, simpleNav, spacecraft
-    from Basilisk.utilities import SimulationBaseClass, macros, simHelpers, simIncludeGravBody, simIncludeRW
+    from Basilisk.utilities import SimulationBaseClass, macros
+
+    import _basilisk as bsk
 
     r0, v0, R0, omega0 = initial_state()
     sim = SimulationBaseClass.SimBaseClass()
@@ -126,85 +123,23 @@ def run_basilisk() -> dict:
     dyn_step, fsw_step = macros.sec2nano(DT), macros.sec2nano(FSW_DT)
     proc.addTask(sim.CreateNewTask("dyn", dyn_step), 200)          # the dynamics first at a common time
     proc.addTask(sim.CreateNewTask("fsw", fsw_step), 100)
-    sc = spacecraft.Spacecraft()
-    sc.ModelTag = "cubesat"
-    sc.hub.mHub = 8.0
-    sc.hub.r_BcB_B = [[0.0], [0.0], [0.0]]
-    sc.hub.IHubPntBc_B = simHelpers.np2EigenMatrix3d(INERTIA.ravel().tolist())
+    sc = bsk.hub("cubesat", 8.0, INERTIA, r0, v0, mrp_of(R0), omega0)
     sim.AddModelToTask("dyn", sc, 1)
-    grav = simIncludeGravBody.gravBodyFactory()
-    earth = grav.createEarth()
-    earth.isCentralBody = True
-    grav.addBodiesTo(sc)
-    rwf = simIncludeRW.rwFactory()
-    for a, w in zip(AXES, SPEED0):
-        rwf.create("custom", a.tolist(), Js=JS, Omega=float(w) * 60.0 / (2.0 * np.pi), u_max=U_MAX,
-                   RWModel=messaging.BalancedWheels)
-    rwe = reactionWheelStateEffector.ReactionWheelStateEffector()
-    rwf.addToSpacecraft("rw", rwe, sc)
+    planet = bsk.earth(sc)
+    rwe, rwf = bsk.wheels(sc, AXES, JS, SPEED0, U_MAX)
     sim.AddModelToTask("dyn", rwe, 2)
-    gg = GravityGradientEffector.GravityGradientEffector()
-    gg.ModelTag = sc.ModelTag
-    gg.addPlanetName(earth.planetName)
-    sc.addDynamicEffector(gg)
+    gg = bsk.gravity_gradient(sc, planet, tag=sc.ModelTag)
     sim.AddModelToTask("dyn", gg, 3)
-    nav = simpleNav.SimpleNav()
-    sim.AddModelToTask("dyn", nav, 0)
-    hp = hillPoint.hillPoint()
-    sim.AddModelToTask("fsw", hp, 10)
-    err = attTrackingError.attTrackingError()
-    sim.AddModelToTask("fsw", err, 9)
-    ctrl = mrpFeedback.mrpFeedback()
-    sim.AddModelToTask("fsw", ctrl, 8)
-    ctrl.K, ctrl.Ki, ctrl.P = K, -1.0, P
-    mt = rwMotorTorque.rwMotorTorque()
-    sim.AddModelToTask("fsw", mt, 7)
-    mt.controlAxes_B = [1, 0, 0, 0, 1, 0, 0, 0, 1]
-    every = macros.sec2nano(DT * DECIMATE)
-    state_log = sc.scStateOutMsg.recorder(every)
-    speed_log = rwe.rwSpeedOutMsg.recorder(every)
-    for log in (state_log, speed_log):
-        sim.AddModelToTask("dyn", log)
-    vc = messaging.VehicleConfigMsg().write(messaging.VehicleConfigMsgPayload(ISCPntB_B=INERTIA.ravel().tolist()))
-    rw_params = rwf.getConfigMessage()
-    sc.hub.r_CN_NInit = r0.tolist()
-    sc.hub.v_CN_NInit = v0.tolist()
-    sc.hub.sigma_BNInit = [[s] for s in mrp_of(R0)]
-    sc.hub.omega_BN_BInit = [[w] for w in omega0]
-    nav.scStateInMsg.subscribeTo(sc.scStateOutMsg)
-    hp.transNavInMsg.subscribeTo(nav.transOutMsg)
-    err.attNavInMsg.subscribeTo(nav.attOutMsg)
-    err.attRefInMsg.subscribeTo(hp.attRefOutMsg)
-    ctrl.guidInMsg.subscribeTo(err.attGuidOutMsg)
-    ctrl.vehConfigInMsg.subscribeTo(vc)
-    ctrl.rwParamsInMsg.subscribeTo(rw_params)
-    ctrl.rwSpeedsInMsg.subscribeTo(rwe.rwSpeedOutMsg)
-    mt.rwParamsInMsg.subscribeTo(rw_params)
-    mt.vehControlInMsg.subscribeTo(ctrl.cmdTorqueOutMsg)
-    rwe.rwMotorCmdInMsg.subscribeTo(mt.rwMotorTorqueOutMsg)
-    sim.InitializeSimulation()
-    sim.ConfigureStopTime(macros.sec2nano(STEPS * DT))
-    c0 = time.process_time()
-    sim.ExecuteSimulation()
-    cpu = time.process_time() - c0
-    from Basilisk import __version__ as bsk_version
-
-    return {"t": state_log.times() * 1e-9, "sigma": np.array(state_log.sigma_BN),
-            "omega": np.array(state_log.omega_BN_B), "wheel_speed": np.array(speed_log.wheelSpeeds)[:, :4],
-            "r": np.array(state_log.r_BN_N), "cpu": cpu, "bsk": str(bsk_version)}
+    fsw = bsk.hill_pointing_fsw(sim, "dyn", "fsw", sc, rwe, rwf, INERTIA, K, P)  # noqa: F841 (kept alive)
+    return bsk.record_and_run(sim, "dyn", sc, rwe, DT * DECIMATE, STEPS * DT)
 
 
 def basilisk_in(python: str | None, repeat: int = 1) -> dict:
     """:func:`run_basilisk` ``repeat`` times in a child process (``python``: an interpreter with
     Basilisk; ``None``: this one): the first run's arrays, the median CPU time."""
-    out = Path(os.environ.get("TMPDIR", "/tmp")) / f"lgvi_bsk_hill_{os.getpid()}.npz"
-    subprocess.run([python or sys.executable, str(Path(__file__).resolve()), "--basilisk-only", str(out),
-                    "--repeat", str(repeat)], check=True)
-    with np.load(out) as z:
-        d = {k: z[k] for k in z.files}
-    out.unlink()
-    d["cpu"] = float(d["cpu"])
-    return d
+    import _basilisk as bsk
+
+    return bsk.run_child(__file__, python, "--repeat", str(repeat))
 
 
 # ------------------------------------------------------------------------------------------------

@@ -1,0 +1,253 @@
+"""The CubeSat mission's nadir phase (``examples/cubesat_mission.toml``) for one orbit: lgvi's
+compiled loop against Basilisk 2.12.1.
+
+Usage::
+
+    python benchmarks/basilisk_mission.py --write-fixture      # with Basilisk (the bench extra): h and h/2
+    PYTHONPATH=src python benchmarks/basilisk_mission.py --bsk-python /path/to/bsk-venv/bin/python
+    PYTHONPATH=src python benchmarks/basilisk_mission.py --quick    # agreement with the fixture only
+
+The mission's 6U, from the mission file: its inertia (with the products), the four pyramid wheels
+(2e-5 kg m^2, 2 mN m), the six facets (drag coefficient 2.2; absorbed 0.6, specular 0.2, diffuse
+0.2), the residual dipole, the exponential atmosphere (co-rotating), the MRP gains (K 0.004, P 0.04),
+the flight software at 2 Hz and the dynamics step h = 0.1 s. Its nadir mode: ``hillPoint`` ->
+``attTrackingError`` -> ``mrpFeedback`` -> ``rwMotorTorque``, perfect navigation, no sensors.
+Disturbances on both sides: the gravity gradient, facet drag, facet SRP with the conical shadow,
+the residual dipole. What differs from the mission, on both sides alike:
+
+* no magnetic momentum dumping (Basilisk's ``mtbMomentumManagement`` needs its own rod and wheel
+  configuration messages and a torque-rod effector in the loop: not wired here);
+* the field is the centred dipole of IGRF's first degree (``magneticFieldCenteredDipole``; Basilisk
+  has no IGRF) and the orbit a circular Kepler orbit with the TLE's elements (RAAN 0, i 97.4 deg,
+  argument of latitude 0 at the epoch 2026-03-20 00:00 UTC), Basilisk's ``mu``, no J2; Basilisk's
+  hub mass is 1e6 kg so that the facets' forces do not move its orbit off lgvi's Kepler orbit (the
+  attitude does not depend on the mass: the centre of mass is at B);
+* the sun is lgvi's (``basilisk_loop_scenario_ephemeris.json``: the same epoch), the environment
+  and the disturbance torques are evaluated at every dynamics step (the mission holds them 0.5 s).
+
+The spacecraft starts 3 degrees off the Hill frame, at the orbit rate plus (0.2, -0.1, 0.15) mrad/s,
+the wheels at (30, -50, 40, 10) rad/s. Basilisk integrates with RK4 (the torques at its stages,
+the environment held over each step: first order, 3.7e-8 rad between h and h/2); lgvi's loop holds
+each disturbance torque over its step (first order too, 1.9e-8 rad between h and h/2). The two
+agree to 4.2e-8 rad over the orbit (docs/mission.md). The reaction-wheel effector runs before the
+hub integrates, so the wheels apply each command from the step it is computed at (as lgvi does).
+``basilisk_mission.npz`` keeps Basilisk's ``sigma_BN``, rate and wheel speeds every 10 s at h and
+at h/2 (its own convergence), and its CPU time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import json
+import sys
+import time
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from loop_hill_pointing import matrix_of, mrp_of  # noqa: E402  (the MRP conversions, NumPy only)
+
+HERE = Path(__file__).resolve().parent
+FIXTURE = HERE / "basilisk_mission.npz"
+EPHEMERIS = HERE / "basilisk_loop_scenario_ephemeris.json"
+MISSION = tomllib.loads((HERE.parent / "examples" / "cubesat_mission.toml").read_text())
+
+EPOCH = dt.datetime(2026, 3, 20)
+MU = 3.98600436e14                       # Basilisk's Earth
+R_EARTH = 6378136.6
+A = R_EARTH + 500e3
+INC = np.radians(97.4)
+PERIOD = 2.0 * np.pi * np.sqrt(A ** 3 / MU)
+H = MISSION["integrator"]["h"]           # 0.1 s
+FSW_DT = MISSION["fsw"]["rate"]          # 0.5 s
+SAVE = 10.0
+DURATION = 5670.0                        # one orbit (of 5677 s), whole records
+OMEGA_EARTH = 7.292115e-5
+G10_G11_H11 = np.array([-29350.0, -1410.3, 4545.5])   # IGRF's first degree (nT)
+OFFSET = np.radians(3.0) * np.array([0.48, 0.6, -0.64])
+DOMEGA = np.array([2e-4, -1e-4, 1.5e-4])
+SPEED0 = np.array([30.0, -50.0, 40.0, 10.0])
+BSK_MASS = 1e6
+
+_SC = MISSION["spacecraft"]
+J = np.array(_SC["body"]["matrix"])
+AXES = np.array([w["axis"] for w in _SC["wheel"]])
+JS = _SC["wheel"][0]["spin_inertia"]
+U_MAX = _SC["wheel"][0]["max_torque"]
+_DIST = {d["type"]: d for d in _SC["disturbance"]}
+_ATM = next(e for e in _SC["environment"] if e["type"] == "exponential_atmosphere")
+RHO0, SCALE_H = _ATM["base_density"], _ATM["scale_height"]
+DIPOLE = np.array(_DIST["residual_dipole"]["dipole"])
+_MRP = next(c for c in MISSION["fsw"]["control"] if c["type"] == "mrp_feedback")
+K, P = _MRP["K"], _MRP["P"]
+
+
+def facets() -> dict[str, np.ndarray]:
+    """The mission's six facets in the ``fac_*`` layout of ``basilisk_environment.py``."""
+    drag, srp = _DIST["facet_drag"], _DIST["facet_srp"]
+    n = len(drag["area"])
+    return dict(fac_area=np.array(drag["area"]), fac_normal=np.array(drag["normal"], dtype=float),
+                fac_centre=np.array(drag["centre"]), fac_cd=np.full(n, drag["drag_coefficient"]),
+                fac_specular=np.full(n, srp["specular"]), fac_diffuse=np.full(n, srp["diffuse"]))
+
+
+def rotation(v: np.ndarray) -> np.ndarray:
+    """``exp(hat(v))`` (Rodrigues; NumPy only)."""
+    th = np.linalg.norm(v)
+    K_ = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]]) / th
+    return np.eye(3) + np.sin(th) * K_ + (1.0 - np.cos(th)) * K_ @ K_
+
+
+def initial_state() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``r0, v0`` (inertial), ``R0`` (body to inertial) and ``omega0`` (body)."""
+    r0 = A * np.array([1.0, 0.0, 0.0])
+    v0 = np.sqrt(MU / A) * np.array([0.0, np.cos(INC), np.sin(INC)])
+    hn = np.cross(r0, v0)
+    hn /= np.linalg.norm(hn)
+    x = r0 / np.linalg.norm(r0)
+    hill = np.stack([x, np.cross(hn, x), hn], axis=1)
+    R0 = hill @ rotation(OFFSET)
+    omega0 = R0.T @ (np.sqrt(MU / A ** 3) * hn) + DOMEGA
+    return r0, v0, R0, omega0
+
+
+# ------------------------------------------------------------------------------------------------
+# Basilisk
+# ------------------------------------------------------------------------------------------------
+def run_basilisk(h: float = H) -> dict:
+    """The nadir phase in Basilisk at the dynamics step ``h``: records every ``SAVE`` s and the CPU
+    time of ``ExecuteSimulation()``."""
+    from Basilisk.utilities import SimulationBaseClass, macros
+
+    import _basilisk as bsk
+
+    eph = json.loads(EPHEMERIS.read_text())
+    assert eph["epoch"] == EPOCH.isoformat() and eph["t"][-1] >= DURATION + 60.0
+    r0, v0, R0, omega0 = initial_state()
+    sim = SimulationBaseClass.SimBaseClass()
+    proc = sim.CreateNewProcess("p")
+    proc.addTask(sim.CreateNewTask("dyn", macros.sec2nano(h)), 200)      # the dynamics first at a common time
+    proc.addTask(sim.CreateNewTask("fsw", macros.sec2nano(FSW_DT)), 100)
+    eph_mod = bsk.ephemeris_module(eph["t"], eph["sun"], eph["gmst"], 60.0)
+    sim.AddModelToTask("dyn", eph_mod, 100)
+    sc = bsk.hub("mission6U", BSK_MASS, J, r0, v0, mrp_of(R0), omega0)
+    planet = bsk.earth(sc, MU)
+    rwe, rwf = bsk.wheels(sc, AXES, JS, SPEED0, U_MAX)
+    sim.AddModelToTask("dyn", rwe, 120)   # before the hub integrates [t - h, t]: reads the command of t - h
+    gg = bsk.gravity_gradient(sc, planet)
+    env = bsk.disturbances(sc, eph_mod, facets(), rho0=RHO0, H=SCALE_H, planet_radius=R_EARTH,
+                           omega_earth=OMEGA_EARTH, g10_g11_h11=G10_G11_H11, dipole=DIPOLE)
+    bsk.add_environment(sim, "dyn", sc, env, gg)
+    fsw = bsk.hill_pointing_fsw(sim, "dyn", "fsw", sc, rwe, rwf, J, K, P)  # noqa: F841 (kept alive)
+    return bsk.record_and_run(sim, "dyn", sc, rwe, SAVE, DURATION)
+
+
+def basilisk_in(python: str | None, h: float = H) -> dict:
+    """:func:`run_basilisk` in a child process (``python``: an interpreter with Basilisk)."""
+    import _basilisk as bsk
+
+    return bsk.run_child(__file__, python, "--h", repr(h))
+
+
+# ------------------------------------------------------------------------------------------------
+# lgvi
+# ------------------------------------------------------------------------------------------------
+def lgvi_scenario():
+    """``(spacecraft, R0, omega0, fsw)``: the same nadir phase in lgvi."""
+    import lgvi
+    from lgvi.environment import CentredDipole, ExponentialAtmosphere, KeplerOrbit, Shadow, Sun
+    from lgvi.fsw import FlightSoftware, HillPointing, MRPControl, RWMotorTorque
+    from lgvi.spacecraft import FacetDrag, FacetSRP, GravityGradient, ResidualDipole, Spacecraft
+
+    r0, v0, R0, omega0 = initial_state()
+    fac = facets()
+    geometry = (fac["fac_area"], fac["fac_normal"], fac["fac_centre"])
+    srp = _DIST["facet_srp"]
+    sc = Spacecraft(J, wheels=lgvi.ReactionWheels(AXES, JS, speed0=SPEED0, max_torque=U_MAX),
+                    orbit=KeplerOrbit(A, 0.0, INC, 0.0, 0.0, 0.0, mu=MU), field=CentredDipole(*G10_G11_H11),
+                    epoch=EPOCH,
+                    environment=[Shadow("conical", planet_radius=R_EARTH, sun_radius=695e6), Sun(),
+                                 ExponentialAtmosphere(RHO0, SCALE_H, planet_radius=R_EARTH, omega=OMEGA_EARTH)],
+                    disturbances=[FacetDrag(*geometry, fac["fac_cd"]),
+                                  FacetSRP(*geometry, absorbed=srp["absorbed"], specular=srp["specular"],
+                                           diffuse=srp["diffuse"], solar_flux=1368.0),
+                                  ResidualDipole(DIPOLE), GravityGradient(mu=MU)])
+    fsw = FlightSoftware(guidance=HillPointing(), control=MRPControl(K=K, P=P), actuators=RWMotorTorque(),
+                         rate=FSW_DT)
+    return sc, R0, omega0, fsw
+
+
+def lgvi_run(h: float = H, duration: float = DURATION):
+    """lgvi's run at the step ``h``, a record every ``SAVE`` s."""
+    import lgvi
+
+    sc, R0, omega0, fsw = lgvi_scenario()
+    return lgvi.simulate(sc, R0, omega0=omega0, h=h, steps=int(round(duration / h)), fsw=fsw,
+                         save_every=int(round(SAVE / h)))
+
+
+def attitude_difference(R: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """Angle (rad) between lgvi's attitudes ``R`` and Basilisk's ``sigma_BN`` at the same times."""
+    Rb = matrix_of(np.asarray(sigma))
+    n = min(len(Rb), len(R))
+    D = np.einsum("kji,kjl->kil", R[:n], Rb[:n])
+    s = 0.5 * np.linalg.norm(np.stack([D[:, 2, 1] - D[:, 1, 2], D[:, 0, 2] - D[:, 2, 0], D[:, 1, 0] - D[:, 0, 1]],
+                                      axis=1), axis=1)
+    return np.arctan2(s, 0.5 * (np.trace(D, axis1=1, axis2=2) - 1.0))     # exact below 1e-8 too
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--write-fixture", action="store_true")
+    ap.add_argument("--bsk-python", default=None, help="an interpreter with Basilisk (default: this one)")
+    ap.add_argument("--basilisk-only", default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--h", type=float, default=H, help=argparse.SUPPRESS)
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--quick", action="store_true", help="against the fixture only, no Basilisk run")
+    args = ap.parse_args()
+    if args.basilisk_only:
+        np.savez(args.basilisk_only, **run_basilisk(args.h))
+        return
+    if args.write_fixture:
+        a, b = run_basilisk(H), run_basilisk(H / 2)
+        np.savez_compressed(FIXTURE, t=a["t"], sigma=a["sigma"], omega=a["omega"], wheel_speed=a["wheel_speed"],
+                            sigma_half=b["sigma"], omega_half=b["omega"], wheel_speed_half=b["wheel_speed"],
+                            h=H, cpu=a["cpu"], bsk=a["bsk"])
+        print(f"wrote {FIXTURE} ({FIXTURE.stat().st_size} bytes), Basilisk {a['bsk']}, CPU {a['cpu']:.3f} s; "
+              f"Basilisk h against h/2: {attitude_difference(matrix_of(a['sigma']), b['sigma']).max():.3e} rad")
+        return
+    with np.load(FIXTURE) as z:
+        fx = {k: z[k] for k in z.files}
+    print(f"Basilisk {fx['bsk']} at h = {H} s against h/2: "
+          f"{attitude_difference(matrix_of(fx['sigma']), fx['sigma_half']).max():.3e} rad")
+    print("\n| lgvi step h (s) | max attitude difference (rad) | ratio to h/2's | max wheel speed difference (rad/s) |")
+    print("|---|---|---|---|")
+    prev = None
+    for h in (H, H / 2, H / 4):
+        traj = lgvi_run(h)
+        e = attitude_difference(traj.R, fx["sigma"]).max()
+        dw = np.abs(traj.wheel_speed[:len(fx["wheel_speed"])] - fx["wheel_speed"]).max()
+        ratio = "" if prev is None else f"{prev / e:.2f}"
+        print(f"| {h:g} | {e:.3e} | {ratio} | {dw:.3e} |")
+        prev = e
+    if args.quick:
+        return
+    lgvi_run(H, duration=100.0)                            # compiled (or the cache loaded)
+    lg, bs = [], []
+    for _ in range(args.repeat):                          # alternated: the machine is shared
+        c0 = time.process_time()
+        lgvi_run(H)
+        lg.append(time.process_time() - c0)
+        bs.append(basilisk_in(args.bsk_python)["cpu"])
+    lg_cpu, bs_cpu = float(np.median(lg)), float(np.median(bs))
+    print(f"\n| one orbit at h = {H} s, FSW at {FSW_DT} s | CPU s (median of {args.repeat}) | ratio |")
+    print("|---|---|---|")
+    print(f"| Basilisk {fx['bsk']} (ExecuteSimulation) | {bs_cpu:.3f} | 1 |")
+    print(f"| lgvi loop (simulate, whole call) | {lg_cpu:.4f} | {bs_cpu / lg_cpu:.1f}x faster |")
+
+
+if __name__ == "__main__":
+    main()
