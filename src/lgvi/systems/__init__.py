@@ -164,7 +164,7 @@ class CarriedState:
         return {"k": self.k, **{key: getattr(self, key).copy() for key in self.CARRIED}}
 
     def load_state(self, st: dict[str, Any]) -> None:
-        self.k = int(st["k"])
+        self.k: int = int(st["k"])
         for key in self.CARRIED:
             getattr(self, key)[...] = np.asarray(st[key], dtype=np.float64)
 
