@@ -316,11 +316,7 @@ class OrbitRun(CarriedState):
     """One validated run of :func:`simulate_orbit` (driven by :func:`lgvi.driver.drive`)."""
     meta: dict[str, Any]
     tol: float
-    t0: float
-    steps: int
-    save_every: int
     max_iter: int
-    h: float
 
     system = ORBIT
     CARRIED = ('x', 'p', 'R', 'Pi', 'G', 'C')
@@ -369,7 +365,7 @@ class OrbitRun(CarriedState):
         self.G[0, 0] = 0.5 * self.h * (self.body.J_inv @ self.Pi)
         self.G[0, 3, 0] = 1.0
         self.C = np.zeros(7)
-        self.last: np.ndarray = np.zeros(2)
+        self.last = np.zeros(2)
         self.hist: np.ndarray = np.zeros(0)
         self.declaration: dict[str, dict[str, Any]] = _invariants({"J2": self.J2 != 0.0, "torque": self.has_torque})
         self.meta = {"system": ORBIT.name, "potential": self.potential, "J2": self.J2, "radius": self.radius,

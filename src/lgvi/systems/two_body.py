@@ -619,11 +619,7 @@ class TwoBodyRun(CarriedState):
     meta: dict[str, Any]
     scratch: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
     tol: float
-    t0: float
-    steps: int
-    save_every: int
     max_iter: int
-    h: float
 
     system = TWO_BODY
     CARRIED = ('x', 'p', 'R', 'Pi', 'Gh', 'C')
@@ -670,7 +666,7 @@ class TwoBodyRun(CarriedState):
         self.N = np.zeros(10)
         self.scratch = (np.zeros_like(self.arrays["Q1"]), np.zeros_like(self.arrays["Q2"]), np.zeros((3, 3)),
                         np.zeros((3, 3)))
-        self.last: np.ndarray = np.zeros(2)
+        self.last = np.zeros(2)
         self.hist: np.ndarray = np.zeros(0)
         b1, b2 = self.b1, self.b2
         self.core: float = b1.core + b2.core

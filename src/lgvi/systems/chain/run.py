@@ -163,11 +163,7 @@ class ChainRun(CarriedState):
     """One validated run of :func:`simulate_chain` (driven by :func:`lgvi.driver.drive`)."""
     link_masses: np.ndarray
     w: np.ndarray
-    t0: float
-    steps: int
-    save_every: int
     n: int
-    h: float
     gam: np.ndarray
 
     system = CHAIN
@@ -203,7 +199,7 @@ class ChainRun(CarriedState):
         self.hist: np.ndarray = np.zeros((len(self.gam), 4, n))
         self.Minv: np.ndarray = np.linalg.inv(self.M)
         self.hh: np.ndarray = np.zeros((len(self.gam), 4))
-        self.last: np.ndarray = np.zeros(2)
+        self.last = np.zeros(2)
         self.declaration: dict[str, dict[str, Any]] = chain_invariants({"gravity": self.gravity})
         self.meta: dict[str, Any] = {"system": CHAIN.name, "order": self.comp.order, "composition": self.comp.name,
                      "invariants": self.declaration, "t0": self.t0, "save_every": self.save_every,
