@@ -36,6 +36,7 @@ extensions = [
     "myst_parser",
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
+    "sphinx.ext.intersphinx",   # links to NumPy's and SciPy's pages, through the inventories in _inventories/
     "sphinx.ext.mathjax",
     "sphinx.ext.viewcode",      # source links: every documented object links to its highlighted source
     "sphinx-mathjax-offline",   # MathJax 3 from the package into _static/mathjax: math renders offline, no CDN
@@ -61,7 +62,36 @@ autodoc_typehints = "none"            # the numpydoc sections give the types
 autodoc_member_order = "bysource"
 numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False
-numpydoc_xref_param_type = False
+# the parameter types link to their pages: lgvi's own names, and NumPy's and SciPy's through
+# intersphinx; only the words below are linked (shapes and prose in a type line stay text; a name
+# given in full is written as a role, since numpydoc leaves an alias to itself unlinked)
+numpydoc_xref_param_type = True
+numpydoc_xref_ignore = "all"
+numpydoc_xref_aliases = {
+    "array_like": ":term:`numpy:array_like`",
+    "ndarray": "numpy.ndarray",
+    "numpy.ndarray": ":class:`numpy.ndarray`",
+    "Generator": "numpy.random.Generator",
+    "numpy.random.Generator": ":class:`numpy.random.Generator`",
+    "Rotation": "scipy.spatial.transform.Rotation",
+    "scipy.spatial.transform.Rotation": ":class:`scipy.spatial.transform.Rotation`",
+    "RigidBody": "lgvi.RigidBody",
+    "Trajectory": "lgvi.Trajectory",
+    # numpydoc's defaults send these to labels and glossary terms of Python's documentation, whose
+    # inventory is not kept here: as classes they stay plain text, and no warning fails the build
+    "bool": ":class:`python:bool`",
+    "boolean": ":class:`python:bool`",
+    "iterable": ":class:`python:collections.abc.Iterable`",
+    "sequence": ":class:`python:collections.abc.Sequence`",
+    "generator": ":class:`python:collections.abc.Generator`",
+    "scalar": ":class:`numpy.generic`",
+}
+# NumPy's and SciPy's inventories are kept in the repository (docs/make_inventories.py writes them),
+# so the -W build needs no network; the links go to the projects' sites
+intersphinx_mapping = {
+    "numpy": ("https://numpy.org/doc/stable/", str(DOCS / "_inventories" / "numpy.inv")),
+    "scipy": ("https://docs.scipy.org/doc/scipy/", str(DOCS / "_inventories" / "scipy.inv")),
+}
 # autosummary writes a stub per public name into generated/ but never removes one whose name has
 # gone: start from an empty folder, so a stale stub cannot fail the -W build.
 shutil.rmtree(DOCS / "generated", ignore_errors=True)

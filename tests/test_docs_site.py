@@ -91,3 +91,20 @@ def test_math_renders_offline(site):
         text = page.read_text(encoding="utf-8")
         assert "cdn.jsdelivr.net" not in text and "cdnjs" not in text, f"{page.name} loads from a CDN"
     assert 'class="math' in method and r"\operatorname{tr}" in method
+
+
+def test_numpy_and_scipy_links_without_network(site):
+    """Intersphinx to NumPy and SciPy through the inventories kept in docs/_inventories (the build
+    above had no network): parameter types and named objects link to the projects' pages."""
+    simulate = _text(site / "generated" / "lgvi.simulate.html")
+    assert 'href="https://numpy.org/doc/stable/glossary.html#term-array_like"' in simulate
+    assert ('href="https://docs.scipy.org/doc/scipy/reference/generated/scipy.spatial.transform.Rotation.html'
+            '#scipy.spatial.transform.Rotation"') in simulate
+
+
+def test_equations_are_math_on_the_model_pages(site):
+    """The displayed equations of these pages are math (MyST's $$ blocks), not code blocks."""
+    for page in ("estimation", "environment", "two_spheres", "loop", "orbit", "gyrostat", "gyrostat_rkmk"):
+        text = _text(site / f"{page}.html")
+        assert text.count('class="math') >= 3, page
+        assert "$$" not in text, f"{page}: a $$ block was not turned into math"

@@ -108,3 +108,32 @@ def test_the_driver_runs_a_registered_system_as_simulate_does():
         assert np.array_equal(getattr(traj, name), getattr(ref, name)), name
     assert system.invariants(kw["torque"]) == ref.meta["invariants"]
     assert system.invariants(None)["casimir"]["kind"] == "exact"
+
+
+def test_the_literal_option_types_name_the_registry_entries():
+    """Each ``Literal`` option type lists exactly the names its table accepts (type checkers read the
+    one, the validation the other), and the public entry points use them."""
+    import typing
+
+    from lgvi.environment import sun
+    from lgvi.optimal import transfers
+    from lgvi.systems import orbit, two_body
+
+    pairs = [(registry.MethodName, registry.SOLVER_METHODS), (registry.ForcingName, registry.FORCINGS),
+             (registry.DeviceName, registry.DEVICES), (orbit.OrbitPotential, orbit.POTENTIALS),
+             (two_body.TwoBodyPotential, two_body.POTENTIALS), (sun.ShadowModel, sun.SHADOW_MODELS),
+             (transfers.CostName, transfers.COSTS), (transfers.TransferMethod, transfers.METHODS)]
+    for alias, table in pairs:
+        assert typing.get_origin(alias) is typing.Literal
+        assert sorted(typing.get_args(alias)) == sorted(table), alias
+    uses = {lgvi.simulate: {"method": "MethodName", "forcing": "ForcingName"},
+            lgvi.simulate_ensemble: {"method": "MethodName", "forcing": "ForcingName", "device": "DeviceName"},
+            lgvi.solve_implicit: {"method": "MethodName"},
+            lgvi.simulate_orbit: {"potential": "OrbitPotential"},
+            lgvi.simulate_two_body: {"potential": "TwoBodyPotential"},
+            lgvi.optimal.transfer: {"cost": "CostName", "forcing": "ForcingName",
+                                    "method": "TransferMethod | None"}}
+    for func, expected in uses.items():
+        annotations = func.__annotations__     # strings: the modules use postponed evaluation
+        for name, alias in expected.items():
+            assert annotations[name] == alias, (func.__name__, name, annotations[name])

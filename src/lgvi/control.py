@@ -255,8 +255,8 @@ class MRPFeedback(Controller):
                  target: Any = None, inertia: Any = None) -> None:
         self.K = as_float(K, "K", positive=True)
         self.P = as_float(P, "P", positive=True)
-        self.Ki = None if Ki is None else as_float(Ki, "Ki", positive=True)
-        self.integral_limit = (np.inf if integral_limit is None
+        self.Ki: float | None = None if Ki is None else as_float(Ki, "Ki", positive=True)
+        self.integral_limit: float = (np.inf if integral_limit is None
                                else as_float(integral_limit, "integral_limit", positive=True))
         if integral_limit is not None and Ki is None:
             raise ValueError("integral_limit bounds the integral term: give Ki too (or leave integral_limit=None)")
@@ -266,9 +266,9 @@ class MRPFeedback(Controller):
             self.R_ref = as_rotation(target, "target")
         self._inertia = None if inertia is None else _inertia_matrix(inertia)
         self.J = self._inertia if self._inertia is not None else np.zeros((3, 3))
-        self.axes = np.zeros((0, 3))
-        self.spin_inertia = np.zeros(0)
-        self.wheel_map = np.zeros((0, 3))
+        self.axes: np.ndarray = np.zeros((0, 3))
+        self.spin_inertia: np.ndarray = np.zeros(0)
+        self.wheel_map: np.ndarray = np.zeros((0, 3))
         self.reset()
 
     # -------------------------------------------------------------- run set-up
@@ -283,7 +283,7 @@ class MRPFeedback(Controller):
         self.wheel_map = _wheel_map(self.axes)
 
     def reset(self) -> None:
-        self.int_sigma = np.zeros(3)
+        self.int_sigma: np.ndarray = np.zeros(3)
         self.prior_time: float | None = None
 
     @property
@@ -363,8 +363,8 @@ class RotationPD(Controller):
     """
 
     def __init__(self, kp: float, kd: float, *, target: Any = None, error: str = "rotation") -> None:
-        self.kp = as_float(kp, "kp", positive=True)
-        self.kd = as_float(kd, "kd", positive=True)
+        self.kp: float = as_float(kp, "kp", positive=True)
+        self.kd: float = as_float(kd, "kd", positive=True)
         if error not in ("rotation", "quaternion"):
             raise ValueError(f"error must be 'rotation' or 'quaternion', got {error!r}")
         self.error = error

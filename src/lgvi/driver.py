@@ -137,7 +137,7 @@ class Interrupts:
     """
 
     def __init__(self) -> None:
-        self.requested = False
+        self.requested: bool = False
         self._old: Any = None
 
     def _handler(self, signum, frame) -> None:
@@ -180,7 +180,7 @@ class Progress:
             raise TypeError(f"progress must be True, False or a callable progress(done, total), got {progress!r}")
         self.progress = progress
         self.steps = steps
-        self.bar = None
+        self.bar: Any = None
         if progress is True and steps and interactive():
             from tqdm.auto import tqdm
 
@@ -251,6 +251,8 @@ def record_every(run: Any) -> int:
 
 class MemorySink:
     """The whole result in memory, allocated from the system's state layout (:func:`lgvi.simulate`)."""
+    se: Any
+    per: int
 
     where = ""
     interrupted = "the computed part is in .trajectory"
@@ -261,11 +263,11 @@ class MemorySink:
         M = run.steps // se + 1
         self.M = M
         state, records = layout(run)
-        self.state = [f.empty(M) for f in state]
+        self.state: list[Any] = [f.empty(M) for f in state]
         for buf, f in zip(self.state, state):
             buf[0] = getattr(run, f.name)
         self.per = per = record_every(run)
-        self.records = [f.zeros(run.steps // per) for f in records]
+        self.records: list[Any] = [f.zeros(run.steps // per) for f in records]
 
     def buffers(self, k0: int, n: int) -> list[np.ndarray]:
         j0 = k0 // self.se + 1

@@ -34,7 +34,7 @@ from .errors import ConvergenceError, SimulationInterrupted
 from .implicit import failure_message
 from .invariants import combine, declaration_of, forcing_used
 from .so3 import project
-from .registry import torque_kind
+from .registry import DeviceName, ForcingName, MethodName, torque_kind
 from .torques import tried_rows
 from .trajectory import ARRAY_FIELDS, Trajectory, freeze_arrays
 
@@ -651,15 +651,15 @@ class _Setup:
 # ------------------------------------------------------------------------------------------------
 
 def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: float, steps: int,
-                      torque: Any = None, method: str = "newton", tol: float = 1e-14, max_iter: int = 50,
-                      alpha: float = 1.0, save_every: int = 1, t0: float = 0.0, forcing: str = "paper",
+                      torque: Any = None, method: MethodName = "newton", tol: float = 1e-14, max_iter: int = 50,
+                      alpha: float = 1.0, save_every: int = 1, t0: float = 0.0, forcing: ForcingName = "paper",
                       order: int = 2, composition: str | None = None, threads: int | None = None,
                       client: Any = None, block_size: int | None = None,
                       out_dir: str | os.PathLike[str] | None = None, resume: bool = False,
                       progress: Any = False, wheels: Any = None, controller: Any = None,
                       control_period: Any = None, environment: Any = None,
                       magnetorquers: Any = None, fsw: Any = None,
-                      device: str = "cpu") -> EnsembleTrajectory | list[Path] | Any:
+                      device: DeviceName = "cpu") -> EnsembleTrajectory | list[Path] | Any:
     """Simulate ``B`` rigid bodies at once with the attitude LGVI, in parallel over cores.
 
     Body ``b`` follows bit for bit the trajectory of

@@ -18,7 +18,7 @@ test suite's way; small ensembles only, it runs each GPU thread as a Python thre
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -119,6 +119,8 @@ _USER_KERNELS: dict[Any, Any] = {}
 
 class CudaRun(LocalRun):
     """The bodies of an ensemble on the GPU: a run of :func:`lgvi.driver.drive` (see the module notes)."""
+    d: dict[Any, Any]
+    cuda: Any
 
     label = "ensemble"
     lockstep_allowed = False
@@ -129,16 +131,16 @@ class CudaRun(LocalRun):
 
         super().__init__(s, False, getattr(s, "body0", 0))
 
-        self.sim = simulator(cuda)
-        self.wrap = _Host(cuda) if self.sim else (lambda a: a)
+        self.sim: bool = simulator(cuda)
+        self.wrap: Callable[[Any], Any] = _Host(cuda) if self.sim else (lambda a: a)
         B, se = len(s), self.save_every
         stages = 1 if s.legacy else len(s.gam)
         # steps per launch: a multiple of save_every, at most GPU_CHUNK_BODY_STEPS body-substeps and
         # DEVICE_SAMPLE_BYTES of samples (at least one sample)
         by_work = max(1, GPU_CHUNK_BODY_STEPS // (B * stages * se))
         by_memory = max(1, DEVICE_SAMPLE_BYTES // (B * 96))
-        self.m = max(1, min(by_work, by_memory, max(1, s.steps // se)))
-        self.chunk = self.m * se
+        self.m: int = max(1, min(by_work, by_memory, max(1, s.steps // se)))
+        self.chunk: int = self.m * se
         dev = cuda.to_device
         self.d = d = {}
         for name in ("Jd", "J", "J_inv", "R", "Pi", "G", "its", "res", "status", "fail_step", "fail_res",
@@ -152,7 +154,7 @@ class CudaRun(LocalRun):
             d["gam"], d["cum"] = dev(np.ascontiguousarray(s.gam)), dev(np.ascontiguousarray(s.cum))
             d["codes"], d["ptab"] = dev(np.ascontiguousarray(s.codes)), dev(np.ascontiguousarray(s.ptab))
             d["params"] = dev(np.ascontiguousarray(s.params))
-        self.user = getattr(s.model, "moment_func", None) is not None
+        self.user: bool = getattr(s.model, "moment_func", None) is not None
         if self.user:
             m = s.model
             d["table"] = dev(self.user_table())
@@ -164,13 +166,13 @@ class CudaRun(LocalRun):
             key = m.moment_func
             if key not in _USER_KERNELS:
                 _USER_KERNELS[key] = ck.user_kernel(key)
-            self.kernel = _USER_KERNELS[key]
+            self.kernel: Any = _USER_KERNELS[key]
         else:
             self.kernel = ck.free_kernel if s.legacy else ck.forced_kernel
         d["R_out"] = cuda.device_array((B, self.m, 3, 3))
         d["Pi_out"] = cuda.device_array((B, self.m, 3))
-        self.blocks = math.ceil(B / THREADS_PER_BLOCK) if not self.sim else math.ceil(B / min(B, 32))
-        self.threads_per_block = THREADS_PER_BLOCK if not self.sim else min(B, 32)
+        self.blocks: int = math.ceil(B / THREADS_PER_BLOCK) if not self.sim else math.ceil(B / min(B, 32))
+        self.threads_per_block: int = THREADS_PER_BLOCK if not self.sim else min(B, 32)
 
     def _args(self, n: int) -> tuple:
         s, d, k, se = self.s, self.d, self.k, self.save_every
@@ -210,12 +212,12 @@ class CudaRun(LocalRun):
         m, j0 = n // se, k // se + 1
         R_out[:, j0:j0 + m] = self.d["R_out"].copy_to_host()[:, :m]
         Pi_out[:, j0:j0 + m] = self.d["Pi_out"].copy_to_host()[:, :m]
-        self.status = self.d["status"].copy_to_host()
+        self.status: Any = self.d["status"].copy_to_host()
         failed = np.flatnonzero(self.status != OK)
         if failed.size:
             self.sync()
             b = int(failed[np.argmin(self.fail_step[failed])])
-            self.k = int(self.fail_step[b])
+            self.k: int = int(self.fail_step[b])
             return int(self.status[b])
         self.k = k + n
         return OK

@@ -10,7 +10,7 @@ import numpy as np
 from ._kernels.codes import METHOD_NEWTON, NOT_CONVERGED, NOT_FINITE, OVERFLOW, SINGULAR
 from ._validation import as_float, as_float_array, as_int, choice
 from .errors import ConvergenceError
-from .registry import SOLVER_METHODS
+from .registry import SOLVER_METHODS, MethodName
 
 #: Solver names (as accepted by ``method=``) to kernel codes, derived from
 #: :data:`lgvi.registry.SOLVER_METHODS` (the registry of the solver methods).
@@ -113,7 +113,7 @@ def failure_message(status: int, residual: float, iterations: int, hnorm: float,
             f"Try {hint}.")
 
 
-def largest_step(Jd: np.ndarray, Pi: np.ndarray, h: float, method: str = "newton", *, tol: float = 1e-14,
+def largest_step(Jd: np.ndarray, Pi: np.ndarray, h: float, method: MethodName = "newton", *, tol: float = 1e-14,
                  max_iter: int = 50, bisections: int = 30) -> float:
     """Largest ``|h'| <= |h|`` for which ``hat(h' Pi) = F Jd - Jd F^T`` is solved from a cold start.
 
@@ -152,8 +152,8 @@ def largest_step(Jd: np.ndarray, Pi: np.ndarray, h: float, method: str = "newton
     return float(np.copysign(lo, h))
 
 
-def solve_implicit(Jd, hPi, *, method: str = "newton", tol: float = 1e-14, max_iter: int = 50,
-                   alpha: float = 1.0, guess=None) -> ImplicitSolution:
+def solve_implicit(Jd: Any, hPi: Any, *, method: MethodName = "newton", tol: float = 1e-14, max_iter: int = 50,
+                   alpha: float = 1.0, guess: Any = None) -> ImplicitSolution:
     """Solve ``hat(h Pi) = F Jd - Jd F^T`` for ``F`` in SO(3).
 
     Parameters

@@ -35,7 +35,7 @@ from .errors import ConvergenceError, TorqueError
 from .implicit import METHODS, failure_message, largest_step
 from .invariants import declaration_of, forcing_used
 from .registry import (COMPOSITIONS, DEFAULT_COMPOSITION, FORCINGS, SCHEMES, SOLVER_METHODS,  # noqa: F401
-                       Composition, check_composable, composition_for, torque_kind)
+                       Composition, ForcingName, MethodName, check_composable, composition_for, torque_kind)
 from .systems import provide_run
 from .systems.rigid_body import RIGID_BODY, momentum_matrices
 from .torques import TorqueModel
@@ -155,7 +155,7 @@ def _check_torque_value(u: Any, k: int, t: float) -> np.ndarray:
     return arr
 
 
-def step(body: Any, R: Any, Pi: Any, *, h: float, u: Any = None, method: str = "newton",
+def step(body: Any, R: Any, Pi: Any, *, h: float, u: Any = None, method: MethodName = "newton",
          tol: float = 1e-14, max_iter: int = 50, alpha: float = 1.0, guess: Any = None) -> StepResult:
     """Take one step of the attitude LGVI.
 
@@ -210,9 +210,9 @@ def step(body: Any, R: Any, Pi: Any, *, h: float, u: Any = None, method: str = "
 
 
 def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: float, steps: int | None = None,
-             torque: Any = None, method: Literal["newton", "cayley", "paper"] = "newton", tol: float = 1e-14,
+             torque: Any = None, method: MethodName = "newton", tol: float = 1e-14,
              max_iter: int = 50, alpha: float = 1.0, save_every: int = 1, t0: float = 0.0,
-             forcing: Literal["paper", "symmetric"] = "paper", order: int = 2, composition: str | None = None,
+             forcing: ForcingName = "paper", order: int = 2, composition: str | None = None,
              progress: Any = False, error_estimate: Any = False, error_warn: float | None = 0.01,
              solver_record: Literal["interval", "full"] = "interval",
              scheme: Literal["lgvi", "splitting", "rkmk4"] | None = None, wheels: Any = None,
@@ -462,6 +462,21 @@ class Run:
     ``load_state()`` carry everything the kernels keep between steps, so a run continued from a
     saved state is bit for bit the uninterrupted run.
     """
+    tol: float
+    t0: float
+    sym: Any
+    steps: int
+    save_every: int
+    params: np.ndarray
+    max_iter: int
+    h: float
+    gam: np.ndarray
+    cum: np.ndarray
+    comp: Composition
+    codes: np.ndarray
+    code: int
+    body: RigidBody
+    alpha: float
 
     #: The system this run steps (its state layout sizes the driver's buffers).
     system = RIGID_BODY
@@ -472,25 +487,25 @@ class Run:
         self.body = body = as_body(body)
         self.code, self.tol, self.max_iter, self.alpha = _options(method, tol, max_iter, alpha)
         self.R = as_rotation(R0, "R0").copy()
-        self.Pi = _initial_momentum(body, Pi0, omega0)
+        self.Pi: np.ndarray = _initial_momentum(body, Pi0, omega0)
         self.h, self.t0, self.steps, self.save_every = time_grid(h, t0, steps, save_every)
         h, steps, save_every = self.h, self.steps, self.save_every
         choice(solver_record, "solver_record", SOLVER_RECORDS)
-        self.full = solver_record == "full"
+        self.full: Any = solver_record == "full"
         _check_memory(steps, save_every, self.full)
         # run totals of the solver (steps taken), the histogram filled by the kernels
-        self.counts = np.zeros(HIST_BINS, dtype=np.int64)
-        self.it_total = 0
-        self.res_max = 0.0
-        self.last_its = 0      # iterations and residual of the last step tried (the failed one)
-        self.last_res = 0.0
+        self.counts: np.ndarray = np.zeros(HIST_BINS, dtype=np.int64)
+        self.it_total: int = 0
+        self.res_max: float = 0.0
+        self.last_its: int = 0      # iterations and residual of the last step tried (the failed one)
+        self.last_res: float = 0.0
         self.new_chunk()
         choice(forcing, "forcing", FORCINGS)
         self.comp = comp = _composition(order, composition)
         self.sym = sym = forcing == "symmetric"
         self.U = np.zeros((0, 3))
-        self.func = None
-        self.model = None
+        self.func: Any | None = None
+        self.model: Any | None = None
         kind = torque_kind(torque)  # lgvi.registry: the one classification of torque=
         if kind == "model":
             self.model = torque
@@ -515,10 +530,10 @@ class Run:
         self.meta["forcing"] = forcing_used(kind, forcing, self.model)
         if kind != "none":  # the free body's are implied by torque "none" (lgvi.invariants.declared)
             self.meta["invariants"] = declaration_of(self.model or torque)
-        self.has_potential = self.model is not None and any(m.conservative for m in self.model.terms)
+        self.has_potential: bool = self.model is not None and any(m.conservative for m in self.model.terms)
         # the paper's scheme (and the free body at order 2) keeps the original kernels, bit for bit
-        self.legacy = comp.order == 2 and (kind == "none" or (kind in ("array", "callable") and not sym))
-        self.k = 0
+        self.legacy: bool = comp.order == 2 and (kind == "none" or (kind in ("array", "callable") and not sym))
+        self.k: int = 0
         self.M_cb: np.ndarray | None = None  # last moment of a callable with symmetric forcing
         if self.legacy:
             self.G = _solver_state(self.code, body, h, self.Pi)
@@ -534,9 +549,9 @@ class Run:
                     self.A = np.zeros((len(self.gam), 3, 3))
                     self.A[:, 0, 0] = self.A[:, 1, 1] = self.A[:, 2, 2] = 1.0
                 self.S = np.zeros(7)
-                self.gidx = np.arange(len(self.gam), dtype=np.int64)
+                self.gidx: np.ndarray = np.arange(len(self.gam), dtype=np.int64)
         base = CHUNK_STEPS if self.func is None else CALLABLE_CHUNK_STEPS
-        self.chunk = max(1, base // save_every) * save_every
+        self.chunk: Any = max(1, base // save_every) * save_every
 
     # ------------------------------------------------------------------ results
     def times(self, j0: int, j1: int) -> np.ndarray:

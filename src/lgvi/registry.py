@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -66,6 +66,8 @@ SOLVER_METHODS: dict[str, SolverMethod] = {m.name: m for m in (
 )}
 #: The default ``method=``.
 DEFAULT_METHOD = "newton"
+#: ``method=`` as a type (the names of :data:`SOLVER_METHODS`; ``tests/test_registry.py`` keeps them equal).
+MethodName = Literal["paper", "newton", "cayley"]
 
 
 def method_names() -> tuple[str, ...]:
@@ -80,6 +82,8 @@ FORCING_DOCS: dict[str, str] = {
     "symmetric": "the second-order symmetric update Pi_(k+1) = F^T Pi_k + h/2 F^T u_k + h/2 u_(k+1)",
 }
 FORCINGS: tuple[str, ...] = tuple(FORCING_DOCS)
+#: ``forcing=`` as a type (the names of :data:`FORCINGS`).
+ForcingName = Literal["paper", "symmetric"]
 
 #: Where ``simulate_ensemble(device=...)`` runs the bodies (``lgvi.gpu`` provides ``"cuda"``).
 DEVICE_DOCS: dict[str, str] = {
@@ -87,6 +91,8 @@ DEVICE_DOCS: dict[str, str] = {
     "cuda": "one NVIDIA GPU, one body a thread, the CPU kernels compiled by Numba's CUDA target (lgvi.gpu)",
 }
 DEVICES: tuple[str, ...] = tuple(DEVICE_DOCS)
+#: ``device=`` as a type (the names of :data:`DEVICES`).
+DeviceName = Literal["cpu", "cuda"]
 
 
 # ------------------------------------------------------------------------------------ compositions

@@ -37,7 +37,7 @@ from .driver import check_memory, initial_momentum, run_solver_options, time_gri
 from .errors import ConvergenceError
 from .integrator import CHUNK_STEPS, SOLVER_RECORDS, Run, as_body
 from .invariants import declaration_of
-from .registry import FORCINGS, splitting_for, torque_kind
+from .registry import FORCINGS, Splitting, splitting_for, torque_kind
 from .systems import provide_run
 from .systems.rigid_body import RIGID_BODY
 from .trajectory import HIST_BINS
@@ -118,6 +118,25 @@ class SplittingRun(Run):
 
     Its record has no solver: ``iterations`` and ``residual`` are zero.
     """
+    weight: np.ndarray
+    tol: float
+    t0: float
+    symax: int
+    steps: int
+    split: Splitting
+    save_every: int
+    params: np.ndarray
+    node: np.ndarray
+    max_iter: int
+    h: float
+    drift: np.ndarray
+    diag: bool
+    codes: np.ndarray
+    code: int
+    body: RigidBody
+    ax: np.ndarray
+    alpha: float
+    Pax: np.ndarray
 
     def __init__(self, body: Any, R0: Any, Pi0: Any, *, omega0: Any, h: Any, steps: Any, torque: Any,
                  method: str, tol: Any, max_iter: Any, alpha: Any, save_every: Any, t0: Any, forcing: Any,
@@ -130,24 +149,24 @@ class SplittingRun(Run):
             raise ValueError(f"forcing={forcing!r} chooses how the LGVI treats non-conservative moments; "
                              "scheme='splitting' kicks every moment and takes no forcing= (leave the default)")
         self.R = as_rotation(R0, "R0").copy()
-        self.Pi = initial_momentum(body, Pi0, omega0)
+        self.Pi: np.ndarray = initial_momentum(body, Pi0, omega0)
         self.h, self.t0, self.steps, self.save_every = time_grid(h, t0, steps, save_every)
         choice(solver_record, "solver_record", SOLVER_RECORDS)
-        self.full = solver_record == "full"
+        self.full: Any = solver_record == "full"
         check_memory(self.steps, self.save_every, self.full)
-        self.counts = np.zeros(HIST_BINS, dtype=np.int64)
+        self.counts: np.ndarray = np.zeros(HIST_BINS, dtype=np.int64)
         self.it_total = 0
-        self.res_max = 0.0
+        self.res_max: float = 0.0
         self.last_its = 0
-        self.last_res = 0.0
+        self.last_res: float = 0.0
         self.new_chunk()
         self.split = sp = splitting_for(order, composition)
         kind = torque_kind(torque)
         self.kind = kind
-        self.func = None
-        self.model = None
+        self.func: Any | None = None
+        self.model: Any | None = None
         self.legacy = False
-        self.M_cb = None
+        self.M_cb: np.ndarray | None = None
         if kind in ("callable", "array"):
             raise ValueError(f"scheme='splitting' takes torque=None or a torque model from lgvi.torques (its moment "
                              f"evaluated at the kicks in compiled code), got a torque {kind}; use the LGVI "
@@ -166,11 +185,11 @@ class SplittingRun(Run):
         self.codes, self.params = self.model.encode() if self.model is not None else (_NO_CODES, np.zeros(0))
         self.I, self.ax, self.symax, self.Pax, self.diag = principal_data(body)
         self.drift, self.weight, self.node = sp.arrays()
-        self.ws = np.zeros(64)
-        self.Rb = np.zeros((3, 3))
-        self.Pb = np.zeros(3)
-        self.Rs = np.zeros((3, 3))
-        self.Ps = np.zeros(3)
+        self.ws: np.ndarray = np.zeros(64)
+        self.Rb: np.ndarray = np.zeros((3, 3))
+        self.Pb: np.ndarray = np.zeros(3)
+        self.Rs: np.ndarray = np.zeros((3, 3))
+        self.Ps: np.ndarray = np.zeros(3)
         self.meta: dict[str, Any] = {"scheme": "splitting", "composition": sp.name, "order": sp.order,
                                      "eps_orders": list(sp.eps_orders), "save_every": self.save_every,
                                      "torque": kind, "lgvi_version": __version__, "t0": self.t0,
@@ -179,9 +198,9 @@ class SplittingRun(Run):
             self.meta["torque_model"] = repr(self.model)
         if kind != "none":
             self.meta["invariants"] = declaration_of(self.model)
-        self.has_potential = self.model is not None and any(m.conservative for m in self.model.terms)
-        self.k = 0
-        self.chunk = max(1, CHUNK_STEPS // self.save_every) * self.save_every
+        self.has_potential: bool = self.model is not None and any(m.conservative for m in self.model.terms)
+        self.k: int = 0
+        self.chunk: int = max(1, CHUNK_STEPS // self.save_every) * self.save_every
 
     def state(self) -> dict[str, Any]:
         return {"k": self.k, "R": self.R.copy(), "Pi": self.Pi.copy()}

@@ -46,7 +46,7 @@ class SystemEnsemble:
 
     def __init__(self, system: str, members: Sequence[Any]) -> None:
         self.system = system
-        self.members = list(members)
+        self.members: list[Any] = list(members)
 
     def __len__(self) -> int:
         return len(self.members)

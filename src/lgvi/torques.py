@@ -316,6 +316,7 @@ class UniformGravity(TorqueModel):
     >>> float(m.potential(0.0, np.eye(3), [1.0, 1.0, 1.0]))
     2.943
     """
+    scenario_params: dict[str, tuple[str, bool]]
     key = "uniform_gravity"
     code = GRAVITY
     scenario_params = {"mass": ("positive", True), "com": ("vector", True), "g": ("positive", False)}
@@ -323,9 +324,9 @@ class UniformGravity(TorqueModel):
     conservative = True
 
     def __init__(self, mass: float, com: Any, g: float = 9.81):
-        self.mass = as_float(mass, "mass", positive=True)
-        self.com = _readonly(as_float_array(com, "com", (3,)))
-        self.g = as_float(g, "g")
+        self.mass: float = as_float(mass, "mass", positive=True)
+        self.com: np.ndarray = _readonly(as_float_array(com, "com", (3,)))
+        self.g: float = as_float(g, "g")
         if self.g < 0.0:
             raise ValueError(f"g must be >= 0 (gravity acts along -e3), got {self.g}")
         with np.errstate(over="ignore", invalid="ignore"):
@@ -340,16 +341,16 @@ class UniformGravity(TorqueModel):
     def _terms(self):
         return [(GRAVITY, self.mass * self.g * self.com)]
 
-    def invariants(self):
+    def invariants(self) -> dict[str, dict[str, Any]]:
         """Total energy (bounded) and ``e3 . R Pi``, the momentum about the gravity axis (exact)."""
         return {"spatial_momentum_e3": {"kind": "exact"}, "energy": {"kind": "bounded"}}
 
-    def moment(self, t, R, Pi, body):
+    def moment(self, t: Any, R: Any, Pi: Any, body: Any) -> np.ndarray:
         R, _ = _state(R)
         s = R[..., 2, :]                                   # R^T e3
         return np.cross(s, self.mass * self.g * self.com)
 
-    def potential(self, t, R, body):
+    def potential(self, t: Any, R: Any, body: Any) -> np.ndarray | None:
         R, _ = _state(R)
         return self.mass * self.g * (R[..., 2, :] @ self.com)
 
@@ -395,6 +396,7 @@ class GravityGradient(TorqueModel):
     >>> GravityGradient(mu=3.986e14, radius=7.0e6)
     GravityGradient(mu=3.986e+14, radius=7000000)
     """
+    scenario_params: dict[str, tuple[str, bool]]
     key = "gravity_gradient"
     code = GRAVITY_GRADIENT
     scenario_params = {"mu": ("positive", True), "radius": ("positive", True)}
@@ -403,8 +405,8 @@ class GravityGradient(TorqueModel):
     time_dependent = True
 
     def __init__(self, mu: float, radius: float):
-        self.mu = as_float(mu, "mu", positive=True)
-        self.radius = as_float(radius, "radius", positive=True)
+        self.mu: float = as_float(mu, "mu", positive=True)
+        self.radius: float = as_float(radius, "radius", positive=True)
         with np.errstate(over="ignore", divide="ignore", under="ignore"):
             k = float(np.float64(self.mu) / np.float64(self.radius) ** 3)
         if not (np.isfinite(k) and k > 0.0):
@@ -423,7 +425,7 @@ class GravityGradient(TorqueModel):
         k = self.mu / self.radius ** 3
         return [(GRAVITY_GRADIENT, np.array([3.0 * k, np.sqrt(k)]))]
 
-    def invariants(self):
+    def invariants(self) -> dict[str, dict[str, Any]]:
         """The Jacobi integral ``E - n e3 . R Pi`` (bounded), the energy in the frame that turns
         with the orbit; neither the energy nor any momentum is conserved."""
         return {"jacobi": {"kind": "bounded", "n": self.mean_motion}}
@@ -437,12 +439,12 @@ class GravityGradient(TorqueModel):
         r_hat[..., 1] = np.sin(nt)
         return -np.einsum("...ji,...j->...i", R, r_hat)
 
-    def moment(self, t, R, Pi, body):
+    def moment(self, t: Any, R: Any, Pi: Any, body: Any) -> np.ndarray:
         J, _ = _body_arrays(body)
         c = self.nadir(t, R)
         return 3.0 * self.mu / self.radius ** 3 * np.cross(c, c @ J.T)
 
-    def potential(self, t, R, body):
+    def potential(self, t: Any, R: Any, body: Any) -> np.ndarray | None:
         J, _ = _body_arrays(body)
         c = self.nadir(t, R)
         return 1.5 * self.mu / self.radius ** 3 * np.einsum("...i,...i->...", c, c @ J.T)
@@ -462,12 +464,13 @@ class Constant(TorqueModel):
     >>> Constant([0.0, 0.0, 1e-3])
     Constant(u=[0, 0, 0.001])
     """
+    scenario_params: dict[str, tuple[str, bool]]
     key = "constant"
     code = CONSTANT
     scenario_params = {"u": ("vector", True)}
 
     def __init__(self, u: Any):
-        self.u = _readonly(as_float_array(u, "u", (3,)))
+        self.u: np.ndarray = _readonly(as_float_array(u, "u", (3,)))
 
     def __repr__(self) -> str:
         return f"Constant(u={_vec_text(self.u)})"
@@ -475,7 +478,7 @@ class Constant(TorqueModel):
     def _terms(self):
         return [(CONSTANT, self.u)]
 
-    def moment(self, t, R, Pi, body):
+    def moment(self, t: Any, R: Any, Pi: Any, body: Any) -> np.ndarray:
         R, Pi = _state(R, Pi)
         shape = np.broadcast_shapes(R.shape[:-2], Pi.shape[:-1]) if Pi is not None else R.shape[:-2]
         return np.broadcast_to(self.u, shape + (3,)).copy()
@@ -496,6 +499,7 @@ class LinearDamping(TorqueModel):
     >>> LinearDamping(0.1), LinearDamping([0.1, 0.2, 0.3])
     (LinearDamping(c=0.1), LinearDamping(c=[0.1, 0.2, 0.3]))
     """
+    scenario_params: dict[str, tuple[str, bool]]
     key = "damping"
     code = DAMPING
     scenario_params = {"c": ("gain", True)}
@@ -503,7 +507,7 @@ class LinearDamping(TorqueModel):
     depends_on_momentum = True
 
     def __init__(self, c: Any):
-        self.c = _readonly(_gain(c, "c"))
+        self.c: np.ndarray = _readonly(_gain(c, "c"))
 
     def __repr__(self) -> str:
         return f"LinearDamping(c={_gain_text(self.c)})"
@@ -511,7 +515,7 @@ class LinearDamping(TorqueModel):
     def _terms(self):
         return [(DAMPING, self.c)]
 
-    def moment(self, t, R, Pi, body):
+    def moment(self, t: Any, R: Any, Pi: Any, body: Any) -> np.ndarray:
         _, J_inv = _body_arrays(body)
         Pi = np.asarray(Pi, dtype=np.float64)
         return -self.c * (Pi @ J_inv.T)
@@ -542,6 +546,7 @@ class AttitudePD(TorqueModel):
     >>> AttitudePD(kp=2.0, kd=1.5)
     AttitudePD(kp=2, kd=1.5)
     """
+    scenario_params: dict[str, tuple[str, bool]]
     key = "pd"
     code = ATTITUDE_PD
     scenario_params = {"kp": ("gain", True), "kd": ("gain", True), "target": ("attitude", False)}
@@ -553,10 +558,10 @@ class AttitudePD(TorqueModel):
     depends_on_momentum = True
 
     def __init__(self, kp: Any, kd: Any, R_target: Any = None):
-        self.kp = _readonly(_gain(kp, "kp"))
-        self.kd = _readonly(_gain(kd, "kd"))
+        self.kp: np.ndarray = _readonly(_gain(kp, "kp"))
+        self.kd: np.ndarray = _readonly(_gain(kd, "kd"))
         Rd = np.eye(3) if R_target is None else as_rotation(R_target, "R_target")
-        self.R_target = _readonly(Rd)
+        self.R_target: np.ndarray = _readonly(Rd)
 
     def parameters(self) -> dict[str, np.ndarray]:
         return {"kp": self.kp.copy(), "kd": self.kd.copy(), "target": self.R_target.copy()}
@@ -577,7 +582,7 @@ class AttitudePD(TorqueModel):
         return 0.5 * np.stack([A[..., 2, 1] - A[..., 1, 2], A[..., 0, 2] - A[..., 2, 0],
                                A[..., 1, 0] - A[..., 0, 1]], axis=-1)
 
-    def moment(self, t, R, Pi, body):
+    def moment(self, t: Any, R: Any, Pi: Any, body: Any) -> np.ndarray:
         _, J_inv = _body_arrays(body)
         Pi = np.asarray(Pi, dtype=np.float64)
         return -self.kp * self.attitude_error(R) - self.kd * (Pi @ J_inv.T)
@@ -624,7 +629,7 @@ class TorqueSum(TorqueModel):
     def time_dependent(self) -> bool:  # type: ignore[override]
         return any(m.time_dependent for m in self._models)
 
-    def invariants(self):
+    def invariants(self) -> dict[str, dict[str, Any]]:
         """What every term conserves, with the weaker kind (:func:`lgvi.invariants.combine`)."""
         return combine([m.invariants() for m in self._models])
 
@@ -637,14 +642,14 @@ class TorqueSum(TorqueModel):
             out.extend(m._terms())
         return out
 
-    def moment(self, t, R, Pi, body):
+    def moment(self, t: Any, R: Any, Pi: Any, body: Any) -> np.ndarray:
         total = None
         for m in self._models:
             v = m.moment(t, R, Pi, body)
             total = v if total is None else total + v
         return total
 
-    def potential(self, t, R, body):
+    def potential(self, t: Any, R: Any, body: Any) -> np.ndarray | None:
         total = None
         for m in self._models:
             if m.conservative:
@@ -733,9 +738,9 @@ class Compiled(TorqueModel):
             raise ValueError(f"Compiled: params must be finite, got {p}")
         self.moment_func = moment
         self.potential_func = potential
-        self.params = _readonly(p)
-        self.depends_on_momentum = bool(momentum_dependent)
-        self.conservative = potential is not None
+        self.params: np.ndarray = _readonly(p)
+        self.depends_on_momentum: bool = bool(momentum_dependent)
+        self.conservative: bool = potential is not None
         self.time_dependent = True          # the user's functions receive t: assume they use it
         rows = self.params if p.ndim == 2 else self.params[None]
         for r in tried_rows(len(rows)):
@@ -895,7 +900,7 @@ class Compiled(TorqueModel):
         ftype = numba.typeof(func)
         return any(sig[0] == ftype for sig in getattr(kernel, "signatures", ()))
 
-    def potential_of_bodies(self, t, R, first: int = 0) -> np.ndarray | None:
+    def potential_of_bodies(self, t: Any, R: Any, first: int = 0) -> np.ndarray | None:
         """The potential of an ensemble's saved samples: ``R`` (B, M, 3, 3) at times ``t`` (M,), body
         ``b`` with its row ``first + b`` of ``params`` (B', P) or the one row of (P,), in one compiled
         loop (a call per body cost tens of microseconds: half a minute for a million bodies)."""
@@ -918,7 +923,7 @@ class Compiled(TorqueModel):
                 out[b] = self.potential(t, R[b], None, b=first + b if self.params.ndim == 2 else None)
             return out
 
-    def moment(self, t, R, Pi, body, b: int | None = None):
+    def moment(self, t: Any, R: Any, Pi: Any, body: Any, b: int | None = None) -> np.ndarray:
         R, Pi = _state(R, Pi)
         p = self.row(b)
         lead = R.shape[:-2]
@@ -945,7 +950,7 @@ class Compiled(TorqueModel):
                                 dtype=np.float64)     # copies: the user's function cannot change the samples
         return out
 
-    def potential(self, t, R, body, b: int | None = None):
+    def potential(self, t: Any, R: Any, body: Any, b: int | None = None) -> np.ndarray | None:
         if self.potential_func is None:
             return None
         R, _ = _state(R)

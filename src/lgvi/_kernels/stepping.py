@@ -32,7 +32,7 @@ import math
 from .._jit import jit
 from .codes import OVERFLOW
 from .solvers import METHOD_CAYLEY, METHOD_NEWTON, OK, solve_call, solve_scalar
-from .torque_kernels import model_moments_s, momentum_diag
+from .torque_kernels import model_moments_call, momentum_diag
 
 
 @jit(inline="always")
@@ -444,7 +444,7 @@ def forced_stage_s(method, Jd, J, J_inv, hs, t1, Rt, Pt, Mt, G, j, codes, params
     b0 = m0 + (E00 * m0 + E10 * m1 + E20 * m2)
     b1 = m1 + (E01 * m0 + E11 * m1 + E21 * m2)
     b2 = m2 + (E02 * m0 + E12 * m1 + E22 * m2)
-    P0, P1, P2, Q0, Q1, Q2 = model_moments_s(codes, params, J, t1, r00, r01, r02, r10, r11, r12, r20, r21, r22)
+    P0, P1, P2, Q0, Q1, Q2 = model_moments_call(codes, params, J, t1, r00, r01, r02, r10, r11, r12, r20, r21, r22)
     Q0 += v0
     Q1 += v1
     Q2 += v2
@@ -574,9 +574,8 @@ def step_done(k, k0, status, its_sum, rmax, rn, Rt, Pt, book, per_step, save_eve
 @jit
 def init_moments(codes, params, J, J_inv, t, R, Pi, S, v0, v1, v2):
     """Fill the moment cache ``S`` at the state ``(t, R, Pi)`` (``v`` an extra explicit moment)."""
-    # model_moments_s, not model_moments: one level of inlining less (see _jit.jit_copy)
-    P0, P1, P2, Q0, Q1, Q2 = model_moments_s(codes, params, J, t, R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1],
-                                             R[1, 2], R[2, 0], R[2, 1], R[2, 2])
+    P0, P1, P2, Q0, Q1, Q2 = model_moments_call(codes, params, J, t, R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1],
+                                                R[1, 2], R[2, 0], R[2, 1], R[2, 2])
     D0, D1, D2 = momentum_diag(codes, params)
     S[0] = P0
     S[1] = P1

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 
-from .._jit import jit
+from .._jit import jit, jit_copy
 
 GRAVITY = 1
 GRAVITY_GRADIENT = 2
@@ -85,6 +85,13 @@ def model_moments_s(codes, params, J, t, r00, r01, r02, r10, r11, r12, r20, r21,
             Q2 -= params[o + 2] * (0.5 * (a10 - a01))
         # DAMPING: only the -D Omega part, see momentum_diag
     return P0, P1, P2, Q0, Q1, Q2
+
+
+#: :func:`model_moments_s` as a function of its own (not inlined at Numba's level; LLVM decides): the
+#: stepping loops call the models through this, so their first compilation types and lowers every
+#: model's branch once rather than once per call site (see :func:`.._jit.jit_copy`).
+model_moments_call = jit_copy(model_moments_s, "model_moments_call", "model_moments_s compiled as a function of its "
+                              "own (see the module's model_moments_call).", _nrt=False)
 
 
 @jit(inline="always")

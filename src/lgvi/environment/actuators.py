@@ -53,7 +53,7 @@ class Magnetorquers:
                              f"got shape {m.shape}")
         if np.any(m <= 0.0):
             raise ValueError(f"max_dipole must be > 0 A m^2 for every rod, got {m}")
-        self.axes = axes / norms[:, None]
+        self.axes: Any = axes / norms[:, None]
         self.max_dipole = m
         self._pinv = np.linalg.pinv(self.axes.T)          # (N, 3)
         for a in (self.axes, self.max_dipole, self._pinv):

@@ -66,17 +66,17 @@ class ExponentialAtmosphere(Component):
     def __init__(self, base_density: float = 1.217, scale_height: float = 8500.0, *,
                  planet_radius: float = EARTH_RADIUS, omega: float = EARTH_ROTATION, min_altitude: float = 0.0,
                  max_altitude: float = math.inf, rate: float | None = None):
-        self.base_density = as_float(base_density, "base_density", positive=True)
-        self.scale_height = as_float(scale_height, "scale_height", positive=True)
-        self.planet_radius = as_float(planet_radius, "planet_radius", positive=True)
-        self.omega = as_float(omega, "omega")
-        self.min_altitude = as_float(min_altitude, "min_altitude")
+        self.base_density: float = as_float(base_density, "base_density", positive=True)
+        self.scale_height: float = as_float(scale_height, "scale_height", positive=True)
+        self.planet_radius: float = as_float(planet_radius, "planet_radius", positive=True)
+        self.omega: float = as_float(omega, "omega")
+        self.min_altitude: float = as_float(min_altitude, "min_altitude")
         if not (isinstance(max_altitude, (int, float)) and max_altitude == math.inf):
             max_altitude = as_float(max_altitude, "max_altitude")
         if not max_altitude > self.min_altitude:
             raise ValueError(f"max_altitude must be above min_altitude ({self.min_altitude:g} m), got {max_altitude:g}")
-        self.max_altitude = float(max_altitude)
-        self.rate = _rate(rate)
+        self.max_altitude: float = float(max_altitude)
+        self.rate: Any = _rate(rate)
 
     @classmethod
     def from_reference(cls, altitude: float, density: float, scale_height: float, **kwargs: Any
@@ -143,8 +143,8 @@ class TabulatedAtmosphere(Component):
 
     def __init__(self, t0: float, dt: float, density: Any, *, omega: float = EARTH_ROTATION,
                  rate: float | None = None):
-        self.t0 = as_float(t0, "t0")
-        self.dt = as_float(dt, "dt", positive=True)
+        self.t0: float = as_float(t0, "t0")
+        self.dt: float = as_float(dt, "dt", positive=True)
         rho = as_float_array(density, "density", (None,))
         if rho.size < 4:
             raise ValueError(f"density must have at least 4 samples (a cubic spline), got {rho.size}")
@@ -152,8 +152,8 @@ class TabulatedAtmosphere(Component):
             i = int(np.flatnonzero(~(rho > 0.0))[0])
             raise ValueError(f"density must be positive (kg/m^3), got {rho[i]} at index {i}")
         self.density = rho
-        self.omega = as_float(omega, "omega")
-        self.rate = _rate(rate)
+        self.omega: float = as_float(omega, "omega")
+        self.rate: Any = _rate(rate)
         from scipy.interpolate import CubicSpline
 
         spline = CubicSpline(self.t0 + self.dt * np.arange(rho.size), np.log(rho))

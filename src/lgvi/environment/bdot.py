@@ -47,8 +47,8 @@ class BDot(Controller):
     """
 
     def __init__(self, gain: float, *, derivative: str = "difference"):
-        self.gain = as_float(gain, "gain", positive=True)
-        self.derivative = choice(derivative, "derivative", ("difference", "rate"))
+        self.gain: float = as_float(gain, "gain", positive=True)
+        self.derivative: str = choice(derivative, "derivative", ("difference", "rate"))
         self.reset()
 
     def reset(self) -> None:
@@ -91,7 +91,7 @@ class MomentumDumping(Controller):
     """
 
     def __init__(self, gain: float, *, controller: Controller | None = None, wheels: Any = None):
-        self.gain = as_float(gain, "gain", positive=True)
+        self.gain: float = as_float(gain, "gain", positive=True)
         if controller is not None and not isinstance(controller, Controller):
             raise TypeError(f"controller must be an lgvi.control.Controller, got {type(controller).__name__}")
         self.controller = controller

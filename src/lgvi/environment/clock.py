@@ -73,11 +73,12 @@ class Clock:
     >>> round(float(c.days_tt(0.0)), 9)
     0.0
     """
+    epoch_days_tt: float
 
     def __init__(self, epoch: Any):
-        self.epoch = as_epoch(epoch)
+        self.epoch: _dt.datetime = as_epoch(epoch)
         #: TT - UTC at the epoch, seconds
-        self.tt_minus_utc = tai_minus_utc(self.epoch) + 32.184
+        self.tt_minus_utc: float = tai_minus_utc(self.epoch) + 32.184
         delta = self.epoch - _dt.datetime(2000, 1, 1, 12)
         #: TT days of the epoch after J2000.0 (a parameter of the sun's kind)
         self.epoch_days_tt = delta.days + (delta.seconds + delta.microseconds * 1e-6 + self.tt_minus_utc) / 86400.0

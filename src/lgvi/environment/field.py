@@ -155,14 +155,14 @@ class SphericalHarmonicField:
             if degree > nmax:
                 raise ValueError(f"degree must be <= {nmax} (the coefficients' degree), got {degree}")
             nmax = degree
-        self.radius = as_float(radius, "radius", positive=True)
-        self.name = str(name)
+        self.radius: float = as_float(radius, "radius", positive=True)
+        self.name: str = str(name)
         self.degree = nmax
         self.times = times
         self._G = np.ascontiguousarray(g[:, :nmax + 1, :nmax + 1])
         self._H = np.ascontiguousarray(h[:, :nmax + 1, :nmax + 1])
         lo, hi = (times[0], times[-1]) if valid is None else (float(valid[0]), float(valid[1]))
-        self.valid = (lo, hi)
+        self.valid: tuple[Any | float, Any | float] = (lo, hi)
         n1 = nmax + 1
         self._scratch = tuple(np.zeros((n1, n1)) for _ in range(5))   # g, h, P, dP, Q
         self._year: float | None = None

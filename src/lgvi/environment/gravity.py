@@ -41,6 +41,9 @@ class OrbitGravityGradient(Compiled):
     potential depend on ``t`` only. On a circular equatorial orbit it equals
     :class:`lgvi.torques.GravityGradient`.
     """
+    orbit: Any
+    duration: float
+    dt: float
 
     def __init__(self, orbit: Any, inertia: Any, *, duration: float, dt: float = 10.0, mu: float | None = None):
         if not callable(getattr(orbit, "position_velocity", None)):

@@ -159,6 +159,13 @@ class KeplerOrbit(Orbit):
     ``r = a (cos E - e, sqrt(1 - e^2) sin E)`` and ``v = sqrt(mu a) / |r| (-sin E,
     sqrt(1 - e^2) cos E)`` in the perifocal frame, rotated by ``R3(-raan) R1(-i) R3(-argp)``.
     """
+    raan: float
+    mu: float
+    mean_anomaly: float
+    inclination: float
+    e: float
+    arg_perigee: float
+    a: float
 
     def __init__(self, a: float, e: float = 0.0, inclination: float = 0.0, raan: float = 0.0,
                  arg_perigee: float = 0.0, mean_anomaly: float = 0.0, *, mu: float = MU_EARTH):
@@ -239,7 +246,7 @@ class J2Orbit(KeplerOrbit):
                  J2: float = J2_EARTH, radius: float = R_EARTH):
         super().__init__(a, e, inclination, raan, arg_perigee, mean_anomaly, mu=mu)
         self.J2 = as_float(J2, "J2")
-        self.radius = as_float(radius, "radius", positive=True)
+        self.radius: float = as_float(radius, "radius", positive=True)
 
     @property
     def rates(self) -> tuple[float, float, float]:
@@ -305,6 +312,8 @@ class SGP4Orbit(Orbit):
     ``t`` is in seconds after the TLE's epoch (:attr:`epoch`, UTC). A propagation error (decay,
     eccentricity out of range) raises ValueError with SGP4's message.
     """
+    line2: str
+    line1: str
 
     def __init__(self, line1: str, line2: str):
         for name, line in (("line1", line1), ("line2", line2)):
@@ -325,7 +334,7 @@ class SGP4Orbit(Orbit):
         self.line1, self.line2 = line1, line2
         jd = sat.jdsatepoch + sat.jdsatepochF
         base = _dt.datetime(2000, 1, 1, 12)                   # JD 2451545.0
-        self.epoch = base + _dt.timedelta(days=(sat.jdsatepoch - 2451545.0) + sat.jdsatepochF)
+        self.epoch: _dt.datetime | None = base + _dt.timedelta(days=(sat.jdsatepoch - 2451545.0) + sat.jdsatepochF)
         self._jd = jd
 
     def position_velocity(self, t: Any) -> tuple[np.ndarray, np.ndarray]:

@@ -12,7 +12,7 @@
 from __future__ import annotations
 
 import datetime as _dt
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -32,6 +32,8 @@ SUN_RADIUS = 6.957e8
 #: The dates over which the sun's series was checked against astropy (UTC years).
 SUN_VALID_YEARS = (1950, 2050)
 SHADOW_MODELS = {"none": 0, "cylindrical": 1, "conical": 2}
+#: ``model=`` of :class:`Shadow` and :func:`shadow_fraction` as a type (the keys of ``SHADOW_MODELS``).
+ShadowModel = Literal["none", "cylindrical", "conical"]
 
 
 def _clock(epoch: Any) -> Clock:
@@ -72,10 +74,10 @@ class Sun(Component):
 
     def __init__(self, epoch: Any = None, *, interpolation: float = 60.0, rate: float | None = None):
         self.clock = None if epoch is None else _clock(epoch)
-        self.interpolation = as_float(interpolation, "interpolation")
+        self.interpolation: float = as_float(interpolation, "interpolation")
         if self.interpolation < 0.0:
             raise ValueError(f"interpolation must be >= 0 seconds (0: no interpolation), got {self.interpolation}")
-        self.rate = None if rate is None else as_float(rate, "rate", positive=True)
+        self.rate: Any = None if rate is None else as_float(rate, "rate", positive=True)
 
     def __repr__(self) -> str:
         return "Sun()" if self.clock is None else f"Sun(epoch={self.clock.epoch.isoformat()})"
@@ -126,12 +128,12 @@ class Shadow(Component):
 
     kind = "shadow"
 
-    def __init__(self, model: str = "conical", *, planet_radius: float = EARTH_RADIUS,
+    def __init__(self, model: ShadowModel = "conical", *, planet_radius: float = EARTH_RADIUS,
                  sun_radius: float = SUN_RADIUS, rate: float | None = None):
-        self.model = choice(model, "model", tuple(SHADOW_MODELS))
-        self.planet_radius = as_float(planet_radius, "planet_radius", positive=True)
-        self.sun_radius = as_float(sun_radius, "sun_radius", positive=True)
-        self.rate = None if rate is None else as_float(rate, "rate", positive=True)
+        self.model: str = choice(model, "model", tuple(SHADOW_MODELS))
+        self.planet_radius: float = as_float(planet_radius, "planet_radius", positive=True)
+        self.sun_radius: float = as_float(sun_radius, "sun_radius", positive=True)
+        self.rate: Any = None if rate is None else as_float(rate, "rate", positive=True)
 
     def __repr__(self) -> str:
         return f"Shadow({self.model!r})"
@@ -150,7 +152,7 @@ class Shadow(Component):
         return evaluate(self, 0.0, r_N=r_N, sun_N=sun_N, sun_distance=sun_distance)["shadow"]
 
 
-def shadow_fraction(r: Any, r_sun: Any, model: str = "conical", *, planet_radius: float = EARTH_RADIUS,
+def shadow_fraction(r: Any, r_sun: Any, model: ShadowModel = "conical", *, planet_radius: float = EARTH_RADIUS,
                     sun_radius: float = SUN_RADIUS) -> np.ndarray:
     """The visible fraction of the solar disc at planet-centred positions ``r`` (..., 3) with the sun
     at ``r_sun`` (..., 3), metres. Returns shape ``(...)``."""

@@ -5,12 +5,15 @@ loop (:mod:`lgvi.components`), and :class:`FlightSoftware`, the description that
 from __future__ import annotations
 
 import math
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
 from .._validation import as_float, as_float_array, as_rotation, choice
 from ..components import COMPONENT_KINDS, SIGNALS, Component, ComponentKind, LoopContext, Signal, register_kind
+
+if TYPE_CHECKING:  # annotations only: imported where used at run time
+    from ..control import Controller
 
 __all__ = ["FlightSoftware", "InertialPointing", "HillPointing", "NadirPointing", "VelocityPointing", "SunPointing",
            "TargetPointing", "MRPControl", "BDotControl", "MomentumDumpingControl", "RWMotorTorque", "ModeRules",
@@ -31,14 +34,15 @@ def _unit(v: Any, name: str) -> np.ndarray:
 class InertialPointing(Component):
     """Guidance: a fixed reference ``R_ref`` (reference frame to inertial; default the identity), with
     optional constant ``omega_ref`` / ``domega_ref`` (inertial components)."""
+    domega_ref: np.ndarray
 
     kind = "inertial_pointing"
 
     def __init__(self, R_ref: Any = None, *, omega_ref: Any = None, domega_ref: Any = None, rate: Any = None,
                  modes: Any = None) -> None:
         super().__init__(rate=rate, modes=modes)
-        self.R_ref = np.eye(3) if R_ref is None else as_rotation(R_ref, "R_ref")
-        self.omega_ref = np.zeros(3) if omega_ref is None else as_float_array(omega_ref, "omega_ref", (3,))
+        self.R_ref: np.ndarray = np.eye(3) if R_ref is None else as_rotation(R_ref, "R_ref")
+        self.omega_ref: np.ndarray = np.zeros(3) if omega_ref is None else as_float_array(omega_ref, "omega_ref", (3,))
         self.domega_ref = np.zeros(3) if domega_ref is None else as_float_array(domega_ref, "domega_ref", (3,))
 
     def params(self) -> np.ndarray:
@@ -76,7 +80,7 @@ class VelocityPointing(Component):
 
     def __init__(self, *, mu: float | None = None, rate: Any = None, modes: Any = None) -> None:
         super().__init__(rate=rate, modes=modes)
-        self.mu = None if mu is None else as_float(mu, "mu", positive=True)
+        self.mu: float | None = None if mu is None else as_float(mu, "mu", positive=True)
         self._mu = self.mu
 
     def setup(self, ctx: LoopContext) -> None:
@@ -96,8 +100,8 @@ class SunPointing(Component):
     def __init__(self, axis: Any = (0.0, 0.0, 1.0), secondary: Any = (1.0, 0.0, 0.0), *, rate: Any = None,
                  modes: Any = None) -> None:
         super().__init__(rate=rate, modes=modes)
-        self.axis = _unit(axis, "axis")
-        self.secondary = _unit(secondary, "secondary")
+        self.axis: np.ndarray = _unit(axis, "axis")
+        self.secondary: np.ndarray = _unit(secondary, "secondary")
         if np.linalg.norm(np.cross(self.axis, self.secondary)) < 1e-6:
             raise ValueError(f"secondary must not be parallel to axis, got axis={self.axis.tolist()}, "
                              f"secondary={self.secondary.tolist()}")
@@ -117,7 +121,7 @@ class TargetPointing(SunPointing):
     def __init__(self, target_ecef: Any, axis: Any = (0.0, 0.0, 1.0), secondary: Any = (1.0, 0.0, 0.0), *,
                  rate: Any = None, modes: Any = None) -> None:
         super().__init__(axis, secondary, rate=rate, modes=modes)
-        self.target_ecef = as_float_array(target_ecef, "target_ecef", (3,))
+        self.target_ecef: np.ndarray = as_float_array(target_ecef, "target_ecef", (3,))
         self._jd0 = math.nan
 
     def setup(self, ctx: LoopContext) -> None:
@@ -176,7 +180,7 @@ class ModeRules(Component):
         if not (isinstance(initial, (int, np.integer)) and 0 <= initial <= 62):
             raise ValueError(f"initial must be a mode index in 0..62, got {initial!r}")
         self.rules = out
-        self.initial = int(initial)
+        self.initial: int = int(initial)
 
     def params(self) -> np.ndarray:
         return np.concatenate([[float(len(self.rules))], np.ravel(self.rules)])
@@ -200,12 +204,12 @@ class MRPControl(Component):
         super().__init__(rate=rate, modes=modes)
         self.K = as_float(K, "K", positive=True)
         self.P = as_float(P, "P", positive=True)
-        self.Ki = None if Ki is None else as_float(Ki, "Ki", positive=True)
+        self.Ki: float | None = None if Ki is None else as_float(Ki, "Ki", positive=True)
         if integral_limit is not None and Ki is None:
             raise ValueError("integral_limit bounds the integral term: give Ki too (or leave integral_limit=None)")
-        self.integral_limit = math.inf if integral_limit is None else as_float(integral_limit, "integral_limit",
+        self.integral_limit: float = math.inf if integral_limit is None else as_float(integral_limit, "integral_limit",
                                                                                  positive=True)
-        self.inertia = None if inertia is None else as_float_array(inertia, "inertia", (3, 3))
+        self.inertia: np.ndarray | None = None if inertia is None else as_float_array(inertia, "inertia", (3, 3))
         self._J = np.zeros((3, 3))
         self._axes = np.zeros((0, 3))
 
@@ -235,8 +239,8 @@ class BDotControl(Component):
 
     def __init__(self, gain: float, *, derivative: str = "difference", rate: Any = None, modes: Any = None) -> None:
         super().__init__(rate=rate, modes=modes)
-        self.gain = as_float(gain, "gain", positive=True)
-        self.derivative = choice(derivative, "derivative", ("difference", "rate"))
+        self.gain: float = as_float(gain, "gain", positive=True)
+        self.derivative: str = choice(derivative, "derivative", ("difference", "rate"))
 
     def params(self) -> np.ndarray:
         return np.array([self.gain, 1.0 if self.derivative == "rate" else 0.0])
@@ -253,7 +257,7 @@ class MomentumDumpingControl(Component):
 
     def __init__(self, gain: float, *, rate: Any = None, modes: Any = None) -> None:
         super().__init__(rate=rate, modes=modes)
-        self.gain = as_float(gain, "gain", positive=True)
+        self.gain: float = as_float(gain, "gain", positive=True)
         self._axes = np.zeros((0, 3))
 
     def setup(self, ctx: LoopContext) -> None:
@@ -272,6 +276,7 @@ class RWMotorTorque(Component):
     """Actuator map: Basilisk's ``rwMotorTorque``, the torque request to wheel motor torques
     ``wheel_command`` (minimum norm, the reaction ``-G u`` equal to the request along
     ``control_axes``, default the three body axes: :func:`lgvi.control.map_to_wheels`)."""
+    control_axes: np.ndarray | None
 
     kind = "rw_motor_torque"
 
@@ -325,7 +330,7 @@ class UserComponent(Component):
             raise ValueError(f"family must be one of {FAMILIES}, got {family!r}")
         self.step = step
         self.family = family
-        self.own = tuple(own)
+        self.own: tuple[Signal, ...] = tuple(own)
         for o in self.own:
             if not isinstance(o, Signal):
                 raise TypeError(f"own must hold lgvi.components.Signal rows, got {type(o).__name__}")
@@ -337,11 +342,11 @@ class UserComponent(Component):
                 if s not in names:
                     raise ValueError(f"{what} names {s!r}, neither a standard signal (lgvi.components.SIGNALS) nor "
                                      "declared in own")
-        self.reads = tuple(reads)
-        self.writes = tuple(writes)
+        self.reads: tuple[str, ...] = tuple(reads)
+        self.writes: tuple[str, ...] = tuple(writes)
         self._params = as_float_array(params, "params").reshape(-1)
         self._state = as_float_array(state, "state").reshape(-1)
-        self.name = str(name)
+        self.name: str = str(name)
 
     def params(self) -> np.ndarray:
         return self._params
@@ -398,6 +403,8 @@ class FlightSoftware:
     >>> [c.kind for c in fsw.components()]
     ['hill_pointing', 'mrp_feedback', 'rw_motor_torque']
     """
+    controller: Controller | None
+    control_period: Any
 
     def __init__(self, *, guidance: Any = None, control: Any = None, actuators: Any = None, modes: Any = None,
                  estimator: Any = None, components: Sequence[Any] = (), rate: Any = None,
@@ -412,20 +419,20 @@ class FlightSoftware:
         self.controller, self.control_period = controller, control_period
         from ..spacecraft import components_of
 
-        self.guidance = components_of(guidance, "guidance", ("guidance",))
-        self.control = components_of(control, "control", ("control",))
-        self.actuators = components_of(actuators, "actuators", ("actuator",))
-        self.modes = components_of(modes, "modes", ("mode",))
+        self.guidance: list[Any] = components_of(guidance, "guidance", ("guidance",))
+        self.control: list[Any] = components_of(control, "control", ("control",))
+        self.actuators: list[Any] = components_of(actuators, "actuators", ("actuator",))
+        self.modes: list[Any] = components_of(modes, "modes", ("mode",))
         if len(self.modes) > 1:
             raise ValueError("modes takes one ModeRules (one mode manager)")
-        self.estimator = components_of(estimator, "estimator", ("estimator",))
+        self.estimator: list[Any] = components_of(estimator, "estimator", ("estimator",))
         from ..components import FAMILIES
 
-        self.extra = components_of(components, "components", FAMILIES)
+        self.extra: list[Any] = components_of(components, "components", FAMILIES)
         if rate is not None:
             Component(rate=rate)               # validates it
         self.rate = rate
-        self.record = None if record is None else tuple(str(r) for r in record)
+        self.record: tuple[str, ...] | None = None if record is None else tuple(str(r) for r in record)
 
     def components(self) -> list[Any]:
         return self.estimator + self.guidance + self.modes + self.control + self.actuators + self.extra

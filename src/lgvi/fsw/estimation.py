@@ -169,9 +169,9 @@ class MEKF(Component):
     def __init__(self, *, rate: float | None = None, arw: float, rrw: float, star_tracker: StarTracker | None = None,
                  mag_sigma: float | None = None, sun_sigma: float | None = None, R0: Any = None,
                  bias0: Any = (0.0, 0.0, 0.0), P0: Any, max_variance: float = 1e6, gyro_output: str = "rate") -> None:
-        self.rate = None if rate is None else as_float(rate, "rate", positive=True)
-        self.arw = as_float(arw, "arw")
-        self.rrw = as_float(rrw, "rrw")
+        self.rate: Any = None if rate is None else as_float(rate, "rate", positive=True)
+        self.arw: float = as_float(arw, "arw")
+        self.rrw: float = as_float(rrw, "rrw")
         for name, v in (("arw", self.arw), ("rrw", self.rrw)):
             if v < 0.0:
                 raise ValueError(f"{name} must be a nonnegative noise density, got {v}")
@@ -179,8 +179,8 @@ class MEKF(Component):
             raise TypeError("star_tracker must be a StarTracker, True (the spacecraft's) or None, got "
                             f"{star_tracker!r}")
         self.star_tracker = star_tracker
-        self.mag_sigma = None if mag_sigma is None else as_float(mag_sigma, "mag_sigma", positive=True)
-        self.sun_sigma = None if sun_sigma is None else as_float(sun_sigma, "sun_sigma", positive=True)
+        self.mag_sigma: float | None = None if mag_sigma is None else as_float(mag_sigma, "mag_sigma", positive=True)
+        self.sun_sigma: float | None = None if sun_sigma is None else as_float(sun_sigma, "sun_sigma", positive=True)
         if isinstance(star_tracker, StarTracker):
             self._check_star_tracker(star_tracker)
         if R0 is not None and hasattr(R0, "as_matrix") and not R0.single:
@@ -189,12 +189,12 @@ class MEKF(Component):
             self.R0 = np.stack([as_rotation(R, f"R0[{i}]") for i, R in enumerate(np.asarray(R0, dtype=float))])
         else:
             self.R0 = np.eye(3) if R0 is None else as_rotation(R0, "R0")
-        self.bias0 = as_float_array(bias0, "bias0", (3,) if np.ndim(bias0) < 2 else (None, 3))
+        self.bias0: np.ndarray = as_float_array(bias0, "bias0", (3,) if np.ndim(bias0) < 2 else (None, 3))
         members = {a.shape[0] for a, d in ((self.R0, 3), (self.bias0, 2)) if a.ndim == d}
         if len(members) > 1:
             raise ValueError(f"R0 and bias0 must give the same number of members, got {sorted(members)}")
         self.P0 = _spd(P0, "P0", 6)
-        self.max_variance = as_float(max_variance, "max_variance", positive=True)
+        self.max_variance: float = as_float(max_variance, "max_variance", positive=True)
         if gyro_output not in ("rate", "mean"):
             raise ValueError(f"gyro_output must be 'rate' or 'mean' (the gyro's output), got {gyro_output!r}")
         self.gyro_output = gyro_output

@@ -96,16 +96,16 @@ class StreamWriter:
 
     def __init__(self, folder: str | os.PathLike[str], meta: dict[str, Any], *, resume: bool = False,
                  check: Any = None):
-        self.folder = stream_folder(folder)
+        self.folder: Path = stream_folder(folder)
         self.folder.mkdir(parents=True, exist_ok=True)
-        self.lock = FolderLock(self.folder, "stream folder").acquire()
+        self.lock: FolderLock = FolderLock(self.folder, "stream folder").acquire()
         try:
             manifest = self.folder / MANIFEST
             if manifest.exists():
                 if not resume:
                     raise FileExistsError(f"{self.folder} already holds an lgvi stream; pass resume=True to continue "
                                           "it or choose another folder")
-                self.manifest = read_manifest(self.folder)
+                self.manifest: dict[str, Any] = read_manifest(self.folder)
                 _check_resume_state(self.manifest, manifest)
                 _check_state_against_chunks(self.folder, self.manifest, manifest)
                 if check is not None and self.manifest.get("state") is not None:
@@ -721,21 +721,23 @@ class StreamSink:
     potential go to :class:`StreamWriter`; a partial result is the complete chunks on disk plus the
     current chunk's steps.
     """
+    se: Any
+    layout: tuple[tuple[Any, ...], tuple[Any, ...]]
 
     def __init__(self, run: Any, writer: StreamWriter, folder: Path) -> None:
         self.run = run
         self.writer = writer
         self.folder = folder
-        self.where = f" Complete chunks are in {folder}."
-        self.interrupted = f"every complete chunk is in {folder} (resume=True continues it)"
+        self.where: str = f" Complete chunks are in {folder}."
+        self.interrupted: str = f"every complete chunk is in {folder} (resume=True continues it)"
         se = self.se = run.save_every
         state, records = self.layout = layout(run)
-        self.state = [f.empty(run.chunk // se) for f in state]
-        self.per = record_every(run)
-        self.records = [f.zeros(run.chunk // self.per) for f in records]
+        self.state: list[Any] = [f.empty(run.chunk // se) for f in state]
+        self.per: int = record_every(run)
+        self.records: list[Any] = [f.zeros(run.chunk // self.per) for f in records]
         self.chunk_start: dict[str, Any] = {}
         #: a system with its own stream format (``system.from_stream``); else the rigid body's
-        self.generic = run.system.from_stream is not None
+        self.generic: bool = run.system.from_stream is not None
         if run.k == 0 and not writer.manifest["chunks"] and run.steps == 0:
             self._append(run.times(0, 1), [getattr(run, f.name)[None].copy() for f in run.system.state],
                          [f.zeros(0) for f in records], 0)

@@ -12,12 +12,13 @@ from __future__ import annotations
 
 import time as _time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
 from .. import so3
 from .._validation import as_float, as_float_array, as_int, as_rotation, choice
+from ..registry import ForcingName
 from ..trajectory import Trajectory
 from .adjoint import as_body, potential_encoding, reverse, rollout
 
@@ -25,6 +26,9 @@ __all__ = ["InfeasibleTransferError", "TransferError", "TransferResult", "reacha
 
 COSTS = ("energy", "time")
 METHODS = ("SLSQP", "trust-constr", "indirect", "ipopt")
+#: ``cost=`` and ``method=`` of :func:`transfer` as types (``COSTS``, ``METHODS``).
+CostName = Literal["energy", "time"]
+TransferMethod = Literal["SLSQP", "trust-constr", "indirect", "ipopt"]
 
 
 @dataclass(frozen=True)
@@ -142,8 +146,8 @@ def _eigenaxis_guess(body, R0, Rf, w0, wf, T, N, sym):
 
 
 def transfer(body: Any, R0: Any, Rf: Any, T: Any, N: Any, *, omega0: Any = 0, omegaf: Any = 0,
-             cost: str = "energy", max_torque: Any = None, torque: Any = None, forcing: str = "paper",
-             method: str | None = None, u0: Any = None, tol: float = 1e-10, constraint_tol: float = 1e-8,
+             cost: CostName = "energy", max_torque: Any = None, torque: Any = None, forcing: ForcingName = "paper",
+             method: TransferMethod | None = None, u0: Any = None, tol: float = 1e-10, constraint_tol: float = 1e-8,
              maxiter: int = 1000) -> TransferResult:
     """Transfer the body from ``(R0, omega0)`` to ``(Rf, omegaf)`` on the discrete LGVI.
 

@@ -45,7 +45,7 @@ class OrbitTable(Component):
 
     def __init__(self, *, dt: float = ORBIT_TABLE_DT, rate: Any = None) -> None:
         super().__init__(rate=rate)
-        self.dt = as_float(dt, "orbit_dt", positive=True)
+        self.dt: float = as_float(dt, "orbit_dt", positive=True)
         self._row = np.zeros(0)
 
     def setup(self, ctx: LoopContext) -> None:
@@ -114,8 +114,8 @@ class GravityGradient(Component):
 
     def __init__(self, *, dt: float = ORBIT_TABLE_DT, mu: float | None = None) -> None:
         super().__init__(rate=None)
-        self.dt = as_float(dt, "dt", positive=True)
-        self.mu = None if mu is None else as_float(mu, "mu", positive=True)
+        self.dt: float = as_float(dt, "dt", positive=True)
+        self.mu: float | None = None if mu is None else as_float(mu, "mu", positive=True)
         self._row = np.zeros(0)
 
     def setup(self, ctx: LoopContext) -> None:
@@ -200,7 +200,7 @@ class Spacecraft:
                  field: Any = None, epoch: Any = None, disturbances: Sequence[Any] = (), sensors: Sequence[Any] = (),
                  environment: Sequence[Any] = (), orbit_dt: float = ORBIT_TABLE_DT, environment_rate: Any = None,
                  magnetorquer_rate: Any = None) -> None:
-        self.body = body if isinstance(body, RigidBody) else RigidBody(body)
+        self.body: RigidBody = body if isinstance(body, RigidBody) else RigidBody(body)
         if wheels is not None and not (hasattr(wheels, "axes") and hasattr(wheels, "spin_inertia")
                                        and callable(getattr(wheels, "_for_run", None))):
             raise TypeError(f"wheels must be an lgvi.ReactionWheels or None, got {type(wheels).__name__}")
@@ -230,12 +230,12 @@ class Spacecraft:
             raise ValueError("field needs epoch= (UTC of t = 0: the Earth's rotation angle and the field's date), "
                              "e.g. epoch=datetime.datetime(2026, 1, 1)")
         self.epoch = epoch
-        self.orbit_dt = as_float(orbit_dt, "orbit_dt", positive=True)
+        self.orbit_dt: float = as_float(orbit_dt, "orbit_dt", positive=True)
         self.environment_rate = environment_rate
         self.magnetorquer_rate = magnetorquer_rate
-        self.disturbances = components_of(disturbances, "disturbances", ("disturbance",))
-        self.sensors = components_of(sensors, "sensors", ("sensor",))
-        self.environment = components_of(environment, "environment", ("environment",))
+        self.disturbances: list[Any] = components_of(disturbances, "disturbances", ("disturbance",))
+        self.sensors: list[Any] = components_of(sensors, "sensors", ("sensor",))
+        self.environment: list[Any] = components_of(environment, "environment", ("environment",))
         for d in self.disturbances:
             if d.kind == "orbit_gravity_gradient" and orbit is None:
                 raise ValueError("disturbances: GravityGradient needs the spacecraft's orbit: give orbit=")

@@ -136,6 +136,10 @@ class FacetDrag(_Disturbance):
     facet with ``n . u > 0`` feels ``F_i = -1/2 rho |v|^2 Cd_i A_i (n_i . u) u`` at ``c_i``;
     the torque is ``sum c_i x F_i``. Facets facing away feel nothing (no shadowing between facets).
     """
+    normal: np.ndarray
+    drag_coefficient: np.ndarray
+    centre: np.ndarray
+    area: np.ndarray
 
     kind = "facet_drag"
 
@@ -146,10 +150,10 @@ class FacetDrag(_Disturbance):
         bad = np.argwhere(~(Cd > 0.0))
         if bad.size:
             raise ValueError(f"drag_coefficient must be positive, got {Cd[tuple(bad[0])]}")
-        self.members = None if max(np.ndim(area) - 1, np.ndim(normal) - 2, np.ndim(centre) - 2,
+        self.members: Any | None = None if max(np.ndim(area) - 1, np.ndim(normal) - 2, np.ndim(centre) - 2,
                                    np.ndim(drag_coefficient) - 1) <= 0 else A.shape[0]
         self.area, self.normal, self.centre, self.drag_coefficient = A, n, c, Cd
-        self.rate = None if rate is None else as_float(rate, "rate", positive=True)
+        self.rate: float | None = None if rate is None else as_float(rate, "rate", positive=True)
 
     def __repr__(self) -> str:
         return f"FacetDrag({self.area.shape[1]} facets)"
@@ -184,6 +188,13 @@ class FacetSRP(_Disturbance):
     ``F = -P A cos(th) [(1 - specular) s + 2 (diffuse / 3 + specular cos(th)) n]``,
     ``P = shadow * solar_flux / c * (AU / d)^2``; the torque is ``sum c_i x F_i``.
     """
+    members: Any | None
+    specular: np.ndarray
+    normal: np.ndarray
+    diffuse: np.ndarray
+    centre: np.ndarray
+    area: np.ndarray
+    absorbed: np.ndarray
 
     kind = "facet_srp"
 
@@ -204,10 +215,10 @@ class FacetSRP(_Disturbance):
                                    np.ndim(specular) - 1, np.ndim(diffuse) - 1) <= 0 else A.shape[0]
         self.area, self.normal, self.centre = A, n, c
         self.absorbed, self.specular, self.diffuse = a, s, d
-        self.solar_flux = as_float(solar_flux, "solar_flux", positive=True)
-        self.speed_of_light = as_float(speed_of_light, "speed_of_light", positive=True)
-        self.au = as_float(au, "au", positive=True)
-        self.rate = None if rate is None else as_float(rate, "rate", positive=True)
+        self.solar_flux: float = as_float(solar_flux, "solar_flux", positive=True)
+        self.speed_of_light: float = as_float(speed_of_light, "speed_of_light", positive=True)
+        self.au: float = as_float(au, "au", positive=True)
+        self.rate: float | None = None if rate is None else as_float(rate, "rate", positive=True)
 
     def __repr__(self) -> str:
         return f"FacetSRP({self.area.shape[1]} facets)"
@@ -238,9 +249,9 @@ class ResidualDipole(_Disturbance):
         m = _members(as_float_array(dipole, "dipole"), 1, "dipole")
         if m.shape[-1] != 3:
             raise ValueError(f"dipole must be a (3,) vector (A m^2) or (B, 3), got shape {np.shape(dipole)}")
-        self.members = None if np.ndim(dipole) == 1 else m.shape[0]
+        self.members: Any | None = None if np.ndim(dipole) == 1 else m.shape[0]
         self.dipole = m
-        self.rate = None if rate is None else as_float(rate, "rate", positive=True)
+        self.rate: float | None = None if rate is None else as_float(rate, "rate", positive=True)
 
     def __repr__(self) -> str:
         return f"ResidualDipole({self.dipole[0].tolist()})"

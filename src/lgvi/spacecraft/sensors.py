@@ -94,12 +94,12 @@ class Sensor(Component):
     kind: str = ""
 
     def __init__(self, rate: float | None, seed: Any, stream: int) -> None:
-        self.rate = None if rate is None else as_float(rate, "rate", positive=True)
-        self.seed = _seeds(seed)
+        self.rate: Any = None if rate is None else as_float(rate, "rate", positive=True)
+        self.seed: np.ndarray = _seeds(seed)
         if isinstance(stream, (bool, np.bool_)) or not isinstance(stream, (int, np.integer)) \
                 or not 0 <= stream < _MAX_SEED:
             raise ValueError(f"stream must be an integer in [0, 2^53), got {describe(stream)}")
-        self.stream = int(stream)
+        self.stream: int = int(stream)
 
     def _row(self, rest: np.ndarray) -> np.ndarray:
         rest = np.asarray(rest, dtype=np.float64)
@@ -157,10 +157,10 @@ class Gyro(Sensor):
                  lsb: float | None = None, rounding: str = "zero", output: str = "rate", seed: Any = 0,
                  stream: int = 1) -> None:
         super().__init__(rate, seed, stream)
-        self.arw = _density(arw, "arw")
-        self.rrw = _density(rrw, "rrw")
-        self.bias = as_float_array(bias, "bias", (3,))
-        self.scale = np.broadcast_to(as_float_array(scale, "scale"), (3,)).astype(float) \
+        self.arw: float = _density(arw, "arw")
+        self.rrw: float = _density(rrw, "rrw")
+        self.bias: np.ndarray = as_float_array(bias, "bias", (3,))
+        self.scale: np.ndarray = np.broadcast_to(as_float_array(scale, "scale"), (3,)).astype(float) \
             if np.ndim(scale) == 0 else as_float_array(scale, "scale", (3,))
         if (self.scale == 0.0).any():
             raise ValueError(f"scale must be non-zero on each axis, got {describe(self.scale)}")
@@ -168,11 +168,11 @@ class Gyro(Sensor):
             M = as_float_array(misalignment, "misalignment", (3, 3))
             if abs(np.linalg.det(M)) < 1e-12:
                 raise ValueError(f"misalignment must be an invertible matrix, got {describe(M)}")
-            self.misalignment = M
+            self.misalignment: np.ndarray = M
         else:
             self.misalignment = _frame(misalignment, "misalignment").T     # body -> gyro axes
-        self.saturation = math.inf if saturation is None else as_float(saturation, "saturation", positive=True)
-        self.lsb = 0.0 if lsb is None else as_float(lsb, "lsb", positive=True)
+        self.saturation: float = math.inf if saturation is None else as_float(saturation, "saturation", positive=True)
+        self.lsb: float = 0.0 if lsb is None else as_float(lsb, "lsb", positive=True)
         if rounding not in ("zero", "nearest"):
             raise ValueError(f"rounding must be 'zero' or 'nearest', got {rounding!r}")
         self.rounding = rounding
@@ -204,6 +204,8 @@ class StarTracker(Sensor):
     rotation vector; None: aligned). ``sun_exclusion``/``earth_exclusion`` (rad; None: off) need the
     environment's ``sun_N`` and ``r_N`` on the bus.
     """
+    earth_exclusion: float | None
+    sun_exclusion: float | None
 
     kind = "star_tracker"
 
@@ -211,13 +213,13 @@ class StarTracker(Sensor):
                  sun_exclusion: float | None = None, earth_exclusion: float | None = None,
                  earth_radius: float = 6378137.0, seed: Any = 0, stream: int = 2) -> None:
         super().__init__(rate, seed, stream)
-        self.sigma_cross = _density(sigma_cross, "sigma_cross")
-        self.sigma_about = _density(sigma_about, "sigma_about")
-        self.case = _frame(case, "case")
+        self.sigma_cross: float = _density(sigma_cross, "sigma_cross")
+        self.sigma_about: float = _density(sigma_about, "sigma_about")
+        self.case: np.ndarray = _frame(case, "case")
         self.sun_exclusion = None if sun_exclusion is None else _angle(sun_exclusion, "sun_exclusion", math.pi)
         self.earth_exclusion = None if earth_exclusion is None else _angle(earth_exclusion, "earth_exclusion",
                                                                            math.pi)
-        self.earth_radius = as_float(earth_radius, "earth_radius", positive=True)
+        self.earth_radius: float = as_float(earth_radius, "earth_radius", positive=True)
 
     def setup(self, ctx: LoopContext) -> None:
         """The exclusions need the environment: a sun model for ``sun_N``, an orbit for ``r_N``."""
@@ -246,10 +248,10 @@ class Magnetometer(Sensor):
     def __init__(self, *, rate: float | None = None, sigma: float, bias: Any = (0.0, 0.0, 0.0),
                  misalignment: Any = None, seed: Any = 0, stream: int = 3) -> None:
         super().__init__(rate, seed, stream)
-        self.sigma = _density(sigma, "sigma")
-        self.bias = as_float_array(bias, "bias", (3,))
+        self.sigma: float = _density(sigma, "sigma")
+        self.bias: np.ndarray = as_float_array(bias, "bias", (3,))
         if misalignment is not None and np.shape(misalignment) == (3, 3):
-            self.misalignment = as_float_array(misalignment, "misalignment", (3, 3))
+            self.misalignment: np.ndarray = as_float_array(misalignment, "misalignment", (3, 3))
         else:
             self.misalignment = _frame(misalignment, "misalignment").T
 
@@ -277,11 +279,11 @@ class CoarseSunSensors(Sensor):
         norms = np.linalg.norm(n, axis=1)
         if (norms == 0.0).any():
             raise ValueError(f"normals must be non-zero vectors, got {describe(n)}")
-        self.normals = n / norms[:, None]
-        self.sigma = _density(sigma, "sigma")
-        self.scale = as_float(scale, "scale", positive=True)
-        self.fov = _angle(fov, "fov", math.pi / 2)
-        self.max_output = math.inf if max_output is None else as_float(max_output, "max_output", positive=True)
+        self.normals: Any = n / norms[:, None]
+        self.sigma: float = _density(sigma, "sigma")
+        self.scale: float = as_float(scale, "scale", positive=True)
+        self.fov: float = _angle(fov, "fov", math.pi / 2)
+        self.max_output: float = math.inf if max_output is None else as_float(max_output, "max_output", positive=True)
 
     def params(self) -> np.ndarray:
         return self._row(np.concatenate([[self.sigma, len(self.normals), self.scale, math.cos(self.fov),
@@ -302,10 +304,10 @@ class FineSunSensor(Sensor):
     def __init__(self, *, rate: float | None = None, sigma: float, mount: Any = None, fov: float = math.radians(60),
                  min_shadow: float = 0.5, seed: Any = 0, stream: int = 5) -> None:
         super().__init__(rate, seed, stream)
-        self.sigma = _density(sigma, "sigma")
-        self.mount = _frame(mount, "mount")
-        self.fov = _angle(fov, "fov", math.pi)
-        self.min_shadow = as_float(min_shadow, "min_shadow")
+        self.sigma: float = _density(sigma, "sigma")
+        self.mount: np.ndarray = _frame(mount, "mount")
+        self.fov: float = _angle(fov, "fov", math.pi)
+        self.min_shadow: float = as_float(min_shadow, "min_shadow")
         if not 0.0 <= self.min_shadow <= 1.0:
             raise ValueError(f"min_shadow must lie in [0, 1], got {self.min_shadow}")
 

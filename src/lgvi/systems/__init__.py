@@ -159,12 +159,19 @@ class CarriedState:
 
     #: Names of the arrays the compiled kernel carries from step to step.
     CARRIED: tuple[str, ...] = ()
+    # set by each run's __init__: the time grid and what the properties below read
+    k: int
+    t0: float
+    h: float
+    steps: int
+    save_every: int
+    last: np.ndarray
 
     def state(self) -> dict[str, Any]:
         return {"k": self.k, **{key: getattr(self, key).copy() for key in self.CARRIED}}
 
     def load_state(self, st: dict[str, Any]) -> None:
-        self.k = int(st["k"])
+        self.k: int = int(st["k"])
         for key in self.CARRIED:
             getattr(self, key)[...] = np.asarray(st[key], dtype=np.float64)
 

@@ -28,7 +28,7 @@ from ..control import Command, Controller
 from ..driver import MemorySink, check_memory, drive, run_solver_options, sample_times, time_grid
 from ..errors import ConvergenceError, TorqueError
 from ..invariants import BOUNDED, EXACT
-from ..registry import composition_for
+from ..registry import Composition, composition_for
 from ..trajectory import HIST_BINS, RESULT_TYPES, Trajectory, freeze_arrays, summary_dict
 from . import Field, System, register
 
@@ -116,13 +116,13 @@ class ReactionWheels:
             if abs(norm - 1.0) > AXIS_TOL:
                 raise ValueError(f"axes must be unit vectors (to {AXIS_TOL:g}); axis {i} {a[i].tolist()} has norm "
                                  f"{norm:.9g}: divide it by its norm")
-        self.axes = a / np.array(norms)[:, None] if n else a.reshape(0, 3)
-        self.spin_inertia = _per_wheel(spin_inertia, "spin_inertia", n, minimum=0.0, strict=True)
-        self.speed0 = _per_wheel(speed0, "speed0", n)
-        self.max_torque = _per_wheel(max_torque, "max_torque", n, minimum=0.0, strict=True, none=0.0)
-        self.min_torque = _per_wheel(min_torque, "min_torque", n, minimum=0.0)
-        self.max_power = _per_wheel(max_power, "max_power", n, minimum=0.0, strict=True, none=0.0)
-        self.max_speed = _per_wheel(max_speed, "max_speed", n, minimum=0.0, strict=True, none=0.0)
+        self.axes: np.ndarray = a / np.array(norms)[:, None] if n else a.reshape(0, 3)
+        self.spin_inertia: np.ndarray = _per_wheel(spin_inertia, "spin_inertia", n, minimum=0.0, strict=True)
+        self.speed0: np.ndarray = _per_wheel(speed0, "speed0", n)
+        self.max_torque: np.ndarray = _per_wheel(max_torque, "max_torque", n, minimum=0.0, strict=True, none=0.0)
+        self.min_torque: np.ndarray = _per_wheel(min_torque, "min_torque", n, minimum=0.0)
+        self.max_power: np.ndarray = _per_wheel(max_power, "max_power", n, minimum=0.0, strict=True, none=0.0)
+        self.max_speed: np.ndarray = _per_wheel(max_speed, "max_speed", n, minimum=0.0, strict=True, none=0.0)
         above = (self.max_torque > 0.0) & (self.min_torque > self.max_torque)   # max_torque 0: no limit
         if np.any(above):   # the deadband would swallow every torque the motor can give
             i = int(np.argmax(above))
@@ -137,9 +137,9 @@ class ReactionWheels:
         if unknown:
             raise ValueError(f"friction has unknown keys {sorted(unknown)}; known: 'coulomb', 'viscous', "
                              "'omega_limit_cycle'")
-        self.coulomb = _per_wheel(friction.get("coulomb", 0.0), "friction['coulomb']", n, minimum=0.0)
-        self.viscous = _per_wheel(friction.get("viscous", 0.0), "friction['viscous']", n, minimum=0.0)
-        self.omega_limit_cycle = _per_wheel(friction.get("omega_limit_cycle", OMEGA_LIMIT_CYCLE),
+        self.coulomb: np.ndarray = _per_wheel(friction.get("coulomb", 0.0), "friction['coulomb']", n, minimum=0.0)
+        self.viscous: np.ndarray = _per_wheel(friction.get("viscous", 0.0), "friction['viscous']", n, minimum=0.0)
+        self.omega_limit_cycle: np.ndarray = _per_wheel(friction.get("omega_limit_cycle", OMEGA_LIMIT_CYCLE),
                                             "friction['omega_limit_cycle']", n, minimum=0.0, strict=True)
 
     def __len__(self) -> int:
@@ -438,6 +438,18 @@ def _controller_period(controller: Any, control_period: Any, h: float) -> int:
 
 class GyrostatRun:
     """One validated run of the gyrostat, driven by :func:`lgvi.driver.drive`."""
+    Pi: np.ndarray
+    tol: float
+    t0: float
+    steps: int
+    save_every: int
+    rho0: np.ndarray
+    max_iter: int
+    h: float
+    code: int
+    body: RigidBody
+    alpha: float
+    Pi0: np.ndarray
 
     label = "simulation"
 
@@ -460,14 +472,14 @@ class GyrostatRun:
         self.R = as_rotation(R0, "R0").copy()
         self.h, self.t0, self.steps, self.save_every = time_grid(h, t0, steps, save_every)
         choice(solver_record, "solver_record", ("interval", "full"))
-        self.full = solver_record == "full"
+        self.full: bool = solver_record == "full"
         check_memory(self.steps, self.save_every, self.full)
         n = len(wheels)
         self.N = n
         JB, JB_inv, JdB, wp, friction = wheels._for_run(body)     # kept by the wheels: this run's own copies
         self.JB = JB = JB.copy()
-        self.JB_inv = JB_inv.copy()
-        self.JdB = body.Jd.copy() if n == 0 else JdB.copy()
+        self.JB_inv: np.ndarray = JB_inv.copy()
+        self.JdB: np.ndarray = body.Jd.copy() if n == 0 else JdB.copy()
         a, Js = wheels.axes, wheels.spin_inertia
         # initial state: Pi = J_B omega + G rho, rho = Js (a . omega + speed0)
         if Pi0 is None and omega0 is None:
@@ -479,13 +491,13 @@ class GyrostatRun:
         else:
             Pi = as_float_array(Pi0, "Pi0", (3,))
             w = np.linalg.solve(body.J, Pi - a.T @ (Js * wheels.speed0))
-        self.wheel_momentum = Js * (a @ w + wheels.speed0)
+        self.wheel_momentum: np.ndarray = Js * (a @ w + wheels.speed0)
         self.Pi = JB @ w + a.T @ self.wheel_momentum if omega0 is not None else as_float_array(Pi0, "Pi0", (3,)).copy()
         self.R0, self.Pi0, self.rho0 = self.R.copy(), self.Pi.copy(), self.wheel_momentum.copy()
         # controller, environment, magnetorquers
         if controller is not None and not isinstance(controller, Controller):
             raise TypeError(f"controller must be an lgvi.control.Controller, got {type(controller).__name__}")
-        self.spc = _controller_period(controller, control_period, self.h)
+        self.spc: int = _controller_period(controller, control_period, self.h)
         self.controller = controller
         if environment is not None and not callable(getattr(environment, "sample", None)):
             raise TypeError(f"environment must have a method sample(t) -> dict, got {type(environment).__name__}")
@@ -498,25 +510,25 @@ class GyrostatRun:
             raise ValueError("magnetorquers are driven by a controller's dipole: give a controller")
         self.environment = environment
         self.magnetorquers = magnetorquers
-        self.model = _torque_model(torque)
+        self.model: Any = _torque_model(torque)
         if self.model is not None:
             self.model.check_sample(self.t0, self.R, self.Pi)      # its Python form, before the run
-        self.Rs = np.zeros((3, 3))
-        self.cp = np.zeros(0)
-        self.cs = np.zeros(5)
-        self.ctrl = 0
+        self.Rs: np.ndarray = np.zeros((3, 3))
+        self.cp: np.ndarray = np.zeros(0)
+        self.cs: np.ndarray = np.zeros(5)
+        self.ctrl: int = 0
         if controller is not None:
             controller.setup(body, wheels if n else None)
             controller.reset()
             if getattr(controller, "compiled", False) and environment is None and magnetorquers is None:
                 self.ctrl = 1
                 self.cp = _mrp_params(controller, wheels)
-        self.python_controller = controller is not None and self.ctrl == 0
-        self.cmd = np.zeros(n)
-        self.tau = np.zeros(3)
-        self.u_now = np.zeros(2 * n)
-        self.comp = composition_for(order, composition)
-        self.gam = np.array(self.comp.coefficients)     # comp.arrays()[0], without the cumulative sums
+        self.python_controller: bool = controller is not None and self.ctrl == 0
+        self.cmd: np.ndarray = np.zeros(n)
+        self.tau: np.ndarray = np.zeros(3)
+        self.u_now: np.ndarray = np.zeros(2 * n)
+        self.comp: Composition = composition_for(order, composition)
+        self.gam: np.ndarray = np.array(self.comp.coefficients)     # comp.arrays()[0], without the cumulative sums
         self.G = np.zeros((len(self.gam), 5, 3))
         guess, q, first = _cold_start(), self.Pi - a.T @ self.wheel_momentum, {}
         # the kernel's Python source on plain floats (J_B as a memoryview, lists): the same IEEE operations
@@ -530,19 +542,19 @@ class GyrostatRun:
                 self.G[i, 0] = out
                 first[g] = i
         # a body torque acted (the declaration of invariants is that of the run so far)
-        self.external = (self.ctrl == 1 and n == 0) or self.model is not None
-        self.motors_off = controller is None and not friction
-        self.k = 0
-        self.counts = np.zeros(HIST_BINS, dtype=np.int64)
-        self.it_total = 0
-        self.res_max = 0.0
-        self.last_its = 0
-        self.last_res = 0.0
+        self.external: bool = (self.ctrl == 1 and n == 0) or self.model is not None
+        self.motors_off: bool = controller is None and not friction
+        self.k: int = 0
+        self.counts: np.ndarray = np.zeros(HIST_BINS, dtype=np.int64)
+        self.it_total: int = 0
+        self.res_max: float = 0.0
+        self.last_its: int = 0
+        self.last_res: float = 0.0
         se = self.save_every
         base = CHUNK_STEPS if not self.python_controller else max(CHUNK_STEPS, self.spc)
-        self.chunk = max(1, base // se) * se
-        self.wp = wp.copy()
-        self.system = _layout(n)
+        self.chunk: int = max(1, base // se) * se
+        self.wp: np.ndarray = wp.copy()
+        self.system: System = _layout(n)
         ctrl_repr = repr(controller) if controller is not None else None
         self.meta: dict[str, Any] = {"system": "gyrostat", "method": "newton", "tol": self.tol,
                                      "max_iter": self.max_iter, "alpha": 1.0, "save_every": se,

@@ -87,6 +87,8 @@ class GyrostatRKMKRun(GyrostatRun):
     :data:`DEFAULT_TABLEAU`), ``torque`` must be ``None``; ``method``, ``tol``, ``max_iter`` are
     unused. The attitude is kept as a unit quaternion ``q`` between steps.
     """
+    last_res: float
+    last_its: int
 
     #: Not symplectic: no energy bound is declared with the motors off (its energy drifts).
     symplectic = False
@@ -96,15 +98,15 @@ class GyrostatRKMKRun(GyrostatRun):
         name = check_rkmk_options(torque=torque, order=order, composition=composition)
         super().__init__(body, R0, Pi0, **kwargs)
         self.tableau = name
-        self.tab = np.array(TABLEAUS[name], dtype=np.float64)
-        self.q = quaternion_of(self.R)
-        self.qr = np.zeros(5)             # the reference's quaternion, and whether its rates are not zero
+        self.tab: np.ndarray = np.array(TABLEAUS[name], dtype=np.float64)
+        self.q: np.ndarray = quaternion_of(self.R)
+        self.qr: np.ndarray = np.zeros(5)             # the reference's quaternion, and whether its rates are not zero
         if self.ctrl == 1:
             from .._kernels.gyrostat_kernels import CP_J, CP_RREF, CP_WREF
 
             self.qr[:4] = quaternion_of(self.cp[CP_RREF:CP_RREF + 9].reshape(3, 3))
             self.qr[4] = float(np.any(self.cp[CP_WREF:CP_J] != 0.0))
-        self.theta = 0.0
+        self.theta: float = 0.0
         self.meta.update(scheme=SCHEME, method=SCHEME, order=4, composition=name, tol=0.0, max_iter=0)
 
     def state(self) -> dict[str, Any]:
@@ -139,7 +141,7 @@ class GyrostatRKMKRun(GyrostatRun):
                                     self.wheel_momentum, self.wheels.axes, self.wp, self.cmd, self.tau, self.u_now,
                                     self.ctrl, self.cp, self.cs, self.qr, self.spc, k0, n, kb, self.save_every, per,
                                     THETA_MAX, R_out, Pi_out, rho_out, u_out, it_out, res_out, self.counts)
-        self.k = int(k)
+        self.k: int = int(k)
         self.theta = float(theta)
         self.last_its, self.last_res = 0, 0.0
         return int(status)

@@ -20,7 +20,7 @@ from __future__ import annotations
 import json
 import os
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -38,6 +38,8 @@ from . import CarriedState, Field, System, register
 CHUNK_STEPS = 1 << 18
 #: Central-field potentials by name: the point-mass field, or with the body's second moments.
 POTENTIALS = {"point": 0, "order2": 1}
+#: ``potential=`` of :func:`simulate_orbit` as a type (the keys of ``POTENTIALS``).
+OrbitPotential = Literal["point", "order2"]
 FORMAT = "lgvi.orbit/1"
 
 
@@ -312,6 +314,9 @@ def extra_torque(torque: Any, steps: int, name: str = "torque") -> np.ndarray:
 
 class OrbitRun(CarriedState):
     """One validated run of :func:`simulate_orbit` (driven by :func:`lgvi.driver.drive`)."""
+    meta: dict[str, Any]
+    tol: float
+    max_iter: int
 
     system = ORBIT
     CARRIED = ('x', 'p', 'R', 'Pi', 'G', 'C')
@@ -324,20 +329,20 @@ class OrbitRun(CarriedState):
                  t0: Any = 0.0) -> None:
         from ..driver import run_solver_options
 
-        self.body = body if isinstance(body, RigidBody) else RigidBody(body)
-        self.mass = positive_number(mass, "mass")
-        self.mu = positive_number(mu, "mu")
-        self.potential = choice(potential, "potential", tuple(POTENTIALS))
-        self.code = POTENTIALS[self.potential]
-        self.x = as_float_array(x0, "x0", (3,)).copy()
+        self.body: RigidBody = body if isinstance(body, RigidBody) else RigidBody(body)
+        self.mass: float = positive_number(mass, "mass")
+        self.mu: float = positive_number(mu, "mu")
+        self.potential: str = choice(potential, "potential", tuple(POTENTIALS))
+        self.code: int = POTENTIALS[self.potential]
+        self.x: np.ndarray = as_float_array(x0, "x0", (3,)).copy()
         if not np.linalg.norm(self.x) > 0.0:
             raise ValueError("x0 must be away from the central body (|x0| > 0), got the origin")
-        self.p = self.mass * as_float_array(v0, "v0", (3,))
+        self.p: np.ndarray = self.mass * as_float_array(v0, "v0", (3,))
         self.R = as_rotation(R0, "R0").copy()
-        self.Pi = initial_momentum(self.body, Pi0, omega0)
+        self.Pi: np.ndarray = initial_momentum(self.body, Pi0, omega0)
         self.h, self.t0, self.steps, self.save_every = time_grid(h, t0, steps, save_every)
         _, self.tol, self.max_iter, _ = run_solver_options("cayley", tol, max_iter, 1.0)
-        self.radius = 0.0 if radius is None else positive_number(radius, "radius")
+        self.radius: float = 0.0 if radius is None else positive_number(radius, "radius")
         if J2 is None:
             self.J2 = 0.0
         else:
@@ -350,24 +355,24 @@ class OrbitRun(CarriedState):
             raise InitialContactError(f"x0 is inside the central body: |x0| = {r0:.6g} <= radius = {self.radius:.6g} "
                                       "(the orbit must start outside it)", step=0, time=float(self.t0),
                                       distance=r0)
-        self.contact = np.zeros(3)
+        self.contact: np.ndarray = np.zeros(3)
         self.U = extra_torque(torque, self.steps)
-        self.has_torque = torque is not None
+        self.has_torque: bool = torque is not None
         check_memory(self.steps, self.save_every, False)
-        self.chunk = max(self.save_every, (CHUNK_STEPS // self.save_every) * self.save_every)
-        self.k = 0
+        self.chunk: int = max(self.save_every, (CHUNK_STEPS // self.save_every) * self.save_every)
+        self.k: int = 0
         self.G = np.zeros((1, 5, 3))
         self.G[0, 0] = 0.5 * self.h * (self.body.J_inv @ self.Pi)
         self.G[0, 3, 0] = 1.0
         self.C = np.zeros(7)
         self.last = np.zeros(2)
-        self.hist = np.zeros(0)
-        self.declaration = _invariants({"J2": self.J2 != 0.0, "torque": self.has_torque})
+        self.hist: np.ndarray = np.zeros(0)
+        self.declaration: dict[str, dict[str, Any]] = _invariants({"J2": self.J2 != 0.0, "torque": self.has_torque})
         self.meta = {"system": ORBIT.name, "potential": self.potential, "J2": self.J2, "radius": self.radius,
                      "torque": "none" if not self.has_torque else ("constant" if len(self.U) == 1 else "array"),
                      "invariants": self.declaration, "t0": self.t0, "save_every": self.save_every,
                      "method": "cayley", "tol": self.tol, "lgvi_version": __version__}
-        self.initial = {key: getattr(self, key).tolist() for key in ("x", "p", "R", "Pi")}
+        self.initial: dict[str, Any] = {key: getattr(self, key).tolist() for key in ("x", "p", "R", "Pi")}
 
     def stream_meta(self) -> dict[str, Any]:
         """JSON-serialisable metadata of a stream of this run (:mod:`lgvi.io.streaming`): what
@@ -424,7 +429,7 @@ def _from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state: dic
 
 
 def simulate_orbit(body: Any, mass: float, x0: Any, v0: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None,
-                   h: float, steps: int, mu: float, potential: str = "order2", J2: float | None = None,
+                   h: float, steps: int, mu: float, potential: OrbitPotential = "order2", J2: float | None = None,
                    radius: float | None = None, torque: Any = None, save_every: int = 1, t0: float = 0.0,
                    tol: float = 1e-14, max_iter: int = 50, progress: Any = False, error_estimate: Any = False,
                    error_warn: float | None = 0.01) -> OrbitTrajectory:

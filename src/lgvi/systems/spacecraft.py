@@ -13,7 +13,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -25,6 +25,10 @@ from . import Field, System, register
 from .._validation import as_float_array
 from .gyrostat import GYROSTAT, GyrostatRun, GyrostatTrajectory, gyrostat_from_file, gyrostat_from_stream
 from .gyrostat_ensemble import GyrostatEnsemble, drive_members, per_member
+
+if TYPE_CHECKING:  # annotations only: imported where used at run time
+    from ..fsw import FlightSoftware
+    from ..spacecraft import Spacecraft
 
 __all__ = ["SPACECRAFT", "LoopRun", "SpacecraftEnsemble", "SpacecraftTrajectory", "simulate_spacecraft",
            "simulate_spacecraft_ensemble"]
@@ -143,6 +147,21 @@ def _period(rate: Any, h: float, what: str) -> int:
 
 class LoopRun(GyrostatRun):
     """One validated run of a spacecraft and its flight software, driven by :func:`lgvi.driver.drive`."""
+    wo: np.ndarray
+    spc_c: np.ndarray
+    so: np.ndarray
+    po: np.ndarray
+    nr: np.ndarray
+    mask: np.ndarray
+    codes: np.ndarray
+    spacecraft: Spacecraft
+    sizes: dict[str, int]
+    python_controller: bool
+    offsets: dict[str, int]
+    last_res: float
+    last_its: int
+    fsw: FlightSoftware
+    ctrl: int
 
     def __init__(self, spacecraft: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: Any, steps: Any,
                  fsw: Any = None, method: str = "newton", tol: Any = 1e-14, max_iter: Any = 50, alpha: Any = 1.0,
@@ -187,8 +206,8 @@ class LoopRun(GyrostatRun):
             rate = c.rate if c.rate is not None or not in_fsw else fsw.rate
             items.append((FAMILIES.index(kind.family), len(items), c, kind, rate))
         items.sort(key=lambda x: (x[0], x[1]))
-        self.gg = 0
-        self.ggp = np.zeros(13 + 12)
+        self.gg: int = 0
+        self.ggp: np.ndarray = np.zeros(13 + 12)
         comps = []
         for _, _, c, kind, rate in items:
             if kind.extra.get("variational"):
@@ -209,7 +228,7 @@ class LoopRun(GyrostatRun):
             " with the gravity gradient along the orbit" if self.gg else "")
         self.external = True
         n = self.N
-        self.system = dataclasses.replace(
+        self.system: System = dataclasses.replace(
             SPACECRAFT, state=self.system.state,
             records=self.system.records + (Field("signals", (len(self.sig_idx),), np.float64,
                                                  SPACECRAFT.records[-1].doc),))
@@ -310,8 +329,8 @@ class LoopRun(GyrostatRun):
         if len({id(u) for u in users}) > 1:
             raise ValueError("the loop takes one user component function per run (several components may share it "
                              f"with their own params); got {len({id(u) for u in users})}")
-        self.user = users[0] if users else None
-        self.names = [kind.name for _, kind, _, _ in wired]
+        self.user: Any | None = users[0] if users else None
+        self.names: list[Any] = [kind.name for _, kind, _, _ in wired]
         i64 = np.int64
         self.codes, self.spc_c, self.mask = np.array(codes, i64), np.array(spc, i64), np.array(mask, i64)
         self.nr, self.po, self.so, self.wo = (np.array(nr, i64), np.array(po, i64), np.array(so, i64),
@@ -319,7 +338,7 @@ class LoopRun(GyrostatRun):
         self.P = np.concatenate(P) if P else np.zeros(0)
         self.S = np.concatenate(S) if S else np.zeros(0)
         self.W, self.WS = np.array(W, i64), np.array(WS, i64)
-        self.bus = np.zeros(max(nbus, 1))
+        self.bus: np.ndarray = np.zeros(max(nbus, 1))
         for name, value in initial.items():
             # a reader's initial value (the MEKF's NaN time: "nothing measured yet") is for a slot nothing
             # writes; a slot a component writes starts at zero, as its writer's state does, since the loop
@@ -330,7 +349,7 @@ class LoopRun(GyrostatRun):
         dist = [i for i, (c, kind, _, _) in enumerate(wired) if kind.family == "disturbance"
                 and "tau_dist_B" in kind.writes and kind.writes[0] != "tau_dist_B"
                 and SIGNALS.get(kind.writes[0]) is None and sizes.get(kind.writes[0]) == 3]
-        self.io = np.array([offsets.get(name, -1) for name in _IO] + [len(dist)] + dist, i64)
+        self.io: np.ndarray = np.array([offsets.get(name, -1) for name in _IO] + [len(dist)] + dist, i64)
         modes = [c for c, kind, _, _ in wired if kind.family == "mode"]
         if modes:
             self.bus[offsets["mode"]] = float(getattr(modes[0], "initial", 0))
@@ -344,9 +363,9 @@ class LoopRun(GyrostatRun):
             layout.append((name, len(idx), sizes[name]))
             idx += range(offsets[name], offsets[name] + sizes[name])
         self.record_layout = layout
-        self.sig_idx = np.array(idx, i64)
+        self.sig_idx: np.ndarray = np.array(idx, i64)
         self.offsets, self.sizes = offsets, sizes
-        self.fail = np.zeros(2, i64)
+        self.fail: np.ndarray = np.zeros(2, i64)
 
     @staticmethod
     def _member_row(rows: Any, name: str, what: str, member: int | None, members: int | None) -> np.ndarray:
@@ -380,9 +399,9 @@ class LoopRun(GyrostatRun):
             self.spc_c, self.mask, self.nr, self.P, self.po, self.S, self.so, self.W, self.wo, self.WS, self.sig_idx,
             k0, n, kb, self.tol, self.max_iter, self.save_every, per, R_out, Pi_out, rho_out, u_out, it_out, res_out,
             sig_out, self.counts, self.fail)
-        self.k = int(k)
+        self.k: int = int(k)
         self.it_total += int(it_sum) - (int(its) if status != 0 else 0)
-        self.res_max = max(self.res_max, float(rmax))
+        self.res_max: float = max(self.res_max, float(rmax))
         self.last_its, self.last_res = int(its), float(rn)
         return int(status)
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -42,6 +42,8 @@ MOMENT_KEYS = ("S", "T3", "T4", "Q1", "w1", "Q2", "w2")
 CHUNK_STEPS = 1 << 18
 #: Mutual potentials by name (kernel codes).
 POTENTIALS = {"order2": 0, "order4": 1, "points": 2}
+#: ``potential=`` of :func:`simulate_two_body` as a type (the keys of ``POTENTIALS``).
+TwoBodyPotential = Literal["order2", "order4", "points"]
 FORMAT = "lgvi.two_body/1"
 
 
@@ -239,10 +241,10 @@ class Polyhedron:
         vol = np.linalg.det(P) / 6.0
         # the ball about the centre of mass inside the body: when the centre sees every face from inside
         # (each tetrahedron to it positive), the nearest face plane bounds it (distance 3 vol / area)
-        self.inner_radius = float(np.min(3.0 * vol / area)) if np.all(vol > 0.0) else 0.0
+        self.inner_radius: float = float(np.min(3.0 * vol / area)) if np.all(vol > 0.0) else 0.0
         self.vertices = V
         self.faces = F
-        self.volume = float(vol.sum())
+        self.volume: float = float(vol.sum())
         self.center_of_mass = com
         self.mass = m
         self._unit = tuple(_cone_moments(P, vol, k) / self.volume for k in (2, 3, 4))
@@ -309,11 +311,14 @@ class PointMasses:
 
 class Moments:
     """What the kernels need of one body: mass, inertia, moments (and points)."""
+    shape: str
+    core: float
+    bound: float
 
     def __init__(self, body: Any, mass: Any, potential: str, name: str, mname: str) -> None:
-        self.points = None
+        self.points: PointMasses | None = None
         if isinstance(body, PointMasses):
-            self.mass = body.mass if mass is None else positive_number(mass, mname)
+            self.mass: float = body.mass if mass is None else positive_number(mass, mname)
             if abs(self.mass - body.mass) > 1e-12 * body.mass:
                 raise ValueError(f"{mname} must be the sum of {name}'s point masses ({body.mass!r}) or None, got {mass!r}")
             S, T3, T4 = body.moments()
@@ -341,13 +346,13 @@ class Moments:
                 T4 = np.zeros((3, 3, 3, 3))
         if potential == "points" and self.points is None:
             raise ValueError(f"potential='points' needs {name} as lgvi.PointMasses, got {type(body).__name__}")
-        self.body = RigidBody(np.trace(S) * np.eye(3) - S)
+        self.body: RigidBody = RigidBody(np.trace(S) * np.eye(3) - S)
         self.S = np.array(self.body.Jd)
         self.T3 = T3
         self.T4 = T4
-        self.t3 = np.einsum("kki->i", T3)
+        self.t3: Any = np.einsum("kki->i", T3)
         self.Q4 = np.einsum("kkij->ij", T4)
-        self.q4 = float(np.einsum("iijj->", T4))
+        self.q4: float = float(np.einsum("iijj->", T4))
         self.E, self.A, self.core, self.bound, self.shape = contact_shape(body)
 
 
@@ -611,6 +616,10 @@ def _pair(value: Any, name: str, m1: float, m2: float) -> np.ndarray:
 
 class TwoBodyRun(CarriedState):
     """One validated run of :func:`simulate_two_body` (driven by :func:`lgvi.driver.drive`)."""
+    meta: dict[str, Any]
+    scratch: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+    tol: float
+    max_iter: int
 
     system = TWO_BODY
     CARRIED = ('x', 'p', 'R', 'Pi', 'Gh', 'C')
@@ -623,17 +632,17 @@ class TwoBodyRun(CarriedState):
                  save_every: Any = 1, t0: Any = 0.0) -> None:
         from ..driver import run_solver_options
 
-        self.potential = choice(potential, "potential", tuple(POTENTIALS))
-        self.code = POTENTIALS[self.potential]
+        self.potential: str = choice(potential, "potential", tuple(POTENTIALS))
+        self.code: int = POTENTIALS[self.potential]
         self.G = positive_number(G, "G")
-        self.b1 = Moments(body1, m1, self.potential, "body1", "m1")
-        self.b2 = Moments(body2, m2, self.potential, "body2", "m2")
+        self.b1: Moments = Moments(body1, m1, self.potential, "body1", "m1")
+        self.b2: Moments = Moments(body2, m2, self.potential, "body2", "m2")
         m1, m2 = self.b1.mass, self.b2.mass
-        self.arrays = _arrays(self.b1, self.b2)
-        self.x = _pair(x0, "x0", m1, m2)
+        self.arrays: dict[str, np.ndarray] = _arrays(self.b1, self.b2)
+        self.x: np.ndarray = _pair(x0, "x0", m1, m2)
         if not np.linalg.norm(self.x[1] - self.x[0]) > 0.0:
             raise ValueError("x0 must separate the bodies (|x2 - x1| > 0), got coincident centres")
-        self.p = _pair(v0, "v0", m1, m2) * np.array([[m1], [m2]])
+        self.p: np.ndarray = _pair(v0, "v0", m1, m2) * np.array([[m1], [m2]])
         self.R = np.stack([as_rotation(R1_0, "R1_0"), as_rotation(R2_0, "R2_0")])
         try:
             Pi1 = initial_momentum(self.b1.body, Pi1_0, omega1_0)
@@ -643,13 +652,13 @@ class TwoBodyRun(CarriedState):
             Pi2 = initial_momentum(self.b2.body, Pi2_0, omega2_0)
         except ValueError as exc:
             raise ValueError(str(exc).replace("Pi0", "Pi2_0").replace("omega0", "omega2_0")) from None
-        self.Pi = np.stack([Pi1, Pi2])
+        self.Pi: np.ndarray = np.stack([Pi1, Pi2])
         self.h, self.t0, self.steps, self.save_every = time_grid(h, t0, steps, save_every)
         _, self.tol, self.max_iter, _ = run_solver_options("cayley", tol, max_iter, 1.0)
         check_memory(self.steps, self.save_every, False)
-        self.chunk = max(self.save_every, (CHUNK_STEPS // self.save_every) * self.save_every)
-        self.k = 0
-        self.Gh = np.zeros((2, 5, 3))
+        self.chunk: int = max(self.save_every, (CHUNK_STEPS // self.save_every) * self.save_every)
+        self.k: int = 0
+        self.Gh: np.ndarray = np.zeros((2, 5, 3))
         for i, b in enumerate((self.b1, self.b2)):
             self.Gh[i, 0] = 0.5 * self.h * (b.body.J_inv @ self.Pi[i])
             self.Gh[i, 3, 0] = 1.0
@@ -658,17 +667,17 @@ class TwoBodyRun(CarriedState):
         self.scratch = (np.zeros_like(self.arrays["Q1"]), np.zeros_like(self.arrays["Q2"]), np.zeros((3, 3)),
                         np.zeros((3, 3)))
         self.last = np.zeros(2)
-        self.hist = np.zeros(0)
+        self.hist: np.ndarray = np.zeros(0)
         b1, b2 = self.b1, self.b2
-        self.core = b1.core + b2.core
-        self.bound = b1.bound + b2.bound if len(b1.E) and len(b2.E) else 0.0
-        self.contact = np.zeros(3)
-        self.contact_scratch = (np.zeros((2, 3)), np.zeros((2, 3, 3)))
+        self.core: float = b1.core + b2.core
+        self.bound: float = b1.bound + b2.bound if len(b1.E) and len(b2.E) else 0.0
+        self.contact: np.ndarray = np.zeros(3)
+        self.contact_scratch: tuple[np.ndarray, np.ndarray] = (np.zeros((2, 3)), np.zeros((2, 3, 3)))
         self._check_start()
         self.meta = {"system": TWO_BODY.name, "potential": self.potential, "invariants": _invariants(None),
                      "t0": self.t0, "save_every": self.save_every, "method": "cayley", "tol": self.tol,
                      "lgvi_version": __version__}
-        self.initial = {key: getattr(self, key).tolist() for key in ("x", "p", "R", "Pi")}
+        self.initial: dict[str, Any] = {key: getattr(self, key).tolist() for key in ("x", "p", "R", "Pi")}
 
     def _check_start(self) -> None:
         """Refuse an initial state whose bodies are in contact (:class:`lgvi.errors.InitialContactError`)."""
@@ -741,7 +750,7 @@ def _from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state: dic
 
 def simulate_two_body(body1: Any, body2: Any, m1: float | None, m2: float | None, x0: Any, v0: Any, R1_0: Any,
                       R2_0: Any, *, Pi1_0: Any = None, Pi2_0: Any = None, omega1_0: Any = None, omega2_0: Any = None,
-                      h: float, steps: int, G: float = 1.0, potential: str = "order2", save_every: int = 1,
+                      h: float, steps: int, G: float = 1.0, potential: TwoBodyPotential = "order2", save_every: int = 1,
                       t0: float = 0.0, tol: float = 1e-14, max_iter: int = 50, progress: Any = False,
                       error_estimate: Any = False, error_warn: float | None = 0.01) -> TwoBodyTrajectory:
     r"""Simulate two rigid bodies in mutual gravity (the full two-body problem).

@@ -307,6 +307,15 @@ class RK4Run:
     steps (a multiple of ``save_every``): the compiled chunk :func:`lgvi._kernels.rk4_kernels.rk4_chunk`
     for the free body and the built-in models, a Python loop for a torque callable. ``q`` (4,) and
     ``Pi`` (3,) carry the state from chunk to chunk."""
+    meta: dict[str, Any]
+    t0: float
+    steps: int
+    save_every: int
+    normalize: bool
+    last_res: float
+    last_its: int
+    h: float
+    body: Any
 
     system = RK4_LAYOUT
     label = "rk4"
@@ -315,18 +324,18 @@ class RK4Run:
                  save_every: int, normalize: bool, t0: float) -> None:
         self.body, self.h, self.steps, self.save_every, self.normalize, self.t0 = body, h, steps, save_every, normalize, t0
         self.tq = tq
-        self.k = 0
+        self.k: int = 0
         self.last_res, self.last_its = float("nan"), 0    # of a failed step (lgvi.driver.MemorySink.failed)
-        self.q = _quat_of(R0)
+        self.q: np.ndarray = _quat_of(R0)
         self.Pi = Pi
         base = CHUNK_STEPS if tq.codes is not None else CALLABLE_CHUNK_STEPS
-        self.chunk = max(1, base // save_every) * save_every
+        self.chunk: int = max(1, base // save_every) * save_every
         if tq.codes is None:
             self.f = _python_rhs(tq, body)
-            self.y = np.concatenate([self.q, self.Pi])
+            self.y: np.ndarray = np.concatenate([self.q, self.Pi])
         else:
             self.J = np.ascontiguousarray(body.J)
-            self.J_inv = np.ascontiguousarray(body.J_inv)
+            self.J_inv: np.ndarray = np.ascontiguousarray(body.J_inv)
         self.meta = {"method": "rk4", "h": h, "steps": steps, "save_every": save_every, "normalize": normalize,
                      "torque": tq.kind, "torque_path": tq.path, "t0": t0, "lgvi_version": __version__}
 

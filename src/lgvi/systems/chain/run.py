@@ -23,7 +23,7 @@ from ..._kernels.codes import NOT_CONVERGED, NOT_FINITE, SINGULAR
 from ..._validation import as_float, as_float_array
 from ..._version import __version__
 from ...driver import MemorySink, Progress, check_memory, drive, time_grid
-from ...registry import composition_for
+from ...registry import Composition, composition_for
 from .. import CarriedState, Field, provide_run
 from ..orbit import array_digest, read_result_npz, save_result_npz
 from .model import (G0, chain_parameters, kinetic_energy, potential_energy, tangent_velocities, unit_directions,
@@ -161,6 +161,10 @@ def _check_shapes(arrays: dict[str, np.ndarray], exc: type, prefix: str) -> None
 
 class ChainRun(CarriedState):
     """One validated run of :func:`simulate_chain` (driven by :func:`lgvi.driver.drive`)."""
+    link_masses: np.ndarray
+    w: np.ndarray
+    n: int
+    gam: np.ndarray
 
     system = CHAIN
     CARRIED = ("q", "pi", "hist", "hh")
@@ -174,34 +178,34 @@ class ChainRun(CarriedState):
 
         self.M, self.w = chain_parameters(lengths, masses, link_masses)
         n = self.n = len(self.w)
-        self.lengths = as_float_array(lengths, "lengths", (n,)).copy()
-        self.masses = as_float_array(masses, "masses", (n,)).copy()
+        self.lengths: np.ndarray = as_float_array(lengths, "lengths", (n,)).copy()
+        self.masses: np.ndarray = as_float_array(masses, "masses", (n,)).copy()
         self.link_masses = np.zeros(n) if link_masses is None else as_float_array(link_masses, "link_masses",
                                                                                   (n,)).copy()
-        self.gravity = as_float_array(gravity, "gravity", (3,)).copy()
-        self.q = unit_directions(q0, n, "q0")
+        self.gravity: np.ndarray = as_float_array(gravity, "gravity", (3,)).copy()
+        self.q: np.ndarray = unit_directions(q0, n, "q0")
         qdot = tangent_velocities(qdot0, self.q, "qdot0")
-        self.pi = np.cross(self.q, self.M @ qdot)
+        self.pi: np.ndarray = np.cross(self.q, self.M @ qdot)
         self.h, self.t0, self.steps, self.save_every = time_grid(h, t0, steps, save_every)
-        self.comp = composition_for(order, composition)
+        self.comp: Composition = composition_for(order, composition)
         self.gam, _ = self.comp.arrays()
-        self.tol = as_float(tol, "tol")
+        self.tol: float = as_float(tol, "tol")
         if not 0.0 < self.tol < 1e-6:
             raise ValueError(f"tol must be in (0, 1e-6) (the largest Newton residual, an angle), got {tol!r}")
-        self.max_iter = as_int(max_iter, "max_iter", minimum=1)
+        self.max_iter: int = as_int(max_iter, "max_iter", minimum=1)
         check_memory(self.steps * n, self.save_every, False)
-        self.chunk = max(self.save_every, (CHUNK_STEPS // self.save_every) * self.save_every)
-        self.k = 0
-        self.hist = np.zeros((len(self.gam), 4, n))
-        self.Minv = np.linalg.inv(self.M)
-        self.hh = np.zeros((len(self.gam), 4))
+        self.chunk: int = max(self.save_every, (CHUNK_STEPS // self.save_every) * self.save_every)
+        self.k: int = 0
+        self.hist: np.ndarray = np.zeros((len(self.gam), 4, n))
+        self.Minv: np.ndarray = np.linalg.inv(self.M)
+        self.hh: np.ndarray = np.zeros((len(self.gam), 4))
         self.last = np.zeros(2)
-        self.declaration = chain_invariants({"gravity": self.gravity})
-        self.meta = {"system": CHAIN.name, "order": self.comp.order, "composition": self.comp.name,
+        self.declaration: dict[str, dict[str, Any]] = chain_invariants({"gravity": self.gravity})
+        self.meta: dict[str, Any] = {"system": CHAIN.name, "order": self.comp.order, "composition": self.comp.name,
                      "invariants": self.declaration, "t0": self.t0, "save_every": self.save_every,
                      "method": "newton (multipliers of the unit lengths)", "tol": self.tol,
                      "lgvi_version": __version__}
-        self.initial = {"q": self.q.tolist(), "pi": self.pi.tolist()}
+        self.initial: dict[str, Any] = {"q": self.q.tolist(), "pi": self.pi.tolist()}
 
     def layout(self) -> tuple[tuple[Field, ...], tuple[Field, ...]]:
         """The state fields with this chain's ``n`` (:func:`lgvi.systems.layout`)."""

@@ -1,0 +1,87 @@
+"""What a cold first call compiles: each Numba kernel it compiles and where the time goes.
+
+Usage::
+
+    NUMBA_CACHE_DIR=$(mktemp -d) python benchmarks/first_call_compiles.py simulate-sum
+    NUMBA_CACHE_DIR=$(mktemp -d) python benchmarks/first_call_compiles.py ensemble-model
+
+The case runs once in this process (the cases of ``benchmarks/latency.py``); with an empty
+``NUMBA_CACHE_DIR`` every kernel it needs is compiled. Numba's compile events name each kernel
+compiled (a kernel called by another is compiled inside its caller's type inference, so the
+caller's figures include it); Numba's own record of each compilation gives the wall time of its
+locks (``compiler``: the whole front and middle end; ``llvm``: LLVM's optimisation and machine
+code) and of its largest passes (``inline_inlinables``: copying the ``inline="always"`` helpers'
+IR into the caller; ``nopython_type_inference``; ``native_lowering``: the LLVM IR). On a loaded
+machine the wall times grow with the load; compare shares, and the CPU time of the call.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+#: the cases of benchmarks/latency.py this script runs (same calls)
+SETUP = """
+import numpy as np
+import lgvi
+from lgvi.torques import GravityGradient, LinearDamping, UniformGravity
+top = lgvi.RigidBody([0.13, 0.28, 0.17])
+gravity = UniformGravity(1.0, [0.0, 0.0, -0.3])
+"""
+CASES = {
+    "simulate-free": "lgvi.simulate(top, np.eye(3), omega0=[4.14, 4.14, 4.14], h=0.01, steps=100)",
+    "simulate-sum": ("lgvi.simulate(top, np.eye(3), omega0=[4.14, 4.14, 4.14], h=0.01, steps=100, "
+                     "torque=gravity + LinearDamping(0.01), forcing='symmetric')"),
+    "ensemble-model": ("lgvi.simulate_ensemble(top, np.stack([np.eye(3)] * 4), omega0=np.ones((4, 3)), h=0.01, "
+                       "steps=100, torque=gravity)"),
+}
+PASSES = ("inline_inlinables", "nopython_type_inference", "native_lowering", "native_parfor_lowering")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("case", choices=tuple(CASES))
+    args = parser.parse_args(argv)
+    from numba.core import event
+
+    compiled: list = []
+
+    class Listener(event.Listener):
+        def on_start(self, ev):
+            pass
+
+        def on_end(self, ev):
+            compiled.append(ev.data["dispatcher"])
+
+    event.register("numba:compile", Listener())
+    namespace: dict = {}
+    exec(SETUP, namespace)
+    c0, w0 = time.process_time(), time.perf_counter()
+    exec(CASES[args.case], namespace)
+    cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+    print(f"{args.case}: first call {cpu:.2f} s CPU, {wall:.2f} s wall; {len(compiled)} kernels compiled "
+          f"(each includes the kernels it calls that compiled inside it)")
+    header = f"{'kernel':<24} {'compiler s':>10} {'llvm s':>7} " + " ".join(f"{p[:18]:>18}" for p in PASSES)
+    print(header)
+    print("-" * len(header))
+    seen = set()
+    for d in compiled:
+        for sig, cres in d.overloads.items():
+            if (id(d), sig) in seen:
+                continue
+            seen.add((id(d), sig))
+            md = cres.metadata or {}
+            timers = md.get("timers", {})
+            spent: dict[str, float] = {}
+            for passes in md.get("pipeline_times", {}).values():
+                for name, t in passes.items():
+                    key = name.split("_", 1)[1] if name[:1].isdigit() else name
+                    spent[key] = spent.get(key, 0.0) + t.init + t.run + t.finalize
+            print(f"{d.py_func.__name__:<24} {timers.get('compiler_lock', 0.0):>10.2f} "
+                  f"{timers.get('llvm_lock', 0.0):>7.2f} " + " ".join(f"{spent.get(p, 0.0):>18.2f}" for p in PASSES))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
