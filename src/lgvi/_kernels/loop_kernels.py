@@ -257,9 +257,9 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
             if osp >= 0:
                 bus[osp + i] = rho[i] / wp[i, 0] - (axes[i, 0] * w0 + axes[i, 1] * w1 + axes[i, 2] * w2)
         # 2. the components due (the disturbances' sum first set to the held ones); the first L ran
-        # at the end of the previous step, except at a chunk's first step
+        # at the end of the previous step, except at a chunk's first step (and all run here when L = 0)
         first = L
-        if k == k0:
+        if k == k0 or L == 0:
             sum_held_disturbances(k, bus, io, spc, nr, W, wo)
             first = 0
         st = run_components(user, t, k, bus, io, codes, spc, mask, nr, P, po, S, so, W, wo, WS, fail, first)
