@@ -37,9 +37,10 @@ match (the values are also saved in the npz, under the names in brackets):
   is computed from the state at the start of each step and held over it, as the lgvi loop does
   (task priorities: the spacecraft integrates to t_k first, then the ephemeris and environment
   modules run on the state at t_k); the effectors' torques are evaluated at each RK4 stage with
-  the stage's attitude (and position), so the torque is not held over the step as in lgvi's loop:
-  a difference of O(h) per step that the merge-time test must take into account (converging
-  with h).
+  the stage's attitude (and position). The held environment makes Basilisk's run first order in
+  its step: ``--kepler``, ``--kepler-half`` and ``--kepler-quarter`` fly the same scenario with the
+  hub 1e9 times heavier (the forces no longer move the orbit: Kepler's, as lgvi's) at h = 0.1,
+  0.05 and 0.025 s, for the test's extrapolation to h = 0 (docs/environment.md).
 
 Saved every 10 s over one orbit [t]: sigma_BN [sigma], omega_BN_B [omega] (rad/s), r_BN_N [r],
 v_BN_N [v], the shadow's visible fraction [shadow], the density [density], the field [B_N] (T).
@@ -58,6 +59,9 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 EPHEMERIS = HERE / "basilisk_loop_scenario_ephemeris.json"
 OUT = HERE / "basilisk_loop_scenario.npz"
+KEPLER = HERE / "basilisk_loop_scenario_kepler.npz"
+KEPLER_HALF = HERE / "basilisk_loop_scenario_kepler_half.npz"
+KEPLER_QUARTER = HERE / "basilisk_loop_scenario_kepler_quarter.npz"
 EPOCH = dt.datetime(2026, 3, 20)
 MU = 3.98600436e14
 RADIUS = 6378136.6 + 500e3
@@ -87,7 +91,7 @@ def ephemeris() -> None:
     print(f"wrote {EPHEMERIS}")
 
 
-def basilisk() -> None:
+def basilisk(h: float = H, mass: float = MASS, path: Path = OUT) -> None:
     from Basilisk.utilities import SimulationBaseClass, macros
 
     sys.path.insert(0, str(HERE))
@@ -99,7 +103,7 @@ def basilisk() -> None:
 
     sim = SimulationBaseClass.SimBaseClass()
     proc = sim.CreateNewProcess("p")
-    proc.addTask(sim.CreateNewTask("dyn", macros.sec2nano(H)))
+    proc.addTask(sim.CreateNewTask("dyn", macros.sec2nano(h)))
     eph_mod = bsk.ephemeris_module(eph["t"], eph["sun"], eph["gmst"], NODE)
     sim.AddModelToTask("dyn", eph_mod, 100)
 
@@ -107,7 +111,7 @@ def basilisk() -> None:
     r0 = RADIUS * np.array([math.cos(u), math.cos(i) * math.sin(u), math.sin(i) * math.sin(u)])
     vmag = math.sqrt(MU / RADIUS)
     v0 = vmag * np.array([-math.sin(u), math.cos(i) * math.cos(u), math.sin(i) * math.cos(u)])
-    sc = bsk.hub("sixU", MASS, J, r0, v0, SIGMA0, OMEGA0)
+    sc = bsk.hub("sixU", mass, J, r0, v0, SIGMA0, OMEGA0)
     earth = bsk.earth(sc, MU)
     ggEff = bsk.gravity_gradient(sc, earth)
     env = bsk.disturbances(sc, eph_mod, fac, rho0=RHO0_H[0], H=RHO0_H[1], planet_radius=6378136.6,
@@ -126,13 +130,24 @@ def basilisk() -> None:
     out = dict(t=rec["sc"].times() * 1e-9, sigma=np.asarray(rec["sc"].sigma_BN), omega=np.asarray(rec["sc"].omega_BN_B),
                r=np.asarray(rec["sc"].r_BN_N), v=np.asarray(rec["sc"].v_BN_N), shadow=shadow,
                density=np.asarray(rec["atm"].neutralDensity), B_N=np.asarray(rec["mag"].magField_N), epoch=EPOCH.isoformat(), mu=MU, r0=r0, v0=v0, J=J,
-               mass=MASS, sigma0=SIGMA0, omega0=OMEGA0, dipole=DIPOLE, g10_g11_h11=G10_G11_H11, R_sun=695e6,
-               rho0=RHO0_H[0], H=RHO0_H[1], planet_radius=6378136.6, omega_earth=OMEGA_EARTH, h=H,
+               mass=mass, sigma0=SIGMA0, omega0=OMEGA0, dipole=DIPOLE, g10_g11_h11=G10_G11_H11, R_sun=695e6,
+               rho0=RHO0_H[0], H=RHO0_H[1], planet_radius=6378136.6, omega_earth=OMEGA_EARTH, h=h,
                **{k: fac[k] for k in fac.files if k.startswith("fac_")})
-    np.savez_compressed(OUT, **out)
-    print(f"wrote {OUT} ({OUT.stat().st_size / 1024:.0f} kB): {len(out['t'])} samples to t = {out['t'][-1]:g} s, "
+    np.savez_compressed(path, **out)
+    print(f"wrote {path} ({path.stat().st_size / 1024:.0f} kB): {len(out['t'])} samples to t = {out['t'][-1]:g} s, "
           f"eclipse {np.sum(shadow < 1) * SAVE / 60:.0f} min")
 
 
 if __name__ == "__main__":
-    ephemeris() if "--ephemeris" in sys.argv[1:] else basilisk()
+    if "--ephemeris" in sys.argv[1:]:
+        ephemeris()
+    elif "--kepler" in sys.argv[1:]:
+        # the same run with the hub's mass 1e9 times larger: the forces no longer move the orbit
+        # (Kepler's, as lgvi's), the torques and the attitude dynamics unchanged
+        basilisk(mass=MASS * 1e9, path=KEPLER)
+    elif "--kepler-half" in sys.argv[1:]:
+        basilisk(h=H / 2, mass=MASS * 1e9, path=KEPLER_HALF)      # Basilisk's own step error, h = 0.05
+    elif "--kepler-quarter" in sys.argv[1:]:
+        basilisk(h=H / 4, mass=MASS * 1e9, path=KEPLER_QUARTER)   # and h = 0.025
+    else:
+        basilisk()

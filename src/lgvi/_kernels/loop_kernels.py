@@ -64,6 +64,18 @@ def sum_held_disturbances(k, bus, io, spc, nr, W, wo):
 
 
 @jit(inline="always")
+def lookahead_count(io):
+    """``L``: the leading components that are functions of the time, the attitude and the orbit only
+    (built-in environment and disturbance kinds, active in every mode); the loop runs them at the
+    step's end to force the step symmetrically (0: every disturbance held over the step). Stored in
+    ``io`` after the disturbances' indices."""
+    if io.shape[0] <= IO_NDIST:
+        return 0
+    i = IO_NDIST + 1 + io[IO_NDIST]
+    return io[i] if io.shape[0] > i else 0
+
+
+@jit(inline="always")
 def dispatch(user, code, t, bus, p, s, w):
     """One component: a user's (code 0) or a built-in kind by its family (``code // 100``)."""
     if code == 0:
@@ -129,8 +141,9 @@ def run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
 
 
 @jit(inline="always")
-def run_components(user, t, k, bus, io, codes, spc, mask, nr, P, po, S, so, W, wo, WS, fail):
-    """Step 2 of the loop at step ``k``; returns the status.
+def run_components(user, t, k, bus, io, codes, spc, mask, nr, P, po, S, so, W, wo, WS, fail, first):
+    """Step 2 of the loop at step ``k`` from component ``first`` on (those before it ran at the end
+    of the previous step: :func:`run_lookahead`); returns the status.
 
     When a mode component changes the mode, the components active in the old mode and not in the
     new one have their outputs cleared (nothing they wrote stays held), and those of the new mode
@@ -139,7 +152,7 @@ def run_components(user, t, k, bus, io, codes, spc, mask, nr, P, po, S, so, W, w
     mode = 0
     if io[IO_MODE] >= 0:
         mode = int(bus[io[IO_MODE]])
-    for c in range(codes.shape[0]):
+    for c in range(first, codes.shape[0]):
         if k % spc[c] != 0 or ((mask[c] >> mode) & 1) == 0:
             continue
         if run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
@@ -155,6 +168,25 @@ def run_components(user, t, k, bus, io, codes, spc, mask, nr, P, po, S, so, W, w
                         if run_one(user, d, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
                             return COMPONENT_FAILED
                 mode = new
+    return OK
+
+
+@jit(inline="always")
+def run_lookahead(user, t, k, L, R, bus, io, codes, spc, mask, nr, P, po, S, so, W, wo, WS, fail):
+    """The components ``0 .. L - 1`` due at step ``k`` (time ``t``) on the attitude ``R`` written on
+    the bus, after ``tau_dist_B`` is set to the held disturbances' sum (:func:`sum_held_disturbances`):
+    the environment and the disturbance torque at the end of step ``k - 1``, which step ``k`` then
+    starts from. Returns the status (``fail`` set as :func:`run_one` does)."""
+    oR = io[IO_R]
+    if oR >= 0:
+        for a in range(3):
+            for b in range(3):
+                bus[oR + 3 * a + b] = R[a, b]
+    sum_held_disturbances(k, bus, io, spc, nr, W, wo)
+    for c in range(L):
+        if k % spc[c] == 0:
+            if run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
+                return COMPONENT_FAILED
     return OK
 
 
@@ -205,6 +237,8 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
     octl = io[IO_CTRL]
     opy = io[IO_PY]
     nsig = sig_idx.shape[0]
+    L = lookahead_count(io)
+    hh = 0.5 * h
     for k in range(k0, k0 + n):
         t = t0 + k * h
         w0, w1, w2 = body_rate(JBi, Pi, axes, rho)
@@ -222,9 +256,13 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
                 bus[orh + i] = rho[i]
             if osp >= 0:
                 bus[osp + i] = rho[i] / wp[i, 0] - (axes[i, 0] * w0 + axes[i, 1] * w1 + axes[i, 2] * w2)
-        # 2. the components due (the disturbances' sum first set to the held ones)
-        sum_held_disturbances(k, bus, io, spc, nr, W, wo)
-        st = run_components(user, t, k, bus, io, codes, spc, mask, nr, P, po, S, so, W, wo, WS, fail)
+        # 2. the components due (the disturbances' sum first set to the held ones); the first L ran
+        # at the end of the previous step, except at a chunk's first step (and all run here when L = 0)
+        first = L
+        if k == k0 or L == 0:
+            sum_held_disturbances(k, bus, io, spc, nr, W, wo)
+            first = 0
+        st = run_components(user, t, k, bus, io, codes, spc, mask, nr, P, po, S, so, W, wo, WS, fail, first)
         if st != OK:
             return st, k, it_sum, rmax, 0, 0.0
         # 3. the step, with what the bus holds
@@ -236,10 +274,16 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
         ta0 = 0.0
         ta1 = 0.0
         ta2 = 0.0
+        d0 = 0.0
+        d1 = 0.0
+        d2 = 0.0
         if odist >= 0:
-            ta0 += bus[odist]
-            ta1 += bus[odist + 1]
-            ta2 += bus[odist + 2]
+            d0 = bus[odist]
+            d1 = bus[odist + 1]
+            d2 = bus[odist + 2]
+            ta0 += d0
+            ta1 += d1
+            ta2 += d2
         if octl >= 0:
             ta0 += bus[octl]
             ta1 += bus[octl + 1]
@@ -265,8 +309,19 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
         if c_rec == 0:
             for q in range(nsig):
                 sig_out[e, q] = bus[sig_idx[q]]
+        # 5. the symmetric forcing: the disturbances at the step's end (t_k+1, R_k+1), and
+        # Pi_k+1 += h/2 (tau_dist_k+1 - tau_dist_k) (the step held tau_dist_k at both ends)
+        if L > 0:
+            st = run_lookahead(user, t0 + (k + 1) * h, k + 1, L, R, bus, io, codes, spc, mask, nr, P, po, S, so, W, wo, WS, fail)
+            if st == OK and odist >= 0:
+                Pi[0] += hh * (bus[odist] - d0)
+                Pi[1] += hh * (bus[odist + 1] - d1)
+                Pi[2] += hh * (bus[odist + 2] - d2)
         rmax, c_rec, e, c_save, j = after_step(its, rn, rmax, counts, c_rec, e, per, it_out, res_out, u_out, u_now,
                                                c_save, j, save_every, R, Pi, rho, R_out, Pi_out, rho_out)
+        if st != OK:
+            # a component failed at the next step's start: step k is done (its end held at tau_dist_k)
+            return COMPONENT_FAILED, k + 1, it_sum, rmax, 0, 0.0
     return OK, k0 + n, it_sum, rmax, its, rn
 
 

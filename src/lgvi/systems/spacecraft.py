@@ -349,7 +349,8 @@ class LoopRun(GyrostatRun):
         dist = [i for i, (c, kind, _, _) in enumerate(wired) if kind.family == "disturbance"
                 and "tau_dist_B" in kind.writes and kind.writes[0] != "tau_dist_B"
                 and SIGNALS.get(kind.writes[0]) is None and sizes.get(kind.writes[0]) == 3]
-        self.io: np.ndarray = np.array([offsets.get(name, -1) for name in _IO] + [len(dist)] + dist, i64)
+        self.io: np.ndarray = np.array([offsets.get(name, -1) for name in _IO] + [len(dist)] + dist
+                                       + [self._lookahead(wired, dist)], i64)
         modes = [c for c, kind, _, _ in wired if kind.family == "mode"]
         if modes:
             self.bus[offsets["mode"]] = float(getattr(modes[0], "initial", 0))
@@ -366,6 +367,24 @@ class LoopRun(GyrostatRun):
         self.sig_idx: np.ndarray = np.array(idx, i64)
         self.offsets, self.sizes = offsets, sizes
         self.fail: np.ndarray = np.zeros(2, i64)
+
+    @staticmethod
+    def _lookahead(wired: list[Any], dist: list[int]) -> int:
+        """How many leading components the loop runs again at each step's end, for the symmetric
+        forcing of the disturbances (``docs/environment.md``): the built-in environment and
+        disturbance kinds active in every mode whose inputs are the attitude or what the leading ones
+        write (a function of the time and the attitude, not of the rates); 0 (every disturbance held
+        over the step, first order) unless each disturbance that adds into ``tau_dist_B`` is one."""
+        L = 0
+        written = {"R"}
+        for c, kind, _, reads in wired:
+            modes = getattr(c, "modes", None)
+            if (kind.code == 0 or kind.family not in ("environment", "disturbance") or modes is not None
+                    or not set(reads) <= written):
+                break
+            written.update(kind.writes)
+            L += 1
+        return L if all(i < L for i in dist) else 0
 
     @staticmethod
     def _member_row(rows: Any, name: str, what: str, member: int | None, members: int | None) -> np.ndarray:
