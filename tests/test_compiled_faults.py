@@ -97,3 +97,25 @@ def test_an_exception_in_one_body_of_an_ensemble_names_it_and_spares_the_others(
     clean = lgvi.simulate(BODY, np.eye(3), omega0=W0, h=0.01, steps=200, torque=Compiled(fails_late, params=[1e9]))
     # body 2 follows body 1 in the same thread: its part is the clean run's
     assert part.R.shape[1] == err.step + 1 and np.array_equal(part.R[2], clean.R[:err.step + 1])
+
+
+@numba.njit
+def inverse(t, R, Pi, p):
+    return (1.0 / p[0], 0.0, 0.0)
+
+
+def test_a_failing_row_past_the_tried_ones_stops_its_own_body_in_the_compiled_loop():
+    """A Compiled model is tried in its Python form on at most 64 rows (the first and last 32 of more:
+    ``torques.tried_rows``); a row between them whose values fail (a zero divisor in row 50 of 100) is
+    not tried before the run, and the compiled loop stops that body at its first step, naming it."""
+    assert list(lgvi.torques.tried_rows(5)) == [0, 1, 2, 3, 4]
+    assert lgvi.torques.tried_rows(100) == [*range(32), *range(68, 100)]
+    rows = np.ones((100, 1))
+    rows[50, 0] = 0.0
+    model = Compiled(inverse, params=rows)                     # row 50 is not tried here
+    with pytest.raises(lgvi.TorqueError, match="body 50") as info:
+        lgvi.simulate_ensemble(BODY, np.stack([np.eye(3)] * 100), omega0=np.tile(W0, (100, 1)), h=0.01, steps=10,
+                               threads=1, torque=model)
+    assert info.value.body == 50 and info.value.step == 0
+    with pytest.raises(TypeError, match="ZeroDivisionError"):  # among the tried rows it is refused at once
+        Compiled(inverse, params=rows[30:])
