@@ -391,6 +391,19 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     True
     """
     steps = steps_from(h, steps, duration)
+    if fsw is None and type(body).__name__ != "Spacecraft":    # today's keywords onto the descriptions
+        from .loop_keywords import KeywordsDeprecationWarning, describe, replacement
+
+        described = describe(body, wheels=wheels, controller=controller, control_period=control_period,
+                             environment=environment, magnetorquers=magnetorquers, torque=torque, scheme=scheme,
+                             error_estimate=error_estimate)
+        if described is not None:
+            import warnings
+
+            body, fsw = described
+            warnings.warn(replacement(body, fsw), KeywordsDeprecationWarning, stacklevel=2)
+            wheels = controller = control_period = environment = magnetorquers = scheme = None
+            forcing = "paper"                   # the gyrostat takes either; the loop's step is the same
     if fsw is not None or type(body).__name__ == "Spacecraft":     # the compiled loop (lgvi.systems.spacecraft)
         from ..spacecraft import Spacecraft
         from .spacecraft import simulate_spacecraft
@@ -426,12 +439,15 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
         else:
             gyrostat_options(torque=torque, forcing=forcing, order=order, composition=composition,
                              error_estimate=error_estimate)
-        return simulate_gyrostat(body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels, controller=controller,
-                                 control_period=control_period, environment=environment, magnetorquers=magnetorquers,
-                                 progress=progress, method=method, tol=tol, max_iter=max_iter, alpha=alpha,
-                                 save_every=save_every, t0=t0, solver_record=solver_record, order=order,
-                                 composition=composition, torque=torque, error_estimate=error_estimate,
-                                 error_warn=error_warn, scheme=scheme)
+        from .loop_keywords import as_given
+
+        with as_given():        # its shadow run (error_estimate) stays the gyrostat too
+            return simulate_gyrostat(body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels,
+                                     controller=controller, control_period=control_period, environment=environment,
+                                     magnetorquers=magnetorquers, progress=progress, method=method, tol=tol,
+                                     max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0,
+                                     solver_record=solver_record, order=order, composition=composition, torque=torque,
+                                     error_estimate=error_estimate, error_warn=error_warn, scheme=scheme)
     estimate, warn = check_options(error_estimate, error_warn, torque)
     run_class = _Run
     if scheme is not None and scheme != "lgvi":
