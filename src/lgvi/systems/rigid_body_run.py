@@ -320,6 +320,12 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
         :class:`lgvi.systems.gyrostat.GyrostatTrajectory` (``wheel_speed``, ``wheel_torque``,
         ``wheel_momentum`` (M, N)). ``error_estimate`` as above; ``order=4, 6``
         compose the step, the wheel and controller torques held over each whole step.
+        Deprecated, with ``controller``, ``control_period``, ``environment`` and
+        ``magnetorquers``, where the compiled loop has an exact equivalent
+        (:mod:`lgvi.systems.loop_keywords`): the call then runs that ``lgvi.Spacecraft`` and
+        ``lgvi.FlightSoftware``, bit for bit the same run, returns a
+        :class:`lgvi.systems.spacecraft.SpacecraftTrajectory` (a ``GyrostatTrajectory`` with the
+        records) and warns with a ``DeprecationWarning`` naming them (``docs/loop.md``).
     controller : lgvi.control.Controller, optional
         Called every ``control_period`` (zero-order hold); :class:`lgvi.control.MRPFeedback`
         with a fixed target runs compiled, others from Python between compiled chunks.
