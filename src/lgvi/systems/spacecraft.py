@@ -24,6 +24,7 @@ from ..trajectory import RESULT_TYPES
 from . import Field, System, register
 from .._validation import as_float_array
 from .gyrostat import GYROSTAT, GyrostatRun, GyrostatTrajectory, gyrostat_from_file, gyrostat_from_stream
+from .gyrostat import _invariants as _gyro_invariants
 from .gyrostat_ensemble import ENSEMBLE_TYPES, GyrostatEnsemble, drive_members, per_member
 
 __all__ = ["SPACECRAFT", "LoopRun", "SpacecraftEnsemble", "SpacecraftTrajectory", "simulate_spacecraft",
@@ -230,7 +231,12 @@ class LoopRun(GyrostatRun):
                                    zip(comps, self.spc_c.tolist())]
         self.meta["torque_model"] = "the spacecraft loop (" + ", ".join(self.meta["components"]) + ")" + (
             " with the gravity gradient along the orbit" if self.gg else "")
-        self.external = True
+        # a body torque can act (no invariant declared): the gravity gradient, a disturbance or the
+        # rods on the bus; a Python controller's body torque sets it when it acts (GyrostatRun)
+        self.external = bool(self.gg) or self.external or any(
+            name in ("tau_dist_B", "tau_control_B") for _, kind, _ in comps for name in kind.writes)
+        self.motors_off = self.motors_off and not any("wheel_command" in kind.writes for _, kind, _ in comps)
+        self.meta["invariants"] = _gyro_invariants(self)
         n = self.N
         self.system = dataclasses.replace(
             SPACECRAFT, state=self.system.state,
