@@ -361,4 +361,7 @@ def _have_basilisk() -> bool:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from lgvi.systems.loop_keywords import as_given
+
+    with as_given():   # wheels=, controller= here measure the gyrostat, as before (docs/loop.md)
+        sys.exit(main())

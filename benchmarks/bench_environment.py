@@ -147,4 +147,7 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from lgvi.systems.loop_keywords import as_given
+
+    with as_given():   # wheels=, controller= here measure the gyrostat, as before (docs/loop.md)
+        sys.exit(main())

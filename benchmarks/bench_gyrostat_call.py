@@ -124,4 +124,7 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    from lgvi.systems.loop_keywords import as_given
+
+    with as_given():   # wheels=, controller= here measure the gyrostat, as before (docs/loop.md)
+        main()

@@ -127,4 +127,7 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    from lgvi.systems.loop_keywords import as_given
+
+    with as_given():   # wheels=, controller= here measure the gyrostat, as before (docs/loop.md)
+        main()

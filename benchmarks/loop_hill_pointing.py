@@ -318,4 +318,7 @@ def user_hill_every_step(user):
 
 
 if __name__ == "__main__":
-    main()
+    from lgvi.systems.loop_keywords import as_given
+
+    with as_given():   # wheels=, controller= here measure the gyrostat, as before (docs/loop.md)
+        main()

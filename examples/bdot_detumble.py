@@ -39,9 +39,9 @@ def detumble(orbits: float):
     env = OrbitEnvironment(ORBIT, IGRF(), epoch=EPOCH)
     every = int(round(10.0 / H))                           # save every 10 s
     steps = every * int(round(orbits * ORBIT.period / (every * H)))
-    traj = lgvi.simulate(lgvi.RigidBody(J), np.eye(3), omega0=OMEGA0, h=H, steps=steps,
-                         controller=BDot(GAIN), control_period=CONTROL, environment=env,
-                         magnetorquers=RODS, save_every=every)
+    sat = lgvi.Spacecraft(J, magnetorquers=RODS, orbit=ORBIT, field=IGRF(), epoch=EPOCH, environment_rate=CONTROL)
+    fsw = lgvi.FlightSoftware(controller=BDot(GAIN), control_period=CONTROL)   # B-dot, called from Python
+    traj = lgvi.simulate(sat, np.eye(3), omega0=OMEGA0, h=H, steps=steps, fsw=fsw, save_every=every)
     return traj, env
 
 

@@ -2,8 +2,9 @@
 
 The spacecraft (wheels locked: J = diag(900, 800, 600) kg m^2) starts at rest at the identity
 with four wheels (Js = 0.08 kg m^2, 0.2 N m, 6000 rpm, Coulomb and viscous friction) spinning at
-1000 rpm; ``lgvi.control.MRPFeedback`` (K = 20 N m, P = 200 N m s, Basilisk's mrpFeedback law,
-mapped to the wheels as rwMotorTorque) every 0.1 s slews it 90 degrees about (1, 1, 0)/sqrt(2).
+1000 rpm; its flight software (``lgvi.FlightSoftware``: an inertial target, ``MRPControl`` with
+K = 20 N m, P = 200 N m s, Basilisk's mrpFeedback law, and ``RWMotorTorque``, Basilisk's
+rwMotorTorque) every 0.1 s slews it 90 degrees about (1, 1, 0)/sqrt(2).
 The wheels saturate at 0.2 N m for the first tens of seconds. Prints the time to settle within
 0.01 degree, the largest wheel torque and the drift of the total angular momentum (hub plus
 wheels: exact, the wheels only exchange momentum with the hub); the figure shows the pointing
@@ -22,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 import lgvi
-from lgvi.control import MRPFeedback
+from lgvi.fsw import FlightSoftware, InertialPointing, MRPControl, RWMotorTorque
 
 J = np.diag([900.0, 800.0, 600.0])                  # [kg m^2], wheels locked
 RPM = 2.0 * np.pi / 60.0
@@ -68,8 +69,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-plots", action="store_true")
     args = parser.parse_args(argv)
     T = 600.0
-    traj = lgvi.simulate(J, np.eye(3), omega0=np.zeros(3), h=H, steps=int(round(T / H)), wheels=WHEELS,
-                         controller=MRPFeedback(K=20.0, P=200.0, target=TARGET), control_period=H)
+    fsw = FlightSoftware(guidance=InertialPointing(TARGET), control=MRPControl(K=20.0, P=200.0),
+                         actuators=RWMotorTorque(), rate=H)
+    traj = lgvi.simulate(lgvi.Spacecraft(J, wheels=WHEELS), np.eye(3), omega0=np.zeros(3), h=H,
+                         steps=int(round(T / H)), fsw=fsw)
     err = pointing_error_deg(traj)
     outside = np.flatnonzero(err > 0.01)
     settle = traj.t[outside[-1] + 1] if len(outside) and outside[-1] + 1 < len(err) else float("nan")

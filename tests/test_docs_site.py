@@ -59,8 +59,8 @@ def test_api_reference_from_the_docstrings(site):
         assert f'href="generated/{name}.html' in api, name
     simulate = _text(site / "generated" / "lgvi.simulate.html")
     assert "Parameters" in simulate and "omega0" in simulate and "ConvergenceError" in simulate
-    assert "_modules/lgvi/integrator.html" in simulate                 # a link to its source (viewcode)
-    assert (site / "_modules" / "lgvi" / "integrator.html").exists()
+    assert "_modules/lgvi/systems/rigid_body_run.html" in simulate     # a link to its source (viewcode)
+    assert (site / "_modules" / "lgvi" / "systems" / "rigid_body_run.html").exists()
     torques = _text(site / "generated" / "lgvi.torques.html")
     assert "UniformGravity" in torques and "GravityGradient" in torques
 

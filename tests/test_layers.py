@@ -53,7 +53,7 @@ CORE_RANKS: dict[str, int] = {
     "discrete": 2, "control": 2,
     "environment": 2, "components": 2, "spacecraft": 2, "fsw": 2,
     # 3: systems and the driver
-    "driver": 3, "systems": 3, "integrator": 3, "ensemble": 3, "modified": 3, "optimal": 3, "splitting": 3,
+    "driver": 3, "systems": 3, "modified": 3, "optimal": 3, "splitting": 3,
     "system_ensembles": 3, "gpu": 3,
 }
 
@@ -205,10 +205,10 @@ def test_the_cycle_check_sees_one(tmp_path):
     (src / "invariants.py").write_text("from .registry import kind\n")
     (src / "registry.py").write_text("def g():\n    from . import torques\n")
     (src / "so3.py").write_text("from .torques import f\n")                        # into a cycle, not on one
-    (src / "integrator.py").write_text("from .systems.gyrostat import x\n")
+    (src / "modified.py").write_text("from .systems.gyrostat import x\n")
     (src / "systems" / "__init__.py").write_text("from . import gyrostat\n")      # inside a folder: not a cycle
-    (src / "systems" / "gyrostat.py").write_text("from . import System\ndef h():\n    from ..integrator import y\n")
-    assert _cycles(src) == [["integrator", "systems"], ["invariants", "registry", "torques"]]
+    (src / "systems" / "gyrostat.py").write_text("from . import System\ndef h():\n    from ..modified import y\n")
+    assert _cycles(src) == [["invariants", "registry", "torques"], ["modified", "systems"]]
 
 
 def test_every_core_module_and_folder_has_a_rank():
@@ -242,14 +242,14 @@ def test_nothing_in_the_core_imports_anything_above():
 
 VIOLATIONS = {
     # file (relative to a fake src/lgvi) -> its source, each breaking one rule
-    "integrator.py": "from .io.streaming import StreamSink\n",
+    "modified.py": "from .io.streaming import StreamSink\n",
     "driver.py": "def f():\n    from . import exact\n",            # an old name, inside a function
     "registry.py": "import lgvi.plot\n",
     "systems/rigid_body.py": "from ..verification.baselines import rk4\n",
     "_kernels/solvers.py": "from ..torques import TORQUE_MODELS\n",
     "io/outputs.py": "def g():\n    from ..cli import main\n",
     "verification/exact.py": "from lgvi.io import scenario\n",
-    "so3.py": "from .integrator import simulate\n",                # upward inside the core
+    "so3.py": "from .modified import simulate\n",                  # upward inside the core
 }
 
 
@@ -263,11 +263,11 @@ def test_the_checker_sees_a_violation(tmp_path):
         (src / name).parent.mkdir(parents=True, exist_ok=True)
         (src / name).write_text(VIOLATIONS.get(name, ""))
     (src / "_kernels" / "codes.py").write_text("from .._jit import njit\n")           # allowed
-    (src / "io" / "scenario.py").write_text("from ..integrator import simulate\nfrom .streaming import x\n")  # allowed
+    (src / "io" / "scenario.py").write_text("from ..modified import simulate\nfrom .streaming import x\n")  # allowed
     bad = _violations(src)
-    assert {b.split(" ")[0] for b in bad} == {"integrator", "driver", "registry", "systems.rigid_body",
+    assert {b.split(" ")[0] for b in bad} == {"modified", "driver", "registry", "systems.rigid_body",
                                               "_kernels.solvers", "io.outputs", "verification.exact"}, bad
-    assert _upward(src) == {("so3", "integrator")}
+    assert _upward(src) == {("so3", "modified")}
 
 
 def test_the_old_names_are_the_moved_modules():
@@ -284,6 +284,18 @@ def test_the_old_names_are_the_moved_modules():
 
     assert exact is lgvi.verification.exact and lgvi.baselines is lgvi.verification.baselines
     assert lgvi.streaming is lgvi.io.streaming
+    # the rigid body's run and ensemble moved behind the system seam (issue 25): the old names, the
+    # attributes of the package and the public names of DESIGN.md are the same objects
+    import lgvi.ensemble
+    import lgvi.integrator
+    import lgvi.systems.rigid_body_ensemble
+    import lgvi.systems.rigid_body_run
+    from lgvi.ensemble import simulate_ensemble
+    from lgvi.integrator import Run, simulate
+
+    assert lgvi.integrator is lgvi.systems.rigid_body_run and lgvi.ensemble is lgvi.systems.rigid_body_ensemble
+    assert simulate is lgvi.simulate and simulate_ensemble is lgvi.simulate_ensemble
+    assert Run is lgvi.systems.SYSTEMS["rigid_body"].runner(None)
 
 
 def test_a_patch_through_an_old_name_is_seen_by_the_real_module(monkeypatch):
@@ -293,8 +305,10 @@ def test_a_patch_through_an_old_name_is_seen_by_the_real_module(monkeypatch):
 
     monkeypatch.setattr(lgvi.streaming, "read_stream", "patched")
     monkeypatch.setattr("lgvi.exact.free_body", "patched too")
+    monkeypatch.setattr("lgvi.integrator.CHUNK_STEPS", 7)
     assert lgvi.io.streaming.read_stream == "patched"
     assert lgvi.verification.exact.free_body == "patched too"
+    assert lgvi.systems.rigid_body_run.CHUNK_STEPS == 7
 
 
 def _missing_modules(src: Path = SRC) -> list[str]:

@@ -1,7 +1,8 @@
 """The old dotted names of modules that moved into subpackages (issue 11's layout).
 
 ``lgvi.streaming`` is :mod:`lgvi.io.streaming`, ``lgvi.exact`` is :mod:`lgvi.verification.exact`,
-and so on (:data:`MOVED`): ``import lgvi.exact``, ``from lgvi import exact`` and
+``lgvi.integrator`` is :mod:`lgvi.systems.rigid_body_run`, ``lgvi.ensemble`` is
+:mod:`lgvi.systems.rigid_body_ensemble`, and so on (:data:`MOVED`): ``import lgvi.exact``, ``from lgvi import exact`` and
 ``monkeypatch.setattr(lgvi.exact, ...)`` reach the one real module object, never a copy, so a
 patch through the old name is seen by the code that uses the new one, and objects pickled under
 either name load again. The real module is imported only when its old name is (importing lgvi
@@ -23,6 +24,9 @@ MOVED: dict[str, str] = {
     "lgvi.reference": "lgvi.verification.reference",
     "lgvi.exact": "lgvi.verification.exact",
     "lgvi.baselines": "lgvi.verification.baselines",
+    # the rigid body's run and ensemble behind the system seam (issue 25)
+    "lgvi.integrator": "lgvi.systems.rigid_body_run",
+    "lgvi.ensemble": "lgvi.systems.rigid_body_ensemble",
 }
 
 

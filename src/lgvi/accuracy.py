@@ -260,7 +260,7 @@ def richardson(traj: Any, shadow: Any, order: int, *, wall_time_s: float = 0.0,
                          h=float(traj.h), wall_time_s=float(wall_time_s), warn=warn, position=pos, position_rel=rel)
 
 
-#: The function a shadow run calls, :func:`lgvi.simulate`: :mod:`lgvi.integrator` provides it on
+#: The function a shadow run calls, :func:`lgvi.simulate`: :mod:`lgvi.systems.rigid_body_run` provides it on
 #: import (:func:`provide_simulate`), so that this module stays below the integrator (no import cycle).
 SHADOW_RUNNER: dict[str, Any] = {}
 

@@ -1,6 +1,6 @@
 """Ensembles on one NVIDIA GPU: ``simulate_ensemble(..., device="cuda")``.
 
-The run is the CPU ensemble's (:mod:`lgvi.ensemble`: the same validation, set-up, solver histories,
+The run is the CPU ensemble's (:mod:`lgvi.systems.rigid_body_ensemble`: the same validation, set-up, solver histories,
 momentum matrices, sink, progress, Ctrl-C and failure messages, through :func:`lgvi.driver.drive`);
 only ``advance`` differs. It launches one kernel of :mod:`lgvi._kernels.cuda_kernels` per chunk of
 steps, one body a GPU thread, each thread running the CPU kernels' own per-body function compiled

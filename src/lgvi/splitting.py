@@ -114,7 +114,7 @@ def _kernels(axes: bool) -> tuple[Any, Any]:
 
 class SplittingRun(Run):
     """A validated splitting run (``scheme="splitting"``), driven by :func:`lgvi.driver.drive` like
-    :class:`lgvi.integrator.Run`; it reuses that class's results and bookkeeping.
+    :class:`lgvi.systems.rigid_body_run.Run`; it reuses that class's results and bookkeeping.
 
     Its record has no solver: ``iterations`` and ``residual`` are zero.
     """

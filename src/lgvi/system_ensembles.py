@@ -272,7 +272,7 @@ def simulate_members(system: Any, members: Sequence[Any], *, threads: int | None
         each member runs its own copy of its controller, environment and magnetorquers, so one
         object may serve several members and is left untouched:
         :func:`lgvi.systems.gyrostat.gyrostat_run`); also ``"rigid_body"``, whose run is the
-        low-level :class:`lgvi.integrator.Run` (every option by name; :func:`lgvi.simulate_ensemble`
+        low-level :class:`lgvi.systems.rigid_body_run.Run` (every option by name; :func:`lgvi.simulate_ensemble`
         is its better path).
     members : sequence
         One entry per run: a dict of the keyword arguments of the system's run (those of

@@ -320,8 +320,10 @@ def target_frame(t, bus, p, s, w):
     """Target (ground station) pointing: the body axis ``p[0:3]`` towards the Earth-fixed point
     ``p[6:9]`` (m, turned into the inertial frame by GMST, epoch ``p[9]`` Julian days from J2000.0),
     the body axis ``p[3:6]`` as close as it can go to the orbit normal. The reference rate is the
-    line of sight's rate ``(l x l') / |l|^2`` about the line plus the normal's turn neglected
-    (``domega_ref`` zero)."""
+    line of sight's turn ``omega = (l x l') / |l|^2`` (its rate about the line and the normal's turn
+    neglected), its derivative ``(l x l'') / |l|^2 - 2 (l . l') omega / |l|^2`` with
+    ``l'' = g'' - a``: the target's centripetal acceleration ``-omega_E^2 (g_x, g_y, 0)`` and the
+    two-body acceleration ``a = -mu r / |r|^3`` (``mu`` ``p[10]``; exact on a Kepler orbit)."""
     r0, r1, r2, v0, v1, v2, h0, h1, h2, rr, rv = orbit_rates(bus, w)
     theta = gmst_angle(p[9], t)
     c = math.cos(theta)
@@ -344,8 +346,17 @@ def target_frame(t, bus, p, s, w):
     ll = l0 * l0 + l1 * l1 + l2 * l2
     if not aligned_frame(bus, w[2], l0, l1, l2, h0, h1, h2, p[0], p[1], p[2], p[3], p[4], p[5]):
         return NOT_FINITE
-    put3(bus, w[3], (l1 * dl2 - l2 * dl1) / ll, (l2 * dl0 - l0 * dl2) / ll, (l0 * dl1 - l1 * dl0) / ll)
-    put3(bus, w[4], 0.0, 0.0, 0.0)
+    o0 = (l1 * dl2 - l2 * dl1) / ll
+    o1 = (l2 * dl0 - l0 * dl2) / ll
+    o2 = (l0 * dl1 - l1 * dl0) / ll
+    put3(bus, w[3], o0, o1, o2)
+    k = p[10] / (rr * math.sqrt(rr))    # l'' = g'' - a = -omega_E^2 (g0, g1, 0) + mu r / |r|^3
+    a0 = -we * we * g0 + k * r0
+    a1 = -we * we * g1 + k * r1
+    a2 = k * r2
+    c = 2.0 * (l0 * dl0 + l1 * dl1 + l2 * dl2) / ll
+    put3(bus, w[4], (l1 * a2 - l2 * a1) / ll - c * o0, (l2 * a0 - l0 * a2) / ll - c * o1,
+         (l0 * a1 - l1 * a0) / ll - c * o2)
     return OK
 
 

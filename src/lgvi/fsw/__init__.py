@@ -113,15 +113,19 @@ class SunPointing(Component):
 class TargetPointing(SunPointing):
     """Guidance: the body axis ``axis`` at an Earth-fixed target (``target_ecef``, m; a ground
     station), the body axis ``secondary`` as close as it can go to the orbit normal; the reference
-    rate of the line of sight about itself neglected, its turn ``(l x l')/|l|^2`` given, its
-    derivative zero. Needs the spacecraft's ``epoch`` (the Earth's rotation angle)."""
+    rate of the line of sight about itself neglected, its turn ``(l x l')/|l|^2`` given, and the
+    derivative of that rate (``domega_ref_N``, with the two-body acceleration of gravitational
+    parameter ``mu``, default the orbit's ``mu``: exact on a Kepler orbit). Needs the spacecraft's
+    ``epoch`` (the Earth's rotation angle)."""
 
     kind = "target_pointing"
 
     def __init__(self, target_ecef: Any, axis: Any = (0.0, 0.0, 1.0), secondary: Any = (1.0, 0.0, 0.0), *,
-                 rate: Any = None, modes: Any = None) -> None:
+                 mu: float | None = None, rate: Any = None, modes: Any = None) -> None:
         super().__init__(axis, secondary, rate=rate, modes=modes)
         self.target_ecef: np.ndarray = as_float_array(target_ecef, "target_ecef", (3,))
+        self.mu = None if mu is None else as_float(mu, "mu", positive=True)
+        self._mu = self.mu
         self._jd0 = math.nan
 
     def setup(self, ctx: LoopContext) -> None:
@@ -132,9 +136,12 @@ class TargetPointing(SunPointing):
             raise ValueError("TargetPointing needs the spacecraft's epoch (the Earth's rotation angle): "
                              "Spacecraft(..., epoch=datetime.datetime(...))")
         self._jd0 = (epoch - _dt.datetime(2000, 1, 1, 12)).total_seconds() / 86400.0
+        if self.mu is None:
+            self._mu = as_float(getattr(ctx.spacecraft.orbit, "mu", None), "orbit.mu (TargetPointing's mu)",
+                                positive=True)
 
     def params(self) -> np.ndarray:
-        return np.concatenate([self.axis, self.secondary, self.target_ecef, [self._jd0]])
+        return np.concatenate([self.axis, self.secondary, self.target_ecef, [self._jd0, self._mu]])
 
 
 # ------------------------------------------------------------------------------------------------

@@ -245,6 +245,7 @@ def write_netcdf(traj: Trajectory, path: str | os.PathLike[str]) -> Path:
     path = Path(path)
     meta = _meta(traj)
     ds = traj.to_xarray()     # the variables (lgvi.Trajectory.to_xarray); the file's attributes here
+    _add_system_arrays(ds, traj)
     ds.attrs = {"title": f"lgvi trajectory{': ' + str(meta['scenario_name']) if 'scenario_name' in meta else ''}",
                 "lgvi_format": NETCDF_FORMAT, "lgvi_version": __version__, "h": float(traj.h),
                 "lgvi_meta": json.dumps(meta, default=_jsonable), "scenario": str(meta.get("scenario", ""))}
@@ -306,9 +307,48 @@ def read_netcdf(path: str | os.PathLike[str]) -> Trajectory:
         potential = ds["potential"].values.astype(np.float64) if "potential" in ds else None
         h = float(ds.attrs["h"])
         _check_arrays(fields, potential)
+        names, factory = _system_arrays(meta)
+        if factory is not None and all(name in ds for name in names):   # another system's result, whole
+            for name in names:
+                if ds[name].dtype.kind not in "iuf":
+                    raise ValueError(f"variable {name!r} must hold real numbers, got dtype {ds[name].dtype}")
+                fields[name] = np.ascontiguousarray(ds[name].values.astype(np.float64))
+            return factory(h=h, potential=potential, meta=meta, **fields)
     except (KeyError, TypeError, ValueError) as exc:
         raise ValueError(f"{path} is not a valid lgvi netCDF trajectory: {type(exc).__name__}: {exc}") from exc
     return Trajectory(h=h, potential=potential, meta=meta, **fields)
+
+
+def _system_arrays(meta: dict[str, Any]) -> tuple[tuple[str, ...], Any]:
+    """The arrays beyond the rigid body's that a system's result saves (``lgvi.trajectory.RESULT_TYPES``:
+    the gyrostat's wheels, the spacecraft's records ``signal_data``) and its reader, or ``((), None)``."""
+    from ..trajectory import RESULT_TYPES
+
+    names, factory = RESULT_TYPES.get(str(meta.get("system")), ((), None))
+    return tuple(names), (factory if names else None)
+
+
+def _add_system_arrays(ds: Any, traj: Trajectory) -> None:
+    """Put a system's own arrays (:func:`_system_arrays`) that ``to_xarray`` leaves out into ``ds``,
+    exactly: the wheels' axes and spin inertias along ``wheel``, the loop's records ``signal_data``
+    along ``record`` (coordinate ``record_time``, ``signal_t``) and ``signal_column`` (the JSON
+    ``meta["signals"]`` names each signal's columns)."""
+    names, _ = _system_arrays(traj.meta or {})
+    extra = traj._extra_arrays() if names else {}
+    for name in names:
+        if name in ds or extra.get(name) is None:
+            continue
+        arr = np.asarray(extra[name])
+        if name == "signal_data":
+            ds[name] = (("record", "signal_column"), arr.reshape(len(arr), -1),
+                        {"long_name": "the loop's records, one row per record entry (columns: lgvi_meta signals)"})
+            ds.coords["record_time"] = ("record", np.asarray(traj.signal_t), {"units": "s"})
+        elif name == "wheel_axes":
+            ds[name] = (("wheel", "axis"), arr, {"long_name": "wheel spin axes, body frame", "units": "1"})
+        elif name == "spin_inertia":
+            ds[name] = (("wheel",), arr, {"long_name": "wheel spin inertias", "units": "kg m2"})
+        else:
+            ds[name] = (tuple(f"{name}_{i}" for i in range(arr.ndim)), arr)
 
 
 # ------------------------------------------------------------------------------------ any

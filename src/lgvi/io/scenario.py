@@ -845,10 +845,12 @@ class Scenario:
             As :func:`lgvi.simulate`; their ``.trajectory`` carries the scenario metadata too.
         """
         from ..integrator import simulate
+        from ..systems.loop_keywords import as_given
 
         est = dict(error_estimate=True, error_warn=self.error_warn) if self.error_estimate else {}
         try:
-            traj = simulate(self.body, self.R0, self.Pi0, progress=progress, **self.simulate_kwargs(), **est)
+            with as_given():   # a file's [[wheel]]/[controller] run the gyrostat, as its stream does ([spacecraft]: the loop)
+                traj = simulate(self.body, self.R0, self.Pi0, progress=progress, **self.simulate_kwargs(), **est)
         except (KeyboardInterrupt, RuntimeError) as exc:
             part = getattr(exc, "trajectory", None)
             if part is not None:

@@ -49,7 +49,13 @@ the table takes; a few short aliases: guidance ``"inertial"``, ``"nadir"`` (lgvi
     [fsw.modes]                          # the mode manager: rules [from, to, condition, threshold];
     rules = [["any", 1, "rate_below", 0.01]]   # from "any" for any mode
     initial = 0
-    # [[fsw.estimator]] of the estimator family
+    [[fsw.estimator]]                    # the estimator family, e.g. the MEKF:
+    type = "mekf"
+    arw = 1e-4
+    rrw = 1e-5
+    P0 = [1e-3, 1e-3, 1e-3, 1e-7, 1e-7, 1e-7]
+    star_tracker = true                  # the spacecraft's one StarTracker (or its index in
+                                         # [[spacecraft.sensor]]; false: no star tracker update)
 
 Attitude-valued keys (``R_ref`` of the inertial guidance) take any form of ``[initial]``
 (``R_ref = { euler = { sequence = "ZYX", angles = [30.0, 0.0, 0.0], unit = "deg" } }``).
@@ -122,11 +128,13 @@ def _value(c: Any, v: Any, key: str) -> Any:
     return v
 
 
-def component(c: Any, tbl: Any, key: str, family: str, defaults: dict[str, Any] | None = None) -> Any:
+def component(c: Any, tbl: Any, key: str, family: str, defaults: dict[str, Any] | None = None,
+              refs: dict[str, Any] | None = None) -> Any:
     """One component of ``family`` from its table: ``type`` (a registered kind or alias) and the
     keyword arguments of the kind's class (``lgvi.components.COMPONENT_KINDS[type].cls``);
     ``defaults`` fill arguments the class takes and the table leaves out (the spacecraft's
-    ``epoch`` for a sun model)."""
+    ``epoch`` for a sun model); ``refs`` turn a key's value into the object it names
+    (``refs[k](value, dotted_key)``: the MEKF's ``star_tracker``, a sensor of the spacecraft)."""
     kinds = _kinds(family)
     aliases = ALIASES.get(family, {})
     names = tuple(aliases) + tuple(kinds)
@@ -146,7 +154,8 @@ def component(c: Any, tbl: Any, key: str, family: str, defaults: dict[str, Any] 
     for p in params.values():
         if p.default is p.empty and p.name not in tbl:
             raise c.expected(f"{key}.{p.name}", f"a value (a required argument of {kind.cls.__name__})")
-    kw = {k: _value(c, v, f"{key}.{k}") for k, v in tbl.items() if k != "type"}
+    kw = {k: _value(c, v, f"{key}.{k}") for k, v in tbl.items() if k != "type" and k not in (refs or {})}
+    kw.update({k: ref(tbl[k], f"{key}.{k}") for k, ref in (refs or {}).items() if k in tbl and k in params})
     try:
         obj = kind.cls(**kw)
     except (ValueError, TypeError) as exc:
@@ -157,13 +166,40 @@ def component(c: Any, tbl: Any, key: str, family: str, defaults: dict[str, Any] 
     return obj
 
 
-def components(c: Any, value: Any, key: str, family: str, defaults: dict[str, Any] | None = None) -> list[Any]:
+def components(c: Any, value: Any, key: str, family: str, defaults: dict[str, Any] | None = None,
+               refs: dict[str, Any] | None = None) -> list[Any]:
     """``[[key]]`` (an array of tables) or ``[key]`` (one table) of components of ``family``."""
     tables = [value] if isinstance(value, dict) else value
     if not isinstance(tables, list):
         raise c.expected(key, f"a table or an array of tables ([[{key}]])", value)
-    return [component(c, t, f"{key}[{i}]" if isinstance(value, list) else key, family, defaults)
+    return [component(c, t, f"{key}[{i}]" if isinstance(value, list) else key, family, defaults, refs)
             for i, t in enumerate(tables)]
+
+
+def _sensor_ref(c: Any, sensors: Any, cls_name: str) -> Any:
+    """A ``refs`` entry (:func:`component`) naming one of the spacecraft's sensors of class
+    ``cls_name``: ``true`` (the one there is), an index into ``[[spacecraft.sensor]]``, or ``false``
+    (none)."""
+    sensors = list(sensors or ())
+
+    def ref(v: Any, key: str) -> Any:
+        if v is False:
+            return None
+        found = [i for i, s in enumerate(sensors) if type(s).__name__ == cls_name]
+        if v is True:
+            if len(found) != 1:
+                raise c.error(key, f"true names the spacecraft's one {cls_name}, and [[spacecraft.sensor]] holds "
+                              f"{len(found)} (at {found}): give the index of the one to use")
+            return sensors[found[0]]
+        if isinstance(v, int) and not isinstance(v, bool):
+            if v not in found:
+                raise c.error(key, f"{v} must be the index of a {cls_name} in [[spacecraft.sensor]]; the "
+                              f"{cls_name}s there: {found}")
+            return sensors[v]
+        raise c.expected(key, f"true (the spacecraft's {cls_name}), the index of one in [[spacecraft.sensor]], or "
+                         "false", v)
+
+    return ref
 
 
 def _modes(c: Any, tbl: Any) -> Any:
@@ -231,8 +267,9 @@ def spacecraft(c: Any, tbl: Any) -> Any:
         raise c.error("spacecraft", str(exc)) from None
 
 
-def flight_software(c: Any, tbl: Any) -> Any:
-    """``[fsw]``: an :class:`lgvi.FlightSoftware`."""
+def flight_software(c: Any, tbl: Any, spacecraft: Any = None) -> Any:
+    """``[fsw]``: an :class:`lgvi.FlightSoftware` (``spacecraft``: the one it flies, whose sensors
+    an estimator's ``star_tracker`` names)."""
     from ..components import SIGNALS
     from ..fsw import FlightSoftware
 
@@ -250,9 +287,10 @@ def flight_software(c: Any, tbl: Any) -> Any:
                 raise c.error(f"fsw.record[{i}]", f"not a signal: {r!r}; expected one of lgvi.components.SIGNALS")
     if "modes" in tbl:
         kw["modes"] = _modes(c, tbl["modes"])
+    refs = {"estimator": {"star_tracker": _sensor_ref(c, getattr(spacecraft, "sensors", ()), "StarTracker")}}
     for k, fam in FSW_LISTS.items():
         if k in tbl:
-            kw[{"actuator": "actuators"}.get(k, k)] = components(c, tbl[k], f"fsw.{k}", fam)
+            kw[{"actuator": "actuators"}.get(k, k)] = components(c, tbl[k], f"fsw.{k}", fam, refs=refs.get(k))
     return FlightSoftware(**kw)
 
 
@@ -326,7 +364,7 @@ class LoopScenario:
         if omega0 is None and Pi0 is None:
             omega0 = np.zeros(3)
         sc = spacecraft(c, d["spacecraft"])
-        fsw = flight_software(c, d.get("fsw", {}))
+        fsw = flight_software(c, d.get("fsw", {}), sc)
         out = c.table(d.get("output", {}), "output", ("formats", "plots"))
         formats: tuple[str, ...] = ("npz",)
         if "formats" in out:

@@ -67,7 +67,7 @@ class System:
     run_factory : callable or None
         Builds the validated run object the driver runs; ``None`` when the module that defines it
         provides it on import (:func:`provide_run`), so that the system does not import its
-        runner (the rigid body's is :class:`lgvi.integrator.Run`). The run object has ``k``,
+        runner (the rigid body's is :class:`lgvi.systems.rigid_body_run.Run`). The run object has ``k``,
         ``steps``, ``save_every``, ``chunk``, ``advance(n, *state_buffers, *record_buffers, partial)``,
         ``failure(...)``, ``state()``, ``load_state()``, ``trajectory(...)``, ``times(j0, j1)``.
     invariants : callable

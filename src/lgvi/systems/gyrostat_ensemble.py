@@ -38,6 +38,10 @@ _MEMBER_ARRAYS = ("R", "Pi", "inertia", "iterations", "residual", "wheel_momentu
                   "spin_inertia")
 #: Prefix of the entries of ``params`` in the file.
 _PARAM_PREFIX = "param:"
+#: The ensemble class of each member system (``meta["system"]`` of the members): a system whose
+#: members carry more arrays (the spacecraft's records, ``RESULT_TYPES``) registers its class here,
+#: and :meth:`GyrostatEnsemble.save`/``load`` keep those arrays too.
+ENSEMBLE_TYPES: dict[str, type] = {}
 
 
 @dataclass(frozen=True, eq=False)
@@ -140,7 +144,11 @@ class GyrostatEnsemble:
         if any(m.potential is not None for m in members) and any(m.potential is None for m in members):
             raise ValueError("cannot save an ensemble whose members differ in having a potential")
         arrays: dict[str, np.ndarray] = {"t": np.asarray(members[0].t), "h": np.float64(members[0].h)}
-        for name in _MEMBER_ARRAYS:
+        for name in _MEMBER_ARRAYS + _extra_arrays(members[0].meta):
+            shapes = {np.shape(getattr(m, name)) for m in members}
+            if len(shapes) > 1:
+                raise ValueError(f"cannot save an ensemble whose members' {name!r} differ in shape ({sorted(shapes)}): "
+                                 "save the members one by one (lgvi.Trajectory.save)")
             arrays[name] = np.stack([np.asarray(getattr(m, name)) for m in members])
         if members[0].potential is not None:
             arrays["potential"] = np.stack([np.asarray(m.potential) for m in members])
@@ -183,6 +191,7 @@ def _read(path: str) -> GyrostatEnsemble:
     from ..trajectory import RESULT_TYPES, check_arrays
 
     from_file = RESULT_TYPES["gyrostat"][1]          # a member as lgvi.load reads one (shapes checked)
+    names = _MEMBER_ARRAYS
 
     with open(path, "rb") as fh:
         if fh.read(2) != b"PK":
@@ -190,10 +199,15 @@ def _read(path: str) -> GyrostatEnsemble:
     check_npz(path)       # no object arrays, no declared size beyond the file's bytes
     with np.load(path, allow_pickle=False) as data:
         header = lgvi_header(data, FORMAT)
-        missing = [k for k in ("t", "h") + _MEMBER_ARRAYS if k not in data.files]
+        metas = header.get("members")
+        system = str(metas[0].get("system")) if isinstance(metas, list) and metas and isinstance(metas[0], dict) \
+            else "gyrostat"
+        if system in ENSEMBLE_TYPES and system in RESULT_TYPES:      # members with more arrays (the records)
+            names, from_file = _MEMBER_ARRAYS + _extra_arrays({"system": system}), RESULT_TYPES[system][1]
+        missing = [k for k in ("t", "h") + names if k not in data.files]
         if missing:
             raise ValueError(f"missing field(s) {', '.join(missing)}")
-        arrays = {k: data[k] for k in ("t", "h") + _MEMBER_ARRAYS}
+        arrays = {k: data[k] for k in ("t", "h") + names}
         potential = data["potential"] if "potential" in data.files else None
         params = {k[len(_PARAM_PREFIX):]: data[k] for k in data.files if k.startswith(_PARAM_PREFIX)}
     meta, metas = header.get("meta", {}), header.get("members")
@@ -214,18 +228,28 @@ def _read(path: str) -> GyrostatEnsemble:
                              f"{arr.shape} and dtype {arr.dtype}")
     members = []
     for b in range(B):
-        fields = {k: arrays[k][b] for k in _MEMBER_ARRAYS}
+        fields = {k: arrays[k][b] for k in names}
         fields["t"] = arrays["t"].copy()
         pot = None if potential is None else potential[b]
         try:
             check_arrays({k: fields[k] for k in ("t", "R", "Pi", "inertia", "iterations", "residual")}, pot)
-            for k in ("wheel_momentum", "wheel_torque", "wheel_axes", "spin_inertia"):
+            for k in names[5:]:
                 if fields[k].dtype.kind not in "iuf":
                     raise ValueError(f"field {k!r} must hold real numbers, got dtype {fields[k].dtype}")
             members.append(from_file(h=float(h.reshape(())), potential=pot, meta=metas[b], **fields))
         except ValueError as exc:
             raise ValueError(f"member {b}: {exc}") from None
-    return GyrostatEnsemble(members=tuple(members), params=params, meta=meta)
+    return ENSEMBLE_TYPES.get(system, GyrostatEnsemble)(members=tuple(members), params=params, meta=meta)
+
+
+def _extra_arrays(meta: dict[str, Any]) -> tuple[str, ...]:
+    """The member arrays beyond the gyrostat's of a registered member system (:data:`ENSEMBLE_TYPES`)."""
+    from ..trajectory import RESULT_TYPES
+
+    system = str(meta.get("system"))
+    if system not in ENSEMBLE_TYPES or system not in RESULT_TYPES:
+        return ()
+    return tuple(k for k in RESULT_TYPES[system][0] if k not in _MEMBER_ARRAYS)
 
 
 def per_member(value: Any, name: str, B: int, kind: type) -> list[Any]:

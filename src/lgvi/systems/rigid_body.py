@@ -1,6 +1,6 @@
 """The rigid body, ``(R, Pi)`` on ``T*SO(3)``: today's system (:func:`lgvi.simulate`).
 
-Its run object is :class:`lgvi.integrator.Run` (validation once, the kernel choice, the state
+Its run object is :class:`lgvi.systems.rigid_body_run.Run` (validation once, the kernel choice, the state
 carried across chunks; the integrator provides it with :func:`lgvi.systems.provide_run`); its kernels live in :mod:`lgvi._kernels.stepping`; its invariants are the
 free body's or the torque model's (:func:`lgvi.invariants.declaration_of`).
 """
@@ -63,7 +63,7 @@ RIGID_BODY = register(System(
     kernels=_kernels,
     results=("t", "R", "Pi", "inertia", "iterations", "residual", "h", "potential", "meta"),
     scenario_section="body",
-    run_factory=None,  # lgvi.integrator provides Run (provide_run)
+    run_factory=None,  # lgvi.systems.rigid_body_run provides Run (provide_run)
     invariants=_invariants,
 ))
 

@@ -24,7 +24,8 @@ from ..trajectory import RESULT_TYPES
 from . import Field, System, register
 from .._validation import as_float_array
 from .gyrostat import GYROSTAT, GyrostatRun, GyrostatTrajectory, gyrostat_from_file, gyrostat_from_stream
-from .gyrostat_ensemble import GyrostatEnsemble, drive_members, per_member
+from .gyrostat import _invariants as _gyro_invariants
+from .gyrostat_ensemble import ENSEMBLE_TYPES, GyrostatEnsemble, drive_members, per_member
 
 if TYPE_CHECKING:  # annotations only: imported where used at run time
     from ..fsw import FlightSoftware
@@ -97,6 +98,14 @@ class SpacecraftTrajectory(GyrostatTrajectory):
         return out
 
     @cached_property
+    def records(self) -> dict[str, Any]:
+        """``{name: lgvi.systems.loop_records.Record}``: each signal at its writer's rate (``t``,
+        ``values``, ``period``, ``complete``), from the rows of ``signals`` where the writer ran."""
+        from .loop_records import records_of
+
+        return records_of(self)
+
+    @cached_property
     def signal_t(self) -> np.ndarray:
         per = 1 if self.meta.get("solver_record") == "full" else int(self.meta.get("save_every", 1))
         return float(self.meta.get("t0", 0.0)) + self.h * per * np.arange(len(self.signal_data))
@@ -143,6 +152,20 @@ def _period(rate: Any, h: float, what: str) -> int:
         raise ValueError(f"{what}: rate must be a positive multiple of |h|; got rate={float(rate):g}, h={h:g} "
                          f"(ratio {ratio:.12g})")
     return m
+
+
+def _signal_periods(run: Any, comps: list[Any]) -> dict[str, int]:
+    """The writers' periods (steps) of the run's recorded signals (:mod:`lgvi.systems.loop_records`)."""
+    from .loop_records import signal_periods
+
+    writers: dict[str, list[int]] = {}
+    for (_, kind, _), spc in zip(comps, run.spc_c.tolist()):
+        for name in kind.writes:
+            writers.setdefault(name, []).append(int(spc))
+    writers["tau_dist_B"] = [1]                 # the loop sums the held disturbance torques at every step
+    if run.python_controller:
+        writers["tau_command_B"] = writers["wheel_command"] = [int(run.spc)]
+    return signal_periods(run.record_layout, writers)
 
 
 class LoopRun(GyrostatRun):
@@ -222,11 +245,17 @@ class LoopRun(GyrostatRun):
         self.meta["spacecraft"] = repr(spacecraft)
         self.meta["fsw"] = repr(fsw)
         self.meta["signals"] = [list(x) for x in self.record_layout]
+        self.meta["signal_periods"] = _signal_periods(self, comps)      # traj.records: each at its writer's rate
         self.meta["components"] = [f"{kind.name} every {spc * abs(self.h):g} s" for (c, kind, _), spc in
                                    zip(comps, self.spc_c.tolist())]
         self.meta["torque_model"] = "the spacecraft loop (" + ", ".join(self.meta["components"]) + ")" + (
             " with the gravity gradient along the orbit" if self.gg else "")
-        self.external = True
+        # a body torque can act (no invariant declared): the gravity gradient, a disturbance or the
+        # rods on the bus; a Python controller's body torque sets it when it acts (GyrostatRun)
+        self.external = bool(self.gg) or self.external or any(
+            name in ("tau_dist_B", "tau_control_B") for _, kind, _ in comps for name in kind.writes)
+        self.motors_off = self.motors_off and not any("wheel_command" in kind.writes for _, kind, _ in comps)
+        self.meta["invariants"] = _gyro_invariants(self)
         n = self.N
         self.system: System = dataclasses.replace(
             SPACECRAFT, state=self.system.state,
@@ -485,11 +514,14 @@ class SpacecraftEnsemble(GyrostatEnsemble):
     """A :class:`lgvi.systems.gyrostat_ensemble.GyrostatEnsemble` of spacecraft runs (members are
     :class:`SpacecraftTrajectory`); ``signals`` stacks the records by name, (B, E, size);
     ``params["component.<kind>"]`` holds each component's parameter row per member (B, P).
-    Saved with :meth:`save` it keeps the gyrostat's arrays, not the records."""
+    Saved with :meth:`save` (and read by ``load``, :func:`lgvi.load`) it keeps the records too."""
 
     @cached_property
     def signals(self) -> dict[str, np.ndarray]:
         return {name: np.stack([m.signals[name] for m in self.members]) for name in self.members[0].signals}
+
+
+ENSEMBLE_TYPES["spacecraft"] = SpacecraftEnsemble      # its save and load keep the records (signal_data)
 
 
 def simulate_spacecraft_ensemble(spacecraft: Any, R: np.ndarray, Pi0: Any = None, *, omega0: Any = None, h: Any,

@@ -22,24 +22,24 @@ from typing import Any, Callable, Literal
 
 import numpy as np
 
-from . import so3
-from ._kernels.codes import METHOD_CAYLEY, OK, USER_RAISED
-from ._validation import as_float, as_float_array, as_rotation, choice
-from ._version import __version__
-from .accuracy import check_options, provide_simulate
-from .body import RigidBody
-from .driver import (MemorySink, check_memory as _check_memory, drive,  # noqa: F401
+from .. import so3
+from .._kernels.codes import METHOD_CAYLEY, OK, USER_RAISED
+from .._validation import as_float, as_float_array, as_rotation, choice
+from .._version import __version__
+from ..accuracy import check_options, provide_simulate
+from ..body import RigidBody
+from ..driver import (MemorySink, check_memory as _check_memory, drive,  # noqa: F401
                      initial_momentum as _initial_momentum, run_solver_options, sample_times, steps_from,
                      time_grid)
-from .errors import ConvergenceError, TorqueError
-from .implicit import METHODS, failure_message, largest_step
-from .invariants import declaration_of, forcing_used
-from .registry import (COMPOSITIONS, DEFAULT_COMPOSITION, FORCINGS, SCHEMES, SOLVER_METHODS,  # noqa: F401
+from ..errors import ConvergenceError, TorqueError
+from ..implicit import METHODS, failure_message, largest_step
+from ..invariants import declaration_of, forcing_used
+from ..registry import (COMPOSITIONS, DEFAULT_COMPOSITION, FORCINGS, SCHEMES, SOLVER_METHODS,  # noqa: F401
                        Composition, ForcingName, MethodName, check_composable, composition_for, torque_kind)
-from .systems import provide_run
-from .systems.rigid_body import RIGID_BODY, momentum_matrices
-from .torques import TorqueModel
-from .trajectory import HIST_BINS, Trajectory, summary_dict
+from . import provide_run
+from .rigid_body import RIGID_BODY, momentum_matrices
+from ..torques import TorqueModel
+from ..trajectory import HIST_BINS, Trajectory, summary_dict
 
 #: Steps per compiled call; between chunks Ctrl-C is honoured and progress reported.
 CHUNK_STEPS = 1 << 18
@@ -98,7 +98,7 @@ def _cold_start(factors: tuple[float, ...] | None, code: int, J: np.ndarray, h: 
         if math.isfinite(g0 + g1 + g2):
             g[0], g[1], g[2] = g0, g1, g2
             return
-    from ._kernels.solvers import initial_guess
+    from .._kernels.solvers import initial_guess
 
     # the kernel's Python source: the same IEEE operations (so the same bits as the compiled
     # ensemble path), without loading one more compiled function on a run's first call
@@ -188,7 +188,7 @@ def step(body: Any, R: Any, Pi: Any, *, h: float, u: Any = None, method: MethodN
     >>> bool(np.isclose(np.linalg.norm(s.Pi), np.linalg.norm([0.1, 1.0, 0.2]), rtol=1e-14))
     True
     """
-    from ._kernels.stepping import lgvi_step
+    from .._kernels.stepping import lgvi_step
 
     body = as_body(body)
     code, tol, max_iter, alpha = _options(method, tol, max_iter, alpha)
@@ -320,6 +320,12 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
         :class:`lgvi.systems.gyrostat.GyrostatTrajectory` (``wheel_speed``, ``wheel_torque``,
         ``wheel_momentum`` (M, N)). ``error_estimate`` as above; ``order=4, 6``
         compose the step, the wheel and controller torques held over each whole step.
+        Deprecated, with ``controller``, ``control_period``, ``environment`` and
+        ``magnetorquers``, where the compiled loop has an exact equivalent
+        (:mod:`lgvi.systems.loop_keywords`): the call then runs that ``lgvi.Spacecraft`` and
+        ``lgvi.FlightSoftware``, bit for bit the same run, returns a
+        :class:`lgvi.systems.spacecraft.SpacecraftTrajectory` (a ``GyrostatTrajectory`` with the
+        records) and warns with a ``DeprecationWarning`` naming them (``docs/loop.md``).
     controller : lgvi.control.Controller, optional
         Called every ``control_period`` (zero-order hold); :class:`lgvi.control.MRPFeedback`
         with a fixed target runs compiled, others from Python between compiled chunks.
@@ -391,9 +397,22 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     True
     """
     steps = steps_from(h, steps, duration)
+    if fsw is None and type(body).__name__ != "Spacecraft":    # today's keywords onto the descriptions
+        from .loop_keywords import KeywordsDeprecationWarning, describe, replacement
+
+        described = describe(body, wheels=wheels, controller=controller, control_period=control_period,
+                             environment=environment, magnetorquers=magnetorquers, torque=torque, scheme=scheme,
+                             error_estimate=error_estimate)
+        if described is not None:
+            import warnings
+
+            body, fsw = described
+            warnings.warn(replacement(body, fsw), KeywordsDeprecationWarning, stacklevel=2)
+            wheels = controller = control_period = environment = magnetorquers = scheme = None
+            forcing = "paper"                   # the gyrostat takes either; the loop's step is the same
     if fsw is not None or type(body).__name__ == "Spacecraft":     # the compiled loop (lgvi.systems.spacecraft)
-        from .spacecraft import Spacecraft
-        from .systems.spacecraft import simulate_spacecraft
+        from ..spacecraft import Spacecraft
+        from .spacecraft import simulate_spacecraft
 
         if not isinstance(body, Spacecraft):
             raise TypeError(f"fsw= runs with a spacecraft: give body an lgvi.Spacecraft, got {type(body).__name__}")
@@ -413,25 +432,28 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
                                    t0=t0, solver_record=solver_record, order=order, composition=composition)
     if wheels is not None or controller is not None or control_period is not None or environment is not None \
             or magnetorquers is not None or scheme == "rkmk4":   # the gyrostat (lgvi.systems.gyrostat)
-        from .systems.gyrostat import gyrostat_options, simulate_gyrostat
+        from .gyrostat import gyrostat_options, simulate_gyrostat
 
         if scheme is not None and scheme not in ("lgvi", "rkmk4"):
             raise ValueError(f"scheme={scheme!r} cannot be combined with wheels=, controller=, "
                              "environment= or magnetorquers=: reaction wheels and the control loop run "
                              "with the LGVI (scheme=None) or the explicit RKMK scheme (scheme='rkmk4')")
         if scheme == "rkmk4":
-            from .systems.gyrostat_rkmk import check_rkmk_options
+            from .gyrostat_rkmk import check_rkmk_options
 
             check_rkmk_options(torque=torque, order=order, composition=composition)
         else:
             gyrostat_options(torque=torque, forcing=forcing, order=order, composition=composition,
                              error_estimate=error_estimate)
-        return simulate_gyrostat(body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels, controller=controller,
-                                 control_period=control_period, environment=environment, magnetorquers=magnetorquers,
-                                 progress=progress, method=method, tol=tol, max_iter=max_iter, alpha=alpha,
-                                 save_every=save_every, t0=t0, solver_record=solver_record, order=order,
-                                 composition=composition, torque=torque, error_estimate=error_estimate,
-                                 error_warn=error_warn, scheme=scheme)
+        from .loop_keywords import as_given
+
+        with as_given():        # its shadow run (error_estimate) stays the gyrostat too
+            return simulate_gyrostat(body, R0, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels,
+                                     controller=controller, control_period=control_period, environment=environment,
+                                     magnetorquers=magnetorquers, progress=progress, method=method, tol=tol,
+                                     max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0,
+                                     solver_record=solver_record, order=order, composition=composition, torque=torque,
+                                     error_estimate=error_estimate, error_warn=error_warn, scheme=scheme)
     estimate, warn = check_options(error_estimate, error_warn, torque)
     run_class = _Run
     if scheme is not None and scheme != "lgvi":
@@ -443,7 +465,7 @@ def simulate(body: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: floa
     steps, save_every = run.steps, run.save_every
     traj = drive(run, MemorySink(run), progress)  # lgvi.driver: chunks, progress, Ctrl-C, failures
     if estimate:  # a shadow run of this very function at h/2 (lgvi.accuracy)
-        from .accuracy import with_estimate
+        from ..accuracy import with_estimate
 
         traj = with_estimate(traj, dict(body=run.body, R0=R0, Pi0=Pi0, omega0=omega0, h=run.h, steps=steps,
                                         torque=torque, method=method, tol=tol, max_iter=max_iter, alpha=alpha,
@@ -645,7 +667,7 @@ class Run:
         ``it_out``, ``res_out`` hold ``n`` entries (a record per step) or ``n // save_every``
         (per saved interval); the histogram and totals of the solver are updated either way.
         """
-        from ._kernels.stepping import (METHOD_CAYLEY, METHOD_NEWTON, run_chunk, run_chunk_cayley, run_chunk_forced,
+        from .._kernels.stepping import (METHOD_CAYLEY, METHOD_NEWTON, run_chunk, run_chunk_cayley, run_chunk_forced,
                                         run_chunk_newton)
 
         body = self.body
@@ -659,7 +681,7 @@ class Run:
                                           it_out, res_out, _NO_HIST, self.counts)
             self.tally(status, *tot)
         elif getattr(self.model, "moment_func", None) is not None:   # lgvi.torques.Compiled
-            from ._kernels.user_kernels import guarded, run_chunk_user
+            from .._kernels.user_kernels import guarded, run_chunk_user
 
             m = self.model
             status, self.k, *tot = run_chunk_user(guarded(m.moment_func), m.row(), np.zeros((3, 3)), np.zeros(3),
@@ -714,7 +736,7 @@ def _run_callable_symmetric(run: _Run, n: int, R_out, Pi_out, it_out, res_out, p
     accepted ``Pi_{k+1}`` is the last point where ``M`` was evaluated, so ``M_{k+1}`` is exact for
     the next step (kept in ``run.M_cb``) and the momentum equation holds to ``tol``.
     """
-    from ._kernels.stepping import shifted_step
+    from .._kernels.stepping import shifted_step
 
     func, code, body, h, gam, cum = run.func, run.code, run.body, run.h, run.gam, run.cum
     R, Pi, G, t0, tol, max_iter, alpha = run.R, run.Pi, run.G, run.t0, run.tol, run.max_iter, run.alpha
@@ -779,7 +801,7 @@ def _run_callable_symmetric(run: _Run, n: int, R_out, Pi_out, it_out, res_out, p
 def _run_callable(run: _Run, n: int, R_out, Pi_out, it_out, res_out, partial) -> tuple[int, int]:
     """Per-step loop for a Python torque callable (paper forcing): Python calls the torque and one
     compiled step, steps ``run.k .. run.k + n - 1``."""
-    from ._kernels.stepping import lgvi_step
+    from .._kernels.stepping import lgvi_step
 
     func, code, h, R, Pi, G, t0 = run.func, run.code, run.h, run.R, run.Pi, run.G, run.t0
     Jd, tol, max_iter, alpha = run.body.Jd, run.tol, run.max_iter, run.alpha

@@ -24,19 +24,19 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ._files import lgvi_header, write_atomic, write_failure
-from ._kernels.codes import METHOD_CAYLEY, OK, USER_RAISED
-from ._untrusted import check_npz, inside, load_json
-from ._validation import REPAIR_TOL, ROTATION_TOL, as_float_array, as_int, choice, is_scipy_rotation, warn_repaired
-from ._version import __version__
-from .body import RigidBody
-from .errors import ConvergenceError, SimulationInterrupted
-from .implicit import failure_message
-from .invariants import combine, declaration_of, forcing_used
-from .so3 import project
-from .registry import DeviceName, ForcingName, MethodName, torque_kind
-from .torques import tried_rows
-from .trajectory import ARRAY_FIELDS, Trajectory, freeze_arrays
+from .._files import lgvi_header, write_atomic, write_failure
+from .._kernels.codes import METHOD_CAYLEY, OK, USER_RAISED
+from .._untrusted import check_npz, inside, load_json
+from .._validation import REPAIR_TOL, ROTATION_TOL, as_float_array, as_int, choice, is_scipy_rotation, warn_repaired
+from .._version import __version__
+from ..body import RigidBody
+from ..errors import ConvergenceError, SimulationInterrupted
+from ..implicit import failure_message
+from ..invariants import combine, declaration_of, forcing_used
+from ..so3 import project
+from ..registry import DeviceName, ForcingName, MethodName, torque_kind
+from ..torques import tried_rows
+from ..trajectory import ARRAY_FIELDS, Trajectory, freeze_arrays
 
 #: Body-substeps per compiled call (about 0.1-0.5 s); Ctrl-C and progress are handled between calls.
 CHUNK_BODY_STEPS = 1 << 22
@@ -448,7 +448,7 @@ def _term_prefixes(keys: Sequence[str]) -> list[str]:
 
 def _rebuild(keys: Sequence[str], model_params: dict[str, np.ndarray], b: int) -> Any:
     """Body ``b``'s model from the recorded per-body parameters (terms ``keys``, in order)."""
-    from .torques import TORQUE_MODELS
+    from ..torques import TORQUE_MODELS
 
     terms = []
     for key, prefix in zip(keys, _term_prefixes(keys)):
@@ -463,7 +463,7 @@ def _rebuild(keys: Sequence[str], model_params: dict[str, np.ndarray], b: int) -
 
 def _per_body_models(torque: Any, B: int) -> list[Any] | None:
     """The list of B models of ``torque=`` given per body (checked), or ``None`` for anything else."""
-    from .torques import Compiled, TorqueModel
+    from ..torques import Compiled, TorqueModel
 
     if isinstance(torque, np.ndarray) and torque.dtype == object:
         torque = list(torque.ravel())
@@ -509,8 +509,8 @@ class _Setup:
     def __init__(self, bodies: Any, R0: Any, Pi0: Any, omega0: Any, *, h: Any, steps: Any, torque: Any,
                  method: str, tol: Any, max_iter: Any, alpha: Any, save_every: Any, t0: Any, forcing: Any,
                  order: Any, composition: Any, threads: Any) -> None:
-        from .driver import run_solver_options as _options, time_grid
-        from .registry import FORCINGS, check_composable as _check_order, composition_for as _composition
+        from ..driver import run_solver_options as _options, time_grid
+        from ..registry import FORCINGS, check_composable as _check_order, composition_for as _composition
 
         self.code, self.tol, self.max_iter, self.alpha = _options(method, tol, max_iter, alpha)
         self.R = _rotations(R0)
@@ -621,7 +621,7 @@ class _Setup:
 
     def times(self, m: int) -> np.ndarray:
         """Times of the first ``m`` samples (the same floating-point values as :func:`lgvi.simulate`)."""
-        from .driver import sample_times
+        from ..driver import sample_times
 
         return sample_times(self.t0, self.h * self.save_every, 0, m)
 
@@ -807,7 +807,7 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
     >>> bool(np.array_equal(ens.R[5], one.R)), ens.torque_model(5) == pd[5]
     (True, True)
     """
-    from .registry import DEVICES
+    from ..registry import DEVICES
 
     choice(device, "device", DEVICES)
     if device != "cpu":
@@ -816,7 +816,7 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
                         environment=environment, magnetorquers=magnetorquers)
     first = bodies[0] if isinstance(bodies, (list, tuple)) and bodies else bodies
     if fsw is not None or type(first).__name__ == "Spacecraft":        # the compiled loop (lgvi.systems.spacecraft)
-        from .systems.spacecraft import simulate_spacecraft_ensemble
+        from .spacecraft import simulate_spacecraft_ensemble
 
         given = {name: value for name, value in (("torque", torque), ("wheels", wheels), ("controller", controller),
                                                  ("control_period", control_period), ("environment", environment),
@@ -835,8 +835,8 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
                                             threads=threads, method=method, tol=tol, max_iter=max_iter, alpha=alpha,
                                             save_every=save_every, t0=t0, order=order, composition=composition)
     if any(x is not None for x in (wheels, controller, control_period, environment, magnetorquers)):
-        from .systems.gyrostat import gyrostat_options
-        from .systems.gyrostat_ensemble import simulate_gyrostat_ensemble
+        from .gyrostat import gyrostat_options
+        from .gyrostat_ensemble import simulate_gyrostat_ensemble
 
         for name, value, default in (("client", client, None), ("out_dir", out_dir, None), ("resume", resume, False),
                                      ("block_size", block_size, None), ("progress", progress, False)):
@@ -957,8 +957,8 @@ class _LocalRun:
     lockstep_allowed = True
 
     def __init__(self, s: _Setup, parallel: bool, first_body: int) -> None:
-        from ._kernels import ensemble_kernels as ek
-        from .systems.rigid_body import momentum_matrices
+        from .._kernels import ensemble_kernels as ek
+        from .rigid_body import momentum_matrices
 
         self.s, self.parallel, self.first_body = s, parallel, first_body
         B, h = len(s), s.h
@@ -1012,7 +1012,7 @@ class _LocalRun:
         (:func:`lgvi._kernels.user_kernels.advance_users`) (the compiled loop releases the
         GIL; each thread has its own scratch arrays and each body its own state, so the numbers do not
         depend on the threads)."""
-        from ._kernels.user_kernels import advance_users, guarded
+        from .._kernels.user_kernels import advance_users, guarded
 
         s, k, se = self.s, self.k, self.save_every
         m = s.model
@@ -1040,7 +1040,7 @@ class _LocalRun:
 
     def advance(self, n: int, R_out: np.ndarray, Pi_out: np.ndarray, partial: Any) -> int:
         """Steps ``k .. k + n - 1`` of every body; on a failure ``k`` is the first failed step."""
-        from ._kernels import ensemble_kernels as ek
+        from .._kernels import ensemble_kernels as ek
 
         s, k, se, h, parallel = self.s, self.k, self.save_every, self.s.h, self.parallel
         if self.lockstep:
@@ -1069,7 +1069,7 @@ class _LocalRun:
     def failure(self, status: int, residual: float, iterations: int, trajectory: Any,
                 where: str = "") -> ConvergenceError:
         """The error of the first failed body (the records are per body, kept here)."""
-        from ._kernels import ensemble_kernels as ek
+        from .._kernels import ensemble_kernels as ek
 
         s, h, B = self.s, self.s.h, len(self.s)
         if self.lockstep:
@@ -1142,7 +1142,7 @@ class _LocalSink:
 
 def _run_local(s: _Setup, progress: Any = False, first_body: int = 0) -> EnsembleTrajectory:
     """Run the whole ensemble ``s`` in this process (``first_body``: global index of body 0, for messages)."""
-    from .driver import drive
+    from ..driver import drive
 
     with _Threads(s.threads) as parallel:
         run = _LocalRun(s, parallel, first_body)
@@ -1220,7 +1220,7 @@ class _BlockProgress:
     """Progress over blocks: ``True`` draws a ``tqdm`` bar of bodies done, a callable gets ``(done, total)``."""
 
     def __init__(self, progress: Any, total: int) -> None:
-        from .driver import Progress as _Progress
+        from ..driver import Progress as _Progress
 
         self.bar, self.done = _Progress(progress, total, unit="body"), 0
 
