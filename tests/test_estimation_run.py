@@ -95,8 +95,10 @@ def test_mekf_star_tracker_true_takes_the_spacecraft_s():
     d = _short(10.0)
     st = [t for t in d["spacecraft"]["sensor"] if t["type"] == "star_tracker"][0]
     d["spacecraft"]["sensor"].append(dict(st, seed=2))
-    with pytest.raises(ScenarioError, match="needs exactly one; the spacecraft has 2"):
+    with pytest.raises(ScenarioError, match=r"star_tracker: true names the spacecraft's one StarTracker, and "
+                                            r"\[\[spacecraft.sensor\]\] holds 2 \(at \[1, 3\]\): give the index"):
         Scenario.from_dict(d)
     sc = Scenario.from_dict(_short(10.0))
-    assert isinstance([c for c in sc.spacecraft.components() if isinstance(c, StarTracker)][0], StarTracker)
-    assert sc.fsw.estimator[0].star_tracker is True      # the description keeps True; the run's copy resolves it
+    tracker = [c for c in sc.spacecraft.components() if isinstance(c, StarTracker)]
+    assert len(tracker) == 1
+    assert sc.fsw.estimator[0].star_tracker is tracker[0]   # a file's `true` names the spacecraft's one tracker
