@@ -24,7 +24,6 @@ from ..trajectory import RESULT_TYPES
 from . import Field, System, register
 from .._validation import as_float_array
 from .gyrostat import GYROSTAT, GyrostatRun, GyrostatTrajectory, gyrostat_from_file, gyrostat_from_stream
-from .gyrostat import _invariants as _gyro_invariants
 from .gyrostat_ensemble import ENSEMBLE_TYPES, GyrostatEnsemble, drive_members, per_member
 
 if TYPE_CHECKING:  # annotations only: imported where used at run time
@@ -255,7 +254,7 @@ class LoopRun(GyrostatRun):
         self.external = bool(self.gg) or self.external or any(
             name in ("tau_dist_B", "tau_control_B") for _, kind, _ in comps for name in kind.writes)
         self.motors_off = self.motors_off and not any("wheel_command" in kind.writes for _, kind, _ in comps)
-        self.meta["invariants"] = _gyro_invariants(self)
+        self.meta["invariants"] = GYROSTAT.invariants(self)
         n = self.N
         self.system: System = dataclasses.replace(
             SPACECRAFT, state=self.system.state,
