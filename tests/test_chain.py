@@ -9,6 +9,7 @@ started with the links at right angles and moving (a chaotic regime: the test of
 from __future__ import annotations
 
 import numpy as np
+from jit_pair import interpreted_and_compiled
 import pytest
 from scipy.integrate import solve_ivp
 
@@ -366,9 +367,6 @@ def test_lgvi_run_writes_results_figure_summary_and_resumes(capsys, tmp_path):
 def test_kernel_interpreted_matches_compiled():
     """The chain kernel run as plain Python (NUMBA_DISABLE_JIT=1) gives the compiled result (orders 2
     and 4, rods), to round-off: the same arithmetic, in another order only where LLVM reorders."""
-    import os
-    import subprocess
-    import sys
 
     code = (
         "import numpy as np, lgvi\n"
@@ -380,12 +378,5 @@ def test_kernel_interpreted_matches_compiled():
         "    out.append(np.concatenate([t.q[-1].ravel(), t.pi[-1].ravel()]).tolist())\n"
         "print(out)\n"
     )
-    env = dict(os.environ, NUMBA_DISABLE_JIT="1")
-    results = []
-    for jit in (False, True):
-        if jit:
-            env.pop("NUMBA_DISABLE_JIT")
-        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
-        assert proc.returncode == 0, proc.stderr
-        results.append(np.array(eval(proc.stdout.strip().splitlines()[-1])))
-    np.testing.assert_allclose(results[0], results[1], rtol=0, atol=1e-13)
+    interpreted, compiled = interpreted_and_compiled(code)
+    np.testing.assert_allclose(interpreted, compiled, rtol=0, atol=1e-13)

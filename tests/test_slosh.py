@@ -13,6 +13,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+from jit_pair import interpreted_and_compiled
 import pytest
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
@@ -328,9 +329,6 @@ def test_scenario_errors_name_the_key(tmp_path, old, new, key, rule):
 def test_kernel_interpreted_matches_compiled():
     """The slosh kernel run as plain Python (NUMBA_DISABLE_JIT=1) gives the compiled result (order 2
     undamped, order 4 damped), to round-off."""
-    import os
-    import subprocess
-    import sys
 
     code = (
         "import numpy as np, lgvi\n"
@@ -342,15 +340,8 @@ def test_kernel_interpreted_matches_compiled():
         "    out.append(np.concatenate([t.R[-1].ravel(), t.Pi[-1], t.q[-1].ravel(), t.pi[-1].ravel()]).tolist())\n"
         "print(out)\n"
     )
-    env = dict(os.environ, NUMBA_DISABLE_JIT="1")
-    results = []
-    for jit in (False, True):
-        if jit:
-            env.pop("NUMBA_DISABLE_JIT")
-        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
-        assert proc.returncode == 0, proc.stderr
-        results.append(np.array(eval(proc.stdout.strip().splitlines()[-1])))
-    np.testing.assert_allclose(results[0], results[1], rtol=0, atol=1e-12)
+    interpreted, compiled = interpreted_and_compiled(code)
+    np.testing.assert_allclose(interpreted, compiled, rtol=0, atol=1e-12)
 
 
 def test_members_are_the_single_runs():
