@@ -810,6 +810,100 @@ def test_chain_direction_within_1e_9_is_used_without_a_warning():
     assert np.abs(np.linalg.norm(traj.q, axis=2) - 1.0).max() <= 2.3e-16
 
 
+def slosh(**overrides: Any) -> lgvi.SloshTrajectory:
+    """``lgvi.simulate_slosh`` with sound defaults (issue 30): the hub of Basilisk's unit test with
+    two pendulums, turning, the pendulums moving."""
+    kw: dict[str, Any] = dict(body=[900.0, 800.0, 600.0], hub_mass=1500.0, pivots=[[0.5, 0.1, 0.2], [-0.3, 0.4, -0.1]],
+                              lengths=[0.3, 0.4], masses=[40.0, 60.0], R0=np.eye(3),
+                              q0=[[0.0, 0.0, -1.0], [0.6, 0.0, -0.8]], qdot0=[[0.5, 0.2, 0.0], [0.0, 1.0, 0.0]],
+                              omega0=[0.3, -0.2, 0.5], h=H, steps=STEPS)
+    kw.update(overrides)
+    return lgvi.simulate_slosh(**kw)
+
+
+_SQ0 = [[0.0, 0.0, -1.0], [0.6, 0.0, -0.8]]
+
+_ROWS += [
+    # ---- bad inputs of part 6 the chain rows above leave out (issue 30) -------------------------
+    ("chain-length-nan", lambda: chain(lengths=[NAN, 0.5]), ValueError, (r"\blengths\b", r"nan", r"finite")),
+    ("chain-length-inf", lambda: chain(lengths=[INF, 0.5]), ValueError, (r"\blengths\b", r"inf", r"finite")),
+    ("chain-mass-nan", lambda: chain(masses=[NAN, 2.0]), ValueError, (r"\bmasses\b", r"nan", r"finite")),
+    ("chain-qdot0-nan", lambda: chain(qdot0=[[NAN, 1.0, 0.0], [0.5, 0.0, 0.0]]), ValueError,
+     (r"\bqdot0\b", r"nan", r"finite")),
+    ("chain-gravity-nan", lambda: chain(gravity=[0.0, 0.0, NAN]), ValueError, (r"\bgravity\b", r"nan", r"finite")),
+    ("chain-steps-negative", lambda: chain(steps=-1), ValueError, (r"\bsteps\b", r"-1", r">= 0")),
+    ("chain-save-every-zero", lambda: chain(save_every=0), ValueError, (r"\bsave_every\b", r"\b0\b", r">= 1")),
+    # ---- simulate_slosh (issue 30, part 2) ------------------------------------------------------
+    ("slosh-length-zero", lambda: slosh(lengths=[0.3, 0.0]), ValueError,
+     (r"\blengths\b", r"lengths\[1\] = 0\.0", r"positive")),
+    ("slosh-length-negative", lambda: slosh(lengths=[-0.3, 0.4]), ValueError, (r"\blengths\b", r"-0\.3", r"positive")),
+    ("slosh-length-nan", lambda: slosh(lengths=[NAN, 0.4]), ValueError, (r"\blengths\b", r"nan", r"finite")),
+    ("slosh-lengths-empty", lambda: slosh(lengths=[], masses=[], pivots=np.zeros((0, 3)), q0=np.zeros((0, 3)),
+                                          qdot0=np.zeros((0, 3))), ValueError,
+     (r"\blengths\b", r"empty", r"one length per pendulum")),
+    ("slosh-mass-zero", lambda: slosh(masses=[0.0, 60.0]), ValueError, (r"\bmasses\b", r"masses\[0\] = 0\.0", r"positive")),
+    ("slosh-mass-negative", lambda: slosh(masses=[-40.0, 60.0]), ValueError, (r"\bmasses\b", r"-40\.0", r"positive")),
+    ("slosh-masses-shape", lambda: slosh(masses=[40.0]), ValueError, (r"\bmasses\b", r"shape \(1,\)", r"\(2,\)")),
+    ("slosh-hub-mass-zero", lambda: slosh(hub_mass=0.0), ValueError, (r"\bhub_mass\b", r"0\.0", r"positive")),
+    ("slosh-hub-mass-nan", lambda: slosh(hub_mass=NAN), ValueError, (r"\bhub_mass\b", r"nan", r"finite")),
+    ("slosh-damping-negative", lambda: slosh(damping=[1.0, -2.0]), ValueError, (r"\bdamping\b", r"-2\.0", r">= 0")),
+    ("slosh-damping-shape", lambda: slosh(damping=[1.0, 2.0, 3.0]), ValueError,
+     (r"\bdamping\b", r"shape \(3,\)", r"\(2,\)")),
+    ("slosh-pivots-shape", lambda: slosh(pivots=[[0.0, 0.0, 0.0]]), ValueError, (r"\bpivots\b", r"\(1, 3\)", r"\(2, 3\)")),
+    ("slosh-pivots-nan", lambda: slosh(pivots=[[NAN, 0.0, 0.0], [0.0, 0.0, 0.0]]), ValueError,
+     (r"\bpivots\b", r"nan", r"finite")),
+    ("slosh-q0-not-unit", lambda: slosh(q0=[[0.0, 0.0, -2.0], [0.6, 0.0, -0.8]]), ValueError,
+     (r"\bq0\b", r"unit vectors", r"\|q0\[0\]\| = 2\.0", r"1e-06")),
+    ("slosh-q0-just-too-far", lambda: slosh(q0=[[0.0, 0.0, -1.0 - 3e-6], [0.6, 0.0, -0.8]]), ValueError,
+     (r"\bq0\b", r"q0\[0\]", r"1\.000003", r"1e-06")),
+    ("slosh-q0-zero", lambda: slosh(q0=[[0.0, 0.0, 0.0], [0.6, 0.0, -0.8]]), ValueError,
+     (r"\bq0\b", r"= 0\.0", r"unit vectors")),
+    ("slosh-q0-shape", lambda: slosh(q0=[[0.0, 0.0, -1.0]]), ValueError, (r"\bq0\b", r"shape \(1, 3\)", r"\(2, 3\)")),
+    ("slosh-q0-nan", lambda: slosh(q0=[[NAN, 0.0, -1.0], [0.6, 0.0, -0.8]]), ValueError, (r"\bq0\b", r"nan", r"finite")),
+    ("slosh-qdot0-not-tangent", lambda: slosh(qdot0=[[0.5, 0.2, 0.3], [0.0, 1.0, 0.0]]), ValueError,
+     (r"\bqdot0\b", r"tangent", r"q\[0\]")),
+    ("slosh-qdot0-shape", lambda: slosh(qdot0=[0.5, 0.2, 0.0]), ValueError, (r"\bqdot0\b", r"shape \(3,\)", r"\(2, 3\)")),
+    ("slosh-qdot0-nan", lambda: slosh(qdot0=[[NAN, 0.2, 0.0], [0.0, 1.0, 0.0]]), ValueError,
+     (r"\bqdot0\b", r"nan", r"finite")),
+    ("slosh-R0-not-rotation", lambda: slosh(R0=2.0 * np.eye(3)), ValueError,
+     (r"\bR0\b", r"rotation matrix", r"5\.2 > 1e-06")),
+    ("slosh-R0-shape", lambda: slosh(R0=np.eye(2)), ValueError, (r"\bR0\b", r"shape \(2, 2\)", r"\(3, 3\)")),
+    ("slosh-omega0-shape", lambda: slosh(omega0=[1.0, 2.0]), ValueError, (r"\bomega0\b", r"shape \(2,\)", r"\(3,\)")),
+    ("slosh-omega0-nan", lambda: slosh(omega0=[NAN, 0.0, 0.0]), ValueError, (r"\bomega0\b", r"nan", r"finite")),
+    ("slosh-inertia-not-physical", lambda: slosh(body=[1.0, 1.0, 3.0]), ValueError,
+     (r"\binertia\b", r"triangle inequality", r"J3 = 3 > J1 \+ J2 = 2")),
+    ("slosh-inertia-negative", lambda: slosh(body=[-1.0, 1.0, 1.0]), ValueError,
+     (r"\binertia\b", r"positive definite", r"-1")),
+    ("slosh-order", lambda: slosh(order=3), ValueError, (r"\border\b", r"\b3\b", r"2, 4 or 6")),
+    ("slosh-h-zero", lambda: slosh(h=0.0), ValueError, (r"\bh\b", r"0\.0", r"non-zero")),
+    ("slosh-h-nan", lambda: slosh(h=NAN), ValueError, (r"\bh\b", r"nan", r"finite")),
+    ("slosh-steps-negative", lambda: slosh(steps=-1), ValueError, (r"\bsteps\b", r"-1", r">= 0")),
+    ("slosh-save-every-zero", lambda: slosh(save_every=0), ValueError, (r"\bsave_every\b", r"\b0\b", r">= 1")),
+    ("slosh-tol", lambda: slosh(tol=0.1), ValueError, (r"\btol\b", r"0\.1", r"\(0, 1e-6\)")),
+]
+
+
+def test_slosh_direction_off_by_less_than_1e_6_is_normalised_with_a_warning():
+    q = np.array(_SQ0)
+    q[0, 2] = -1.0 - 1e-7
+    with pytest.warns(lgvi.errors.AttitudeWarning, match=r"q0\[0\] has length 1\.0000001.*dividing"):
+        traj = slosh(q0=q)
+    assert np.abs(np.linalg.norm(traj.q, axis=2) - 1.0).max() <= 2.3e-16
+    exact = slosh(q0=q / np.linalg.norm(q, axis=1)[:, None])
+    assert np.array_equal(traj.q, exact.q)
+
+
+def test_slosh_direction_within_1e_9_is_used_without_a_warning():
+    import warnings
+
+    q = np.array(_SQ0)
+    q[0, 2] = -1.0 - 5e-10
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        traj = slosh(q0=q)
+    assert np.abs(np.linalg.norm(traj.q, axis=2) - 1.0).max() <= 2.3e-16
+
+
 def _circular() -> Any:
     return lgvi.environment.CircularOrbit(7.0e6, 1.0)
 

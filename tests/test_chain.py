@@ -355,7 +355,7 @@ def test_lgvi_run_writes_results_figure_summary_and_resumes(capsys, tmp_path):
     for name in FIELDS:
         assert np.array_equal(getattr(back, name), getattr(whole, name)), name
     names = sorted(p.name for p in (tmp_path / "out").iterdir())
-    assert names == ["chain.png", "scenario.toml", "summary.json", "summary.txt", "trajectory.npz"]
+    assert names == ["chain.png", "report.html", "scenario.toml", "summary.json", "summary.txt", "trajectory.npz"]
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["system"] == "chain" and summary["drifts"]["angular_momentum_e3_rel"] < 1e-13
     assert "a chain of 3 spherical pendulums" in (tmp_path / "out" / "summary.txt").read_text()

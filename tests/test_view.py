@@ -181,3 +181,80 @@ def test_cli_view_and_run_report(traj, tmp_path, capsys, monkeypatch):
     report = (tmp_path / "out" / "report.html").read_text(encoding="utf-8")
     assert "tiny" in report and "Run summary" in report
     assert "report.html" in json.loads((tmp_path / "out" / "summary.json").read_text())["files"]
+
+
+# ------------------------------------------------------------------ systems that declare their page
+def _chain():
+    return lgvi.simulate_chain([1.0, 0.5, 0.5], [1.0, 1.0, 1.0], [[1, 0, 0], [0, 1, 0], [0, 0, -1]],
+                               [[0, 1, 0], [0, 0, 2], [1, 0, 0]], h=1e-3, steps=2000, save_every=10)
+
+
+def _slosh():
+    return lgvi.simulate_slosh([900.0, 800.0, 600.0], 1500.0, [[0.5, 0.1, 0.2], [-0.3, 0.4, -0.1]], [0.3, 0.4],
+                               [40.0, 60.0], np.eye(3), [[0.0, 0.0, -1.0], [0.6, 0.0, -0.8]],
+                               [[0.5, 0.2, 0.0], [0.0, 1.0, 0.0]], omega0=[0.3, -0.2, 0.5], h=0.01, steps=600,
+                               save_every=5)
+
+
+def test_chain_page_draws_the_links_at_every_frame():
+    chain = _chain()
+    fig = view.figure(chain, max_frames=40)
+    k = np.unique(np.linspace(0, len(chain.t) - 1, 40).round().astype(int))
+    assert len(fig.frames) == 40 and len(fig.layout.sliders[0].steps) == 40
+    x = chain.positions
+    for j in (0, 13, 39):
+        line = fig.frames[j].data[0]                        # the chain: the pivot, then every joint
+        pts = np.stack([_decode(line.x), _decode(line.y), _decode(line.z)], axis=1)
+        assert np.allclose(pts[0], 0.0) and np.allclose(pts[1:], x[k[j]], atol=1e-5)
+        assert fig.frames[j].layout.shapes[0].x0 == pytest.approx(chain.t[k[j]])
+    names = [tr.name for tr in fig.data]
+    assert "path of the last joint" in names
+    # the declared invariants, named for the chain, with the relative errors of the run
+    errs = {tr.name: np.asarray(tr.y) for tr in fig.data if tr.name and tr.name.endswith(("(exact)", "(bounded)"))}
+    assert set(errs) == {"energy (bounded)", "vertical angular momentum about the pivot (exact)"}
+    assert errs["vertical angular momentum about the pivot (exact)"].max() < 1e-13
+    rows = dict(view.summary_rows(chain))
+    assert rows["steps"] == "2,000, h = 0.001 s" and "largest ||q_i| − 1|" in rows["unit length"]
+    assert "exact" in rows["  vertical angular momentum about the pivot"]
+
+
+def test_slosh_page_draws_the_hub_and_the_pendulums():
+    sl = _slosh()
+    fig = view.figure(sl, max_frames=30)
+    k = np.unique(np.linspace(0, len(sl.t) - 1, 30).round().astype(int))
+    names = [tr.name for tr in fig.data]
+    first = names.index("pendulum 1: 40 kg, 0.3 m")
+    for j in (0, 29):
+        R = sl.R[k[j]]
+        for i in range(2):
+            seg = fig.frames[j].data[first + i]
+            pts = np.stack([_decode(seg.x), _decode(seg.y), _decode(seg.z)], axis=1)
+            pivot = R @ sl.pivots[i]
+            assert np.allclose(pts, [pivot, pivot + sl.lengths[i] * sl.q[k[j], i]], atol=1e-5)
+        box = fig.frames[j].data[0]                         # the hub's box turns with R
+        corners = np.stack([_decode(box.x), _decode(box.y), _decode(box.z)], axis=1)
+        assert np.allclose(corners.mean(axis=0), 0.0, atol=1e-5)
+        assert np.allclose(np.linalg.norm(corners, axis=1), np.linalg.norm(corners[0]), atol=1e-4)
+    # the total angular momentum arrow is fixed in space (exact to round-off)
+    arrow = names.index("total angular momentum (scaled)")
+    tips = np.array([[_decode(f.data[arrow].x)[1], _decode(f.data[arrow].y)[1], _decode(f.data[arrow].z)[1]]
+                     for f in fig.frames])
+    assert np.ptp(tips, axis=0).max() < 1e-4
+    rows = dict(view.summary_rows(sl))
+    assert "exact" in rows["  total angular momentum R Π + Σ π_i"] and "bounded" in rows["  kinetic energy"]
+
+
+def test_cli_view_of_a_chain_and_what_has_no_page(tmp_path, capsys):
+    _chain().save(tmp_path / "chain.npz")
+    assert main(["view", str(tmp_path / "chain.npz"), "--max-frames", "20"]) == 0
+    fig = _figure_json((tmp_path / "chain.html").read_text(encoding="utf-8"))
+    assert len(fig["frames"]) == 20
+    orbit = lgvi.simulate_orbit([1.0, 2.0, 3.0], 10.0, [7000.0, 0.0, 0.0], [0.0, 7.546, 0.0], np.eye(3),
+                                omega0=[0.0, 0.0, 1e-3], h=10.0, steps=20, mu=398600.4418)
+    orbit.save(tmp_path / "orbit.npz")
+    capsys.readouterr()
+    assert main(["view", str(tmp_path / "orbit.npz")]) == 2
+    assert "a result of chain, slosh" in capsys.readouterr().err
+    with pytest.raises(TypeError, match=r"traj must be an lgvi.Trajectory or the result of a system with a page "
+                                        r"\(chain, slosh\), got OrbitTrajectory"):
+        view.figure(orbit)

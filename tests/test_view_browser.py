@@ -190,3 +190,59 @@ def test_inline_views_share_one_library(browser, tmp_path, monkeypatch):
                                    "function (el) { return !!el._fullLayout; });")
     assert drawn == [True, True]
     assert not _errors(browser), _errors(browser)
+
+
+def _drawn(driver, trace: int) -> np.ndarray:
+    """The points of a trace of the 3D scene as drawn now (decoded by plotly.js), (P, 3)."""
+    return np.array(driver.execute_script(
+        f"var d = document.querySelector('.lgvi-plot')._fullData[{trace}]; return Array.from(d.x).map("
+        "function (x, i) { return [Number(x), Number(d.y[i]), Number(d.z[i])]; });"), dtype=np.float64)
+
+
+def test_chain_and_slosh_pages_draw_and_the_scrubber_moves_the_links(browser, tmp_path):
+    """The pages of the two systems that declare theirs (System.view): drawn without an error, the
+    chain's links drawn where the trajectory has them at the scrubber's frame, the slosh hub's
+    pendulums from their pivots to their masses."""
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+
+    from lgvi import view
+
+    chain = lgvi.simulate_chain([1.0, 0.5, 0.5], [1.0, 1.0, 1.0], [[1, 0, 0], [0, 1, 0], [0, 0, -1]],
+                                [[0, 1, 0], [0, 0, 2], [1, 0, 0]], h=1e-3, steps=3000, save_every=10)
+    page = view.write_html(chain, tmp_path / "chain.html", max_frames=40)
+    frames = np.unique(np.linspace(0, len(chain.t) - 1, 40).round().astype(int))
+    _open(browser, page)
+    before = _canvas(browser, tmp_path / "chain-start.png")
+    assert not _errors(browser), _errors(browser)
+    assert before.std() > 15 and len(np.unique(before.reshape(-1, 3), axis=0)) > 50
+    assert np.allclose(_drawn(browser, 0)[1:], chain.positions[0], atol=1e-4)
+    rail = browser.find_element(By.CSS_SELECTOR, ".slider-container .slider-rail-touch-rect")
+    width = rail.size["width"]
+    ActionChains(browser).move_to_element_with_offset(rail, int(-width / 2 + 5), 0).click_and_hold() \
+        .move_by_offset(int(width * 0.5), 0).release().perform()
+    active_js = "return document.querySelector('.lgvi-plot').layout.sliders[0].active;"
+
+    def settled() -> bool:
+        k = browser.execute_script(active_js)
+        return k > 0 and np.allclose(_drawn(browser, 0)[1:], chain.positions[frames[k]], atol=1e-4)
+
+    _until(settled)
+    _frames(browser)
+    after = _canvas(browser, tmp_path / "chain-scrubbed.png")
+    assert np.abs(after - before).max(axis=2).astype(bool).mean() > 0.002, "the 3D view did not change"
+    assert not _errors(browser), _errors(browser)
+
+    sl = lgvi.simulate_slosh([900.0, 800.0, 600.0], 1500.0, [[0.5, 0.1, 0.2], [-0.3, 0.4, -0.1]], [0.3, 0.4],
+                             [40.0, 60.0], np.eye(3), [[0.0, 0.0, -1.0], [0.6, 0.0, -0.8]],
+                             [[0.5, 0.2, 0.0], [0.0, 1.0, 0.0]], omega0=[0.3, -0.2, 0.5], h=0.01, steps=600,
+                             save_every=5)
+    _open(browser, view.write_html(sl, tmp_path / "slosh.html", max_frames=30))
+    shot = _canvas(browser, tmp_path / "slosh-start.png")
+    assert not _errors(browser), _errors(browser)
+    assert shot.std() > 15
+    names = browser.execute_script("return document.querySelector('.lgvi-plot')._fullData.map("
+                                   "function (d) { return d.name; });")
+    for i in range(2):
+        seg = _drawn(browser, names.index(f"pendulum {i + 1}: {sl.masses[i]:g} kg, {sl.lengths[i]:g} m"))
+        assert np.allclose(seg, [sl.pivots[i], sl.pivots[i] + sl.lengths[i] * sl.q[0, i]], atol=1e-4)

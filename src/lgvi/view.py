@@ -48,7 +48,7 @@ from . import trajectory as _trajectory
 from .invariants import KIND_TEXT, QUANTITIES, declared, drifts, error_series
 
 __all__ = ["MAX_FRAMES", "MAX_POINTS", "INLINE_FRAMES", "INLINE_POINTS", "figure", "html", "write_html",
-           "mimebundle", "display", "traced_axis"]
+           "mimebundle", "display", "shows", "traced_axis"]
 
 #: Most animation frames of a page (the run is sampled evenly, first and last sample included).
 MAX_FRAMES: int = 200
@@ -83,9 +83,31 @@ def _plotly():
     return go, make_subplots
 
 
+def _system_of(traj: Any) -> Any:
+    """The registered system whose page draws ``traj`` (its :attr:`lgvi.systems.System.view`), or
+    ``None`` (a rigid body's :class:`~lgvi.Trajectory`, drawn by this module itself)."""
+    if isinstance(traj, _trajectory.Trajectory):
+        return None
+    from .systems import SYSTEMS
+
+    meta = getattr(traj, "meta", None)
+    system = SYSTEMS.get(str(meta.get("system"))) if isinstance(meta, Mapping) else None
+    return system if system is not None and system.view is not None else None
+
+
+def shows(traj: Any) -> bool:
+    """Whether the page draws ``traj``: an :class:`lgvi.Trajectory`, or a result of a system that
+    declares its :class:`lgvi.systems.Scene` (``System.view``)."""
+    return isinstance(traj, _trajectory.Trajectory) or _system_of(traj) is not None
+
+
 def _check(traj: Any, name: str, max_frames: int, max_points: int) -> None:
-    if not isinstance(traj, _trajectory.Trajectory):
-        raise TypeError(f"{name}: traj must be an lgvi.Trajectory, got {type(traj).__name__}")
+    if not shows(traj):
+        from .systems import SYSTEMS
+
+        shown = ", ".join(k for k, s in SYSTEMS.items() if s.view is not None)
+        raise TypeError(f"{name}: traj must be an lgvi.Trajectory or the result of a system with a page "
+                        f"({shown}), got {type(traj).__name__}")
     if len(traj.t) == 0:
         raise ValueError(f"{name}: traj has no samples (len(traj.t) == 0): nothing to show")
     for key, val, low in (("max_frames", max_frames, 2), ("max_points", max_points, 10)):
@@ -230,8 +252,10 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
 
     Parameters
     ----------
-    traj : Trajectory
-        A trajectory with ``M >= 1`` samples. Optional fields, used when present: ``wheel_speed``
+    traj : Trajectory, or the result of a system with a page
+        A trajectory with ``M >= 1`` samples, or a result whose system declares its
+        :class:`lgvi.systems.Scene` (``System.view``: the chain, the slosh hub), drawn from it with
+        the same controls, linked plots and invariants. Optional fields, used when present: ``wheel_speed``
         (M, N) rad/s relative to the body, with the wheel axes (N, 3) from ``wheel_axes`` or
         ``meta["wheels"]["axes"]``; ``control_error`` (M,) or (M, k) (the norm is drawn).
     max_frames : int
@@ -253,6 +277,9 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
         plotly is not installed.
     """
     _check(traj, "figure", max_frames, max_points)
+    system = _system_of(traj)
+    if system is not None:
+        return _scene_figure(traj, system.view(traj), max_frames, max_points)
     go, make_subplots = _plotly()
     t = np.asarray(traj.t, dtype=np.float64)
     R = np.asarray(traj.R, dtype=np.float64)
@@ -381,11 +408,7 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
 
     # each panel's key (coloured names); the invariants' kinds, or why none is drawn
     def key(r: int, items: list[tuple[str, str]]) -> None:
-        sp = fig.get_subplot(r, 2)
-        xr, yr = sp.xaxis.plotly_name.replace("axis", ""), sp.yaxis.plotly_name.replace("axis", "")
-        text = "  ".join(f"<span style='color:{c}'>{_html.escape(label)}</span>" for label, c in items)
-        fig.add_annotation(text=text, xref=f"{xr} domain", yref=f"{yr} domain", x=0.01, y=0.99, showarrow=False,
-                           xanchor="left", yanchor="top", font=dict(size=11), bgcolor="rgba(255,255,255,0.8)")
+        _panel_key(fig, r, items)
 
     if "rates" in panels:
         key(1 + panels.index("rates"), [(f"ω{lab}", _AXIS_COLORS[i]) for i, lab in enumerate("xyz")])
@@ -397,22 +420,19 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
                                          for i in range(wheel_speed.shape[1])])
 
     # the time cursor of every linked plot: a vertical line that each frame moves
-    refs = []
-    for r in range(1, n + 1):
-        sp = fig.get_subplot(r, 2)
-        refs.append((sp.xaxis.plotly_name.replace("axis", ""), sp.yaxis.plotly_name.replace("axis", "")))
-
-    def cursors(tk: float) -> list[dict[str, Any]]:
-        return [dict(type="line", xref=xr, yref=f"{yr} domain", x0=tk, x1=tk, y0=0, y1=1,
-                     line=dict(color="rgba(0,0,0,0.55)", width=1.5, dash="dot")) for xr, yr in refs]
-
+    cursors = _cursors(fig, n)
     body_idx = list(range(n_body))
     fig.frames = [go.Frame(name=str(j), data=[go.Mesh3d(**d) if i == 0 else go.Scatter3d(**d)
                                               for i, d in enumerate(body_traces(int(k)))],
                            traces=body_idx, layout=dict(shapes=cursors(float(t[k]))))
                   for j, k in enumerate(frames)]
+    _controls(fig, t, frames, cursors, n, 1.25)
+    return fig
+
+
+def _controls(fig: Any, t: np.ndarray, frames: np.ndarray, cursors: Any, n: int, lim: float) -> None:
+    """The scene's cube, the layout, play and pause, and the time scrubber of a view."""
     fig.update_layout(shapes=cursors(float(t[frames[0]])))
-    lim = 1.25
     fig.update_scenes(xaxis=dict(range=[-lim, lim], title="inertial x"), yaxis=dict(range=[-lim, lim], title="inertial y"),
                       zaxis=dict(range=[-lim, lim], title="inertial z"), aspectmode="cube",
                       camera=dict(eye=dict(x=1.45, y=1.45, z=0.9)))
@@ -434,6 +454,112 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
                       font=dict(color="rgba(0,0,0,0)"), ticklen=3, minorticklen=0,  # no label per frame
                       steps=[dict(label=f"{t[k]:.4g}", method="animate", args=[[str(j)], step_args])
                              for j, k in enumerate(frames)])])
+
+
+def _cursors(fig: Any, n: int) -> Any:
+    """``cursors(t) -> shapes``: the dotted time cursor of each of the ``n`` linked plots."""
+    refs = []
+    for r in range(1, n + 1):
+        sp = fig.get_subplot(r, 2)
+        refs.append((sp.xaxis.plotly_name.replace("axis", ""), sp.yaxis.plotly_name.replace("axis", "")))
+
+    def cursors(tk: float) -> list[dict[str, Any]]:
+        return [dict(type="line", xref=xr, yref=f"{yr} domain", x0=tk, x1=tk, y0=0, y1=1,
+                     line=dict(color="rgba(0,0,0,0.55)", width=1.5, dash="dot")) for xr, yr in refs]
+
+    return cursors
+
+
+def _panel_key(fig: Any, r: int, items: list[tuple[str, str]]) -> None:
+    """A linked plot's key: coloured names in its top left corner."""
+    sp = fig.get_subplot(r, 2)
+    xr, yr = sp.xaxis.plotly_name.replace("axis", ""), sp.yaxis.plotly_name.replace("axis", "")
+    text = "  ".join(f"<span style='color:{c}'>{_html.escape(label)}</span>" for label, c in items)
+    fig.add_annotation(text=text, xref=f"{xr} domain", yref=f"{yr} domain", x=0.01, y=0.99, showarrow=False,
+                       xanchor="left", yanchor="top", font=dict(size=11), bgcolor="rgba(255,255,255,0.8)")
+
+
+def _scene_figure(traj: Any, scene: Any, max_frames: int, max_points: int):
+    """The view of a system's :class:`lgvi.systems.Scene`: its meshes and lines in 3D at every
+    frame, its paths, its panels and the relative error of the invariants its run declares, with the
+    same cursors, play, pause and scrubber as the rigid body's view."""
+    go, make_subplots = _plotly()
+    t = np.asarray(traj.t, dtype=np.float64)
+    m = len(t)
+    frames = _frames(m, max_frames)
+    decl = declared(traj)
+    titles = [p[0] for p in scene.panels] + ["relative error of the invariants"]
+    n = len(titles)
+    specs = [[{"type": "scene", "rowspan": n}, {"type": "xy"}]] + [[None, {"type": "xy"}] for _ in range(n - 1)]
+    fig = make_subplots(rows=n, cols=2, specs=specs, column_widths=[0.52, 0.48], horizontal_spacing=0.07,
+                        vertical_spacing=0.09, subplot_titles=[""] + titles)
+
+    def moving(k: int) -> list[dict[str, Any]]:
+        out = [dict(x=v[k, :, 0], y=v[k, :, 1], z=v[k, :, 2]) for v in (np.asarray(s.vertices) for s in scene.meshes)]
+        out += [dict(x=p[k, :, 0], y=p[k, :, 1], z=p[k, :, 2]) for p in (np.asarray(s.points) for s in scene.lines)]
+        for d in out:
+            for key in ("x", "y", "z"):
+                d[key] = np.round(np.asarray(d[key], dtype=np.float64), 5)
+        return out
+
+    first = moving(int(frames[0]))
+    for s, d in zip(scene.meshes, first):
+        tri = np.asarray(s.triangles)
+        fig.add_trace(go.Mesh3d(**d, i=tri[:, 0], j=tri[:, 1], k=tri[:, 2], color=s.color, opacity=0.45,
+                                flatshading=True, name=s.name, showlegend=True, hoverinfo="skip"), row=1, col=1)
+    for s, d in zip(scene.lines, first[len(scene.meshes):]):
+        fig.add_trace(go.Scatter3d(**d, mode="lines+markers" if s.markers else "lines",
+                                   line=dict(color=s.color, width=s.width),
+                                   marker=dict(size=4, color=s.color), name=s.name, hoverinfo="skip"), row=1, col=1)
+    n_moving = len(first)
+    for s in scene.paths:
+        p = np.asarray(s.points, dtype=np.float64)
+        fine = np.unique(np.linspace(0, len(p) - 1, min(len(p), max_points)).round().astype(np.int64))
+        fig.add_trace(go.Scatter3d(x=np.round(p[fine, 0], 5), y=np.round(p[fine, 1], 5), z=np.round(p[fine, 2], 5),
+                                   mode="lines", line=dict(color=s.color, width=s.width), opacity=0.45, name=s.name,
+                                   hoverinfo="skip"), row=1, col=1)
+
+    for r, (_, series) in enumerate(scene.panels, start=1):
+        for j, (label, y) in enumerate(series):
+            tt, yy = _envelope(t, np.asarray(y, dtype=np.float64), max_points)
+            fig.add_trace(go.Scatter(x=tt, y=yy, mode="lines", showlegend=False, name=label,
+                                     line=dict(color=_ERROR_COLORS[j % len(_ERROR_COLORS)], width=1.3),
+                                     hovertemplate=f"{_html.escape(label)} = %{{y:.4g}}<br>t = %{{x:.4g}} s"
+                                     "<extra></extra>"), row=r, col=2)
+        _panel_key(fig, r, [(label, _ERROR_COLORS[j % len(_ERROR_COLORS)]) for j, (label, _) in enumerate(series)])
+    keys = decl.quantities()
+    for j, key in enumerate(keys):
+        err, relative = error_series(traj, key, {k: v for k, v in decl.entries[key].items() if k != "kind"})
+        if decl.kind(key) == "exact":
+            err = np.fmax.accumulate(np.asarray(err, dtype=np.float64))
+        tt, yy = _bin_max(t[1:], np.maximum(err[1:], ERROR_FLOOR), max_points) if m > 1 else (t, err)
+        name = scene.names.get(key, QUANTITIES[key].name)
+        fig.add_trace(go.Scatter(x=tt, y=yy, mode="lines", showlegend=False,
+                                 line=dict(width=1.3, color=_ERROR_COLORS[j % len(_ERROR_COLORS)]),
+                                 name=f"{name} ({decl.kind(key)})",
+                                 hovertemplate=f"{_html.escape(name)}: %{{y:.3g}}"
+                                 f"{'' if relative else ' (absolute)'}<br>t = %{{x:.4g}} s<extra></extra>"),
+                      row=n, col=2)
+    if keys:
+        fig.update_yaxes(type="log", exponentformat="power", row=n, col=2)
+    else:
+        fig.update_yaxes(visible=False, row=n, col=2)
+    _panel_key(fig, n, [(f"{scene.names.get(k, QUANTITIES[k].name)}: {decl.kind(k)}"
+                         + (" (running max)" if decl.kind(k) == "exact" else ""),
+                         _ERROR_COLORS[j % len(_ERROR_COLORS)]) for j, k in enumerate(keys)]
+               or [(f"the {scene.title} has no invariants here", "#222")])
+    first_x = fig.get_subplot(1, 2).xaxis.plotly_name.replace("axis", "")
+    for r in range(1, n + 1):
+        fig.update_xaxes(showticklabels=(r == n), row=r, col=2, **({"matches": first_x} if r > 1 else {}))
+    fig.update_xaxes(title_text="time t (s)", row=n, col=2)
+
+    cursors = _cursors(fig, n)
+    kinds = [go.Mesh3d] * len(scene.meshes) + [go.Scatter3d] * len(scene.lines)
+    fig.frames = [go.Frame(name=str(j), data=[kind(**d) for kind, d in zip(kinds, moving(int(k)))],
+                           traces=list(range(n_moving)), layout=dict(shapes=cursors(float(t[k]))))
+                  for j, k in enumerate(frames)]
+    fig.update_layout(legend_title_text=scene.title)
+    _controls(fig, t, frames, cursors, n, float(scene.extent))
     return fig
 
 
@@ -448,6 +574,9 @@ def _fmt(x: Any) -> str:
 
 def summary_rows(traj: Any, extra: Mapping[str, Any] | None = None) -> list[tuple[str, str]]:
     """``(label, value)`` rows of the run's summary (plain text; the page escapes them)."""
+    system = _system_of(traj)
+    if system is not None:
+        return _scene_summary_rows(traj, system, extra)
     meta = dict(getattr(traj, "meta", None) or {})
     t = np.asarray(traj.t)
     rows: list[tuple[str, str]] = [(str(k), _fmt(v)) for k, v in (extra or {}).items()]
@@ -473,6 +602,32 @@ def summary_rows(traj: Any, extra: Mapping[str, Any] | None = None) -> list[tupl
     est = traj.error_estimate if "error_estimate" in meta else None
     if est is not None:
         rows.append(("accuracy", est.describe()))
+    return rows
+
+
+def _scene_summary_rows(traj: Any, system: Any, extra: Mapping[str, Any] | None) -> list[tuple[str, str]]:
+    """The summary of a system's result drawn from its :class:`lgvi.systems.Scene`."""
+    meta = dict(getattr(traj, "meta", None) or {})
+    t = np.asarray(traj.t)
+    scene = system.view(traj)
+    rows: list[tuple[str, str]] = [(str(k), _fmt(v)) for k, v in (extra or {}).items()]
+    steps = (len(t) - 1) * int(meta.get("save_every", 1))
+    rows += [("system", f"{system.name}: {scene.title}"), ("samples", f"{len(t):,}"),
+             ("steps", f"{steps:,}, h = {traj.h:g} s"), ("time", f"{t[0]:g} .. {t[-1]:g} s")]
+    for key in ("method", "order", "composition", "partial", "lgvi_version"):
+        if key in meta:
+            rows.append((key.replace("_", " "), _fmt(meta[key])))
+    its, res = np.asarray(getattr(traj, "iterations", [])), np.asarray(getattr(traj, "residual", []))
+    if its.size:
+        rows.append(("solver", f"at most {int(its.max())} updates per step, largest residual {float(res.max()):.3e}"))
+    rows += list(scene.summary)
+    decl = declared(traj)
+    rows.append(("invariants", f"of the {scene.title}" if decl.entries else f"the {scene.title} has none here"))
+    d = drifts(traj, decl)
+    for key in decl.quantities():
+        rel = d[QUANTITIES[key].rel_key]
+        rows.append((f"  {scene.names.get(key, QUANTITIES[key].name)}",
+                     f"largest relative change {_fmt(rel)} ({KIND_TEXT[decl.kind(key)]})"))
     return rows
 
 
@@ -567,7 +722,9 @@ def html(traj: Any, *, title: str | None = None, summary: Mapping[str, Any] | No
         raise ValueError(f"html: div_id must be letters, digits, '-' and '_', got {div_id!r}")
     if title is None:
         meta = getattr(traj, "meta", None) or {}
-        title = f"lgvi trajectory: {len(traj.t):,} samples, method {meta.get('method', '?')}"
+        system = _system_of(traj)
+        title = (f"lgvi {system.name}: {len(traj.t):,} samples" if system is not None
+                 else f"lgvi trajectory: {len(traj.t):,} samples, method {meta.get('method', '?')}")
     body = _body(traj, title=title, summary=summary, max_frames=max_frames, max_points=max_points,
                  library=_library() if include_plotlyjs else "", div_id=div_id)
     if not full_html:

@@ -16,7 +16,8 @@ command                                            what it does
 ``lgvi plot TRAJECTORY [-o DIR] [--animate]``      figures (PNG) of a saved trajectory (``.npz``, ``.csv``, ``.nc``)
 ``lgvi info TRAJECTORY``                           shape, times, method, metadata and conservation drifts
 ``lgvi view TRAJECTORY [-o PAGE.html]``            an interactive page (plotly, offline): the body turning in
-                                                   3D, linked plots, the summary
+                                                   3D (a chain's links, a slosh hub's pendulums), linked
+                                                   plots, the summary
 ``lgvi warmup``                                    compiles (or loads from Numba's cache) the kernels
 ``lgvi example [NAME] [-o PATH] [--force]``        lists the example scenarios shipped with lgvi; with a
                                                    name, writes ``NAME.toml`` (to give to ``lgvi run``)
@@ -617,7 +618,11 @@ def _write_system_results(traj, scenario, outdir: Path, plots: bool, wall: float
     write_text(outdir / "scenario.toml", scenario.text, "scenario copy")
     files.append(outdir / "scenario.toml")
     if plots:
+        from .. import view
+
         files += _save_figures(traj, outdir)
+        if view.shows(traj):      # a system that declares its page (System.view)
+            files += _save_report(traj, outdir, {"scenario": scenario.name, "wall time": f"{wall:.4g} s"})
     txt, js = write_system_summary(outdir, traj, scenario, wall, files, status=status, message=message,
                                    kernel_load=kernel_load)
     return files + [txt, js]
@@ -961,10 +966,13 @@ def _save_report(traj, outdir: Path, summary: dict[str, Any]) -> list[Path]:
 
 def cmd_view(args: argparse.Namespace) -> int:
     from .. import view
+    from ..systems import SYSTEMS
 
     traj = _read(args.trajectory)
-    if hasattr(traj, "members") or hasattr(traj, "x"):
-        raise UsageError(f"{args.trajectory}: lgvi view shows one rigid body's run; this file holds "
+    if not view.shows(traj):
+        shown = ", ".join(k for k, s in SYSTEMS.items() if s.view is not None)
+        raise UsageError(f"{args.trajectory}: lgvi view shows one rigid body's run or a result of {shown}; this "
+                         f"file holds "
                          f"{'an ensemble' if hasattr(traj, 'members') else 'a ' + str(traj.meta.get('system')) + ' result'} "
                          "(lgvi info describes it, lgvi plot draws its figure)")
     out = Path(args.output) if args.output else Path(args.trajectory).with_suffix(".html")

@@ -16,7 +16,7 @@ pendulums on ``(S^2)^n`` (:mod:`lgvi.systems.chain`); another is a new module pl
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import numpy as np
@@ -97,6 +97,11 @@ class System:
         ``(format, load)``: the format tag in the header of the ``.npz`` its result's ``save``
         writes, and the function that reads it back (``lgvi.io.outputs.read_trajectory``, ``lgvi
         info``, ``lgvi plot`` find it by the tag).
+    view : callable or None
+        ``view(result) -> Scene``: what the interactive page (:mod:`lgvi.view`, ``lgvi view``,
+        ``lgvi run``'s ``report.html``) draws of a result: its parts in 3D at every sample, its
+        own plots against time, the names of its invariants (:class:`Scene`). ``None``: no page
+        (the rigid body's page, which predates the seam, is drawn by :mod:`lgvi.view` itself).
     """
 
     name: str
@@ -112,6 +117,7 @@ class System:
     from_scenario: Callable[[dict[str, Any]], tuple[tuple[Any, ...], dict[str, Any]]] | None = None
     describe: Callable[[Any], list[str]] | None = None
     saved_as: tuple[str, Callable[[Any], Any]] | None = None
+    view: Callable[[Any], "Scene"] | None = None
 
     def run(self, *args: Any, **kwargs: Any) -> Any:
         """A validated run of this system (see ``run_factory``)."""
@@ -126,6 +132,61 @@ class System:
             raise LookupError(f"no run is provided for {key!r}: import the module that "
                               "defines it (import lgvi does for the built-in systems)")
         return factory
+
+
+@dataclass(frozen=True)
+class SceneLine:
+    """A polyline of a :class:`Scene`: ``points`` (M, P, 3) inertial, one row per sample (a row
+    of NaN breaks the line), or (P, 3) for a line that does not move (a path over the run)."""
+
+    name: str
+    points: np.ndarray
+    color: str = "#1f77b4"
+    width: float = 5.0
+    markers: bool = False
+
+
+@dataclass(frozen=True)
+class SceneMesh:
+    """A closed surface of a :class:`Scene`: ``vertices`` (M, V, 3) inertial at every sample and
+    ``triangles`` (T, 3) indices into them."""
+
+    name: str
+    vertices: np.ndarray
+    triangles: np.ndarray
+    color: str = "lightsteelblue"
+
+
+@dataclass(frozen=True)
+class Scene:
+    """What the interactive page draws of one result of a system (:attr:`System.view`).
+
+    Attributes
+    ----------
+    title : str
+        What it shows, in a few words (the 3D scene's legend title).
+    meshes, lines : tuple
+        :class:`SceneMesh` and :class:`SceneLine` drawn at every sample (the page animates them).
+    paths : tuple of SceneLine
+        Lines that do not move (``points`` (P, 3)), e.g. the path of a point over the run.
+    extent : float
+        Half the side of the cube the scene is drawn in (m), centred on the origin.
+    panels : tuple
+        ``(title, ((label, values (M,)), ...))``: plots against time beside the scene.
+    names : dict
+        Quantity key of :mod:`lgvi.invariants` -> what it is for this system (the page's key).
+    summary : tuple
+        ``(label, value)`` rows the system adds to the run's summary.
+    """
+
+    title: str
+    lines: tuple[SceneLine, ...]
+    extent: float
+    meshes: tuple[SceneMesh, ...] = ()
+    paths: tuple[SceneLine, ...] = ()
+    panels: tuple[tuple[str, tuple[tuple[str, np.ndarray], ...]], ...] = ()
+    names: dict[str, str] = field(default_factory=dict)
+    summary: tuple[tuple[str, str], ...] = ()
 
 
 #: The registry of systems by name.
@@ -224,4 +285,5 @@ from . import gyrostat as gyrostat  # noqa: E402  (registers the gyrostat: react
 from . import chain as chain  # noqa: E402  (chains of spherical pendulums on (S^2)^n)
 from . import slosh as slosh  # noqa: E402  (a hub with slosh pendulums on SO(3) x (S^2)^n)
 
-__all__ = ["CarriedState", "Field", "RUNS", "SYSTEMS", "System", "provide_run", "register"]
+__all__ = ["CarriedState", "Field", "RUNS", "SYSTEMS", "Scene", "SceneLine", "SceneMesh", "System", "provide_run",
+           "register"]

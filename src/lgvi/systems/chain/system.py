@@ -47,6 +47,7 @@ CHAIN = register(System(
     from_scenario=lambda table: chain_scenario(table),
     describe=lambda traj: chain_description(traj),
     saved_as=("lgvi.chain/1", lambda path: _load(path)),
+    view=lambda traj: _scene(traj),
 ))
 
 #: The keys of a scenario's ``[chain]`` section: required, then optional.
@@ -97,6 +98,12 @@ def chain_description(traj: Any) -> list[str]:
             f"gravity {np.round(traj.gravity, 6).tolist()} m/s^2, order {traj.meta.get('order')}",
             f"chain:         highest joint at z = {top:.6g} m; largest ||q_i| - 1| = "
             f"{float(np.max(traj.orthogonality_error)) if len(traj.t) else 0.0:.2g}"]
+
+
+def _scene(traj: Any) -> Any:
+    from .scene import chain_scene
+
+    return chain_scene(traj)
 
 
 def _load(path: Any) -> Any:

@@ -28,6 +28,12 @@ def _kernels() -> dict[str, Any]:
             "kick_build": slosh_kernels.kick_build, "kick_apply": slosh_kernels.kick_apply}
 
 
+def _scene(traj: Any) -> Any:
+    from .scene import slosh_scene
+
+    return slosh_scene(traj)
+
+
 def _load(path: Any) -> Any:
     from .run import SloshTrajectory
 
@@ -66,6 +72,7 @@ SLOSH = register(System(
     from_scenario=lambda table: slosh_scenario(table),
     describe=slosh_description,
     saved_as=("lgvi.slosh/1", _load),
+    view=lambda traj: _scene(traj),
 ))
 
 
