@@ -791,25 +791,6 @@ def test_chain_step_too_large_fails_with_the_computed_part():
     assert np.all(np.isfinite(part.q)) and np.all(np.isfinite(part.pi))
 
 
-def test_chain_direction_off_by_less_than_1e_6_is_normalised_with_a_warning():
-    with pytest.warns(lgvi.errors.AttitudeWarning, match=r"q0\[0\] has length 1\.0000001.*dividing"):
-        traj = chain(q0=_Q_OFF)
-    assert np.abs(np.linalg.norm(traj.q, axis=2) - 1.0).max() <= 2.3e-16
-    exact = chain(q0=_Q_OFF / np.linalg.norm(_Q_OFF, axis=1)[:, None])
-    assert np.array_equal(traj.q, exact.q)
-
-
-def test_chain_direction_within_1e_9_is_used_without_a_warning():
-    import warnings
-
-    q = _Q_OFF.copy()
-    q[0, 0] = 1.0 + 5e-10
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        traj = chain(q0=q)
-    assert np.abs(np.linalg.norm(traj.q, axis=2) - 1.0).max() <= 2.3e-16
-
-
 def slosh(**overrides: Any) -> lgvi.SloshTrajectory:
     """``lgvi.simulate_slosh`` with sound defaults (issue 30): the hub of Basilisk's unit test with
     two pendulums, turning, the pendulums moving."""
@@ -883,24 +864,32 @@ _ROWS += [
 ]
 
 
-def test_slosh_direction_off_by_less_than_1e_6_is_normalised_with_a_warning():
-    q = np.array(_SQ0)
-    q[0, 2] = -1.0 - 1e-7
+def _off_unit(system: str, by: float) -> np.ndarray:
+    """Initial directions of ``chain`` or ``slosh`` (the defaults above) with the first one
+    ``by`` longer than a unit vector."""
+    q = (_Q_OFF.copy() if system == "chain" else np.array(_SQ0))
+    q[0] *= (1.0 + by) / np.linalg.norm(q[0])
+    return q
+
+
+@pytest.mark.parametrize("system", ["chain", "slosh"])
+def test_direction_off_by_less_than_1e_6_is_normalised_with_a_warning(system):
+    run = {"chain": chain, "slosh": slosh}[system]
+    q = _off_unit(system, 1e-7)
     with pytest.warns(lgvi.errors.AttitudeWarning, match=r"q0\[0\] has length 1\.0000001.*dividing"):
-        traj = slosh(q0=q)
+        traj = run(q0=q)
     assert np.abs(np.linalg.norm(traj.q, axis=2) - 1.0).max() <= 2.3e-16
-    exact = slosh(q0=q / np.linalg.norm(q, axis=1)[:, None])
+    exact = run(q0=q / np.linalg.norm(q, axis=1)[:, None])
     assert np.array_equal(traj.q, exact.q)
 
 
-def test_slosh_direction_within_1e_9_is_used_without_a_warning():
+@pytest.mark.parametrize("system", ["chain", "slosh"])
+def test_direction_within_1e_9_is_used_without_a_warning(system):
     import warnings
 
-    q = np.array(_SQ0)
-    q[0, 2] = -1.0 - 5e-10
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        traj = slosh(q0=q)
+        traj = {"chain": chain, "slosh": slosh}[system](q0=_off_unit(system, 5e-10))
     assert np.abs(np.linalg.norm(traj.q, axis=2) - 1.0).max() <= 2.3e-16
 
 

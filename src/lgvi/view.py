@@ -371,23 +371,7 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
                                  hovertemplate=f"ω{lab} = %{{y:.4g}} rad/s<br>t = %{{x:.4g}} s<extra></extra>"),
                       row=1 + panels.index(rate_rows[i]), col=2)
     row = 1 + panels.index("invariants")
-    keys = decl.quantities()
-    for j, key in enumerate(keys):
-        err, relative = error_series(traj, key, {k: v for k, v in decl.entries[key].items() if k != "kind"})
-        if decl.kind(key) == "exact":     # round-off: its running maximum (a comb of zeros and ulps otherwise)
-            err = np.fmax.accumulate(np.asarray(err, dtype=np.float64))
-        tt, yy = _bin_max(t[1:], np.maximum(err[1:], ERROR_FLOOR), max_points) if m > 1 else (t, err)
-        q = QUANTITIES[key]
-        fig.add_trace(go.Scatter(x=tt, y=yy, mode="lines", showlegend=False,
-                                 line=dict(width=1.3, color=_ERROR_COLORS[j % len(_ERROR_COLORS)]),
-                                 name=f"{q.name} ({decl.kind(key)})",
-                                 hovertemplate=f"{_html.escape(q.name)}: %{{y:.3g}}"
-                                 f"{'' if relative else ' (absolute)'}<br>t = %{{x:.4g}} s<extra></extra>"),
-                      row=row, col=2)
-    if keys:
-        fig.update_yaxes(type="log", exponentformat="power", row=row, col=2)
-    else:  # nothing to draw: the panel keeps only its note
-        fig.update_yaxes(visible=False, row=row, col=2)
+    keys = _invariant_traces(fig, go, traj, decl, t, row, max_points, {})
     if wheel_speed is not None:
         for i in range(wheel_speed.shape[1]):
             tt, yy = _envelope(t, wheel_speed[:, i], max_points)
@@ -454,6 +438,30 @@ def _controls(fig: Any, t: np.ndarray, frames: np.ndarray, cursors: Any, n: int,
                       font=dict(color="rgba(0,0,0,0)"), ticklen=3, minorticklen=0,  # no label per frame
                       steps=[dict(label=f"{t[k]:.4g}", method="animate", args=[[str(j)], step_args])
                              for j, k in enumerate(frames)])])
+
+
+def _invariant_traces(fig: Any, go: Any, traj: Any, decl: Any, t: np.ndarray, row: int, max_points: int,
+                      names: Mapping[str, str]) -> list[str]:
+    """The relative error of every declared invariant in the linked plot of ``row`` (log scale; an
+    exact one as its running maximum), named by ``names`` or :data:`QUANTITIES`; returns the keys."""
+    keys = decl.quantities()
+    for j, key in enumerate(keys):
+        err, relative = error_series(traj, key, {k: v for k, v in decl.entries[key].items() if k != "kind"})
+        if decl.kind(key) == "exact":     # round-off: its running maximum (a comb of zeros and ulps otherwise)
+            err = np.fmax.accumulate(np.asarray(err, dtype=np.float64))
+        tt, yy = _bin_max(t[1:], np.maximum(err[1:], ERROR_FLOOR), max_points) if len(t) > 1 else (t, err)
+        name = names.get(key, QUANTITIES[key].name)
+        fig.add_trace(go.Scatter(x=tt, y=yy, mode="lines", showlegend=False,
+                                 line=dict(width=1.3, color=_ERROR_COLORS[j % len(_ERROR_COLORS)]),
+                                 name=f"{name} ({decl.kind(key)})",
+                                 hovertemplate=f"{_html.escape(name)}: %{{y:.3g}}"
+                                 f"{'' if relative else ' (absolute)'}<br>t = %{{x:.4g}} s<extra></extra>"),
+                      row=row, col=2)
+    if keys:
+        fig.update_yaxes(type="log", exponentformat="power", row=row, col=2)
+    else:  # nothing to draw: the panel keeps only its note
+        fig.update_yaxes(visible=False, row=row, col=2)
+    return keys
 
 
 def _cursors(fig: Any, n: int) -> Any:
@@ -527,23 +535,7 @@ def _scene_figure(traj: Any, scene: Any, max_frames: int, max_points: int):
                                      hovertemplate=f"{_html.escape(label)} = %{{y:.4g}}<br>t = %{{x:.4g}} s"
                                      "<extra></extra>"), row=r, col=2)
         _panel_key(fig, r, [(label, _ERROR_COLORS[j % len(_ERROR_COLORS)]) for j, (label, _) in enumerate(series)])
-    keys = decl.quantities()
-    for j, key in enumerate(keys):
-        err, relative = error_series(traj, key, {k: v for k, v in decl.entries[key].items() if k != "kind"})
-        if decl.kind(key) == "exact":
-            err = np.fmax.accumulate(np.asarray(err, dtype=np.float64))
-        tt, yy = _bin_max(t[1:], np.maximum(err[1:], ERROR_FLOOR), max_points) if m > 1 else (t, err)
-        name = scene.names.get(key, QUANTITIES[key].name)
-        fig.add_trace(go.Scatter(x=tt, y=yy, mode="lines", showlegend=False,
-                                 line=dict(width=1.3, color=_ERROR_COLORS[j % len(_ERROR_COLORS)]),
-                                 name=f"{name} ({decl.kind(key)})",
-                                 hovertemplate=f"{_html.escape(name)}: %{{y:.3g}}"
-                                 f"{'' if relative else ' (absolute)'}<br>t = %{{x:.4g}} s<extra></extra>"),
-                      row=n, col=2)
-    if keys:
-        fig.update_yaxes(type="log", exponentformat="power", row=n, col=2)
-    else:
-        fig.update_yaxes(visible=False, row=n, col=2)
+    keys = _invariant_traces(fig, go, traj, decl, t, n, max_points, scene.names)
     _panel_key(fig, n, [(f"{scene.names.get(k, QUANTITIES[k].name)}: {decl.kind(k)}"
                          + (" (running max)" if decl.kind(k) == "exact" else ""),
                          _ERROR_COLORS[j % len(_ERROR_COLORS)]) for j, k in enumerate(keys)]
