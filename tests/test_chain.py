@@ -409,3 +409,13 @@ def test_the_figure_of_the_paper_chain_lgvi_bounded_runge_kutta_drifts():
     loose = rk["RK45, rtol 1e-3 (ode45 defaults)"]
     assert np.abs(np.linalg.norm(loose["q"], axis=2) - 1.0).max() > 1e-2
     assert np.abs(loose["E"] - traj.energy[0]).max() > 1e3 * dE.max()
+
+
+def test_the_invariants_note_names_the_chain_not_the_free_body():
+    """A chain's declaration of invariants says whose they are (it read "the free body": no torque in meta)."""
+    from lgvi.invariants import declared
+
+    tr = lgvi.simulate_chain([1.0, 1.0], [1.0, 1.0], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], h=0.01, steps=4)
+    d = declared(tr)
+    assert d.note() == "invariants of the chain"
+    assert set(d.entries) == {"angular_momentum_e3", "energy"}

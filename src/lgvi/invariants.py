@@ -323,6 +323,10 @@ class Declaration:
 
 
 def _system(meta: Mapping[str, Any]) -> str:
+    system = meta.get("system")
+    if isinstance(system, str) and system not in ("", "rigid_body") and "torque" not in meta:
+        # another system's result (a chain, a slosh hub...): named by its registry key, not "the free body"
+        return f"the {system.replace('_', ' ')}"
     torque = meta.get("torque", "none")
     if torque in (None, "none", ""):
         return "the free body"

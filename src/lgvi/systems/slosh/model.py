@@ -110,7 +110,6 @@ def newton_euler(P: dict[str, Any], damping: Any = None):
     J0, m0, b, l, m = P["J0"], P["hub_mass"], P["pivots"], P["lengths"], P["masses"]
     n = len(l)
     dmp = np.zeros(n) if damping is None else np.asarray(damping, dtype=np.float64)
-    J0inv = np.linalg.inv(J0)
     N = 3 * n + 6 + n
 
     def f(t: float, y: np.ndarray) -> np.ndarray:
