@@ -1,4 +1,5 @@
-"""The Kepler problem of the paper's introduction: a variational integrator against Runge-Kutta.
+"""The Kepler problem of the paper's introduction: a variational integrator against Runge-Kutta
+============================================================================================
 
 Stormer-Verlet is the variational integrator of the trapezoidal discrete Lagrangian
 ``L_d = h [|q1 - q0|^2 / (2 h^2) - (V(q0) + V(q1))/2]`` with ``V = -mu/|q|`` (lgvi.discrete,
@@ -26,7 +27,7 @@ from lgvi import discrete
 
 
 def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.partition("\n")[0])
     parser.add_argument("--steps", type=int, default=20_000, help="number of steps (default 20000)")
     parser.add_argument("--quick", action="store_true", help="short run (2000 steps)")
     parser.add_argument("--h", type=float, default=0.05, help="step size (default 0.05)")
