@@ -76,7 +76,7 @@ def pitch_figure(traj: lgvi.Trajectory):
     ax.set_ylabel("pitch relative to the local vertical (deg)")
     ax.set_title("Gravity-gradient pitch libration")
     ax.grid(True, alpha=0.3)
-    ax.legend(loc="upper right")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncols=2, frameon=False)   # below, off the curves
     return fig
 
 
