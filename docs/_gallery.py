@@ -42,6 +42,9 @@ STORED = {
     "slew_pd": ("slew_pd_error.png",),
     "optimal_slew": ("optimal_slew.png",),
     "cubesat_mission": ("cubesat_mission.png",),
+    # the short run's first figure (python docs/make_figures.py --gallery)
+    **{name: (f"gallery_{name}.png",) for name in ("binary_asteroid", "uncertainty", "bdot_detumble",
+                                                     "momentum_budget", "estimation_budget")},
 }
 STANDARD = ("conservation", "polhode", "rates", "attitude", "iterations")   # lgvi.plot's set, in this order
 
@@ -134,7 +137,7 @@ def _stored_note(name: str) -> str:
              ".. note::", "",
              f"   This build of the pages did not run ``{name}.py`` (``LGVI_DOCS_EXAMPLES``: ``make docs`` runs "
              "the fast examples, ``LGVI_DOCS_EXAMPLES=all make docs`` every one).",
-             ("   The figure below is the one kept in ``docs/figures/`` (``python docs/make_figures.py``)."
+             ("   The figures below are those kept in ``docs/figures/`` (``python docs/make_figures.py``)."
               if figs else f"   Run ``python examples/{name}.py --out DIR`` to see its figures."), ""]
     for fig in figs:
         lines += [f".. figure:: /figures/{fig}", f"   :alt: {Path(fig).stem}", "   :width: 90%", ""]
