@@ -101,6 +101,8 @@ def test_math_renders_offline(site):
         text = page.read_text(encoding="utf-8")
         assert "cdn.jsdelivr.net" not in text and "cdnjs" not in text, f"{page.name} loads from a CDN"
     assert 'class="math' in method and r"\operatorname{tr}" in method
+    # the paper column of the method's tables is math, not code
+    assert r"\widehat{h \Pi_k} = F_k J_d - J_d F_k^T" in method and "hat(h" not in method
 
 
 def test_numpy_and_scipy_links_without_network(site):
