@@ -43,8 +43,9 @@ STORED = {
     "optimal_slew": ("optimal_slew.png",),
     "cubesat_mission": ("cubesat_mission.png",),
     # the short run's first figure (python docs/make_figures.py --gallery)
-    **{name: (f"gallery_{name}.png",) for name in ("binary_asteroid", "uncertainty", "bdot_detumble",
-                                                     "momentum_budget", "estimation_budget")},
+    **{name: (f"gallery_{name}.png",) for name in ("orbit_attitude", "binary_asteroid", "uncertainty", "wheel_slew",
+                                                     "bdot_detumble", "nadir_dumping", "momentum_budget",
+                                                     "momentum_day", "estimation_budget")},
 }
 STANDARD = ("conservation", "polhode", "rates", "attitude", "iterations")   # lgvi.plot's set, in this order
 

@@ -152,7 +152,8 @@ def optimal_slew(out: Path, quick: bool) -> list[Path]:
 
 #: examples whose short run is too slow for the docs' build: their first figure is kept here
 #: (``--gallery``), and the gallery's page of an example not run shows it (docs/_gallery.py)
-GALLERY_KEPT = ("binary_asteroid", "uncertainty", "bdot_detumble", "momentum_budget", "estimation_budget")
+GALLERY_KEPT = ("orbit_attitude", "binary_asteroid", "uncertainty", "wheel_slew", "bdot_detumble", "nadir_dumping",
+                "momentum_budget", "momentum_day", "estimation_budget")
 
 
 def gallery(out: Path, names: tuple[str, ...] = GALLERY_KEPT) -> list[Path]:
