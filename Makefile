@@ -85,7 +85,8 @@ test-floors: $(FLOORS_STAMP)
 	    -W "ignore::DeprecationWarning" $(FLOORS_TESTS)
 
 # The documentation site (Sphinx; the `docs` extra, inside `test`) in docs/_build/html, warnings as
-# errors. The gallery runs every example (--quick); LGVI_DOCS_EXAMPLES=none (or a list) runs fewer.
+# errors. The gallery (sphinx-gallery, docs/_gallery.py) runs the fast examples (--quick); LGVI_DOCS_EXAMPLES=all
+# runs every one, none (or a list) fewer; an example not run shows its figure kept in docs/figures/.
 docs: $(STAMP)
 	$(BIN)/python -m sphinx -b html -W --keep-going -q docs docs/_build/html
 	@echo "make docs: open docs/_build/html/index.html"

@@ -2,23 +2,19 @@
 
 The Markdown pages of this folder are the site's pages (MyST); ``api.rst`` is the API reference,
 generated from the docstrings (autosummary, numpydoc); ``gallery/`` is written at build time from
-``examples/*.py``: a page per example with its description, its code, what it prints and the
-figures it makes, each example run in its short form (``--quick``) inside this process.
+``examples/*.py`` by sphinx-gallery: a page per example with its description, its code, what it
+prints and the figures it makes, each example run in its short form (``--quick``) inside this
+process (``docs/_gallery.py``).
 
-``LGVI_DOCS_EXAMPLES`` chooses the examples run at build time: ``all`` (the default), ``none``,
-or a comma-separated list of names; the others' pages show their code without figures.
+``LGVI_DOCS_EXAMPLES`` chooses the examples run at build time: ``fast`` (the default), ``all``,
+``none`` or a comma-separated list of names; the others' pages show their code and the figure kept
+in ``docs/figures/`` where there is one.
 """
 
 from __future__ import annotations
 
-import contextlib
-import io
-import os
-import re
-import runpy
 import shutil
 import sys
-import time
 from pathlib import Path
 
 DOCS = Path(__file__).resolve().parent
@@ -41,6 +37,7 @@ extensions = [
     "sphinx.ext.viewcode",      # source links: every documented object links to its highlighted source
     "sphinx-mathjax-offline",   # MathJax 3 from the package into _static/mathjax: math renders offline, no CDN
     "numpydoc",
+    "sphinx_gallery.gen_gallery",   # the gallery of examples/ (docs/_gallery.py)
 ]
 # math in the pages: ```{math} blocks, $...$ and $$...$$ (MyST's dollarmath), amsmath environments
 myst_enable_extensions = ["dollarmath", "amsmath"]
@@ -97,105 +94,36 @@ intersphinx_mapping = {
 shutil.rmtree(DOCS / "generated", ignore_errors=True)
 
 # ------------------------------------------------------------------------------------ the gallery
-GALLERY = DOCS / "gallery"
-EXAMPLE_ORDER = ("dzhanibekov", "heavy_top", "pendulum3d", "gravity_gradient", "slew_pd", "uncertainty", "kepler")
+# sphinx-gallery writes gallery/ from examples/*.py: a page per example (its docstring, its code,
+# what it prints, the figures it wrote, downloads of the script and a notebook) and a thumbnail
+# index. The choices (which examples run, their call, the figure scraper) live in docs/_gallery.py.
+sys.path.insert(0, str(DOCS))
+import _gallery  # noqa: E402
 
-
-def _examples() -> list[Path]:
-    found = {p.stem: p for p in sorted((ROOT / "examples").glob("*.py"))}
-    return [found[n] for n in EXAMPLE_ORDER if n in found] + [p for n, p in found.items() if n not in EXAMPLE_ORDER]
-
-
-def _selected(names: list[str]) -> set[str]:
-    choice = os.environ.get("LGVI_DOCS_EXAMPLES", "all").strip()
-    if choice == "all":
-        return set(names)
-    if choice in ("", "none"):
-        return set()
-    chosen = {c.strip() for c in choice.split(",") if c.strip()}
-    unknown = chosen - set(names)
-    if unknown:
-        raise ValueError(f"LGVI_DOCS_EXAMPLES: unknown example(s) {sorted(unknown)}; examples: {names}")
-    return chosen
-
-
-def _run(script: Path, out: Path) -> str:
-    """Run ``script --quick --out OUT`` in this process; returns what it printed."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    ns = runpy.run_path(str(script), run_name="lgvi_docs_example")
-    buf = io.StringIO()
-    with contextlib.redirect_stdout(buf):
-        ns["main"](["--quick", "--out", str(out)])
-    import matplotlib.pyplot as plt
-
-    plt.close("all")
-    return buf.getvalue()
-
-
-def _standard(name: str, fig: Path) -> int:
-    """Sort key: the example's own figures first, then lgvi.plot's standard set (conservation first)."""
-    stem = fig.stem.removeprefix(f"{name}_")
-    standard = ("conservation", "polhode", "rates", "attitude", "iterations")
-    return 1 + standard.index(stem) if stem in standard else 0
-
-
-def _docstring(script: Path) -> tuple[str, str]:
-    """The example's title (first docstring line) and the rest of its docstring."""
-    import ast
-
-    doc = ast.get_docstring(ast.parse(script.read_text(encoding="utf-8"))) or script.stem
-    first, _, rest = doc.partition("\n")
-    return first.strip().rstrip("."), rest.strip()
-
-
-def _write_gallery(app) -> None:
-    if GALLERY.exists():
-        shutil.rmtree(GALLERY)
-    (GALLERY / "figures").mkdir(parents=True)
-    scripts = _examples()
-    run = _selected([s.stem for s in scripts])
-    entries = []
-    for script in scripts:
-        name = script.stem
-        title, rest = _docstring(script)
-        figs: list[Path] = []
-        printed = ""
-        if name in run:
-            out = GALLERY / "figures" / name
-            t0 = time.perf_counter()
-            printed = _run(script, out)
-            figs = sorted(out.glob("*.png"), key=lambda f: (_standard(name, f), f.name))
-            print(f"lgvi gallery: {name} ran in {time.perf_counter() - t0:.1f} s, {len(figs)} figures")
-        # the docstring as the script shows it (plain text, not markup)
-        lines = [f"# {title}", "", "```text", rest, "```", "",
-                 f"Run it: `python examples/{name}.py [--quick] [--out DIR]`.", ""]
-        if figs:
-            lines += ["## Figures", "", "Made when this page was built, by the short run (`--quick`).", ""]
-            for fig in figs:
-                rel = fig.relative_to(GALLERY).as_posix()
-                lines += [f"```{{figure}} {rel}", f":alt: {fig.stem}", ":width: 90%", "", f"`{fig.name}`", "```", ""]
-        elif name not in run:
-            lines += ["```{note}", "This build did not run the example (`LGVI_DOCS_EXAMPLES`); `make docs` runs them all.",
-                      "```", ""]
-        if printed.strip():
-            lines += ["## What it prints", "", "```text", printed.rstrip(), "```", ""]
-        code = os.path.relpath(script, GALLERY)
-        lines += ["## The code", "", f"```{{literalinclude}} {code}", ":language: python", "```", ""]
-        (GALLERY / f"{name}.md").write_text("\n".join(lines), encoding="utf-8")
-        entries.append((name, title, figs[0].relative_to(GALLERY).as_posix() if figs else None))
-    index = ["# Gallery of the examples", "",
-             "Each example of `examples/` on its own page: what it shows, the figures it makes (made when "
-             "these pages were built), what it prints and its code.", "",
-             "```{toctree}", ":maxdepth: 1", ":hidden:", ""] + [n for n, _, _ in entries] + ["```", ""]
-    for name, title, thumb in entries:  # a paragraph each (headings would repeat the toctree)
-        index += [f"**[{title}]({name}.md)**", ""]
-        if thumb:
-            index += [f"```{{image}} {thumb}", ":width: 45%", f":alt: {name}", f":target: {name}.html", "```", ""]
-    (GALLERY / "index.md").write_text("\n".join(index), encoding="utf-8")
+sphinx_gallery_conf = {
+    "examples_dirs": str(ROOT / "examples"),
+    "gallery_dirs": str(_gallery.GALLERY),
+    "filename_pattern": _gallery.filename_pattern(_gallery.selected()),
+    "within_subsection_order": "_gallery.ExampleOrder",
+    "reset_argv": "_gallery.reset_argv",
+    "image_scrapers": ("_gallery.written_figures",),
+    "reset_modules": ("matplotlib",),
+    "abort_on_example_error": True,      # an example that fails fails the build
+    "doc_module": ("lgvi",),             # names in the code link to the API reference
+    "backreferences_dir": None,
+    "download_all_examples": False,
+    "show_signature": False,
+    "min_reported_time": 1e9,            # no timings on the pages (they vary with the machine)
+    "capture_repr": (),
+    "remove_config_comments": True,
+}
+# what sphinx-gallery writes beside the pages (downloads, caches) and its timing pages (not part of the site)
+exclude_patterns += ["gallery/*.ipynb", "gallery/*.py", "gallery/*.zip", "gallery/*.md5", "gallery/*.codeobj.json",
+                     "gallery/sg_execution_times.rst", "sg_execution_times.rst"]
 
 
 def setup(app):
-    app.connect("builder-inited", _write_gallery)
+    app.connect("builder-inited", _gallery.stored_thumbnails, priority=400)   # before sphinx-gallery (500)
+    app.connect("builder-inited", _gallery.stored_figures, priority=600)      # after it
+    app.connect("build-finished", _gallery.cleanup)
     return {"parallel_read_safe": True}

@@ -4,6 +4,7 @@ Usage::
 
     python docs/make_figures.py                 # full size, into docs/figures/ (about a minute)
     python docs/make_figures.py --quick --out /tmp/figs   # short runs (what the tests do)
+    python docs/make_figures.py --gallery       # the kept figures of the slow examples (minutes)
 
 The runs are those of the example scripts (imported from examples/), so the figures show exactly
 what the examples compute. Each PNG is reduced to a 256-colour palette, which keeps it well under
@@ -149,13 +150,45 @@ def optimal_slew(out: Path, quick: bool) -> list[Path]:
     return [save_small(ex.slew_figure(eig, u_eig, opt), out / "optimal_slew.png")]
 
 
+#: examples whose short run is too slow for the docs' build: their first figure is kept here
+#: (``--gallery``), and the gallery's page of an example not run shows it (docs/_gallery.py)
+GALLERY_KEPT = ("orbit_attitude", "binary_asteroid", "uncertainty", "wheel_slew", "bdot_detumble", "nadir_dumping",
+                "momentum_budget", "momentum_day", "estimation_budget")
+
+
+def gallery(out: Path, names: tuple[str, ...] = GALLERY_KEPT) -> list[Path]:
+    """The first figure of each example's short run (``--quick``), as ``gallery_NAME.png``."""
+    import importlib
+    import tempfile
+
+    from PIL import Image
+
+    made = []
+    for name in names:
+        ex = importlib.import_module(name)
+        with tempfile.TemporaryDirectory() as tmp:
+            ex.main(["--quick", "--out", tmp])
+            first = sorted(Path(tmp).rglob("*.png"))[0]
+            with Image.open(first) as im:
+                path = out / f"gallery_{name}.png"
+                im.convert("RGB").quantize(colors=256).save(path, optimize=True)
+        made.append(path)
+    return made
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=str(HERE / "figures"), help="folder (default docs/figures)")
     parser.add_argument("--quick", action="store_true", help="short runs")
+    parser.add_argument("--gallery", action="store_true",
+                        help="only the kept figures of the slow examples (gallery_NAME.png; minutes)")
     args = parser.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    if args.gallery:
+        for path in gallery(out):
+            print(f"{path}  {path.stat().st_size / 1024:6.1f} KB")
+        return 0
     for make in (dzhanibekov, convergence, solvers, pendulum, heavy_top, gravity_gradient, slew, optimal_slew):
         t0 = time.perf_counter()
         for path in make(out, args.quick):

@@ -1,4 +1,5 @@
-"""B-dot detumbling of a small satellite in a polar orbit, in the IGRF-14 field.
+"""B-dot detumbling of a small satellite in a polar orbit, in the IGRF-14 field
+============================================================================
 
 A 3U-class body, J = diag(0.02, 0.025, 0.03) kg m^2, tumbling at (10, -8, 6) deg/s, on a 500 km
 circular sun-synchronous orbit (i = 97.4 deg) from 2026-03-20 00:00 UTC. Three magnetorquer rods on
@@ -77,7 +78,7 @@ def figure(traj, env):
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(description=__doc__.partition("\n")[0])
     ap.add_argument("--orbits", type=float, default=2.0)
     ap.add_argument("--quick", action="store_true", help="half an orbit")
     ap.add_argument("--out", type=Path, default=Path("figures") / "bdot_detumble")
@@ -103,4 +104,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()   # exits 0, or raises

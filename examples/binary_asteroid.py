@@ -1,4 +1,5 @@
-"""A Didymos-Dimorphos-like binary asteroid: mutual orbit and spins for two weeks.
+"""A Didymos-Dimorphos-like binary asteroid: mutual orbit and spins for two weeks
+==============================================================================
 
 Two homogeneous ellipsoids of density 2400 kg/m^3: Didymos 819 x 801 x 607 m and Dimorphos
 177 x 174 x 116 m (Daly et al. 2023, Nature 616, 443), 1.19 km apart (Naidu et al. 2020, Icarus
@@ -72,7 +73,7 @@ def libration(traj: lgvi.TwoBodyTrajectory) -> np.ndarray:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.partition("\n")[0])
     parser.add_argument("--days", type=float, default=14.0, help="duration in days (default 14)")
     parser.add_argument("--quick", action="store_true", help="short run (2 days)")
     parser.add_argument("--out", default="output/binary_asteroid", help="folder for the figures")
@@ -109,4 +110,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()   # exits 0, or raises

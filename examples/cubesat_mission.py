@@ -1,4 +1,5 @@
-"""A whole CubeSat ADCS mission from Python: the 6U of ``examples/cubesat_mission.toml``, three orbits.
+"""A whole CubeSat ADCS mission from Python: the 6U of ``examples/cubesat_mission.toml``, three orbits
+===================================================================================================
 
 The same spacecraft and flight software as the scenario file (``lgvi example cubesat_mission``,
 ``lgvi run cubesat_mission.toml``), built from the classes, so each line says what it is:
@@ -97,7 +98,7 @@ def _matrix(q_xyzw: list[float]) -> np.ndarray:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.partition("\n")[0])
     ap.add_argument("--out", type=Path, default=None, help="folder for the figures")
     ap.add_argument("--quick", action="store_true", help="the first 7000 s")
     args = ap.parse_args(argv)
@@ -121,4 +122,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()   # exits 0, or raises

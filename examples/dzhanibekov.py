@@ -1,7 +1,8 @@
-"""The Dzhanibekov effect: a free body spun near its intermediate axis flips over and over.
+"""The Dzhanibekov effect: a free body spun near its intermediate axis flips over and over
+=======================================================================================
 
 J = diag(1, 2, 3) kg m^2, omega0 = (1e-3, 1, 1e-3) rad/s, R0 = I, h = 0.01 s. The LGVI keeps
-the kinetic energy, |Pi| and the spatial momentum R Pi to round-off; the flips are the run of
+the kinetic energy, ``|Pi|`` and the spatial momentum ``R Pi`` to round-off; the flips are the run of
 the body momentum along the separatrix of the polhode figure.
 
 Usage::
@@ -45,7 +46,7 @@ def summary(traj: lgvi.Trajectory) -> dict[str, float]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.partition("\n")[0])
     parser.add_argument("--steps", type=int, default=10_000, help="number of steps (default 10000)")
     parser.add_argument("--quick", action="store_true", help="short run (2000 steps)")
     parser.add_argument("--out", default="output/dzhanibekov", help="folder for the figures")
@@ -76,4 +77,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()   # exits 0, or raises

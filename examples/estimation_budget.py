@@ -1,4 +1,5 @@
-"""Pointing knowledge and control error budgets of a 6U flying on its gyro, star tracker and magnetometer.
+"""Pointing knowledge and control error budgets of a 6U flying on its gyro, star tracker and magnetometer
+======================================================================================================
 
 The spacecraft and its flight software are those of ``examples/estimation_budget.toml`` (the 6U
 of ``nadir_pointing.toml`` with a MEMS gyro, a star tracker looking at zenith and a magnetometer
@@ -40,7 +41,8 @@ import numpy as np
 import lgvi
 from lgvi.io.scenario import Scenario
 
-SCENARIO = Path(__file__).resolve().parent / "estimation_budget.toml"
+# next to this script (the docs' gallery runs it in examples/ without __file__)
+SCENARIO = Path(globals().get("__file__", "estimation_budget.py")).resolve().parent / "estimation_budget.toml"
 ARCSEC = np.degrees(1.0) * 3600.0
 
 
@@ -83,7 +85,7 @@ def row(name: str, a: np.ndarray) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.partition("\n")[0])
     ap.add_argument("--members", type=int, default=100)
     ap.add_argument("--from", dest="t_from", type=float, default=400.0, help="start of the budget window [s]")
     ap.add_argument("--seed", type=int, default=27)
@@ -157,4 +159,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()   # exits 0, or raises

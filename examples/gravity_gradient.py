@@ -1,4 +1,5 @@
-"""Gravity-gradient libration of a satellite on a circular orbit (pitch oscillation).
+"""Gravity-gradient libration of a satellite on a circular orbit (pitch oscillation)
+=================================================================================
 
 J = diag(100, 120, 80) kg m^2 on a circular orbit of radius 6778 km (n = sqrt(mu / r^3),
 period 5553 s), axes as in lgvi.torques.GravityGradient: body 1 along the orbital velocity,
@@ -75,12 +76,12 @@ def pitch_figure(traj: lgvi.Trajectory):
     ax.set_ylabel("pitch relative to the local vertical (deg)")
     ax.set_title("Gravity-gradient pitch libration")
     ax.grid(True, alpha=0.3)
-    ax.legend(loc="upper right")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncols=2, frameon=False)   # below, off the curves
     return fig
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.partition("\n")[0])
     parser.add_argument("--steps", type=int, default=2000, help="number of steps (default 2000, 3.6 orbits)")
     parser.add_argument("--quick", action="store_true", help="short run (1000 steps)")
     parser.add_argument("--out", default="output/gravity_gradient", help="folder for the figures")
@@ -114,4 +115,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()   # exits 0, or raises

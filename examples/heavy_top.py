@@ -1,4 +1,5 @@
-"""A heavy symmetric top on a fixed pivot: precession and nutation under uniform gravity.
+"""A heavy symmetric top on a fixed pivot: precession and nutation under uniform gravity
+=====================================================================================
 
 J = diag(0.05, 0.05, 0.02) kg m^2 about the pivot (axis 3 is the symmetry axis), mass 1 kg,
 centre of mass 0.1 m up the axis, tilted 30 deg and spun at 40 rad/s; h = 1 ms. Gravity is a
@@ -60,7 +61,7 @@ def axis_figure(traj: lgvi.Trajectory):
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.partition("\n")[0])
     parser.add_argument("--steps", type=int, default=20_000, help="number of steps (default 20000, 20 s)")
     parser.add_argument("--quick", action="store_true", help="short run (2000 steps)")
     parser.add_argument("--out", default="output/heavy_top", help="folder for the figures")
@@ -96,4 +97,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()   # exits 0, or raises

@@ -1,4 +1,5 @@
-"""Which disturbance dominates for a 6U CubeSat, and how much wheel momentum it builds in one orbit.
+"""Which disturbance dominates for a 6U CubeSat, and how much wheel momentum it builds in one orbit
+================================================================================================
 
 A 6U (10 x 22.6 x 36.6 cm, 8 kg, products of inertia of about 1e-3 kg m^2, two deployed 30 x 20 cm solar panels, centre of mass 1.5 cm from
 the geometric centre, residual dipole 0.02 A m^2) points at nadir on a 500 km sun-synchronous
@@ -71,7 +72,7 @@ def six_u():
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.partition("\n")[0])
     ap.add_argument("--out", type=Path, default=None, help="folder for momentum_budget.png")
     ap.add_argument("--quick", action="store_true", help="a quarter of the orbit")
     args = ap.parse_args(argv)
@@ -139,4 +140,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()   # exits 0, or raises

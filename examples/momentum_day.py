@@ -1,5 +1,7 @@
-"""A day of the 6U of ``momentum_budget.py`` flown in the compiled loop: wheel momentum built by the
-disturbances, and magnetic momentum dumping that keeps it bounded.
+"""A day of the 6U of ``momentum_budget.py`` in the compiled loop: wheel momentum and its dumping
+==============================================================================================
+
+The disturbances build wheel momentum; magnetic momentum dumping keeps it bounded.
 
 The 6U of ``momentum_budget.py`` (its facets, optics, residual dipole and inertia; 500 km
 sun-synchronous orbit, noon-midnight at the March equinox, from 2026-03-20 00:00 UTC) carries three
@@ -36,7 +38,7 @@ from lgvi.environment import (IGRF, CentredDipole, ExponentialAtmosphere, Shadow
                               lvlh_frame)
 from lgvi.fsw import FlightSoftware, MomentumDumpingControl, MRPControl, NadirPointing, RWMotorTorque
 from lgvi.spacecraft import FacetDrag, FacetSRP, GravityGradient, ResidualDipole, Spacecraft
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(globals().get("__file__", "momentum_day.py")).resolve().parent))   # the docs' gallery: no __file__
 from momentum_budget import DIPOLE, EPOCH, MU, ORBIT, J, six_u  # noqa: E402  (the 6U of the one-orbit budget)
 
 H = 0.5
@@ -74,7 +76,7 @@ def fsw(dumping: bool) -> FlightSoftware:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.partition("\n")[0])
     ap.add_argument("--hours", type=float, default=24.0)
     ap.add_argument("--quick", action="store_true", help="three hours")
     ap.add_argument("--out", type=Path, default=None, help="folder for momentum_day.png")
@@ -129,4 +131,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()   # exits 0, or raises

@@ -1,4 +1,5 @@
-"""Nadir pointing with reaction wheels and magnetic momentum dumping, in LEO, in the IGRF-14 field.
+"""Nadir pointing with reaction wheels and magnetic momentum dumping, in LEO, in the IGRF-14 field
+===============================================================================================
 
 A small spacecraft (wheels locked: J with a product of inertia J_xz = 1.5 kg m^2, so the gravity
 gradient pushes it about the orbit normal even when it points exactly at nadir) on a 550 km
@@ -117,7 +118,7 @@ def figure(dumped, free, env):
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(description=__doc__.partition("\n")[0])
     ap.add_argument("--orbits", type=float, default=3.0)
     ap.add_argument("--quick", action="store_true", help="one orbit")
     ap.add_argument("--out", type=Path, default=Path("figures") / "nadir_dumping")
@@ -143,4 +144,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()   # exits 0, or raises

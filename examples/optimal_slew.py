@@ -1,4 +1,5 @@
-"""Optimal slews on the discrete LGVI: the eigenaxis manoeuvre against the optimal ones.
+"""Optimal slews on the discrete LGVI: the eigenaxis manoeuvre against the optimal ones
+====================================================================================
 
 A spherical body (``J = I``) turns by 180 deg about its body axis ``e1``, from rest to rest, with
 independent torque bounds ``|u_i| <= 1`` (units: time in ``sqrt(J / u_max)``):
@@ -80,7 +81,7 @@ def slew_figure(eig, u_eig, opt):
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.partition("\n")[0])
     parser.add_argument("--steps", type=int, default=40, help="steps of the transfers (default 40)")
     parser.add_argument("--quick", action="store_true", help="coarse grid (20 steps)")
     parser.add_argument("--out", default="output/optimal_slew", help="folder for the figure")
@@ -117,4 +118,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()   # exits 0, or raises

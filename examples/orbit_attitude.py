@@ -1,4 +1,5 @@
-"""A long spacecraft on an eccentric, inclined low Earth orbit: orbit and attitude together.
+"""A long spacecraft on an eccentric, inclined low Earth orbit: orbit and attitude together
+========================================================================================
 
 A boom-like body (J = diag(4000, 4000, 100) kg m^2, 500 kg, its axis 3 along the boom) on an
 orbit of perigee 7000 km, eccentricity 0.1, inclination 51.6 deg, in Earth's field with J2
@@ -49,7 +50,7 @@ def run(steps: int) -> lgvi.OrbitTrajectory:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.partition("\n")[0])
     parser.add_argument("--steps", type=int, default=6000, help="number of steps (default 6000, about 9 orbits)")
     parser.add_argument("--quick", action="store_true", help="short run (1500 steps)")
     parser.add_argument("--out", default="output/orbit_attitude", help="folder for the figures")
@@ -80,4 +81,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()   # exits 0, or raises

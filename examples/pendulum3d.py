@@ -1,4 +1,5 @@
-"""Lee, Leok and McClamroch's 3D pendulum: a rigid body on a frictionless pivot under gravity.
+"""Lee, Leok and McClamroch's 3D pendulum: a rigid body on a frictionless pivot under gravity
+==========================================================================================
 
 J = diag(0.13, 0.28, 0.17) kg m^2 about the pivot, mass 1 kg, centre of mass 0.3 m from the pivot
 along body axis 3, R0 = I, Omega0 = 4.14 (1, 1, 1) rad/s: chaotic tumbling from the *hanging*
@@ -44,7 +45,7 @@ def errors(traj: lgvi.Trajectory) -> tuple[float, float, float]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.partition("\n")[0])
     parser.add_argument("--steps", type=int, default=3000, help="number of steps (default 3000, 30 s)")
     parser.add_argument("--quick", action="store_true", help="short run (500 steps)")
     parser.add_argument("--out", default="output/pendulum3d", help="folder for the figures")
@@ -73,4 +74,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()   # exits 0, or raises

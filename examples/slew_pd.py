@@ -1,4 +1,5 @@
-"""A spacecraft attitude slew with the geometric PD controller of lgvi.torques.AttitudePD.
+"""A spacecraft attitude slew with the geometric PD controller of lgvi.torques.AttitudePD
+======================================================================================
 
 J = diag(100, 120, 80) kg m^2, from rest at the identity to the attitude with ZYX Euler angles
 (60, 30, -20) deg; e_R = vee(R_d^T R - R^T R_d) / 2, u = -kp e_R - kd Omega with kp = 20 N m,
@@ -54,7 +55,7 @@ def slew_figure(traj: lgvi.Trajectory, body: lgvi.RigidBody):
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.partition("\n")[0])
     parser.add_argument("--steps", type=int, default=3000, help="number of steps (default 3000, 150 s)")
     parser.add_argument("--quick", action="store_true", help="short run (600 steps, 30 s)")
     parser.add_argument("--out", default="output/slew_pd", help="folder for the figures")
@@ -87,4 +88,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()   # exits 0, or raises

@@ -1,7 +1,8 @@
-"""Uncertainty propagation: 10^4 bodies with uncertain initial attitude and rate, side by side.
+"""Uncertainty propagation: 10^4 bodies with uncertain initial attitude and rate, side by side
+===========================================================================================
 
 The nominal motion is the tumbling free body J = diag(1, 2, 3) kg m^2, omega0 = (0.3, 1, 0.2)
-rad/s, R0 = I: its |Pi|^2 / 2T = 2.01 lies just above the intermediate moment J2 = 2, close to
+rad/s, R0 = I: its ``|Pi|^2 / 2T = 2.01`` lies just above the intermediate moment J2 = 2, close to
 the separatrix of the polhode, so small errors in the initial state grow quickly. Each body
 starts from the nominal attitude turned by a random small rotation (2 degrees rms per axis) and
 the nominal rate scaled by 1 % rms per component; :func:`lgvi.simulate_ensemble` propagates
@@ -130,7 +131,7 @@ def figure(t: np.ndarray, axes: np.ndarray, angles: np.ndarray, nominal: lgvi.Tr
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.partition("\n")[0])
     parser.add_argument("--bodies", type=int, default=10_000, help="number of bodies (default 10000)")
     parser.add_argument("--duration", type=float, default=60.0, help="simulated time [s] (default 60)")
     parser.add_argument("--samples", type=int, default=120, help="saved samples after t = 0 (default 120)")
@@ -180,4 +181,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()   # exits 0, or raises

@@ -1,4 +1,5 @@
-"""A 90 degree slew with four reaction wheels in a pyramid, torque-limited, under MRP feedback.
+"""A 90 degree slew with four reaction wheels in a pyramid, torque-limited, under MRP feedback
+===========================================================================================
 
 The spacecraft (wheels locked: J = diag(900, 800, 600) kg m^2) starts at rest at the identity
 with four wheels (Js = 0.08 kg m^2, 0.2 N m, 6000 rpm, Coulomb and viscous friction) spinning at
@@ -63,7 +64,7 @@ def figure(traj):
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.partition("\n")[0])
     parser.add_argument("--quick", action="store_true", help="accepted for uniformity (the run takes milliseconds)")
     parser.add_argument("--out", default="output/wheel_slew", help="folder for the figure")
     parser.add_argument("--no-plots", action="store_true")
@@ -90,4 +91,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()   # exits 0, or raises

@@ -1,5 +1,11 @@
 """Conventions a SciPy or xarray user expects: ``duration=`` beside ``steps``, slicing of results,
-``traj.at(t)`` (slerp for the attitude), ``to_xarray()`` and ``to_dataframe()``."""
+``traj.at(t)`` (slerp for the attitude), ``to_xarray()`` and ``to_dataframe()``, the library speaking
+through a logger; the figures' conventions of issue 31 (running maxima, no gimbal lock).
+
+Elsewhere: progress only where a person watches (``tests/test_libraries.py``: ``interactive()`` is a
+terminal or Jupyter, nothing drawn otherwise), the compile line on stderr (``tests/test_package.py``),
+the "coming from Basilisk" page (``docs/basilisk.md``, its blocks run in ``tests/test_docs.py``;
+``R = dcm_BN^T`` against Basilisk's own output in ``tests/test_environment_components.py``)."""
 
 from __future__ import annotations
 
@@ -206,6 +212,39 @@ def test_round_off_quantities_are_drawn_as_their_running_maximum(traj):
     assert legend is not None and legend.get_bbox_to_anchor().y0 < ax.get_window_extent().y0
 
 
+def test_legends_of_the_time_series_sit_outside_the_data(traj):
+    pytest.importorskip("matplotlib")
+    from lgvi import plot
+
+    for fig in (plot.rates(traj), plot._attitude_panels(traj)):
+        fig.draw_without_rendering()
+        for ax in fig.axes:
+            legend = ax.get_legend()
+            assert legend is not None
+            assert legend.get_window_extent().x0 >= ax.get_window_extent().x1, ax.get_ylabel()
+
+
+def test_rates_figure_shows_every_component_of_a_fast_top(traj):
+    """A top spun at 40 rad/s about its axis: that component goes on a second y axis, and the left
+    axis spans the nutation of the two others (not 40 rad/s); a body whose components are comparable
+    keeps one axis a panel."""
+    pytest.importorskip("matplotlib")
+    from lgvi import plot
+
+    top = lgvi.simulate([0.2, 0.2, 0.3], np.eye(3), omega0=[0.5, 0.0, 40.0], h=0.001, steps=400)
+    fig = plot.rates(top)
+    assert len(fig.axes) == 4                                   # omega and Pi, each with a second axis
+    ax_w = fig.axes[0]
+    twin = next(a for a in fig.axes[2:] if a.get_shared_x_axes().joined(a, ax_w))
+    assert [line.get_label() for line in twin.get_lines()] == [r"$\omega_3$ (right axis)"]
+    lo, hi = ax_w.get_ylim()
+    nutation = float(np.ptp(top.omega[:, :2]))
+    assert nutation > 0 and hi - lo < 2 * nutation            # omega_1, omega_2 fill their axis
+    tlo, thi = twin.get_ylim()
+    assert tlo < 40.0 < thi and thi - tlo > 1.0                 # constant omega_3: a flat line, not its round-off
+    assert len(plot.rates(traj).axes) == 2                      # comparable components: one axis a panel
+
+
 def test_attitude_figure_is_free_of_gimbal_lock(traj, tmp_path):
     pytest.importorskip("matplotlib")
     from lgvi import plot
@@ -248,3 +287,32 @@ def test_literal_options_are_the_registries():
     assert set(typing.get_args(hints["solver_record"])) == {"interval", "full"}
     (scheme,) = [a for a in typing.get_args(hints["scheme"]) if a is not type(None)]
     assert set(typing.get_args(scheme)) == set(SCHEMES)
+
+
+# ------------------------------------------------------------------------------ a logger, not prints
+def test_the_library_speaks_through_the_lgvi_logger_not_print():
+    """Outside the command line (``lgvi.cli``, ``python -m lgvi``) no module prints or writes to
+    stdout/stderr itself: what the library says goes through ``logging.getLogger("lgvi")`` (the
+    compile line of ``lgvi._jit``) or ``warnings`` (a user configures or silences both); the one
+    reading of ``sys.stderr`` left, ``lgvi.driver.interactive``, asks whether it is a terminal."""
+    import ast
+    import logging
+    from pathlib import Path
+
+    import lgvi._jit
+
+    src = Path(lgvi.__file__).resolve().parent
+    found = []
+    for path in sorted(src.rglob("*.py")):
+        rel = path.relative_to(src)
+        if rel.parts[0] == "cli" or rel.name == "__main__.py":
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "print":
+                found.append(f"{rel}:{node.lineno}: print(")
+            if (isinstance(node, ast.Attribute) and node.attr in ("stdout", "stderr")
+                    and isinstance(node.value, ast.Name) and node.value.id == "sys"):
+                if not (rel.as_posix() == "driver.py" and node.attr == "stderr"):
+                    found.append(f"{rel}:{node.lineno}: sys.{node.attr}")
+    assert not found, "the library writes to the streams itself (use logging or warnings):\n" + "\n".join(found)
+    assert lgvi._jit._log is logging.getLogger("lgvi")

@@ -155,3 +155,27 @@ def test_readme_is_a_page_for_users():
     for path in re.findall(r"\b((?:docs|examples)/[\w./-]*\w|[A-Z]+\.(?:md|cff)|LICENSE)\b", readme):
         if not path.startswith("docs/_build") and "NAME" not in path:    # made by `make docs`; a pattern
             assert (ROOT / path).exists(), f"the README names {path}, which does not exist"
+
+
+def test_gallery_figures_kept_for_the_examples_not_run():
+    """The docs' gallery (docs/_gallery.py) shows an example it does not run with figures kept in
+    docs/figures/: each exists, is a small PNG, and the slow examples' ones are those that
+    ``docs/make_figures.py --gallery`` writes; the examples run by default are real example names."""
+    sys.path.insert(0, str(ROOT / "docs"))
+    try:
+        import _gallery
+        import make_figures
+    finally:
+        sys.path.remove(str(ROOT / "docs"))
+    names = _gallery.examples()
+    assert set(_gallery.FAST) <= set(names) and set(_gallery.STORED) <= set(names)
+    for figs in _gallery.STORED.values():
+        for fig in figs:
+            png = ROOT / "docs" / "figures" / fig
+            assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", fig
+            assert png.stat().st_size < 150_000, f"{fig} is {png.stat().st_size} bytes (limit 150 KB)"
+    kept = {n for n, figs in _gallery.STORED.items() if figs[0].startswith("gallery_")}
+    assert kept == set(make_figures.GALLERY_KEPT)
+    assert _gallery.selected("fast") == [n for n in names if n in _gallery.FAST]
+    with pytest.raises(ValueError, match="unknown example"):
+        _gallery.selected("nope")

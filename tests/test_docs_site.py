@@ -1,7 +1,8 @@
 """The documentation site (Sphinx, ``docs/conf.py``) builds with warnings as errors.
 
 The build runs one example for the gallery (``LGVI_DOCS_EXAMPLES=kepler``, the fastest; ``make
-docs`` runs them all), so the gallery's build-time figures are exercised within the test's time.
+docs`` runs the fast ones, ``LGVI_DOCS_EXAMPLES=all`` every one), so sphinx-gallery's build-time
+figures are exercised within the test's time.
 Without the docs tools the test skips (``pip install -e '.[docs]'``); in CI it fails.
 """
 
@@ -17,7 +18,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-TOOLS = ("sphinx", "numpydoc", "furo", "myst_parser", "matplotlib")
+TOOLS = ("sphinx", "numpydoc", "furo", "myst_parser", "sphinx_gallery", "matplotlib")
 
 
 @pytest.fixture(scope="module")
@@ -66,19 +67,28 @@ def test_api_reference_from_the_docstrings(site):
 
 
 def test_gallery_pages_with_figures_made_at_build_time(site):
+    """sphinx-gallery's pages (docs/_gallery.py): every example has a page with its code, a thumbnail on
+    the index, downloads of the script and a notebook; the one run (kepler) shows its figure and what it
+    printed; one not run (dzhanibekov) says so and shows the figures kept in docs/figures/."""
     gallery = _text(site / "gallery" / "index.html")
     examples = sorted(p.stem for p in (ROOT / "examples").glob("*.py"))
     for name in examples:
-        assert f'href="{name}.html"' in gallery, f"{name} is not in the gallery"
+        assert f'href="{name}.html' in gallery, f"{name} is not in the gallery"
         page = _text(site / "gallery" / f"{name}.html")
         assert "def main(" in re.sub(r"<[^>]+>", "", page), f"the code of {name} is not on its page"
+        assert f"{name}.py\"" in page and f"{name}.ipynb\"" in page, f"{name}: no download links"
+    thumbs = re.findall(r'<img[^>]+src="([^"]+_thumb\.png)"', gallery)
+    assert len(thumbs) == len(examples)
     kepler = _text(site / "gallery" / "kepler.html")
-    imgs = re.findall(r'<img[^>]+src="([^"]+\.png)"', kepler)
+    imgs = [s for s in re.findall(r'<img[^>]+src="([^"]+\.png)"', kepler) if "sphx_glr_kepler" in s]
     assert imgs, "the kepler page has no figure"
     for src in imgs:
         png = (site / "gallery" / src).resolve()
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert "LGVI_DOCS_EXAMPLES" in _text(site / "gallery" / "dzhanibekov.html")   # not run here: says so
+    assert "Stormer-Verlet (lgvi)" in kepler                       # what it printed
+    dzhanibekov = _text(site / "gallery" / "dzhanibekov.html")
+    assert "LGVI_DOCS_EXAMPLES" in dzhanibekov                        # not run here: says so
+    assert 'src="../_images/dzhanibekov_comparison.png"' in dzhanibekov   # and shows the stored figure
 
 
 def test_math_renders_offline(site):
@@ -91,6 +101,8 @@ def test_math_renders_offline(site):
         text = page.read_text(encoding="utf-8")
         assert "cdn.jsdelivr.net" not in text and "cdnjs" not in text, f"{page.name} loads from a CDN"
     assert 'class="math' in method and r"\operatorname{tr}" in method
+    # the paper column of the method's tables is math, not code
+    assert r"\widehat{h \Pi_k} = F_k J_d - J_d F_k^T" in method and "hat(h" not in method
 
 
 def test_numpy_and_scipy_links_without_network(site):
@@ -104,7 +116,8 @@ def test_numpy_and_scipy_links_without_network(site):
 
 def test_equations_are_math_on_the_model_pages(site):
     """The displayed equations of these pages are math (MyST's $$ blocks), not code blocks."""
-    for page in ("estimation", "environment", "two_spheres", "loop", "orbit", "gyrostat", "gyrostat_rkmk"):
+    for page in ("estimation", "environment", "two_spheres", "loop", "orbit", "gyrostat", "gyrostat_rkmk",
+                 "splitting", "slosh"):
         text = _text(site / f"{page}.html")
         assert text.count('class="math') >= 3, page
         assert "$$" not in text, f"{page}: a $$ block was not turned into math"

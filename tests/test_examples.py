@@ -148,17 +148,29 @@ def test_every_script_is_tested():
 
 
 def test_every_script_takes_the_gallery_call():
-    """The documentation site's gallery (docs/conf.py) calls ``main(["--quick", "--out", DIR])`` in
-    process: every example's ``main`` takes that argument list and understands both options."""
+    """The documentation site's gallery (sphinx-gallery, docs/_gallery.py) runs each script as
+    ``__main__`` in ``examples/`` with ``sys.argv[1:] = ["--quick", "--out", DIR]``, without
+    ``__file__`` and with ``__doc__ = ""``, and renders its docstring as reStructuredText with the
+    first line as the page's title. Every example's ``main`` takes that argument list and
+    understands both options; its docstring starts with an underlined title; it reads ``__file__``
+    only through ``globals().get``; its ``__main__`` block returns (a ``SystemExit`` would end the
+    documentation build)."""
     import ast
 
     for path in sorted(EXAMPLES.glob("*.py")):
         src = path.read_text(encoding="utf-8")
-        mains = [f for f in ast.parse(src).body if isinstance(f, ast.FunctionDef) and f.name == "main"]
+        tree = ast.parse(src)
+        mains = [f for f in tree.body if isinstance(f, ast.FunctionDef) and f.name == "main"]
         assert len(mains) == 1, f"{path.name}: no module-level main()"
         args = mains[0].args
         assert len(args.args) == 1 and len(args.defaults) == 1, f"{path.name}: main must be main(argv=None)"
         assert '"--quick"' in src and '"--out"' in src, f"{path.name}: no --quick or --out option"
+        title, underline = (ast.get_docstring(tree, clean=False) or "").splitlines()[:2]
+        assert set(underline) == {"="} and len(underline) >= len(title), f"{path.name}: no underlined title"
+        names = {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)}
+        assert "__file__" not in names, f"{path.name}: __file__ is not defined in the gallery's run"
+        assert "SystemExit" not in src, f"{path.name}: SystemExit would end the documentation build"
+        assert "__doc__.splitlines()[0]" not in src, f"{path.name}: __doc__ is empty in the gallery's run"
 
 
 def test_wheel_slew(tmp_path):

@@ -199,6 +199,11 @@ def _legend_below(ax: Axes, ncol: int = 1) -> None:
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=ncol, fontsize="small", frameon=False)
 
 
+def _legend_right(ax: Axes, **kw: Any) -> None:
+    """The legend right of the axes, outside the data (constrained layout makes room for it)."""
+    ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize="small", **kw)
+
+
 def _floor(err: np.ndarray) -> np.ndarray:
     err = np.asarray(err, dtype=np.float64)
     return np.where(np.isfinite(err), np.maximum(err, ERROR_FLOOR), np.nan)
@@ -479,8 +484,44 @@ def attitude(traj: Trajectory, kind: str = "euler", sequence: str = "ZYX", ax: A
     return fig
 
 
+#: A component whose values lie apart from the others' goes on a second y axis when the others then
+#: vary over less than this fraction of the shared axis (a top spun at 40 rad/s about its axis would
+#: flatten a nutation of 1 rad/s to a line).
+RATES_APART = 0.2
+
+
+def _apart(data: np.ndarray) -> int | None:
+    """The component of ``data`` (M, 3) to draw on a second y axis, or None (one shared axis shows all)."""
+    if len(data) < 2 or not np.all(np.isfinite(data)):
+        return None
+    lo, hi = data.min(axis=0), data.max(axis=0)
+    whole = float(hi.max() - lo.min())
+    if whole <= 0:
+        return None
+    centre = (lo + hi) / 2
+    k = int(np.argmax(np.abs(centre - np.median(centre))))
+    rest = [i for i in range(data.shape[1]) if i != k]
+    return k if float(hi[rest].max() - lo[rest].min()) < RATES_APART * whole else None
+
+
+def _second_axis(ax: Axes, y: np.ndarray, color: str, label: str) -> Axes:
+    """A twin y axis on the right for one component, its limits padded so that a component constant
+    up to round-off is a flat line (not its last digits magnified)."""
+    tw = ax.twinx()
+    lo, hi = float(np.min(y)), float(np.max(y))
+    pad = max(0.1 * (hi - lo), 0.02 * max(abs(lo), abs(hi)), 1e-300)
+    tw.set_ylim(lo - pad, hi + pad)
+    tw.set_ylabel(label, color=color)
+    tw.tick_params(axis="y", colors=color)
+    return tw
+
+
 def rates(traj: Trajectory, axes: Sequence[Axes] | None = None, *, max_points: int = MAX_POINTS) -> Figure:
     """Body angular velocity ``omega`` (top) and body angular momentum ``Pi`` (bottom) against time.
+
+    Where one component lies far from the other two (a top spun fast about its axis), it is drawn on
+    a second y axis on the right, so that the others are not flattened to a line
+    (:data:`RATES_APART`); the legend says which component is on it.
 
     Parameters
     ----------
@@ -499,12 +540,21 @@ def rates(traj: Trajectory, axes: Sequence[Axes] | None = None, *, max_points: i
     t = np.asarray(traj.t)
     for ax, data, sym, unit in ((ax_w, traj.omega, r"\omega", _UNITS["omega"]),
                                 (ax_p, traj.Pi, r"\Pi", _UNITS["Pi"])):
+        data = np.asarray(data, dtype=float)
+        k = _apart(data)
+        tw = None if k is None else _second_axis(ax, data[:, k], _COMPONENT_COLORS[k], f"${sym}_{k + 1}$ ({unit})")
         for i in range(3):
-            tt, yy = _thin_minmax(t, np.asarray(data)[:, i], max_points)
-            ax.plot(tt, yy, color=_COMPONENT_COLORS[i], lw=1.2, label=f"${sym}_{i + 1}$")
-        ax.set_ylabel(f"${sym}$ ({unit})")
+            tt, yy = _thin_minmax(t, data[:, i], max_points)
+            (tw if i == k else ax).plot(tt, yy, color=_COMPONENT_COLORS[i], lw=1.2,
+                                        label=f"${sym}_{i + 1}$" + (" (right axis)" if i == k else ""))
+        ax.set_ylabel(f"${sym}$ ({unit})" if k is None else f"${sym}$ ({unit}), left axis")
         ax.grid(True, alpha=0.3)
-        ax.legend(loc="upper right", fontsize="small", ncols=3, framealpha=0.85)
+        if tw is None:
+            _legend_right(ax)
+        else:   # one legend for both axes, right of the second axis's labels
+            handles = ax.get_legend_handles_labels()[0] + tw.get_legend_handles_labels()[0]
+            handles.sort(key=lambda h: str(h.get_label()))
+            tw.legend(handles=handles, loc="center left", bbox_to_anchor=(1.16, 0.5), fontsize="small")
     ax_w.set_title(r"Body angular velocity $\omega = J^{-1}\Pi$ and body angular momentum $\Pi$")
     ax_p.set_xlabel(_UNITS["t"])
     return fig
@@ -540,7 +590,7 @@ def wheels(traj: Any, axes: Sequence[Axes] | None = None, *, max_points: int = M
         ax.set_ylabel(label)
         ax.grid(True, alpha=0.3)
         if n:
-            ax.legend(loc="upper right", fontsize="small", ncols=min(n, 4), framealpha=0.85)
+            _legend_right(ax, ncols=1 + (n - 1) // 8)
     ax_s.set_title("Reaction wheels: speed relative to the body and applied motor torque")
     ax_u.set_xlabel(_UNITS["t"])
     return fig
@@ -1138,7 +1188,7 @@ def _attitude_panels(traj: Trajectory) -> Figure:
     ax_q.set_title("unit quaternion, scalar-last (x, y, z, w), sign-continuous" + (f"; {zoom}" if zoom else ""),
                    fontsize="medium")
     for ax in (ax_e, ax_q):
-        ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize="small")
+        _legend_right(ax)
     return fig
 
 
