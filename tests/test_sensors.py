@@ -269,6 +269,31 @@ def test_star_tracker_near_pi_rotation_and_exclusions():
         assert np.all(r["st_valid"] == valid)
 
 
+def test_star_tracker_earth_exclusion_equals_the_angle_rule():
+    """The kernel decides the Earth exclusion by cosines (no acos/asin); the decision is the angle
+    rule ``angle(boresight, nadir) < asin(R_E / |r|) + margin`` at 2000 random attitudes per margin,
+    margins from 0 to 3 rad (beyond pi/2 the rule can cover the whole sky: ``asin(x) + m >= pi``),
+    altitudes 300 km to 40000 km. Draws landing within 1e-9 rad of the boundary (where round-off
+    may decide either way) are left out; there are none at this seed."""
+    rng = np.random.default_rng(5)
+    n = 2000
+    Rs = Rotation.random(n, random_state=rng).as_matrix()
+    dirs = rng.normal(size=(n, 3))
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    r_N = dirs * (6378137.0 + rng.uniform(3e5, 4e7, n))[:, None]
+    for margin in (0.0, 0.2, 1.0, 1.6, 2.5, 3.0):
+        st = StarTracker(sigma_cross=0.0, sigma_about=0.0, earth_exclusion=margin)
+        got = run_components([st], {"R": Rs.reshape(n, 9), "r_N": r_N}, 0.1, record=["st_valid"]).records["st_valid"][:, 0]
+        bore = Rs[:, :, 2]
+        nr = np.linalg.norm(r_N, axis=1)
+        angle = np.arccos(np.clip(-np.einsum("ij,ij->i", bore, r_N) / nr, -1.0, 1.0))
+        limit = np.arcsin(6378137.0 / nr) + margin
+        clear = np.abs(angle - limit) > 1e-9
+        assert clear.all()
+        np.testing.assert_array_equal(got, np.where(angle < limit, 0.0, 1.0))
+        assert 0 < got.sum() < n or margin >= 2.5     # both outcomes occur (all excluded near m = pi)
+
+
 # ------------------------------------------------------------------------------------------------
 # magnetometer, coarse and fine sun sensors
 # ------------------------------------------------------------------------------------------------
