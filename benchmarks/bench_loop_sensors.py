@@ -4,6 +4,7 @@ Usage::
 
     python benchmarks/bench_loop_sensors.py            # 20000 steps a run, 7 rounds
     python benchmarks/bench_loop_sensors.py --quick    # 2000 steps, 3 rounds (checks it runs)
+    python benchmarks/bench_loop_sensors.py --steps 100000 --rounds 9 --accuracy   # the figures of docs/performance.md
 
 Cases (h = 0.1 s, the 6U of issue 25: inertia diag(0.18, 0.14, 0.06) kg m^2, four pyramid wheels,
 MRP feedback at 1 Hz to a fixed target, motor torques by ``RWMotorTorque``):
@@ -27,12 +28,16 @@ MRP feedback at 1 Hz to a fixed target, motor torques by ``RWMotorTorque``):
   and the atmosphere every 10th step (1 s; ``environment_rate=1.0`` and each model's ``rate=1.0``),
   the attitude-dependent torques (drag, SRP, dipole, gravity gradient) every step; its accuracy
   cost is printed by ``--accuracy``;
+* ``all dist., env. slow``: the same with the orbit every step and the sun, the shadow, the
+  atmosphere and the field every 10th step (``SLOW``);
 * ``gyrostat step``: ``lgvi.simulate`` of the same body with the same wheels and no controller
-  (the gyrostat's compiled step).
+  (the gyrostat's compiled step); ``6U gyrostat step``: the same with the 6U's inertia and
+  initial state.
 
 ``--accuracy`` flies the 6U for one orbit (5680 s) at h = 0.1 and 0.05 with every component every
-step and with the environment at 1 s, and prints the largest attitude differences: the slower
-environment against the step's own error.
+step and with slower environments (the sun and the shadow at 1 s; and the atmosphere; and the
+field; and the orbit), and prints the largest attitude differences from every step, beside the
+step's own error.
 
 Each case is one ``lgvi.simulate`` call (the kernels warm), timed with the process's CPU time; the
 cases alternate within each round, the ratios are taken within a round, then the median over the
@@ -178,8 +183,10 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--accuracy", action="store_true", help="also the accuracy cost of the environment at 1 s")
     ap.add_argument("--no-components", action="store_true", help="without the rows that add one component at a time")
+    ap.add_argument("--steps", type=int, default=20000, help="steps a run (default 20000)")
+    ap.add_argument("--rounds", type=int, default=7, help="rounds (default 7)")
     args = ap.parse_args()
-    steps, rounds = (2000, 3) if args.quick else (20000, 7)
+    steps, rounds = (2000, 3) if args.quick else (args.steps, args.rounds)
     runs = cases(steps, components=not args.no_components)
     for f in runs.values():                     # compile or load, once
         f()
