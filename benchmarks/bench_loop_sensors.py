@@ -4,6 +4,7 @@ Usage::
 
     python benchmarks/bench_loop_sensors.py            # 20000 steps a run, 7 rounds
     python benchmarks/bench_loop_sensors.py --quick    # 2000 steps, 3 rounds (checks it runs)
+    python benchmarks/bench_loop_sensors.py --steps 100000 --rounds 9 --accuracy   # the figures of docs/performance.md
 
 Cases (h = 0.1 s, the 6U of issue 25: inertia diag(0.18, 0.14, 0.06) kg m^2, four pyramid wheels,
 MRP feedback at 1 Hz to a fixed target, motor torques by ``RWMotorTorque``):
@@ -19,8 +20,24 @@ MRP feedback at 1 Hz to a fixed target, motor torques by ``RWMotorTorque``):
   run without mode rules: the loop then runs no component at the step's end);
 * ``orbit, field, gravity grad.``: the same 6U with only the orbit, the field and the gravity
   gradient (what the loop of issue 25 had before the disturbances of issue 26);
+* ``+ sun`` ... ``+ residual dipole``: the same 6U with the components added one at a time in the
+  loop's order (orbit; field; gravity gradient; sun; shadow; exponential atmosphere; facet drag;
+  facet SRP; residual dipole: the last is ``all disturbances``), so the difference of two rows is
+  what one component costs in the loop;
+* ``all dist., env. at 1 s``: ``all disturbances`` with the orbit, the field, the sun, the shadow
+  and the atmosphere every 10th step (1 s; ``environment_rate=1.0`` and each model's ``rate=1.0``),
+  the attitude-dependent torques (drag, SRP, dipole, gravity gradient) every step; its accuracy
+  cost is printed by ``--accuracy``;
+* ``all dist., env. slow``: the same with the orbit every step and the sun, the shadow, the
+  atmosphere and the field every 10th step (``SLOW``);
 * ``gyrostat step``: ``lgvi.simulate`` of the same body with the same wheels and no controller
-  (the gyrostat's compiled step).
+  (the gyrostat's compiled step); ``6U gyrostat step``: the same with the 6U's inertia and
+  initial state.
+
+``--accuracy`` flies the 6U for one orbit (5680 s) at h = 0.1 and 0.05 with every component every
+step and with slower environments (the sun and the shadow at 1 s; and the atmosphere; and the
+field; and the orbit), and prints the largest attitude differences from every step, beside the
+step's own error.
 
 Each case is one ``lgvi.simulate`` call (the kernels warm), timed with the process's CPU time; the
 cases alternate within each round, the ratios are taken within a round, then the median over the
@@ -64,39 +81,113 @@ def _fsw(estimator=None):
                           actuators=RWMotorTorque(), rate=1.0)
 
 
-def cases(steps):
+ADDED = ("field", "orbit_gravity_gradient", "sun", "shadow", "exponential_atmosphere", "facet_drag", "facet_srp",
+         "residual_dipole")
+LABELS = {"field": "+ field", "orbit_gravity_gradient": "+ gravity gradient", "sun": "+ sun", "shadow": "+ shadow",
+          "exponential_atmosphere": "+ exp. atmosphere", "facet_drag": "+ facet drag", "facet_srp": "+ facet SRP",
+          "residual_dipole": "+ residual dipole (all)"}
+
+
+def six_u(kinds, env_rate=None, rates=None):
+    """The tumbling 6U of ``basilisk_loop_scenario.py`` with the orbit and only the components of
+    ``kinds`` (its own new components); ``env_rate``: the period of the orbit, field, sun, shadow and
+    atmosphere (None: every step); ``rates``: the period of single kinds (``{"field": 1.0}``)."""
+    sc, d = _basilisk_6u()
+    env = [c for c in sc.environment if c.kind in kinds]
+    dist = [c for c in sc.disturbances if c.kind in kinds]
+    if env_rate is not None:
+        for c in env:
+            c.rate = env_rate
+    out = Spacecraft(sc.body, orbit=sc.orbit, field=sc.field if "field" in kinds else None, epoch=sc.epoch,
+                     environment=env, disturbances=dist, environment_rate=env_rate)
+    for c in out.components():
+        if c.kind in (rates or {}):
+            c.rate = rates[c.kind]
+    return out, d
+
+
+#: Environments at slower rates than the step (s): the sun and the shadow (SUN_SHADOW), with the
+#: atmosphere and the field (SLOW, the benchmark's ``env. slow`` case); the orbit every step.
+SUN_SHADOW = {"sun": 1.0, "shadow": 1.0}
+SLOW = {"sun": 1.0, "shadow": 1.0, "exponential_atmosphere": 1.0, "field": 1.0}
+
+
+def cases(steps, components=True):
     gyro = Gyro(rate=0.5, arw=1e-4, rrw=1e-5, bias=[2e-4, -1e-4, 5e-5], seed=7)
     st = StarTracker(rate=0.5, sigma_cross=5e-5, sigma_about=4e-4, seed=7)
     est = MEKF(rate=0.5, arw=1e-4, rrw=1e-5, star_tracker=st, P0=[0.03 ** 2] * 3 + [3e-4 ** 2] * 3)
     sensed = Spacecraft(J, wheels=_wheels(), sensors=[gyro, st])
     plain = Spacecraft(J, wheels=_wheels())
-    six_u, d = _basilisk_6u()
+    six, d = _basilisk_6u()
     from scipy.spatial.transform import Rotation
 
     R6 = Rotation.from_mrp(d["sigma0"]).as_matrix()
-    bare = Spacecraft(six_u.body, orbit=six_u.orbit, field=six_u.field, epoch=six_u.epoch,
-                      disturbances=[c for c in six_u.disturbances if c.kind == "orbit_gravity_gradient"])
+    bare, _ = six_u(("field", "orbit_gravity_gradient"))
     held, _ = _basilisk_6u()                    # its own components: the dipole's modes set on its copy only
     for c in held.components():
         if c.kind == "residual_dipole":
             c.modes = (0,)
+    slow, _ = six_u(ADDED, env_rate=1.0)
+    slower, _ = six_u(ADDED, rates=SLOW)
     kw = dict(h=H, steps=steps, save_every=steps)
-    return {
+    out = {
         "sensors + MEKF": lambda: lgvi.simulate(sensed, np.eye(3), omega0=OMEGA0, fsw=_fsw(est), **kw),
         "true-state feedback": lambda: lgvi.simulate(plain, np.eye(3), omega0=OMEGA0, fsw=_fsw(), **kw),
-        "all disturbances": lambda: lgvi.simulate(six_u, R6, omega0=d["omega0"], **kw),
+        "all disturbances": lambda: lgvi.simulate(six, R6, omega0=d["omega0"], **kw),
         "all dist., held (1st order)": lambda: lgvi.simulate(held, R6, omega0=d["omega0"], **kw),
+        "all dist., env. at 1 s": lambda: lgvi.simulate(slow, R6, omega0=d["omega0"], **kw),
+        "all dist., env. slow": lambda: lgvi.simulate(slower, R6, omega0=d["omega0"], **kw),
         "orbit, field, gravity grad.": lambda: lgvi.simulate(bare, R6, omega0=d["omega0"], **kw),
         "gyrostat step": lambda: lgvi.simulate(lgvi.RigidBody(J), np.eye(3), omega0=OMEGA0, wheels=_wheels(), **kw),
+        "6U gyrostat step": lambda: lgvi.simulate(six.body, R6, omega0=d["omega0"], wheels=_wheels(), **kw),
     }
+    if components:
+        out["orbit only"] = (lambda sc: lambda: lgvi.simulate(sc, R6, omega0=d["omega0"], **kw))(six_u(())[0])
+        for i, kind in enumerate(ADDED):
+            sc_i = six_u(ADDED[:i + 1])[0]
+            out[LABELS[kind]] = (lambda sc: lambda: lgvi.simulate(sc, R6, omega0=d["omega0"], **kw))(sc_i)
+    return out
+
+
+def accuracy() -> None:
+    """One orbit of the tumbling 6U: slower environments against every step, and h against h/2."""
+    from scipy.spatial.transform import Rotation
+
+    six, d = _basilisk_6u()
+    R6 = Rotation.from_mrp(d["sigma0"]).as_matrix()
+    T = float(d["t"][-1])
+    configs = {"every step": six, "sun, shadow at 1 s": six_u(ADDED, rates=SUN_SHADOW)[0],
+               "+ atmosphere at 1 s": six_u(ADDED, rates={**SUN_SHADOW, "exponential_atmosphere": 1.0})[0],
+               "+ field at 1 s (env. slow)": six_u(ADDED, rates=SLOW)[0],
+               "env. at 1 s (+ the orbit)": six_u(ADDED, env_rate=1.0)[0]}
+    runs = {}
+    for h in (0.1, 0.05):
+        for name, sc in configs.items():
+            tr = lgvi.simulate(sc, R6, omega0=d["omega0"], h=h, steps=int(round(T / h)), save_every=int(round(10.0 / h)))
+            runs[name, h] = Rotation.from_matrix(tr.R)
+
+    def gap(a, b):
+        return float((runs[a].inv() * runs[b]).magnitude().max())
+
+    print(f"one orbit ({T:.0f} s) of the tumbling 6U, largest attitude difference from every step (samples every 10 s):")
+    print(f"{'configuration':30s} {'h = 0.1':>10s} {'h = 0.05':>10s}")
+    for name in configs:
+        if name != "every step":
+            print(f"{name:30s} {gap(('every step', 0.1), (name, 0.1)):10.2e} {gap(('every step', 0.05), (name, 0.05)):10.2e}")
+    print(f"{'every step, h = 0.1 vs 0.05':30s} {gap(('every step', 0.1), ('every step', 0.05)):10.2e} "
+          "(the step's own error is about 4/3 of it)")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--accuracy", action="store_true", help="also the accuracy cost of the environment at 1 s")
+    ap.add_argument("--no-components", action="store_true", help="without the rows that add one component at a time")
+    ap.add_argument("--steps", type=int, default=20000, help="steps a run (default 20000)")
+    ap.add_argument("--rounds", type=int, default=7, help="rounds (default 7)")
     args = ap.parse_args()
-    steps, rounds = (2000, 3) if args.quick else (20000, 7)
-    runs = cases(steps)
+    steps, rounds = (2000, 3) if args.quick else (args.steps, args.rounds)
+    runs = cases(steps, components=not args.no_components)
     for f in runs.values():                     # compile or load, once
         f()
     per_step = {name: [] for name in runs}
@@ -105,25 +196,37 @@ def main() -> None:
             t = time.process_time()
             f()
             per_step[name].append((time.process_time() - t) / steps)
+
+    def ratio(a, b):
+        return [x / y for x, y in zip(per_step[a], per_step[b])]
+
     ratios = {
-        "sensors + MEKF / true-state feedback": [a / b for a, b in zip(per_step["sensors + MEKF"],
-                                                                        per_step["true-state feedback"])],
-        "all disturbances / gyrostat step": [a / b for a, b in zip(per_step["all disturbances"],
-                                                                    per_step["gyrostat step"])],
-        "all disturbances / orbit, field, g.g.": [a / b for a, b in zip(per_step["all disturbances"],
-                                                                         per_step["orbit, field, gravity grad."])],
-        "all disturbances / all dist., held": [a / b for a, b in zip(per_step["all disturbances"],
-                                                                      per_step["all dist., held (1st order)"])],
-        "true-state feedback / gyrostat step": [a / b for a, b in zip(per_step["true-state feedback"],
-                                                                       per_step["gyrostat step"])],
+        "sensors + MEKF / true-state feedback": ratio("sensors + MEKF", "true-state feedback"),
+        "all disturbances / gyrostat step": ratio("all disturbances", "gyrostat step"),
+        "all disturbances / 6U gyrostat step": ratio("all disturbances", "6U gyrostat step"),
+        "all dist., env. at 1 s / gyrostat step": ratio("all dist., env. at 1 s", "gyrostat step"),
+        "all dist., env. at 1 s / 6U gyrostat step": ratio("all dist., env. at 1 s", "6U gyrostat step"),
+        "all dist., env. slow / gyrostat step": ratio("all dist., env. slow", "gyrostat step"),
+        "all disturbances / orbit, field, g.g.": ratio("all disturbances", "orbit, field, gravity grad."),
+        "all disturbances / all dist., held": ratio("all disturbances", "all dist., held (1st order)"),
+        "true-state feedback / gyrostat step": ratio("true-state feedback", "gyrostat step"),
     }
+    if "orbit only" in per_step:
+        ratios["orbit only / 6U gyrostat step"] = ratio("orbit only", "6U gyrostat step")
     print(f"{steps} steps of h = {H} s a run, {rounds} rounds, CPU time, medians (cases alternating)")
-    print(f"{'case':28s} {'us/step':>9s}")
+    print(f"{'case':28s} {'us/step':>9s} {'added':>9s}")
+    prev = None
     for name, v in per_step.items():
-        print(f"{name:28s} {statistics.median(v) * 1e6:9.3f}")
-    print(f"{'ratio':40s} {'median':>7s} {'min':>7s} {'max':>7s}")
+        med = statistics.median(v) * 1e6
+        added = f"{med - prev:9.3f}" if name.startswith("+ ") and prev is not None else ""
+        print(f"{name:28s} {med:9.3f} {added:>9s}")
+        if name == "orbit only" or name.startswith("+ "):
+            prev = med
+    print(f"{'ratio':42s} {'median':>7s} {'min':>7s} {'max':>7s}")
     for name, v in ratios.items():
-        print(f"{name:40s} {statistics.median(v):7.2f} {min(v):7.2f} {max(v):7.2f}")
+        print(f"{name:42s} {statistics.median(v):7.2f} {min(v):7.2f} {max(v):7.2f}")
+    if args.accuracy:
+        accuracy()
 
 
 if __name__ == "__main__":

@@ -146,6 +146,57 @@ def test_gyro_noise_per_sample_and_bias_walk():
     assert abs(np.corrcoef(white[1:, 0], np.diff(r["gyro_bias"][:, 0]))[0, 1]) < 5 / math.sqrt(n)
 
 
+def test_gyro_bounded_walk_as_basilisk_walk_bounds():
+    """``walk_bound`` (Basilisk's ``walkBoundsGyro``): each sample the walk steps by ``rrw sqrt(dt) n``
+    and is clipped to ``+-bound`` per axis. Checked three ways on 1e5 samples of a static gyro with
+    the bound at 20 steps (the walk's unbounded spread, 316 steps, reaches it many times):
+    - bounded: never beyond the bound, and at it exactly on each axis;
+    - the steps from states at least 6 steps inside the bound are never clipped (P(|n| > 6) = 2e-9),
+      so they are the specification's: standard deviation ``rrw sqrt(dt)`` to 5/sqrt(2m) (m of them,
+      the sample sd's own relative sd is 1/sqrt(2m)), mean 0 to 5 sd/sqrt(m);
+    - the walk equals NumPy's clipped cumulative sum of the stream's own normals (draws 6k+3..6k+5
+      of sample k), bit for bit; an unbounded gyro of the same seed walks the plain cumulative sum."""
+    dt, rrw, n = 0.1, 2e-5, 100_000
+    step = rrw * math.sqrt(dt)
+    bound = 20.0 * step * np.array([1.0, 1.5, 0.8])
+    g = Gyro(rate=dt, rrw=rrw, walk_bound=bound, seed=11)
+    walk = run_components([g], still(n), dt, record=["gyro_bias"]).records["gyro_bias"]   # before each step
+    assert np.all(np.abs(walk) <= bound)
+    assert np.array_equal(np.abs(walk).max(axis=0), bound)
+    d = np.diff(walk, axis=0)
+    inside = np.abs(walk[:-1]) < bound - 6.0 * step
+    for i in range(3):
+        di = d[inside[:, i], i]
+        m = di.size
+        assert m > 0.5 * (n - 1)
+        assert abs(di.std() / step - 1.0) < 5.0 / math.sqrt(2 * m)
+        assert abs(di.mean()) < 5.0 * step / math.sqrt(m)
+    z = rnd.normals(11.0, 1.0, 0, 6 * n).reshape(n, 6)[:, 3:]
+    ref = np.zeros((n, 3))
+    x = np.zeros(3)
+    for k in range(n - 1):
+        x = np.clip(x + step * z[k], -bound, bound)
+        ref[k + 1] = x
+    np.testing.assert_array_equal(walk, ref)
+    free = run_components([Gyro(rate=dt, rrw=rrw, seed=11)], still(n), dt, record=["gyro_bias"]).records["gyro_bias"]
+    x = np.zeros(3)
+    for k in range(n - 1):
+        x = x + step * z[k]
+        ref[k + 1] = x
+    np.testing.assert_array_equal(free, ref)
+    assert np.all(np.abs(free).max(axis=0) > bound)           # unbounded, it goes beyond the bounds
+
+
+def test_gyro_walk_bound_validation():
+    with pytest.raises(ValueError, match=r"walk_bound must be positive on each axis .* got \[ 0\.001 -0\.001"):
+        Gyro(rate=0.1, rrw=1e-5, walk_bound=[1e-3, -1e-3, 1e-3])
+    with pytest.raises(ValueError, match=r"walk_bound"):
+        Gyro(rate=0.1, rrw=1e-5, walk_bound=math.nan)
+    with pytest.warns(UserWarning, match=r"below three standard deviations of the walk's step"):
+        Gyro(rate=0.1, rrw=1e-3, walk_bound=1e-4)
+    assert np.array_equal(Gyro(rate=0.1, walk_bound=2e-3).walk_bound, [2e-3] * 3)
+
+
 def test_same_seed_same_stream_bit_for_bit_and_members_differ():
     n = 500
     a = run_components([Gyro(rate=0.1, arw=1e-3, rrw=1e-4, seed=4)], still(n), 0.1, record=["gyro_B"])
@@ -216,6 +267,31 @@ def test_star_tracker_near_pi_rotation_and_exclusions():
         st = StarTracker(sigma_cross=1e-5, sigma_about=1e-5, earth_exclusion=margin)
         r = run_components([st], still(2), 0.1, record=["st_valid"], constants={"r_N": r_N}).records
         assert np.all(r["st_valid"] == valid)
+
+
+def test_star_tracker_earth_exclusion_equals_the_angle_rule():
+    """The kernel decides the Earth exclusion by cosines (no acos/asin); the decision is the angle
+    rule ``angle(boresight, nadir) < asin(R_E / |r|) + margin`` at 2000 random attitudes per margin,
+    margins from 0 to 3 rad (beyond pi/2 the rule can cover the whole sky: ``asin(x) + m >= pi``),
+    altitudes 300 km to 40000 km. Draws landing within 1e-9 rad of the boundary (where round-off
+    may decide either way) are left out; there are none at this seed."""
+    rng = np.random.default_rng(5)
+    n = 2000
+    Rs = Rotation.random(n, random_state=rng).as_matrix()
+    dirs = rng.normal(size=(n, 3))
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    r_N = dirs * (6378137.0 + rng.uniform(3e5, 4e7, n))[:, None]
+    for margin in (0.0, 0.2, 1.0, 1.6, 2.5, 3.0):
+        st = StarTracker(sigma_cross=0.0, sigma_about=0.0, earth_exclusion=margin)
+        got = run_components([st], {"R": Rs.reshape(n, 9), "r_N": r_N}, 0.1, record=["st_valid"]).records["st_valid"][:, 0]
+        bore = Rs[:, :, 2]
+        nr = np.linalg.norm(r_N, axis=1)
+        angle = np.arccos(np.clip(-np.einsum("ij,ij->i", bore, r_N) / nr, -1.0, 1.0))
+        limit = np.arcsin(6378137.0 / nr) + margin
+        clear = np.abs(angle - limit) > 1e-9
+        assert clear.all()
+        np.testing.assert_array_equal(got, np.where(angle < limit, 0.0, 1.0))
+        assert 0 < got.sum() < n or margin >= 2.5     # both outcomes occur (all excluded near m = pi)
 
 
 # ------------------------------------------------------------------------------------------------

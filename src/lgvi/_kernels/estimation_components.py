@@ -23,8 +23,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from .._jit import jit
 from .attitude_kernels import (exp_coefficients, mat_t_vec, quat_from_matrix, quat_from_rotvec, quat_mul,
                                quat_normalised, quat_rotvec, quat_to_matrix)
@@ -294,9 +292,10 @@ def mekf_step(t, bus, p, s, w):
     return 0
 
 
-@jit
+@jit(_nrt=False)
 def estimator_dispatch(code, t, bus, p, s, w):
-    """Run the built-in estimator kind ``code`` (400-499); an unknown code returns status 3."""
+    """Run the built-in estimator kind ``code`` (400-499); an unknown code returns status 3 (compiled
+    without Numba's runtime, as :func:`.sensor_components.sensor_dispatch`)."""
     if code == MEKF:
         return mekf_step(t, bus, p, s, w)
     return 3

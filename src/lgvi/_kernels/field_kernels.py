@@ -17,8 +17,9 @@ The functions follow the recursions (``c = cos theta``, ``s = sin theta``)
 ``P_n^m / s`` (m >= 1) obeys the same recursions from ``P_1^1 / s = 1``, so ``B_phi`` is
 evaluated without a division by ``sin theta`` and is finite on the poles.
 
-Coefficients ``g``, ``h`` are (N+1, N+1) arrays indexed ``[n, m]``; the scratch arrays ``P``,
-``dP``, ``Q`` have the same shape, so the kernels allocate nothing.
+Coefficients ``g``, ``h`` are (N+1, N+1) arrays indexed ``[n, m]`` (flat, row-major, in
+:func:`sh_field_flat`); the scratch arrays ``P``, ``dP``, ``Q`` have the same shape, so the kernels
+allocate nothing.
 """
 
 from __future__ import annotations
@@ -29,10 +30,14 @@ from .._jit import jit
 
 
 @jit(inline="always")
-def sh_field_ecef(x, y, z, g, h, nmax, a, P, dP, Q):
+def sh_field_flat(x, y, z, G, og, H, oh, n1, nmax, a, P, oP, dP, odP, Q, oQ):
     """Field of the expansion ``(g, h)`` at the Earth-fixed point ``(x, y, z)`` (same unit as ``a``).
 
-    Returns ``(bx, by, bz)`` in Earth-fixed Cartesian components, in the unit of ``g`` and ``h``.
+    The (N+1, N+1) arrays are indexed flat, row-major with ``n1`` columns: ``g[n, m]`` is
+    ``G[og + n n1 + m]``, ``h``, ``P``, ``dP``, ``Q`` likewise from ``H[oh]``, ``P[oP]``, ``dP[odP]``,
+    ``Q[oQ]`` (one state array with offsets in the loop's field component: reshaped views of its
+    slices cost a call each). Returns ``(bx, by, bz)`` in Earth-fixed Cartesian components, in the
+    unit of ``g`` and ``h``.
     """
     rho2 = x * x + y * y
     r = math.sqrt(rho2 + z * z)
@@ -45,32 +50,37 @@ def sh_field_ecef(x, y, z, g, h, nmax, a, P, dP, Q):
     else:
         cp = 1.0
         sp = 0.0
-    # Legendre functions, their theta derivatives and P/sin(theta)
-    P[0, 0] = 1.0
-    dP[0, 0] = 0.0
-    Q[0, 0] = 0.0
+    # Legendre functions, their theta derivatives and P/sin(theta); [n, m] at n * n1 + m
+    P[oP] = 1.0
+    dP[odP] = 0.0
+    Q[oQ] = 0.0
     for n in range(1, nmax + 1):
+        nn = n * n1 + n                 # [n, n]
+        pp = nn - n1 - 1                # [n - 1, n - 1]
         if n == 1:
-            P[1, 1] = s
-            dP[1, 1] = c
-            Q[1, 1] = 1.0
+            P[oP + nn] = s
+            dP[odP + nn] = c
+            Q[oQ + nn] = 1.0
         else:
             k = math.sqrt((2.0 * n - 1.0) / (2.0 * n))
-            P[n, n] = k * s * P[n - 1, n - 1]
-            dP[n, n] = k * (c * P[n - 1, n - 1] + s * dP[n - 1, n - 1])
-            Q[n, n] = k * s * Q[n - 1, n - 1]
+            P[oP + nn] = k * s * P[oP + pp]
+            dP[odP + nn] = k * (c * P[oP + pp] + s * dP[odP + pp])
+            Q[oQ + nn] = k * s * Q[oQ + pp]
         for m in range(0, n):
+            i = n * n1 + m              # [n, m]
+            i1 = i - n1                 # [n - 1, m]
+            i2 = i1 - n1                # [n - 2, m]
             d = math.sqrt(float(n * n - m * m))
             e = (2.0 * n - 1.0) / d
             if n - 2 >= m:
                 f = math.sqrt(float((n - 1) * (n - 1) - m * m)) / d
-                P[n, m] = e * c * P[n - 1, m] - f * P[n - 2, m]
-                dP[n, m] = e * (c * dP[n - 1, m] - s * P[n - 1, m]) - f * dP[n - 2, m]
-                Q[n, m] = e * c * Q[n - 1, m] - f * Q[n - 2, m]
+                P[oP + i] = e * c * P[oP + i1] - f * P[oP + i2]
+                dP[odP + i] = e * (c * dP[odP + i1] - s * P[oP + i1]) - f * dP[odP + i2]
+                Q[oQ + i] = e * c * Q[oQ + i1] - f * Q[oQ + i2]
             else:
-                P[n, m] = e * c * P[n - 1, m]
-                dP[n, m] = e * (c * dP[n - 1, m] - s * P[n - 1, m])
-                Q[n, m] = e * c * Q[n - 1, m]
+                P[oP + i] = e * c * P[oP + i1]
+                dP[odP + i] = e * (c * dP[odP + i1] - s * P[oP + i1])
+                Q[oQ + i] = e * c * Q[oQ + i1]
     br = 0.0
     bt = 0.0
     bp = 0.0
@@ -84,10 +94,13 @@ def sh_field_ecef(x, y, z, g, h, nmax, a, P, dP, Q):
         cm = 1.0             # cos(m phi), sin(m phi) by the angle-sum recursion
         sm = 0.0
         for m in range(0, n + 1):
-            gc = g[n, m] * cm + h[n, m] * sm
-            sr += gc * P[n, m]
-            st += gc * dP[n, m]
-            sph += m * (g[n, m] * sm - h[n, m] * cm) * Q[n, m]
+            i = n * n1 + m
+            gnm = G[og + i]
+            hnm = H[oh + i]
+            gc = gnm * cm + hnm * sm
+            sr += gc * P[oP + i]
+            st += gc * dP[odP + i]
+            sph += m * (gnm * sm - hnm * cm) * Q[oQ + i]
             cm, sm = cm * cp - sm * sp, sm * cp + cm * sp
         br += (n + 1.0) * arn * sr
         bt -= arn * st
@@ -97,6 +110,13 @@ def sh_field_ecef(x, y, z, g, h, nmax, a, P, dP, Q):
     by = (br * s + bt * c) * sp + bp * cp
     bz = br * c - bt * s
     return bx, by, bz
+
+
+@jit(inline="always")
+def sh_field_ecef(x, y, z, g, h, nmax, a, P, dP, Q):
+    """:func:`sh_field_flat` on (N+1, N+1) C-contiguous arrays ``g``, ``h`` and scratch ``P``, ``dP``, ``Q``."""
+    return sh_field_flat(x, y, z, g.reshape(-1), 0, h.reshape(-1), 0, g.shape[1], nmax, a, P.reshape(-1), 0,
+                         dP.reshape(-1), 0, Q.reshape(-1), 0)
 
 
 @jit(_nrt=False)

@@ -15,8 +15,8 @@ import math
 
 from .._jit import jit
 from .gyrostat_kernels import mrp_error_at, mrp_request, reference_rates_at
-from .field_kernels import sh_field_ecef
-from .orbit_table_kernels import hermite_interval, hermite_position
+from .field_kernels import sh_field_flat
+from .orbit_table_kernels import hermite_interval, hermite_position_in
 
 OK = 0
 NOT_FINITE = 1
@@ -95,6 +95,12 @@ def hermite_velocity(t, p):
     i, s, dt = hermite_interval(t, p)
     if i < 0:
         return math.nan, math.nan, math.nan
+    return hermite_velocity_in(i, s, dt, p)
+
+
+@jit(inline="always")
+def hermite_velocity_in(i, s, dt, p):
+    """:func:`hermite_velocity` in the interval ``(i, s, dt)`` of :func:`.orbit_table_kernels.hermite_interval`."""
     s2 = s * s
     d00 = (6.0 * s2 - 6.0 * s) / dt
     d10 = 3.0 * s2 - 4.0 * s + 1.0
@@ -110,8 +116,11 @@ def hermite_velocity(t, p):
 def orbit_step(t, bus, p, s, w):
     """``r_N``, ``v_N`` from the tabulated orbit (``p``: the layout of
     :mod:`.orbit_table_kernels`, J unused); outside the table: status 3."""
-    x, y, z = hermite_position(t, p)
-    vx, vy, vz = hermite_velocity(t, p)
+    i, q, dt = hermite_interval(t, p)          # one interval for both
+    if i < 0:
+        return OUT_OF_RANGE
+    x, y, z = hermite_position_in(i, q, dt, p)
+    vx, vy, vz = hermite_velocity_in(i, q, dt, p)
     if not (_finite3(x, y, z) and _finite3(vx, vy, vz)):
         return OUT_OF_RANGE
     put3(bus, w[0], x, y, z)
@@ -140,11 +149,6 @@ def field_step(t, bus, p, s, w):
     n1 = int(p[F_N1])
     q = n1 * n1
     o = F_COEF
-    g = s[0:q].reshape((n1, n1))
-    hh = s[q:2 * q].reshape((n1, n1))
-    P = s[2 * q:3 * q].reshape((n1, n1))
-    dP = s[3 * q:4 * q].reshape((n1, n1))
-    Q = s[4 * q:5 * q].reshape((n1, n1))
     for i in range(q):
         s[i] = p[o + i] + t * p[o + 2 * q + i]
         s[q + i] = p[o + q + i] + t * p[o + 3 * q + i]
@@ -157,7 +161,9 @@ def field_step(t, bus, p, s, w):
     theta = gmst_angle(p[F_JD0], t)
     c = math.cos(theta)
     sn = math.sin(theta)
-    bx, by, bz = sh_field_ecef(c * x + sn * y, -sn * x + c * y, z, g, hh, nmax, p[F_RADIUS], P, dP, Q)
+    # g, h, P, dP, Q: (n1, n1) blocks of s, indexed flat
+    bx, by, bz = sh_field_flat(c * x + sn * y, -sn * x + c * y, z, s, 0, s, q, n1, nmax, p[F_RADIUS], s, 2 * q,
+                               s, 3 * q, s, 4 * q)
     put3(bus, w[1], (c * bx - sn * by) * 1e-9, (sn * bx + c * by) * 1e-9, bz * 1e-9)
     return OK
 

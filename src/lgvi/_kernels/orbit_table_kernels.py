@@ -39,6 +39,12 @@ def hermite_position(t, p):
     i, s, dt = hermite_interval(t, p)
     if i < 0:
         return math.nan, math.nan, math.nan
+    return hermite_position_in(i, s, dt, p)
+
+
+@jit(inline="always")
+def hermite_position_in(i, s, dt, p):
+    """:func:`hermite_position` in the interval ``(i, s, dt)`` of :func:`hermite_interval`."""
     s2 = s * s
     s3 = s2 * s
     h00 = 2.0 * s3 - 3.0 * s2 + 1.0

@@ -56,9 +56,12 @@ def sun_in_body(bus, w):
 #    17..19 scale factor (multiplies, Basilisk's gyroScale), 20 saturation (rad/s, inf: none),
 #    21 LSB (rad/s, 0: none), 22 rounding (0 towards zero, 1 nearest), 23 output (0: the rate at the
 #    sample, Basilisk's omega_PN_P; 1: the mean rate over the sample interval, log(R_prev^T R) / dt,
-#    Basilisk's prv_PN / dt; the first sample gives the rate)
-# s: 0 counter (normals), 1..3 rate-random-walk part of the bias (rad/s), 4..12 R at the last
-#    sample, 13: 1 once a sample was taken
+#    Basilisk's prv_PN / dt; the first sample gives the rate), 24..26 bounds of the rate random walk
+#    per axis (rad/s, inf: none; Basilisk's walkBoundsGyro), 27 sigma_v / sqrt(dt) (the white rate
+#    noise of a sample), 28 sigma_u sqrt(dt) (the walk's step per sample): 27 and 28 are set once by
+#    the Python class, so a sample computes no square root
+# s: 0 counter (normals), 1..3 rate-random-walk part of the bias (rad/s), 4..7 the quaternion of R
+#    at the last sample (mean-rate output), 8: 1 once a sample was taken
 # --------------------------------------------------------------------------------------------------
 @jit(inline="always")
 def gyro_step(t, bus, p, s, w):
@@ -71,25 +74,26 @@ def gyro_step(t, bus, p, s, w):
     n4 = normal_at(key, c + 4)
     n5 = normal_at(key, c + 5)
     s[0] = c + 6
-    dt = p[2]
-    sv = p[3] / math.sqrt(dt)               # white rate noise of the sample: ARW / sqrt(dt)
-    su = p[4] * math.sqrt(dt)               # bias increment over a sample: RRW sqrt(dt)
+    sv = p[27]                              # white rate noise of the sample: ARW / sqrt(dt)
+    su = p[28]                              # bias increment over a sample: RRW sqrt(dt)
     o = w[0]
     x, y, z = bus[o], bus[o + 1], bus[o + 2]
     if p[23] != 0.0:
-        r = w[1]
-        if s[13] != 0.0:
-            # the rotation vector of R_prev^T R over the sample period: the mean rate, exactly
-            e0, e1, e2, e3 = quat_from_matrix(s, 4)
-            f0, f1, f2, f3 = quat_from_matrix(bus, r)
-            d0, d1, d2, d3 = quat_mul(-e0, -e1, -e2, e3, f0, f1, f2, f3)
+        # the rotation vector of R_prev^T R over the sample period: the mean rate, exactly; the
+        # quaternion of R is kept for the next sample (one conversion a sample)
+        f0, f1, f2, f3 = quat_from_matrix(bus, w[1])
+        if s[8] != 0.0:
+            d0, d1, d2, d3 = quat_mul(-s[4], -s[5], -s[6], s[7], f0, f1, f2, f3)
+            dt = p[2]
             x, y, z = quat_rotvec(d0, d1, d2, d3)
             x /= dt
             y /= dt
             z /= dt
-        for i in range(9):
-            s[4 + i] = bus[r + i]
-        s[13] = 1.0
+        s[4] = f0
+        s[5] = f1
+        s[6] = f2
+        s[7] = f3
+        s[8] = 1.0
     x, y, z = mat_vec(p, 5, x, y, z)
     b0 = p[14] + s[1]
     b1 = p[15] + s[2]
@@ -103,9 +107,10 @@ def gyro_step(t, bus, p, s, w):
     bus[b] = b0
     bus[b + 1] = b1
     bus[b + 2] = b2
-    s[1] += su * n3
-    s[2] += su * n4
-    s[3] += su * n5
+    # the walk's step, then its bounds (Basilisk's GaussMarkov: clipped to +-bound; inf: unbounded)
+    s[1] = saturate(s[1] + su * n3, p[24])
+    s[2] = saturate(s[2] + su * n4, p[25])
+    s[3] = saturate(s[3] + su * n5, p[26])
     return 0
 
 
@@ -114,7 +119,7 @@ def gyro_step(t, bus, p, s, w):
 # p: 0 seed, 1 stream, 2 sigma across the boresight (rad, about case x and y), 3 sigma about the
 #    boresight (rad, case z), 4..12 C (case -> body, row-major; the boresight is case z),
 #    13 cos of the sun exclusion angle (> 1: none), 14 Earth exclusion angle beyond the limb (rad,
-#    < 0: none), 15 Earth radius (m)
+#    < 0: none), 15 Earth radius (m), 16, 17 cos and sin of the Earth exclusion angle
 # s: 0 counter
 # The measured attitude is R Exp(C e), e = (sx n0, sx n1, sz n2) in the case frame.
 # --------------------------------------------------------------------------------------------------
@@ -139,9 +144,13 @@ def star_tracker_step(t, bus, p, s, w):
         rz = bus[r + 2]
         nr = math.sqrt(rx * rx + ry * ry + rz * rz)
         if nr > p[15]:
-            # angle between the boresight and the nadir, against the Earth's angular radius + margin
+            # the angle between the boresight and the nadir, theta = acos(c), against the Earth's
+            # angular radius plus the margin, a = asin(x) + m: theta < a iff a >= pi (then always), else
+            # iff c > cos(a) = sqrt(1 - x^2) cos m - x sin m (cos decreases on [0, pi]); a >= pi iff
+            # m >= pi/2 and x >= sin m (asin(x) <= pi/2). No inverse trigonometric function.
             c = -(bx * rx + by * ry + bz * rz) / nr
-            if math.acos(min(max(c, -1.0), 1.0)) < math.asin(p[15] / nr) + p[14]:
+            x = p[15] / nr
+            if (p[14] >= 0.5 * math.pi and x >= p[17]) or c > math.sqrt(1.0 - x * x) * p[16] - x * p[17]:
                 valid = False
     key = stream_key(p[0], p[1])
     c = s[0]
@@ -276,9 +285,12 @@ def fine_sun_sensor_step(t, bus, p, s, w):
     return 0
 
 
-@jit
+@jit(_nrt=False)
 def sensor_dispatch(code, t, bus, p, s, w):
-    """Run the built-in sensor kind ``code`` (300-399); an unknown code returns status 3."""
+    """Run the built-in sensor kind ``code`` (300-399); an unknown code returns status 3.
+
+    Compiled without Numba's runtime (nothing here allocates): no reference counts of the four
+    arrays on each call."""
     if code == GYRO:
         return gyro_step(t, bus, p, s, w)
     elif code == STAR_TRACKER:

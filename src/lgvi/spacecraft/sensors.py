@@ -18,6 +18,7 @@ that steps by ``rrw sqrt(dt)`` per sample, so its Allan variance is
 from __future__ import annotations
 
 import math
+import warnings
 from typing import Any
 
 import numpy as np
@@ -127,9 +128,11 @@ class Gyro(Sensor):
     ``gyro_B = sat(quant(scale * (M omega + bias + b_rw + arw / sqrt(dt) n)))``, with ``b_rw`` the
     rate random walk (steps of ``rrw sqrt(dt)`` per sample, from 0), applied in Basilisk's order:
     misalignment, errors, scale factor, quantisation (``rounding="zero"``: Basilisk's default
-    ``Discretize``, or ``"nearest"``), saturation. Basilisk models the walk with a bounded
-    Gauss-Markov process; here it is unbounded (a pure rate random walk, as the Allan variance
-    specifications state it).
+    ``Discretize``, or ``"nearest"``), saturation. The walk is unbounded by default (a pure rate
+    random walk, as the Allan variance specifications state it); ``walk_bound`` bounds it as
+    Basilisk's ``imuSensor`` does with ``walkBoundsGyro`` (its Gauss-Markov state with the identity
+    propagation matrix: each step ``b_rw <- clip(b_rw + rrw sqrt(dt) n, -walk_bound, walk_bound)``
+    per axis; docs/estimation.md).
 
     Parameters
     ----------
@@ -147,6 +150,11 @@ class Gyro(Sensor):
         rate over the sample interval, ``log(R_prev^T R) / dt``: Basilisk's ``prv_PN / dt``, an
         integrating gyro; the first sample gives the rate). The MEKF propagates either exactly as
         its ``gyro_output`` says.
+    walk_bound : float or (3,), rad/s, optional
+        Bound of the rate random walk on each gyro axis (> 0; None: unbounded): the walk is clipped
+        to ``[-walk_bound, walk_bound]`` after each step, as Basilisk's ``walkBoundsGyro``. The
+        constant ``bias`` is not bounded. Basilisk warns when a bound is below three standard
+        deviations of the walk's step; so does this class (a ``UserWarning``).
     seed, stream : the random stream.
     """
 
@@ -154,8 +162,8 @@ class Gyro(Sensor):
 
     def __init__(self, *, rate: float, arw: float = 0.0, rrw: float = 0.0, bias: Any = (0.0, 0.0, 0.0),
                  scale: Any = 1.0, misalignment: Any = None, saturation: float | None = None,
-                 lsb: float | None = None, rounding: str = "zero", output: str = "rate", seed: Any = 0,
-                 stream: int = 1) -> None:
+                 lsb: float | None = None, rounding: str = "zero", output: str = "rate",
+                 walk_bound: Any = None, seed: Any = 0, stream: int = 1) -> None:
         super().__init__(rate, seed, stream)
         self.arw: float = _density(arw, "arw")
         self.rrw: float = _density(rrw, "rrw")
@@ -180,15 +188,29 @@ class Gyro(Sensor):
             raise ValueError(f"output must be 'rate' (the rate at the sample) or 'mean' (the mean rate over the "
                              f"sample interval), got {output!r}")
         self.output = output
+        self.walk_bound: np.ndarray | None = None
+        if walk_bound is not None:
+            wb = np.broadcast_to(as_float_array(walk_bound, "walk_bound"), (3,)).astype(float) \
+                if np.ndim(walk_bound) == 0 else as_float_array(walk_bound, "walk_bound", (3,))
+            if not (wb > 0.0).all():
+                raise ValueError(f"walk_bound must be positive on each axis (rad/s; None: unbounded), got {describe(wb)}")
+            step = self.rrw * math.sqrt(self.rate)
+            if (wb < 3.0 * step).any():
+                warnings.warn(f"Gyro: walk_bound {describe(wb)} rad/s is below three standard deviations of the walk's "
+                              f"step per sample (rrw sqrt(rate) = {step:.6g} rad/s): the walk is mostly at its bounds",
+                              UserWarning, stacklevel=2)
+            self.walk_bound = wb
 
     def params(self) -> np.ndarray:
+        bound = np.full(3, math.inf) if self.walk_bound is None else self.walk_bound
         return self._row(np.concatenate([[self.rate, self.arw, self.rrw], self.misalignment.ravel(), self.bias,
                                          self.scale, [self.saturation, self.lsb,
                                                       float(self.rounding == "nearest"),
-                                                      float(self.output == "mean")]]))
+                                                      float(self.output == "mean")], bound,
+                                         [self.arw / math.sqrt(self.rate), self.rrw * math.sqrt(self.rate)]]))
 
     def state0(self) -> np.ndarray:
-        return np.zeros(14)
+        return np.zeros(9)
 
 
 class StarTracker(Sensor):
@@ -234,7 +256,7 @@ class StarTracker(Sensor):
         cos_sun = 2.0 if self.sun_exclusion is None else math.cos(self.sun_exclusion)
         earth = -1.0 if self.earth_exclusion is None else self.earth_exclusion
         return self._row(np.concatenate([[self.sigma_cross, self.sigma_about], self.case.ravel(),
-                                         [cos_sun, earth, self.earth_radius]]))
+                                         [cos_sun, earth, self.earth_radius, math.cos(earth), math.sin(earth)]]))
 
 
 class Magnetometer(Sensor):
