@@ -74,6 +74,7 @@ def test_mission_file_flies_the_three_modes(flown):
     sc, traj = flown
     s = loop_summary(traj)
     assert [m["mode"] for m in s["modes"]] == [0, 1, 2]
+    assert [m["name"] for m in s["modes"]] == traj.meta["mode_names"] == ["detumble", "sun-safe", "nadir"]
     assert np.degrees(np.linalg.norm(traj.omega[0])) == pytest.approx(10.0, abs=1e-3)
     assert 2000.0 < s["detumble_time_s"] < 5677.0
     assert s["modes"][2]["from_s"] - s["modes"][1]["from_s"] == pytest.approx(900.0, abs=1.0)
@@ -137,9 +138,22 @@ def test_lgvi_run_of_the_example_summarises_the_mission(capsys, tmp_path):
     assert cli.main(["run", str(path), "-o", str(tmp_path / "out")]) == 0
     capsys.readouterr()
     s = json.loads((tmp_path / "out" / "summary.json").read_text())["pointing"]
-    assert s["detumble_time_s"] is None and s["modes"] == [{"mode": 0, "from_s": 0.0}]
+    assert s["detumble_time_s"] is None and s["modes"] == [{"mode": 0, "name": "detumble", "from_s": 0.0}]
     assert set(s["disturbances"]) == {"facet_drag", "facet_srp", "residual_dipole", "gravity_gradient"}
     assert "disturbances:" in (tmp_path / "out" / "summary.txt").read_text()
+
+
+def test_mode_names_in_the_file_are_checked():
+    """``[fsw.modes] names``: one string per mode the rules use; a mistake names the key."""
+    from lgvi.io.scenario import Scenario, ScenarioError
+
+    d = tomllib.loads(examples.text("cubesat_mission"))
+    for names, match in ((["detumble", "sun-safe"], r"fsw\.modes\.names.*every mode.*0\.\.2"),
+                         ("detumble", r"fsw\.modes\.names.*array of strings"),
+                         (["detumble", 1, "nadir"], r"fsw\.modes\.names\[1\].*string")):
+        d["fsw"]["modes"]["names"] = names
+        with pytest.raises(ScenarioError, match=match):
+            Scenario.from_dict(d, "mission.toml")
 
 
 def _monte_carlo():
@@ -190,6 +204,30 @@ def test_monte_carlo_member_is_its_lone_run(threads):
         for name in lone.signals:
             np.testing.assert_array_equal(ens.members[b].signals[name], lone.signals[name], err_msg=name)
     assert not np.array_equal(ens.members[1].signals["est_error"], ens.members[2].signals["est_error"])
+
+
+def test_monte_carlo_member_is_its_lone_run_on_dask():
+    """Member b of the Monte Carlo flown as a Dask task (lgvi.simulate_members on a client: the
+    spacecraft system's runs, one task a member) equals its lone run bit for bit, records included."""
+    distributed = pytest.importorskip("dask.distributed")
+    from lgvi.system_ensembles import simulate_members
+
+    mc = _monte_carlo()
+    base = mc.nominal()
+    built = [mc.member(b, base=base) for b in (0, 1, 2)]
+    kw = dict(h=base.h, steps=1000, save_every=base.save_every)
+    members = [((m[0], m[2]), dict(kw, omega0=m[3], fsw=m[1])) for m in built]
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=":0") as cluster, distributed.Client(cluster) as client:
+        ens = simulate_members("spacecraft", members, client=client)
+    for b in (0, 2):
+        lone = lgvi.simulate(built[b][0], built[b][2], omega0=built[b][3], fsw=built[b][1], **kw)
+        np.testing.assert_array_equal(ens[b].R, lone.R)
+        np.testing.assert_array_equal(ens[b].wheel_speed, lone.wheel_speed)
+        assert sorted(ens[b].signals) == sorted(lone.signals)
+        for name in lone.signals:
+            np.testing.assert_array_equal(ens[b].signals[name], lone.signals[name], err_msg=name)
+    assert not np.array_equal(ens[0].R, ens[2].R)
 
 
 def test_bad_inputs_of_the_mission_parts():
