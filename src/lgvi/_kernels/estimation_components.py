@@ -28,6 +28,7 @@ import numpy as np
 from .._jit import jit
 from .attitude_kernels import (exp_coefficients, mat_t_vec, quat_from_matrix, quat_from_rotvec, quat_mul,
                                quat_normalised, quat_rotvec, quat_to_matrix)
+from .navigation_components import SIMPLE_NAV, simple_nav_step
 
 MEKF = 401
 _P = 7          # offset of P in the state
@@ -299,4 +300,6 @@ def estimator_dispatch(code, t, bus, p, s, w):
     """Run the built-in estimator kind ``code`` (400-499); an unknown code returns status 3."""
     if code == MEKF:
         return mekf_step(t, bus, p, s, w)
+    if code == SIMPLE_NAV:
+        return simple_nav_step(t, bus, p, s, w)
     return 3

@@ -536,3 +536,7 @@ _register()
 from .estimation import MEKF, davenport, triad  # noqa: E402  (issue 27's estimator and static solvers)
 
 __all__ += ["MEKF", "davenport", "triad"]
+
+from .navigation import SimpleNav  # noqa: E402  (Basilisk's simpleNav: the truth with a bounded walk)
+
+__all__ += ["SimpleNav"]
