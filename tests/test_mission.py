@@ -276,3 +276,45 @@ def test_nadir_phase_agrees_with_basilisk_over_one_orbit():
             for a, b in ((m.H, m.H / 2), (m.H / 2, m.H / 4))]
     assert 3.6 < step[0] / step[1] < 4.4, step                  # second order in h
     assert step[0] < 5e-8, step
+
+
+def test_noisy_nadir_phase_agrees_with_basilisk_over_50_members():
+    """With noise on (benchmarks/basilisk_mission.py, "With noise on"): the nadir phase over one orbit,
+    50 members a side, the navigation of Basilisk's simpleNav on both (lgvi.fsw.SimpleNav: a bounded
+    random walk of the MRP attitude error and of the rate error every dynamics step, the flight
+    software reading it at 2 Hz), each member its own noise stream. Per member, from 1000 s on: the
+    mean and 95th percentile of the true pointing error, the mean navigation error. lgvi's 50 against
+    Basilisk's 50 (the fixture), the issue's criterion: for each figure the two means' 95 % intervals
+    (Student t) overlap, and the 95 % Welch interval of the difference of the means holds 0 (measured:
+    Welch p 0.15, 0.18, 0.19). Not asserted, reported (docs/mission.md): the two-sample
+    Kolmogorov-Smirnov test rejects equal distributions of the per-member mean pointing error at 1 %
+    (p 0.006; 0.40 and 0.18 for the other two), and Basilisk's 95th percentiles spread wider (std
+    0.0038 against 0.0026 deg, Levene p 0.006). The comparison can fail: a navigation whose walk is
+    bounded 10 % wider is told apart on the navigation error and on the pointing error."""
+    bench = Path(__file__).resolve().parents[1] / "benchmarks"
+    sys.path.insert(0, str(bench))
+    try:
+        import basilisk_mission as m
+    finally:
+        sys.path.remove(str(bench))
+    with np.load(m.NOISY_FIXTURE) as z:
+        fx = {k: z[k] for k in z.files}
+    np.testing.assert_array_equal(fx["nav"], [m.NAV_ATTITUDE, m.NAV_ATTITUDE_BOUND, m.NAV_RATE, m.NAV_RATE_BOUND,
+                                              m.SETTLE, m.EVERY, m.H, m.DURATION])
+    assert len(fx["pointing_mean"]) == 50 and np.all(fx["samples"] == fx["samples"][0])
+    mine = m.lgvi_noisy(50)
+    # Basilisk's recorder also holds the state at the stop time; lgvi's records end one record before
+    # its last state: 4670 samples against 4671, the same times otherwise
+    assert np.all(mine["samples"] == fx["samples"] - 1)
+    from scipy import stats
+
+    for key in ("pointing_mean", "pointing_p95", "nav_mean"):
+        (lo_a, hi_a), (lo_b, hi_b) = (stats.t.interval(0.95, len(x) - 1, x.mean(), stats.sem(x))
+                                      for x in (mine[key], fx[key]))
+        assert lo_a < hi_b and lo_b < hi_a, (key, (lo_a, hi_a), (lo_b, hi_b))
+        d, half, _, _ = m.compare(mine[key], fx[key])
+        assert abs(d) < half, (key, d, half)
+    wider = m.lgvi_noisy(50, attitude_bound=1.1 * m.NAV_ATTITUDE_BOUND)
+    for key in ("nav_mean", "pointing_mean"):
+        d, half, _, _ = m.compare(wider[key], fx[key])
+        assert d > half, (key, d, half)
