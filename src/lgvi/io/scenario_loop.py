@@ -489,7 +489,8 @@ def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DE
         ``wheel_momentum_peak_Nms``: the largest ``|Js_i (a_i . omega + Omega_i)|`` of any wheel
         over the saved states, ``wheel_momentum_total_peak_Nms``: the largest norm of their sum
         ``sum_i a_i h_i`` (body frame), ``wheel_momentum_final_Nms`` that norm at the end;
-        ``modes``: the modes visited, in order, with the time each was entered;
+        ``modes``: the modes visited, in order, with the time each was entered and its name
+        (``name``: the ``ModeRules``' names, else ``"mode <index>"``);
         ``detumble_time_s``: the time the mode manager first left its initial mode (the detumble
         of a mission that starts in it; ``None`` without modes or if it never left);
         ``control_error_deg``: the true pointing error, the angle of ``R_ref^T R`` (the truth
