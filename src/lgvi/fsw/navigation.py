@@ -18,7 +18,7 @@ import numpy as np
 from .._kernels import navigation_components as _k
 from .._validation import as_float_array
 from ..components import Component, ComponentKind, register_kind
-from ..spacecraft.sensors import _MAX_SEED, _seeds, describe
+from ..spacecraft.sensors import Sensor, describe
 from .estimation import EST_ERROR
 
 __all__ = ["SimpleNav"]
@@ -32,7 +32,7 @@ def _per_axis(value: Any, name: str) -> np.ndarray:
     return a
 
 
-class SimpleNav(Component):
+class SimpleNav(Sensor):       # a Sensor for its seed and stream (one per member); an estimator by its kind
     """Basilisk's ``simpleNav`` (attitude and rate channels): the truth with a bounded random walk.
 
     At each run (``rate``), with standard normals ``n``: ``a <- clamp(a + attitude_noise n, +-attitude_bound)``
@@ -59,24 +59,15 @@ class SimpleNav(Component):
 
     def __init__(self, attitude_noise: Any = 0.0, rate_noise: Any = 0.0, *, attitude_bound: Any = 0.0,
                  rate_bound: Any = 0.0, seed: Any = 0, stream: int = 11, rate: Any = None, modes: Any = None) -> None:
-        super().__init__(rate=rate, modes=modes)
+        Component.__init__(self, rate=rate, modes=modes)
+        Sensor.__init__(self, rate, seed, stream)
         self.attitude_noise = _per_axis(attitude_noise, "attitude_noise")
         self.rate_noise = _per_axis(rate_noise, "rate_noise")
         self.attitude_bound = _per_axis(attitude_bound, "attitude_bound")
         self.rate_bound = _per_axis(rate_bound, "rate_bound")
-        self.seed: np.ndarray = _seeds(seed)
-        if isinstance(stream, (bool, np.bool_)) or not isinstance(stream, (int, np.integer)) \
-                or not 0 <= stream < _MAX_SEED:
-            raise ValueError(f"stream must be an integer in [0, 2^53), got {describe(stream)}")
-        self.stream: int = int(stream)
 
     def params(self) -> np.ndarray:
-        rest = np.concatenate([self.attitude_noise, self.rate_noise, self.attitude_bound, self.rate_bound])
-        if self.seed.ndim == 0:
-            return np.concatenate([[float(self.seed), float(self.stream)], rest])
-        rows = np.empty((self.seed.size, 2 + rest.size))
-        rows[:, 0], rows[:, 1], rows[:, 2:] = self.seed, self.stream, rest
-        return rows
+        return self._row(np.concatenate([self.attitude_noise, self.rate_noise, self.attitude_bound, self.rate_bound]))
 
     def state0(self) -> np.ndarray:
         return np.zeros(7)
