@@ -83,7 +83,8 @@ def mission() -> tuple[Spacecraft, FlightSoftware, np.ndarray, np.ndarray]:
     fsw = FlightSoftware(
         estimator=MEKF(rate=RATE, arw=5e-5, rrw=5e-6, star_tracker=True, mag_sigma=5e-8,
                        R0=_matrix([0.210613, -0.49143, 0.60175, 0.593326]), P0=[1e-3] * 3 + [1e-7] * 3),
-        modes=ModeRules([(0, 1, "rate_below", 0.014), (1, 2, "dwell", 900.0)], initial=0),
+        modes=ModeRules([(0, 1, "rate_below", 0.014), (1, 2, "dwell", 900.0)], initial=0,
+                        names=["detumble", "sun-safe", "nadir"]),
         guidance=[SunPointing(axis=[1.0, 0.0, 0.0], secondary=[0.0, 0.0, 1.0], modes=[1]), HillPointing(modes=[2])],
         control=[BDotControl(1e5, derivative="rate", modes=[0]), MRPControl(K=0.004, P=0.04, modes=[1, 2]),
                  MomentumDumpingControl(5e-4, modes=[2])],

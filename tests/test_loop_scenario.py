@@ -177,7 +177,7 @@ def test_lgvi_run_draws_and_summarises_the_records(capsys, tmp_path):
     hw = 1e-4 * (traj.omega @ np.array(AXES).T + traj.wheel_speed)
     assert s["wheel_momentum_peak_Nms"] == pytest.approx(np.abs(hw).max(), rel=1e-12)
     switch = t[np.argmax(np.ravel(sig["mode"]) == 1)]
-    assert s["modes"] == [{"mode": 0, "from_s": 0.0}, {"mode": 1, "from_s": switch}]
+    assert s["modes"] == [{"mode": 0, "name": "mode 0", "from_s": 0.0}, {"mode": 1, "name": "mode 1", "from_s": switch}]
     np.testing.assert_array_equal(traj.R, Scenario.from_dict(d).run().R)      # the stream is the run
     txt = (o / "summary.txt").read_text()
     assert f"settled below 0.1 deg at t = {s['settle_time_s']:g} s" in txt and f"1 from {switch:g} s" in txt

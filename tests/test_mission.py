@@ -74,6 +74,7 @@ def test_mission_file_flies_the_three_modes(flown):
     sc, traj = flown
     s = loop_summary(traj)
     assert [m["mode"] for m in s["modes"]] == [0, 1, 2]
+    assert [m["name"] for m in s["modes"]] == traj.meta["mode_names"] == ["detumble", "sun-safe", "nadir"]
     assert np.degrees(np.linalg.norm(traj.omega[0])) == pytest.approx(10.0, abs=1e-3)
     assert 2000.0 < s["detumble_time_s"] < 5677.0
     assert s["modes"][2]["from_s"] - s["modes"][1]["from_s"] == pytest.approx(900.0, abs=1.0)
@@ -137,9 +138,22 @@ def test_lgvi_run_of_the_example_summarises_the_mission(capsys, tmp_path):
     assert cli.main(["run", str(path), "-o", str(tmp_path / "out")]) == 0
     capsys.readouterr()
     s = json.loads((tmp_path / "out" / "summary.json").read_text())["pointing"]
-    assert s["detumble_time_s"] is None and s["modes"] == [{"mode": 0, "from_s": 0.0}]
+    assert s["detumble_time_s"] is None and s["modes"] == [{"mode": 0, "name": "detumble", "from_s": 0.0}]
     assert set(s["disturbances"]) == {"facet_drag", "facet_srp", "residual_dipole", "gravity_gradient"}
     assert "disturbances:" in (tmp_path / "out" / "summary.txt").read_text()
+
+
+def test_mode_names_in_the_file_are_checked():
+    """``[fsw.modes] names``: one string per mode the rules use; a mistake names the key."""
+    from lgvi.io.scenario import Scenario, ScenarioError
+
+    d = tomllib.loads(examples.text("cubesat_mission"))
+    for names, match in ((["detumble", "sun-safe"], r"fsw\.modes\.names.*every mode.*0\.\.2"),
+                         ("detumble", r"fsw\.modes\.names.*array of strings"),
+                         (["detumble", 1, "nadir"], r"fsw\.modes\.names\[1\].*string")):
+        d["fsw"]["modes"]["names"] = names
+        with pytest.raises(ScenarioError, match=match):
+            Scenario.from_dict(d, "mission.toml")
 
 
 def _monte_carlo():
@@ -192,6 +206,30 @@ def test_monte_carlo_member_is_its_lone_run(threads):
     assert not np.array_equal(ens.members[1].signals["est_error"], ens.members[2].signals["est_error"])
 
 
+def test_monte_carlo_member_is_its_lone_run_on_dask():
+    """Member b of the Monte Carlo flown as a Dask task (lgvi.simulate_members on a client: the
+    spacecraft system's runs, one task a member) equals its lone run bit for bit, records included."""
+    distributed = pytest.importorskip("dask.distributed")
+    from lgvi.system_ensembles import simulate_members
+
+    mc = _monte_carlo()
+    base = mc.nominal()
+    built = [mc.member(b, base=base) for b in (0, 1, 2)]
+    kw = dict(h=base.h, steps=1000, save_every=base.save_every)
+    members = [((m[0], m[2]), dict(kw, omega0=m[3], fsw=m[1])) for m in built]
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=":0") as cluster, distributed.Client(cluster) as client:
+        ens = simulate_members("spacecraft", members, client=client)
+    for b in (0, 2):
+        lone = lgvi.simulate(built[b][0], built[b][2], omega0=built[b][3], fsw=built[b][1], **kw)
+        np.testing.assert_array_equal(ens[b].R, lone.R)
+        np.testing.assert_array_equal(ens[b].wheel_speed, lone.wheel_speed)
+        assert sorted(ens[b].signals) == sorted(lone.signals)
+        for name in lone.signals:
+            np.testing.assert_array_equal(ens[b].signals[name], lone.signals[name], err_msg=name)
+    assert not np.array_equal(ens[0].R, ens[2].R)
+
+
 def test_bad_inputs_of_the_mission_parts():
     """MEKF(star_tracker=True) needs exactly one StarTracker on the spacecraft; loop_summary's
     inertia is a 3x3 matrix; each refusal names the argument and the rule."""
@@ -238,3 +276,45 @@ def test_nadir_phase_agrees_with_basilisk_over_one_orbit():
             for a, b in ((m.H, m.H / 2), (m.H / 2, m.H / 4))]
     assert 3.6 < step[0] / step[1] < 4.4, step                  # second order in h
     assert step[0] < 5e-8, step
+
+
+def test_noisy_nadir_phase_agrees_with_basilisk_over_50_members():
+    """With noise on (benchmarks/basilisk_mission.py, "With noise on"): the nadir phase over one orbit,
+    50 members a side, the navigation of Basilisk's simpleNav on both (lgvi.fsw.SimpleNav: a bounded
+    random walk of the MRP attitude error and of the rate error every dynamics step, the flight
+    software reading it at 2 Hz), each member its own noise stream. Per member, from 1000 s on: the
+    mean and 95th percentile of the true pointing error, the mean navigation error. lgvi's 50 against
+    Basilisk's 50 (the fixture), the issue's criterion: for each figure the two means' 95 % intervals
+    (Student t) overlap, and the 95 % Welch interval of the difference of the means holds 0 (measured:
+    Welch p 0.15, 0.18, 0.19). Not asserted, reported (docs/mission.md): the two-sample
+    Kolmogorov-Smirnov test rejects equal distributions of the per-member mean pointing error at 1 %
+    (p 0.006; 0.40 and 0.18 for the other two), and Basilisk's 95th percentiles spread wider (std
+    0.0038 against 0.0026 deg, Levene p 0.006). The comparison can fail: a navigation whose walk is
+    bounded 10 % wider is told apart on the navigation error and on the pointing error."""
+    bench = Path(__file__).resolve().parents[1] / "benchmarks"
+    sys.path.insert(0, str(bench))
+    try:
+        import basilisk_mission as m
+    finally:
+        sys.path.remove(str(bench))
+    with np.load(m.NOISY_FIXTURE) as z:
+        fx = {k: z[k] for k in z.files}
+    np.testing.assert_array_equal(fx["nav"], [m.NAV_ATTITUDE, m.NAV_ATTITUDE_BOUND, m.NAV_RATE, m.NAV_RATE_BOUND,
+                                              m.SETTLE, m.EVERY, m.H, m.DURATION])
+    assert len(fx["pointing_mean"]) == 50 and np.all(fx["samples"] == fx["samples"][0])
+    mine = m.lgvi_noisy(50)
+    # Basilisk's recorder also holds the state at the stop time; lgvi's records end one record before
+    # its last state: 4670 samples against 4671, the same times otherwise
+    assert np.all(mine["samples"] == fx["samples"] - 1)
+    from scipy import stats
+
+    for key in ("pointing_mean", "pointing_p95", "nav_mean"):
+        (lo_a, hi_a), (lo_b, hi_b) = (stats.t.interval(0.95, len(x) - 1, x.mean(), stats.sem(x))
+                                      for x in (mine[key], fx[key]))
+        assert lo_a < hi_b and lo_b < hi_a, (key, (lo_a, hi_a), (lo_b, hi_b))
+        d, half, _, _ = m.compare(mine[key], fx[key])
+        assert abs(d) < half, (key, d, half)
+    wider = m.lgvi_noisy(50, attitude_bound=1.1 * m.NAV_ATTITUDE_BOUND)
+    for key in ("nav_mean", "pointing_mean"):
+        d, half, _, _ = m.compare(wider[key], fx[key])
+        assert d > half, (key, d, half)

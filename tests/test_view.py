@@ -184,6 +184,8 @@ def test_cli_view_and_run_report(traj, tmp_path, capsys, monkeypatch):
 
 
 # ------------------------------------------------------------------ systems that declare their page
+
+
 def _chain():
     return lgvi.simulate_chain([1.0, 0.5, 0.5], [1.0, 1.0, 1.0], [[1, 0, 0], [0, 1, 0], [0, 0, -1]],
                                [[0, 1, 0], [0, 0, 2], [1, 0, 0]], h=1e-3, steps=2000, save_every=10)
@@ -258,3 +260,74 @@ def test_cli_view_of_a_chain_and_what_has_no_page(tmp_path, capsys):
     with pytest.raises(TypeError, match=r"traj must be an lgvi.Trajectory or the result of a system with a page "
                                         r"\(chain, slosh\), got OrbitTrajectory"):
         view.figure(orbit)
+
+@pytest.fixture(scope="module")
+def orbit_run():
+    from view_cases import orbit_run
+
+    return orbit_run()
+
+
+def test_loop_run_shows_the_orbit_the_sun_and_the_named_modes(orbit_run):
+    """A run of the compiled loop that recorded r_N, sun_N, mode and shadow: a second 3D view with
+    the Earth and the orbit's track (one trace per mode, by the names the ModeRules gave), the
+    spacecraft and the sun's direction moved by every frame to the record in force at its time,
+    the sun's direction beside the body too, and a time strip of the named modes and the eclipses."""
+    tr = orbit_run
+    sig, ts = tr.signals, tr.signal_t
+    fig = view.figure(tr, max_frames=40)
+    assert fig.layout.scene2.domain.y[1] < fig.layout.scene.domain.y[0]          # the orbit below the body
+    names = [d.name for d in fig.data]
+    assert {"orbit in coast", "orbit in nadir", "the spacecraft", "the Earth"} <= set(names)
+    # the track of each mode: points of the orbit (Earth radii), the first at the mode's first record
+    r = sig["r_N"] / view.EARTH_RADIUS
+    first_nadir = int(np.argmax(sig["mode"] == 1))
+    track = fig.data[names.index("orbit in nadir")]
+    pts = np.array([[a, b, c] for a, b, c in zip(track.x, track.y, track.z) if a is not None])
+    assert np.allclose(np.linalg.norm(pts, axis=1), 6878137.0 / 6378137.0, atol=1e-4)
+    assert np.allclose(pts[0], r[first_nadir], atol=1e-5)
+    # each frame moves the spacecraft to r_N and both sun arrows along sun_N at its time
+    k = np.unique(np.linspace(0, len(tr.t) - 1, 40).round().astype(int))
+    craft = names.index("the spacecraft")
+    suns = [i for i, n in enumerate(names) if n == "direction of the sun"]
+    assert len(suns) == 2 and suns[0] < craft < suns[1]
+    for j in (0, 17, 39):
+        frame = fig.frames[j]
+        data = dict(zip(frame.traces, frame.data))
+        at = int(np.searchsorted(ts, tr.t[k[j]], side="right") - 1)
+        assert np.allclose([data[craft].x[0], data[craft].y[0], data[craft].z[0]], r[at], atol=1e-5)
+        for i in suns:
+            tip = np.array([data[i].x[-1], data[i].y[-1], data[i].z[-1]])
+            assert np.allclose(tip / np.linalg.norm(tip), sig["sun_N"][at] / np.linalg.norm(sig["sun_N"][at]),
+                               atol=1e-4)
+    # the strip: a band per mode, named, and the eclipses where the shadow hides the sun
+    texts = [a.text for a in fig.layout.annotations]
+    assert "coast" in texts and "nadir" in texts
+    assert any("coast (0)" in t and "nadir (1)" in t and "eclipse" in t for t in texts)
+    band = fig.data[[i for i, d in enumerate(fig.data) if d.name == "nadir" and d.type == "scatter"][0]]
+    assert band.x[0] == pytest.approx(ts[first_nadir]) and band.x[1] == pytest.approx(ts[-1] + ts[1] - ts[0])
+    dark = fig.data[names.index("eclipse")]
+    starts = [x for x, y, y0 in zip(dark.x[:-1:6], dark.y[:-1:6], dark.y[2::6]) if x is not None]
+    shadow = sig["shadow"].ravel() < 0.5
+    assert shadow.any() and not shadow.all()
+    assert starts[0] == pytest.approx(ts[int(np.argmax(shadow))])
+    # the summary names the modes with their times
+    rows = dict(view.summary_rows(tr))
+    assert rows["modes"] == f"coast (0) from 0 s, nadir (1) from {ts[first_nadir]:g} s"
+
+
+def test_loop_run_without_an_orbit_keeps_one_scene():
+    """A loop run that recorded no orbit: the body alone on the left, the modes (unnamed) on the strip."""
+    from lgvi.fsw import FlightSoftware, InertialPointing, ModeRules, MRPControl, RWMotorTorque
+    from lgvi.spacecraft import Spacecraft
+
+    axes = np.eye(3)
+    sat = Spacecraft([0.15, 0.12, 0.05], wheels=lgvi.ReactionWheels(axes, 2e-5, max_torque=2e-3))
+    fsw = FlightSoftware(guidance=InertialPointing(modes=[1]), control=MRPControl(K=0.004, P=0.04, modes=[1]),
+                         actuators=RWMotorTorque(modes=[1]), modes=ModeRules([(0, 1, "time_after", 20.0)]), rate=1.0)
+    tr = lgvi.simulate(sat, np.eye(3), omega0=[0.0, 0.01, 0.0], h=0.5, steps=200, fsw=fsw, save_every=4)
+    fig = view.figure(tr, max_frames=10)
+    assert "scene2" not in fig.layout.to_plotly_json() and "the spacecraft" not in [d.name for d in fig.data]
+    assert fig.layout.scene.domain.y == (0.0, 1.0)
+    key = [a.text for a in fig.layout.annotations if "mode 0 (0)" in a.text]
+    assert len(key) == 1 and "mode 1 (1)" in key[0] and "eclipse" not in key[0]

@@ -246,3 +246,38 @@ def test_chain_and_slosh_pages_draw_and_the_scrubber_moves_the_links(browser, tm
     for i in range(2):
         seg = _drawn(browser, names.index(f"pendulum {i + 1}: {sl.masses[i]:g} kg, {sl.lengths[i]:g} m"))
         assert np.allclose(seg, [sl.pivots[i], sl.pivots[i] + sl.lengths[i] * sl.q[0, i]], atol=1e-4)
+
+
+def test_loop_page_draws_the_orbit_and_moves_the_spacecraft(browser, tmp_path):
+    """A run of the compiled loop (tests/view_cases.py): the orbit's 3D view is drawn below the
+    body's, and a frame shown moves the spacecraft along the track to the position recorded then;
+    the strip names the modes."""
+    from view_cases import orbit_run
+
+    from lgvi import view
+
+    traj = orbit_run()
+    path = view.write_html(traj, tmp_path / "loop.html", max_frames=40)
+    _open(browser, path)
+    browser.execute_script("document.querySelector('#scene2').scrollIntoView();")    # below the first screen
+    _frames(browser)
+    orbit = _canvas(browser, tmp_path / "loop-start.png", "#scene2 canvas")
+    assert not _errors(browser), _errors(browser)
+    assert orbit.std() > 15 and len(np.unique(orbit.reshape(-1, 3), axis=0)) > 50, "the orbit view looks blank"
+    craft_js = ("var el = document.querySelector('.lgvi-plot'); var d = el._fullData.filter(function (t) { "
+                "return t.name === 'the spacecraft'; })[0]; return [Number(d.x[0]), Number(d.y[0]), Number(d.z[0])];")
+    start = np.array(browser.execute_script(craft_js))
+    r = traj.signals["r_N"] / view.EARTH_RADIUS
+    assert np.allclose(start, r[0], atol=1e-4)
+    browser.execute_script("Plotly.animate(document.querySelector('.lgvi-plot'), ['25'], {mode: 'immediate', "
+                           "frame: {duration: 0, redraw: true}, transition: {duration: 0}});")
+    k = np.unique(np.linspace(0, len(traj.t) - 1, 40).round().astype(int))[25]
+    want = r[int(np.searchsorted(traj.signal_t, traj.t[k], side="right") - 1)]
+    _until(lambda: np.allclose(browser.execute_script(craft_js), want, atol=1e-4))
+    _frames(browser)
+    moved = _canvas(browser, tmp_path / "loop-frame25.png", "#scene2 canvas")
+    assert np.abs(moved - orbit).max(axis=2).astype(bool).mean() > 0.001, "the orbit view did not change"
+    strip = browser.execute_script("return Array.from(document.querySelectorAll('.lgvi-plot .annotation-text'))"
+                                   ".map(function (a) { return a.textContent; });")
+    assert "coast" in strip and "nadir" in strip
+    assert not _errors(browser), _errors(browser)

@@ -14,8 +14,13 @@ plotly.js bundled inside the installed ``plotly`` Python package, embedded in th
   relative error of every invariant the run declares (:mod:`lgvi.invariants`; none drawn, and a
   note, for a system without invariants); the wheel speeds and a ``control_error`` field when the
   trajectory has them;
+* for a run of the compiled loop (``lgvi.simulate`` with an ``lgvi.Spacecraft``) that recorded
+  them: the sun's direction (``sun_N``, gold) beside the body; the orbit around the Earth (``r_N``,
+  Earth radii) in a second 3D view, the track coloured by mode, the spacecraft's position and the
+  sun's direction moving with the frames; and the modes (``mode``, by the names the run's
+  ``ModeRules`` gave them) with the eclipses (``shadow``) on a time strip;
 * the run's summary: samples, steps, method, the solver's totals, the largest change of each
-  declared invariant with its kind, ``|R^T R - I|``, the error estimate, the scenario.
+  declared invariant with its kind, ``|R^T R - I|``, the error estimate, the modes, the scenario.
 
 Long runs are decimated for display, with a note on the page saying so: the animation shows at
 most ``max_frames`` evenly spread samples, each curve at most ``max_points`` points (rates: the
@@ -63,6 +68,11 @@ ERROR_FLOOR: float = 1e-17
 _AXIS_COLORS = ("#d62728", "#2ca02c", "#1f77b4")
 _ERROR_COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd")
 _WHEEL_COLORS = ("#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22")
+#: Colours of the modes (index modulo the length): the orbit's track and the time strip.
+MODE_COLORS = ("#d62728", "#e6a700", "#2ca02c", "#1f77b4", "#9467bd", "#8c564b")
+_SUN_COLOR = "#e6a700"
+#: The Earth's equatorial radius (m): the orbit view's unit.
+EARTH_RADIUS = 6378137.0
 _CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64)
 # the 12 triangles of the box (two per face), as indices into _CORNERS
 _TRI = np.array([(0, 1, 3), (0, 3, 2), (4, 5, 7), (4, 7, 6), (0, 1, 5), (0, 5, 4),
@@ -193,6 +203,47 @@ def _optional_series(traj: Any, name: str, m: int) -> np.ndarray | None:
     return a.reshape(m, -1)
 
 
+def _loop_signals(traj: Any) -> dict[str, Any]:
+    """What a run of the compiled loop recorded for the page: ``t`` (E,) the record times and,
+    where recorded, ``r`` (E, 3) the position (m), ``sun`` (E, 3) the sun's unit direction,
+    ``mode`` (E,) and ``shadow`` (E,); empty for other trajectories."""
+    sig = getattr(traj, "signals", None)
+    if not isinstance(sig, Mapping) or not sig:
+        return {}
+    t = np.asarray(getattr(traj, "signal_t", ()), dtype=np.float64)
+    e = len(t)
+    if e == 0:
+        return {}
+    out: dict[str, Any] = {"t": t}
+    for key, name, width in (("r", "r_N", 3), ("sun", "sun_N", 3), ("mode", "mode", 1), ("shadow", "shadow", 1)):
+        if name not in sig:
+            continue
+        a = np.asarray(sig[name], dtype=np.float64).reshape(e, -1)
+        if a.shape[1] != width:
+            continue
+        if key == "r":
+            a = np.where(np.all(np.isfinite(a), axis=1, keepdims=True) & (np.linalg.norm(a, axis=1, keepdims=True) > 0),
+                         a, np.nan)
+            if not np.any(np.isfinite(a[:, 0])):
+                continue
+        if key == "sun":
+            n = np.linalg.norm(a, axis=1, keepdims=True)
+            a = np.where(n > 0, a / np.where(n > 0, n, 1.0), np.nan)      # before the sun model ran: none
+        out[key] = a[:, 0] if width == 1 else a
+    return out
+
+
+def _at(times: np.ndarray, t: float) -> int:
+    """The record in force at ``t``: the last at or before it (the first before any)."""
+    return int(np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 1))
+
+
+def _segments(values: np.ndarray) -> list[tuple[int, int]]:
+    """``(start, stop)`` index ranges of the runs of equal values."""
+    edges = np.concatenate([[0], np.flatnonzero(np.diff(values)) + 1, [len(values)]])
+    return [(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
+
+
 # ------------------------------------------------------------------------------------ decimation
 def _frames(m: int, max_frames: int) -> np.ndarray:
     return np.unique(np.linspace(0, m - 1, min(m, max_frames)).round().astype(np.int64))
@@ -289,17 +340,27 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
     wheel_speed = _optional_series(traj, "wheel_speed", m)
     control = _optional_series(traj, "control_error", m)
     omega = np.asarray(traj.omega, dtype=np.float64)
+    loop = _loop_signals(traj)
     rate_rows = ["rates"] * 3 if not _rates_apart(omega) else ["rate x", "rate y", "rate z"]
     panels = list(dict.fromkeys(rate_rows)) + ["invariants"] + (["wheels"] if wheel_speed is not None else []) \
-        + (["control"] if control is not None else [])
+        + (["control"] if control is not None else []) + (["modes"] if "mode" in loop else [])
     titles = {"rates": "body rates ω (rad/s)", "invariants": "relative error of the invariants",
               "wheels": "wheel speeds relative to the body (rad/s)", "control": "control error",
-              "rate x": "body rate ωx (rad/s)", "rate y": "body rate ωy (rad/s)", "rate z": "body rate ωz (rad/s)"}
+              "rate x": "body rate ωx (rad/s)", "rate y": "body rate ωy (rad/s)", "rate z": "body rate ωz (rad/s)",
+              "modes": "modes" + (" and eclipses" if "shadow" in loop else "")}
     n = len(panels)
-    specs = [[{"type": "scene", "rowspan": n}, {"type": "xy"}]] + [[None, {"type": "xy"}] for _ in range(n - 1)]
+    # the left column: the body, and below it the orbit around the Earth for a loop run that recorded r_N
+    top = (n + 1) // 2 if "r" in loop else n
+    specs = [[{"type": "scene", "rowspan": top}, {"type": "xy"}]] + [[None, {"type": "xy"}] for _ in range(top - 1)]
+    if top < n:
+        specs += [[{"type": "scene", "rowspan": n - top}, {"type": "xy"}]] + [[None, {"type": "xy"}]
+                                                                               for _ in range(n - top - 1)]
+    names_grid = ["", titles[panels[0]]] + [titles[p] for p in panels[1:top]]
+    if top < n:
+        names_grid += ["the orbit around the Earth (inertial, Earth radii)", titles[panels[top]]] \
+            + [titles[p] for p in panels[top + 1:]]
     fig = make_subplots(rows=n, cols=2, specs=specs, column_widths=[0.52, 0.48], horizontal_spacing=0.07,
-                        vertical_spacing=0.09, subplot_titles=["", titles[panels[0]]]
-                        + [titles[p] for p in panels[1:]])
+                        vertical_spacing=0.09, subplot_titles=names_grid)
 
     # ---- the 3D body: traces 0.. are redrawn by every frame
     moments, V, names = _principal(traj.inertia)
@@ -336,6 +397,9 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
             tip = c + r * (np.cos(ang[k]) * u + np.sin(ang[k]) * v)
             pts = np.vstack([ring, c, tip]) @ Rk.T
             out.append(dict(x=pts[:, 0], y=pts[:, 1], z=pts[:, 2]))
+        if "sun" in loop:                  # the sun's direction (inertial), from the body's centre
+            d = 1.2 * np.nan_to_num(loop["sun"][_at(loop["t"], t[k])])
+            out.append(dict(x=[0.0, d[0]], y=[0.0, d[1]], z=[0.0, d[2]]))
         for d in out:
             for key in ("x", "y", "z"):
                 d[key] = np.round(np.asarray(d[key], dtype=np.float64), 5)
@@ -354,6 +418,10 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
     for i in range(len(wheel_geom)):
         fig.add_trace(go.Scatter3d(**first[5 + i], mode="lines", line=dict(color=_WHEEL_COLORS[i % 6], width=5),
                                    name=f"wheel {i + 1}", hoverinfo="skip"), row=1, col=1)
+    if "sun" in loop:
+        fig.add_trace(go.Scatter3d(**first[-1], mode="lines+markers", line=dict(color=_SUN_COLOR, width=6, dash="dash"),
+                                   marker=dict(size=[0, 7], color=_SUN_COLOR, symbol="circle"),
+                                   name="direction of the sun", hoverinfo="skip"), row=1, col=1)
     n_body = len(first)
     # the path of the tip of one body axis over the whole run (static), chosen by the body's symmetry
     fine = np.unique(np.linspace(0, m - 1, min(m, max_points)).round().astype(np.int64))
@@ -362,6 +430,9 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
     fig.add_trace(go.Scatter3d(x=np.round(tip[:, 0], 5), y=np.round(tip[:, 1], 5), z=np.round(tip[:, 2], 5),
                                mode="lines", line=dict(color=_AXIS_COLORS[traced], width=2), opacity=0.45,
                                name=f"path of the {names[traced]} tip", hoverinfo="skip"), row=1, col=1)
+
+    # ---- the orbit around the Earth (a loop run that recorded r_N): track by mode, spacecraft, sun
+    orbit_traces = _orbit(fig, go, traj, loop, top + 1, max_points) if top < n else None
 
     # ---- linked plots (the rates on one axis, or on one each when a shared axis would flatten some)
     for i, lab in enumerate("xyz"):
@@ -385,6 +456,7 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
         fig.add_trace(go.Scatter(x=tt, y=yy, mode="lines", line=dict(color="black", width=1.3), showlegend=False,
                                  name="control error", hovertemplate="%{y:.4g}<extra></extra>"),
                       row=1 + panels.index("control"), col=2)
+    mode_keys = _mode_strip(fig, go, traj, loop, 1 + panels.index("modes")) if "modes" in panels else []
     first_x = fig.get_subplot(1, 2).xaxis.plotly_name.replace("axis", "")
     for r in range(1, n + 1):
         fig.update_xaxes(showticklabels=(r == n), row=r, col=2, **({"matches": first_x} if r > 1 else {}))
@@ -402,15 +474,27 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
     if wheel_speed is not None:
         key(1 + panels.index("wheels"), [(f"wheel {i + 1}", _WHEEL_COLORS[i % 6])
                                          for i in range(wheel_speed.shape[1])])
+    if mode_keys:
+        key(1 + panels.index("modes"), mode_keys)
 
     # the time cursor of every linked plot: a vertical line that each frame moves
     cursors = _cursors(fig, n)
     body_idx = list(range(n_body))
-    fig.frames = [go.Frame(name=str(j), data=[go.Mesh3d(**d) if i == 0 else go.Scatter3d(**d)
-                                              for i, d in enumerate(body_traces(int(k)))],
-                           traces=body_idx, layout=dict(shapes=cursors(float(t[k]))))
-                  for j, k in enumerate(frames)]
+    moving = body_idx + ([] if orbit_traces is None else orbit_traces[0])
+
+    def frame_traces(k: int) -> list[Any]:
+        out = [go.Mesh3d(**d) if i == 0 else go.Scatter3d(**d) for i, d in enumerate(body_traces(k))]
+        return out + ([] if orbit_traces is None else [go.Scatter3d(**d) for d in orbit_traces[1](float(t[k]))])
+
+    fig.frames = [go.Frame(name=str(j), data=frame_traces(int(k)), traces=moving,
+                           layout=dict(shapes=cursors(float(t[k])))) for j, k in enumerate(frames)]
     _controls(fig, t, frames, cursors, n, 1.25)
+    if orbit_traces is not None:
+        reach = orbit_traces[2]
+        fig.update_layout(scene2=dict(xaxis=dict(range=[-reach, reach], title="x (R⊕)"),
+                                      yaxis=dict(range=[-reach, reach], title="y (R⊕)"),
+                                      zaxis=dict(range=[-reach, reach], title="z (R⊕)"), aspectmode="cube",
+                                      camera=dict(eye=dict(x=1.3, y=1.3, z=0.8))))
     return fig
 
 
@@ -555,6 +639,107 @@ def _scene_figure(traj: Any, scene: Any, max_frames: int, max_points: int):
     return fig
 
 
+def _orbit(fig: Any, go: Any, traj: Any, loop: dict[str, Any], row: int, max_points: int):
+    """The orbit's 3D view at ``row`` of the left column: the Earth, the track (coloured by mode),
+    and the traces the frames move (the spacecraft, the sun's direction from the Earth's centre).
+    Returns ``(indices of the moving traces, their data at a time t, the axes' half range)``."""
+    from .fsw import mode_label
+
+    ts, r = loop["t"], loop["r"] / EARTH_RADIUS
+    finite = np.isfinite(r[:, 0])
+    reach = float(max(1.7, 1.15 * np.nanmax(np.linalg.norm(r, axis=1))))
+    u, v = np.meshgrid(np.linspace(0.0, 2.0 * np.pi, 49), np.linspace(0.0, np.pi, 25))
+    ex, ey, ez = np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v)
+    # the day side lit by the sun of the first record (it turns about 1 deg a day): night dark
+    sun0 = next((d for d in loop.get("sun", ()) if np.all(np.isfinite(d))), None)
+    lit = np.ones_like(ex) if sun0 is None else np.clip(ex * sun0[0] + ey * sun0[1] + ez * sun0[2], -0.2, 0.2)
+    fig.add_trace(go.Surface(x=ex, y=ey, z=ez, surfacecolor=lit, cmin=-0.2, cmax=0.2,
+                             colorscale=[[0.0, "#1d3557"], [0.5, "#1d3557"], [1.0, "#9ecae1"]], showscale=False,
+                             opacity=0.9, name="the Earth", hoverinfo="skip", showlegend=False,
+                             lighting=dict(ambient=0.9, diffuse=0.2, specular=0.0)), row=row, col=1)
+    keep = np.unique(np.linspace(0, len(ts) - 1, min(len(ts), max_points)).round().astype(np.int64))
+    mode = loop.get("mode")
+    groups: dict[int, list[int]] = {}
+    for a, b in _segments(mode if mode is not None else np.zeros(len(ts))):
+        idx = [int(i) for i in keep[(keep >= a) & (keep < b)]] + ([b] if b < len(ts) else [])   # joined to the next
+        groups.setdefault(int(mode[a]) if mode is not None else -1, []).extend(idx + [-1])
+    for m, idx in groups.items():
+        pts = [None if i < 0 or not finite[i] else r[i] for i in idx]
+        xyz = [[None if p is None else round(float(p[c]), 5) for p in pts] for c in range(3)]
+        label = "orbit" if m < 0 else f"orbit in {mode_label(traj, m)}"
+        fig.add_trace(go.Scatter3d(x=xyz[0], y=xyz[1], z=xyz[2], mode="lines", name=label, hoverinfo="skip",
+                                   line=dict(color="#444" if m < 0 else MODE_COLORS[m % len(MODE_COLORS)], width=4)),
+                      row=row, col=1)
+
+    def moving(t: float) -> list[dict[str, Any]]:
+        j = _at(ts, t)
+        p = np.round(np.nan_to_num(r[j]), 5)
+        out = [dict(x=[p[0]], y=[p[1]], z=[p[2]])]
+        if "sun" in loop:                  # from the Earth's surface out, towards the sun
+            d = np.nan_to_num(loop["sun"][j])
+            a, b = np.round(1.0 * d, 5), np.round(0.95 * reach * d, 5)
+            out.append(dict(x=[a[0], b[0]], y=[a[1], b[1]], z=[a[2], b[2]]))
+        return out
+
+    now = moving(float(ts[0]))
+    first = len(fig.data)
+    fig.add_trace(go.Scatter3d(**now[0], mode="markers", marker=dict(size=6, color="black", symbol="diamond"),
+                               name="the spacecraft", hoverinfo="skip"), row=row, col=1)
+    if "sun" in loop:
+        fig.add_trace(go.Scatter3d(**now[1], mode="lines+markers+text", text=["", "sun"], textposition="top center",
+                                   textfont=dict(color="#8a6500", size=12), line=dict(color=_SUN_COLOR, width=7),
+                                   marker=dict(size=[0, 8], color=_SUN_COLOR), name="direction of the sun",
+                                   showlegend=False, hoverinfo="skip"), row=row, col=1)
+    return list(range(first, len(fig.data))), moving, reach
+
+
+def _mode_strip(fig: Any, go: Any, traj: Any, loop: dict[str, Any], row: int) -> list[tuple[str, str]]:
+    """The modes (upper band, named) and the eclipses (lower band, where ``shadow`` < 1/2) against
+    time at ``row`` of the right column; returns the panel's key (name, colour)."""
+    from .fsw import mode_label
+
+    ts, mode = loop["t"], loop["mode"]
+    end = float(ts[-1]) if len(ts) < 2 else float(ts[-1] + (ts[-1] - ts[-2]))
+    shadow = loop.get("shadow")
+    low = 0.55 if shadow is not None else 0.0
+    seen: dict[int, list[tuple[float, float]]] = {}
+    for a, b in _segments(mode):
+        seen.setdefault(int(mode[a]), []).append((float(ts[a]), float(ts[b]) if b < len(ts) else end))
+    span = max(end - float(ts[0]), 1e-300)
+    sp = fig.get_subplot(row, 2)
+    xr, yr = sp.xaxis.plotly_name.replace("axis", ""), sp.yaxis.plotly_name.replace("axis", "")
+    keys = []
+    for m, spans in seen.items():
+        label, colour = mode_label(traj, m), MODE_COLORS[m % len(MODE_COLORS)]
+        x, y = [], []
+        for a, b in spans:
+            x += [a, b, b, a, a, None]
+            y += [low, low, 1.0, 1.0, low, None]
+            if (b - a) / span > 0.08:
+                fig.add_annotation(text=_html.escape(label), x=0.5 * (a + b), y=0.5 * (low + 1.0), xref=xr, yref=yr,
+                                   showarrow=False, font=dict(size=11, color="#222"))
+        fig.add_trace(go.Scatter(x=x, y=y, mode="lines", fill="toself", fillcolor=colour, opacity=0.55,
+                                 line=dict(color=colour, width=0.5), name=label, showlegend=False,
+                                 hovertemplate=f"{_html.escape(label)} (mode {m})<extra></extra>"), row=row, col=2)
+        keys.append((f"{label} ({m})", colour))
+    if shadow is not None:
+        x, y = [], []
+        for a, b in _segments((shadow < 0.5).astype(np.int8)):
+            if shadow[a] < 0.5:
+                ta, tb = float(ts[a]), float(ts[b]) if b < len(ts) else end
+                x += [ta, tb, tb, ta, ta, None]
+                y += [0.0, 0.0, 0.45, 0.45, 0.0, None]
+        if x:
+            fig.add_trace(go.Scatter(x=x, y=y, mode="lines", fill="toself", fillcolor="#555", opacity=0.6,
+                                     line=dict(color="#555", width=0.5), name="eclipse", showlegend=False,
+                                     hovertemplate="eclipse<extra></extra>"), row=row, col=2)
+        keys.append(("eclipse", "#555"))
+    fig.update_yaxes(range=[0.0, 1.0], tickvals=[0.225, 0.775] if shadow is not None else [0.5],
+                     ticktext=["eclipse", "mode"] if shadow is not None else ["mode"], showgrid=False, zeroline=False,
+                     fixedrange=True, row=row, col=2)
+    return keys
+
+
 # ------------------------------------------------------------------------------------ summary
 def _fmt(x: Any) -> str:
     if x is None:
@@ -591,6 +776,12 @@ def summary_rows(traj: Any, extra: Mapping[str, Any] | None = None) -> list[tupl
     if decl.not_invariants():
         rows.append(("not invariants here", ", ".join(QUANTITIES[k].name for k in decl.not_invariants())))
     rows.append(("|RᵀR − I|", f"largest {float(np.max(traj.orthogonality_error)):.3e}"))
+    loop = _loop_signals(traj)
+    if "mode" in loop:
+        from .fsw import mode_label
+
+        rows.append(("modes", ", ".join(f"{mode_label(traj, loop['mode'][a])} ({int(loop['mode'][a])}) from "
+                                        f"{loop['t'][a]:g} s" for a, _ in _segments(loop["mode"]))))
     est = traj.error_estimate if "error_estimate" in meta else None
     if est is not None:
         rows.append(("accuracy", est.describe()))

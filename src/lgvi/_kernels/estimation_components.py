@@ -26,6 +26,7 @@ import math
 from .._jit import jit
 from .attitude_kernels import (exp_coefficients, mat_t_vec, quat_from_matrix, quat_from_rotvec, quat_mul,
                                quat_normalised, quat_rotvec, quat_to_matrix)
+from .navigation_components import SIMPLE_NAV, simple_nav_step
 
 MEKF = 401
 _P = 7          # offset of P in the state
@@ -298,4 +299,6 @@ def estimator_dispatch(code, t, bus, p, s, w):
     without Numba's runtime, as :func:`.sensor_components.sensor_dispatch`)."""
     if code == MEKF:
         return mekf_step(t, bus, p, s, w)
+    if code == SIMPLE_NAV:
+        return simple_nav_step(t, bus, p, s, w)
     return 3

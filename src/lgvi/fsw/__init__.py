@@ -5,7 +5,7 @@ loop (:mod:`lgvi.components`), and :class:`FlightSoftware`, the description that
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
 
@@ -17,7 +17,7 @@ if TYPE_CHECKING:  # annotations only: imported where used at run time
 
 __all__ = ["FlightSoftware", "InertialPointing", "HillPointing", "NadirPointing", "VelocityPointing", "SunPointing",
            "TargetPointing", "MRPControl", "BDotControl", "MomentumDumpingControl", "RWMotorTorque", "ModeRules",
-           "UserComponent", "MODE_CONDITIONS"]
+           "UserComponent", "MODE_CONDITIONS", "mode_label"]
 
 
 def _unit(v: Any, name: str) -> np.ndarray:
@@ -161,13 +161,18 @@ class ModeRules(Component):
     (``shadow >= x``; both need a model writing ``shadow``). Components with ``modes=`` run only in
     those modes; what a component wrote is cleared when it leaves its modes.
 
+    ``names`` (optional) names the modes, ``names[i]`` mode ``i`` (one for every mode the rules and
+    ``initial`` use): the run keeps them in ``meta["mode_names"]``, and the summary, the figures and
+    the page of ``lgvi view`` show them (:func:`mode_label`).
+
     Example: detumble (0) with B-dot, then nadir (1) once slow:
-    ``ModeRules([(0, 1, "rate_below", 0.01)], initial=0)``.
+    ``ModeRules([(0, 1, "rate_below", 0.01)], initial=0, names=["detumble", "nadir"])``.
     """
 
     kind = "mode_rules"
 
-    def __init__(self, rules: Sequence[Any], *, initial: int = 0, rate: Any = None) -> None:
+    def __init__(self, rules: Sequence[Any], *, initial: int = 0, names: Sequence[str] | None = None,
+                 rate: Any = None) -> None:
         super().__init__(rate=rate)
         out = []
         for i, rule in enumerate(rules):
@@ -188,9 +193,48 @@ class ModeRules(Component):
             raise ValueError(f"initial must be a mode index in 0..62, got {initial!r}")
         self.rules = out
         self.initial: int = int(initial)
+        self.names: tuple[str, ...] | None = None if names is None else _mode_names(names, out, self.initial)
 
     def params(self) -> np.ndarray:
         return np.concatenate([[float(len(self.rules))], np.ravel(self.rules)])
+
+    def __repr__(self) -> str:
+        if self.names is None:                   # as before names existed (a stream's metadata compares it)
+            return super().__repr__()
+        return f"ModeRules(names={list(self.names)!r}, rate={self.rate!r})"
+
+
+def _mode_names(names: Any, rules: list[tuple[float, float, float, float]], initial: int) -> tuple[str, ...]:
+    """``names`` checked: distinct non-empty strings, one for every mode ``rules`` and ``initial`` use."""
+    if isinstance(names, str) or not isinstance(names, Sequence):
+        raise TypeError(f"names must be a sequence of strings (names[i] names mode i), got {names!r}")
+    out = []
+    for i, n in enumerate(names):
+        if not isinstance(n, str) or not n.strip():
+            raise ValueError(f"names[{i}] must be a non-empty string, got {n!r}")
+        out.append(n.strip())
+    if len(set(out)) != len(out):
+        raise ValueError(f"names must be distinct, got {out!r}")
+    used = max([initial] + [int(r[1]) for r in rules] + [int(r[0]) for r in rules])
+    if len(out) <= used:
+        raise ValueError(f"names must name every mode the rules and initial use (0..{used}): got {len(out)} "
+                         f"name(s), {out!r}")
+    return tuple(out)
+
+
+def mode_label(meta: Any, mode: Any) -> str:
+    """The name of ``mode`` in a run whose :class:`ModeRules` named its modes (``meta["mode_names"]``,
+    the run's metadata or the run itself), else ``"mode <index>"``.
+
+    >>> mode_label({"mode_names": ["detumble", "nadir"]}, 1), mode_label({}, 2)
+    ('nadir', 'mode 2')
+    """
+    meta = getattr(meta, "meta", meta) or {}
+    names = meta.get("mode_names") if isinstance(meta, Mapping) else None
+    m = int(mode)
+    if isinstance(names, (list, tuple)) and 0 <= m < len(names) and isinstance(names[m], str):
+        return names[m]
+    return f"mode {m}"
 
     def state0(self) -> np.ndarray:
         return np.zeros(1)
@@ -492,3 +536,7 @@ _register()
 from .estimation import MEKF, davenport, triad  # noqa: E402  (issue 27's estimator and static solvers)
 
 __all__ += ["MEKF", "davenport", "triad"]
+
+from .navigation import SimpleNav  # noqa: E402  (Basilisk's simpleNav: the truth with a bounded walk)
+
+__all__ += ["SimpleNav"]

@@ -205,7 +205,7 @@ def _sensor_ref(c: Any, sensors: Any, cls_name: str) -> Any:
 def _modes(c: Any, tbl: Any) -> Any:
     from ..fsw import ModeRules
 
-    tbl = c.table(tbl, "fsw.modes", ("rules", "initial", "rate"))
+    tbl = c.table(tbl, "fsw.modes", ("rules", "initial", "names", "rate"))
     if "rules" not in tbl:
         raise c.expected("fsw.modes.rules", 'an array of [from, to, condition, threshold] ("any" as from: any mode)')
     rules = tbl["rules"]
@@ -217,11 +217,17 @@ def _modes(c: Any, tbl: Any) -> Any:
             raise c.expected(f"fsw.modes.rules[{i}]", "[from, to, condition, threshold]", r)
         out.append((None if r[0] == "any" else r[0], *r[1:]))
     kw = {k: tbl[k] for k in ("initial", "rate") if k in tbl}
+    if "names" in tbl:
+        if not isinstance(tbl["names"], list):
+            raise c.expected("fsw.modes.names", 'an array of strings (names[i] names mode i), e.g. ["detumble", "nadir"]',
+                             tbl["names"])
+        kw["names"] = [c.string(n, f"fsw.modes.names[{i}]") for i, n in enumerate(tbl["names"])]
     try:
         return ModeRules(out, **kw)
     except (ValueError, TypeError) as exc:
         msg = str(exc)
-        where = "fsw.modes." + msg.split(" ", 2)[0] if msg.startswith(("rules[", "initial", "rate")) else "fsw.modes"
+        where = "fsw.modes." + msg.split(" ", 2)[0] if msg.startswith(("rules[", "initial", "names", "rate")) \
+            else "fsw.modes"
         raise c.error(where.split(" ")[0] if msg.startswith("rules[") else where, msg) from None
 
 
@@ -483,7 +489,8 @@ def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DE
         ``wheel_momentum_peak_Nms``: the largest ``|Js_i (a_i . omega + Omega_i)|`` of any wheel
         over the saved states, ``wheel_momentum_total_peak_Nms``: the largest norm of their sum
         ``sum_i a_i h_i`` (body frame), ``wheel_momentum_final_Nms`` that norm at the end;
-        ``modes``: the modes visited, in order, with the time each was entered;
+        ``modes``: the modes visited, in order, with the time each was entered and its name
+        (``name``: the ``ModeRules``' names, else ``"mode <index>"``);
         ``detumble_time_s``: the time the mode manager first left its initial mode (the detumble
         of a mission that starts in it; ``None`` without modes or if it never left);
         ``control_error_deg``: the true pointing error, the angle of ``R_ref^T R`` (the truth
@@ -550,7 +557,9 @@ def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DE
     if "mode" in sig and len(ts):
         m = np.asarray(sig["mode"]).reshape(len(ts), -1)[:, 0]
         start = np.concatenate([[0], np.flatnonzero(np.diff(m)) + 1])
-        out["modes"] = [{"mode": int(m[i]), "from_s": float(ts[i])} for i in start]
+        from ..fsw import mode_label
+
+        out["modes"] = [{"mode": int(m[i]), "name": mode_label(traj, m[i]), "from_s": float(ts[i])} for i in start]
         if len(start) > 1:
             out["detumble_time_s"] = float(ts[start[1]])
     window = slice(None) if out["settle_time_s"] is None else slice(int(np.searchsorted(ts, out["settle_time_s"])),
@@ -632,6 +641,12 @@ def knowledge_summary(sig: dict[str, np.ndarray]) -> dict[str, Any]:
     return out
 
 
+def _mode_text(m: dict[str, Any]) -> str:
+    """A mode of the summary: its name and index (``sun-safe (1)``), or ``mode 1`` when unnamed."""
+    name = m.get("name")
+    return f"{name} ({m['mode']})" if name and name != f"mode {m['mode']}" else f"mode {m['mode']}"
+
+
 def summary_lines(s: dict[str, Any]) -> list[str]:
     """The lines of ``summary.txt`` for :func:`loop_summary`'s ``s``."""
     lines = []
@@ -667,9 +682,9 @@ def summary_lines(s: dict[str, Any]) -> list[str]:
                          f"({k['inside_3sigma']['steady']:.1%} in the second half); final 3 sigma "
                          + ", ".join(f"{v:.3g}" for v in k["sigma3_final_arcsec"]) + " arcsec")
     if s.get("modes"):
-        lines.append("modes:         " + ", ".join(f"{m['mode']} from {m['from_s']:g} s" for m in s["modes"]))
+        lines.append("modes:         " + ", ".join(f"{_mode_text(m)} from {m['from_s']:g} s" for m in s["modes"]))
     if s.get("detumble_time_s") is not None:
-        lines.append(f"detumble:      left mode {s['modes'][0]['mode']} at t = {s['detumble_time_s']:g} s")
+        lines.append(f"detumble:      left {_mode_text(s['modes'][0])} at t = {s['detumble_time_s']:g} s")
     for key, what in (("control_error_deg", "control error (truth vs reference)"),
                       ("knowledge_error_deg", "knowledge error (estimate vs truth)")):
         if s.get(key) is not None:

@@ -91,7 +91,9 @@ def dipoles(traj: Any, axes: Sequence[Any] | None = None, *, max_points: int | N
 
 
 def modes(traj: Any, ax: Any = None) -> Any:
-    """The active mode (``mode``) against time, a step plot."""
+    """The active mode (``mode``) against time, a step plot; the modes by the names the run's
+    :class:`lgvi.fsw.ModeRules` gave them (``meta["mode_names"]``), else by index."""
+    from ..fsw import mode_label
     from . import _UNITS, _axes
 
     sig, t = _signals(traj, "modes", ("mode",))
@@ -100,7 +102,8 @@ def modes(traj: Any, ax: Any = None) -> Any:
     ax.step(t, m, where="post", lw=1.5, color="tab:purple")
     vals = np.unique(m)
     ax.set_yticks(vals)
-    ax.set_yticklabels([str(int(v)) for v in vals])
+    named = "mode_names" in (getattr(traj, "meta", None) or {})
+    ax.set_yticklabels([f"{mode_label(traj, v)} ({int(v)})" if named else str(int(v)) for v in vals])
     ax.set_ylim(vals.min() - 0.5, vals.max() + 0.5)
     ax.set_ylabel("mode")
     ax.set_xlabel(_UNITS["t"])
@@ -156,7 +159,9 @@ def disturbances(traj: Any, ax: Any = None, *, mu: float = 3.986004418e14, max_p
 def mission(traj: Any, axes: Sequence[Any] | None = None, *, max_points: int | None = None) -> Any:
     """A mission at a glance: the body rate ``|omega|`` (deg/s, log), the true pointing error (the
     angle of ``R_ref^T R``) and the knowledge error ``|est_error|`` (deg, log), and, for a run with
-    wheels, their total momentum in the body frame (N m s); the modes shaded."""
+    wheels, their total momentum in the body frame (N m s); the modes shaded and named (the names
+    the run's :class:`lgvi.fsw.ModeRules` gave them, else ``mode <index>``)."""
+    from ..fsw import mode_label
     from . import MAX_POINTS, _UNITS, _axes_list, _thin_minmax
 
     sig, t = _signals(traj, "mission", ("mode",))
@@ -193,7 +198,7 @@ def mission(traj: Any, axes: Sequence[Any] | None = None, *, max_points: int | N
         mode = int(m[a])
         for ax in axs:
             ax.axvspan(t[a], t[b], color=MODE_COLOURS[mode % len(MODE_COLOURS)], zorder=0, lw=0,
-                       label=f"mode {mode}" if ax is axs[0] and mode not in seen else None)
+                       label=mode_label(traj, mode) if ax is axs[0] and mode not in seen else None)
         seen.add(mode)
     axs[0].legend(loc="upper right", fontsize="small", ncols=len(seen), framealpha=0.85)
     for ax in axs:

@@ -243,6 +243,8 @@ class LoopRun(GyrostatRun):
         self.meta["system"] = "spacecraft"
         self.meta["spacecraft"] = repr(spacecraft)
         self.meta["fsw"] = repr(fsw)
+        if fsw.modes and getattr(fsw.modes[0], "names", None):
+            self.meta["mode_names"] = list(fsw.modes[0].names)       # figures, summary and page name the modes
         self.meta["signals"] = [list(x) for x in self.record_layout]
         self.meta["signal_periods"] = _signal_periods(self, comps)      # traj.records: each at its writer's rate
         self.meta["components"] = [f"{kind.name} every {spc * abs(self.h):g} s" for (c, kind, _), spc in
