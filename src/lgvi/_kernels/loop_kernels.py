@@ -126,9 +126,17 @@ def lookahead_count(io):
     return io[i] if io.shape[0] > i else 0
 
 
-@jit(inline="always")
+@jit(_nrt=False)
 def dispatch(user, code, t, bus, p, s, w):
-    """One component: a user's (code 0) or a built-in kind by its family (``code // 100``)."""
+    """One component: a user's (code 0) or a built-in kind by its family (``code // 100``).
+
+    A function of its own (compiled once, cached), not inlined: :func:`run_one` is inlined at three
+    places of the loop (the components due, those of a new mode, the step's end), and each inlined
+    copy of this function held the families inlined into it (the environment's and the
+    disturbances' kinds, ``inline="always"`` in their files). Compiled without Numba's reference
+    counting, as the loop is, so the call passes its four arrays as they are (no reference counts:
+    the 70 ns a call that ``environment_dispatch``'s inlining avoided). ``docs/performance.md``
+    (the test suite's time) has the cold compilation and the step measured both ways."""
     if code == 0:
         return user(t, bus, p, s, w)
     fam = code // 100
@@ -176,16 +184,10 @@ def clear_writes(bus, W, WS, a, b):
             bus[o + i] = 0.0
 
 
-@jit(_nrt=False)
+@jit(inline="always")
 def run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
     """Component ``c`` at ``t``; its status (1 when it wrote a value that is not finite), and
-    ``fail`` set when it is not 0.
-
-    A function of its own (compiled once, cached), not inlined: the loop calls it at three places
-    (the components due, those of a new mode, the step's end), and each inlined copy would hold the
-    whole :func:`dispatch` with the families inlined into it (the environment's and the
-    disturbances' kinds), which made the loop's cold compilation about three times as long. Compiled
-    without Numba's reference counting, as the loop is: the call passes its arrays as they are."""
+    ``fail`` set when it is not 0."""
     st = dispatch(user, codes[c], t, bus, P[po[c]:po[c + 1]], S[so[c]:so[c + 1]], W[wo[c]:wo[c + 1]])
     if st == OK and not writes_finite(bus, W, WS, wo[c] + nr[c], wo[c + 1]):
         st = 1
