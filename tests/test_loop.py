@@ -211,15 +211,10 @@ def test_a_users_compiled_component_runs_in_the_loop_and_a_nan_stops_it():
 
 @numba.njit
 def _user_raises(t, bus, p, s, w):
-    """Writes the reference p[0:9] with zero rates; from t >= p[9], raises (a user's bug)."""
+    """:func:`_user_guidance` until t >= p[9], where it raises (a user's bug) instead."""
     if t >= p[9]:
         raise ZeroDivisionError("a user's bug")
-    for i in range(9):
-        bus[w[0] + i] = p[i]
-    for i in range(3):
-        bus[w[1] + i] = 0.0
-        bus[w[2] + i] = 0.0
-    return 0
+    return _user_guidance(t, bus, p, s, w)
 
 
 @numba.njit
@@ -240,17 +235,19 @@ def test_one_compiled_loop_serves_every_user_component_and_a_raise_stops_the_run
     writes = ("R_ref", "omega_ref_N", "domega_ref_N")
     ref = lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(guidance=InertialPointing(R_TARGET), **control), **kw)
     compiled = set(run_loop.signatures)
-    ok = UserComponent(_user_raises, family="guidance", writes=writes, params=np.append(R_TARGET.ravel(), 1e9))
+    ok = UserComponent(_user_raises, family="guidance", writes=writes, params=np.append(R_TARGET.ravel(), 1e9),
+                       state=[0.0])
     tr = lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(guidance=ok, **control), **kw)
     assert np.array_equal(tr.R, ref.R)
     bad = UserComponent(_user_raises, family="guidance", writes=writes, params=np.append(R_TARGET.ravel(), 2.0),
-                        name="raising_guidance")
+                        state=[0.0], name="raising_guidance")
     with pytest.raises(lgvi.ComponentError, match=r"raising_guidance .* step 20 \(t = 2 s\).*raised an exception") as err:
         lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(guidance=bad, **control), **kw)
     assert err.value.status == 4 and err.value.step == 20
     assert np.array_equal(err.value.trajectory.R, ref.R[:len(err.value.trajectory.t)])
-    nan = UserComponent(_user_guidance, family="guidance", writes=writes, params=np.append(R_TARGET.ravel(), 1e9))
-    lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(guidance=nan, **control), **kw)
+    other = UserComponent(_user_guidance, family="guidance", writes=writes, params=np.append(R_TARGET.ravel(), 1e9),
+                        state=[0.0])
+    lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(guidance=other, **control), **kw)
     assert set(run_loop.signatures) == compiled          # the same compiled loop for all three
     wrong = UserComponent(_user_wrong_arguments, family="guidance", writes=writes, name="wrong_guidance")
     with pytest.raises(TypeError, match=r"wrong_guidance: its step function must compile as step\(t"):
