@@ -29,12 +29,41 @@ from lgvi.torques import GravityGradient, LinearDamping, UniformGravity
 top = lgvi.RigidBody([0.13, 0.28, 0.17])
 gravity = UniformGravity(1.0, [0.0, 0.0, -0.3])
 """
+#: the loop's cases (tests/test_loop.py's cubesat with four wheels, inertial pointing at 1 s)
+LOOP = """
+import numba
+from lgvi.fsw import FlightSoftware, InertialPointing, MRPControl, RWMotorTorque, UserComponent
+from lgvi.spacecraft import Spacecraft
+s3 = 1.0 / np.sqrt(3.0)
+wheels = lgvi.ReactionWheels([[s3, s3, s3], [-s3, s3, s3], [s3, -s3, s3], [-s3, -s3, s3]], 1e-4,
+                             speed0=[10.0, -20.0, 5.0, 0.0], max_torque=0.004)
+sc = Spacecraft([0.18, 0.14, 0.06], wheels=wheels)
+target = lgvi.so3.exp(np.array([0.3, -0.2, 0.5]))
+control = dict(control=MRPControl(K=0.004, P=0.04), actuators=RWMotorTorque(), rate=1.0)
+
+
+@numba.njit
+def guidance(t, bus, p, s, w):
+    for i in range(9):
+        bus[w[0] + i] = p[i]
+    for i in range(3):
+        bus[w[1] + i] = 0.0
+        bus[w[2] + i] = 0.0
+    return 0
+
+
+mine = UserComponent(guidance, family="guidance", writes=("R_ref", "omega_ref_N", "domega_ref_N"),
+                     params=target.ravel())
+kw = dict(omega0=[0.01, -0.02, 0.015], h=0.1, steps=100, save_every=10)
+"""
 CASES = {
     "simulate-free": "lgvi.simulate(top, np.eye(3), omega0=[4.14, 4.14, 4.14], h=0.01, steps=100)",
     "simulate-sum": ("lgvi.simulate(top, np.eye(3), omega0=[4.14, 4.14, 4.14], h=0.01, steps=100, "
                      "torque=gravity + LinearDamping(0.01), forcing='symmetric')"),
     "ensemble-model": ("lgvi.simulate_ensemble(top, np.stack([np.eye(3)] * 4), omega0=np.ones((4, 3)), h=0.01, "
                        "steps=100, torque=gravity)"),
+    "loop-builtin": "lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(guidance=InertialPointing(target), **control), **kw)",
+    "loop-user": "lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(guidance=mine, **control), **kw)",
 }
 PASSES = ("inline_inlinables", "nopython_type_inference", "native_lowering", "native_parfor_lowering")
 
@@ -56,7 +85,7 @@ def main(argv: list[str] | None = None) -> int:
 
     event.register("numba:compile", Listener())
     namespace: dict = {}
-    exec(SETUP, namespace)
+    exec(SETUP + (LOOP if args.case.startswith("loop") else ""), namespace)
     c0, w0 = time.process_time(), time.perf_counter()
     exec(CASES[args.case], namespace)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0

@@ -5,6 +5,7 @@ Usage::
     python benchmarks/loop_hill_pointing.py --write-fixture --bsk-python /path/to/bsk-venv/bin/python
     python benchmarks/loop_hill_pointing.py --bsk-python /path/to/bsk-venv/bin/python   # agreement and CPU time
     python benchmarks/loop_hill_pointing.py --quick         # against the fixture only (no Basilisk)
+    python benchmarks/loop_hill_pointing.py --user --repeat 7   # a user's component against the built-in
 
 The scenario: inertia diag(0.18, 0.14, 0.06) kg m^2 (Basilisk's hub inertia, lgvi's locked inertia:
 see ``basilisk_rw_scenario.py``), four balanced wheels in a pyramid (axes ``(+-1, +-1, 1)/sqrt(3)``,
@@ -216,10 +217,13 @@ def cpu_of(fn, repeat: int) -> float:
     return float(np.median(times))
 
 
-def first_call_fresh_process() -> float:
-    """CPU seconds of the scenario's first call in a new process (the cache warm), the imports apart."""
-    code = ("import time, sys; sys.path.insert(0, %r); import lgvi, loop_hill_pointing as m; c = time.process_time(); "
-            "m.lgvi_run(steps=100); print(time.process_time() - c)" % str(HERE))
+def first_call_fresh_process(guidance: str = "") -> float:
+    """CPU seconds of the scenario's first call in a new process (the cache warm), the imports apart;
+    ``guidance="user"``: with the user's Hill guidance (its function compiled in that process)."""
+    make = "m.user_hill()" if guidance == "user" else "None"
+    code = ("import time, sys; sys.path.insert(0, %r); import lgvi, loop_hill_pointing as m; g = %s; "
+            "c = time.process_time(); m.lgvi_run(guidance=g, steps=100); print(time.process_time() - c)"
+            % (str(HERE), make))
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True)
     return float(out.stdout.strip().splitlines()[-1])
 
@@ -231,7 +235,12 @@ def main() -> None:
     ap.add_argument("--basilisk-only", default=None, help=argparse.SUPPRESS)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="against the fixture only, no Basilisk run")
+    ap.add_argument("--user", action="store_true",
+                    help="only the user's compiled guidance against the built-in one (no Basilisk run)")
     args = ap.parse_args()
+    if args.user:
+        user_against_built_in(args.repeat)
+        return
     if args.basilisk_only:
         runs = [run_basilisk() for _ in range(args.repeat)]
         d = dict(runs[0], cpu=float(np.median([r["cpu"] for r in runs])))
@@ -277,16 +286,28 @@ def main() -> None:
           f"loop / gyrostat {np.median(lp) / np.median(gy):.2f} |")
     first = [first_call_fresh_process() for _ in range(repeat)]
     print(f"\nfirst call in a fresh process, warm cache (100 steps, imports apart): median {np.median(first):.3f} s CPU")
+    user_against_built_in(repeat)
+
+
+def user_against_built_in(repeat: int) -> None:
+    """The user's njit Hill guidance against the built-in ``HillPointing``, each at every step of
+    the orbit (alternated rounds, medians), and the first call of a run with the user's component
+    in a fresh process (the cache warm: what the user's function costs to compile)."""
     user = user_hill()
     from lgvi.fsw import HillPointing
 
-    lgvi_run(guidance=user, steps=100)                   # compiles the loop for it (in memory)
+    lgvi_run(guidance=user, steps=100)                   # compiles the user's function (in memory)
+    lgvi_run(guidance=HillPointing(rate=DT), steps=100)
     bi, us = [], []
     for _ in range(repeat):
         bi.append(cpu_of(lambda: lgvi_run(guidance=HillPointing(rate=DT), fsw_rate=FSW_DT), 1))
         us.append(cpu_of(lambda: lgvi_run(guidance=user_hill_every_step(user), fsw_rate=FSW_DT), 1))
-    print(f"guidance at every step: built-in HillPointing {np.median(bi):.4f} s, the user's njit Hill guidance "
-          f"{np.median(us):.4f} s: ratio {np.median(us) / np.median(bi):.2f}")
+    print(f"guidance at every step ({STEPS} steps, CPU s, median of {repeat} alternated rounds): built-in "
+          f"HillPointing {np.median(bi):.4f} s, the user's njit Hill guidance {np.median(us):.4f} s: ratio "
+          f"{np.median(us) / np.median(bi):.2f}")
+    first = [first_call_fresh_process("user") for _ in range(repeat)]
+    print(f"first call with the user's component in a fresh process, warm cache (100 steps, imports apart): "
+          f"median {np.median(first):.3f} s CPU")
 
 
 def inertial_pair():

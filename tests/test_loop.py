@@ -209,6 +209,51 @@ def test_a_users_compiled_component_runs_in_the_loop_and_a_nan_stops_it():
     assert np.array_equal(part.R, ref.R[:len(part.t)])
 
 
+@numba.njit
+def _user_raises(t, bus, p, s, w):
+    """:func:`_user_guidance` until t >= p[9], where it raises (a user's bug) instead."""
+    if t >= p[9]:
+        raise ZeroDivisionError("a user's bug")
+    return _user_guidance(t, bus, p, s, w)
+
+
+@numba.njit
+def _user_wrong_arguments(t, bus, p):
+    return 0
+
+
+def test_one_compiled_loop_serves_every_user_component_and_a_raise_stops_the_run():
+    """A user's component is a value of one function type to the loop: runs with none, with one
+    function and with another add no specialisation of the loop (the one cached on disk), and
+    an exception raised by the user's function stops the run with the part computed (a ``cfunc``
+    cannot raise into the loop: the guard turns it into status 4)."""
+    from lgvi._kernels.loop_kernels import run_loop
+
+    kw = dict(omega0=[0.01, -0.02, 0.015], h=0.1, steps=50, save_every=10)
+    sc = Spacecraft(CUBESAT, wheels=_wheels())
+    control = dict(control=MRPControl(K=0.004, P=0.04), actuators=RWMotorTorque(), rate=1.0)
+    writes = ("R_ref", "omega_ref_N", "domega_ref_N")
+    ref = lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(guidance=InertialPointing(R_TARGET), **control), **kw)
+    compiled = set(run_loop.signatures)
+    ok = UserComponent(_user_raises, family="guidance", writes=writes, params=np.append(R_TARGET.ravel(), 1e9),
+                       state=[0.0])
+    tr = lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(guidance=ok, **control), **kw)
+    assert np.array_equal(tr.R, ref.R)
+    bad = UserComponent(_user_raises, family="guidance", writes=writes, params=np.append(R_TARGET.ravel(), 2.0),
+                        state=[0.0], name="raising_guidance")
+    with pytest.raises(lgvi.ComponentError, match=r"raising_guidance .* step 20 \(t = 2 s\).*raised an exception") as err:
+        lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(guidance=bad, **control), **kw)
+    assert err.value.status == 4 and err.value.step == 20
+    assert np.array_equal(err.value.trajectory.R, ref.R[:len(err.value.trajectory.t)])
+    other = UserComponent(_user_guidance, family="guidance", writes=writes, params=np.append(R_TARGET.ravel(), 1e9),
+                        state=[0.0])
+    lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(guidance=other, **control), **kw)
+    assert set(run_loop.signatures) == compiled          # the same compiled loop for all three
+    wrong = UserComponent(_user_wrong_arguments, family="guidance", writes=writes, name="wrong_guidance")
+    with pytest.raises(TypeError, match=r"wrong_guidance: its step function must compile as step\(t"):
+        lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(guidance=wrong, **control), **kw)
+
+
 def test_modes_switch_on_the_rate_and_clear_what_the_old_mode_held():
     orbit = CircularOrbit(6878137.0, np.radians(97.4))
     rods = lgvi.Magnetorquers(np.eye(3), 1.0)

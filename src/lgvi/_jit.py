@@ -158,7 +158,7 @@ def _install_compile_notice() -> None:
             if depth == 0:
                 func = getattr((ev.data or {}).get("dispatcher"), "py_func", None)
                 local.compiling = (Compiling(func.__name__)
-                                   if getattr(func, "__module__", "").startswith("lgvi.") else None)
+                                   if (getattr(func, "__module__", None) or "").startswith("lgvi.") else None)
 
         def on_end(self, ev: Any) -> None:
             local.depth = max(getattr(local, "depth", 1) - 1, 0)

@@ -38,7 +38,8 @@ FAMILIES: tuple[str, ...] = ("environment", "disturbance", "sensor", "estimator"
 #: Status a component returns; the loop stops at the first nonzero status, keeps the part computed,
 #: and names the component and the time.
 STATUS: dict[int, str] = {0: "ok", 1: "wrote a value that is not finite", 2: "diverged (a covariance or state is not finite)",
-                          3: "left its valid range (for example a date outside a table)"}
+                          3: "left its valid range (for example a date outside a table)",
+                          4: "raised an exception (a user's compiled component)"}
 
 
 @dataclass(frozen=True)

@@ -9,8 +9,9 @@ At step ``k`` (time ``t = t0 + k h``) the loop
    (``k % spc[c] == 0``) and active in the current mode (bit ``mode`` of ``mask[c]``), in the order given (the Python side sorts them by family):
    ``<family>_dispatch(code, t, bus, p, s, w)`` on the component's slices of ``P`` (parameters),
    ``S`` (state) and ``W`` (bus offsets of the signals it reads, then writes); a user's component
-   (code 0) is the function ``user``. A nonzero status, or a written value that is not finite,
-   stops the loop: ``fail = [component, status]``, the state is that of the step's start;
+   (code 0) is the function ``user``, a first-class function value (:func:`user_component`). A
+   nonzero status, or a written value that is not finite, stops the loop: ``fail = [component,
+   status]``, the state is that of the step's start;
 3. takes the held wheel commands ``wheel_command`` and the body torque ``tau_dist_B +
    tau_control_B + tau_command_B`` (a Python controller's torque) and makes the gyrostat step (:func:`.gyrostat_kernels.gyro_advance`), with the
    gravity gradient along the tabulated orbit in the variational form when ``gg`` (``ggp`` the
@@ -20,13 +21,21 @@ At step ``k`` (time ``t = t0 + k h``) the loop
 
 A family absent from a run has no component in the list and costs nothing; adding a family is
 one import and one ``elif`` in :func:`dispatch`.
+
+A user's component reaches the loop as a value of one function type, :data:`COMPONENT_SIGNATURE`
+(a Numba ``cfunc`` of the user's function, guarded, made once per function by
+:func:`user_component`; :func:`no_user_component` when the run has none), not as a function the
+loop is specialised for: one compiled loop, cached on disk, serves every run, with or without a
+user's component, and a user's function costs only its own compilation.
 """
 
 from __future__ import annotations
 
 import math
 
-from .._jit import jit
+from numba import cfunc, config, types
+
+from .._jit import CACHE, jit
 from .codes import NOT_FINITE, OK
 from .environment_components import disturbance_dispatch, environment_dispatch
 from .estimation_components import estimator_dispatch
@@ -42,6 +51,48 @@ IO_R, IO_OMEGA, IO_SPEED, IO_RHO, IO_CMD, IO_DIST, IO_CTRL, IO_MODE, IO_PY = 0, 
 #: ``io[IO_NDIST]``: the number of disturbance components that add into ``tau_dist_B``; their
 #: component indices follow it (each writes its own torque first, ``tau_<name>_B``).
 IO_NDIST = 9
+#: The status of a user's component that raised an exception (:func:`user_component`).
+USER_RAISED = 4
+#: The status the loop gets from the user slot of a run with no user's component (never called:
+#: no component has code 0 then).
+NO_USER = 3
+#: ``step(t, bus, p, s, w) -> int`` of a component (``docs/components.md``), as the loop calls a
+#: user's: the slices of the loop's contiguous arrays.
+COMPONENT_SIGNATURE = types.int64(types.float64, types.float64[::1], types.float64[::1], types.float64[::1],
+                                  types.int64[::1])
+_USER_COMPONENTS: dict = {}
+_NO_USER: list = []
+
+
+def user_component(step):
+    """The user's ``numba.njit`` function ``step(t, bus, p, s, w) -> int`` as the loop's ``user``
+    argument: a ``cfunc`` of :data:`COMPONENT_SIGNATURE` (compiled in memory, once per function and
+    process) that calls it and returns :data:`USER_RAISED` when it raises (a ``cfunc`` cannot raise
+    into its caller). A function that does not fit the signature raises Numba's typing error here."""
+    call = _USER_COMPONENTS.get(step)
+    if call is None:
+        def guarded_step(t, bus, p, s, w):
+            try:
+                return step(t, bus, p, s, w)
+            except Exception:
+                return USER_RAISED
+
+        # NUMBA_DISABLE_JIT=1 (the kernels as Python): the guard itself
+        call = guarded_step if config.DISABLE_JIT else cfunc(COMPONENT_SIGNATURE, error_model="numpy")(guarded_step)
+        _USER_COMPONENTS[step] = call
+    return call
+
+
+def _no_user(t, bus, p, s, w):
+    return NO_USER
+
+
+def no_user_component():
+    """The loop's ``user`` argument for a run without a user's component (cached on disk)."""
+    if not _NO_USER:
+        _NO_USER.append(_no_user if config.DISABLE_JIT else
+                        cfunc(COMPONENT_SIGNATURE, cache=CACHE, error_model="numpy")(_no_user))
+    return _NO_USER[0]
 
 
 @jit(inline="always")
@@ -75,13 +126,19 @@ def lookahead_count(io):
     return io[i] if io.shape[0] > i else 0
 
 
-@jit(inline="always")
+@jit(_nrt=False)
 def dispatch(user, code, t, bus, p, s, w):
-    """One component: a user's (code 0) or a built-in kind by its family (``code // 100``)."""
+    """One component: a user's (code 0) or a built-in kind by its family (``code // 100``).
+
+    A function of its own (compiled once, cached), not inlined: :func:`run_one` is inlined at three
+    places of the loop (the components due, those of a new mode, the step's end), and each inlined
+    copy of this function held the families inlined into it (the environment's and the
+    disturbances' kinds, ``inline="always"`` in their files). Compiled without Numba's reference
+    counting, as the loop is, so the call passes its four arrays as they are (no reference counts:
+    the 70 ns a call that ``environment_dispatch``'s inlining avoided). ``docs/performance.md``
+    (the test suite's time) has the cold compilation and the step measured both ways."""
     if code == 0:
-        if user is not None:
-            return user(t, bus, p, s, w)
-        return 3
+        return user(t, bus, p, s, w)
     fam = code // 100
     if fam == 1:
         if code < 190:
@@ -325,8 +382,6 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
     return OK, k0 + n, it_sum, rmax, its, rn
 
 
-#: :func:`loop_steps` with the built-in components only (``user=None``; cached on disk).
+#: :func:`loop_steps` compiled once (cached on disk) for every run: ``user`` is
+#: :func:`user_component` of the run's user component, or :func:`no_user_component`.
 run_loop = jit(_nrt=False)(loop_steps)
-#: :func:`loop_steps` with a user's component ``user(t, bus, p, s, w) -> int`` (a ``numba.njit``
-#: function), specialised for it and compiled in memory.
-run_loop_user = jit(cache=False, _nrt=False)(loop_steps)

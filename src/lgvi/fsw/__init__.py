@@ -363,9 +363,10 @@ class UserComponent(Component):
     """A component written by the user: ``step(t, bus, p, s, w) -> int``, a ``numba.njit`` function
     of the contract (``docs/components.md``), in ``family``, reading and writing the named signals
     (standard ones, or its own declared as ``own=[lgvi.components.Signal(...)]``), with its
-    parameter row ``params`` and initial state ``state``. The loop is then compiled with it (in
-    memory, once per process and function). One user function per run (several components may
-    share it with their own rows)."""
+    parameter row ``params`` and initial state ``state``. The loop calls it through a function
+    pointer: the function alone is compiled (in memory, once per process and function), the loop is
+    the one cached on disk; an exception it raises stops the run (status 4). One user function per
+    run (several components may share it with their own rows)."""
 
     kind = "user"
 

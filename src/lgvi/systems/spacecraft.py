@@ -39,6 +39,22 @@ _IO = ("R", "omega", "wheel_speed", "wheel_momentum", "wheel_command", "tau_dist
 _TRUTH = ("R", "omega", "wheel_speed", "wheel_momentum")
 
 
+def _compile_user(step: Any, name: str) -> Any:
+    """The loop's value of the user's component function ``step`` (compiled once per function and
+    process: :func:`lgvi._kernels.loop_kernels.user_component`); a TypeError naming the component
+    when the function does not compile for the loop's arguments."""
+    from numba.core.errors import NumbaError
+
+    from .._kernels.loop_kernels import user_component
+
+    try:
+        return user_component(step)
+    except NumbaError as exc:
+        first = next((line for line in str(exc).splitlines() if line.strip()), "")
+        raise TypeError(f"{name}: its step function must compile as step(t: float, bus, p, s: float64 arrays, "
+                        f"w: int64 array) -> int (a status, 0: ok); Numba says: {first}") from exc
+
+
 def _invariants(spec: Any = None) -> dict[str, dict[str, Any]]:
     return {}
 
@@ -355,11 +371,13 @@ class LoopRun(GyrostatRun):
             so.append(so[-1] + len(s))
             wo.append(len(W))
             if kind.code == 0:
-                users.append(kind.step)
-        if len({id(u) for u in users}) > 1:
+                users.append((kind.step, kind.name))
+        if len({id(u) for u, _ in users}) > 1:
             raise ValueError("the loop takes one user component function per run (several components may share it "
-                             f"with their own params); got {len({id(u) for u in users})}")
-        self.user: Any | None = users[0] if users else None
+                             f"with their own params); got {len({id(u) for u, _ in users})}")
+        self.user: Any | None = users[0][0] if users else None
+        if users:
+            _compile_user(*users[0])
         self.names: list[Any] = [kind.name for _, kind, _, _ in wired]
         i64 = np.int64
         self.codes, self.spc_c, self.mask = np.array(codes, i64), np.array(spc, i64), np.array(mask, i64)
@@ -438,12 +456,12 @@ class LoopRun(GyrostatRun):
 
     # -------------------------------------------------------------- stepping
     def _kernel(self, k0: int, n: int, kb: int, R_out, Pi_out, rho_out, it_out, res_out, u_out, sig_out) -> int:
-        from .._kernels.loop_kernels import run_loop, run_loop_user
+        from .._kernels.loop_kernels import no_user_component, run_loop, user_component
 
         per = 1 if self.full else self.save_every
-        kernel = run_loop if self.user is None else run_loop_user
-        status, k, it_sum, rmax, its, rn = kernel(
-            self.user, self.gg, self.ggp, self.Rs, self.JdB, self.JB_inv, self.h, self.gam, self.t0, self.R, self.Pi,
+        user = no_user_component() if self.user is None else user_component(self.user)
+        status, k, it_sum, rmax, its, rn = run_loop(
+            user, self.gg, self.ggp, self.Rs, self.JdB, self.JB_inv, self.h, self.gam, self.t0, self.R, self.Pi,
             self.wheel_momentum, self.G, self.wheels.axes, self.wp, self.cmd, self.u_now, self.bus, self.io, self.codes,
             self.spc_c, self.mask, self.nr, self.P, self.po, self.S, self.so, self.W, self.wo, self.WS, self.sig_idx,
             k0, n, kb, self.tol, self.max_iter, self.save_every, per, R_out, Pi_out, rho_out, u_out, it_out, res_out,
