@@ -76,6 +76,8 @@ SIGNALS: dict[str, Signal] = _signals(
     ("v_rel_N", 3, "m/s", "N", "velocity relative to the co-rotating atmosphere"),
     # disturbances (each model also writes its own tau_<name>_B, recorded by name)
     ("tau_dist_B", 3, "N m", "B", "sum of the disturbance torques, held over the step"),
+    ("tau_gravity_gradient_B", 3, "N m", "B", "the gravity gradient's moment at the step's start (in the "
+     "variational step, not in tau_dist_B), written by the loop"),
     # sensors
     ("gyro_B", 3, "rad/s", "B", "gyro measurement"),
     ("st_q", 4, "1", "B->N", "star tracker quaternion (scalar-last)"),

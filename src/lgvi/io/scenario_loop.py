@@ -464,10 +464,11 @@ def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DE
     settle_deg : float
         The pointing error, degrees, under which the run counts as settled.
     inertia : (3, 3) array_like, optional
-        The spacecraft's inertia (kg m^2; default the run's ``traj.inertia``): with the position
-        ``r_N`` recorded, the gravity
-        gradient ``3 mu / |r|^5 b x J b`` (``b = R^T r_N``; it is in the variational step, not a
-        recorded torque) joins the disturbance budget as ``gravity_gradient``.
+        The spacecraft's inertia (kg m^2; default the run's ``traj.inertia``): a run that did not
+        record ``tau_gravity_gradient_B`` (the loop records it, by name, since issue 26's part 4;
+        a result saved before), with the position ``r_N`` recorded, has the gravity gradient
+        ``3 mu / |r|^5 b x J b`` (``b = R^T r_N``) computed from it in the disturbance budget as
+        ``gravity_gradient``.
     mu : float
         The Earth's gravitational parameter for it (m^3/s^2).
 
@@ -572,7 +573,7 @@ def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DE
 
         inertia = as_float_array(inertia, "inertia", (3, 3))
     inertia = getattr(traj, "inertia", None) if inertia is None else inertia
-    if inertia is not None and "r_N" in sig and len(R):
+    if "gravity_gradient" not in torques and inertia is not None and "r_N" in sig and len(R):
         J = np.asarray(inertia, dtype=np.float64)
         r = np.asarray(sig["r_N"])
         b = np.einsum("nji,nj->ni", R[np.searchsorted(np.asarray(traj.t), ts)], r)      # R^T r_N
