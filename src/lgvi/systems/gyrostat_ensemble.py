@@ -29,7 +29,8 @@ from ..driver import MemorySink, drive
 from ..errors import ConvergenceError, TorqueError
 from .gyrostat import GyrostatRun, GyrostatTrajectory, ReactionWheels
 
-__all__ = ["FORMAT", "GyrostatEnsemble", "drive_members", "per_member", "simulate_gyrostat_ensemble"]
+__all__ = ["FORMAT", "GyrostatEnsemble", "controller_params", "drive_members", "per_member", "simulate_gyrostat_ensemble",
+           "wheel_params"]
 
 #: Format of a saved gyrostat ensemble (the ``__lgvi__`` header of its ``.npz``).
 FORMAT = "lgvi.gyrostat_ensemble/1"
@@ -285,7 +286,13 @@ def _numeric(value: Any) -> np.ndarray | None:
 _RUN_STATE = frozenset({"body", "wheels", "J", "axes", "spin_inertia", "wheel_map", "int_sigma", "prior_time"})
 
 
-def _controller_params(ctrls: Sequence[Any]) -> dict[str, np.ndarray]:
+def wheel_params(wl: Sequence[Any]) -> dict[str, np.ndarray]:
+    """``wheels.<name>``: every member's wheel description (``ReactionWheels.describe``), stacked."""
+    return {f"wheels.{key}": np.stack([np.asarray(w.describe()[key], dtype=np.float64) for w in wl])
+            for key in wl[0].describe()}
+
+
+def controller_params(ctrls: Sequence[Any]) -> dict[str, np.ndarray]:
     """``controller.<name>``: the numeric public attributes every member's controller has, same shapes."""
     out: dict[str, np.ndarray] = {}
     names = [k for k in vars(ctrls[0]) if not k.startswith("_") and k not in _RUN_STATE]
@@ -337,7 +344,7 @@ def simulate_gyrostat_ensemble(bodies: Sequence[Any], R: np.ndarray, Pi0: Any = 
         if len(n) > 1:
             raise ValueError(f"wheels must have the same number of wheels in every member, got {sorted(n)}")
     cl = per_member(controller, "controller", B, Controller) if controller is not None else [None] * B
-    ctrl_params = _controller_params(cl) if controller is not None else {}     # before setup
+    ctrl_params = controller_params(cl) if controller is not None else {}     # before setup
     threads = _threads(threads, B)
     runs = []
     for b in range(B):
@@ -354,8 +361,7 @@ def simulate_gyrostat_ensemble(bodies: Sequence[Any], R: np.ndarray, Pi0: Any = 
         "Pi0": np.stack([r.Pi for r in runs]),
     }
     if wheels is not None:
-        for key in wl[0].describe():
-            params[f"wheels.{key}"] = np.stack([np.asarray(w.describe()[key], dtype=np.float64) for w in wl])
+        params.update(wheel_params(wl))
     params.update(ctrl_params)
 
     members = drive_members(runs, threads)
