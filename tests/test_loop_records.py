@@ -24,7 +24,9 @@ def _wheels():
 
 
 def _fsw(K=0.004):
-    return FlightSoftware(guidance=InertialPointing(R_TARGET), control=MRPControl(K=K, P=0.04),
+    """Guidance every 1 s, the control law every 0.5 s: on the 1 s record grid of KW, the law's
+    signals are recorded in their own slots (meta["signal_fast"]) too."""
+    return FlightSoftware(guidance=InertialPointing(R_TARGET), control=MRPControl(K=K, P=0.04, rate=0.5),
                           actuators=RWMotorTorque(), rate=1.0)
 
 
@@ -37,6 +39,9 @@ def _same(a, b):
     for name in a.signals:
         assert np.array_equal(a.signals[name], b.signals[name]), name
     assert np.array_equal(a.signal_t, b.signal_t)
+    assert a.meta["signal_fast"] == b.meta["signal_fast"]
+    for name, r in a.records.items():
+        assert np.array_equal(r.t, b.records[name].t) and np.array_equal(r.values, b.records[name].values), name
 
 
 @pytest.mark.parametrize("solver_record", ["interval", "full"])
@@ -48,6 +53,9 @@ def test_a_spacecraft_run_round_trips_through_netcdf(tmp_path, solver_record):
     tr = lgvi.simulate(Spacecraft([0.18, 0.14, 0.06], wheels=_wheels()), np.eye(3), omega0=[0.01, -0.02, 0.015],
                        fsw=_fsw(), solver_record=solver_record, **KW)
     assert isinstance(tr, SpacecraftTrajectory) and tr.signal_data.size
+    fast = {row[0] for row in tr.meta["signal_fast"]}
+    assert ("sigma_BR" in fast and "R_ref" not in fast) == (solver_record == "interval")   # the full grid: none
+    assert tr.records["sigma_BR"].complete and len(tr.records["sigma_BR"].t) == 24
     back = read_trajectory(write_netcdf(tr, tmp_path / "run.nc"))
     _same(back, tr)
     import xarray as xr
