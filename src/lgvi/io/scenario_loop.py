@@ -38,6 +38,8 @@ the table takes; a few short aliases: guidance ``"inertial"``, ``"nadir"`` (lgvi
     [fsw]
     rate = 1.0                           # default period of every part [s]
     record = ["sigma_BR", "mode"]        # optional: the signals recorded (default all written)
+    record_rate = "writer"               # optional: every write at its writer's rate (default), or
+                                         # "grid": the record grid's entries only
     [[fsw.guidance]]                     # one table, or several with modes = [...]
     type = "hill"
     [[fsw.control]]
@@ -89,7 +91,7 @@ SPACECRAFT_LISTS = {"disturbance": "disturbance", "sensor": "sensor", "environme
 FSW_LISTS = {"estimator": "estimator", "guidance": "guidance", "control": "control", "actuator": "actuator"}
 SPACECRAFT_KEYS = ("body", "wheel", "magnetorquer", "orbit", "field", "epoch", "orbit_dt", "environment_rate",
                    "magnetorquer_rate") + tuple(k for k in SPACECRAFT_LISTS if k != "environment")
-FSW_KEYS = ("rate", "record", "modes") + tuple(FSW_LISTS)
+FSW_KEYS = ("rate", "record", "record_rate", "modes") + tuple(FSW_LISTS)
 _TOP = ("name", "description", "initial", "integrator", "output", "spacecraft", "fsw", "ensemble")
 _INTEGRATOR = ("h", "steps", "duration", "save_every", "method", "tol", "max_iter")
 #: kinds the spacecraft adds itself from its own keys (orbit, field, magnetorquers): not in a list
@@ -285,6 +287,8 @@ def flight_software(c: Any, tbl: Any, spacecraft: Any = None) -> Any:
         for i, r in enumerate(kw["record"]):
             if r not in SIGNALS and not r.startswith("tau_"):
                 raise c.error(f"fsw.record[{i}]", f"not a signal: {r!r}; expected one of lgvi.components.SIGNALS")
+    if "record_rate" in tbl:
+        kw["record_rate"] = c.string(tbl["record_rate"], "fsw.record_rate", ("writer", "grid"))
     if "modes" in tbl:
         kw["modes"] = _modes(c, tbl["modes"])
     refs = {"estimator": {"star_tracker": _sensor_ref(c, getattr(spacecraft, "sensors", ()), "StarTracker")}}

@@ -30,7 +30,7 @@ from ..errors import ConvergenceError, TorqueError
 from .gyrostat import GyrostatRun, GyrostatTrajectory, ReactionWheels
 
 __all__ = ["FORMAT", "GyrostatEnsemble", "controller_params", "drive_members", "per_member", "simulate_gyrostat_ensemble",
-           "wheel_params"]
+           "thread_count", "wheel_params"]
 
 #: Format of a saved gyrostat ensemble (the ``__lgvi__`` header of its ``.npz``).
 FORMAT = "lgvi.gyrostat_ensemble/1"
@@ -303,7 +303,8 @@ def controller_params(ctrls: Sequence[Any]) -> dict[str, np.ndarray]:
     return out
 
 
-def _threads(threads: Any, B: int) -> int:
+def thread_count(threads: Any, B: int) -> int:
+    """The threads an ensemble of ``B`` members runs in: ``threads`` (checked), default one per core."""
     return min(B, os.cpu_count() or 1) if threads is None else as_int(threads, "threads", minimum=1)
 
 
@@ -311,7 +312,7 @@ def drive_members(runs: Sequence[Any], threads: Any) -> list[Any]:
     """Drive each run into its own :class:`lgvi.driver.MemorySink`, in ``threads`` threads (default one
     per core); a failure names its member (``err.body``)."""
     B = len(runs)
-    threads = _threads(threads, B)
+    threads = thread_count(threads, B)
 
     def one(b: int) -> Any:
         try:
@@ -345,7 +346,7 @@ def simulate_gyrostat_ensemble(bodies: Sequence[Any], R: np.ndarray, Pi0: Any = 
             raise ValueError(f"wheels must have the same number of wheels in every member, got {sorted(n)}")
     cl = per_member(controller, "controller", B, Controller) if controller is not None else [None] * B
     ctrl_params = controller_params(cl) if controller is not None else {}     # before setup
-    threads = _threads(threads, B)
+    threads = thread_count(threads, B)
     runs = []
     for b in range(B):
         kw = {"Pi0": init[b], "omega0": None} if omega0 is None else {"Pi0": None, "omega0": init[b]}

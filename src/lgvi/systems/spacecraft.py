@@ -24,7 +24,7 @@ from ..trajectory import RESULT_TYPES
 from . import Field, System, register
 from .._validation import as_float_array
 from .gyrostat import GYROSTAT, GyrostatRun, GyrostatTrajectory, gyrostat_from_file, gyrostat_from_stream
-from .gyrostat_ensemble import ENSEMBLE_TYPES, GyrostatEnsemble, _threads, drive_members, per_member
+from .gyrostat_ensemble import ENSEMBLE_TYPES, GyrostatEnsemble, drive_members, per_member, thread_count
 
 if TYPE_CHECKING:  # annotations only: imported where used at run time
     from ..fsw import FlightSoftware
@@ -592,7 +592,7 @@ def simulate_spacecraft_ensemble(spacecraft: Any, R: np.ndarray, Pi0: Any = None
     if first.gg:
         params["gravity_gradient.inertia"] = np.stack([r.ggp[1:10] for r in runs])
     members = drive_members(runs, threads)
-    meta = dict(members[0].meta, members=B, threads=min(_threads(threads, B), B))
+    meta = dict(members[0].meta, members=B, threads=min(thread_count(threads, B), B))
     for key in ("wheels", "solver_summary", "invariants"):
         meta.pop(key, None)
     return SpacecraftEnsemble(members=tuple(members), params=params, meta=meta)
