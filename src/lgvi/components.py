@@ -260,7 +260,13 @@ def member_coefficient(value: Any, name: str, *, positive: bool = False, infinit
         if infinite and isinstance(value, (int, float)) and value == math.inf:
             return math.inf
         return as_float(value, name, positive=positive)
-    a = np.asarray(value, dtype=np.float64) if infinite else as_float_array(value, name, (None,))
+    if infinite:                        # +inf is a value here: as_float_array would refuse it
+        try:
+            a = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise TypeError(f"{name} must be a number or one number per member, got {value!r}") from None
+    else:
+        a = as_float_array(value, name)
     if a.ndim != 1 or a.size == 0:
         raise ValueError(f"{name} must be a number or one value per member (a 1-D array of B >= 1 values), got "
                          f"shape {a.shape}")
