@@ -18,7 +18,8 @@ At step ``k`` (time ``t = t0 + k h``) the loop
 4. records: the solver's and the wheels' records as the gyrostat does, and the bus entries
    ``sig_idx`` at each record entry's first step into ``sig_out``; a signal whose writer runs off
    the record grid (faster than it, or at a period that is not a multiple of it) has a row
-   ``(period, bus offset, size, column, slots)`` of ``sig_fast``: at each of its writer's steps
+   ``(period, bus offset, size, column, slots, next, slot)`` of ``sig_fast`` (the last two the
+   kernel's counters): at each of its writer's steps
    the loop writes it into slot ``j`` of its columns of the entry's row (the ``j``-th writer step
    of the entry, NaN for a slot the entry has no step for), so ``sig_out`` holds every value it
    wrote (:func:`record_fast`); the gravity gradient's moment at the step's start (``gg``) is on the bus at
@@ -92,26 +93,42 @@ def gravity_gradient_slot(io):
 
 
 @jit(inline="always")
-def record_fast(k, c_rec, e, bus, sig_fast, sig_out):
-    """Step 4's records off the grid at step ``k`` (``c_rec`` its place in entry ``e``): each row
-    ``(p, offset, size, column, slots)`` of ``sig_fast`` due at ``k`` (``k % p == 0``) goes into
-    slot ``(k - first) // p`` of its columns, ``first`` the entry's first multiple of ``p``; at the
-    entry's first step every slot is set to NaN first (a slot with no writer step stays NaN)."""
-    if c_rec == 0:
-        for f in range(sig_fast.shape[0]):
-            for i in range(sig_fast[f, 2] * sig_fast[f, 4]):
-                sig_out[e, sig_fast[f, 3] + i] = math.nan
-    ke = k - c_rec
+def record_fast_start(k0, c_rec, sig_fast):
+    """Before step ``k0`` (its place ``c_rec`` in its record entry): each row's next writer step
+    ``sig_fast[f, 5]`` (the first multiple of its period ``p`` from ``k0`` on) and its slot in the
+    entry ``sig_fast[f, 6]`` (the writer steps of the entry before it)."""
+    ke = k0 - c_rec
     for f in range(sig_fast.shape[0]):
         p = sig_fast[f, 0]
-        if k % p != 0:
+        nxt = ((k0 + p - 1) // p) * p
+        sig_fast[f, 5] = nxt
+        sig_fast[f, 6] = (nxt - ((ke + p - 1) // p) * p) // p
+
+
+@jit(inline="always")
+def record_fast(k, c_rec, e, per, bus, sig_fast, sig_out):
+    """Step 4's records off the grid at step ``k`` (``c_rec`` its place in entry ``e`` of ``per``
+    steps): each row ``(p, offset, size, column, slots, next, slot)`` of ``sig_fast`` due at ``k``
+    (``k == next``) goes into slot ``slot`` of its columns, then ``next += p``, ``slot += 1``; at
+    the entry's first step the slots restart at 0, and a row whose period does not divide ``per``
+    has them set to NaN first (a slot with no writer step in the entry stays NaN). No division
+    a step: the counters start at :func:`record_fast_start`."""
+    if c_rec == 0:
+        for f in range(sig_fast.shape[0]):
+            sig_fast[f, 6] = 0
+            if per % sig_fast[f, 0] != 0:
+                for i in range(sig_fast[f, 2] * sig_fast[f, 4]):
+                    sig_out[e, sig_fast[f, 3] + i] = math.nan
+    for f in range(sig_fast.shape[0]):
+        if k != sig_fast[f, 5]:
             continue
-        first = ((ke + p - 1) // p) * p
         size = sig_fast[f, 2]
-        col = sig_fast[f, 3] + ((k - first) // p) * size
+        col = sig_fast[f, 3] + sig_fast[f, 6] * size
         o = sig_fast[f, 1]
         for i in range(size):
             sig_out[e, col + i] = bus[o + i]
+        sig_fast[f, 5] = k + sig_fast[f, 0]
+        sig_fast[f, 6] += 1
 
 
 @jit(inline="always")
@@ -278,6 +295,9 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
     nsig = sig_idx.shape[0]
     L = lookahead_count(io)
     ogg = gravity_gradient_slot(io)
+    nfast = sig_fast.shape[0]
+    if nfast > 0:
+        record_fast_start(k0, c_rec, sig_fast)
     hh = 0.5 * h
     for k in range(k0, k0 + n):
         t = t0 + k * h
@@ -353,8 +373,8 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
         if c_rec == 0:
             for q in range(nsig):
                 sig_out[e, q] = bus[sig_idx[q]]
-        if sig_fast.shape[0] > 0:
-            record_fast(k, c_rec, e, bus, sig_fast, sig_out)
+        if nfast > 0:
+            record_fast(k, c_rec, e, per, bus, sig_fast, sig_out)
         # 5. the symmetric forcing: the disturbances at the step's end (t_k+1, R_k+1), and
         # Pi_k+1 += h/2 (tau_dist_k+1 - tau_dist_k) (the step held tau_dist_k at both ends)
         if L > 0:

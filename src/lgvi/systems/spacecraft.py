@@ -169,7 +169,8 @@ def _signal_periods(run: Any, comps: list[Any]) -> dict[str, int]:
 
 
 def _fast_layout(run: Any) -> tuple[np.ndarray, list[list[Any]]]:
-    """The kernel's ``sig_fast`` rows ``(period, bus offset, size, column, slots)`` and
+    """The kernel's ``sig_fast`` rows ``(period, bus offset, size, column, slots, 0, 0)`` (the last
+    two: the kernel's counters, the next writer step and the slot, set at each call) and
     ``meta["signal_fast"]`` (``[name, column, size, period, slots]``): the recorded signals whose
     writer runs off the record grid (a period that is not a multiple of the grid's), each with
     ``ceil(grid / period)`` slots a record entry after the grid's columns
@@ -184,10 +185,10 @@ def _fast_layout(run: Any) -> tuple[np.ndarray, list[list[Any]]]:
             if p % per == 0:
                 continue                         # the grid holds every value it writes
             slots = -(-per // p)
-            rows.append([p, run.offsets[name], size, col, slots])
+            rows.append([p, run.offsets[name], size, col, slots, 0, 0])
             meta.append([name, col, size, p, slots])
             col += size * slots
-    return np.array(rows, np.int64).reshape(len(rows), 5), meta
+    return np.array(rows, np.int64).reshape(len(rows), 7), meta
 
 
 def signal_width(meta: dict[str, Any]) -> int:
