@@ -26,6 +26,7 @@ DISPERSIONS = [
     {"key": "fsw.control[1].K", "scale": [0.9, 1.1]},
     {"key": "spacecraft.wheel[0].axis", "rotation": 0.5},
     {"key": "spacecraft.wheel[2].max_torque", "uniform": [0.003, 0.005]},
+    {"key": "spacecraft.body.inertia", "rotation": 1.0},
 ]
 
 
@@ -51,9 +52,11 @@ def test_members_hold_their_draws_and_run_as_their_lone_runs():
         K = 0.004 * rng.uniform(0.9, 1.1)
         axis = exp(rng.normal(0.0, math.radians(0.5), 3)) @ np.array(AXES[0])
         top = rng.uniform(0.003, 0.005)
+        Q_J = exp(rng.normal(0.0, math.radians(1.0), 3))             # the principal axes turned
         np.testing.assert_array_equal(R0, Q)
         np.testing.assert_array_equal(omega0, w)
-        np.testing.assert_array_equal(sc.body.J, np.diag(J))
+        np.testing.assert_allclose(sc.body.J, Q_J @ np.diag(J) @ Q_J.T, rtol=0, atol=1e-16)
+        np.testing.assert_allclose(np.linalg.eigvalsh(sc.body.J), np.sort(J), rtol=1e-14)
         assert fsw.control[1].K == K and Pi0 is None
         np.testing.assert_allclose(sc.wheels.axes[0], axis / np.linalg.norm(axis), rtol=0, atol=1e-15)
         assert sc.wheels.max_torque[2] == top and sc.wheels.max_torque[1] == 0.004
@@ -77,18 +80,20 @@ def test_members_hold_their_draws_and_run_as_their_lone_runs():
     (lambda e: e.pop("members"), "ensemble.members", "missing"),
     (lambda e: e.update(size=3), "ensemble.size", "unknown key"),
     (lambda e: e["dispersion"].append({"key": "fsw.control[5].K", "scale": [0.9, 1.1]}),
-     "ensemble.dispersion[6].key", "'fsw.control[5]' is not in the file"),
+     "ensemble.dispersion[7].key", "'fsw.control[5]' is not in the file"),
     (lambda e: e["dispersion"].append({"key": "spacecraft.body.mass", "normal": 0.1}),
-     "ensemble.dispersion[6].key", "the file gives none"),
-    (lambda e: e["dispersion"].append({"key": "fsw.rate"}), "ensemble.dispersion[6]", "exactly one law"),
-    (lambda e: e["dispersion"].append({"key": "fsw.rate", "scale": [1.1, 0.9]}), "ensemble.dispersion[6].scale",
+     "ensemble.dispersion[7].key", "the file gives none"),
+    (lambda e: e["dispersion"].append({"key": "fsw.rate"}), "ensemble.dispersion[7]", "exactly one law"),
+    (lambda e: e["dispersion"].append({"key": "fsw.rate", "scale": [1.1, 0.9]}), "ensemble.dispersion[7].scale",
      "lo <= hi"),
-    (lambda e: e["dispersion"].append({"key": "initial", "normal": 0.1}), "ensemble.dispersion[6].normal",
+    (lambda e: e["dispersion"].append({"key": "initial", "normal": 0.1}), "ensemble.dispersion[7].normal",
      "rotation = sigma"),
-    (lambda e: e["dispersion"].append({"key": "fsw.rate", "random": True}), "ensemble.dispersion[6].random",
+    (lambda e: e["dispersion"].append({"key": "fsw.rate", "random": True}), "ensemble.dispersion[7].random",
      'key = "initial"'),
-    (lambda e: e["dispersion"].append({"key": "spacecraft.wheel[0]", "normal": 0.1}), "ensemble.dispersion[6].key",
+    (lambda e: e["dispersion"].append({"key": "spacecraft.wheel[0]", "normal": 0.1}), "ensemble.dispersion[7].key",
      "not an entry"),
+    (lambda e: e["dispersion"].append({"key": "spacecraft.body.inertia", "normal": 0.01}), "ensemble.dispersion[7]",
+     "before the rotation"),
 ])
 def test_errors_name_the_file_and_key(edit, key, words):
     d = _ensemble()

@@ -22,6 +22,9 @@
     [[ensemble.dispersion]]
     key = "spacecraft.wheel[0].axis"     # a 3-vector or a 3x3 matrix:
     rotation = 0.5                       #   turned by a rotation of sigma deg rms per axis
+    [[ensemble.dispersion]]              # the principal moments' axes (after their scale):
+    key = "spacecraft.body.inertia"      #   body.matrix = Q diag(inertia) Q^T
+    rotation = 1.0
     [[ensemble.dispersion]]
     key = "spacecraft.sensor[0].seed"    # an integer:
     sequence = 1000                      #   1000 + b
@@ -54,8 +57,9 @@ LAWS: dict[str, str] = {
     "uniform": "[lo, hi]: U(lo, hi) for each entry of the value (a number where the file has none)",
     "scale": "[lo, hi]: the nominal value times U(lo, hi), each entry drawn",
     "normal": "sigma >= 0: the nominal value plus N(0, sigma), each entry drawn",
-    "rotation": "sigma >= 0 degrees: a 3-vector, a 3x3 matrix (Q M Q^T) or the initial attitude turned by exp(N(0, "
-                "sigma) per axis)",
+    "rotation": "sigma >= 0 degrees: a 3-vector, a 3x3 matrix (Q M Q^T), the principal moments body.inertia "
+                "(their axes: the body.matrix Q diag(J) Q^T) or the initial attitude turned by exp(N(0, sigma) per "
+                "axis)",
     "random": "true: the initial attitude uniform on SO(3)",
     "sequence": "an integer n0 >= 0: n0 + b for member b (noise seeds)",
 }
@@ -154,6 +158,10 @@ def read_ensemble(c: Any, tbl: Any, d: dict[str, Any]) -> EnsembleSpec:
         disp = Dispersion(key, law, value, path)
         if key != "initial":
             _locate(c, d, disp, f"{where}.key")
+        turned = [j for j, o in enumerate(out) if o.key == key and o.law == "rotation" and path[-1][0] == "inertia"]
+        if turned:
+            raise c.error(where, f"{key!r} is turned by ensemble.dispersion[{turned[0]}] (its axes: it becomes "
+                          "body.matrix); give the dispersions of the principal moments before the rotation")
         out.append(disp)
     return EnsembleSpec(members, seed, threads, tuple(out))
 
@@ -196,6 +204,8 @@ def _draw(disp: Dispersion, nominal: Any, rng: np.random.Generator, b: int, c: A
     if disp.law == "normal":
         return (x + rng.normal(0.0, disp.value, x.shape)).tolist()
     Q = exp(rng.normal(0.0, math.radians(disp.value), 3))          # rotation
+    if x.shape == (3,) and disp.path[-1][0] == "inertia":           # principal moments: their axes turn
+        return (Q @ np.diag(x) @ Q.T).tolist()
     if x.shape == (3,):
         return (Q @ x).tolist()
     if x.shape == (3, 3):
@@ -224,7 +234,13 @@ def member_tables(c: Any, d: dict[str, Any], spec: EnsembleSpec, b: int) -> tupl
                 ops.append(("turn", exp(rng.normal(0.0, math.radians(disp.value), 3))))
             continue
         node, last = _locate(c, out, disp, f"{where}.key")
-        node[last] = _draw(disp, node.get(last), rng, b, c, where)
+        value = _draw(disp, node.get(last), rng, b, c, where)
+        if disp.law == "rotation" and last == "inertia" and np.shape(node[last]) == (3,):
+            # the principal moments (body.inertia) with their axes turned: the matrix Q diag(J) Q^T
+            del node[last]
+            node["matrix"] = value
+        else:
+            node[last] = value
 
     def attitude(R0: np.ndarray) -> np.ndarray:
         R = np.array(R0, dtype=np.float64)
