@@ -46,7 +46,7 @@ SAVE = 60.0
 K_DUMP = 5e-3                                             # 1/s
 RPM = 2.0 * np.pi / 60.0
 SOURCES = {"tau_facet_drag_B": "aerodynamic drag", "tau_facet_srp_B": "solar radiation pressure",
-           "tau_residual_dipole_B": "residual dipole"}
+           "tau_residual_dipole_B": "residual dipole", "tau_gravity_gradient_B": "gravity gradient"}
 
 
 def spacecraft(duration: float, rods: bool):
@@ -72,7 +72,8 @@ def spacecraft(duration: float, rods: bool):
 
 def fsw(dumping: bool) -> FlightSoftware:
     control = [MRPControl(K=0.001, P=0.02)] + ([MomentumDumpingControl(K_DUMP)] if dumping else [])
-    return FlightSoftware(guidance=NadirPointing(), control=control, actuators=RWMotorTorque(), rate=1.0)
+    return FlightSoftware(guidance=NadirPointing(), control=control, actuators=RWMotorTorque(), rate=1.0,
+                          record_rate="grid")      # the tables and the figure read the record grid (every 60 s)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -977,6 +977,21 @@ _ROWS += [
     ("shadow-model", lambda: _sun.Shadow("penumbral"), ValueError, (r"\bmodel\b", r"'penumbral'", r"one of")),
     ("clock-epoch-type", lambda: _clock.Clock("2026-01-01"), TypeError,
      (r"\bepoch\b", r"2026-01-01", r"datetime\.datetime")),
+    # per-member coefficients of the environment (issue 26, part 4) and the records' rate (issue 25, part 4)
+    ("exp-atmosphere-member-negative", lambda: _atm.ExponentialAtmosphere([1.217, -1.0]), ValueError,
+     (r"\bbase_density\b", r"-1\.0", r"positive", r"member 1")),
+    ("exp-atmosphere-member-counts", lambda: _atm.ExponentialAtmosphere([1.2, 1.3], [8500.0] * 3), ValueError,
+     (r"ExponentialAtmosphere", r"\[2, 3\] members", r"one value per member")),
+    ("exp-atmosphere-member-shape", lambda: _atm.ExponentialAtmosphere([[1.2, 1.3]]), ValueError,
+     (r"\bbase_density\b", r"\(1, 2\)", r"1-D array")),
+    ("shadow-radius-member-zero", lambda: _sun.Shadow(sun_radius=[6.957e8, 0.0]), ValueError,
+     (r"\bsun_radius\b", r"0\.0", r"positive", r"member 1")),
+    ("table-members-omega", lambda: _atm.TabulatedAtmosphere(0.0, 10.0, [[1e-12] * 4] * 2, omega=[0.0] * 3),
+     ValueError, (r"density \(B, K\) and omega \(B,\)", r"\[2, 3\] members")),
+    ("facet-cd-members-differ", lambda: _dist.FacetDrag([[0.06], [0.05]], _X, _C, [[2.2], [2.1], [2.0]]), ValueError,
+     (r"\bdrag_coefficient\b", r"\(3, 1\)", r"per member")),
+    ("fsw-record-rate", lambda: lgvi.FlightSoftware(record_rate="every"), ValueError,
+     (r"\brecord_rate\b", r"'every'", r"'writer'", r"'grid'")),
 ]
 
 

@@ -282,8 +282,11 @@ def gyrostat_ensemble(save_every: int = 5):
     R0 = lgvi.so3.exp(0.2 * RNG.normal(size=(B, 3)))
     W0 = np.array([0.001, -0.01, 0.03]) + 1e-3 * RNG.normal(size=(B, 3))
     ctrl = [lgvi.control.MRPFeedback(K=3.5 * (1 + 0.1 * RNG.normal()), P=30.0) for _ in range(B)]
-    return lgvi.simulate_ensemble(inertia, R0, omega0=W0, h=0.1, steps=200, wheels=wheels, controller=ctrl,
-                                  control_period=0.1, save_every=save_every)
+    from lgvi.systems.loop_keywords import as_given
+
+    with as_given():    # the gyrostat ensemble's files (the keywords now run the loop: tests/test_loop_keywords.py)
+        return lgvi.simulate_ensemble(inertia, R0, omega0=W0, h=0.1, steps=200, wheels=wheels, controller=ctrl,
+                                      control_period=0.1, save_every=save_every)
 
 
 def test_gyrostat_ensemble_round_trips_bit_for_bit(tmp_path, capsys):

@@ -333,6 +333,34 @@ def test_per_member_rows():
     np.testing.assert_allclose(srp.params()[1, 4 + 7:4 + 9], [0.4, 0.1], rtol=1e-15)
 
 
+def test_per_member_environment_rows():
+    """Sun, shadow and atmospheres take their coefficients one per member: row b is the lone
+    component's row with member b's numbers, and evaluate(member=b) its values."""
+    atm = ExponentialAtmosphere([1.217, 2.0], [8500.0, 7000.0], max_altitude=[np.inf, 1e6])
+    assert atm.params().shape == (2, 6)
+    r = np.array([[6778137.0, 0.0, 0.0], [0.0, 6878137.0, 1e5]])
+    for b, (rho0, H, top) in enumerate(((1.217, 8500.0, np.inf), (2.0, 7000.0, 1e6))):
+        one = ExponentialAtmosphere(rho0, H, max_altitude=top)
+        np.testing.assert_array_equal(atm.params()[b], one.params())
+        np.testing.assert_array_equal(atm.evaluate(r, member=b)["density"], one.evaluate(r)["density"])
+    rho = np.exp(-np.linspace(0.0, 1.0, 8))
+    tab = TabulatedAtmosphere(0.0, 10.0, np.stack([rho, 2.0 * rho]), omega=[7.29e-5, 0.0])
+    assert tab.params().shape == (2, 4 + 16)
+    np.testing.assert_array_equal(tab.params()[1], TabulatedAtmosphere(0.0, 10.0, 2.0 * rho, omega=0.0).params())
+    sh = Shadow(planet_radius=[6378136.6, 6371000.0], sun_radius=6.957e8)
+    np.testing.assert_array_equal(sh.params()[1], Shadow(planet_radius=6371000.0).params())
+    sun = Sun(dt.datetime(2026, 1, 1), interpolation=[60.0, 0.0])
+    np.testing.assert_array_equal(sun.params()[1], Sun(dt.datetime(2026, 1, 1), interpolation=0.0).params())
+    with pytest.raises(ValueError, match=r"scale_height must be positive and finite, got -1\.0 for member 1"):
+        ExponentialAtmosphere([1.217, 2.0], [8500.0, -1.0])
+    with pytest.raises(ValueError, match=r"ExponentialAtmosphere: .* got \[2, 3\] members"):
+        ExponentialAtmosphere([1.217, 2.0], [8500.0, 7000.0, 6000.0])
+    with pytest.raises(ValueError, match=r"TabulatedAtmosphere: density \(B, K\) and omega \(B,\)"):
+        TabulatedAtmosphere(0.0, 10.0, np.stack([rho, rho]), omega=[0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match=r"density must be positive .* at index \(1, 3\)"):
+        TabulatedAtmosphere(0.0, 10.0, np.stack([rho, np.where(np.arange(8) == 3, -1.0, rho)]))
+
+
 def test_kinds_registered():
     for name, family, code in (("sun", "environment", 100), ("shadow", "environment", 101),
                                ("exponential_atmosphere", "environment", 110),

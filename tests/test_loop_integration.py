@@ -235,3 +235,40 @@ def test_io_layout_of_the_loop_matches_the_run():
     assert len(spacecraft._IO) == loop_kernels.IO_NDIST
     assert spacecraft._IO.index("tau_dist_B") == loop_kernels.IO_DIST
     assert spacecraft._IO.index("mode") == loop_kernels.IO_MODE
+
+
+def test_environment_coefficients_per_member_bit_for_bit():
+    """The sun's, the shadow's and the atmosphere's coefficients given one per member (with the
+    facets' drag coefficients and the dipole): member b of the ensemble is the lone run of the
+    spacecraft with member b's numbers, bit for bit; the members differ. The momentum budget has
+    every source by name, the gravity gradient's too (tau_gravity_gradient_B, not in tau_dist_B)."""
+    epoch = dt.datetime(2026, 3, 20, 6)
+    facets = ([0.06, 0.03], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], [[0.05, 0.01, 0.0], [0.0, 0.05, 0.02]])
+
+    def sat(rho0, H, r_sun, interp, cd, dipole):
+        return Spacecraft([0.18, 0.14, 0.06], orbit=CircularOrbit(6778137.0, np.radians(97.4)),
+                          field=CentredDipole(), epoch=epoch,
+                          environment=[Sun(interpolation=interp), Shadow("conical", sun_radius=r_sun),
+                                       ExponentialAtmosphere(rho0, H)],
+                          disturbances=[FacetDrag(*facets, drag_coefficient=cd),
+                                        FacetSRP(*facets, absorbed=0.6, specular=0.2, diffuse=0.2),
+                                        ResidualDipole(dipole), GravityGradient()])
+
+    rho0, H, r_sun, interp = [1.217, 2.4], [8500.0, 7000.0], [6.957e8, 6.96e8], [60.0, 30.0]
+    cd, dipole = [[2.2, 2.1], [2.4, 2.0]], [[0.01, 0.0, 0.0], [0.0, 0.02, 0.005]]
+    ens_sc = sat(np.array(rho0), np.array(H), np.array(r_sun), np.array(interp), np.array(cd), np.array(dipole))
+    kw = dict(h=0.5, steps=120, save_every=10)
+    R0 = np.stack([np.eye(3), lgvi.so3.exp([0.2, -0.1, 0.3])])
+    w0 = np.array([[0.01, -0.02, 0.015], [0.0, 0.01, -0.01]])
+    ens = lgvi.simulate_ensemble(ens_sc, R0, omega0=w0, threads=1, **kw)
+    for b in range(2):
+        one = lgvi.simulate(sat(rho0[b], H[b], r_sun[b], interp[b], cd[b], dipole[b]), R0[b], omega0=w0[b], **kw)
+        assert np.array_equal(ens[b].R, one.R) and np.array_equal(ens[b].Pi, one.Pi), b
+        assert np.array_equal(ens[b].signal_data, one.signal_data), b
+    assert not np.array_equal(ens[0].signals["density"], ens[1].signals["density"])
+    budget = {n for n in ens[0].signals if n.startswith("tau_") and n.endswith("_B")}
+    assert budget == {"tau_facet_drag_B", "tau_facet_srp_B", "tau_residual_dipole_B", "tau_gravity_gradient_B",
+                      "tau_dist_B"}
+    sig = ens[0].signals
+    total = sig["tau_facet_drag_B"] + sig["tau_facet_srp_B"] + sig["tau_residual_dipole_B"]
+    assert np.allclose(sig["tau_dist_B"], total, rtol=0.0, atol=1e-15 * np.abs(total).max())

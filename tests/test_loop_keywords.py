@@ -128,3 +128,80 @@ def test_bad_old_keywords_are_still_named_by_the_gyrostat():
     with pytest.raises(ValueError, match="control_period"):
         lgvi.simulate(lgvi.RigidBody(CUBESAT), np.eye(3), wheels=_wheels(), controller=RotationPD(0.004, 0.04),
                       control_period=0.15, **KW)
+
+
+def _members_same(mapped, given):
+    assert len(mapped.members) == len(given.members)
+    for a, b in zip(mapped.members, given.members):
+        _same(a, b)
+
+
+@pytest.mark.parametrize("case", ["wheels", "mrp_feedback", "python_controller"])
+def test_simulate_ensemble_maps_the_keywords_member_by_member(case):
+    """simulate_ensemble(wheels=, controller=) runs the descriptions (a SpacecraftEnsemble) with a
+    warning naming them, each member bit for bit the gyrostat ensemble's, its params kept."""
+    from lgvi.systems.gyrostat_ensemble import GyrostatEnsemble
+    from lgvi.systems.spacecraft import SpacecraftEnsemble
+
+    bodies = [lgvi.RigidBody(CUBESAT), lgvi.RigidBody([0.2, 0.14, 0.07])]
+    R0 = np.stack([np.eye(3), lgvi.so3.exp([0.1, 0.0, -0.2])])
+    kw = dict(omega0=[[0.01, -0.02, 0.015], [0.0, 0.01, 0.0]], h=0.1, steps=120, save_every=10, threads=1)
+    if case == "wheels":
+        old = dict(wheels=[_wheels(), lgvi.ReactionWheels(PYRAMID, 2e-4, speed0=1.0)])
+    elif case == "mrp_feedback":
+        old = dict(wheels=_wheels(), control_period=1.0,
+                   controller=[MRPFeedback(K=k, P=0.04, Ki=0.002, integral_limit=0.1, target=R_TARGET)
+                               for k in (0.004, 0.006)])
+    else:
+        old = dict(wheels=_wheels(), controller=RotationPD(0.004, 0.04, target=R_TARGET), control_period=0.5,
+                   environment=OrbitEnvironment(ORBIT))
+    with pytest.warns(KeywordsDeprecationWarning, match=r"lgvi\.simulate_ensemble\(lgvi\.Spacecraft") as record:
+        mapped = lgvi.simulate_ensemble(bodies, R0, **old, **kw)
+    assert record[0].filename == __file__
+    assert type(mapped) is SpacecraftEnsemble
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        with as_given():
+            given = lgvi.simulate_ensemble(bodies, R0, **old, **kw)
+    assert type(given) is GyrostatEnsemble
+    _members_same(mapped, given)
+    assert not np.array_equal(mapped[0].R, mapped[1].R)
+    for name, value in given.params.items():              # the dispersions stay readable by their names
+        assert np.array_equal(mapped.params[name], value), name
+
+
+def test_simulate_stream_maps_the_keywords_and_resumes_either_kind(tmp_path):
+    from lgvi.io.streaming import read_manifest, read_stream, simulate_stream
+
+    body = lgvi.RigidBody(CUBESAT)
+
+    def old():
+        return dict(wheels=_wheels(), control_period=1.0,
+                    controller=MRPFeedback(K=0.004, P=0.04, Ki=0.002, integral_limit=0.1, target=R_TARGET))
+
+    with as_given():
+        memory = lgvi.simulate(body, np.eye(3), **old(), **KW)
+
+    def stop(done, total):
+        if done >= 100:
+            raise KeyboardInterrupt
+
+    with pytest.warns(KeywordsDeprecationWarning, match=r"lgvi\.simulate_stream\(lgvi\.Spacecraft") as record:
+        with pytest.raises(KeyboardInterrupt):
+            simulate_stream(tmp_path / "new", body, np.eye(3), **old(), chunk_steps=50, progress=stop, **KW)
+    assert record[0].filename == __file__
+    with pytest.warns(KeywordsDeprecationWarning):
+        simulate_stream(tmp_path / "new", body, np.eye(3), **old(), chunk_steps=50, resume=True, **KW)
+    assert read_manifest(tmp_path / "new")["meta"]["system"] == "spacecraft"
+    back = read_stream(tmp_path / "new")
+    assert isinstance(back, SpacecraftTrajectory)
+    _same(back, memory)
+    # a stream the gyrostat began (before the mapping) resumes as the gyrostat, silently
+    with as_given(), pytest.raises(KeyboardInterrupt):
+        simulate_stream(tmp_path / "old", body, np.eye(3), **old(), chunk_steps=50, progress=stop, **KW)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        simulate_stream(tmp_path / "old", body, np.eye(3), **old(), chunk_steps=50, resume=True, **KW)
+    old_back = read_stream(tmp_path / "old")
+    assert type(old_back) is GyrostatTrajectory
+    _same(old_back, memory)

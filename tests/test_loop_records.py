@@ -24,7 +24,9 @@ def _wheels():
 
 
 def _fsw(K=0.004):
-    return FlightSoftware(guidance=InertialPointing(R_TARGET), control=MRPControl(K=K, P=0.04),
+    """Guidance every 1 s, the control law every 0.5 s: on the 1 s record grid of KW, the law's
+    signals are recorded in their own slots (meta["signal_fast"]) too."""
+    return FlightSoftware(guidance=InertialPointing(R_TARGET), control=MRPControl(K=K, P=0.04, rate=0.5),
                           actuators=RWMotorTorque(), rate=1.0)
 
 
@@ -37,6 +39,9 @@ def _same(a, b):
     for name in a.signals:
         assert np.array_equal(a.signals[name], b.signals[name]), name
     assert np.array_equal(a.signal_t, b.signal_t)
+    assert a.meta["signal_fast"] == b.meta["signal_fast"]
+    for name, r in a.records.items():
+        assert np.array_equal(r.t, b.records[name].t) and np.array_equal(r.values, b.records[name].values), name
 
 
 @pytest.mark.parametrize("solver_record", ["interval", "full"])
@@ -48,6 +53,9 @@ def test_a_spacecraft_run_round_trips_through_netcdf(tmp_path, solver_record):
     tr = lgvi.simulate(Spacecraft([0.18, 0.14, 0.06], wheels=_wheels()), np.eye(3), omega0=[0.01, -0.02, 0.015],
                        fsw=_fsw(), solver_record=solver_record, **KW)
     assert isinstance(tr, SpacecraftTrajectory) and tr.signal_data.size
+    fast = {row[0] for row in tr.meta["signal_fast"]}
+    assert ("sigma_BR" in fast and "R_ref" not in fast) == (solver_record == "interval")   # the full grid: none
+    assert tr.records["sigma_BR"].complete and len(tr.records["sigma_BR"].t) == 24
     back = read_trajectory(write_netcdf(tr, tmp_path / "run.nc"))
     _same(back, tr)
     import xarray as xr
@@ -97,11 +105,97 @@ def test_records_at_each_components_rate(tmp_path):
     assert np.array_equal(tr.signals["torque_request_B"][1], tr.signals["torque_request_B"][0])
     assert not np.array_equal(rec["torque_request_B"].values[1], rec["torque_request_B"].values[0])
     assert rec["R_ref"].period == pytest.approx(1.0) and len(rec["R_ref"].t) == 12
-    gyro = rec["gyro_B"]                     # faster than the grid: the grid, marked incomplete
-    assert not gyro.complete and gyro.period == pytest.approx(0.5) and len(gyro.t) == 24
+    gyro = rec["gyro_B"]                     # faster than the grid: every value, in its own columns
+    assert gyro.complete and gyro.period == pytest.approx(0.2) and np.allclose(gyro.t, np.arange(60) * 0.2)
     # the periods are in the metadata: the records survive a save and a load
     tr.save(tmp_path / "run.npz")
     back = lgvi.load(tmp_path / "run.npz")
     for name, r in rec.items():
         b = back.records[name]
         assert np.array_equal(b.t, r.t) and np.array_equal(b.values, r.values) and b.complete == r.complete, name
+
+
+def _sensed(**fsw_options):
+    """A spacecraft whose gyro runs every 2 steps, with the control law every 3 steps and the
+    guidance every 10 (h = 0.1 s), in a circular orbit with the gravity gradient."""
+    from lgvi.environment import CircularOrbit
+    from lgvi.spacecraft import GravityGradient, Gyro
+
+    sat = Spacecraft([0.18, 0.14, 0.06], wheels=_wheels(), sensors=[Gyro(rate=0.2, arw=1e-4, rrw=1e-5, seed=1)],
+                     orbit=CircularOrbit(6878137.0, np.radians(97.4)), disturbances=[GravityGradient()])
+    fsw = FlightSoftware(guidance=InertialPointing(R_TARGET), control=MRPControl(K=0.004, P=0.04, rate=0.3),
+                         actuators=RWMotorTorque(), rate=1.0, **fsw_options)
+    return sat, fsw
+
+
+def _same_records(a, b):
+    assert sorted(a) == sorted(b)
+    for name in a:
+        assert np.array_equal(a[name].t, b[name].t) and np.array_equal(a[name].values, b[name].values), name
+        assert a[name].complete and b[name].complete and a[name].period == b[name].period, name
+
+
+def test_records_faster_than_the_grid_hold_every_value():
+    """A gyro every 2 steps and a control law every 3 on a grid of 5 steps: each record holds every
+    value its writer wrote, bit for bit the record of the same run saved at every step (where the
+    grid itself holds them), the off-grid slots of an entry NaN; record_rate="grid" keeps the grid."""
+    sat, fsw = _sensed()
+    kw = dict(omega0=[0.01, -0.02, 0.015], h=0.1, steps=60)
+    coarse = lgvi.simulate(sat, np.eye(3), fsw=fsw, save_every=5, **kw)
+    fine = lgvi.simulate(sat, np.eye(3), fsw=fsw, save_every=1, **kw)
+    assert np.array_equal(coarse.R, fine.R[::5])                  # recording changes nothing else
+    rec = coarse.records
+    _same_records(rec, fine.records)
+    assert np.allclose(rec["gyro_B"].t, 0.2 * np.arange(30)) and np.allclose(rec["sigma_BR"].t, 0.3 * np.arange(20))
+    assert rec["gyro_B"].period == pytest.approx(0.2) and rec["torque_request_B"].period == pytest.approx(0.3)
+    # the grid's own columns are as before: the bus at each entry's first step
+    assert np.array_equal(coarse.signals["gyro_B"], fine.signals["gyro_B"][::5])
+    # layout: (name, column, size, period, slots); entry 1 (steps 5..9) has the law at steps 6, 9 only
+    fast = {row[0]: row[1:] for row in coarse.meta["signal_fast"]}
+    assert fast["gyro_B"][2:] == [2, 3] and fast["sigma_BR"][2:] == [3, 2]
+    col = fast["gyro_B"][0]
+    assert np.isnan(coarse.signal_data[1, col + 6:col + 9]).all()  # steps 6, 8; no third (10 is the next entry's)
+    grid = lgvi.simulate(sat, np.eye(3), fsw=_sensed(record_rate="grid")[1], save_every=5, **kw)
+    assert "signal_fast" in grid.meta and grid.meta["signal_fast"] == [] and np.array_equal(grid.R, coarse.R)
+    assert not grid.records["gyro_B"].complete and len(grid.records["gyro_B"].t) == 12
+    assert np.array_equal(grid.signal_data, coarse.signal_data[:, :grid.signal_data.shape[1]])
+
+
+def test_the_gravity_gradient_is_recorded_by_name():
+    """tau_gravity_gradient_B is the variational moment at each step's start: 3 mu / r^5 (r_B x J r_B)
+    of the saved attitude and the orbit's position (the tabulated orbit: relative error about 4e-11)."""
+    sat, fsw = _sensed()
+    tr = lgvi.simulate(sat, np.eye(3), fsw=fsw, omega0=[0.01, -0.02, 0.015], h=0.1, steps=60)
+    rec = tr.records["tau_gravity_gradient_B"]
+    assert rec.complete and rec.period == pytest.approx(0.1) and len(rec.t) == 60
+    r_N, _ = sat.orbit.position_velocity(rec.t)
+    mu = 3.986004418e14
+    J = np.diag([0.18, 0.14, 0.06])
+    expect = []
+    for R, r in zip(tr.R[:60], r_N):
+        rB = R.T @ r
+        expect.append(3.0 * mu / np.linalg.norm(rB) ** 5 * np.cross(rB, J @ rB))
+    expect = np.array(expect)
+    assert np.abs(rec.values - expect).max() <= 1e-8 * np.abs(expect).max()
+    assert np.abs(expect).max() > 1e-9                            # the torque is there (about 1e-8 N m)
+
+
+def test_a_stream_interrupted_and_resumed_keeps_the_records_bit_for_bit(tmp_path):
+    from lgvi.io.streaming import read_stream, stream_system
+
+    sat, fsw = _sensed()
+    kw = dict(omega0=[0.01, -0.02, 0.015], h=0.1, steps=200, save_every=5)
+    memory = lgvi.simulate(sat, np.eye(3), fsw=fsw, **kw)
+    folder = tmp_path / "loop"
+
+    def stop(done, total):
+        if done >= 100:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        stream_system(folder, "spacecraft", sat, np.eye(3), fsw=fsw, chunk_steps=50, progress=stop, **kw)
+    stream_system(folder, "spacecraft", sat, np.eye(3), fsw=fsw, chunk_steps=50, resume=True, **kw)
+    back = read_stream(folder)
+    assert np.array_equal(back.signal_data, memory.signal_data, equal_nan=True)
+    _same_records(back.records, memory.records)
+    assert len(back.records["gyro_B"].t) == 100

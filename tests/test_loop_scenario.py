@@ -105,6 +105,7 @@ def test_modes_bdot_and_magnetorquers_are_the_python_run():
     (lambda d: d["spacecraft"].update(magnetorquer_rate=0.3), "spacecraft.magnetorquer_rate", "multiple"),
     (lambda d: d["fsw"]["modes"].update(rules=[[0, 1, "rate_under", 0.03]]), "fsw.modes.rules[0]", "condition"),
     (lambda d: d["fsw"].update(record=["sigma_XY"]), "fsw.record[0]", "not a signal"),
+    (lambda d: d["fsw"].update(record_rate="every"), "fsw.record_rate", "expected one of 'writer', 'grid'"),
     (lambda d: d["spacecraft"].pop("wheel"), "fsw.actuator[0]", "wheels"),
     (lambda d: d["spacecraft"]["body"].update(inertia=[1.0, 2.0]), "spacecraft.body.inertia", "3 numbers"),
     (lambda d: d["spacecraft"]["wheel"][0].pop("spin_inertia"), "spacecraft.wheel[0].spin_inertia", "missing"),
@@ -121,6 +122,19 @@ def test_errors_name_the_file_and_key(edit, key, words):
         Scenario.from_dict(d, source="mission.toml")
     assert info.value.key == key, str(info.value)
     assert str(info.value).startswith(f"mission.toml: {key}: ") and words in str(info.value)
+
+
+def test_record_rate_in_a_file():
+    """The default records the B-dot law, run every step (0.5 s), in its own slots on the 1 s record
+    grid (save_every = 2); fsw.record_rate = "grid" keeps the grid's columns only, the same run."""
+    d = _dict()
+    d["fsw"]["control"][0]["rate"] = 0.5
+    full = Scenario.from_dict(copy.deepcopy(d)).run()
+    d["fsw"]["record_rate"] = "grid"
+    grid = Scenario.from_dict(d).run()
+    np.testing.assert_array_equal(full.R, grid.R)
+    assert grid.meta["signal_fast"] == [] and "dipole_request_B" in {r[0] for r in full.meta["signal_fast"]}
+    assert full.records["dipole_request_B"].complete and not grid.records["dipole_request_B"].complete
 
 
 def test_guidance_without_orbit_is_refused_before_a_step():

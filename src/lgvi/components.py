@@ -77,6 +77,8 @@ SIGNALS: dict[str, Signal] = _signals(
     ("v_rel_N", 3, "m/s", "N", "velocity relative to the co-rotating atmosphere"),
     # disturbances (each model also writes its own tau_<name>_B, recorded by name)
     ("tau_dist_B", 3, "N m", "B", "sum of the disturbance torques, held over the step"),
+    ("tau_gravity_gradient_B", 3, "N m", "B", "the gravity gradient's moment at the step's start (in the "
+     "variational step, not in tau_dist_B), written by the loop"),
     # sensors
     ("gyro_B", 3, "rad/s", "B", "gyro measurement"),
     ("st_q", 4, "1", "B->N", "star tracker quaternion (scalar-last)"),
@@ -239,3 +241,63 @@ def kind_of(component: Any) -> ComponentKind | None:
 
 
 __all__ += ["Component", "LoopContext", "kind_of"]
+
+
+# ------------------------------------------------------------------------------------------------
+# coefficients that differ per member of an ensemble (one parameter row per member)
+# ------------------------------------------------------------------------------------------------
+def member_coefficient(value: Any, name: str, *, positive: bool = False, infinite: bool = False) -> Any:
+    """A component's coefficient: a number (``float``) or one per member of an ensemble (a 1-D
+    array of ``B`` values, returned as a read-only float64 array); every value finite (``+inf``
+    too with ``infinite``) and, with ``positive``, ``> 0``. The error names ``name``, the value
+    and, for an array, the member."""
+    import math
+
+    import numpy as np
+
+    from ._validation import as_float, as_float_array
+
+    if np.ndim(value) == 0:
+        if infinite and isinstance(value, (int, float)) and value == math.inf:
+            return math.inf
+        return as_float(value, name, positive=positive)
+    if infinite:                        # +inf is a value here: as_float_array would refuse it
+        try:
+            a = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise TypeError(f"{name} must be a number or one number per member, got {value!r}") from None
+    else:
+        a = as_float_array(value, name)
+    if a.ndim != 1 or a.size == 0:
+        raise ValueError(f"{name} must be a number or one value per member (a 1-D array of B >= 1 values), got "
+                         f"shape {a.shape}")
+    ok = np.isfinite(a) | (a == math.inf) if infinite else np.ones(a.shape, bool)
+    if positive:
+        ok &= a > 0.0
+    if not ok.all():
+        i = int(np.flatnonzero(~ok)[0])
+        rule = "positive and finite" if positive else "finite" + (" or +inf" if infinite else "")
+        raise ValueError(f"{name} must be {rule}, got {a[i]} for member {i}")
+    a = a.copy()
+    a.flags.writeable = False
+    return a
+
+
+def member_rows(*columns: Any, what: str = "coefficients given per member") -> Any:
+    """A component's parameter row from its coefficients (numbers, (B,) arrays of one per member,
+    or 2-D (1, K) / (B, K) blocks), in order: ``(P,)`` when none is given per member, else
+    ``(B, P)`` (a number repeated in every row). Members of different counts are refused (the error
+    begins with ``what``)."""
+    import numpy as np
+
+    blocks = [np.asarray(c, dtype=np.float64) for c in columns]
+    blocks = [b.reshape(1, 1) if b.ndim == 0 else (b[:, None] if b.ndim == 1 else b) for b in blocks]
+    counts = sorted({b.shape[0] for b in blocks} - {1})
+    if len(counts) > 1:
+        raise ValueError(f"{what}: give one value per member of the same ensemble, got {counts} members")
+    B = counts[0] if counts else 1
+    rows = np.concatenate([np.broadcast_to(b, (B, b.shape[1])) for b in blocks], axis=1)
+    return rows if counts else rows[0]
+
+
+__all__ += ["member_coefficient", "member_rows"]

@@ -17,7 +17,14 @@ At step ``k`` (time ``t = t0 + k h``) the loop
    gravity gradient along the tabulated orbit in the variational form when ``gg`` (``ggp`` the
    member's row: its own inertia);
 4. records: the solver's and the wheels' records as the gyrostat does, and the bus entries
-   ``sig_idx`` at each record entry's first step into ``sig_out``.
+   ``sig_idx`` at each record entry's first step into ``sig_out``; a signal whose writer runs off
+   the record grid (faster than it, or at a period that is not a multiple of it) has a row
+   ``(period, bus offset, size, column, slots, next, slot)`` of ``sig_fast`` (the last two the
+   kernel's counters): at each of its writer's steps
+   the loop writes it into slot ``j`` of its columns of the entry's row (the ``j``-th writer step
+   of the entry, NaN for a slot the entry has no step for), so ``sig_out`` holds every value it
+   wrote (:func:`record_fast`); the gravity gradient's moment at the step's start (``gg``) is on the bus at
+   ``io``'s slot after the lookahead count (:func:`gravity_gradient_slot`), recorded like the rest.
 
 A family absent from a run has no component in the list and costs nothing; adding a family is
 one import and one ``elif`` in :func:`dispatch`.
@@ -124,6 +131,55 @@ def lookahead_count(io):
         return 0
     i = IO_NDIST + 1 + io[IO_NDIST]
     return io[i] if io.shape[0] > i else 0
+
+
+@jit(inline="always")
+def gravity_gradient_slot(io):
+    """The bus offset of ``tau_gravity_gradient_B`` (the variational moment at the step's start),
+    stored in ``io`` after the lookahead count; -1 when the run does not record it."""
+    if io.shape[0] <= IO_NDIST:
+        return -1
+    i = IO_NDIST + 2 + io[IO_NDIST]
+    return io[i] if io.shape[0] > i else -1
+
+
+@jit(inline="always")
+def record_fast_start(k0, c_rec, sig_fast):
+    """Before step ``k0`` (its place ``c_rec`` in its record entry): each row's next writer step
+    ``sig_fast[f, 5]`` (the first multiple of its period ``p`` from ``k0`` on) and its slot in the
+    entry ``sig_fast[f, 6]`` (the writer steps of the entry before it)."""
+    ke = k0 - c_rec
+    for f in range(sig_fast.shape[0]):
+        p = sig_fast[f, 0]
+        nxt = ((k0 + p - 1) // p) * p
+        sig_fast[f, 5] = nxt
+        sig_fast[f, 6] = (nxt - ((ke + p - 1) // p) * p) // p
+
+
+@jit(inline="always")
+def record_fast(k, c_rec, e, per, bus, sig_fast, sig_out):
+    """Step 4's records off the grid at step ``k`` (``c_rec`` its place in entry ``e`` of ``per``
+    steps): each row ``(p, offset, size, column, slots, next, slot)`` of ``sig_fast`` due at ``k``
+    (``k == next``) goes into slot ``slot`` of its columns, then ``next += p``, ``slot += 1``; at
+    the entry's first step the slots restart at 0, and a row whose period does not divide ``per``
+    has them set to NaN first (a slot with no writer step in the entry stays NaN). No division
+    a step: the counters start at :func:`record_fast_start`."""
+    if c_rec == 0:
+        for f in range(sig_fast.shape[0]):
+            sig_fast[f, 6] = 0
+            if per % sig_fast[f, 0] != 0:
+                for i in range(sig_fast[f, 2] * sig_fast[f, 4]):
+                    sig_out[e, sig_fast[f, 3] + i] = math.nan
+    for f in range(sig_fast.shape[0]):
+        if k != sig_fast[f, 5]:
+            continue
+        size = sig_fast[f, 2]
+        col = sig_fast[f, 3] + sig_fast[f, 6] * size
+        o = sig_fast[f, 1]
+        for i in range(size):
+            sig_out[e, col + i] = bus[o + i]
+        sig_fast[f, 5] = k + sig_fast[f, 0]
+        sig_fast[f, 6] += 1
 
 
 @jit(_nrt=False)
@@ -262,11 +318,11 @@ def advance_gg(ggp, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now, ta0, ta1
 
 
 def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cmd, u_now, bus, io, codes, spc,
-               mask, nr, P, po, S, so, W, wo, WS, sig_idx, k0, n, kb, tol, max_iter, save_every, per, R_out, Pi_out,
+               mask, nr, P, po, S, so, W, wo, WS, sig_idx, sig_fast, k0, n, kb, tol, max_iter, save_every, per, R_out, Pi_out,
                rho_out, u_out, it_out, res_out, sig_out, counts, fail):
     """Steps ``k0 .. k0 + n - 1`` of the loop (see the module's text) in place on ``R``, ``Pi``,
     ``rho``, ``G``, ``bus``, ``S``; buffers as :func:`.gyrostat_kernels.gyro_steps` plus ``sig_out``
-    (entries, len(sig_idx)). Returns ``(status, k, iterations_total, residual_max, its, residual)``."""
+    (entries, len(sig_idx) + the columns of ``sig_fast``). Returns ``(status, k, iterations_total, residual_max, its, residual)``."""
     N = rho.shape[0]
     it_sum = 0
     rmax = 0.0
@@ -295,6 +351,10 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
     opy = io[IO_PY]
     nsig = sig_idx.shape[0]
     L = lookahead_count(io)
+    ogg = gravity_gradient_slot(io)
+    nfast = sig_fast.shape[0]
+    if nfast > 0:
+        record_fast_start(k0, c_rec, sig_fast)
     hh = 0.5 * h
     for k in range(k0, k0 + n):
         t = t0 + k * h
@@ -313,6 +373,10 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
                 bus[orh + i] = rho[i]
             if osp >= 0:
                 bus[osp + i] = rho[i] / wp[i, 0] - (axes[i, 0] * w0 + axes[i, 1] * w1 + axes[i, 2] * w2)
+        if ogg >= 0:
+            bus[ogg] = m0
+            bus[ogg + 1] = m1
+            bus[ogg + 2] = m2
         # 2. the components due (the disturbances' sum first set to the held ones); the first L ran
         # at the end of the previous step, except at a chunk's first step (and all run here when L = 0)
         first = L
@@ -366,6 +430,8 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
         if c_rec == 0:
             for q in range(nsig):
                 sig_out[e, q] = bus[sig_idx[q]]
+        if nfast > 0:
+            record_fast(k, c_rec, e, per, bus, sig_fast, sig_out)
         # 5. the symmetric forcing: the disturbances at the step's end (t_k+1, R_k+1), and
         # Pi_k+1 += h/2 (tau_dist_k+1 - tau_dist_k) (the step held tau_dist_k at both ends)
         if L > 0:

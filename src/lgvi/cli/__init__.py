@@ -635,6 +635,8 @@ def _run_system(args: argparse.Namespace, scenario) -> int:
 
     from ..errors import ConvergenceError, SimulationInterrupted, TorqueError
 
+    if getattr(scenario, "ensemble", None) is not None:       # a spacecraft scenario's [ensemble]
+        return _run_loop_ensemble(args, scenario)
     formats = _parse_formats(args.format, scenario.formats)
     if formats != ("npz",):
         raise UsageError(f"--format: the results of an [orbiting_body] or [two_body] scenario are saved as npz "
@@ -688,6 +690,68 @@ def _run_system(args: argparse.Namespace, scenario) -> int:
     print(f"{scenario.name}: {scenario.steps} steps in {wall:.3g} s; wrote {len(files)} files to {outdir}")
     for p in files:
         print(f"  {p.name}")
+    return 0
+
+
+def _run_loop_ensemble(args: argparse.Namespace, scenario) -> int:
+    """``lgvi run`` of a spacecraft scenario with ``[ensemble]``: its members in the compiled loop in
+    threads (in memory: no stream, no ``--resume``), saved as ``ensemble.npz`` with
+    ``summary.txt``/``summary.json``: each member's :func:`lgvi.io.scenario_loop.loop_summary`
+    and the ensemble's statistics (:func:`lgvi.io.scenario_ensemble.ensemble_summary`)."""
+    import lgvi
+
+    from ..errors import ConvergenceError, SimulationInterrupted, TorqueError
+    from ..io.scenario_ensemble import ensemble_lines, ensemble_summary
+    from ..io.scenario_loop import loop_summary
+
+    if args.resume:
+        raise UsageError("--resume: an [ensemble] scenario runs in memory (no stream to resume); run it again")
+    formats = _parse_formats(args.format, scenario.formats)
+    if formats != ("npz",):
+        raise UsageError(f"--format: the results of an [ensemble] scenario are saved as npz only; got {args.format!r}")
+    outdir = _outdir(args, scenario)
+    _check_outdir(outdir)
+    B = len(scenario.members)
+    print(f"lgvi run: {scenario.name}: {B} members of {scenario.steps} steps of h = {scenario.h:g} s ...",
+          file=sys.stderr, flush=True)
+    t0 = time.perf_counter()
+    try:
+        ens = scenario.run_ensemble()
+    except SimulationInterrupted as exc:
+        _err(f"interrupted: {exc}")
+        return 130
+    except (ConvergenceError, TorqueError) as exc:      # a component's failure too (ComponentError), naming the member
+        raise RunFailure(f"{type(exc).__name__}: {exc}") from None
+    wall = time.perf_counter() - t0
+    outdir.mkdir(parents=True, exist_ok=True)
+    ens.save(outdir / "ensemble.npz")
+    write_text(outdir / "scenario.toml", scenario.text, "scenario copy")
+    per_member = [loop_summary(ens[b]) for b in range(B)]
+    stats = ensemble_summary(per_member)
+    data = {"status": "complete", "system": "spacecraft", "scenario_name": scenario.name,
+            "scenario_source": scenario.source, "lgvi_version": lgvi.__version__, "members": B,
+            "seed": scenario.ensemble.seed, "steps": scenario.steps, "h": scenario.h, "wall_time_s": wall,
+            "ensemble": stats, "member_summaries": per_member,
+            "files": ["ensemble.npz", "scenario.toml", "summary.txt", "summary.json"], "scenario": scenario.text}
+    write_text(outdir / "summary.json", json.dumps(data, indent=2) + "\n", "summary")
+    lines = [f"lgvi {lgvi.__version__} run of scenario {scenario.name!r} ({scenario.source}): an ensemble",
+             *([f"  {scenario.description}"] if scenario.description else []),
+             f"status:        complete, {B} members (seed {scenario.ensemble.seed}) of {scenario.steps} steps, "
+             f"h = {scenario.h:g} s, in {wall:.4g} s",
+             *ensemble_lines(stats), "",
+             "members (settle time [s], error after settling mean / max [deg], final rate [deg/s], final mode; "
+             "a mode without a control law writing sigma_BR reads as no error):",
+             *(f"  {b:4d}  " + ("not settled" if s["settle_time_s"] is None else
+                                f"{s['settle_time_s']:g}  {s['error_deg']['mean']:.3g} / {s['error_deg']['max']:.3g}")
+               + f"  {s['rate_final_deg_s']:.3g}" + (f"  mode {s['modes'][-1]['mode']}" if s.get("modes") else "")
+               for b, s in enumerate(per_member)),
+             "", f"files:         {', '.join(data['files'])}", "", "scenario:",
+             *("  " + line for line in scenario.text.rstrip("\n").splitlines()), ""]
+    write_text(outdir / "summary.txt", "\n".join(lines), "summary")
+    print(f"{scenario.name}: {B} members of {scenario.steps} steps in {wall:.3g} s; wrote {len(data['files'])} files "
+          f"to {outdir}")
+    for name in data["files"]:
+        print(f"  {name}")
     return 0
 
 

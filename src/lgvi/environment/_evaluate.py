@@ -28,7 +28,7 @@ def layout(kind: Any) -> tuple[list[int], np.ndarray]:
     return sizes, np.concatenate([[0], np.cumsum(sizes)])[:-1].astype(np.int64)
 
 
-def evaluate(component: Any, t: Any = 0.0, **signals: Any) -> dict[str, np.ndarray]:
+def evaluate(component: Any, t: Any = 0.0, *, member: int = 0, **signals: Any) -> dict[str, np.ndarray]:
     """The signals ``component`` writes, at times ``t`` (seconds, scalar or (n,)) and read signals
     given by name (``R`` as (..., 3, 3), vectors as (..., 3), scalars as (...)), broadcast together.
 
@@ -54,7 +54,8 @@ def evaluate(component: Any, t: Any = 0.0, **signals: Any) -> dict[str, np.ndarr
     buses = np.zeros((n, int(sum(sizes))))
     for name, off, size in zip(kind.reads, offsets, sizes):
         buses[:, off:off + size] = np.broadcast_to(arrays[name], (n, size))
-    p = np.ascontiguousarray(component.params(), dtype=np.float64)
+    p = np.asarray(component.params(), dtype=np.float64)
+    p = np.ascontiguousarray(p[member] if p.ndim == 2 else p)       # one row per member: member's
     s = np.ascontiguousarray(component.state0(), dtype=np.float64)
     run = environment_many if kind.family == "environment" else disturbance_many
     status = run(kind.code, np.broadcast_to(t, (n,)).copy(), buses, p, s, offsets)

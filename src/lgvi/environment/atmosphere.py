@@ -23,7 +23,7 @@ import numpy as np
 from .._kernels.environment_components import (EXPONENTIAL_ATMOSPHERE, TABULATED_ATMOSPHERE,
                                                exponential_atmosphere_step, tabulated_atmosphere_step)
 from .._validation import as_float, as_float_array
-from ..components import Component, ComponentKind, LoopContext, register_kind
+from ..components import Component, ComponentKind, LoopContext, member_coefficient, member_rows, register_kind
 from ._evaluate import evaluate
 from .clock import Clock
 from .field import WGS84_A, WGS84_F
@@ -35,6 +35,11 @@ __all__ = ["ExponentialAtmosphere", "TabulatedAtmosphere", "ecef_to_geodetic", "
 EARTH_ROTATION = 7.292115e-5
 #: Highest altitude (m) NRLMSIS is tabulated at (the model's documented range).
 MSIS_MAX_ALTITUDE = 1000e3
+
+
+def _short(value: Any) -> str:
+    """A coefficient in a repr: the number, or the members' values."""
+    return f"{value:g}" if np.ndim(value) == 0 else "[" + ", ".join(f"{v:g}" for v in value) + "]"
 
 
 def _rate(rate: Any) -> float | None:
@@ -58,6 +63,9 @@ class ExponentialAtmosphere(Component):
         Basilisk's ``envMinReach``, ``envMaxReach`` (m): below ``min_altitude`` the run stops
         (status 3), above ``max_altitude`` the density is 0.
 
+    Each coefficient may also be a 1-D array, one value per member of an ensemble
+    (``lgvi.simulate_ensemble``): :meth:`params` then gives one row per member.
+
     :meth:`from_reference` builds one from a density at a reference altitude.
     """
 
@@ -66,16 +74,18 @@ class ExponentialAtmosphere(Component):
     def __init__(self, base_density: float = 1.217, scale_height: float = 8500.0, *,
                  planet_radius: float = EARTH_RADIUS, omega: float = EARTH_ROTATION, min_altitude: float = 0.0,
                  max_altitude: float = math.inf, rate: float | None = None):
-        self.base_density: float = as_float(base_density, "base_density", positive=True)
-        self.scale_height: float = as_float(scale_height, "scale_height", positive=True)
-        self.planet_radius: float = as_float(planet_radius, "planet_radius", positive=True)
-        self.omega: float = as_float(omega, "omega")
-        self.min_altitude: float = as_float(min_altitude, "min_altitude")
-        if not (isinstance(max_altitude, (int, float)) and max_altitude == math.inf):
-            max_altitude = as_float(max_altitude, "max_altitude")
-        if not max_altitude > self.min_altitude:
-            raise ValueError(f"max_altitude must be above min_altitude ({self.min_altitude:g} m), got {max_altitude:g}")
-        self.max_altitude: float = float(max_altitude)
+        self.base_density: Any = member_coefficient(base_density, "base_density", positive=True)
+        self.scale_height: Any = member_coefficient(scale_height, "scale_height", positive=True)
+        self.planet_radius: Any = member_coefficient(planet_radius, "planet_radius", positive=True)
+        self.omega: Any = member_coefficient(omega, "omega")
+        self.min_altitude: Any = member_coefficient(min_altitude, "min_altitude")
+        self.max_altitude: Any = member_coefficient(max_altitude, "max_altitude", infinite=True)
+        low, high = np.broadcast_arrays(self.min_altitude, self.max_altitude)
+        if not np.all(high > low):
+            i = int(np.flatnonzero(~(np.atleast_1d(high) > np.atleast_1d(low)))[0])
+            raise ValueError(f"max_altitude must be above min_altitude ({np.atleast_1d(low)[i]:g} m), got "
+                             f"{np.atleast_1d(high)[i]:g}" + (f" for member {i}" if np.ndim(high) else ""))
+        self.params()                                  # the members' counts agree
         self.rate: Any = _rate(rate)
 
     @classmethod
@@ -88,11 +98,13 @@ class ExponentialAtmosphere(Component):
         return cls(density * math.exp(altitude / scale_height), scale_height, **kwargs)
 
     def __repr__(self) -> str:
-        return f"ExponentialAtmosphere({self.base_density:g}, {self.scale_height:g})"
+        return f"ExponentialAtmosphere({_short(self.base_density)}, {_short(self.scale_height)})"
 
     def params(self) -> np.ndarray:
-        return np.array([self.base_density, self.scale_height, self.planet_radius, self.omega, self.min_altitude,
-                         self.max_altitude])
+        """``[base_density, scale_height, planet_radius, omega, min_altitude, max_altitude]``, (6,) or
+        (B, 6) with coefficients given per member."""
+        return member_rows(self.base_density, self.scale_height, self.planet_radius, self.omega, self.min_altitude,
+                           self.max_altitude, what="ExponentialAtmosphere: the coefficients given per member")
 
     def state0(self) -> np.ndarray:
         return np.zeros(0)
@@ -100,9 +112,11 @@ class ExponentialAtmosphere(Component):
     def sizes(self) -> dict[str, int]:
         return {}
 
-    def evaluate(self, r_N: Any, v_N: Any = (0.0, 0.0, 0.0), t: Any = 0.0) -> dict[str, np.ndarray]:
-        """``density`` (n,) and ``v_rel_N`` (n, 3) at positions ``r_N`` and velocities ``v_N``."""
-        return evaluate(self, t, r_N=r_N, v_N=v_N)
+    def evaluate(self, r_N: Any, v_N: Any = (0.0, 0.0, 0.0), t: Any = 0.0, *, member: int = 0
+                 ) -> dict[str, np.ndarray]:
+        """``density`` (n,) and ``v_rel_N`` (n, 3) at positions ``r_N`` and velocities ``v_N`` (with
+        coefficients per member: ``member``'s)."""
+        return evaluate(self, t, member=member, r_N=r_N, v_N=v_N)
 
 
 def ecef_to_geodetic(r: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -133,9 +147,9 @@ class TabulatedAtmosphere(Component):
     ----------
     t0, dt : float
         Seconds (the run's clock) of the first sample and between samples.
-    density : (K,) array
+    density : (K,) array, or (B, K): one table per member of an ensemble
         kg/m^3, positive, ``K >= 4``.
-    omega : float
+    omega : float, or (B,) one per member
         Rotation rate of the atmosphere about z (rad/s).
     """
 
@@ -145,24 +159,28 @@ class TabulatedAtmosphere(Component):
                  rate: float | None = None):
         self.t0: float = as_float(t0, "t0")
         self.dt: float = as_float(dt, "dt", positive=True)
-        rho = as_float_array(density, "density", (None,))
-        if rho.size < 4:
-            raise ValueError(f"density must have at least 4 samples (a cubic spline), got {rho.size}")
+        rho = as_float_array(density, "density")
+        if rho.ndim not in (1, 2):
+            raise ValueError(f"density must be a (K,) table or (B, K), one table per member, got shape {rho.shape}")
+        if rho.shape[-1] < 4:
+            raise ValueError(f"density must have at least 4 samples (a cubic spline), got {rho.shape[-1]}")
         if not np.all(rho > 0.0):
-            i = int(np.flatnonzero(~(rho > 0.0))[0])
-            raise ValueError(f"density must be positive (kg/m^3), got {rho[i]} at index {i}")
+            i = tuple(int(j) for j in np.argwhere(~(rho > 0.0))[0])
+            raise ValueError(f"density must be positive (kg/m^3), got {rho[i]} at index {i if rho.ndim > 1 else i[0]}")
         self.density = rho
-        self.omega: float = as_float(omega, "omega")
+        self.omega: Any = member_coefficient(omega, "omega")
         self.rate: Any = _rate(rate)
         from scipy.interpolate import CubicSpline
 
-        spline = CubicSpline(self.t0 + self.dt * np.arange(rho.size), np.log(rho))
-        self._slopes = spline(self.t0 + self.dt * np.arange(rho.size), 1)
+        K = rho.shape[-1]
+        spline = CubicSpline(self.t0 + self.dt * np.arange(K), np.log(rho), axis=rho.ndim - 1)
+        self._slopes = spline(self.t0 + self.dt * np.arange(K), 1)
+        self.params()                                  # the members' counts agree
 
     @property
     def span(self) -> tuple[float, float]:
         """The times the table covers (s)."""
-        return self.t0, self.t0 + self.dt * (self.density.size - 1)
+        return self.t0, self.t0 + self.dt * (self.density.shape[-1] - 1)
 
     @classmethod
     def from_msis(cls, orbit: Any, epoch: Any, duration: float, *, dt: float = 10.0, f107: float | None = 150.0,
@@ -218,11 +236,15 @@ class TabulatedAtmosphere(Component):
                              f"[{lo:g}, {hi:g}] s")
 
     def __repr__(self) -> str:
-        return f"TabulatedAtmosphere(t0={self.t0:g}, dt={self.dt:g}, {self.density.size} samples)"
+        per = f", {self.density.shape[0]} members" if self.density.ndim == 2 else ""
+        return f"TabulatedAtmosphere(t0={self.t0:g}, dt={self.dt:g}, {self.density.shape[-1]} samples{per})"
 
     def params(self) -> np.ndarray:
-        return np.concatenate([[self.omega, self.t0, self.dt, self.density.size], np.log(self.density),
-                               self._slopes])
+        """``[omega, t0, dt, K, log density (K), slopes of the spline of log density (K)]``, (2K + 4,)
+        or (B, 2K + 4) with tables or ``omega`` given per member."""
+        log_rho = np.log(self.density)
+        return member_rows(self.omega, self.t0, self.dt, self.density.shape[-1], np.atleast_2d(log_rho),
+                           np.atleast_2d(self._slopes), what="TabulatedAtmosphere: density (B, K) and omega (B,)")
 
     def state0(self) -> np.ndarray:
         return np.zeros(0)
@@ -230,14 +252,15 @@ class TabulatedAtmosphere(Component):
     def sizes(self) -> dict[str, int]:
         return {}
 
-    def evaluate(self, t: Any, r_N: Any = (0.0, 0.0, 0.0), v_N: Any = (0.0, 0.0, 0.0)) -> dict[str, np.ndarray]:
+    def evaluate(self, t: Any, r_N: Any = (0.0, 0.0, 0.0), v_N: Any = (0.0, 0.0, 0.0), *, member: int = 0
+                 ) -> dict[str, np.ndarray]:
         """``density`` (n,) and ``v_rel_N`` (n, 3) at times ``t``; a time outside the table raises."""
         tt = np.atleast_1d(as_float_array(t, "t"))
         lo, hi = self.span
         if np.any((tt < lo) | (tt > hi)):
             bad = tt[(tt < lo) | (tt > hi)][0]
             raise ValueError(f"t must lie in the table's span [{lo:g}, {hi:g}] s, got {bad:g}")
-        return evaluate(self, tt, r_N=r_N, v_N=v_N)
+        return evaluate(self, tt, member=member, r_N=r_N, v_N=v_N)
 
 
 def msis_track(orbit: Any, clock: Clock, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

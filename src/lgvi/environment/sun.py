@@ -18,7 +18,7 @@ import numpy as np
 
 from .._kernels.environment_components import SHADOW, SUN, shadow_step, sun_many, sun_step
 from .._validation import as_float, as_float_array, choice
-from ..components import Component, ComponentKind, LoopContext, register_kind
+from ..components import Component, ComponentKind, LoopContext, member_coefficient, member_rows, register_kind
 from ._evaluate import evaluate
 from .clock import Clock
 
@@ -62,10 +62,12 @@ class Sun(Component):
     epoch : datetime.datetime, numpy.datetime64 or Clock, optional
         UTC date of the run's ``t = 0`` (1950 to 2050). In the loop the spacecraft's ``epoch`` is
         the one clock: ``None`` takes it, and a different one is refused.
-    interpolation : float
+    interpolation : float, or (B,) one per member of an ensemble
         Seconds between the series' evaluations: the sun's geocentric position is the straight line
         between its values at the multiples of ``interpolation`` around ``t`` (60 s: 2e-11 rad from
-        the series, one evaluation a minute); ``0`` evaluates the series at every call.
+        the series, one evaluation a minute); ``0`` evaluates the series at every call. (The date
+        is the run's one clock, the spacecraft's ``epoch``: members with other dates are other
+        spacecraft, ``lgvi.simulate_ensemble([sc_0, sc_1, ...], ...)``.)
     rate : float, optional
         Seconds between runs in the loop (``None``: every step).
     """
@@ -74,8 +76,8 @@ class Sun(Component):
 
     def __init__(self, epoch: Any = None, *, interpolation: float = 60.0, rate: float | None = None):
         self.clock = None if epoch is None else _clock(epoch)
-        self.interpolation: float = as_float(interpolation, "interpolation")
-        if self.interpolation < 0.0:
+        self.interpolation: Any = member_coefficient(interpolation, "interpolation")
+        if np.any(np.asarray(self.interpolation) < 0.0):
             raise ValueError(f"interpolation must be >= 0 seconds (0: no interpolation), got {self.interpolation}")
         self.rate: Any = None if rate is None else as_float(rate, "rate", positive=True)
 
@@ -99,7 +101,7 @@ class Sun(Component):
     def params(self) -> np.ndarray:
         if self.clock is None:
             raise ValueError("Sun has no epoch: give Sun(epoch) or run it on a Spacecraft with an epoch")
-        return np.array([self.clock.epoch_days_tt, self.interpolation])
+        return member_rows(self.clock.epoch_days_tt, self.interpolation)
 
     def state0(self) -> np.ndarray:
         """[k, the node k's and the node k+1's positions]; k NaN: none computed yet."""
@@ -108,9 +110,9 @@ class Sun(Component):
     def sizes(self) -> dict[str, int]:
         return {}
 
-    def evaluate(self, t: Any, r_N: Any) -> dict[str, np.ndarray]:
+    def evaluate(self, t: Any, r_N: Any, *, member: int = 0) -> dict[str, np.ndarray]:
         """``sun_N`` (n, 3) and ``sun_distance`` (n,) at times ``t`` and positions ``r_N`` (m)."""
-        return evaluate(self, t, r_N=r_N)
+        return evaluate(self, t, member=member, r_N=r_N)
 
 
 class Shadow(Component):
@@ -122,7 +124,7 @@ class Shadow(Component):
         ``"conical"``: umbra, penumbra and the visible fraction of the disc (overlapping discs of
         apparent radii ``asin(R_sun / d)`` and ``asin(R_planet / |r|)``); ``"cylindrical"``: 0 in
         the cylinder of the planet's radius behind it, else 1; ``"none"``: always 1.
-    planet_radius, sun_radius : float
+    planet_radius, sun_radius : float, or (B,) one per member of an ensemble
         Metres (Earth's equatorial radius and the IAU nominal solar radius by default).
     """
 
@@ -131,15 +133,18 @@ class Shadow(Component):
     def __init__(self, model: ShadowModel = "conical", *, planet_radius: float = EARTH_RADIUS,
                  sun_radius: float = SUN_RADIUS, rate: float | None = None):
         self.model: str = choice(model, "model", tuple(SHADOW_MODELS))
-        self.planet_radius: float = as_float(planet_radius, "planet_radius", positive=True)
-        self.sun_radius: float = as_float(sun_radius, "sun_radius", positive=True)
+        self.planet_radius: Any = member_coefficient(planet_radius, "planet_radius", positive=True)
+        self.sun_radius: Any = member_coefficient(sun_radius, "sun_radius", positive=True)
         self.rate: Any = None if rate is None else as_float(rate, "rate", positive=True)
+        self.params()                                   # the members' counts agree
 
     def __repr__(self) -> str:
         return f"Shadow({self.model!r})"
 
     def params(self) -> np.ndarray:
-        return np.array([SHADOW_MODELS[self.model], self.planet_radius, self.sun_radius], dtype=np.float64)
+        """``[model code, planet_radius, sun_radius]``, (3,) or (B, 3) with radii given per member."""
+        return member_rows(SHADOW_MODELS[self.model], self.planet_radius, self.sun_radius,
+                           what="Shadow: planet_radius and sun_radius given per member")
 
     def state0(self) -> np.ndarray:
         return np.zeros(0)
@@ -147,9 +152,9 @@ class Shadow(Component):
     def sizes(self) -> dict[str, int]:
         return {}
 
-    def evaluate(self, r_N: Any, sun_N: Any, sun_distance: Any) -> np.ndarray:
-        """The visible fraction (n,) from the bus signals."""
-        return evaluate(self, 0.0, r_N=r_N, sun_N=sun_N, sun_distance=sun_distance)["shadow"]
+    def evaluate(self, r_N: Any, sun_N: Any, sun_distance: Any, *, member: int = 0) -> np.ndarray:
+        """The visible fraction (n,) from the bus signals (with radii per member: ``member``'s)."""
+        return evaluate(self, 0.0, member=member, r_N=r_N, sun_N=sun_N, sun_distance=sun_distance)["shadow"]
 
 
 def shadow_fraction(r: Any, r_sun: Any, model: ShadowModel = "conical", *, planet_radius: float = EARTH_RADIUS,

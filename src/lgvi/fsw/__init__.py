@@ -436,6 +436,11 @@ class FlightSoftware:
         The default period (s) of every part given without its own ``rate``.
     record : sequence of str, optional
         The signals recorded (default: every signal written by a component).
+    record_rate : {"writer", "grid"}, optional
+        ``"writer"`` (the default): ``traj.records[name]`` holds every value the signal's writer
+        wrote, at its own rate, also when it runs faster than the record grid (``save_every``);
+        ``"grid"``: the record grid's entries only (memory of one row per entry, whatever the
+        writers' rates).
     controller : lgvi.control.Controller, optional
         A controller called from Python every ``control_period`` seconds (as in
         ``lgvi.simulate(..., controller=)``): it reads the truth and the environment of the
@@ -460,7 +465,8 @@ class FlightSoftware:
 
     def __init__(self, *, guidance: Any = None, control: Any = None, actuators: Any = None, modes: Any = None,
                  estimator: Any = None, components: Sequence[Any] = (), rate: Any = None,
-                 record: Sequence[str] | None = None, controller: Any = None, control_period: Any = None) -> None:
+                 record: Sequence[str] | None = None, record_rate: str = "writer", controller: Any = None,
+                 control_period: Any = None) -> None:
         from ..control import Controller
 
         if controller is not None and not isinstance(controller, Controller):
@@ -485,6 +491,10 @@ class FlightSoftware:
             Component(rate=rate)               # validates it
         self.rate = rate
         self.record: tuple[str, ...] | None = None if record is None else tuple(str(r) for r in record)
+        if record_rate not in ("writer", "grid"):
+            raise ValueError(f"record_rate must be 'writer' (every value at its writer's rate) or 'grid' (the record "
+                             f"grid's entries only), got {record_rate!r}")
+        self.record_rate = record_rate
 
     def components(self) -> list[Any]:
         return self.estimator + self.guidance + self.modes + self.control + self.actuators + self.extra

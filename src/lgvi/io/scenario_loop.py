@@ -38,6 +38,8 @@ the table takes; a few short aliases: guidance ``"inertial"``, ``"nadir"`` (lgvi
     [fsw]
     rate = 1.0                           # default period of every part [s]
     record = ["sigma_BR", "mode"]        # optional: the signals recorded (default all written)
+    record_rate = "writer"               # optional: every write at its writer's rate (default), or
+                                         # "grid": the record grid's entries only
     [[fsw.guidance]]                     # one table, or several with modes = [...]
     type = "hill"
     [[fsw.control]]
@@ -89,8 +91,8 @@ SPACECRAFT_LISTS = {"disturbance": "disturbance", "sensor": "sensor", "environme
 FSW_LISTS = {"estimator": "estimator", "guidance": "guidance", "control": "control", "actuator": "actuator"}
 SPACECRAFT_KEYS = ("body", "wheel", "magnetorquer", "orbit", "field", "epoch", "orbit_dt", "environment_rate",
                    "magnetorquer_rate") + tuple(k for k in SPACECRAFT_LISTS if k != "environment")
-FSW_KEYS = ("rate", "record", "modes") + tuple(FSW_LISTS)
-_TOP = ("name", "description", "initial", "integrator", "output", "spacecraft", "fsw")
+FSW_KEYS = ("rate", "record", "record_rate", "modes") + tuple(FSW_LISTS)
+_TOP = ("name", "description", "initial", "integrator", "output", "spacecraft", "fsw", "ensemble")
 _INTEGRATOR = ("h", "steps", "duration", "save_every", "method", "tol", "max_iter")
 #: kinds the spacecraft adds itself from its own keys (orbit, field, magnetorquers): not in a list
 _BUILT_IN = ("orbit", "field", "magnetorquers")
@@ -291,6 +293,8 @@ def flight_software(c: Any, tbl: Any, spacecraft: Any = None) -> Any:
         for i, r in enumerate(kw["record"]):
             if r not in SIGNALS and not r.startswith("tau_"):
                 raise c.error(f"fsw.record[{i}]", f"not a signal: {r!r}; expected one of lgvi.components.SIGNALS")
+    if "record_rate" in tbl:
+        kw["record_rate"] = c.string(tbl["record_rate"], "fsw.record_rate", ("writer", "grid"))
     if "modes" in tbl:
         kw["modes"] = _modes(c, tbl["modes"])
     refs = {"estimator": {"star_tracker": _sensor_ref(c, getattr(spacecraft, "sensors", ()), "StarTracker")}}
@@ -320,9 +324,14 @@ class LoopScenario:
     source: str = "<dict>"
     text: str = field(default="", repr=False)
     kind: str = "spacecraft"
+    #: The ``[ensemble]`` section (:mod:`lgvi.io.scenario_ensemble`), or ``None``.
+    ensemble: Any = None
+    #: Per member ``(spacecraft, fsw, R0, omega0, Pi0)``, drawn and checked (empty without ``[ensemble]``).
+    members: tuple[Any, ...] = ()
 
     def __repr__(self) -> str:
-        return f"LoopScenario(name={self.name!r}, steps={self.steps}, h={self.h:g}, source={self.source!r})"
+        more = f", members={len(self.members)}" if self.ensemble is not None else ""
+        return f"LoopScenario(name={self.name!r}, steps={self.steps}, h={self.h:g}{more}, source={self.source!r})"
 
     @property
     def samples(self) -> int:
@@ -336,8 +345,7 @@ class LoopScenario:
     @classmethod
     def from_dict(cls, d: dict[str, Any], source: str = "<dict>", *, text: str | None = None) -> "LoopScenario":
         from .._untrusted import name_problem
-        from .scenario import (ATTITUDE_KEYS, FORMATS, METHODS, Checker, read_attitude, read_omega, read_steps,
-                               to_toml)
+        from .scenario import FORMATS, METHODS, Checker, read_steps, to_toml
 
         c = Checker(source)
         d = c.table(d, "", _TOP)
@@ -361,16 +369,19 @@ class LoopScenario:
             options["tol"] = c.number(integ["tol"], "integrator.tol", nonnegative=True)
         if "max_iter" in integ:
             options["max_iter"] = c.integer(integ["max_iter"], "integrator.max_iter", minimum=1)
-        init = c.table(d.get("initial", {}), "initial", ATTITUDE_KEYS + ("omega", "Pi"))
-        R0 = read_attitude(c, init, "initial")
-        if "omega" in init and "Pi" in init:
-            raise c.error("initial", "expected at most one of initial.omega [rad/s] or initial.Pi [kg m^2/s]; got both")
-        omega0 = read_omega(c, init["omega"], "initial.omega") if "omega" in init else None
-        Pi0 = c.vector(init["Pi"], "initial.Pi") if "Pi" in init else None
-        if omega0 is None and Pi0 is None:
-            omega0 = np.zeros(3)
-        sc = spacecraft(c, d["spacecraft"])
-        fsw = flight_software(c, d.get("fsw", {}), sc)
+        R0, omega0, Pi0, sc, fsw = _described(c, d)
+        ensemble, members = None, ()
+        if "ensemble" in d:                   # a Monte Carlo of the mission: every member drawn and read now
+            from .scenario_ensemble import member_tables, read_ensemble
+
+            ensemble = read_ensemble(c, d["ensemble"], d)
+            built = []
+            for b in range(ensemble.members):
+                cb = Checker(f"{source} (ensemble member {b})")
+                tables, attitude = member_tables(cb, d, ensemble, b)
+                R_b, omega_b, Pi_b, sc_b, fsw_b = _described(cb, tables)
+                built.append((sc_b, fsw_b, attitude(R_b), omega_b, Pi_b))
+            members = tuple(built)
         out = c.table(d.get("output", {}), "output", ("formats", "plots"))
         formats: tuple[str, ...] = ("npz",)
         if "formats" in out:
@@ -384,18 +395,28 @@ class LoopScenario:
         plots = c.boolean(out.get("plots", True), "output.plots")
         scen = cls(name=name, description=description, spacecraft=sc, fsw=fsw, R0=R0, h=h, steps=steps,
                    omega0=omega0, Pi0=Pi0, save_every=save_every, options=options, formats=formats, plots=plots,
-                   source=source, text=to_toml(d) if text is None else text)
+                   source=source, text=to_toml(d) if text is None else text, ensemble=ensemble, members=members)
         scen.check(c)
         return scen
 
     def check(self, c: Any) -> None:
-        """Build the run once, without a step: what the loop refuses is named before any step."""
+        """Build the run once, without a step: what the loop refuses is named before any step (each
+        member's run too, the error naming the member)."""
         from ..systems.spacecraft import LoopRun
+        from .scenario import Checker
 
         try:
             LoopRun(self.spacecraft, self.R0, self.Pi0, **self.simulate_kwargs())
         except (ValueError, TypeError) as exc:
             raise c.error(self._key_of(str(exc)), str(exc)) from None
+        B = len(self.members)
+        for b, (sc, fsw, R0, omega0, Pi0) in enumerate(self.members):
+            member = replace(self, spacecraft=sc, fsw=fsw, R0=R0, omega0=omega0, Pi0=Pi0, ensemble=None, members=())
+            try:
+                LoopRun(sc, R0, Pi0, member=(b, B), **member.simulate_kwargs())
+            except (ValueError, TypeError) as exc:
+                raise Checker(f"{self.source} (ensemble member {b})").error(member._key_of(str(exc)),
+                                                                            str(exc)) from None
 
     def _key_of(self, msg: str) -> str:
         """The file key of a refusal of the run: the component it names first (its kind or class),
@@ -416,6 +437,23 @@ class LoopScenario:
         if c.rate is not None or not c.scenario_key.startswith("fsw."):
             return f"{c.scenario_key}.rate"
         return "fsw.rate"
+
+    def run_ensemble(self, threads: Any = None):
+        """The ``[ensemble]``'s members in the compiled loop (:func:`lgvi.simulate_ensemble` with one
+        spacecraft and flight software per member): a :class:`lgvi.systems.spacecraft.SpacecraftEnsemble`
+        whose ``meta`` holds the scenario's text, name and source."""
+        from ..systems.spacecraft import simulate_spacecraft_ensemble
+
+        if self.ensemble is None:
+            raise ValueError(f"{self.source}: the scenario has no [ensemble] section; run it with run()")
+        scs, fsws, R0, omega0, Pi0 = zip(*self.members)
+        init = {"omega0": np.stack(omega0)} if omega0[0] is not None else {"Pi0": np.stack(Pi0)}
+        ens = simulate_spacecraft_ensemble(list(scs), np.stack(R0), h=self.h, steps=self.steps, fsw=list(fsws),
+                                           threads=self.ensemble.threads if threads is None else threads,
+                                           save_every=self.save_every, **init, **self.options)
+        ens.meta.update(scenario=self.text, scenario_name=self.name, scenario_source=self.source,
+                        ensemble_seed=self.ensemble.seed)
+        return ens
 
     def run(self, progress: Any = False):
         """Simulate (:func:`lgvi.simulate` with the spacecraft and ``fsw=``); the result's ``meta``
@@ -457,6 +495,22 @@ class LoopScenario:
 SETTLE_DEG = 0.1
 
 
+def _described(c: Any, d: dict[str, Any]) -> tuple[Any, Any, Any, Any, Any]:
+    """``(R0, omega0, Pi0, spacecraft, fsw)`` of a spacecraft scenario's tables (or a member's)."""
+    from .scenario import ATTITUDE_KEYS, read_attitude, read_omega
+
+    init = c.table(d.get("initial", {}), "initial", ATTITUDE_KEYS + ("omega", "Pi"))
+    R0 = read_attitude(c, init, "initial")
+    if "omega" in init and "Pi" in init:
+        raise c.error("initial", "expected at most one of initial.omega [rad/s] or initial.Pi [kg m^2/s]; got both")
+    omega0 = read_omega(c, init["omega"], "initial.omega") if "omega" in init else None
+    Pi0 = c.vector(init["Pi"], "initial.Pi") if "Pi" in init else None
+    if omega0 is None and Pi0 is None:
+        omega0 = np.zeros(3)
+    sc = spacecraft(c, d["spacecraft"])
+    return R0, omega0, Pi0, sc, flight_software(c, d.get("fsw", {}), sc)
+
+
 def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DEG, inertia: Any = None,
                  mu: float = 3.986004418e14) -> dict[str, Any]:
     """What a run of the compiled loop achieved, from its records (``traj.signals``).
@@ -470,10 +524,11 @@ def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DE
     settle_deg : float
         The pointing error, degrees, under which the run counts as settled.
     inertia : (3, 3) array_like, optional
-        The spacecraft's inertia (kg m^2; default the run's ``traj.inertia``): with the position
-        ``r_N`` recorded, the gravity
-        gradient ``3 mu / |r|^5 b x J b`` (``b = R^T r_N``; it is in the variational step, not a
-        recorded torque) joins the disturbance budget as ``gravity_gradient``.
+        The spacecraft's inertia (kg m^2; default the run's ``traj.inertia``): a run that did not
+        record ``tau_gravity_gradient_B`` (the loop records it, by name, since issue 26's part 4;
+        a result saved before), with the position ``r_N`` recorded, has the gravity gradient
+        ``3 mu / |r|^5 b x J b`` (``b = R^T r_N``) computed from it in the disturbance budget as
+        ``gravity_gradient``.
     mu : float
         The Earth's gravitational parameter for it (m^3/s^2).
 
@@ -581,7 +636,7 @@ def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DE
 
         inertia = as_float_array(inertia, "inertia", (3, 3))
     inertia = getattr(traj, "inertia", None) if inertia is None else inertia
-    if inertia is not None and "r_N" in sig and len(R):
+    if "gravity_gradient" not in torques and inertia is not None and "r_N" in sig and len(R):
         J = np.asarray(inertia, dtype=np.float64)
         r = np.asarray(sig["r_N"])
         b = np.einsum("nji,nj->ni", R[np.searchsorted(np.asarray(traj.t), ts)], r)      # R^T r_N

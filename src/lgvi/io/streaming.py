@@ -536,6 +536,13 @@ def simulate_stream(folder: str | os.PathLike[str], body: Any, R0: Any, Pi0: Any
     from ..integrator import Run
 
     folder = stream_folder(folder)
+    mapped = _described(folder, body, resume, wheels=wheels, controller=controller, control_period=control_period,
+                        environment=environment, magnetorquers=magnetorquers, torque=torque, scheme=scheme)
+    if mapped is not None:                  # today's keywords onto the descriptions (lgvi.systems.loop_keywords)
+        return stream_system(folder, "spacecraft", mapped[0], R0, Pi0, omega0=omega0, h=h, steps=steps, fsw=mapped[1],
+                             method=method, tol=tol, max_iter=max_iter, alpha=alpha, save_every=save_every, t0=t0,
+                             solver_record=solver_record, order=order, composition=composition, progress=progress,
+                             resume=resume, chunk_steps=chunk_steps, meta=meta)
     if wheels is not None or controller is not None or control_period is not None or environment is not None \
             or magnetorquers is not None or scheme == "rkmk4":   # the gyrostat (lgvi.systems.gyrostat)
         from ..systems.gyrostat import gyrostat_options, scheme_run_class
@@ -567,6 +574,26 @@ def simulate_stream(folder: str | os.PathLike[str], body: Any, R0: Any, Pi0: Any
     folder = Path(folder)
     return _drive_stream(folder, run, stream_meta, resume, progress,
                          lambda manifest: _check_resume(manifest["meta"], stream_meta, folder))
+
+
+def _described(folder: Path, body: Any, resume: bool, **keywords: Any) -> tuple[Any, Any] | None:
+    """``(Spacecraft, FlightSoftware or None)`` for :func:`simulate_stream`'s gyrostat keywords where
+    the loop runs them bit for bit (:func:`lgvi.systems.loop_keywords.describe`; warns), or ``None``:
+    also when resuming a stream that the gyrostat wrote (it continues as it began)."""
+    from ..systems.loop_keywords import KeywordsDeprecationWarning, describe, replacement
+
+    if resume and (folder / MANIFEST).is_file():
+        try:
+            if read_manifest(folder).get("meta", {}).get("system") != "spacecraft":
+                return None
+        except (OSError, ValueError):
+            return None                       # the resume itself names what is wrong with the folder
+    described = describe(body, error_estimate=None, **keywords)
+    if described is not None:
+        import warnings
+
+        warnings.warn(replacement(*described, "lgvi.simulate_stream"), KeywordsDeprecationWarning, stacklevel=3)
+    return described
 
 
 def stream_system(folder: str | os.PathLike[str], system: str, *args: Any, progress: Any = False, resume: bool = False,

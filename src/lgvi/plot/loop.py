@@ -115,7 +115,7 @@ def modes(traj: Any, ax: Any = None) -> Any:
 def _torques(traj: Any, sig: dict[str, np.ndarray], t: np.ndarray, inertia: Any, mu: float) -> dict[str, np.ndarray]:
     out = {name[4:-2]: np.asarray(sig[name]) for name in sorted(sig) if name.startswith("tau_")
            and name.endswith("_B") and name not in ("tau_dist_B", "tau_control_B", "tau_command_B")}
-    if inertia is not None and "r_N" in sig:
+    if "gravity_gradient" not in out and inertia is not None and "r_N" in sig:   # a run before it was recorded
         J = np.asarray(inertia, dtype=np.float64).reshape(3, 3)
         r = np.asarray(sig["r_N"])
         b = np.einsum("nji,nj->ni", np.asarray(traj.R)[np.searchsorted(np.asarray(traj.t), t)], r)
@@ -133,9 +133,9 @@ def _shade_shadow(ax: Any, sig: dict[str, np.ndarray], t: np.ndarray) -> None:
 
 
 def disturbances(traj: Any, ax: Any = None, *, mu: float = 3.986004418e14, max_points: int | None = None) -> Any:
-    """The norm of each disturbance torque recorded (``tau_<kind>_B``; with ``r_N`` recorded, also
-    the gravity gradient of the variational step, ``3 mu / |r|^5 b x J b`` with the run's
-    ``inertia``), N m, log scale, eclipses shaded."""
+    """The norm of each disturbance torque recorded (``tau_<kind>_B``, the gravity gradient's
+    ``tau_gravity_gradient_B`` too; for a run saved before the loop recorded it, with ``r_N``
+    recorded, ``3 mu / |r|^5 b x J b`` with the run's ``inertia``), N m, log scale, eclipses shaded."""
     from . import MAX_POINTS, _UNITS, _axes, _thin_minmax
 
     sig, t = _signals(traj, "disturbances", tuple(n for n in getattr(traj, "signals", {}) or {}

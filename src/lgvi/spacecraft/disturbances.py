@@ -79,13 +79,22 @@ def _facets(area: Any, normal: Any, centre: Any) -> tuple[np.ndarray, np.ndarray
 
 
 def _per_facet(value: Any, name: str, shape: tuple[int, int]) -> np.ndarray:
-    """A number, one value per facet (N,) or per member and facet (B, N), broadcast to ``shape``."""
+    """A number, one value per facet (N,) or per member and facet (B, N), broadcast to ``shape``
+    (``(B, N)``, or ``(1, N)`` for facets given once: then a coefficient per member sets ``B``)."""
     x = as_float_array(value, name)
+    x = x[None] if x.ndim == 1 else x
     try:
-        return np.broadcast_to(x[None] if x.ndim == 1 else x, shape)
+        B = np.broadcast_shapes(x.shape[:1] if x.ndim == 2 else (1,), shape[:1])[0]
+        return np.broadcast_to(x, (B, shape[1]))
     except ValueError:
-        raise ValueError(f"{name} must be a number or one value per facet (shape ({shape[1]},) or {shape}), got "
-                         f"shape {x.shape}") from None
+        raise ValueError(f"{name} must be a number or one value per facet (shape ({shape[1]},)) or per member and "
+                         f"facet (shape (B, {shape[1]}), B = {shape[0]} where the facets are given per member), got "
+                         f"shape {np.shape(value)}") from None
+
+
+def _to_members(B: int, *arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Each (1 or B, ...) array broadcast to B members."""
+    return tuple(np.broadcast_to(a, (B,) + a.shape[1:]) for a in arrays)
 
 
 def _fraction(value: Any, name: str, shape: tuple[int, int]) -> np.ndarray:
@@ -127,8 +136,9 @@ class FacetDrag(_Disturbance):
     centre : (N, 3) array
         Centres of pressure in the body frame (m, from the centre of mass: lgvi's body frame is
         centred there; Basilisk's ``B_location`` is from its point B).
-    drag_coefficient : float or (N,) array
-        ``Cd`` of each facet (positive; 2.2 is usual).
+    drag_coefficient : float or (N,) array, or (B, N) one row per member
+        ``Cd`` of each facet (positive; 2.2 is usual). Any argument may have a leading member axis
+        (the others are then shared by the members).
 
     Notes
     -----
@@ -147,6 +157,7 @@ class FacetDrag(_Disturbance):
                  rate: float | None = None):
         A, n, c = _facets(area, normal, centre)
         Cd = _per_facet(drag_coefficient, "drag_coefficient", A.shape)
+        A, n, c = _to_members(Cd.shape[0], A, n, c)        # a coefficient per member, the facets once
         bad = np.argwhere(~(Cd > 0.0))
         if bad.size:
             raise ValueError(f"drag_coefficient must be positive, got {Cd[tuple(bad[0])]}")
@@ -205,6 +216,12 @@ class FacetSRP(_Disturbance):
         a = _fraction(absorbed, "absorbed", A.shape)
         s = _fraction(specular, "specular", A.shape)
         d = _fraction(diffuse, "diffuse", A.shape)
+        B = max(x.shape[0] for x in (a, s, d))
+        try:
+            A, n, c, a, s, d = _to_members(B, A, n, c, a, s, d)
+        except ValueError:
+            raise ValueError(f"absorbed, specular and diffuse given per member must have the same members, got "
+                             f"shapes {np.shape(absorbed)}, {np.shape(specular)}, {np.shape(diffuse)}") from None
         total = a + s + d
         bad = np.argwhere(np.abs(total - 1.0) > 1e-9)
         if bad.size:

@@ -29,7 +29,8 @@ from ..driver import MemorySink, drive
 from ..errors import ConvergenceError, TorqueError
 from .gyrostat import GyrostatRun, GyrostatTrajectory, ReactionWheels
 
-__all__ = ["FORMAT", "GyrostatEnsemble", "drive_members", "per_member", "simulate_gyrostat_ensemble"]
+__all__ = ["FORMAT", "GyrostatEnsemble", "controller_params", "drive_members", "per_member", "simulate_gyrostat_ensemble",
+           "thread_count", "wheel_params"]
 
 #: Format of a saved gyrostat ensemble (the ``__lgvi__`` header of its ``.npz``).
 FORMAT = "lgvi.gyrostat_ensemble/1"
@@ -285,7 +286,13 @@ def _numeric(value: Any) -> np.ndarray | None:
 _RUN_STATE = frozenset({"body", "wheels", "J", "axes", "spin_inertia", "wheel_map", "int_sigma", "prior_time"})
 
 
-def _controller_params(ctrls: Sequence[Any]) -> dict[str, np.ndarray]:
+def wheel_params(wl: Sequence[Any]) -> dict[str, np.ndarray]:
+    """``wheels.<name>``: every member's wheel description (``ReactionWheels.describe``), stacked."""
+    return {f"wheels.{key}": np.stack([np.asarray(w.describe()[key], dtype=np.float64) for w in wl])
+            for key in wl[0].describe()}
+
+
+def controller_params(ctrls: Sequence[Any]) -> dict[str, np.ndarray]:
     """``controller.<name>``: the numeric public attributes every member's controller has, same shapes."""
     out: dict[str, np.ndarray] = {}
     names = [k for k in vars(ctrls[0]) if not k.startswith("_") and k not in _RUN_STATE]
@@ -296,7 +303,8 @@ def _controller_params(ctrls: Sequence[Any]) -> dict[str, np.ndarray]:
     return out
 
 
-def _threads(threads: Any, B: int) -> int:
+def thread_count(threads: Any, B: int) -> int:
+    """The threads an ensemble of ``B`` members runs in: ``threads`` (checked), default one per core."""
     return min(B, os.cpu_count() or 1) if threads is None else as_int(threads, "threads", minimum=1)
 
 
@@ -304,7 +312,7 @@ def drive_members(runs: Sequence[Any], threads: Any) -> list[Any]:
     """Drive each run into its own :class:`lgvi.driver.MemorySink`, in ``threads`` threads (default one
     per core); a failure names its member (``err.body``)."""
     B = len(runs)
-    threads = _threads(threads, B)
+    threads = thread_count(threads, B)
 
     def one(b: int) -> Any:
         try:
@@ -337,8 +345,8 @@ def simulate_gyrostat_ensemble(bodies: Sequence[Any], R: np.ndarray, Pi0: Any = 
         if len(n) > 1:
             raise ValueError(f"wheels must have the same number of wheels in every member, got {sorted(n)}")
     cl = per_member(controller, "controller", B, Controller) if controller is not None else [None] * B
-    ctrl_params = _controller_params(cl) if controller is not None else {}     # before setup
-    threads = _threads(threads, B)
+    ctrl_params = controller_params(cl) if controller is not None else {}     # before setup
+    threads = thread_count(threads, B)
     runs = []
     for b in range(B):
         kw = {"Pi0": init[b], "omega0": None} if omega0 is None else {"Pi0": None, "omega0": init[b]}
@@ -354,8 +362,7 @@ def simulate_gyrostat_ensemble(bodies: Sequence[Any], R: np.ndarray, Pi0: Any = 
         "Pi0": np.stack([r.Pi for r in runs]),
     }
     if wheels is not None:
-        for key in wl[0].describe():
-            params[f"wheels.{key}"] = np.stack([np.asarray(w.describe()[key], dtype=np.float64) for w in wl])
+        params.update(wheel_params(wl))
     params.update(ctrl_params)
 
     members = drive_members(runs, threads)

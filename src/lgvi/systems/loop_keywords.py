@@ -24,6 +24,12 @@ equivalent (:func:`describe` returns ``None``): a ``torque=`` model, ``scheme="r
 not an :class:`lgvi.control.Controller`, and the compiled ``MRPFeedback`` without wheels (its body
 torque) or with an ``inertia`` of its own and a profile target (those run in Python: the
 controller path above).
+
+:func:`lgvi.simulate_ensemble` maps the same keywords member by member (:func:`describe_members`:
+``wheels`` and ``controller`` one for all, copied per member, or one per member; the ensemble runs
+where every member maps) and keeps the gyrostat ensemble's ``params`` (``wheels.*``,
+``controller.*``) beside the components' rows; :func:`lgvi.simulate_stream` maps them as
+:func:`lgvi.simulate` does, except when it resumes a stream the gyrostat wrote.
 """
 
 from __future__ import annotations
@@ -32,7 +38,7 @@ import contextlib
 import contextvars
 from typing import Any, Iterator
 
-__all__ = ["KeywordsDeprecationWarning", "as_given", "describe", "replacement"]
+__all__ = ["KeywordsDeprecationWarning", "as_given", "describe", "describe_members", "replacement"]
 
 #: Set (by :func:`as_given`) where the caller asks for the gyrostat's path as given (scenario files).
 _AS_GIVEN: contextvars.ContextVar[bool] = contextvars.ContextVar("lgvi_keywords_as_given", default=False)
@@ -102,8 +108,46 @@ def describe(body: Any, *, wheels: Any, controller: Any, control_period: Any, en
     return spacecraft, FlightSoftware(controller=controller, control_period=control_period)
 
 
-def replacement(spacecraft: Any, fsw: Any) -> str:
-    """The warning's text: what was given, and the call that replaces it."""
+def describe_members(bodies: Any, B: int, *, wheels: Any, controller: Any, control_period: Any, environment: Any,
+                     magnetorquers: Any, torque: Any) -> tuple[list[Any], list[Any] | None, dict[str, Any]] | None:
+    """``(spacecraft, fsw or None, params)`` per member for :func:`lgvi.simulate_ensemble`'s keywords
+    (``bodies``: B :class:`lgvi.RigidBody`; ``wheels``, ``controller``: one for all, copied per
+    member, or B of them), where every member has an exact equivalent (:func:`describe`), else
+    ``None``; ``params`` are the gyrostat ensemble's ``wheels.*`` and ``controller.*`` rows."""
+    if _AS_GIVEN.get() or torque is not None:
+        return None
+    from ..control import Controller
+    from .gyrostat import ReactionWheels
+    from .gyrostat_ensemble import controller_params, per_member, wheel_params
+
+    try:
+        wl = per_member(wheels, "wheels", B, ReactionWheels) if wheels is not None else [None] * B
+        cl = per_member(controller, "controller", B, Controller) if controller is not None else [None] * B
+    except (TypeError, ValueError):
+        return None                              # the gyrostat ensemble names it
+    if wheels is not None and len({len(w) for w in wl}) > 1:
+        return None
+    params: dict[str, Any] = {}
+    if wheels is not None:
+        params.update(wheel_params(wl))
+    if controller is not None:
+        params.update(controller_params(cl))     # before any setup, as the gyrostat ensemble's
+    pairs = [describe(bodies[b], wheels=wl[b], controller=cl[b], control_period=control_period,
+                      environment=environment, magnetorquers=magnetorquers, torque=None, scheme=None,
+                      error_estimate=None) for b in range(B)]
+    if any(p is None for p in pairs):
+        return None
+    fsw = [p[1] for p in pairs]
+    return [p[0] for p in pairs], None if fsw[0] is None else fsw, params
+
+
+def replacement(spacecraft: Any, fsw: Any, call: str = "lgvi.simulate") -> str:
+    """The warning's text: what was given, and the call that replaces it (``call``: the entry point
+    given the old keywords, ``lgvi.simulate``, ``lgvi.simulate_ensemble`` or ``lgvi.simulate_stream``)."""
+    return _replacement(spacecraft, fsw).replace("lgvi.simulate(", f"{call}(")
+
+
+def _replacement(spacecraft: Any, fsw: Any) -> str:
     parts = ["wheels=wheels"] if spacecraft.wheels is not None else []
     if spacecraft.magnetorquers is not None:
         parts.append("magnetorquers=magnetorquers")

@@ -2,20 +2,26 @@
 
 The loop records the bus on one grid, every ``save_every`` steps (every step with
 ``solver_record="full"``): ``traj.signals[name]``, at ``traj.signal_t``. A signal written by a
-component that runs every ``p`` steps changes only at those steps, so its own record is the rows
-of the grid at the writer's steps: :class:`Record` (``t``, ``values``, ``period``). When the
-writer runs at a multiple of the grid's period the record holds every value it wrote
-(``complete``); when it runs faster than the grid (or off it), the grid holds the latest value at
-each entry and the record is that (``complete`` is ``False``: record more often to see every write).
+component that runs every ``p`` steps changes only at those steps. When ``p`` is a multiple of
+the grid's period its record is the grid's rows at the writer's steps; otherwise (the writer runs
+faster than the grid, or off it) the loop also writes it at each of its writer's steps into
+``ceil(grid / p)`` slots of its own columns of the entry's row (``meta["signal_fast"]``; a slot
+the entry has no writer step for is NaN). Either way :class:`Record` (``t``, ``values``,
+``period``) holds every value the writer wrote (``complete``). The memory this costs is what the
+writes are: ``size * ceil(grid / p)`` floats a record entry for such a signal, one chunk of them in
+memory when the run streams; ``FlightSoftware(record_rate="grid")`` keeps the grid's columns only,
+and its records of the faster writers are the grid's rows (``complete`` is ``False``).
 
-A run writes the writers' periods in ``meta["signal_periods"]`` (steps, by signal name), so the
-records follow the trajectory into files, streams and ensembles with nothing else stored; a result
-saved before this version has no periods and each record is the grid.
+A run writes the writers' periods in ``meta["signal_periods"]`` (steps, by signal name: the
+greatest common divisor of its writers' periods), so the records follow the trajectory into files,
+streams and ensembles with nothing else stored; a result saved before this version has no periods
+and each record is the grid.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+import math
 from typing import Any
 
 import numpy as np
@@ -54,9 +60,10 @@ class Record:
 
 
 def signal_periods(record_layout: list[tuple[str, int, int]], writers: dict[str, list[int]]) -> dict[str, int]:
-    """``{name: steps}``: for each recorded signal the shortest period (steps) of the components
-    that write it (``writers[name]``: their periods); 1 for the loop's own signals (the truth)."""
-    return {name: int(min(writers.get(name) or [1])) for name, _, _ in record_layout}
+    """``{name: steps}``: for each recorded signal the period (steps) at which one of the components
+    that write it (``writers[name]``: their periods) may run, the greatest common divisor of
+    theirs; 1 for the loop's own signals (the truth)."""
+    return {name: int(math.gcd(*(writers.get(name) or [1]))) for name, _, _ in record_layout}
 
 
 def records_of(traj: Any) -> dict[str, Record]:
@@ -64,13 +71,24 @@ def records_of(traj: Any) -> dict[str, Record]:
     meta = traj.meta or {}
     per = 1 if meta.get("solver_record") == "full" else int(meta.get("save_every", 1))
     periods = meta.get("signal_periods") or {}
+    fast = {row[0]: row[1:] for row in meta.get("signal_fast") or []}
     t, h = traj.signal_t, float(traj.h)
+    t0 = float(meta.get("t0", 0.0))
     out = {}
     for name, values in traj.signals.items():
         p = int(periods.get(name, 0))
-        if p >= per and p % per == 0:
+        if name in fast:
+            col, size, p, slots = (int(x) for x in fast[name])
+            E = len(t)
+            ke = per * np.arange(E)[:, None]                     # each entry's first step
+            k = -(-ke // p) * p + p * np.arange(slots)[None, :]  # its writer's steps, slot by slot
+            keep = (k < ke + per).ravel()
+            block = traj.signal_data[:, col:col + size * slots].reshape(E * slots, size)[keep]
+            out[name] = Record(name, t0 + h * k.ravel()[keep], block[:, 0] if name == "mode" else block,
+                               abs(h) * p, True)
+        elif p >= per and p % per == 0:
             rows = slice(None, None, p // per)
             out[name] = Record(name, t[rows], values[rows], abs(h) * p, True)
-        else:                    # faster than the grid, off it, or a result without the periods
+        else:                    # record_rate="grid" with a faster writer, or a result without the periods
             out[name] = Record(name, t, values, abs(h) * per, False)
     return out

@@ -846,6 +846,24 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
         gyrostat_options(torque=torque, forcing=forcing, order=order, composition=composition, error_estimate=None)
         R = _rotations(R0)
         unique, ib = _bodies(bodies, len(R))
+        from .loop_keywords import KeywordsDeprecationWarning, describe_members, replacement
+
+        mapped = describe_members([unique[i] for i in ib], len(R), wheels=wheels, controller=controller,
+                                  control_period=control_period, environment=environment,
+                                  magnetorquers=magnetorquers, torque=torque)
+        if mapped is not None:            # today's keywords onto the descriptions (lgvi.systems.loop_keywords)
+            import warnings
+
+            from .spacecraft import simulate_spacecraft_ensemble
+
+            scs, fl, kept = mapped
+            warnings.warn(replacement(scs[0], None if fl is None else fl[0], "lgvi.simulate_ensemble"),
+                          KeywordsDeprecationWarning, stacklevel=2)
+            ens = simulate_spacecraft_ensemble(scs, R, Pi0, omega0=omega0, h=h, steps=steps, fsw=fl, threads=threads,
+                                               method=method, tol=tol, max_iter=max_iter, alpha=alpha,
+                                               save_every=save_every, t0=t0, order=order, composition=composition)
+            ens.params.update(kept)
+            return ens
         return simulate_gyrostat_ensemble([unique[i] for i in ib], R, Pi0, omega0=omega0, h=h, steps=steps, wheels=wheels,
                                           controller=controller, control_period=control_period,
                                           environment=environment, magnetorquers=magnetorquers, torque=torque,

@@ -24,7 +24,7 @@ from ..trajectory import RESULT_TYPES
 from . import Field, System, register
 from .._validation import as_float_array
 from .gyrostat import GYROSTAT, GyrostatRun, GyrostatTrajectory, gyrostat_from_file, gyrostat_from_stream
-from .gyrostat_ensemble import ENSEMBLE_TYPES, GyrostatEnsemble, drive_members, per_member
+from .gyrostat_ensemble import ENSEMBLE_TYPES, GyrostatEnsemble, drive_members, per_member, thread_count
 
 if TYPE_CHECKING:  # annotations only: imported where used at run time
     from ..fsw import FlightSoftware
@@ -136,7 +136,7 @@ class SpacecraftTrajectory(GyrostatTrajectory):
 def _from_file(**fields: Any) -> SpacecraftTrajectory:
     data = fields.pop("signal_data")
     base = gyrostat_from_file(**fields)
-    width = sum(int(s) for _, _, s in base.meta.get("signals", []))
+    width = signal_width(base.meta)
     if data.ndim != 2 or data.shape[1] != width:
         raise ValueError(f"field 'signal_data' must have shape (entries, {width}), got {data.shape}")
     return SpacecraftTrajectory(**{f.name: getattr(base, f.name) for f in dataclasses.fields(GyrostatTrajectory)},
@@ -146,7 +146,7 @@ def _from_file(**fields: Any) -> SpacecraftTrajectory:
 def _from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state: dict[str, Any]) -> SpacecraftTrajectory:
     """The :class:`SpacecraftTrajectory` of a stream folder (``System.from_stream``)."""
     base = gyrostat_from_stream(meta, arrays, state)
-    width = sum(int(s) for _, _, s in meta.get("signals", []))
+    width = signal_width(meta)
     data = arrays["signals"].reshape(len(arrays["signals"]), -1) if arrays["signals"].size else \
         np.zeros((len(arrays["signals"]), width))
     if data.shape[1] != width:
@@ -178,9 +178,40 @@ def _signal_periods(run: Any, comps: list[Any]) -> dict[str, int]:
         for name in kind.writes:
             writers.setdefault(name, []).append(int(spc))
     writers["tau_dist_B"] = [1]                 # the loop sums the held disturbance torques at every step
+    writers["tau_gravity_gradient_B"] = [1]     # the loop writes the variational moment at every step
     if run.python_controller:
         writers["tau_command_B"] = writers["wheel_command"] = [int(run.spc)]
     return signal_periods(run.record_layout, writers)
+
+
+def _fast_layout(run: Any) -> tuple[np.ndarray, list[list[Any]]]:
+    """The kernel's ``sig_fast`` rows ``(period, bus offset, size, column, slots, 0, 0)`` (the last
+    two: the kernel's counters, the next writer step and the slot, set at each call) and
+    ``meta["signal_fast"]`` (``[name, column, size, period, slots]``): the recorded signals whose
+    writer runs off the record grid (a period that is not a multiple of the grid's), each with
+    ``ceil(grid / period)`` slots a record entry after the grid's columns
+    (:mod:`lgvi.systems.loop_records`); none with ``FlightSoftware(record_rate="grid")``."""
+    per = 1 if run.full else run.save_every
+    rows: list[list[int]] = []
+    meta: list[list[Any]] = []
+    col = len(run.sig_idx)
+    if run.fsw.record_rate == "writer":
+        for name, _, size in run.record_layout:
+            p = int(run.meta["signal_periods"][name])
+            if p % per == 0:
+                continue                         # the grid holds every value it writes
+            slots = -(-per // p)
+            rows.append([p, run.offsets[name], size, col, slots, 0, 0])
+            meta.append([name, col, size, p, slots])
+            col += size * slots
+    return np.array(rows, np.int64).reshape(len(rows), 7), meta
+
+
+def signal_width(meta: dict[str, Any]) -> int:
+    """Columns of a spacecraft run's ``signal_data``: the grid's (``meta["signals"]``) and the
+    off-grid records' slots (``meta["signal_fast"]``)."""
+    return sum(int(s) for _, _, s in meta.get("signals", [])) + sum(
+        int(size) * int(slots) for _, _, size, _, slots in meta.get("signal_fast", []))
 
 
 class LoopRun(GyrostatRun):
@@ -263,6 +294,7 @@ class LoopRun(GyrostatRun):
             self.meta["mode_names"] = list(fsw.modes[0].names)       # figures, summary and page name the modes
         self.meta["signals"] = [list(x) for x in self.record_layout]
         self.meta["signal_periods"] = _signal_periods(self, comps)      # traj.records: each at its writer's rate
+        self.sig_fast, self.meta["signal_fast"] = _fast_layout(self)
         self.meta["components"] = [f"{kind.name} every {spc * abs(self.h):g} s" for (c, kind, _), spc in
                                    zip(comps, self.spc_c.tolist())]
         self.meta["torque_model"] = "the spacecraft loop (" + ", ".join(self.meta["components"]) + ")" + (
@@ -276,7 +308,7 @@ class LoopRun(GyrostatRun):
         n = self.N
         self.system: System = dataclasses.replace(
             SPACECRAFT, state=self.system.state,
-            records=self.system.records + (Field("signals", (len(self.sig_idx),), np.float64,
+            records=self.system.records + (Field("signals", (signal_width(self.meta),), np.float64,
                                                  SPACECRAFT.records[-1].doc),))
 
     # -------------------------------------------------------------- the bus
@@ -313,6 +345,9 @@ class LoopRun(GyrostatRun):
         for name in ("R", "omega") + (("wheel_speed", "wheel_momentum") if self.N else ()):
             place(name, None)
         writers: dict[str, list[str]] = {name: ["the loop (truth)"] for name in offsets}
+        if self.gg:                             # the variational moment, recorded by name (the momentum budget)
+            place("tau_gravity_gradient_B", None)
+            writers["tau_gravity_gradient_B"] = ["the loop (gravity gradient)"]
         if self.python_controller:
             for name in ("tau_command_B",) + (("wheel_command",) if self.N else ()):
                 place(name, None)
@@ -398,7 +433,8 @@ class LoopRun(GyrostatRun):
                 and "tau_dist_B" in kind.writes and kind.writes[0] != "tau_dist_B"
                 and SIGNALS.get(kind.writes[0]) is None and sizes.get(kind.writes[0]) == 3]
         self.io: np.ndarray = np.array([offsets.get(name, -1) for name in _IO] + [len(dist)] + dist
-                                       + [self._lookahead(wired, dist)], i64)
+                                       + [self._lookahead(wired, dist), offsets.get("tau_gravity_gradient_B", -1)],
+                                       i64)
         modes = [c for c, kind, _, _ in wired if kind.family == "mode"]
         if modes:
             self.bus[offsets["mode"]] = float(getattr(modes[0], "initial", 0))
@@ -464,7 +500,7 @@ class LoopRun(GyrostatRun):
             user, self.gg, self.ggp, self.Rs, self.JdB, self.JB_inv, self.h, self.gam, self.t0, self.R, self.Pi,
             self.wheel_momentum, self.G, self.wheels.axes, self.wp, self.cmd, self.u_now, self.bus, self.io, self.codes,
             self.spc_c, self.mask, self.nr, self.P, self.po, self.S, self.so, self.W, self.wo, self.WS, self.sig_idx,
-            k0, n, kb, self.tol, self.max_iter, self.save_every, per, R_out, Pi_out, rho_out, u_out, it_out, res_out,
+            self.sig_fast, k0, n, kb, self.tol, self.max_iter, self.save_every, per, R_out, Pi_out, rho_out, u_out, it_out, res_out,
             sig_out, self.counts, self.fail)
         self.k: int = int(k)
         self.it_total += int(it_sum) - (int(its) if status != 0 else 0)
@@ -577,7 +613,7 @@ def simulate_spacecraft_ensemble(spacecraft: Any, R: np.ndarray, Pi0: Any = None
     if first.gg:
         params["gravity_gradient.inertia"] = np.stack([r.ggp[1:10] for r in runs])
     members = drive_members(runs, threads)
-    meta = dict(members[0].meta, members=B)
+    meta = dict(members[0].meta, members=B, threads=min(thread_count(threads, B), B))
     for key in ("wheels", "solver_summary", "invariants"):
         meta.pop(key, None)
     return SpacecraftEnsemble(members=tuple(members), params=params, meta=meta)
