@@ -119,7 +119,8 @@ sphinx_gallery_conf = {
 }
 # what sphinx-gallery writes beside the pages (downloads, caches) and its timing pages (not part of the site)
 exclude_patterns += ["gallery/*.ipynb", "gallery/*.py", "gallery/*.zip", "gallery/*.md5", "gallery/*.codeobj.json",
-                     "gallery/sg_execution_times.rst", "sg_execution_times.rst"]
+                     "gallery/sg_execution_times.rst", "sg_execution_times.rst",
+                     "gallery/*.md"]   # pages of the hand-built gallery earlier versions wrote to the same ignored folder
 
 
 def setup(app):
