@@ -516,7 +516,10 @@ def test_source_never_executes_or_unpickles_file_content(path):
                 assert (n or "").split(".")[0] not in ("pickle", "cPickle", "dill", "cloudpickle", "marshal", "shelve",
                                                        "yaml", "joblib"), f"{path}: imports {n}"
     for name, call in _calls(mod):
-        assert name not in ("eval", "exec", "compile", "__import__"), f"{path}:{call.lineno}: {name}()"
+        # the builtins (a bare name or builtins.X); `re.compile(pattern)` compiles a regular expression, not code
+        owner = getattr(call.func.value, "id", "") if isinstance(call.func, ast.Attribute) else "builtins"
+        assert not (name in ("eval", "exec", "compile", "__import__") and owner == "builtins"), \
+            f"{path}:{call.lineno}: {name}()"
         if name == "load" and isinstance(call.func, ast.Attribute) and getattr(call.func.value, "id", "") == "np":
             kw = {k.arg: k.value for k in call.keywords}
             assert isinstance(kw.get("allow_pickle"), ast.Constant) and kw["allow_pickle"].value is False, \
