@@ -191,3 +191,21 @@ def test_negative_h_runs_backwards(method, diag_body, R0):
     assert np.max(np.abs(fwd.Pi[-1] - traj.Pi[-1])) > 0.1
     assert rel_drift(traj.energy) <= 1e-12
     assert rel_drift(traj.spatial_momentum) <= 1e-12
+
+
+def test_the_note_names_the_system_of_a_result_that_is_not_a_rigid_body():
+    """A spacecraft's, gyrostat's or chain's result is named by its system (it read "the free body"
+    whenever meta had no torque, or "none")."""
+    from types import SimpleNamespace
+
+    from lgvi.invariants import declared
+
+    def note(**meta):
+        return declared(SimpleNamespace(meta=meta, potential=None)).note()
+
+    assert note(system="spacecraft", torque="none", invariants={}) == "the spacecraft has no invariants"
+    assert note(system="chain", invariants={"energy": {"kind": "bounded"}}) == "invariants of the chain"
+    assert note(system="gyrostat", torque="controller", invariants={}) == \
+        "the gyrostat with torque controller has no invariants"
+    assert note(system="rigid_body", torque="none", invariants={}) == "the free body has no invariants"
+    assert note(torque="none") == "invariants of the free body"

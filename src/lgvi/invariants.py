@@ -324,10 +324,14 @@ class Declaration:
 
 def _system(meta: Mapping[str, Any]) -> str:
     system = meta.get("system")
-    if isinstance(system, str) and system not in ("", "rigid_body") and "torque" not in meta:
-        # another system's result (a chain, a slosh hub...): named by its registry key, not "the free body"
-        return f"the {system.replace('_', ' ')}"
     torque = meta.get("torque", "none")
+    if isinstance(system, str) and system not in ("", "rigid_body"):
+        # another system's result (a chain, a slosh hub, a spacecraft...): named by its registry key,
+        # not "the free body"
+        name = f"the {system.replace('_', ' ')}"
+        if torque in (None, "none", ""):
+            return name
+        return f"{name} with {meta['torque_model']}" if "torque_model" in meta else f"{name} with torque {torque}"
     if torque in (None, "none", ""):
         return "the free body"
     if "torque_model" in meta:
