@@ -106,6 +106,46 @@ def _install_cache_key() -> None:
     classes = caching.CacheImpl._locator_classes
     if not any(c.__name__.startswith("Lgvi") for c in classes):
         classes[0:0] = [make(b) for b in bases]
+    _install_save_lock(caching)
+
+
+def _install_save_lock(caching: Any) -> None:
+    """Serialise the saving of lgvi's cached kernels between processes (a file lock per index).
+
+    Numba saves a kernel by reading the index of its cache, choosing the first free data-file name
+    and writing the index and the data (each by an atomic rename, but the read-modify-write is not
+    locked). Two processes saving *different* signatures of one kernel at once (the test suite's
+    two workers, two ensembles started together) can choose the same data-file name: one entry is
+    lost, or the index points one signature at the other's code. Holding ``<index>.lock``
+    (``fcntl.flock``) around the save of an lgvi kernel closes that; elsewhere (no ``fcntl``, a
+    folder where the lock file cannot be made) Numba's own save runs as before.
+    """
+    cls = getattr(caching, "IndexDataCacheFile", None)
+    original = getattr(cls, "save", None)
+    if original is None or getattr(original, "_lgvi_locked", False):
+        return
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - Windows
+        return
+
+    def save(self: Any, key: Any, data: Any) -> None:
+        index = getattr(self, "_index_path", "")
+        if "_kernels" not in index:           # not one of lgvi's kernels: Numba's own save
+            return original(self, key, data)
+        try:
+            fh = open(index + ".lock", "a+b")
+        except OSError:
+            return original(self, key, data)
+        with fh:
+            fcntl.flock(fh, fcntl.LOCK_EX)
+            try:
+                return original(self, key, data)
+            finally:
+                fcntl.flock(fh, fcntl.LOCK_UN)
+
+    save._lgvi_locked = True  # type: ignore[attr-defined]
+    cls.save = save
 
 
 if CACHE:
