@@ -59,8 +59,17 @@ test:
 	echo "make test: newest versions $$newest; floor versions $$floors"; \
 	[ $$newest = passed ] && [ $$floors = passed ]
 
+# The suite on JOBS worker processes (pytest-xdist; 2 by default, the cores of a CI machine: `make test
+# JOBS=auto` for one per core, `JOBS=0` for one process without workers). --dist loadfile keeps each test
+# file in one worker, so a module's fixtures (the docs site's Sphinx build, which writes docs/gallery/) are
+# made once and a file's tests run in their order. Two workers compiling the same kernel write the same
+# entry into the one Numba cache, each file to a temporary name renamed into place: safe (docs/performance.md,
+# "The suite on two workers", says where it is not).
+JOBS ?= 2
+XDIST = $(if $(filter 0,$(JOBS)),-p no:xdist,-n $(JOBS) --dist loadfile)
+
 test-newest: $(STAMP) browser
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q $(XDIST)
 
 # Headless Chromium and its driver for tests/test_view_browser.py: Debian's chromium and
 # chromium-driver, installed once when missing (root with apt-get; `apt-get update` only when the
@@ -82,7 +91,7 @@ browser:
 # transitive dependencies warn about deprecations (matplotlib 3.7 under pyparsing 3.3): not shown.
 test-floors: $(FLOORS_STAMP)
 	LGVI_FLOORS=1 NUMBA_CACHE_DIR=$(CURDIR)/$(FLOORS)/numba-cache $(FLOORS)/bin/python -m pytest -q -p no:cacheprovider \
-	    -W "ignore::DeprecationWarning" $(FLOORS_TESTS)
+	    -W "ignore::DeprecationWarning" $(XDIST) $(FLOORS_TESTS)
 
 # The documentation site (Sphinx; the `docs` extra, inside `test`) in docs/_build/html, warnings as
 # errors. The gallery (sphinx-gallery, docs/_gallery.py) runs the fast examples (--quick); LGVI_DOCS_EXAMPLES=all
