@@ -62,9 +62,9 @@ test:
 # The suite on JOBS worker processes (pytest-xdist; 2 by default, the cores of a CI machine: `make test
 # JOBS=auto` for one per core, `JOBS=0` for one process without workers). --dist loadfile keeps each test
 # file in one worker, so a module's fixtures (the docs site's Sphinx build, which writes docs/gallery/) are
-# made once and a file's tests run in their order. Two workers compiling the same kernel write the same
-# entry into the one Numba cache, each file to a temporary name renamed into place: safe (docs/performance.md,
-# "The suite on two workers", says where it is not).
+# made once and a file's tests run in their order. Two workers share the one Numba cache: each file is written
+# to a temporary name renamed into place, and lgvi holds a lock on a kernel's index while it saves one of its
+# signatures (lgvi._jit._install_save_lock; docs/performance.md, "The suite on two workers").
 JOBS ?= 2
 XDIST = $(if $(filter 0,$(JOBS)),-p no:xdist,-n $(JOBS) --dist loadfile)
 
