@@ -19,6 +19,12 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 TOOLS = ("sphinx", "numpydoc", "furo", "myst_parser", "sphinx_gallery", "matplotlib")
+#: the pages that derive or state equations, written as math ($...$, $$...$$): each renders math
+#: offline, and none shows a raw dollar sign (an unclosed span, or one Markdown broke, shows it)
+MATH_PAGES = ("method", "gyrostat", "gyrostat_rkmk", "orbit", "optimal", "two_spheres", "environment",
+              "estimation", "loop", "splitting", "slosh", "conventions", "validation", "basilisk", "mission")
+#: what is not prose in a built page: code, literal blocks, math (its TeX source), scripts, tags
+NOT_PROSE = re.compile(r"<(pre|code|script|style)\b.*?</\1>|<(span|div) class=\"math\b[^>]*>.*?</\2>|<[^>]+>", re.S)
 
 
 @pytest.fixture(scope="module")
@@ -115,9 +121,48 @@ def test_numpy_and_scipy_links_without_network(site):
 
 
 def test_equations_are_math_on_the_model_pages(site):
-    """The displayed equations of these pages are math (MyST's $$ blocks), not code blocks."""
-    for page in ("estimation", "environment", "two_spheres", "loop", "orbit", "gyrostat", "gyrostat_rkmk",
-                 "splitting", "slosh"):
+    """The equations of these pages are math (MyST's $...$ and $$ blocks), not code: every page has
+    math, and no dollar sign is left in its prose (an unclosed span, or one that Markdown broke, a
+    line of it read as a list item, shows its dollars as text)."""
+    for page in MATH_PAGES:
         text = _text(site / f"{page}.html")
         assert text.count('class="math') >= 3, page
-        assert "$$" not in text, f"{page}: a $$ block was not turned into math"
+        prose = NOT_PROSE.sub(" ", text)
+        assert "$" not in prose, f"{page}: a raw $ in the text: ...{prose[max(prose.find('$') - 80, 0):prose.find('$') + 80]}..."
+
+
+@pytest.fixture(scope="module")
+def browser():
+    from headless_chromium import browser as chromium
+
+    yield from chromium()
+
+
+def test_math_renders_in_a_browser_offline(site, browser):
+    """In headless Chromium, MathJax (shipped in _static) typesets every math element of the
+    equation pages: as many rendered ``mjx-container`` as math elements, no TeX error (MathJax's
+    ``merror``, or an undefined macro, which it draws in red instead of failing), no raw
+    dollar sign in the text a reader sees, and nothing loaded from outside the site (the browser
+    has no network here, and needs none)."""
+    from headless_chromium import until
+
+    for page in MATH_PAGES:
+        browser.get((site / f"{page}.html").resolve().as_uri())
+        browser.execute_script("window.__mathDone = false; (function wait() { if (window.MathJax && MathJax.startup "
+                               "&& MathJax.startup.promise) { MathJax.startup.promise.then(function () "
+                               "{ window.__mathDone = true; }); } else { setTimeout(wait, 50); } })();")
+        until(lambda: browser.execute_script("return window.__mathDone;"))
+        found = browser.execute_script(
+            "var a = document.querySelector('article'), seen = a.cloneNode(true);"
+            "seen.querySelectorAll('pre, code, mjx-container, script').forEach(function (e) { e.remove(); });"
+            "return {math: a.querySelectorAll('.math').length, typeset: a.querySelectorAll('.math mjx-container').length,"
+            " errors: Array.from(a.querySelectorAll('mjx-merror, mjx-assistive-mml mtext[mathcolor=\"red\"]'))"
+            "   .map(function (e) { return e.getAttribute('data-mjx-error') || e.textContent; }),"
+            " text: seen.innerText,"
+            " outside: performance.getEntriesByType('resource').map(function (r) { return r.name; })"
+            "   .filter(function (u) { return !u.startsWith('file:'); })};")
+        assert found["math"] >= 3 and found["typeset"] == found["math"], (page, found["math"], found["typeset"])
+        assert not found["errors"], f"{page}: MathJax errors {found['errors'][:5]}"
+        raw = [line for line in found["text"].splitlines() if "$" in line]
+        assert not raw, f"{page}: raw $ in the rendered text: {raw[:3]}"
+        assert not found["outside"], f"{page} loads from outside the site: {found['outside'][:3]}"

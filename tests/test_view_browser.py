@@ -13,64 +13,18 @@ Without a browser the test skips, saying how to install one (``make browser`` as
 from __future__ import annotations
 
 import io
-import os
-import shutil
-import tempfile
-import time
 
 import numpy as np
 import pytest
 
 import lgvi
-
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-DRIVER = shutil.which("chromedriver")
-FLAGS = ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-         "--disable-background-networking", "--disable-component-update", "--disable-sync",
-         "--enable-unsafe-swiftshader",  # WebGL in software (plotly's 3D scene) without a GPU
-         "--window-size=1400,1000", "--force-device-scale-factor=1")
-
-
-def _missing() -> str | None:
-    try:
-        import selenium  # noqa: F401
-        import plotly  # noqa: F401
-        import PIL  # noqa: F401
-    except ImportError as exc:
-        return f"{exc.name} is not installed (pip install -e '.[test,plot]')"
-    if CHROMIUM is None or DRIVER is None:
-        return ("headless Chromium is not installed: run `make browser` as root (Debian: apt-get install "
-                "chromium chromium-driver)")
-    return None
+from headless_chromium import browser as chromium
+from headless_chromium import until as _until
 
 
 @pytest.fixture(scope="module")
 def browser():
-    why = _missing()
-    if why is not None:
-        if os.environ.get("CI"):
-            pytest.fail(f"the browser test must run in CI: {why}")
-        pytest.skip(why)
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-
-    opts = webdriver.ChromeOptions()
-    opts.binary_location = CHROMIUM
-    profile = tempfile.mkdtemp(prefix="lgvi-chromium-")
-    for flag in FLAGS + (f"--user-data-dir={profile}",):
-        opts.add_argument(flag)
-    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-    driver = webdriver.Chrome(options=opts, service=Service(DRIVER))
-    yield driver
-    driver.quit()
-    shutil.rmtree(profile, ignore_errors=True)
-
-
-def _until(condition) -> None:
-    """Poll ``condition()`` until it holds: no clock, since a busy machine draws slowly (pytest's own
-    limits, or CI's, end a page that never draws)."""
-    while not condition():
-        time.sleep(0.05)
+    yield from chromium("plotly", "PIL")
 
 
 def _frames(driver, n: int = 3) -> None:
