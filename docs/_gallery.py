@@ -161,6 +161,10 @@ def stored_thumbnails(app) -> None:
             old.unlink()
         for old in (images / "thumb").glob(f"sphx_glr_{name}_thumb.*"):
             old.unlink()
+        # the checksum sphinx-gallery keeps of a script it ran: with it, it would take the page and
+        # thumbnail just removed as current (a missing thumbnail fails the build); without, it writes
+        # the page of a script not run
+        (GALLERY / f"{name}.py.md5").unlink(missing_ok=True)
         if STORED.get(name):
             images.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(DOCS / "figures" / STORED[name][0], first)
