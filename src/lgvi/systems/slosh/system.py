@@ -11,12 +11,13 @@ from .. import Field, System, register
 
 
 def slosh_invariants(config: Any) -> dict[str, dict[str, Any]]:
-    """The declaration of a run (``config``: a dict with ``damping``, (n,)): the total angular
-    momentum exact; the energy bounded without damping (with damping it decreases: no
-    declaration). ``R`` on SO(3) and every ``|q_i| = 1`` hold to round-off too."""
+    """The declaration of a run (``config``: a dict with ``damping``, (n,), and ``motors``, whether
+    wheel motors or friction act): the total angular momentum (hub, pendulums and wheels) exact;
+    the energy bounded without damping and without motors (with damping it decreases, motors
+    change it: no declaration). ``R`` on SO(3) and every ``|q_i| = 1`` hold to round-off too."""
     d = np.asarray((config or {}).get("damping", 0.0), dtype=np.float64)
     out: dict[str, dict[str, Any]] = {"angular_momentum": {"kind": EXACT}}
-    if not d.any():
+    if not d.any() and not (config or {}).get("motors", False):
         out["energy"] = {"kind": BOUNDED}
     return out
 
