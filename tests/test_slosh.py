@@ -58,7 +58,7 @@ def angle(Ra, Rb):
 
 def test_registered_with_its_invariants():
     system = SYSTEMS["slosh"]
-    assert [f.name for f in system.state] == ["R", "Pi", "q", "pi"]
+    assert [f.name for f in system.state] == ["R", "Pi", "q", "pi", "wheel_momentum"]
     assert system.invariants({"damping": [0.0, 0.0]}) == {"angular_momentum": {"kind": "exact"},
                                                            "energy": {"kind": "bounded"}}
     assert system.invariants({"damping": [0.0, 1.0]}) == {"angular_momentum": {"kind": "exact"}}

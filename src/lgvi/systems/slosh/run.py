@@ -356,14 +356,11 @@ class SloshRun(CarriedState):
                            "wheel_torque": None if wheel_torque is None else array_digest(np.asarray(u))}
 
     def layout(self) -> tuple[tuple[Field, ...], tuple[Field, ...]]:
-        """The state fields with this run's ``n`` (and, with wheels, their momenta and motor torques)."""
-        shapes = {"R": (3, 3), "Pi": (3,), "q": (self.n, 3), "pi": (self.n, 3)}
-        state = tuple(Field(f.name, shapes[f.name], f.dtype, f.doc) for f in SLOSH.state)
-        if not self.N:
-            return state, SLOSH.records
-        return (state + (Field("wheel_momentum", (self.N,), doc="absolute axial wheel momenta [N m s]"),),
-                SLOSH.records + (Field("wheel_torque", (self.N,), np.float64,
-                                       "motor torques of each saved interval's first step [N m]"),))
+        """The fields with this run's ``n`` pendulums and ``N`` wheels (``N = 0``: empty wheel fields)."""
+        shapes = {"R": (3, 3), "Pi": (3,), "q": (self.n, 3), "pi": (self.n, 3), "wheel_momentum": (self.N,),
+                  "iterations": (), "residual": (), "wheel_torque": (self.N,)}
+        return tuple(tuple(Field(f.name, shapes[f.name], f.dtype, f.doc) for f in fields)
+                     for fields in (SLOSH.state, SLOSH.records))
 
     def stream_meta(self) -> dict[str, Any]:
         """JSON metadata of a stream of this run (what :func:`slosh_from_stream` needs, what identifies it)."""
@@ -377,11 +374,7 @@ class SloshRun(CarriedState):
         from ..._kernels.slosh_kernels import kick_workspace, run_slosh, workspace
 
         P = self.P
-        if self.N:
-            R_out, Pi_out, q_out, pi_out, rho_out, it_out, res_out, u_out, partial = buffers
-        else:
-            R_out, Pi_out, q_out, pi_out, it_out, res_out, partial = buffers
-            rho_out = u_out = np.zeros((len(it_out), 0))
+        R_out, Pi_out, q_out, pi_out, rho_out, it_out, res_out, u_out, partial = buffers
         if not hasattr(self, "_scratch"):
             self._scratch = (np.empty(self.n + 3), np.empty(self.n + 3, dtype=np.int64), workspace(self.n),
                              kick_workspace(self.n), np.zeros((3, 3)))
@@ -403,13 +396,9 @@ class SloshRun(CarriedState):
     def trajectory(self, t, *arrays: np.ndarray, partial: bool = False) -> SloshTrajectory:
         meta = dict(self.meta, partial=True) if partial else dict(self.meta)
         P = self.P
-        wheels: dict[str, Any] = {}
-        if self.N:
-            R, Pi, q, pi, rho, it, res, u = arrays
-            wheels = {"wheel_momentum": rho, "wheel_torque": u, "wheel_axes": self.wheels.axes.copy(),
-                      "spin_inertia": self.wheels.spin_inertia.copy()}
-        else:
-            R, Pi, q, pi, it, res = arrays
+        R, Pi, q, pi, rho, it, res, u = arrays
+        wheels = {"wheel_momentum": rho, "wheel_torque": u, "wheel_axes": self.axes.copy(),
+                  "spin_inertia": np.zeros(0) if self.wheels is None else self.wheels.spin_inertia.copy()}
         return SloshTrajectory(t=t, R=R, Pi=Pi, q=q, pi=pi, iterations=it, residual=res, h=self.h,
                                inertia=P["J0"].copy(), hub_mass=P["hub_mass"], pivots=P["pivots"].copy(),
                                lengths=P["lengths"].copy(), masses=P["masses"].copy(), damping=self.damping.copy(),
@@ -420,12 +409,11 @@ def slosh_from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state
     """The :class:`SloshTrajectory` of a stream folder (``System.from_stream``)."""
     par = {k: np.asarray(meta[k], dtype=np.float64) for k in ("inertia", "pivots", "lengths", "masses", "damping")}
     _check_shapes(dict(arrays, **par), "")
-    wheels: dict[str, Any] = {}
-    if meta.get("wheels"):
-        wheels = {"wheel_momentum": arrays["wheel_momentum"], "wheel_torque": arrays["wheel_torque"],
-                  "wheel_axes": np.asarray(meta["wheels"]["axes"], dtype=np.float64).reshape(-1, 3),
-                  "spin_inertia": np.asarray(meta["wheels"]["spin_inertia"], dtype=np.float64)}
-        _check_wheel_shapes(dict(wheels, t=arrays["t"]), "")
+    desc = meta.get("wheels") or {"axes": [], "spin_inertia": []}
+    wheels = {"wheel_momentum": arrays["wheel_momentum"], "wheel_torque": arrays["wheel_torque"],
+              "wheel_axes": np.asarray(desc["axes"], dtype=np.float64).reshape(-1, 3),
+              "spin_inertia": np.asarray(desc["spin_inertia"], dtype=np.float64)}
+    _check_wheel_shapes(dict(wheels, t=arrays["t"]), "")
     return SloshTrajectory(t=arrays["t"], R=arrays["R"], Pi=arrays["Pi"], q=arrays["q"], pi=arrays["pi"],
                            iterations=arrays["iterations"], residual=arrays["residual"], h=float(meta["h"]),
                            hub_mass=float(meta["hub_mass"]), meta=dict(meta), **par, **wheels)

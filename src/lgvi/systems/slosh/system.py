@@ -57,15 +57,18 @@ def slosh_description(traj: Any) -> list[str]:
 
 SLOSH = register(System(
     name="slosh",
-    doc="a rigid hub with n spherical slosh pendulums: attitude R (3, 3), Pi (3,), directions q (n, 3), pi (n, 3)",
+    doc="a rigid hub with n spherical slosh pendulums and N reaction wheels: attitude R (3, 3), Pi (3,), directions "
+        "q (n, 3), pi (n, 3), wheel momenta (N,)",
     state=(Field("R", (3, 3), doc="hub attitude"),
            Field("Pi", (3,), doc="hub momentum, body frame"),
            Field("q", ("n", 3), doc="pendulum directions, inertial unit vectors"),
-           Field("pi", ("n", 3), doc="pendulum angular momenta, inertial")),
+           Field("pi", ("n", 3), doc="pendulum angular momenta, inertial"),
+           Field("wheel_momentum", ("N",), doc="reaction wheels' absolute axial momenta (N = 0: no wheels)")),
     records=(Field("iterations", (), np.int32, "largest Newton iterations per saved interval"),
-             Field("residual", (), np.float64, "largest final Newton residual per saved interval")),
+             Field("residual", (), np.float64, "largest final Newton residual per saved interval"),
+             Field("wheel_torque", ("N",), np.float64, "wheel motor torques of each saved interval's first step")),
     kernels=_kernels,
-    results=("t", "R", "Pi", "q", "pi", "iterations", "residual", "h", "meta"),
+    results=("t", "R", "Pi", "q", "pi", "wheel_momentum", "iterations", "residual", "wheel_torque", "h", "meta"),
     scenario_section="slosh",
     run_factory=None,
     invariants=slosh_invariants,
