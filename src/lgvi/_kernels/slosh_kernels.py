@@ -532,7 +532,7 @@ def wheel_vector(axes, rho, u_now, f, gv):
 
 @jit(_nrt=False)
 def run_slosh(Jd, Jp, c, Ct, M, Minv, k, damped, sA, gam, h, t0, R, Pi, q, pi, rho, hist, hh, k0, n_steps, tol,
-              max_iter, save_every, axes, wp, cmd, ucmd, u_now, ctrl, cp, cs, spc, R_out, Pi_out, q_out, pi_out, rho_out,
+              max_iter, save_every, axes, wp, need_speed, cmd, ucmd, u_now, ctrl, cp, cs, spc, R_out, Pi_out, q_out, pi_out, rho_out,
               it_out, res_out, u_out, last, x, piv, ws, kw, wv):
     """``n_steps`` steps from step ``k0``, each the composition of substeps ``gam[s] h`` (each: damping
     kick ``gam h / 2`` if ``damped``, conservative step, kick). ``hist`` (S, 4, n + 3) and ``hh`` (S, 4)
@@ -545,8 +545,9 @@ def run_slosh(Jd, Jp, c, Ct, M, Minv, k, damped, sA, gam, h, t0, R, Pi, q, pi, r
     Reaction wheels (``N = rho.shape[0]`` of them, ``N = 0``: none; ``docs/slosh.md``): ``rho`` (N,)
     their absolute axial momenta, ``axes`` (N, 3), ``wp`` (N, 8) the gyrostat's wheel rows
     (:mod:`lgvi._kernels.gyrostat_kernels`), ``Jd`` and ``Jp`` then the hub's matrices less the
-    wheels' axial inertia (``Jd_B``, ``J'_B``). At each step's start the hub rate is computed from
-    the momenta (the inverse Legendre map, :func:`generalised_velocities`); with ``ctrl = 1`` the MRP
+    wheels' axial inertia (``Jd_B``, ``J'_B``). At a step's start the hub rate is computed from the
+    momenta (the inverse Legendre map, :func:`generalised_velocities`) when the controller is called
+    or ``need_speed`` (a power or speed limit or friction needs the wheel speeds); with ``ctrl = 1`` the MRP
     feedback (``cp``, its state ``cs``) sets the motor command ``cmd`` every ``spc`` steps
     (:func:`lgvi._kernels.gyrostat_kernels.mrp_feedback`), with ``ctrl = 2`` row ``k`` of the table
     ``ucmd`` (steps, N) is step ``k``'s command, else ``cmd`` holds the caller's command;
@@ -574,22 +575,28 @@ def run_slosh(Jd, Jp, c, Ct, M, Minv, k, damped, sA, gam, h, t0, R, Pi, q, pi, r
     for s in range(n_steps):
         kk = k0 + s
         if N > 0:
-            # the hub rate at the step's start (the controller's measurement, the wheel speeds)
-            if damped:
-                tau0 = 0.5 * gam[0] * h
-                if built != tau0:
-                    if not kick_build(Jp, c, M, k, tau0, R, q, kw):
-                        return SINGULAR, kk
-                    built = tau0
-            elif not mass_build(Jp, c, M, R, q, kw):
-                return SINGULAR, kk
-            wheel_vector(axes, rho, u_now, 0.0, gv)
-            generalised_velocities(R, Pi, gv, pi, kw)
-            uv = kw[8]
-            w0 = uv[0]
-            w1 = uv[1]
-            w2 = uv[2]
-            if ctrl == 1 and kk % spc == 0:
+            # the hub rate at the step's start (the controller's measurement; the wheel speeds when
+            # a power or speed limit or friction needs them)
+            control = ctrl == 1 and kk % spc == 0
+            w0 = 0.0
+            w1 = 0.0
+            w2 = 0.0
+            if control or need_speed:
+                if damped:
+                    tau0 = 0.5 * gam[0] * h
+                    if built != tau0:
+                        if not kick_build(Jp, c, M, k, tau0, R, q, kw):
+                            return SINGULAR, kk
+                        built = tau0
+                elif not mass_build(Jp, c, M, R, q, kw):
+                    return SINGULAR, kk
+                wheel_vector(axes, rho, u_now, 0.0, gv)
+                generalised_velocities(R, Pi, gv, pi, kw)
+                uv = kw[8]
+                w0 = uv[0]
+                w1 = uv[1]
+                w2 = uv[2]
+            if control:
                 mrp_feedback(cp, cs, t0 + kk * h, R, w0, w1, w2, axes, wp, rho, cmd, wv[2])
             elif ctrl == 2:
                 for i in range(N):

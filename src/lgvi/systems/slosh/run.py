@@ -309,6 +309,9 @@ class SloshRun(CarriedState):
         self.ctrl = 0
         self.axes = np.zeros((0, 3)) if wheels is None else wheels.axes.copy()
         self.wp = np.zeros((0, 8)) if wheels is None else wheels.params()
+        # the wheel speeds matter each step only to a power or speed limit or to friction
+        self.need_speed = bool(N and ((self.wp[:, 3] > 0.0).any() or (self.wp[:, 4] > 0.0).any()
+                                      or wheels.has_friction))
         if N == 0:
             for name, value in (("controller", controller), ("control_period", control_period),
                                 ("wheel_torque", wheel_torque)):
@@ -381,7 +384,8 @@ class SloshRun(CarriedState):
         status, self.k = run_slosh(P["Jd"], P["Jp"], P["c"], P["Ct"], P["M"], P["Minv"], self.kcoef,
                                    bool(self.kcoef.any()), self.sA, self.gam, self.h, self.t0, self.R, self.Pi,
                                    self.q, self.pi, self.wheel_momentum, self.hist, self.hh, self.k, n, self.tol,
-                                   self.max_iter, self.save_every, self.axes, self.wp, self.cmd, self.ucmd,
+                                   self.max_iter, self.save_every, self.axes, self.wp, self.need_speed, self.cmd,
+                                   self.ucmd,
                                    self.u_now, self.ctrl, self.cp, self.cs, self.spc, R_out, Pi_out, q_out, pi_out,
                                    rho_out, it_out, res_out, u_out, self.last, *self._scratch)
         return int(status)
