@@ -238,3 +238,83 @@ def test_members_with_wheels_and_controller_are_the_single_runs():
         for name in ("R", "Pi", "q", "pi", "wheel_momentum", "wheel_torque"):
             assert np.array_equal(getattr(ens[b], name), getattr(one, name)), name
     assert np.abs(ens[0].R[-1] - ens[1].R[-1]).max() > 1e-6          # the gains differ, so do the runs
+
+
+SCENARIO = """
+name = "slosh_wheels"
+
+[slosh]
+inertia = [900.0, 800.0, 600.0]
+hub_mass = 1500.0
+pivots = [[0.5, 0.1, 0.2], [-0.3, 0.4, -0.1]]
+lengths = [0.3, 0.4]
+masses = [40.0, 60.0]
+q0 = [[0.0, 0.0, -1.0], [0.6, 0.0, -0.8]]
+qdot0 = [[0.5, 0.2, 0.0], [0.0, 1.0, 0.0]]
+omega0 = [0.01, -0.02, 0.015]
+damping = [30.0, 50.0]
+wheels = {axes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], spin_inertia = 0.08, speed0 = [10.0, -20.0, 30.0], max_torque = 2.0}
+controller = {K = 20.0, P = 150.0, Ki = 0.001, integral_limit = 10.0, target = [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]}
+control_period = 0.5
+
+[integrator]
+h = 0.1
+steps = 600
+save_every = 5
+"""
+
+
+def test_lgvi_run_of_a_scenario_with_wheels_and_controller_resumes_bit_for_bit(capsys, tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from lgvi import cli
+    from lgvi.io.outputs import read_trajectory
+    from lgvi.io.scenario import load_scenario
+
+    path = tmp_path / "slosh_wheels.toml"
+    path.write_text(SCENARIO)
+    sc = load_scenario(path)
+    whole = sc.run()
+    rw = lgvi.ReactionWheels(np.eye(3), JS, speed0=[10.0, -20.0, 30.0], max_torque=2.0)
+    ctrl = lgvi.control.MRPFeedback(K=20.0, P=150.0, Ki=0.001, integral_limit=10.0,
+                                    target=[[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    ref = lgvi.simulate_slosh(J, M0, PIV, LEN, MASS, np.eye(3), Q0, QD0, omega0=[0.01, -0.02, 0.015], damping=DAMP,
+                              h=0.1, steps=600, save_every=5, wheels=rw, controller=ctrl, control_period=0.5)
+    fields = ("t", "R", "Pi", "q", "pi", "wheel_momentum", "wheel_torque", "iterations", "residual")
+    for name in fields:
+        assert np.array_equal(getattr(whole, name), getattr(ref, name)), name
+
+    def ctrl_c(k, n):
+        if k >= 300:
+            raise KeyboardInterrupt
+    with pytest.raises(KeyboardInterrupt):
+        sc.run_stream(tmp_path / "out" / "stream", chunk_steps=100, progress=ctrl_c)
+    code = cli.main(["run", str(path), "-o", str(tmp_path / "out"), "--resume"])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    back = read_trajectory(tmp_path / "out" / "trajectory.npz")
+    for name in fields:
+        assert np.array_equal(getattr(back, name), getattr(whole, name)), name
+    text = (tmp_path / "out" / "summary.txt").read_text()
+    assert "3 reaction wheels" in text and "MRP feedback K = 20" in text
+
+
+@pytest.mark.parametrize("old, new, key, rule", [
+    ("spin_inertia = 0.08", "spin_inertia = -0.08", "slosh.wheels", r"spin_inertia must be > 0"),
+    ("spin_inertia = 0.08", "inertia = 0.08", "slosh.wheels", r"unknown key 'inertia'"),
+    ("[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]", "[2.0, 0.0, 0.0], [0.0, 1.0, 0.0]", "slosh.wheels", r"unit vectors"),
+    ("K = 20.0, ", "", "slosh.controller", r"missing 'K'"),
+    ("control_period = 0.5", 'control_period = "0.5"', "slosh.control_period", r"a number"),
+])
+def test_scenario_wheel_errors_name_the_key(tmp_path, old, new, key, rule):
+    import re
+
+    from lgvi.io.scenario import ScenarioError, load_scenario
+
+    path = tmp_path / "bad.toml"
+    assert old in SCENARIO
+    path.write_text(SCENARIO.replace(old, new))
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    assert info.value.key == key and re.search(rule, str(info.value)), str(info.value)
