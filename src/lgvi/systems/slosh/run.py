@@ -18,7 +18,7 @@ from ...control import Controller, MRPFeedback
 from ...driver import MemorySink, Progress, check_memory, drive, time_grid
 from ...registry import composition_for
 from .. import CarriedState, Field, provide_run
-from ..gyrostat import ReactionWheels, _controller_period, _mrp_params
+from ..gyrostat import ReactionWheels, controller_period_steps, mrp_params
 from ..chain.model import tangent_velocities, unit_directions
 from ..orbit import array_digest, read_result_npz, save_result_npz
 from .model import kinetic_energy, momenta, slosh_parameters, velocities
@@ -327,7 +327,7 @@ class SloshRun(CarriedState):
         self.P = with_wheels(P, wheels.axes, wheels.spin_inertia)
         if controller is not None and wheel_torque is not None:
             raise ValueError("give either a controller or wheel_torque (the motors' commands), not both")
-        self.spc = _controller_period(controller, control_period, self.h)
+        self.spc = controller_period_steps(controller, control_period, self.h)
         ctrl_desc = None
         if controller is not None:
             if not isinstance(controller, Controller) or not getattr(controller, "compiled", False):
@@ -337,7 +337,7 @@ class SloshRun(CarriedState):
                                                                   else " with a target profile"))
             controller.setup(RigidBody(P["Jp"]), wheels)        # the law's inertia: the locked J'
             controller.reset()
-            self.cp = _mrp_params(controller, wheels)
+            self.cp = mrp_params(controller, wheels)
             self.ctrl = 1
             ctrl_desc = {"K": controller.K, "P": controller.P, "Ki": controller.Ki,
                          "integral_limit": None if not math.isfinite(controller.integral_limit)
