@@ -19,6 +19,7 @@ from scipy.integrate import solve_ivp
 import lgvi
 from lgvi.systems.gyrostat import simulate_gyrostat
 from lgvi.systems.slosh import newton_euler, newton_euler_split, newton_euler_state, slosh_parameters
+from scenario_cases import assert_scenario_error, cut_and_resume
 
 EPS = np.finfo(float).eps
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
@@ -268,8 +269,6 @@ def test_lgvi_run_of_a_scenario_with_wheels_and_controller_resumes_bit_for_bit(c
     import matplotlib
 
     matplotlib.use("Agg")
-    from lgvi import cli
-    from lgvi.io.outputs import read_trajectory
     from lgvi.io.scenario import load_scenario
 
     path = tmp_path / "slosh_wheels.toml"
@@ -285,15 +284,7 @@ def test_lgvi_run_of_a_scenario_with_wheels_and_controller_resumes_bit_for_bit(c
     for name in fields:
         assert np.array_equal(getattr(whole, name), getattr(ref, name)), name
 
-    def ctrl_c(k, n):
-        if k >= 300:
-            raise KeyboardInterrupt
-    with pytest.raises(KeyboardInterrupt):
-        sc.run_stream(tmp_path / "out" / "stream", chunk_steps=100, progress=ctrl_c)
-    code = cli.main(["run", str(path), "-o", str(tmp_path / "out"), "--resume"])
-    out, err = capsys.readouterr()
-    assert code == 0, err
-    back = read_trajectory(tmp_path / "out" / "trajectory.npz")
+    back = cut_and_resume(sc, path, tmp_path / "out", capsys, cut_at=300, chunk_steps=100)
     for name in fields:
         assert np.array_equal(getattr(back, name), getattr(whole, name)), name
     text = (tmp_path / "out" / "summary.txt").read_text()
@@ -308,13 +299,4 @@ def test_lgvi_run_of_a_scenario_with_wheels_and_controller_resumes_bit_for_bit(c
     ("control_period = 0.5", 'control_period = "0.5"', "slosh.control_period", r"a number"),
 ])
 def test_scenario_wheel_errors_name_the_key(tmp_path, old, new, key, rule):
-    import re
-
-    from lgvi.io.scenario import ScenarioError, load_scenario
-
-    path = tmp_path / "bad.toml"
-    assert old in SCENARIO
-    path.write_text(SCENARIO.replace(old, new))
-    with pytest.raises(ScenarioError) as info:
-        load_scenario(path)
-    assert info.value.key == key and re.search(rule, str(info.value)), str(info.value)
+    assert_scenario_error(tmp_path, SCENARIO, old, new, key, rule)
