@@ -300,3 +300,18 @@ def test_lgvi_run_of_a_scenario_with_wheels_and_controller_resumes_bit_for_bit(c
 ])
 def test_scenario_wheel_errors_name_the_key(tmp_path, old, new, key, rule):
     assert_scenario_error(tmp_path, SCENARIO, old, new, key, rule)
+
+
+def test_lgvi_info_reads_a_slosh_result_and_a_failed_step_keeps_the_wheels(capsys, tmp_path):
+    from lgvi import cli
+
+    traj = slosh(0.01, 100, save_every=10, wheels=wheels(), wheel_torque=U)
+    traj.save(tmp_path / "t.npz")
+    assert cli.main(["info", str(tmp_path / "t.npz")]) == 0
+    out = capsys.readouterr().out
+    assert "wheel_momentum (11, 4)" in out and "4 reaction wheels" in out and "motor commands given" in out
+    with pytest.raises(lgvi.ConvergenceError, match=r"slosh step \d+ .*Newton") as err:
+        slosh(0.01, 50, max_iter=1, tol=1e-15, wheels=wheels(), wheel_torque=U)
+    part = err.value.trajectory
+    assert part.meta.get("partial") and part.wheel_momentum.shape == (len(part.t), 4)
+    assert part.wheel_torque.shape == (len(part.t) - 1, 4)
