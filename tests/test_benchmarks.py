@@ -210,6 +210,14 @@ def test_bench_slosh_quick():
 
 
 @pytest.mark.slow
+def test_bench_slosh_wheels_quick():
+    """The slosh-with-wheels benchmark prints its step-cost table with both ratios (issue 30, part 2)."""
+    proc = _run("bench_slosh_wheels.py", "--quick")
+    _check(proc, "ns/step", "/no wheels", "/gyrostat", "slosh + wheels, MRP every step", "gyrostat + wheels + MRP")
+    assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
 def test_mission_monte_carlo_quick():
     """Issue 28: the mission's Monte Carlo (8 members, one orbit) prints its wall time, its failures and its table."""
     proc = _run("mission_monte_carlo.py", "--quick")

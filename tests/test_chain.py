@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 from jit_pair import interpreted_and_compiled
+from scenario_cases import assert_scenario_error
 import pytest
 from scipy.integrate import solve_ivp
 
@@ -318,16 +319,7 @@ def test_scenario_runs_the_chain_bit_for_bit(tmp_path):
     ("q0 = [[1.0, 0.0, 0.0]", "q0 = [[2.0, 0.0, 0.0]", "chain.q0", r"unit vectors"),
 ])
 def test_scenario_errors_name_the_key(tmp_path, old, new, key, rule):
-    import re
-
-    from lgvi.io.scenario import ScenarioError, load_scenario
-
-    path = tmp_path / "bad.toml"
-    assert old in SCENARIO
-    path.write_text(SCENARIO.replace(old, new))
-    with pytest.raises(ScenarioError) as info:
-        load_scenario(path)
-    assert info.value.key == key and re.search(rule, str(info.value)), str(info.value)
+    assert_scenario_error(tmp_path, SCENARIO, old, new, key, rule)
 
 
 def test_lgvi_run_writes_results_figure_summary_and_resumes(capsys, tmp_path):

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 from jit_pair import interpreted_and_compiled
+from scenario_cases import assert_scenario_error, cut_and_resume
 import pytest
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
@@ -58,7 +59,7 @@ def angle(Ra, Rb):
 
 def test_registered_with_its_invariants():
     system = SYSTEMS["slosh"]
-    assert [f.name for f in system.state] == ["R", "Pi", "q", "pi"]
+    assert [f.name for f in system.state] == ["R", "Pi", "q", "pi", "wheel_momentum"]
     assert system.invariants({"damping": [0.0, 0.0]}) == {"angular_momentum": {"kind": "exact"},
                                                            "energy": {"kind": "bounded"}}
     assert system.invariants({"damping": [0.0, 1.0]}) == {"angular_momentum": {"kind": "exact"}}
@@ -251,8 +252,6 @@ def test_lgvi_run_of_a_scenario_writes_results_figure_summary_and_resumes(capsys
     import matplotlib
 
     matplotlib.use("Agg")
-    from lgvi import cli
-    from lgvi.io.outputs import read_trajectory
     from lgvi.io.scenario import load_scenario
 
     path = tmp_path / "slosh2.toml"
@@ -264,15 +263,7 @@ def test_lgvi_run_of_a_scenario_writes_results_figure_summary_and_resumes(capsys
     for name in FIELDS:
         assert np.array_equal(getattr(whole, name), getattr(ref, name)), name
 
-    def ctrl_c(k, n):
-        if k >= 300:
-            raise KeyboardInterrupt
-    with pytest.raises(KeyboardInterrupt):
-        sc.run_stream(tmp_path / "out" / "stream", chunk_steps=100, progress=ctrl_c)
-    code = cli.main(["run", str(path), "-o", str(tmp_path / "out"), "--resume"])
-    out, err = capsys.readouterr()
-    assert code == 0, err
-    back = read_trajectory(tmp_path / "out" / "trajectory.npz")
+    back = cut_and_resume(sc, path, tmp_path / "out", capsys, cut_at=300, chunk_steps=100)
     assert isinstance(back, lgvi.SloshTrajectory)
     for name in FIELDS:
         assert np.array_equal(getattr(back, name), getattr(whole, name)), name
@@ -292,16 +283,7 @@ def test_lgvi_run_of_a_scenario_writes_results_figure_summary_and_resumes(capsys
     ("damping = [30.0, 50.0]", "damping = [30.0, -50.0]", "slosh.damping", r">= 0"),
 ])
 def test_scenario_errors_name_the_key(tmp_path, old, new, key, rule):
-    import re
-
-    from lgvi.io.scenario import ScenarioError, load_scenario
-
-    path = tmp_path / "bad.toml"
-    assert old in SCENARIO
-    path.write_text(SCENARIO.replace(old, new))
-    with pytest.raises(ScenarioError) as info:
-        load_scenario(path)
-    assert info.value.key == key and re.search(rule, str(info.value)), str(info.value)
+    assert_scenario_error(tmp_path, SCENARIO, old, new, key, rule)
 
 
 def test_kernel_interpreted_matches_compiled():

@@ -41,6 +41,7 @@ import numpy as np
 from .._jit import jit
 from .codes import NOT_CONVERGED, NOT_FINITE, OK, SINGULAR
 from .chain_kernels import first_guess, lu_factor, lu_solve, push_history
+from .gyrostat_kernels import mrp_feedback, wheel_torque
 
 
 @jit(inline="always")
@@ -129,22 +130,24 @@ def lu_pivot_solve(A, b, piv, m):
 def workspace(n):
     """Scratch arrays of :func:`slosh_substep` for ``n`` pendulums (allocated by the run, once: the
     kernels are compiled without Numba's runtime, ``_nrt=False``, so that passing arrays costs no
-    reference counting)."""
+    reference counting); the last, (3, 3), is the shifted hub matrix of :func:`run_slosh` with wheels."""
     m = 3 + n
     return (np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3, 3)),
-            np.empty((3, 3)), np.empty((3, 3)), np.empty((m, m)), np.empty(m), np.empty((3, 3)))
+            np.empty((3, 3)), np.empty((3, 3)), np.empty((m, m)), np.empty(m), np.empty((3, 3)), np.empty((3, 3)))
 
 
 @jit(_nrt=False)
-def slosh_substep(Jd, c, Ct, M, Minv, sA, h, R, Pi, q, pi, w, lam, ws, piv, tol, max_iter):
+def slosh_substep(Ah, c, Ct, M, Minv, sA, h, R, Pi, g, q, pi, w, lam, ws, piv, tol, max_iter):
     """One conservative step of size ``h`` (module notes); ``R``, ``Pi``, ``q``, ``pi`` updated in
-    place. ``w`` (3,) and ``lam`` (n,) are the first guesses of the rotation vector of ``F`` and of
+    place. ``Ah`` (3, 3) is the hub's matrix of the discrete Lagrangian: ``Jd`` without wheels, the
+    shifted ``Ah = Jd_B + h/2 hat(g)`` with wheels (``g = G rho_bar`` (3,), zero without wheels); the hub
+    equation is solved as ``vee(E Ah - Ah^T E^T) + sum_j c_j x dqb_j = h (Pi - g)``, ``E = F - I``. ``w`` (3,) and ``lam`` (n,) are the first guesses of the rotation vector of ``F`` and of
     the multipliers and get their solutions. ``sA`` scales the hub residual to an angle (``tr Jd``).
     ``ws`` is the scratch of :func:`workspace`, ``piv`` (3 + n,) int scratch. Returns
     ``(status, iterations, residual)``."""
     n = q.shape[0]
     m = 3 + n
-    qb, yb, e, dq, H, FmI, Jr, A, r, Y = ws
+    qb, yb, e, dq, H, FmI, Jr, A, r, Y, _ = ws
     # body-frame directions and y_i = h pib_i x qb_i (pib less its rounding along qb)
     for i in range(n):
         for a in range(3):
@@ -159,9 +162,9 @@ def slosh_substep(Jd, c, Ct, M, Minv, sA, h, R, Pi, q, pi, w, lam, ws, piv, tol,
         yb[i, 0] = p1 * qb[i, 2] - p2 * qb[i, 1]
         yb[i, 1] = p2 * qb[i, 0] - p0 * qb[i, 2]
         yb[i, 2] = p0 * qb[i, 1] - p1 * qb[i, 0]
-    hP0 = h * Pi[0]
-    hP1 = h * Pi[1]
-    hP2 = h * Pi[2]
+    hP0 = h * (Pi[0] - g[0])
+    hP1 = h * (Pi[1] - g[1])
+    hP2 = h * (Pi[2] - g[2])
     its = 0
     last = math.inf
     res = 0.0
@@ -178,14 +181,14 @@ def slosh_substep(Jd, c, Ct, M, Minv, sA, h, R, Pi, q, pi, w, lam, ws, piv, tol,
                 for i in range(n):
                     s += Minv[j, i] * e[i, a]
                 dq[j, a] = s
-        # hub residual: vee(Z - Z^T), Z = (F - I) Jd, plus sum_j c_j x dqb_j, less h Pi
+        # hub residual: vee(Z - Z^T), Z = (F - I) Ah, plus sum_j c_j x dqb_j, less h Pi
         r0 = 0.0
         r1 = 0.0
         r2 = 0.0
         for a in range(3):
-            r0 += FmI[2, a] * Jd[a, 1] - FmI[1, a] * Jd[a, 2]
-            r1 += FmI[0, a] * Jd[a, 2] - FmI[2, a] * Jd[a, 0]
-            r2 += FmI[1, a] * Jd[a, 0] - FmI[0, a] * Jd[a, 1]
+            r0 += FmI[2, a] * Ah[a, 1] - FmI[1, a] * Ah[a, 2]
+            r1 += FmI[0, a] * Ah[a, 2] - FmI[2, a] * Ah[a, 0]
+            r2 += FmI[1, a] * Ah[a, 0] - FmI[0, a] * Ah[a, 1]
         for j in range(n):
             r0 += c[j, 1] * dq[j, 2] - c[j, 2] * dq[j, 1]
             r1 += c[j, 2] * dq[j, 0] - c[j, 0] * dq[j, 2]
@@ -235,7 +238,7 @@ def slosh_substep(Jd, c, Ct, M, Minv, sA, h, R, Pi, q, pi, w, lam, ws, piv, tol,
                     H[j, k, 1] += mji * f1
                     H[j, k, 2] += mji * f2
         for k in range(3):
-            # vee(Y - Y^T), Y = F E_k Jd: row a of F E_k is (F column cross), E_k x = e_k x x
+            # vee(Y - Y^T), Y = F E_k Ah: row a of F E_k is (F column cross), E_k x = e_k x x
             # (F E_k)[a, b] = sum_s F[a, s] eps(s, k, b)... computed as F times hat(e_k)
             for a in range(3):
                 Fa0 = FmI[a, 0] + (1.0 if a == 0 else 0.0)
@@ -249,7 +252,7 @@ def slosh_substep(Jd, c, Ct, M, Minv, sA, h, R, Pi, q, pi, w, lam, ws, piv, tol,
                 else:
                     x0, x1, x2 = Fa1, -Fa0, 0.0
                 for b in range(3):
-                    Y[a, b] = x0 * Jd[0, b] + x1 * Jd[1, b] + x2 * Jd[2, b]
+                    Y[a, b] = x0 * Ah[0, b] + x1 * Ah[1, b] + x2 * Ah[2, b]
             A[0, k] = Y[2, 1] - Y[1, 2]
             A[1, k] = Y[0, 2] - Y[2, 0]
             A[2, k] = Y[1, 0] - Y[0, 1]
@@ -341,23 +344,17 @@ def kick_workspace(n):
 
 
 @jit(_nrt=False)
-def kick_build(Jp, c, M, k, tau, R, q, kw):
-    """Build the damping kick of duration ``tau`` at the configuration ``(R, q)`` into ``kw``
-    (:func:`kick_workspace`); False when a matrix is singular.
-
-    The momenta after a time ``tau`` of the damping alone at fixed configuration, by the implicit
-    midpoint rule (linear: one solve). Generalised velocities ``u = (Omega, a_1..a_n)``,
-    ``vb_i = E_i a_i`` (``E_i`` (3, 2) an orthonormal basis across ``qb_i``); mass matrix ``G``,
-    damping matrix ``K`` from ``omega_rel_i = qb_i x vb_i - (Omega less its part along qb_i)``.
-    ``(G + tau/2 K) u^+ = (G - tau/2 K) u`` and the momenta change by ``-tau K (u + u^+)/2``
-    (:func:`kick_apply`)."""
+def mass_build(Jp, c, M, R, q, kw):
+    """The mass matrix ``G`` of the generalised velocities ``u = (Omega, a_1..a_n)`` at the
+    configuration ``(R, q)`` into ``kw`` (:func:`kick_workspace`), with the bases ``E_i`` across
+    ``qb_i`` (:func:`kick_build`); its LU factors in ``kw``'s ``A``. False when ``G`` is singular.
+    With wheels ``Jp`` is the hub's inertia less the wheels' axial part (``J'_B``)."""
     qb, E, G, W, K, A, B, p, u, rhs = kw
     n = q.shape[0]
     m = 3 + 2 * n
     for a in range(m):
         for b in range(m):
             G[a, b] = 0.0
-            K[a, b] = 0.0
     for i in range(n):
         for a in range(3):
             qb[i, a] = R[0, a] * q[i, 0] + R[1, a] * q[i, 1] + R[2, a] * q[i, 2]
@@ -404,6 +401,31 @@ def kick_build(Jp, c, M, k, tau, R, q, kw):
                 for t in range(2):
                     G[3 + 2 * i + s, 3 + 2 * j + t] = M[i, j] * (E[i, 0, s] * E[j, 0, t] + E[i, 1, s] * E[j, 1, t]
                                                                + E[i, 2, s] * E[j, 2, t])
+    for a in range(m):
+        for b in range(m):
+            A[a, b] = G[a, b]
+    return lu_factor(A, m)
+
+
+@jit(_nrt=False)
+def kick_build(Jp, c, M, k, tau, R, q, kw):
+    """Build the damping kick of duration ``tau`` at the configuration ``(R, q)`` into ``kw``
+    (:func:`kick_workspace`); False when a matrix is singular.
+
+    The momenta after a time ``tau`` of the damping alone at fixed configuration, by the implicit
+    midpoint rule (linear: one solve). Generalised velocities ``u = (Omega, a_1..a_n)``,
+    ``vb_i = E_i a_i`` (``E_i`` (3, 2) an orthonormal basis across ``qb_i``); mass matrix ``G``,
+    damping matrix ``K`` from ``omega_rel_i = qb_i x vb_i - (Omega less its part along qb_i)``.
+    ``(G + tau/2 K) u^+ = (G - tau/2 K) u`` and the momenta change by ``-tau K (u + u^+)/2``
+    (:func:`kick_apply`)."""
+    qb, E, G, W, K, A, B, p, u, rhs = kw
+    n = q.shape[0]
+    m = 3 + 2 * n
+    if not mass_build(Jp, c, M, R, q, kw):
+        return False
+    for a in range(m):
+        for b in range(m):
+            K[a, b] = 0.0
     # W_i u = omega_rel_i = qb_i x E_i a_i - (I - qb_i qb_i^T) Omega (only the columns of Omega and
     # a_i are non-zero);  K = sum_i k_i W_i^T W_i
     for i in range(n):
@@ -426,20 +448,20 @@ def kick_build(Jp, c, M, k, tau, R, q, kw):
                 K[a, b] += k[i] * (W[i, 0, a] * W[i, 0, b] + W[i, 1, a] * W[i, 1, b] + W[i, 2, a] * W[i, 2, b])
     for a in range(m):
         for b in range(m):
-            A[a, b] = G[a, b]
             B[a, b] = G[a, b] + 0.5 * tau * K[a, b]
-    return lu_factor(A, m) and lu_factor(B, m)
+    return lu_factor(B, m)
 
 
 @jit(_nrt=False)
-def kick_apply(tau, R, Pi, pi, kw):
-    """Apply the kick built by :func:`kick_build` (same ``tau``, same configuration) to the momenta."""
+def generalised_velocities(R, Pi, g, pi, kw):
+    """The momenta ``p = (Pi - g, E_i^T (pib_i x qb_i))`` into ``kw``'s ``p`` and the velocities
+    ``u = G^-1 p`` (``u[:3]`` the hub's rate ``Omega``) into its ``u``, with the factors of
+    :func:`mass_build` (or :func:`kick_build`) at the current configuration."""
     qb, E, G, W, K, A, B, p, u, rhs = kw
     n = qb.shape[0]
     m = 3 + 2 * n
-    # momenta p = (Pi, E_i^T (pib_i x qb_i)) -> u = G^-1 p
     for a in range(3):
-        p[a] = Pi[a]
+        p[a] = Pi[a] - g[a]
     for i in range(n):
         p0 = R[0, 0] * pi[i, 0] + R[1, 0] * pi[i, 1] + R[2, 0] * pi[i, 2]
         p1 = R[0, 1] * pi[i, 0] + R[1, 1] * pi[i, 1] + R[2, 1] * pi[i, 2]
@@ -452,6 +474,17 @@ def kick_apply(tau, R, Pi, pi, kw):
     for a in range(m):
         u[a] = p[a]
     lu_solve(A, u, m)
+
+
+@jit(_nrt=False)
+def kick_apply(tau, R, Pi, g, pi, kw):
+    """Apply the kick built by :func:`kick_build` (same ``tau``, same configuration) to the momenta;
+    ``g = G rho`` (3,) the wheels' momentum in the body (zero without wheels: the hub's share of
+    ``Pi`` is ``Pi - g``; the wheels' momenta do not change in the kick)."""
+    qb, E, G, W, K, A, B, p, u, rhs = kw
+    n = qb.shape[0]
+    m = 3 + 2 * n
+    generalised_velocities(R, Pi, g, pi, kw)
     # (G + tau/2 K) u^+ = (G - tau/2 K) u = p - tau/2 K u
     for a in range(m):
         s = 0.0
@@ -482,27 +515,97 @@ def kick_apply(tau, R, Pi, pi, kw):
     return math.isfinite(Pi[0] + Pi[1] + Pi[2])
 
 
+@jit(inline="always")
+def wheel_vector(axes, rho, u_now, f, gv):
+    """``gv = G (rho + f u)`` (3,): the wheels' momentum in the body, ``f`` of a step ahead with the
+    wheels' torques ``u_now[N:]`` (``f = 0``: now; ``f = h/2``: ``G rho_bar``)."""
+    N = rho.shape[0]
+    gv[0] = 0.0
+    gv[1] = 0.0
+    gv[2] = 0.0
+    for i in range(N):
+        r = rho[i] + f * u_now[N + i]
+        gv[0] += axes[i, 0] * r
+        gv[1] += axes[i, 1] * r
+        gv[2] += axes[i, 2] * r
+
+
 @jit(_nrt=False)
-def run_slosh(Jd, Jp, c, Ct, M, Minv, k, damped, sA, gam, h, R, Pi, q, pi, hist, hh, k0, n_steps, tol, max_iter,
-              save_every, R_out, Pi_out, q_out, pi_out, it_out, res_out, last, x, piv, ws, kw):
+def run_slosh(Jd, Jp, c, Ct, M, Minv, k, damped, sA, gam, h, t0, R, Pi, q, pi, rho, hist, hh, k0, n_steps, tol,
+              max_iter, save_every, axes, wp, need_speed, cmd, ucmd, u_now, ctrl, cp, cs, spc, R_out, Pi_out, q_out, pi_out, rho_out,
+              it_out, res_out, u_out, last, x, piv, ws, kw, wv):
     """``n_steps`` steps from step ``k0``, each the composition of substeps ``gam[s] h`` (each: damping
     kick ``gam h / 2`` if ``damped``, conservative step, kick). ``hist`` (S, 4, n + 3) and ``hh`` (S, 4)
     hold the solutions ``(lambda, w)`` of each substep over the last four steps and their sizes, the
     first guess of the next (:func:`lgvi._kernels.chain_kernels.first_guess`: cubic extrapolation).
     Every ``save_every`` steps the state goes to row ``j`` of the outputs, with the largest iterations
     and residual of the interval. ``x`` (n + 3,), ``piv`` (n + 3,) int, ``ws`` (:func:`workspace`) and
-    ``kw`` (:func:`kick_workspace`) are scratch. Returns ``(status, steps done from k0)``."""
+    ``kw`` (:func:`kick_workspace`) are scratch. Returns ``(status, steps done from k0)``.
+
+    Reaction wheels (``N = rho.shape[0]`` of them, ``N = 0``: none; ``docs/slosh.md``): ``rho`` (N,)
+    their absolute axial momenta, ``axes`` (N, 3), ``wp`` (N, 8) the gyrostat's wheel rows
+    (:mod:`lgvi._kernels.gyrostat_kernels`), ``Jd`` and ``Jp`` then the hub's matrices less the
+    wheels' axial inertia (``Jd_B``, ``J'_B``). At a step's start the hub rate is computed from the
+    momenta (the inverse Legendre map, :func:`generalised_velocities`) when the controller is called
+    or ``need_speed`` (a power or speed limit or friction needs the wheel speeds); with ``ctrl = 1`` the MRP
+    feedback (``cp``, its state ``cs``) sets the motor command ``cmd`` every ``spc`` steps
+    (:func:`lgvi._kernels.gyrostat_kernels.mrp_feedback`), with ``ctrl = 2`` row ``k`` of the table
+    ``ucmd`` (steps, N) is step ``k``'s command, else ``cmd`` holds the caller's command;
+    the command after the wheels' limits plus friction (``u_now`` (2N,): motor, total) is held over
+    the step, ``rho`` grows by ``h u`` and every substep uses ``Ah = Jd_B + hc/2 hat(G rho_bar)``.
+    ``rho_out`` (samples) gets ``rho``, ``u_out`` (intervals) the motor torques of each saved
+    interval's first step. ``wv`` (3, 3) scratch: ``G rho``, ``G rho_bar``, the controller's body
+    torque (unused with wheels)."""
     n = q.shape[0]
+    N = rho.shape[0]
     S = gam.shape[0]
     lam = x[:n]
     w = x[n:]
+    gv = wv[0]
+    gb = wv[1]
+    Ah = ws[10]
     built = 0.0                  # the tau of the kick built at the current configuration (0: none)
     j = 0
     its_max = 0
     res_max = 0.0
     countdown = save_every
+    for a in range(3):
+        gv[a] = 0.0
+        gb[a] = 0.0
     for s in range(n_steps):
         kk = k0 + s
+        if N > 0:
+            # the hub rate at the step's start (the controller's measurement; the wheel speeds when
+            # a power or speed limit or friction needs them)
+            control = ctrl == 1 and kk % spc == 0
+            w0 = 0.0
+            w1 = 0.0
+            w2 = 0.0
+            if control or need_speed:
+                if damped:
+                    tau0 = 0.5 * gam[0] * h
+                    if built != tau0:
+                        if not kick_build(Jp, c, M, k, tau0, R, q, kw):
+                            return SINGULAR, kk
+                        built = tau0
+                elif not mass_build(Jp, c, M, R, q, kw):
+                    return SINGULAR, kk
+                wheel_vector(axes, rho, u_now, 0.0, gv)
+                generalised_velocities(R, Pi, gv, pi, kw)
+                uv = kw[8]
+                w0 = uv[0]
+                w1 = uv[1]
+                w2 = uv[2]
+            if control:
+                mrp_feedback(cp, cs, t0 + kk * h, R, w0, w1, w2, axes, wp, rho, cmd, wv[2])
+            elif ctrl == 2:
+                for i in range(N):
+                    cmd[i] = ucmd[kk, i]
+            for i in range(N):
+                wheel_torque(i, cmd, rho, axes, wp, w0, w1, w2, u_now, N)
+            if countdown == save_every:
+                for i in range(N):
+                    u_out[j, i] = u_now[i]
         for cc in range(S):
             hc = gam[cc] * h
             first_guess(x, hist, hh, cc, (cc - 1) % S, hc, n + 3)
@@ -511,9 +614,31 @@ def run_slosh(Jd, Jp, c, Ct, M, Minv, k, damped, sA, gam, h, R, Pi, q, pi, hist,
                     if not kick_build(Jp, c, M, k, 0.5 * hc, R, q, kw):
                         return SINGULAR, kk
                     built = 0.5 * hc
-                if not kick_apply(0.5 * hc, R, Pi, pi, kw):
+                if N > 0:
+                    wheel_vector(axes, rho, u_now, 0.0, gv)
+                if not kick_apply(0.5 * hc, R, Pi, gv, pi, kw):
                     return NOT_FINITE, kk
-            st, its, res = slosh_substep(Jd, c, Ct, M, Minv, sA, hc, R, Pi, q, pi, w, lam, ws, piv, tol, max_iter)
+            if N > 0:
+                # Ah = Jd_B + hc/2 hat(G rho_bar), rho_bar = rho + hc/2 u
+                wheel_vector(axes, rho, u_now, 0.5 * hc, gb)
+                f = 0.5 * hc
+                for a in range(3):
+                    for b in range(3):
+                        Ah[a, b] = Jd[a, b]
+                Ah[0, 1] -= f * gb[2]
+                Ah[0, 2] += f * gb[1]
+                Ah[1, 0] += f * gb[2]
+                Ah[1, 2] -= f * gb[0]
+                Ah[2, 0] -= f * gb[1]
+                Ah[2, 1] += f * gb[0]
+                st, its, res = slosh_substep(Ah, c, Ct, M, Minv, sA, hc, R, Pi, gb, q, pi, w, lam, ws, piv, tol,
+                                             max_iter)
+                if st == OK:
+                    for i in range(N):
+                        rho[i] += hc * u_now[N + i]
+            else:
+                st, its, res = slosh_substep(Jd, c, Ct, M, Minv, sA, hc, R, Pi, gb, q, pi, w, lam, ws, piv, tol,
+                                             max_iter)
             last[0] = its
             last[1] = res
             if st != OK:
@@ -522,7 +647,9 @@ def run_slosh(Jd, Jp, c, Ct, M, Minv, k, damped, sA, gam, h, R, Pi, q, pi, hist,
                 if not kick_build(Jp, c, M, k, 0.5 * hc, R, q, kw):
                     return SINGULAR, kk
                 built = 0.5 * hc
-                if not kick_apply(0.5 * hc, R, Pi, pi, kw):
+                if N > 0:
+                    wheel_vector(axes, rho, u_now, 0.0, gv)
+                if not kick_apply(0.5 * hc, R, Pi, gv, pi, kw):
                     return NOT_FINITE, kk
             push_history(x, hist, hh, cc, hc, n + 3)
             if its > its_max:
@@ -540,6 +667,8 @@ def run_slosh(Jd, Jp, c, Ct, M, Minv, k, damped, sA, gam, h, R, Pi, q, pi, hist,
                 for a in range(3):
                     q_out[j, i, a] = q[i, a]
                     pi_out[j, i, a] = pi[i, a]
+            for i in range(N):
+                rho_out[j, i] = rho[i]
             it_out[j] = its_max
             res_out[j] = res_max
             its_max = 0
@@ -548,4 +677,5 @@ def run_slosh(Jd, Jp, c, Ct, M, Minv, k, damped, sA, gam, h, R, Pi, q, pi, hist,
     return OK, k0 + n_steps
 
 
-__all__ = ["kick_apply", "kick_build", "kick_workspace", "exp_minus_identity", "lu_pivot_solve", "right_jacobian", "run_slosh", "slosh_substep", "workspace"]
+__all__ = ["exp_minus_identity", "generalised_velocities", "kick_apply", "kick_build", "kick_workspace", "lu_pivot_solve",
+           "mass_build", "right_jacobian", "run_slosh", "slosh_substep", "wheel_vector", "workspace"]

@@ -891,7 +891,7 @@ def cmd_info(args: argparse.Namespace) -> int:
     traj = _read(args.trajectory)
     if hasattr(traj, "members"):                    # a gyrostat ensemble
         return _info_ensemble(args.trajectory, traj)
-    if hasattr(traj, "x") or not hasattr(traj, "R"):    # a body in orbit, two bodies, another system
+    if hasattr(traj, "x") or not hasattr(traj, "R") or not hasattr(traj, "steps"):   # an orbit, two bodies, another system
         return _info_system(args.trajectory, traj)
     meta = dict(traj.meta)
     scenario_text = meta.pop("scenario", None)

@@ -43,9 +43,13 @@ def slosh(traj: Any) -> Any:
     c.set_title(r"$R$ on SO(3), $q_i$ on $S^2$", fontsize=9)
     c.legend(fontsize=7, loc="best")
     _invariant_errors(d, traj, ["angular_momentum", "energy"])
-    d.set_title("invariants" + (" (damped: the energy falls)" if np.any(traj.damping) else ""), fontsize=9)
-    fig.suptitle(f"hub with {n} slosh pendulum{'s' if n > 1 else ''} (order {traj.meta.get('order', 2)}, "
-                 f"h = {traj.h:g} s)", fontsize=10)
+    wheels = getattr(traj, "n_wheels", 0)
+    motors = wheels and (traj.meta.get("controller") or traj.meta.get("wheel_torque"))
+    d.set_title("invariants" + (" (the motors change the energy)" if motors else " (damped: the energy falls)"
+                                if np.any(traj.damping) else ""), fontsize=9)
+    fig.suptitle(f"hub with {n} slosh pendulum{'s' if n > 1 else ''}"
+                 + (f" and {wheels} reaction wheel{'s' if wheels > 1 else ''}" if wheels else "")
+                 + f" (order {traj.meta.get('order', 2)}, h = {traj.h:g} s)", fontsize=10)
     return fig
 
 

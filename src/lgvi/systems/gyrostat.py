@@ -419,7 +419,7 @@ def _cold_start() -> Any:
     return _INITIAL_GUESS
 
 
-def _controller_period(controller: Any, control_period: Any, h: float) -> int:
+def controller_period_steps(controller: Any, control_period: Any, h: float) -> int:
     """Steps per control period (``control_period`` a positive multiple of ``|h|``)."""
     if control_period is None:
         if controller is None:
@@ -497,7 +497,7 @@ class GyrostatRun:
         # controller, environment, magnetorquers
         if controller is not None and not isinstance(controller, Controller):
             raise TypeError(f"controller must be an lgvi.control.Controller, got {type(controller).__name__}")
-        self.spc: int = _controller_period(controller, control_period, self.h)
+        self.spc: int = controller_period_steps(controller, control_period, self.h)
         self.controller = controller
         if environment is not None and not callable(getattr(environment, "sample", None)):
             raise TypeError(f"environment must have a method sample(t) -> dict, got {type(environment).__name__}")
@@ -522,7 +522,7 @@ class GyrostatRun:
             controller.reset()
             if getattr(controller, "compiled", False) and environment is None and magnetorquers is None:
                 self.ctrl = 1
-                self.cp = _mrp_params(controller, wheels)
+                self.cp = mrp_params(controller, wheels)
         self.python_controller: bool = controller is not None and self.ctrl == 0
         self.cmd: np.ndarray = np.zeros(n)
         self.tau: np.ndarray = np.zeros(3)
@@ -814,7 +814,7 @@ def _check_command(cmd: Any, n: int, k: int, t: float) -> tuple[Any, Any, Any]:
     return out[0], out[1], out[2]
 
 
-def _mrp_params(ctrl: Any, wheels: ReactionWheels) -> np.ndarray:
+def mrp_params(ctrl: Any, wheels: ReactionWheels) -> np.ndarray:
     """The ``cp`` vector of the compiled MRP feedback (:data:`lgvi._kernels.gyrostat_kernels.CP_MAP`)."""
     n = len(wheels)
     cp = np.zeros(28 + 3 * n)              # filled in place: the same numbers, fewer small-array calls
@@ -965,4 +965,5 @@ _provide()
 
 __all__ = ["GYROSTAT", "GyrostatRun", "GyrostatTrajectory", "ReactionWheels", "controller_state", "gyrostat_from_file",
            "gyrostat_from_stream", "gyrostat_options",
-           "gyrostat_run", "load_controller_state", "scheme_run_class", "simulate_gyrostat"]
+           "gyrostat_run", "load_controller_state", "controller_period_steps", "mrp_params", "scheme_run_class",
+           "simulate_gyrostat"]

@@ -100,24 +100,36 @@ def kinetic_energy(P: dict[str, Any], Omega: np.ndarray, vb: np.ndarray) -> np.n
     return t + 0.5 * np.einsum("ij,...ia,...ja->...", P["M"], vb, vb)
 
 
-def newton_euler(P: dict[str, Any], damping: Any = None):
+def newton_euler(P: dict[str, Any], damping: Any = None, wheels: Any = None):
     """The continuous equations in maximal coordinates, for a reference with SciPy (independent of
     the reduced Lagrangian the integrator is built on): ``y = (x, xdot, R (9), Omega, s (3n), sdot
     (3n))``, the hub's centre of mass ``x``, the pendulum masses at ``s_i``; rods of fixed length by
     tensions ``Lambda_i`` (``d_i = s_i - x - R b_i``, ``d_i . ddot_i + |ddot_i|^2 = 0``), Newton's
     law for every mass, Euler's for the hub, and the damping force ``-d_i`` times the mass's
-    velocity relative to the hub, reacted on the hub at the pivot together with its couple."""
+    velocity relative to the hub, reacted on the hub at the pivot together with its couple.
+
+    ``wheels = (axes (Nw, 3), spin_inertia (Nw,), motor_torque (Nw,))``: balanced reaction wheels in
+    the hub (``J0`` then the hub with the wheels locked) with constant motor torques; ``y`` ends
+    with their absolute axial momenta ``rho`` (``rho' = u``) and Euler's law of the hub is that of
+    a gyrostat, ``J_B Wdot + G u + W x (J_B W + G rho) = torque``, ``J_B = J0 - G diag(Js) G^T``."""
     J0, m0, b, l, m = P["J0"], P["hub_mass"], P["pivots"], P["lengths"], P["masses"]
     n = len(l)
     dmp = np.zeros(n) if damping is None else np.asarray(damping, dtype=np.float64)
     N = 3 * n + 6 + n
+    Nw = 0
+    JB = J0
+    if wheels is not None:
+        ax, Js, uw = (np.asarray(v, dtype=np.float64) for v in wheels)
+        Nw = len(Js)
+        JB = J0 - (ax.T * Js) @ ax
+        Gu = ax.T @ uw
 
     def f(t: float, y: np.ndarray) -> np.ndarray:
         xd = y[3:6]
         R = y[6:15].reshape(3, 3)
         W = y[15:18]
         s = y[18:18 + 3 * n].reshape(n, 3)
-        sd = y[18 + 3 * n:].reshape(n, 3)
+        sd = y[18 + 3 * n:18 + 6 * n].reshape(n, 3)
         w = R @ W                                   # inertial rate
         Rb = b @ R.T                                # (n, 3) pivots, inertial
         d = s - y[0:3][None, :] - Rb
@@ -126,7 +138,10 @@ def newton_euler(P: dict[str, Any], damping: Any = None):
         # unknowns: sdd (3n), xdd (3), Wdot (3, body), Lambda (n)
         A = np.zeros((N, N))
         rhs = np.zeros(N)
-        gyro = -np.cross(W, J0 @ W)
+        if Nw:
+            gyro = -np.cross(W, JB @ W + ax.T @ y[18 + 6 * n:]) - Gu
+        else:
+            gyro = -np.cross(W, J0 @ W)
         tq = np.zeros(3)
         for i in range(n):
             r = slice(3 * i, 3 * i + 3)
@@ -141,7 +156,7 @@ def newton_euler(P: dict[str, Any], damping: Any = None):
         rhs[3 * n:3 * n + 3] = -frc.sum(axis=0)
         # Euler (inertial torque about the hub's centre of mass, in body axes):
         # J0 Wdot - R^T sum_i Lambda_i (R b_i) x d_i = -W x J0 W + R^T tq
-        A[3 * n + 3:3 * n + 6, 3 * n + 3:3 * n + 6] = J0
+        A[3 * n + 3:3 * n + 6, 3 * n + 3:3 * n + 6] = JB
         for i in range(n):
             A[3 * n + 3:3 * n + 6, 3 * n + 6 + i] = -(R.T @ np.cross(Rb[i], d[i]))
         rhs[3 * n + 3:3 * n + 6] = gyro + R.T @ tq
@@ -155,16 +170,18 @@ def newton_euler(P: dict[str, Any], damping: Any = None):
             rhs[row] = -dd[i] @ dd[i] + d[i] @ np.cross(w, np.cross(w, Rb[i]))
         sol = np.linalg.solve(A, rhs)
         Rd = R @ np.array([[0.0, -W[2], W[1]], [W[2], 0.0, -W[0]], [-W[1], W[0], 0.0]])
-        return np.concatenate([xd, sol[3 * n:3 * n + 3], Rd.ravel(), sol[3 * n + 3:3 * n + 6], sd.ravel(),
-                               sol[:3 * n]])
+        out = np.concatenate([xd, sol[3 * n:3 * n + 3], Rd.ravel(), sol[3 * n + 3:3 * n + 6], sd.ravel(),
+                              sol[:3 * n]])
+        return np.concatenate([out, uw]) if Nw else out
 
     return f
 
 
-def newton_euler_state(P: dict[str, Any], R: np.ndarray, Omega: np.ndarray, qb: np.ndarray, qb_rate: np.ndarray):
+def newton_euler_state(P: dict[str, Any], R: np.ndarray, Omega: np.ndarray, qb: np.ndarray, qb_rate: np.ndarray,
+                       wheel_momentum: Any = None):
     """The initial ``y`` of :func:`newton_euler` (centre of mass at rest at the origin) of hub
     attitude ``R``, rate ``Omega`` (body), directions ``qb`` and their rates relative to the hub
-    ``qb_rate`` (body axes)."""
+    ``qb_rate`` (body axes), and the wheels' absolute axial momenta (with ``wheels``)."""
     b, l, m, m0 = P["pivots"], P["lengths"], P["masses"], P["hub_mass"]
     z = (b + l[:, None] * qb) @ R.T                                    # relative to the hub CM
     zd = (np.cross(Omega[None, :], b + l[:, None] * qb) + l[:, None] * qb_rate) @ R.T
@@ -173,7 +190,8 @@ def newton_euler_state(P: dict[str, Any], R: np.ndarray, Omega: np.ndarray, qb: 
     xd = -(m[:, None] * zd).sum(axis=0) / mt
     s = x[None, :] + z
     sd = xd[None, :] + zd
-    return np.concatenate([x, xd, R.ravel(), Omega, s.ravel(), sd.ravel()])
+    y = np.concatenate([x, xd, R.ravel(), Omega, s.ravel(), sd.ravel()])
+    return y if wheel_momentum is None else np.concatenate([y, np.asarray(wheel_momentum, dtype=np.float64)])
 
 
 def newton_euler_split(P: dict[str, Any], y: np.ndarray):

@@ -11,12 +11,13 @@ from .. import Field, System, register
 
 
 def slosh_invariants(config: Any) -> dict[str, dict[str, Any]]:
-    """The declaration of a run (``config``: a dict with ``damping``, (n,)): the total angular
-    momentum exact; the energy bounded without damping (with damping it decreases: no
-    declaration). ``R`` on SO(3) and every ``|q_i| = 1`` hold to round-off too."""
+    """The declaration of a run (``config``: a dict with ``damping``, (n,), and ``motors``, whether
+    wheel motors or friction act): the total angular momentum (hub, pendulums and wheels) exact;
+    the energy bounded without damping and without motors (with damping it decreases, motors
+    change it: no declaration). ``R`` on SO(3) and every ``|q_i| = 1`` hold to round-off too."""
     d = np.asarray((config or {}).get("damping", 0.0), dtype=np.float64)
     out: dict[str, dict[str, Any]] = {"angular_momentum": {"kind": EXACT}}
-    if not d.any():
+    if not d.any() and not (config or {}).get("motors", False):
         out["energy"] = {"kind": BOUNDED}
     return out
 
@@ -48,23 +49,33 @@ def _from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state: dic
 
 def slosh_description(traj: Any) -> list[str]:
     """What was simulated (summary lines)."""
-    return [f"system:        a rigid hub ({traj.hub_mass:g} kg) with {traj.n_pendulums} spherical slosh pendulums "
-            f"(lgvi.simulate_slosh): lengths {np.round(traj.lengths, 6).tolist()} m, masses "
-            f"{np.round(traj.masses, 6).tolist()} kg, damping {np.round(traj.damping, 6).tolist()} N s/m, "
-            f"order {traj.meta.get('order')}"]
+    lines = [f"system:        a rigid hub ({traj.hub_mass:g} kg) with {traj.n_pendulums} spherical slosh pendulums "
+             f"(lgvi.simulate_slosh): lengths {np.round(traj.lengths, 6).tolist()} m, masses "
+             f"{np.round(traj.masses, 6).tolist()} kg, damping {np.round(traj.damping, 6).tolist()} N s/m, "
+             f"order {traj.meta.get('order')}"]
+    if traj.n_wheels:
+        ctrl = traj.meta.get("controller")
+        lines.append(f"wheels:        {traj.n_wheels} reaction wheels, spin inertias "
+                     f"{np.round(traj.spin_inertia, 6).tolist()} kg m^2; "
+                     + (f"MRP feedback K = {ctrl['K']:g}, P = {ctrl['P']:g} every {traj.meta['control_period']:g} s"
+                        if ctrl else "motor commands given" if traj.meta.get("wheel_torque") else "motors off"))
+    return lines
 
 
 SLOSH = register(System(
     name="slosh",
-    doc="a rigid hub with n spherical slosh pendulums: attitude R (3, 3), Pi (3,), directions q (n, 3), pi (n, 3)",
+    doc="a rigid hub with n spherical slosh pendulums and N reaction wheels: attitude R (3, 3), Pi (3,), directions "
+        "q (n, 3), pi (n, 3), wheel momenta (N,)",
     state=(Field("R", (3, 3), doc="hub attitude"),
            Field("Pi", (3,), doc="hub momentum, body frame"),
            Field("q", ("n", 3), doc="pendulum directions, inertial unit vectors"),
-           Field("pi", ("n", 3), doc="pendulum angular momenta, inertial")),
+           Field("pi", ("n", 3), doc="pendulum angular momenta, inertial"),
+           Field("wheel_momentum", ("N",), doc="reaction wheels' absolute axial momenta (N = 0: no wheels)")),
     records=(Field("iterations", (), np.int32, "largest Newton iterations per saved interval"),
-             Field("residual", (), np.float64, "largest final Newton residual per saved interval")),
+             Field("residual", (), np.float64, "largest final Newton residual per saved interval"),
+             Field("wheel_torque", ("N",), np.float64, "wheel motor torques of each saved interval's first step")),
     kernels=_kernels,
-    results=("t", "R", "Pi", "q", "pi", "iterations", "residual", "h", "meta"),
+    results=("t", "R", "Pi", "q", "pi", "wheel_momentum", "iterations", "residual", "wheel_torque", "h", "meta"),
     scenario_section="slosh",
     run_factory=None,
     invariants=slosh_invariants,
@@ -78,7 +89,11 @@ SLOSH = register(System(
 
 #: The keys of a scenario's ``[slosh]`` section: required, then optional.
 SCENARIO_KEYS = ("inertia", "hub_mass", "pivots", "lengths", "masses", "q0", "R0", "qdot0", "omega0", "damping",
-                 "order", "composition")
+                 "order", "composition", "wheels", "controller", "control_period", "wheel_torque")
+#: The keys of ``slosh.wheels`` (:class:`lgvi.ReactionWheels`) and ``slosh.controller``
+#: (:class:`lgvi.control.MRPFeedback`, compiled: a fixed target).
+WHEEL_KEYS = ("axes", "spin_inertia", "speed0", "max_torque", "min_torque", "max_power", "max_speed", "friction")
+CONTROLLER_KEYS = ("K", "P", "Ki", "integral_limit", "target")
 _REQUIRED = SCENARIO_KEYS[:6]
 
 
@@ -97,6 +112,11 @@ def slosh_scenario(table: Any) -> tuple[tuple[Any, ...], dict[str, Any]]:
         omega0 = [0.3, -0.2, 0.5]                 # optional: hub rate, body [rad/s]
         damping = [30.0, 50.0]                    # optional [N s/m]
         order = 4                                 # optional: 2, 4 or 6
+        # optional: reaction wheels (lgvi.ReactionWheels' arguments) and the compiled MRP feedback
+        wheels = {axes = [[1, 0, 0], [0, 1, 0], [0, 0, 1]], spin_inertia = 0.08, max_torque = 0.2}
+        controller = {K = 3.5, P = 30.0, target = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}
+        control_period = 0.5                      # [s], a multiple of h
+        # or, instead of a controller, held motor commands [N m]: wheel_torque = [0.1, 0.0, -0.1]
 
     The values are checked by the run; a wrong key or type raises ``ValueError`` or ``TypeError``
     naming ``slosh.<key>``."""
@@ -120,5 +140,38 @@ def slosh_scenario(table: Any) -> tuple[tuple[Any, ...], dict[str, Any]]:
         raise TypeError(f"slosh.damping: expected a number or an array (N s/m), got {table['damping']!r}")
     args = (table["inertia"], table["hub_mass"], table["pivots"], table["lengths"], table["masses"],
             table.get("R0", np.eye(3).tolist()), table["q0"])
-    kwargs = {k: table[k] for k in SCENARIO_KEYS[7:] if k in table}
+    kwargs = {k: table[k] for k in SCENARIO_KEYS[7:12] if k in table}
+    for key in ("wheel_torque",):
+        if key in table and not isinstance(table[key], list):
+            raise TypeError(f"slosh.{key}: expected an array (one motor torque per wheel, N m), got {table[key]!r}")
+    if "control_period" in table and (not isinstance(table["control_period"], (int, float))
+                                      or isinstance(table["control_period"], bool)):
+        raise TypeError(f"slosh.control_period: expected a number (seconds), got {table['control_period']!r}")
+    kwargs.update({k: table[k] for k in ("control_period", "wheel_torque") if k in table})
+    if "wheels" in table:
+        kwargs["wheels"] = _scenario_object(table["wheels"], "wheels", WHEEL_KEYS, ("axes", "spin_inertia"))
+    if "controller" in table:
+        kwargs["controller"] = _scenario_object(table["controller"], "controller", CONTROLLER_KEYS, ("K", "P"))
     return args, kwargs
+
+
+def _scenario_object(tbl: Any, key: str, keys: tuple[str, ...], required: tuple[str, ...]) -> Any:
+    """An :class:`lgvi.ReactionWheels` (``key = "wheels"``) or :class:`lgvi.control.MRPFeedback` from
+    its scenario table; errors name ``slosh.<key>``."""
+    from ...control import MRPFeedback
+    from ..gyrostat import ReactionWheels
+
+    if not isinstance(tbl, dict):
+        raise TypeError(f"slosh.{key}: expected a table ({{{', '.join(required)}, ...}}), got {tbl!r}")
+    unknown = [k for k in tbl if k not in keys]
+    if unknown:
+        raise ValueError(f"slosh.{key}: unknown key {unknown[0]!r}; expected some of {', '.join(keys)}")
+    missing = [k for k in required if k not in tbl]
+    if missing:
+        raise ValueError(f"slosh.{key}: missing {missing[0]!r} (needs {', '.join(required)})")
+    try:
+        if key == "wheels":
+            return ReactionWheels(tbl["axes"], tbl["spin_inertia"], **{k: v for k, v in tbl.items() if k not in required})
+        return MRPFeedback(**tbl)
+    except (ValueError, TypeError) as exc:
+        raise type(exc)(f"slosh.{key}: {exc}") from None
