@@ -606,7 +606,9 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     gradient; see :mod:`lgvi.invariants`), and the distance ``|R^T R - I|_F`` of the attitude from
     SO(3). Zeros are drawn at :data:`ERROR_FLOOR`; long runs show each bin's maximum. Each
     invariant's legend says how the LGVI keeps it (exact or bounded); quantities that are not
-    invariants of the run are drawn dashed and say so. Quantities kept to round-off (the exact
+    invariants of the run are drawn dashed and say so (a spacecraft under external torques, whose
+    control and disturbances change them by design, draws only the distance from SO(3), and its
+    title names the torques' sources: the torques themselves are in ``disturbances.png``). Quantities kept to round-off (the exact
     invariants and the distance from SO(3)) are drawn as their running maximum: a round-off error
     flickers between zero and a few ulps from one sample to the next, which would fill the plot
     as a comb; its running maximum shows what matters, how large it has grown. The legend sits
@@ -653,6 +655,11 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
             raise ValueError(f"conservation: invariants must be among 'energy', 'casimir', 'momentum', "
                              f"'spatial_momentum_e3' (and 'jacobi' when the run declares it); got {unknown}")
     keys = ["energy", "casimir", "spatial_momentum"] + [k for k in _shown(solid) if k in _SERIES_ORDER[3:]]
+    note = decl.note(short=True)
+    if invariants is None and not decl.entries and (getattr(traj, "meta", None) or {}).get("system") == "spacecraft":
+        # the control and the disturbances change the energy and the momenta by design: no error to
+        # draw but the attitude's distance from SO(3) (the torques: disturbances.png, the summary)
+        keys, note = [], note.replace(" has no invariants", ": no invariant") + "; drawn: |R^T R - I|"
     for key in keys + ["orthogonality"]:
         err, label = _error(traj, key, decl)
         dashed = key != "orthogonality" and key not in solid
@@ -676,7 +683,7 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     _style_log(ax)
     ax.set_xlabel(_UNITS["t"])
     ax.set_ylabel("error (relative, 1)")
-    ax.set_title(f"Conservation: {_label(traj)}\n({decl.note(short=True)})", fontsize="medium")
+    ax.set_title(f"Conservation: {_label(traj)}\n({note})", fontsize="medium")
     _legend_below(ax)
     return fig
 
