@@ -245,6 +245,35 @@ def test_rates_figure_shows_every_component_of_a_fast_top(traj):
     assert len(plot.rates(traj).axes) == 2                      # comparable components: one axis a panel
 
 
+def test_rates_of_a_long_fast_rotation_are_envelopes_not_a_solid_band(traj):
+    """The same kind of top for 100 s (omega_1, omega_2 turn about 760 times at 3.8 Hz in the body):
+    drawn as lines, even thinned to each bin's minimum and maximum, they filled their range as one
+    solid band that hid each other. A component that turns more than FAST_TURNS times is drawn as its
+    envelope: each bin's range shaded, its two edges the bins' true extrema, its period in the legend;
+    a slow component (omega_3 here, every component of a slow run) stays a line."""
+    pytest.importorskip("matplotlib")
+    from lgvi import plot
+
+    top = lgvi.simulate([0.05, 0.05, 0.02], np.eye(3), omega0=[0.5, 0.3, 40.0], h=1e-3, steps=100_000,
+                        save_every=2)
+    fig = plot.rates(top)
+    ax_w = fig.axes[0]
+    twin = next(a for a in fig.axes[2:] if a.get_shared_x_axes().joined(a, ax_w))
+    labels = [line.get_label() for line in ax_w.get_lines()]
+    period = 2 * np.pi / (40.0 * 0.03 / 0.05)                   # (J3 - J1) / J1 omega_3: 0.26 s
+    assert labels[0] == r"$\omega_1$: range, period 0.26 s" and labels[2] == r"$\omega_2$: range, period 0.26 s"
+    assert len(ax_w.collections) == 2                            # two shaded ranges
+    hi, lo = ax_w.get_lines()[0].get_ydata(), ax_w.get_lines()[1].get_ydata()
+    edges = np.linspace(0, len(top.t), plot.ENVELOPE_BINS + 1).astype(int)
+    w1 = top.omega[:, 0]
+    np.testing.assert_array_equal(hi[:-1], np.maximum.reduceat(w1, edges[:-1]))
+    np.testing.assert_array_equal(lo[:-1], np.minimum.reduceat(w1, edges[:-1]))
+    assert len(hi) <= plot.ENVELOPE_BINS + 1 and abs(float(np.ptp(w1)) - (hi.max() - lo.min())) == 0.0
+    assert period == pytest.approx(0.26, abs=0.005)
+    assert [line.get_label() for line in twin.get_lines()] == [r"$\omega_3$ (right axis)"]
+    assert not plot.rates(traj).axes[0].collections              # a slow run: lines
+
+
 def test_attitude_figure_is_free_of_gimbal_lock(traj, tmp_path):
     pytest.importorskip("matplotlib")
     from lgvi import plot

@@ -489,6 +489,29 @@ def attitude(traj: Trajectory, kind: str = "euler", sequence: str = "ZYX", ax: A
 #: flatten a nutation of 1 rad/s to a line).
 RATES_APART = 0.2
 
+#: A component with more turning points than this oscillates faster than the figure's ~560 pixels
+#: of axis can draw (under three pixels a period): a line, even thinned to each bin's minimum and
+#: maximum, fills its range as a solid band that hides the other components. It is drawn as its
+#: envelope instead, each of :data:`ENVELOPE_BINS` bins' range shaded between its edges.
+FAST_TURNS = 400
+ENVELOPE_BINS = 400
+
+
+def _turns(y: np.ndarray) -> int:
+    """How many times ``y`` turns (local extrema of the samples; flat runs ignored)."""
+    d = np.sign(np.diff(y))
+    d = d[d != 0]
+    return int(np.count_nonzero(d[1:] != d[:-1]))
+
+
+def _envelope(t: np.ndarray, y: np.ndarray, bins: int = ENVELOPE_BINS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(t, low, high)``: each of ``bins`` equal runs of samples' minimum and maximum, at the
+    run's first time, then the last sample's time (the last run's values repeated), for a step
+    drawing that covers every sample."""
+    edges = np.linspace(0, len(y), min(bins, len(y)) + 1).astype(np.int64)[:-1]
+    lo, hi = np.minimum.reduceat(y, edges), np.maximum.reduceat(y, edges)
+    return np.append(t[edges], t[-1]), np.append(lo, lo[-1]), np.append(hi, hi[-1])
+
 
 def _apart(data: np.ndarray) -> int | None:
     """The component of ``data`` (M, 3) to draw on a second y axis, or None (one shared axis shows all)."""
@@ -521,7 +544,11 @@ def rates(traj: Trajectory, axes: Sequence[Axes] | None = None, *, max_points: i
 
     Where one component lies far from the other two (a top spun fast about its axis), it is drawn on
     a second y axis on the right, so that the others are not flattened to a line
-    (:data:`RATES_APART`); the legend says which component is on it.
+    (:data:`RATES_APART`); the legend says which component is on it. A component that oscillates
+    faster than the axis can draw (more than :data:`FAST_TURNS` turning points: a long fast
+    rotation) is drawn as its envelope, the range of each of :data:`ENVELOPE_BINS` bins shaded
+    between two thin edges, and its legend gives its period (from the turning points), so that
+    the components stay apart instead of one solid band.
 
     Parameters
     ----------
@@ -544,9 +571,19 @@ def rates(traj: Trajectory, axes: Sequence[Axes] | None = None, *, max_points: i
         k = _apart(data)
         tw = None if k is None else _second_axis(ax, data[:, k], _COMPONENT_COLORS[k], f"${sym}_{k + 1}$ ({unit})")
         for i in range(3):
+            where, c = (tw if i == k else ax), _COMPONENT_COLORS[i]
+            label = f"${sym}_{i + 1}$" + (" (right axis)" if i == k else "")
+            turns = _turns(data[:, i])
+            if turns > FAST_TURNS and len(t) > 2 * ENVELOPE_BINS:      # its range per bin, not a band of zigzags
+                tt, lo, hi = _envelope(t, data[:, i])
+                period = 2.0 * (t[-1] - t[0]) / turns
+                where.fill_between(tt, lo, hi, step="post", color=c, alpha=0.2, lw=0)
+                where.step(tt, hi, where="post", color=c, lw=0.9,
+                           label=f"{label}: range, period {period:.2g} s")
+                where.step(tt, lo, where="post", color=c, lw=0.9)
+                continue
             tt, yy = _thin_minmax(t, data[:, i], max_points)
-            (tw if i == k else ax).plot(tt, yy, color=_COMPONENT_COLORS[i], lw=1.2,
-                                        label=f"${sym}_{i + 1}$" + (" (right axis)" if i == k else ""))
+            where.plot(tt, yy, color=c, lw=1.2, label=label)
         ax.set_ylabel(f"${sym}$ ({unit})" if k is None else f"${sym}$ ({unit}), left axis")
         ax.grid(True, alpha=0.3)
         if tw is None:
