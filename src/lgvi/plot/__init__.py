@@ -645,11 +645,12 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     invariant's legend says how the LGVI keeps it (exact or bounded); quantities that are not
     invariants of the run are drawn dashed and say so (a spacecraft under external torques, whose
     control and disturbances change them by design, draws only the distance from SO(3), and its
-    title names the torques' sources: the torques themselves are in ``disturbances.png``). Quantities kept to round-off (the exact
-    invariants and the distance from SO(3)) are drawn as their running maximum: a round-off error
-    flickers between zero and a few ulps from one sample to the next, which would fill the plot
-    as a comb; its running maximum shows what matters, how large it has grown. The legend sits
-    below the axes, clear of the curves.
+    title names the torques' sources: the torques themselves are in ``disturbances.png``).
+    The invariants and the distance from SO(3) are drawn as their running maximum: a round-off
+    error flickers between zero and a few ulps from one sample to the next, and a bounded error
+    (the energy of a heavy top) passes through zero twice an oscillation, which would fill the plot
+    as a comb of spikes; the running maximum shows what matters, how large the error has grown (a
+    bounded error levels off, a drift climbs). The legend sits below the axes, clear of the curves.
 
     Parameters
     ----------
@@ -680,7 +681,7 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     _check_traj(traj, "conservation")
     fig, ax = _axes(ax)
     t = np.asarray(traj.t)
-    from ..invariants import EXACT, KIND_TEXT, QUANTITIES
+    from ..invariants import BOUNDED, EXACT, KIND_TEXT, QUANTITIES
 
     decl = _declaration([traj])
     if invariants is None:
@@ -705,7 +706,7 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
             label += " (not an invariant here)"
         elif kind is not None and invariants is None:
             label += f": {KIND_TEXT[kind]}"
-        if not dashed and (key == "orthogonality" or kind == EXACT):
+        if not dashed and (key == "orthogonality" or kind in (EXACT, BOUNDED)):
             err = _running_max(err)
             label += ", running max"
         tt, yy = _thin_max(t, _floor(err), max_points)
