@@ -497,11 +497,17 @@ FAST_TURNS = 400
 ENVELOPE_BINS = 400
 
 
-def _turns(y: np.ndarray) -> int:
-    """How many times ``y`` turns (local extrema of the samples; flat runs ignored)."""
+def _turns(t: np.ndarray, y: np.ndarray) -> tuple[int, float | None]:
+    """How many times ``y`` turns (local extrema of the samples; flat runs ignored), and its period
+    when the turns are regular (every period, two turns, within 10 % of their mean), else ``None``."""
     d = np.sign(np.diff(y))
-    d = d[d != 0]
-    return int(np.count_nonzero(d[1:] != d[:-1]))
+    keep = np.flatnonzero(d != 0)
+    turn = keep[1:][d[keep][1:] != d[keep][:-1]]          # the sample after which the slope changes sign
+    if len(turn) < 3:
+        return len(turn), None
+    periods = np.diff(t[turn])[:-1] + np.diff(t[turn])[1:]
+    regular = periods.std() <= 0.1 * periods.mean()
+    return len(turn), (float(periods.mean()) if regular else None)
 
 
 def _envelope(t: np.ndarray, y: np.ndarray, bins: int = ENVELOPE_BINS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -547,8 +553,8 @@ def rates(traj: Trajectory, axes: Sequence[Axes] | None = None, *, max_points: i
     (:data:`RATES_APART`); the legend says which component is on it. A component that oscillates
     faster than the axis can draw (more than :data:`FAST_TURNS` turning points: a long fast
     rotation) is drawn as its envelope, the range of each of :data:`ENVELOPE_BINS` bins shaded
-    between two thin edges, and its legend gives its period (from the turning points), so that
-    the components stay apart instead of one solid band.
+    between two thin edges, and its legend gives its period where the turning points are regular,
+    so that the components stay apart instead of one solid band.
 
     Parameters
     ----------
@@ -573,13 +579,12 @@ def rates(traj: Trajectory, axes: Sequence[Axes] | None = None, *, max_points: i
         for i in range(3):
             where, c = (tw if i == k else ax), _COMPONENT_COLORS[i]
             label = f"${sym}_{i + 1}$" + (" (right axis)" if i == k else "")
-            turns = _turns(data[:, i])
+            turns, period = _turns(t, data[:, i])
             if turns > FAST_TURNS and len(t) > 2 * ENVELOPE_BINS:      # its range per bin, not a band of zigzags
                 tt, lo, hi = _envelope(t, data[:, i])
-                period = 2.0 * (t[-1] - t[0]) / turns
                 where.fill_between(tt, lo, hi, step="post", color=c, alpha=0.2, lw=0)
                 where.step(tt, hi, where="post", color=c, lw=0.9,
-                           label=f"{label}: range, period {period:.2g} s")
+                           label=f"{label}: " + ("range per bin" if period is None else f"range, period {period:.2g} s"))
                 where.step(tt, lo, where="post", color=c, lw=0.9)
                 continue
             tt, yy = _thin_minmax(t, data[:, i], max_points)
