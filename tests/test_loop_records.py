@@ -180,20 +180,31 @@ def test_the_gravity_gradient_is_recorded_by_name():
     assert np.abs(expect).max() > 1e-9                            # the torque is there (about 1e-8 N m)
 
 
-def test_a_stream_interrupted_and_resumed_keeps_the_records_bit_for_bit(tmp_path):
-    from lgvi.io.streaming import read_stream, stream_system
+STREAM_KW = dict(omega0=[0.01, -0.02, 0.015], h=0.1, steps=200, save_every=5)
+
+
+def _interrupted_stream(folder):
+    """The sensed spacecraft's stream in ``folder``, stopped (Ctrl-C) after 100 of its 200 steps."""
+    from lgvi.io.streaming import stream_system
 
     sat, fsw = _sensed()
-    kw = dict(omega0=[0.01, -0.02, 0.015], h=0.1, steps=200, save_every=5)
-    memory = lgvi.simulate(sat, np.eye(3), fsw=fsw, **kw)
-    folder = tmp_path / "loop"
 
     def stop(done, total):
         if done >= 100:
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        stream_system(folder, "spacecraft", sat, np.eye(3), fsw=fsw, chunk_steps=50, progress=stop, **kw)
+        stream_system(folder, "spacecraft", sat, np.eye(3), fsw=fsw, chunk_steps=50, progress=stop, **STREAM_KW)
+    return sat, fsw
+
+
+def test_a_stream_interrupted_and_resumed_keeps_the_records_bit_for_bit(tmp_path):
+    from lgvi.io.streaming import read_stream, stream_system
+
+    kw = STREAM_KW
+    folder = tmp_path / "loop"
+    sat, fsw = _interrupted_stream(folder)
+    memory = lgvi.simulate(sat, np.eye(3), fsw=fsw, **kw)
     stream_system(folder, "spacecraft", sat, np.eye(3), fsw=fsw, chunk_steps=50, resume=True, **kw)
     back = read_stream(folder)
     assert np.array_equal(back.signal_data, memory.signal_data, equal_nan=True)
@@ -211,16 +222,9 @@ def test_a_stream_saved_with_another_component_state_layout_refuses_to_resume(tm
 
     from lgvi.io.streaming import stream_system
 
-    sat, fsw = _sensed()
-    kw = dict(omega0=[0.01, -0.02, 0.015], h=0.1, steps=200, save_every=5)
+    kw = STREAM_KW
     folder = tmp_path / "loop"
-
-    def stop(done, total):
-        if done >= 100:
-            raise KeyboardInterrupt
-
-    with pytest.raises(KeyboardInterrupt):
-        stream_system(folder, "spacecraft", sat, np.eye(3), fsw=fsw, chunk_steps=50, progress=stop, **kw)
+    sat, fsw = _interrupted_stream(folder)
     manifest = folder / "manifest.json"
     saved = json.loads(manifest.read_text())
     run = LoopRun(sat, np.eye(3), fsw=fsw, **kw)
