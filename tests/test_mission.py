@@ -123,6 +123,14 @@ def test_mission_figures(flown, tmp_path):
 
     files = {p.name for p in save_loop_figures(flown[1], tmp_path)}
     assert {"mission.png", "estimation.png", "disturbances.png", "pointing.png", "modes.png", "dipoles.png"} <= files
+    # pointing.png: the detumble (no control law: sigma_BR cleared) is a gap, not an error of zero
+    from lgvi.plot.loop import pointing
+
+    traj = flown[1]
+    sigma = pointing(traj).axes[1].get_lines()[0]
+    x, y = np.asarray(sigma.get_xdata()), np.asarray(sigma.get_ydata(), float)
+    detumble = x < loop_summary(traj)["modes"][1]["from_s"]
+    assert detumble.any() and np.isnan(y[detumble]).all() and np.isfinite(y[~detumble]).all()
 
 
 def test_lgvi_run_of_the_example_summarises_the_mission(capsys, tmp_path):
@@ -148,6 +156,7 @@ def test_lgvi_run_of_the_example_summarises_the_mission(capsys, tmp_path):
     assert s["detumble_time_s"] is None and s["modes"] == [{"mode": 0, "name": "detumble", "from_s": 0.0}]
     assert s["settle_time_s"] is None and s["error_deg"] is None and s["not_settled"] == "never left detumble"
     assert s["error_final_deg"] is None and s["rate_error_final_deg_s"] is None
+    assert not (out / "pointing.png").exists() and (out / "mission.png").exists()    # no law ran: no pointing
     assert set(s["disturbances"]) == {"facet_drag", "facet_srp", "residual_dipole", "gravity_gradient"}
     txt = (out / "summary.txt").read_text()
     assert "disturbances:" in txt and "pointing:      not settled: never left detumble" in txt

@@ -704,7 +704,7 @@ def _run_loop_ensemble(args: argparse.Namespace, scenario) -> int:
 
     from ..errors import ConvergenceError, SimulationInterrupted, TorqueError
     from ..io.scenario_ensemble import ensemble_lines, ensemble_summary
-    from ..io.scenario_loop import _mode_text, loop_summary
+    from ..io.scenario_loop import loop_summary, mode_text
 
     if args.resume:
         raise UsageError("--resume: an [ensemble] scenario runs in memory (no stream to resume); run it again")
@@ -745,7 +745,7 @@ def _run_loop_ensemble(args: argparse.Namespace, scenario) -> int:
              "[deg/s], final mode):",
              *(f"  {b:4d}  " + (f"not settled: {s.get('not_settled')}" if s["settle_time_s"] is None else
                                 f"{s['settle_time_s']:g}  {s['error_deg']['mean']:.3g} / {s['error_deg']['max']:.3g}")
-               + f"  {s['rate_final_deg_s']:.3g}" + (f"  {_mode_text(s['modes'][-1])}" if s.get("modes") else "")
+               + f"  {s['rate_final_deg_s']:.3g}" + (f"  {mode_text(s['modes'][-1])}" if s.get("modes") else "")
                for b, s in enumerate(per_member)),
              "", f"files:         {', '.join(data['files'])}", "", "scenario:",
              *("  " + line for line in scenario.text.rstrip("\n").splitlines()), ""]

@@ -579,7 +579,7 @@ def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DE
     out["not_settled"] = None
     if "sigma_BR" in sig and len(ts):
         err = np.degrees(4.0 * np.arctan(np.linalg.norm(sig["sigma_BR"], axis=1)))
-        pointing = _pointing_records(traj, sig, len(ts))
+        pointing = pointing_records(traj, sig, len(ts))
         out["error_final_deg"] = float(err[-1]) if pointing[-1] else None
         above = np.flatnonzero(~(err < settle_deg) | ~pointing)   # a mode with no law is not settled
         first = 0 if not above.size else int(above[-1]) + 1
@@ -669,7 +669,7 @@ def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DE
     return out
 
 
-def _pointing_records(traj: Any, sig: dict[str, np.ndarray], n: int) -> np.ndarray:
+def pointing_records(traj: Any, sig: dict[str, np.ndarray], n: int) -> np.ndarray:
     """(n,) bool: the records taken in a pointing mode, one in which a control law writes
     ``sigma_BR`` (``meta["pointing_modes"]``; every record without modes recorded). In a mode with
     no law ``sigma_BR`` is cleared to zero, which is no error. A run saved before lgvi wrote
@@ -731,7 +731,7 @@ def knowledge_summary(sig: dict[str, np.ndarray]) -> dict[str, Any]:
     return out
 
 
-def _mode_text(m: dict[str, Any]) -> str:
+def mode_text(m: dict[str, Any]) -> str:
     """A mode of the summary: its name and index (``sun-safe (1)``), or ``mode 1`` when unnamed."""
     name = m.get("name")
     return f"{name} ({m['mode']})" if name and name != f"mode {m['mode']}" else f"mode {m['mode']}"
@@ -773,9 +773,9 @@ def summary_lines(s: dict[str, Any]) -> list[str]:
                          f"({k['inside_3sigma']['steady']:.1%} in the second half); final 3 sigma "
                          + ", ".join(f"{v:.3g}" for v in k["sigma3_final_arcsec"]) + " arcsec")
     if s.get("modes"):
-        lines.append("modes:         " + ", ".join(f"{_mode_text(m)} from {m['from_s']:g} s" for m in s["modes"]))
+        lines.append("modes:         " + ", ".join(f"{mode_text(m)} from {m['from_s']:g} s" for m in s["modes"]))
     if s.get("detumble_time_s") is not None:
-        lines.append(f"detumble:      left {_mode_text(s['modes'][0])} at t = {s['detumble_time_s']:g} s")
+        lines.append(f"detumble:      left {mode_text(s['modes'][0])} at t = {s['detumble_time_s']:g} s")
     for key, what in (("control_error_deg", "control error (truth vs reference)"),
                       ("knowledge_error_deg", "knowledge error (estimate vs truth)")):
         if s.get(key) is not None:
@@ -791,4 +791,4 @@ def summary_lines(s: dict[str, Any]) -> list[str]:
     return lines
 
 
-__all__ += ["loop_summary", "knowledge_summary", "summary_lines", "SETTLE_DEG"]
+__all__ += ["loop_summary", "knowledge_summary", "summary_lines", "pointing_records", "mode_text", "SETTLE_DEG"]

@@ -583,8 +583,8 @@ def rates(traj: Trajectory, axes: Sequence[Axes] | None = None, *, max_points: i
             if turns > FAST_TURNS and len(t) > 2 * ENVELOPE_BINS:      # its range per bin, not a band of zigzags
                 tt, lo, hi = _envelope(t, data[:, i])
                 where.fill_between(tt, lo, hi, step="post", color=c, alpha=0.2, lw=0)
-                where.step(tt, hi, where="post", color=c, lw=0.9,
-                           label=f"{label}: " + ("range per bin" if period is None else f"range, period {period:.2g} s"))
+                what = "range per bin" if period is None else f"range, period {period:.2g} s"
+                where.step(tt, hi, where="post", color=c, lw=0.9, label=f"{label}: {what}")
                 where.step(tt, lo, where="post", color=c, lw=0.9)
                 continue
             tt, yy = _thin_minmax(t, data[:, i], max_points)
