@@ -16,9 +16,10 @@ Each member ``b`` is the file's mission with its own draws from ``numpy.random.d
   half diffuse; residual dipole N(0, 0.01 A m^2) per axis;
 * gains: K, P of the MRP feedback x U(0.9, 1.1); B-dot and dumping gains x U(0.8, 1.2).
 
-A member *fails* when it does not detumble (never leaves mode 0), saturates (a wheel above
+A member *fails* when it does not detumble (never leaves mode 0, detumble), saturates (a wheel above
 ``--max-speed`` rad/s, 6000 rpm by default: 0.0126 N m s a wheel), its estimator diverges (the
-MEKF's status 2, or a knowledge error above 1 deg after settling), or never settles below 0.1 deg.
+MEKF's status 2, or a knowledge error above 1 deg after settling), does not end in nadir pointing,
+or never settles below 0.1 deg in a pointing mode (``loop_summary``'s ``not_settled`` says why).
 Statistics are over the members that reached nadir pointing: mean with its 95 % interval
 (Student t), and the 95th percentile with its 95 % interval from the order statistics (binomial).
 
@@ -138,14 +139,18 @@ def replace_seed(sensor, seed: int):
 def verdict(s: dict, traj, max_speed: float) -> str | None:
     """Why member's run failed (None: it did not)."""
     if s["detumble_time_s"] is None:
-        return f"did not detumble (|omega| {s['rate_final_deg_s']:.2g} deg/s at the end, still in mode 0)"
+        return (f"did not detumble ({s['not_settled'] or 'never left its first mode'}, |omega| "
+                f"{s['rate_final_deg_s']:.2g} deg/s at the end)")
     top = float(np.abs(traj.wheel_speed).max())
     if top >= max_speed:
         return f"saturated (a wheel at {top:.0f} rad/s, the limit {max_speed:.0f})"
     if s["knowledge_error_deg"] is not None and s["knowledge_error_deg"]["max"] > 1.0:
         return f"estimator diverged (knowledge error {s['knowledge_error_deg']['max']:.2g} deg after settling)"
+    if s["modes"][-1]["name"] != "nadir":
+        return f"did not reach nadir pointing (ended in {s['modes'][-1]['name']})"
     if s["settle_time_s"] is None:
-        return f"did not settle below {s['settle_deg']:g} deg (final error {s['error_final_deg']:.2g} deg)"
+        return f"did not settle below {s['settle_deg']:g} deg ({s['not_settled']}, final error " + (
+            "none" if s["error_final_deg"] is None else f"{s['error_final_deg']:.2g} deg") + ")"
     return None
 
 

@@ -224,6 +224,28 @@ def test_legends_of_the_time_series_sit_outside_the_data(traj):
             assert legend.get_window_extent().x0 >= ax.get_window_extent().x1, ax.get_ylabel()
 
 
+def test_a_bounded_energy_is_drawn_as_its_running_maximum():
+    """The heavy top of examples/heavy_top.py (2 s): its energy error, bounded by the variational
+    LGVI, passes through zero twice a nutation and was drawn as a comb of spikes down to 1e-12; it
+    is its running maximum now, as the exact invariants are (a bounded error levels off at the
+    largest relative change, 4.7e-7 here; a drift would climb)."""
+    pytest.importorskip("matplotlib")
+    from lgvi import plot
+    from lgvi.torques import UniformGravity
+
+    R0 = lgvi.so3.exp([np.radians(30.0), 0.0, 0.0])
+    top = lgvi.simulate([0.05, 0.05, 0.02], R0, omega0=[0.0, 0.0, 40.0], h=1e-3, steps=2000,
+                        torque=UniformGravity(1.0, [0.0, 0.0, 0.1], 9.81), save_every=10)
+    lines = {ln.get_label(): np.asarray(ln.get_ydata(), float) for ln in plot.conservation(top).axes[0].get_lines()}
+    energy = next(v for k, v in lines.items() if k.startswith("total energy"))
+    label = next(k for k in lines if k.startswith("total energy"))
+    assert label.endswith("bounded (no drift), running max")
+    E = top.energy
+    rel = np.abs(E - E[0]) / abs(E[0])
+    assert np.all(np.diff(energy) >= 0) and energy[-1] == rel.max() and 1e-7 < rel.max() < 1e-6
+    assert rel[rel.argmax():].min() < 1e-3 * rel.max()            # the series itself does dip: a comb drawn raw
+
+
 def test_rates_figure_shows_every_component_of_a_fast_top(traj):
     """A top spun at 40 rad/s about its axis: that component goes on a second y axis, and the left
     axis spans the nutation of the two others (not 40 rad/s); a body whose components are comparable
@@ -243,6 +265,35 @@ def test_rates_figure_shows_every_component_of_a_fast_top(traj):
     tlo, thi = twin.get_ylim()
     assert tlo < 40.0 < thi and thi - tlo > 1.0                 # constant omega_3: a flat line, not its round-off
     assert len(plot.rates(traj).axes) == 2                      # comparable components: one axis a panel
+
+
+def test_rates_of_a_long_fast_rotation_are_envelopes_not_a_solid_band(traj):
+    """The same kind of top for 100 s (omega_1, omega_2 turn about 760 times at 3.8 Hz in the body):
+    drawn as lines, even thinned to each bin's minimum and maximum, they filled their range as one
+    solid band that hid each other. A component that turns more than FAST_TURNS times is drawn as its
+    envelope: each bin's range shaded, its two edges the bins' true extrema, its period in the legend;
+    a slow component (omega_3 here, every component of a slow run) stays a line."""
+    pytest.importorskip("matplotlib")
+    from lgvi import plot
+
+    top = lgvi.simulate([0.05, 0.05, 0.02], np.eye(3), omega0=[0.5, 0.3, 40.0], h=1e-3, steps=100_000,
+                        save_every=2)
+    fig = plot.rates(top)
+    ax_w = fig.axes[0]
+    twin = next(a for a in fig.axes[2:] if a.get_shared_x_axes().joined(a, ax_w))
+    labels = [line.get_label() for line in ax_w.get_lines()]
+    period = 2 * np.pi / (40.0 * 0.03 / 0.05)                   # (J3 - J1) / J1 omega_3: 0.26 s
+    assert labels[0] == r"$\omega_1$: range, period 0.26 s" and labels[2] == r"$\omega_2$: range, period 0.26 s"
+    assert len(ax_w.collections) == 2                            # two shaded ranges
+    hi, lo = ax_w.get_lines()[0].get_ydata(), ax_w.get_lines()[1].get_ydata()
+    edges = np.linspace(0, len(top.t), plot.ENVELOPE_BINS + 1).astype(int)
+    w1 = top.omega[:, 0]
+    np.testing.assert_array_equal(hi[:-1], np.maximum.reduceat(w1, edges[:-1]))
+    np.testing.assert_array_equal(lo[:-1], np.minimum.reduceat(w1, edges[:-1]))
+    assert len(hi) <= plot.ENVELOPE_BINS + 1 and abs(float(np.ptp(w1)) - (hi.max() - lo.min())) == 0.0
+    assert period == pytest.approx(0.26, abs=0.005)
+    assert [line.get_label() for line in twin.get_lines()] == [r"$\omega_3$ (right axis)"]
+    assert not plot.rates(traj).axes[0].collections              # a slow run: lines
 
 
 def test_attitude_figure_is_free_of_gimbal_lock(traj, tmp_path):

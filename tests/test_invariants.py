@@ -203,7 +203,14 @@ def test_the_note_names_the_system_of_a_result_that_is_not_a_rigid_body():
     def note(**meta):
         return declared(SimpleNamespace(meta=meta, potential=None)).note()
 
-    assert note(system="spacecraft", torque="none", invariants={}) == "the spacecraft has no invariants"
+    # a spacecraft declares none only when external torques act: it names them (a result saved before
+    # meta["external_torques"] says so without the list); with none acting, its hub and wheels' invariants
+    assert note(system="spacecraft", torque="none", invariants={}, external_torques=["magnetorquers", "facet_drag"]) \
+        == "a spacecraft under external torques (magnetorquers, facet drag) has no invariants"
+    assert note(system="spacecraft", torque="none", invariants={}) == \
+        "a spacecraft under external torques has no invariants"
+    assert note(system="spacecraft", torque="none", invariants={"casimir": {"kind": "exact"}}) == \
+        "invariants of the spacecraft"
     assert note(system="chain", invariants={"energy": {"kind": "bounded"}}) == "invariants of the chain"
     assert note(system="gyrostat", torque="controller", invariants={}) == \
         "the gyrostat with torque controller has no invariants"

@@ -9,7 +9,7 @@ import lgvi
 from lgvi.fsw import FlightSoftware, InertialPointing, MRPControl, RWMotorTorque
 from lgvi.spacecraft import Spacecraft
 from lgvi.systems.gyrostat_ensemble import GyrostatEnsemble
-from lgvi.systems.spacecraft import SpacecraftEnsemble, SpacecraftTrajectory
+from lgvi.systems.spacecraft import LoopRun, SpacecraftEnsemble, SpacecraftTrajectory
 
 S3 = 1.0 / np.sqrt(3.0)
 PYRAMID = np.array([[S3, S3, S3], [-S3, S3, S3], [S3, -S3, S3], [-S3, -S3, S3]])
@@ -180,22 +180,82 @@ def test_the_gravity_gradient_is_recorded_by_name():
     assert np.abs(expect).max() > 1e-9                            # the torque is there (about 1e-8 N m)
 
 
-def test_a_stream_interrupted_and_resumed_keeps_the_records_bit_for_bit(tmp_path):
-    from lgvi.io.streaming import read_stream, stream_system
+STREAM_KW = dict(omega0=[0.01, -0.02, 0.015], h=0.1, steps=200, save_every=5)
+
+
+def _interrupted_stream(folder):
+    """The sensed spacecraft's stream in ``folder``, stopped (Ctrl-C) after 100 of its 200 steps."""
+    from lgvi.io.streaming import stream_system
 
     sat, fsw = _sensed()
-    kw = dict(omega0=[0.01, -0.02, 0.015], h=0.1, steps=200, save_every=5)
-    memory = lgvi.simulate(sat, np.eye(3), fsw=fsw, **kw)
-    folder = tmp_path / "loop"
 
     def stop(done, total):
         if done >= 100:
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        stream_system(folder, "spacecraft", sat, np.eye(3), fsw=fsw, chunk_steps=50, progress=stop, **kw)
+        stream_system(folder, "spacecraft", sat, np.eye(3), fsw=fsw, chunk_steps=50, progress=stop, **STREAM_KW)
+    return sat, fsw
+
+
+def test_a_stream_interrupted_and_resumed_keeps_the_records_bit_for_bit(tmp_path):
+    from lgvi.io.streaming import read_stream, stream_system
+
+    kw = STREAM_KW
+    folder = tmp_path / "loop"
+    sat, fsw = _interrupted_stream(folder)
+    memory = lgvi.simulate(sat, np.eye(3), fsw=fsw, **kw)
     stream_system(folder, "spacecraft", sat, np.eye(3), fsw=fsw, chunk_steps=50, resume=True, **kw)
     back = read_stream(folder)
     assert np.array_equal(back.signal_data, memory.signal_data, equal_nan=True)
     _same_records(back.records, memory.records)
     assert len(back.records["gyro_B"].t) == 100
+
+
+def test_a_stream_saved_with_another_component_state_layout_refuses_to_resume(tmp_path):
+    """The gyro's state went from 14 values to fewer (its noise scales moved into its parameter
+    row): a stream saved before, its state 14 wide, used to fail on resume with NumPy's "could not
+    broadcast" (or, had the widths summed alike, continue on a shuffled state). It is refused with a
+    message naming the gyro and the rule; the same for any component whose saved width differs
+    from this run's (the widths are saved with the state now), and for the signal bus."""
+    import json
+
+    from lgvi.io.streaming import stream_system
+
+    kw = STREAM_KW
+    folder = tmp_path / "loop"
+    sat, fsw = _interrupted_stream(folder)
+    manifest = folder / "manifest.json"
+    saved = json.loads(manifest.read_text())
+    run = LoopRun(sat, np.eye(3), fsw=fsw, **kw)
+    widths = [[name, int(run.so[i + 1] - run.so[i])] for i, name in enumerate(run.names)]
+    g = [w[0] for w in widths].index("gyro")
+    at = sum(w[1] for w in widths[:g + 1])                 # the end of the gyro's slice of S
+
+    def resume(state):
+        manifest.write_text(json.dumps(dict(saved, state=state)))
+        stream_system(folder, "spacecraft", sat, np.eye(3), fsw=fsw, chunk_steps=50, resume=True, **kw)
+
+    old = dict(saved["state"])                              # as an lgvi before saved it: 14 values, no widths
+    old.pop("S_widths", None)
+    old["S"] = old["S"][:at] + [0.0] * (14 - widths[g][1]) + old["S"][at:]
+    with pytest.raises(ValueError, match=rf"resume: the stream's saved component state holds {len(old['S'])} "
+                                         rf"values, this run's components hold {len(saved['state']['S'])} \(.*"
+                                         rf"gyro {widths[g][1]}.*\): the gyro's state held 14 values in the lgvi "
+                                         rf"that saved it, {widths[g][1]} in this one; a stream resumes only with "
+                                         r"the components' state layout it was saved with"):
+        resume(old)
+    assert saved["state"]["S_widths"] == widths
+    other = dict(saved["state"], S=saved["state"]["S"] + [0.0],  # any component, its widths saved
+                 S_widths=[list(w) for w in widths])
+    other["S_widths"][-1][1] += 1
+    name = widths[-1][0]
+    with pytest.raises(ValueError, match=rf"resume: the stream's saved state of component {len(widths) - 1} "
+                                         rf"\({name}\) holds {widths[-1][1] + 1} values, this run's \({name}\) "
+                                         rf"holds {widths[-1][1]}; a stream resumes only with the components' "
+                                         r"state layout"):
+        resume(other)
+    with pytest.raises(ValueError, match=r"resume: the stream's saved signal bus holds \d+ values, this run's \d+; "
+                                         r"a stream resumes only"):
+        resume(dict(saved["state"], bus=saved["state"]["bus"][:-1]))
+    resume(saved["state"])                                  # the stream as saved resumes

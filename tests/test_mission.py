@@ -123,24 +123,112 @@ def test_mission_figures(flown, tmp_path):
 
     files = {p.name for p in save_loop_figures(flown[1], tmp_path)}
     assert {"mission.png", "estimation.png", "disturbances.png", "pointing.png", "modes.png", "dipoles.png"} <= files
+    # pointing.png: the detumble (no control law: sigma_BR cleared) is a gap, not an error of zero
+    from lgvi.plot.loop import pointing
+
+    traj = flown[1]
+    sigma = pointing(traj).axes[1].get_lines()[0]
+    x, y = np.asarray(sigma.get_xdata()), np.asarray(sigma.get_ydata(), float)
+    detumble = x < loop_summary(traj)["modes"][1]["from_s"]
+    assert detumble.any() and np.isnan(y[detumble]).all() and np.isfinite(y[~detumble]).all()
 
 
 def test_lgvi_run_of_the_example_summarises_the_mission(capsys, tmp_path):
-    """``lgvi example cubesat_mission`` then ``lgvi run`` of its first 700 s: the summary's new lines."""
+    """``lgvi example cubesat_mission`` then ``lgvi run`` of its first 700 s (still in detumble): the
+    summary's lines (not settled: it never left detumble, whose cleared sigma_BR is no error), the
+    page report.html beside the figures as for the other scenarios, with the recorded orbit, and
+    what the conservation figure, the summary and the page say of a spacecraft under torques."""
+    import base64
+    import re
+
     from lgvi import cli
     from lgvi.io.scenario import to_toml
 
     d = tomllib.loads(examples.text("cubesat_mission"))
     d["integrator"]["duration"] = 700.0
-    d["output"] = {"formats": ["npz"], "plots": False}
+    d["output"] = {"formats": ["npz"]}
     path = tmp_path / "mission.toml"
     path.write_text(to_toml(d))
     assert cli.main(["run", str(path), "-o", str(tmp_path / "out")]) == 0
     capsys.readouterr()
-    s = json.loads((tmp_path / "out" / "summary.json").read_text())["pointing"]
+    out = tmp_path / "out"
+    s = json.loads((out / "summary.json").read_text())["pointing"]
     assert s["detumble_time_s"] is None and s["modes"] == [{"mode": 0, "name": "detumble", "from_s": 0.0}]
+    assert s["settle_time_s"] is None and s["error_deg"] is None and s["not_settled"] == "never left detumble"
+    assert s["error_final_deg"] is None and s["rate_error_final_deg_s"] is None
+    assert not (out / "pointing.png").exists() and (out / "mission.png").exists()    # no law ran: no pointing
     assert set(s["disturbances"]) == {"facet_drag", "facet_srp", "residual_dipole", "gravity_gradient"}
-    assert "disturbances:" in (tmp_path / "out" / "summary.txt").read_text()
+    txt = (out / "summary.txt").read_text()
+    assert "disturbances:" in txt and "pointing:      not settled: never left detumble" in txt
+    torques = ("a spacecraft under external torques (facet drag, facet srp, residual dipole, magnetorquers, "
+               "gravity gradient)")
+    assert f"{torques} has no invariants" in txt
+    # the page, as lgvi view writes it, with the orbit's track: the recorded positions in Earth radii
+    traj = lgvi.load(out / "trajectory.npz")
+    assert traj.meta["pointing_modes"] == [1, 2]
+    page = (out / "report.html").read_text()
+    fig = json.loads(re.search(r"var fig = (\{.*?\});\n  Plotly\.newPlot", page, re.S).group(1).replace("<\\/", "</"))
+    track = [t for t in fig["data"] if t.get("name") == "orbit in detumble"]
+    assert len(track) == 1
+
+    def decode(a):
+        return (np.frombuffer(base64.b64decode(a["bdata"]), dtype=a["dtype"]) if isinstance(a, dict)
+                else np.array([np.nan if v is None else v for v in a], dtype=float))
+
+    pts = np.column_stack([decode(track[0][c]) for c in "xyz"])
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    r = traj.signals["r_N"] / 6378137.0
+    assert len(pts) > 10 and np.allclose(pts[0], r[0], atol=1e-5)
+    assert np.abs(pts[:, None, :] - r[None, :, :]).max(axis=2).min(axis=1).max() < 1e-5      # every point recorded
+    assert f"{torques} has no invariants" in page and "the spacecraft has no invariants" not in page
+    # the conservation figure: no error to draw but |R^T R - I|, and says why
+    pytest.importorskip("matplotlib")
+    from lgvi import plot
+
+    f = plot.conservation(traj)
+    assert f.axes[0].get_title().endswith("(a spacecraft under external torques: no invariant; drawn: |R^T R - I|)")
+    labels = [ln.get_label() for ln in f.axes[0].get_lines()]
+    assert len(labels) == 1 and labels[0].startswith("orthogonality"), labels
+
+
+def _modes_run(modes, sigma, meta):
+    """A stand-in for a loop result with records ``mode`` and ``sigma_BR`` (what loop_summary reads)."""
+    from types import SimpleNamespace
+
+    n = len(modes)
+    return SimpleNamespace(signals={"mode": np.asarray(modes, float), "sigma_BR": np.asarray(sigma, float)},
+                           signal_t=5.0 * np.arange(n), t=5.0 * np.arange(n), omega=np.zeros((n, 3)),
+                           R=np.tile(np.eye(3), (n, 1, 1)), meta=meta)
+
+
+@pytest.mark.parametrize("meta", [{"mode_names": ["detumble", "nadir"], "pointing_modes": [1]},
+                                  {"mode_names": ["detumble", "nadir"]}])      # saved before pointing_modes
+def test_a_member_that_never_left_detumble_is_not_settled(meta):
+    """In a mode with no control law (B-dot detumble) sigma_BR is cleared to zero: that is no error,
+    and a run that never left it has not settled (it used to read as settled at t = 0 with error 0).
+    A run is settled from the first record after which every record is in a pointing mode and
+    below the threshold; the summary, the ensemble's count and its lines say why not, by mode name."""
+    from lgvi.io.scenario_ensemble import ensemble_lines, ensemble_summary
+    from lgvi.io.scenario_loop import summary_lines
+
+    small = [1e-4, 0.0, 0.0]                                    # 0.0229 deg
+    still = loop_summary(_modes_run([0] * 6, np.zeros((6, 3)), meta))
+    assert still["settle_time_s"] is None and still["error_deg"] is None and still["error_final_deg"] is None
+    assert still["not_settled"] == "never left detumble"
+    assert "pointing:      not settled: never left detumble" in summary_lines(still)
+    flown = loop_summary(_modes_run([0, 0, 1, 1, 1, 1], [[0.0] * 3] * 2 + [[0.1, 0, 0]] + [small] * 3, meta))
+    assert flown["settle_time_s"] == 15.0 and flown["not_settled"] is None
+    assert flown["error_deg"]["max"] == pytest.approx(np.degrees(4 * np.arctan(1e-4)))
+    back = loop_summary(_modes_run([0, 1, 1, 0, 0, 0], [[0.0] * 3] + [small] * 2 + [[0.0] * 3] * 3, meta))
+    assert back["settle_time_s"] is None and back["not_settled"] == "ended in detumble, a mode with no control law"
+    e = ensemble_summary([still, flown, still, back])
+    assert e["settled"] == 1 and e["settle_time_s"]["n"] == 1
+    assert e["not_settled"] == {"never left detumble": 2, "ended in detumble, a mode with no control law": 1}
+    assert ensemble_lines(e)[0] == ("members:       4, settled 1; never left detumble 2; ended in detumble, a mode "
+                                    "with no control law 1")
+    mc = _monte_carlo()                                         # the benchmark's verdict: did not detumble
+    assert mc.verdict(dict(still, detumble_time_s=None, modes=[{"mode": 0, "name": "detumble", "from_s": 0.0}]),
+                      None, 628.3).startswith("did not detumble (never left detumble")
 
 
 def test_mode_names_in_the_file_are_checked():

@@ -316,6 +316,30 @@ def test_loop_run_shows_the_orbit_the_sun_and_the_named_modes(orbit_run):
     assert rows["modes"] == f"coast (0) from 0 s, nadir (1) from {ts[first_nadir]:g} s"
 
 
+def test_the_body_axis_path_of_a_run_longer_than_an_orbit_is_its_last_orbit(orbit_run, traj):
+    """The path of the traced axis's tip over three orbits of tumbling then pointing was a tangle
+    that hid the body: a loop run whose records span more than one orbit draws it over the last
+    orbit (its period from the angle the recorded position swept), and says so; a run of less than
+    an orbit, or with no orbit, keeps the whole path."""
+    tr = orbit_run
+    period = 2 * np.pi * np.sqrt(6878137.0 ** 3 / 3.986004418e14)           # the circular orbit's
+    assert tr.t[-1] > period
+    k0 = int(np.searchsorted(tr.t, tr.t[-1] - period))
+    fig = view.figure(tr, max_frames=20)
+    path = [d for d in fig.data if d.name.startswith("path of the")]
+    assert len(path) == 1 and path[0].name.endswith(f", the last orbit (from t = {tr.t[k0]:.6g} s)")
+    moments, V, _ = view._principal(tr.inertia)
+    axis = V[:, view.traced_axis(moments)]
+    first = np.array([path[0].x[0], path[0].y[0], path[0].z[0]])
+    assert np.allclose(first / np.linalg.norm(first), tr.R[k0] @ axis, atol=1e-4)
+    assert len(path[0].x) == len(tr.t) - k0
+    short = tr[: len(tr.t) // 2]                                             # half an orbit: all of it
+    whole = [d for d in view.figure(short, max_frames=5).data if d.name.startswith("path of the")]
+    assert whole[0].name == path[0].name.split(",")[0] and len(whole[0].x) == len(short.t)
+    assert [d.name for d in view.figure(traj, max_frames=5).data if d.name.startswith("path of the")] == \
+        ["path of the body y tip"]
+
+
 def test_loop_run_without_an_orbit_keeps_one_scene():
     """A loop run that recorded no orbit: the body alone on the left, the modes (unnamed) on the strip."""
     from lgvi.fsw import FlightSoftware, InertialPointing, ModeRules, MRPControl, RWMotorTorque

@@ -234,4 +234,14 @@ def test_loop_page_draws_the_orbit_and_moves_the_spacecraft(browser, tmp_path):
     strip = browser.execute_script("return Array.from(document.querySelectorAll('.lgvi-plot .annotation-text'))"
                                    ".map(function (a) { return a.textContent; });")
     assert "coast" in strip and "nadir" in strip
+    # the body view traces the axis tip over the last orbit only (the run spans more than one)
+    path_js = ("var d = document.querySelector('.lgvi-plot')._fullData.filter(function (t) { "
+               "return t.name.indexOf('path of the') === 0; })[0]; "
+               "return [d.name, Number(d.x[0]), Number(d.y[0]), Number(d.z[0]), d.x.length];")
+    name, *first, n = browser.execute_script(path_js)
+    k0 = int(np.searchsorted(traj.t, traj.t[-1] - 2 * np.pi * np.sqrt(6878137.0 ** 3 / 3.986004418e14)))
+    moments, V, _ = view._principal(traj.inertia)
+    assert name.endswith(f"the last orbit (from t = {traj.t[k0]:.6g} s)") and n == len(traj.t) - k0
+    assert np.allclose(np.array(first) / np.linalg.norm(first), traj.R[k0] @ V[:, view.traced_axis(moments)],
+                       atol=1e-4)
     assert not _errors(browser), _errors(browser)

@@ -315,6 +315,8 @@ class Declaration:
         if short:
             names = [m for m in re.findall(r"([A-Za-z_]\w*)\(", system) if m != "TorqueSum"]
             system = " + ".join(names) if names else system
+            if system.startswith("a spacecraft under"):          # its torques' kinds: in the long note
+                system = system.split(" (")[0]
         if not self.recorded:
             return f"invariants not recorded for this run ({system}): none shown"
         if not self.entries:
@@ -325,6 +327,9 @@ class Declaration:
 def _system(meta: Mapping[str, Any]) -> str:
     system = meta.get("system")
     torque = meta.get("torque", "none")
+    if system == "spacecraft" and meta.get("invariants") == {}:     # control, disturbances, gravity gradient
+        ext = [str(k).replace("_", " ") for k in meta.get("external_torques") or ()]
+        return "a spacecraft under external torques" + (f" ({', '.join(ext)})" if ext else "")
     if isinstance(system, str) and system not in ("", "rigid_body"):
         # another system's result (a chain, a slosh hub, a spacecraft...): named by its registry key,
         # not "the free body"

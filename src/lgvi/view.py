@@ -233,6 +233,21 @@ def _loop_signals(traj: Any) -> dict[str, Any]:
     return out
 
 
+def _orbit_period(loop: Mapping[str, Any]) -> float | None:
+    """A loop run's orbital period from its records: ``2 pi`` times the time the recorded position
+    ``r`` took over the angle it swept; ``None`` when no position was recorded or it swept at most
+    one orbit (the period is then not needed: the run's whole path is drawn)."""
+    r = loop.get("r")
+    if r is None:
+        return None
+    ok = np.all(np.isfinite(r), axis=1)
+    u, t = r[ok] / np.linalg.norm(r[ok], axis=1, keepdims=True), np.asarray(loop["t"])[ok]
+    if len(t) < 3:
+        return None
+    swept = float(np.sum(np.arccos(np.clip(np.einsum("ij,ij->i", u[1:], u[:-1]), -1.0, 1.0))))
+    return 2.0 * np.pi * (t[-1] - t[0]) / swept if swept > 2.0 * np.pi else None
+
+
 def _at(times: np.ndarray, t: float) -> int:
     """The record in force at ``t``: the last at or before it (the first before any)."""
     return int(np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 1))
@@ -423,13 +438,20 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
                                    marker=dict(size=[0, 7], color=_SUN_COLOR, symbol="circle"),
                                    name="direction of the sun", hoverinfo="skip"), row=1, col=1)
     n_body = len(first)
-    # the path of the tip of one body axis over the whole run (static), chosen by the body's symmetry
-    fine = np.unique(np.linspace(0, m - 1, min(m, max_points)).round().astype(np.int64))
+    # the path of the tip of one body axis (static), chosen by the body's symmetry: over the whole run,
+    # or over the last orbit of a loop run that recorded more than one (three orbits of tumbling, then
+    # pointing, draw a tangle that hides the body)
+    period = _orbit_period(loop)
+    since = None if period is None or t[-1] - t[0] <= period else t[-1] - period
+    k0 = 0 if since is None else int(np.searchsorted(t, since))
+    fine = np.unique(np.linspace(k0, m - 1, min(m - k0, max_points)).round().astype(np.int64))
     traced = traced_axis(moments)
     tip = np.einsum("mij,j->mi", R[fine], axes[traced])
     fig.add_trace(go.Scatter3d(x=np.round(tip[:, 0], 5), y=np.round(tip[:, 1], 5), z=np.round(tip[:, 2], 5),
                                mode="lines", line=dict(color=_AXIS_COLORS[traced], width=2), opacity=0.45,
-                               name=f"path of the {names[traced]} tip", hoverinfo="skip"), row=1, col=1)
+                               name=f"path of the {names[traced]} tip" + (
+                                   "" if since is None else f", the last orbit (from t = {t[k0]:.6g} s)"),
+                               hoverinfo="skip"), row=1, col=1)
 
     # ---- the orbit around the Earth (a loop run that recorded r_N): track by mode, spacecraft, sun
     orbit_traces = _orbit(fig, go, traj, loop, top + 1, max_points) if top < n else None
@@ -470,7 +492,7 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
         key(1 + panels.index("rates"), [(f"ω{lab}", _AXIS_COLORS[i]) for i, lab in enumerate("xyz")])
     key(row, [(f"{QUANTITIES[k].name.split(' (')[0]}: {decl.kind(k)}"
                + (" (running max)" if decl.kind(k) == "exact" else ""), _ERROR_COLORS[j % len(_ERROR_COLORS)])
-              for j, k in enumerate(keys)] or [(decl.note(), "#222")])
+              for j, k in enumerate(keys)] or [(decl.note(short=True), "#222")])    # in full: the summary
     if wheel_speed is not None:
         key(1 + panels.index("wheels"), [(f"wheel {i + 1}", _WHEEL_COLORS[i % 6])
                                          for i in range(wheel_speed.shape[1])])

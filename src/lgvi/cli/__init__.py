@@ -517,6 +517,8 @@ def _system_declaration(traj):
             what += f" under an extra torque ({meta['torque']})"
     elif meta.get("system") == "two_body":
         what = f"two bodies in mutual gravity ({meta.get('potential', '?')} potential)"
+    elif meta.get("system") == "spacecraft":           # under external torques: named by their kinds
+        what = declared(traj).system
     else:                                   # another registered system: its one-line doc
         from ..systems import SYSTEMS
 
@@ -702,7 +704,7 @@ def _run_loop_ensemble(args: argparse.Namespace, scenario) -> int:
 
     from ..errors import ConvergenceError, SimulationInterrupted, TorqueError
     from ..io.scenario_ensemble import ensemble_lines, ensemble_summary
-    from ..io.scenario_loop import loop_summary
+    from ..io.scenario_loop import loop_summary, mode_text
 
     if args.resume:
         raise UsageError("--resume: an [ensemble] scenario runs in memory (no stream to resume); run it again")
@@ -739,11 +741,11 @@ def _run_loop_ensemble(args: argparse.Namespace, scenario) -> int:
              f"status:        complete, {B} members (seed {scenario.ensemble.seed}) of {scenario.steps} steps, "
              f"h = {scenario.h:g} s, in {wall:.4g} s",
              *ensemble_lines(stats), "",
-             "members (settle time [s], error after settling mean / max [deg], final rate [deg/s], final mode; "
-             "a mode without a control law writing sigma_BR reads as no error):",
-             *(f"  {b:4d}  " + ("not settled" if s["settle_time_s"] is None else
+             "members (settle time [s], error after settling mean / max [deg], or why not settled; final rate "
+             "[deg/s], final mode):",
+             *(f"  {b:4d}  " + (f"not settled: {s.get('not_settled')}" if s["settle_time_s"] is None else
                                 f"{s['settle_time_s']:g}  {s['error_deg']['mean']:.3g} / {s['error_deg']['max']:.3g}")
-               + f"  {s['rate_final_deg_s']:.3g}" + (f"  mode {s['modes'][-1]['mode']}" if s.get("modes") else "")
+               + f"  {s['rate_final_deg_s']:.3g}" + (f"  {mode_text(s['modes'][-1])}" if s.get("modes") else "")
                for b, s in enumerate(per_member)),
              "", f"files:         {', '.join(data['files'])}", "", "scenario:",
              *("  " + line for line in scenario.text.rstrip("\n").splitlines()), ""]

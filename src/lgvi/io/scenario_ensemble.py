@@ -257,7 +257,9 @@ def _finite(values: list[Any]) -> np.ndarray:
 
 def ensemble_summary(summaries: list[dict[str, Any]]) -> dict[str, Any]:
     """Statistics over the members of :func:`lgvi.io.scenario_loop.loop_summary`'s results:
-    ``members``, ``settled`` (how many settled), and for the settle time, the pointing error after
+    ``members``, ``settled`` (how many settled: reached a pointing mode and stayed within the
+    threshold), ``not_settled`` (how many did not, by why: ``{"never left detumble": 3, ...}``,
+    the members' ``not_settled``), and for the settle time, the pointing error after
     it (each member's mean, p95 and max), the final error and the final rate: ``mean``, ``std``,
     ``min``, ``p95``, ``max`` over the members that have it, with ``n`` their count."""
     def stats(x: np.ndarray) -> dict[str, Any] | None:
@@ -269,6 +271,8 @@ def ensemble_summary(summaries: list[dict[str, Any]]) -> dict[str, Any]:
 
     out: dict[str, Any] = {"members": len(summaries),
                            "settled": sum(s["settle_time_s"] is not None for s in summaries)}
+    why = [s.get("not_settled") or "not settled" for s in summaries if s["settle_time_s"] is None]
+    out["not_settled"] = {w: why.count(w) for w in dict.fromkeys(why)}
     out["settle_time_s"] = stats(_finite([s["settle_time_s"] for s in summaries]))
     for part in ("mean", "p95", "max"):
         out[f"error_{part}_deg"] = stats(_finite([None if s["error_deg"] is None else s["error_deg"][part]
@@ -282,7 +286,8 @@ def ensemble_summary(summaries: list[dict[str, Any]]) -> dict[str, Any]:
 
 def ensemble_lines(s: dict[str, Any]) -> list[str]:
     """The lines of an ensemble's ``summary.txt`` for :func:`ensemble_summary`'s ``s``."""
-    lines = [f"members:       {s['members']}, settled {s['settled']}"]
+    lines = [f"members:       {s['members']}, settled {s['settled']}"
+             + "".join(f"; {why} {n}" for why, n in (s.get("not_settled") or {}).items())]
     names = (("settle_time_s", "settle time", "s"), ("error_mean_deg", "error after settling, mean", "deg"),
              ("error_p95_deg", "error after settling, p95", "deg"), ("error_max_deg", "error after settling, max",
                                                                      "deg"),

@@ -536,11 +536,18 @@ def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DE
     -------
     dict
         ``settle_deg``; ``settle_time_s``: the first record time from which the attitude error
-        ``4 atan |sigma_BR|`` stays below ``settle_deg`` to the end (``None`` if it never does,
-        or no control law wrote ``sigma_BR``); ``error_deg``: ``mean``, ``p95`` (95th
+        ``4 atan |sigma_BR|`` stays below ``settle_deg`` to the end, every record from it on
+        taken in a pointing mode (one whose control law writes ``sigma_BR``:
+        ``meta["pointing_modes"]``; a mode with no law, a detumble, clears ``sigma_BR`` to zero,
+        which is no error); ``None`` if it never does; ``not_settled``: why not (``None`` when
+        settled): ``"never left <mode>"`` (the initial mode, by name, has no control law),
+        ``"ended in <mode>, a mode with no control law"``, ``"above <settle_deg> deg at the
+        end"``, ``"no control law wrote sigma_BR"``; ``error_deg``: ``mean``, ``p95`` (95th
         percentile), ``max`` of the error over the records from the settle time on (``None``
-        when not settled); ``error_final_deg``; ``rate_final_deg_s``: ``|omega|`` at the last
-        saved state; ``rate_error_final_deg_s``: ``|omega_BR_B|`` at the last record;
+        when not settled); ``error_final_deg``: the error at the last record (``None`` when it
+        was taken in a mode with no control law); ``rate_final_deg_s``: ``|omega|`` at the last
+        saved state; ``rate_error_final_deg_s``: ``|omega_BR_B|`` at the last record (``None``
+        when it was taken in a mode with no control law);
         ``wheel_momentum_peak_Nms``: the largest ``|Js_i (a_i . omega + Omega_i)|`` of any wheel
         over the saved states, ``wheel_momentum_total_peak_Nms``: the largest norm of their sum
         ``sum_i a_i h_i`` (body frame), ``wheel_momentum_final_Nms`` that norm at the end;
@@ -569,17 +576,29 @@ def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DE
                            "error_final_deg": None, "rate_error_final_deg_s": None, "records": int(len(ts))}
     omega = np.asarray(traj.omega)
     out["rate_final_deg_s"] = float(np.degrees(np.linalg.norm(omega[-1]))) if len(omega) else None
+    out["not_settled"] = None
     if "sigma_BR" in sig and len(ts):
         err = np.degrees(4.0 * np.arctan(np.linalg.norm(sig["sigma_BR"], axis=1)))
-        out["error_final_deg"] = float(err[-1])
-        above = np.flatnonzero(~(err < settle_deg))
+        pointing = pointing_records(traj, sig, len(ts))
+        out["error_final_deg"] = float(err[-1]) if pointing[-1] else None
+        above = np.flatnonzero(~(err < settle_deg) | ~pointing)   # a mode with no law is not settled
         first = 0 if not above.size else int(above[-1]) + 1
         if first < len(err):
             tail = err[first:]
             out["settle_time_s"] = float(ts[first])
             out["error_deg"] = {"mean": float(tail.mean()), "p95": float(np.percentile(tail, 95.0)),
                                 "max": float(tail.max())}
-    if "omega_BR_B" in sig and len(ts):
+        elif pointing[-1]:
+            out["not_settled"] = f"above {settle_deg:g} deg at the end"
+        else:
+            from ..fsw import mode_label
+
+            m = np.asarray(sig["mode"]).reshape(len(ts), -1)[:, 0]
+            out["not_settled"] = (f"never left {mode_label(traj, m[0])}" if np.all(m == m[0]) else
+                                  f"ended in {mode_label(traj, m[-1])}, a mode with no control law")
+    else:
+        out["not_settled"] = "no control law wrote sigma_BR"
+    if "omega_BR_B" in sig and len(ts) and ("sigma_BR" not in sig or out["error_final_deg"] is not None):
         out["rate_error_final_deg_s"] = float(np.degrees(np.linalg.norm(sig["omega_BR_B"][-1])))
     speed = getattr(traj, "wheel_speed", None)
     if wheels is None and np.size(getattr(traj, "wheel_axes", ())):
@@ -650,6 +669,22 @@ def loop_summary(traj: Any, *, wheels: Any = None, settle_deg: float = SETTLE_DE
     return out
 
 
+def pointing_records(traj: Any, sig: dict[str, np.ndarray], n: int) -> np.ndarray:
+    """(n,) bool: the records taken in a pointing mode, one in which a control law writes
+    ``sigma_BR`` (``meta["pointing_modes"]``; every record without modes recorded). In a mode with
+    no law ``sigma_BR`` is cleared to zero, which is no error. A run saved before lgvi wrote
+    ``pointing_modes``: the modes in which ``sigma_BR`` was ever non-zero."""
+    if "mode" not in sig:
+        return np.ones(n, dtype=bool)
+    m = np.asarray(sig["mode"]).reshape(n, -1)[:, 0]
+    meta = getattr(traj, "meta", None) or {}
+    if "pointing_modes" in meta:
+        modes = meta["pointing_modes"]
+        return np.ones(n, dtype=bool) if modes is None else np.isin(m, np.asarray(modes, dtype=float))
+    live = np.any(np.asarray(sig["sigma_BR"]) != 0.0, axis=1)
+    return np.isin(m, np.unique(m[live]))
+
+
 @dataclass(frozen=True)
 class _Wheels:
     axes: np.ndarray
@@ -696,7 +731,7 @@ def knowledge_summary(sig: dict[str, np.ndarray]) -> dict[str, Any]:
     return out
 
 
-def _mode_text(m: dict[str, Any]) -> str:
+def mode_text(m: dict[str, Any]) -> str:
     """A mode of the summary: its name and index (``sun-safe (1)``), or ``mode 1`` when unnamed."""
     name = m.get("name")
     return f"{name} ({m['mode']})" if name and name != f"mode {m['mode']}" else f"mode {m['mode']}"
@@ -705,8 +740,9 @@ def _mode_text(m: dict[str, Any]) -> str:
 def summary_lines(s: dict[str, Any]) -> list[str]:
     """The lines of ``summary.txt`` for :func:`loop_summary`'s ``s``."""
     lines = []
-    if s["error_final_deg"] is None:
-        lines.append("pointing:      no control law wrote sigma_BR")
+    why = s.get("not_settled")
+    if s["settle_time_s"] is None and s["error_final_deg"] is None:
+        lines.append(f"pointing:      not settled: {why or 'no control law wrote sigma_BR'}")
     elif s["settle_time_s"] is None:
         lines.append(f"pointing:      not settled below {s['settle_deg']:g} deg (final error "
                      f"{s['error_final_deg']:.3g} deg)")
@@ -737,9 +773,9 @@ def summary_lines(s: dict[str, Any]) -> list[str]:
                          f"({k['inside_3sigma']['steady']:.1%} in the second half); final 3 sigma "
                          + ", ".join(f"{v:.3g}" for v in k["sigma3_final_arcsec"]) + " arcsec")
     if s.get("modes"):
-        lines.append("modes:         " + ", ".join(f"{_mode_text(m)} from {m['from_s']:g} s" for m in s["modes"]))
+        lines.append("modes:         " + ", ".join(f"{mode_text(m)} from {m['from_s']:g} s" for m in s["modes"]))
     if s.get("detumble_time_s") is not None:
-        lines.append(f"detumble:      left {_mode_text(s['modes'][0])} at t = {s['detumble_time_s']:g} s")
+        lines.append(f"detumble:      left {mode_text(s['modes'][0])} at t = {s['detumble_time_s']:g} s")
     for key, what in (("control_error_deg", "control error (truth vs reference)"),
                       ("knowledge_error_deg", "knowledge error (estimate vs truth)")):
         if s.get(key) is not None:
@@ -755,4 +791,4 @@ def summary_lines(s: dict[str, Any]) -> list[str]:
     return lines
 
 
-__all__ += ["loop_summary", "knowledge_summary", "summary_lines", "SETTLE_DEG"]
+__all__ += ["loop_summary", "knowledge_summary", "summary_lines", "pointing_records", "mode_text", "SETTLE_DEG"]

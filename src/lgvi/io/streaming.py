@@ -643,7 +643,9 @@ def stream_run(folder: str | os.PathLike[str], run: Any, *, resume: bool = False
     folder = stream_folder(folder)
     _chunk_steps(run, chunk_steps)
     stream_meta = json.loads(json.dumps(dict(run.stream_meta(), **(meta or {}))))
-    ignore = {"lgvi_version", *(meta or {})}
+    # keys derived from the compared ones (a run's ``derived_meta``: a stream begun before lgvi wrote
+    # them resumes)
+    ignore = {"lgvi_version", *(meta or {}), *getattr(run, "derived_meta", ())}
     return _drive_stream(folder, run, stream_meta, resume, progress,
                          lambda manifest: _check_resume_system(manifest["meta"], stream_meta, folder, ignore))
 

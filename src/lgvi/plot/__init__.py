@@ -489,6 +489,35 @@ def attitude(traj: Trajectory, kind: str = "euler", sequence: str = "ZYX", ax: A
 #: flatten a nutation of 1 rad/s to a line).
 RATES_APART = 0.2
 
+#: A component with more turning points than this oscillates faster than the figure's ~560 pixels
+#: of axis can draw (under three pixels a period): a line, even thinned to each bin's minimum and
+#: maximum, fills its range as a solid band that hides the other components. It is drawn as its
+#: envelope instead, each of :data:`ENVELOPE_BINS` bins' range shaded between its edges.
+FAST_TURNS = 400
+ENVELOPE_BINS = 400
+
+
+def _turns(t: np.ndarray, y: np.ndarray) -> tuple[int, float | None]:
+    """How many times ``y`` turns (local extrema of the samples; flat runs ignored), and its period
+    when the turns are regular (every period, two turns, within 10 % of their mean), else ``None``."""
+    d = np.sign(np.diff(y))
+    keep = np.flatnonzero(d != 0)
+    turn = keep[1:][d[keep][1:] != d[keep][:-1]]          # the sample after which the slope changes sign
+    if len(turn) < 3:
+        return len(turn), None
+    periods = np.diff(t[turn])[:-1] + np.diff(t[turn])[1:]
+    regular = periods.std() <= 0.1 * periods.mean()
+    return len(turn), (float(periods.mean()) if regular else None)
+
+
+def _envelope(t: np.ndarray, y: np.ndarray, bins: int = ENVELOPE_BINS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(t, low, high)``: each of ``bins`` equal runs of samples' minimum and maximum, at the
+    run's first time, then the last sample's time (the last run's values repeated), for a step
+    drawing that covers every sample."""
+    edges = np.linspace(0, len(y), min(bins, len(y)) + 1).astype(np.int64)[:-1]
+    lo, hi = np.minimum.reduceat(y, edges), np.maximum.reduceat(y, edges)
+    return np.append(t[edges], t[-1]), np.append(lo, lo[-1]), np.append(hi, hi[-1])
+
 
 def _apart(data: np.ndarray) -> int | None:
     """The component of ``data`` (M, 3) to draw on a second y axis, or None (one shared axis shows all)."""
@@ -521,7 +550,11 @@ def rates(traj: Trajectory, axes: Sequence[Axes] | None = None, *, max_points: i
 
     Where one component lies far from the other two (a top spun fast about its axis), it is drawn on
     a second y axis on the right, so that the others are not flattened to a line
-    (:data:`RATES_APART`); the legend says which component is on it.
+    (:data:`RATES_APART`); the legend says which component is on it. A component that oscillates
+    faster than the axis can draw (more than :data:`FAST_TURNS` turning points: a long fast
+    rotation) is drawn as its envelope, the range of each of :data:`ENVELOPE_BINS` bins shaded
+    between two thin edges, and its legend gives its period where the turning points are regular,
+    so that the components stay apart instead of one solid band.
 
     Parameters
     ----------
@@ -544,9 +577,18 @@ def rates(traj: Trajectory, axes: Sequence[Axes] | None = None, *, max_points: i
         k = _apart(data)
         tw = None if k is None else _second_axis(ax, data[:, k], _COMPONENT_COLORS[k], f"${sym}_{k + 1}$ ({unit})")
         for i in range(3):
+            where, c = (tw if i == k else ax), _COMPONENT_COLORS[i]
+            label = f"${sym}_{i + 1}$" + (" (right axis)" if i == k else "")
+            turns, period = _turns(t, data[:, i])
+            if turns > FAST_TURNS and len(t) > 2 * ENVELOPE_BINS:      # its range per bin, not a band of zigzags
+                tt, lo, hi = _envelope(t, data[:, i])
+                where.fill_between(tt, lo, hi, step="post", color=c, alpha=0.2, lw=0)
+                what = "range per bin" if period is None else f"range, period {period:.2g} s"
+                where.step(tt, hi, where="post", color=c, lw=0.9, label=f"{label}: {what}")
+                where.step(tt, lo, where="post", color=c, lw=0.9)
+                continue
             tt, yy = _thin_minmax(t, data[:, i], max_points)
-            (tw if i == k else ax).plot(tt, yy, color=_COMPONENT_COLORS[i], lw=1.2,
-                                        label=f"${sym}_{i + 1}$" + (" (right axis)" if i == k else ""))
+            where.plot(tt, yy, color=c, lw=1.2, label=label)
         ax.set_ylabel(f"${sym}$ ({unit})" if k is None else f"${sym}$ ({unit}), left axis")
         ax.grid(True, alpha=0.3)
         if tw is None:
@@ -606,11 +648,14 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     gradient; see :mod:`lgvi.invariants`), and the distance ``|R^T R - I|_F`` of the attitude from
     SO(3). Zeros are drawn at :data:`ERROR_FLOOR`; long runs show each bin's maximum. Each
     invariant's legend says how the LGVI keeps it (exact or bounded); quantities that are not
-    invariants of the run are drawn dashed and say so. Quantities kept to round-off (the exact
-    invariants and the distance from SO(3)) are drawn as their running maximum: a round-off error
-    flickers between zero and a few ulps from one sample to the next, which would fill the plot
-    as a comb; its running maximum shows what matters, how large it has grown. The legend sits
-    below the axes, clear of the curves.
+    invariants of the run are drawn dashed and say so (a spacecraft under external torques, whose
+    control and disturbances change them by design, draws only the distance from SO(3), and its
+    title names the torques' sources: the torques themselves are in ``disturbances.png``).
+    The invariants and the distance from SO(3) are drawn as their running maximum: a round-off
+    error flickers between zero and a few ulps from one sample to the next, and a bounded error
+    (the energy of a heavy top) passes through zero twice an oscillation, which would fill the plot
+    as a comb of spikes; the running maximum shows what matters, how large the error has grown (a
+    bounded error levels off, a drift climbs). The legend sits below the axes, clear of the curves.
 
     Parameters
     ----------
@@ -641,7 +686,7 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     _check_traj(traj, "conservation")
     fig, ax = _axes(ax)
     t = np.asarray(traj.t)
-    from ..invariants import EXACT, KIND_TEXT, QUANTITIES
+    from ..invariants import BOUNDED, EXACT, KIND_TEXT, QUANTITIES
 
     decl = _declaration([traj])
     if invariants is None:
@@ -653,6 +698,11 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
             raise ValueError(f"conservation: invariants must be among 'energy', 'casimir', 'momentum', "
                              f"'spatial_momentum_e3' (and 'jacobi' when the run declares it); got {unknown}")
     keys = ["energy", "casimir", "spatial_momentum"] + [k for k in _shown(solid) if k in _SERIES_ORDER[3:]]
+    note = decl.note(short=True)
+    if invariants is None and not decl.entries and (getattr(traj, "meta", None) or {}).get("system") == "spacecraft":
+        # the control and the disturbances change the energy and the momenta by design: no error to
+        # draw but the attitude's distance from SO(3) (the torques: disturbances.png, the summary)
+        keys, note = [], note.replace(" has no invariants", ": no invariant") + "; drawn: |R^T R - I|"
     for key in keys + ["orthogonality"]:
         err, label = _error(traj, key, decl)
         dashed = key != "orthogonality" and key not in solid
@@ -661,7 +711,7 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
             label += " (not an invariant here)"
         elif kind is not None and invariants is None:
             label += f": {KIND_TEXT[kind]}"
-        if not dashed and (key == "orthogonality" or kind == EXACT):
+        if not dashed and (key == "orthogonality" or kind in (EXACT, BOUNDED)):
             err = _running_max(err)
             label += ", running max"
         tt, yy = _thin_max(t, _floor(err), max_points)
@@ -676,7 +726,7 @@ def conservation(traj: Trajectory, ax: Axes | None = None, *, extra: Mapping[str
     _style_log(ax)
     ax.set_xlabel(_UNITS["t"])
     ax.set_ylabel("error (relative, 1)")
-    ax.set_title(f"Conservation: {_label(traj)}\n({decl.note(short=True)})", fontsize="medium")
+    ax.set_title(f"Conservation: {_label(traj)}\n({note})", fontsize="medium")
     _legend_below(ax)
     return fig
 

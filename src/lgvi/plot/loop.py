@@ -35,17 +35,21 @@ def _signals(traj: Any, name: str, need: Sequence[str]) -> tuple[dict[str, np.nd
 
 def pointing(traj: Any, axes: Sequence[Any] | None = None, *, max_points: int | None = None) -> Any:
     """Attitude error angle ``4 atan |sigma_BR|`` (degrees, log scale, top), the components of
-    ``sigma_BR`` (middle) and of the rate error ``omega_BR_B`` (deg/s, bottom), against time."""
+    ``sigma_BR`` (middle) and of the rate error ``omega_BR_B`` (deg/s, bottom), against time; the
+    records in a mode with no control law (:func:`lgvi.io.scenario_loop.pointing_records`) are
+    gaps, not a zero error."""
     from . import MAX_POINTS, _UNITS, _axes_list, _thin_minmax
+
+    from ..io.scenario_loop import SETTLE_DEG, pointing_records
 
     sig, t = _signals(traj, "pointing", ("sigma_BR",))
     n = max_points or MAX_POINTS
     has_rate = "omega_BR_B" in sig
     fig, axs = _axes_list(axes, 3 if has_rate else 2, "pointing")
-    s = sig["sigma_BR"]
+    live = pointing_records(traj, sig, len(t))[:, None]         # in a mode with no law sigma_BR is cleared: a gap
+    s = np.where(live, sig["sigma_BR"], np.nan)
     err = np.degrees(4.0 * np.arctan(np.linalg.norm(s, axis=1)))
-    tt, yy = _thin_minmax(t, np.where(err > 0.0, err, np.nan), n)      # cleared (a mode without the law): a gap
-    from ..io.scenario_loop import SETTLE_DEG
+    tt, yy = _thin_minmax(t, np.where(err > 0.0, err, np.nan), n)
 
     axs[0].semilogy(tt, yy, lw=1.2, color="k")
     axs[0].axhline(SETTLE_DEG, ls=":", lw=1.0, color="tab:orange", label=f"settled below {SETTLE_DEG:g} deg (summary)")
@@ -54,7 +58,7 @@ def pointing(traj: Any, axes: Sequence[Any] | None = None, *, max_points: int | 
     axs[0].set_title("Attitude error relative to the guidance reference")
     panels = [(axs[1], s, r"$\sigma_{BR}$ (MRP)")]
     if has_rate:
-        panels.append((axs[2], np.degrees(sig["omega_BR_B"]), r"$\omega_{BR}$ (deg/s, body)"))
+        panels.append((axs[2], np.degrees(np.where(live, sig["omega_BR_B"], np.nan)), r"$\omega_{BR}$ (deg/s, body)"))
     for ax, data, label in panels:
         for i, c in enumerate(("tab:red", "tab:green", "tab:blue")):
             tt, yy = _thin_minmax(t, data[:, i], n)
@@ -63,6 +67,8 @@ def pointing(traj: Any, axes: Sequence[Any] | None = None, *, max_points: int | 
         ax.legend(loc="upper right", fontsize="small", ncols=3, framealpha=0.85)
     for ax in axs:
         ax.grid(True, alpha=0.3)
+        if len(t) > 1:
+            ax.set_xlim(t[0], t[-1])          # the whole run: the modes with no law are the gap before
     axs[-1].set_xlabel(_UNITS["t"])
     return fig
 
@@ -276,7 +282,7 @@ def estimation(traj: Any, axes: Sequence[Any] | None = None, *, max_points: int 
 def save_loop_figures(traj: Any, outdir: str | os.PathLike[str], *, prefix: str = "") -> list[Path]:
     """Write ``pointing.png``, ``dipoles.png``, ``modes.png``, ``estimation.png``,
     ``disturbances.png`` and ``mission.png``, each where the run recorded what it draws
-    (``sigma_BR``; ``dipole_B`` or ``dipole_request_B``; ``mode``; ``est_error`` and ``P_diag``;
+    (``sigma_BR`` in a pointing mode; ``dipole_B`` or ``dipole_request_B``; ``mode``; ``est_error`` and ``P_diag``;
     a disturbance torque; ``mode``). Returns the files."""
     from . import _save
 
@@ -287,6 +293,10 @@ def save_loop_figures(traj: Any, outdir: str | os.PathLike[str], *, prefix: str 
     out.mkdir(parents=True, exist_ok=True)
     written = []
     torques = tuple(n for n in sig if n.startswith("tau_") and n not in ("tau_dist_B", "tau_control_B", "tau_command_B"))
+    from ..io.scenario_loop import pointing_records
+
+    if "sigma_BR" in sig and not pointing_records(traj, sig, len(traj.signal_t)).any():
+        sig = {k: v for k, v in sig.items() if k != "sigma_BR"}   # never in a pointing mode: no pointing.png
     figures = (("pointing", pointing, ("sigma_BR",)), ("dipoles", dipoles, ("dipole_B", "dipole_request_B")),
                ("modes", modes, ("mode",)), ("estimation", estimation, ("est_error", "P_diag")),
                ("disturbances", disturbances, torques), ("mission", mission, ("mode",)))

@@ -214,6 +214,12 @@ def signal_width(meta: dict[str, Any]) -> int:
         int(size) * int(slots) for _, _, size, _, slots in meta.get("signal_fast", []))
 
 
+#: Widths a component's state had in earlier lgvi versions (a stream saved with one is refused on
+#: resume, and the message names the component): the gyro kept 14 values before its noise scales
+#: moved into its parameter row.
+FORMER_STATE_WIDTHS: dict[str, tuple[int, ...]] = {"gyro": (14,)}
+
+
 class LoopRun(GyrostatRun):
     """One validated run of a spacecraft and its flight software, driven by :func:`lgvi.driver.drive`."""
     wo: np.ndarray
@@ -231,6 +237,8 @@ class LoopRun(GyrostatRun):
     last_its: int
     fsw: FlightSoftware
     ctrl: int
+    #: metadata keys that follow from the compared ones (``fsw``): a stream begun without them resumes
+    derived_meta: tuple[str, ...] = ("pointing_modes", "external_torques")
 
     def __init__(self, spacecraft: Any, R0: Any, Pi0: Any = None, *, omega0: Any = None, h: Any, steps: Any,
                  fsw: Any = None, method: str = "newton", tol: Any = 1e-14, max_iter: Any = 50, alpha: Any = 1.0,
@@ -292,6 +300,10 @@ class LoopRun(GyrostatRun):
         self.meta["fsw"] = repr(fsw)
         if fsw.modes and getattr(fsw.modes[0], "names", None):
             self.meta["mode_names"] = list(fsw.modes[0].names)       # figures, summary and page name the modes
+        laws = [c for c, kind, _ in comps if "sigma_BR" in kind.writes]
+        if laws:       # the modes with a control law (pointing); None: every mode (loop_summary reads it)
+            self.meta["pointing_modes"] = (None if any(getattr(c, "modes", None) is None for c in laws)
+                                           else sorted({int(m) for c in laws for m in c.modes}))
         self.meta["signals"] = [list(x) for x in self.record_layout]
         self.meta["signal_periods"] = _signal_periods(self, comps)      # traj.records: each at its writer's rate
         self.sig_fast, self.meta["signal_fast"] = _fast_layout(self)
@@ -303,6 +315,10 @@ class LoopRun(GyrostatRun):
         # rods on the bus; a Python controller's body torque sets it when it acts (GyrostatRun)
         self.external = bool(self.gg) or self.external or any(
             name in ("tau_dist_B", "tau_control_B") for _, kind, _ in comps for name in kind.writes)
+        # what acts from outside, by kind (the conservation figure, the summary and the page name them)
+        self.meta["external_torques"] = [kind.name for _, kind, _ in comps if {"tau_dist_B", "tau_control_B"}
+                                         & set(kind.writes)] + (["gravity_gradient"] if self.gg else []) + (
+            ["python_controller"] if self.python_controller and self.external else [])
         self.motors_off = self.motors_off and not any("wheel_command" in kind.writes for _, kind, _ in comps)
         self.meta["invariants"] = GYROSTAT.invariants(self)
         n = self.N
@@ -549,10 +565,44 @@ class LoopRun(GyrostatRun):
 
     def state(self) -> dict[str, Any]:
         st = super().state()
-        st.update(S=self.S.copy(), bus=self.bus.copy())
+        st.update(S=self.S.copy(), bus=self.bus.copy(), S_widths=self._state_widths())
         return st
 
+    def _state_widths(self) -> list[list[Any]]:
+        """``[[kind name, width of its state], ...]`` of the wired components, in the loop's order."""
+        return [[str(name), int(self.so[i + 1] - self.so[i])] for i, name in enumerate(self.names)]
+
+    def _check_state_layout(self, st: dict[str, Any]) -> None:
+        """Refuse a saved state whose components' state widths differ from this run's (a stream saved
+        by an lgvi whose component kept another layout), naming the component and the rule."""
+        rule = ("a stream resumes only with the components' state layout it was saved with (it was saved by "
+                "another lgvi version); run it again from the start")
+        mine = self._state_widths()
+        saved = st.get("S_widths")
+        size = int(np.size(st["S"]))
+        if saved is not None:
+            for i in range(max(len(mine), len(saved))):
+                a = mine[i] if i < len(mine) else None
+                b = list(saved[i]) if i < len(saved) else None
+                if a != b:
+                    raise ValueError(
+                        "resume: " + (f"the stream's saved state of component {i} ({b[0]}) holds {b[1]} values"
+                                      if b is not None else f"the stream's saved state has no component {i}")
+                        + ", " + (f"this run's ({a[0]}) holds {a[1]}" if a is not None else "this run has none")
+                        + f"; {rule}")
+        if size != self.S.size:
+            diff = size - self.S.size
+            named = [f"the {name}'s state held {w + diff} values in the lgvi that saved it, {w} in this one"
+                     for name, w in mine if w + diff in FORMER_STATE_WIDTHS.get(name, ())]
+            raise ValueError(f"resume: the stream's saved component state holds {size} values, this run's components "
+                             f"hold {self.S.size} (" + ", ".join(f"{n} {w}" for n, w in mine) + ")"
+                             + (f": {named[0]}" if named else "") + f"; {rule}")
+        if np.size(st["bus"]) != self.bus.size:
+            raise ValueError(f"resume: the stream's saved signal bus holds {np.size(st['bus'])} values, this run's "
+                             f"{self.bus.size}; {rule}")
+
     def load_state(self, st: dict[str, Any]) -> None:
+        self._check_state_layout(st)
         super().load_state(st)
         self.S[...] = np.asarray(st["S"], dtype=np.float64)
         self.bus[...] = np.asarray(st["bus"], dtype=np.float64)
