@@ -69,6 +69,14 @@ def quat_to_matrix(q0, q1, q2, q3, out, o):
 def quat_from_matrix(R, o):
     """The quaternion (scalar-last, scalar part >= 0) of the rotation matrix ``R[o:o + 9]``
     (row-major), by Shepperd's method (the largest of the four candidates, no cancellation)."""
+    x, y, z, w = quat_from_matrix_unnormalised(R, o)
+    return quat_normalised(x, y, z, w)
+
+
+@jit(inline="always")
+def quat_from_matrix_unnormalised(R, o):
+    """Shepperd's quaternion of ``R[o:o + 9]`` as it comes: of unit norm to round-off for a rotation
+    matrix, either sign (:func:`quat_from_matrix` normalises it and makes the scalar part >= 0)."""
     r00 = R[o]
     r11 = R[o + 4]
     r22 = R[o + 8]
@@ -97,7 +105,7 @@ def quat_from_matrix(R, o):
         w = (R[o + 3] - R[o + 1]) * f
         x = (R[o + 2] + R[o + 6]) * f
         y = (R[o + 5] + R[o + 7]) * f
-    return quat_normalised(x, y, z, w)
+    return x, y, z, w
 
 
 @jit(inline="always")
