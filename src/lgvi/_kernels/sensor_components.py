@@ -17,8 +17,8 @@ from __future__ import annotations
 import math
 
 from .._jit import jit
-from .attitude_kernels import (mat_t_vec, mat_vec, quat_from_matrix, quat_from_matrix_unnormalised, quat_from_rotvec,
-                                quat_mul, quat_rotvec)
+from .attitude_kernels import (mat_t_vec, mat_vec, quat_from_matrix, quat_from_matrix_scaled, quat_from_rotvec, quat_mul,
+                                quat_rotvec_over)
 from .random import normal_at, stream_key
 
 GYRO = 301
@@ -50,34 +50,6 @@ def sun_in_body(bus, w):
     return mat_t_vec(bus, w[0], bus[u], bus[u + 1], bus[u + 2])
 
 
-#: ``x^2 = tan^2(angle / 2)`` below which :func:`mean_rate` takes its series: angles below 0.1 rad,
-#: where the series to ``x^10`` is exact to round-off (the first term left out, ``x^12 / 13``, is
-#: below 2e-17 of the result).
-MEAN_RATE_SERIES = 2.5e-3
-
-
-@jit(inline="always")
-def mean_rate(d0, d1, d2, d3, dt):
-    """The rotation vector of the unit quaternion ``d`` over ``dt`` (``2 atan2(s, w) / s * (d0, d1,
-    d2) / dt``, ``s = |(d0, d1, d2)|``, ``w = d3`` made nonnegative): the gyro's mean rate over a sample.
-
-    Below 0.1 rad (``x^2 = s^2 / w^2 < MEAN_RATE_SERIES``, the rotation of a sample) ``atan(x) / x``
-    is its series ``1 - x^2/3 + x^4/5 - ... - x^10/11`` (Horner in ``x^2``): no square root, no
-    ``atan2`` and one division (``1 / (w dt)``); the same value to round-off (a few ulp). Larger
-    angles, up to pi (``w`` near 0), take ``atan2``."""
-    if d3 < 0.0:
-        d0, d1, d2, d3 = -d0, -d1, -d2, -d3
-    s2 = d0 * d0 + d1 * d1 + d2 * d2
-    if s2 < MEAN_RATE_SERIES * (d3 * d3):
-        g = 1.0 / (d3 * dt)
-        v = g * dt
-        x2 = s2 * (v * v)
-        f = 2.0 * g * (1.0 - x2 * (1.0 / 3.0 - x2 * (0.2 - x2 * (1.0 / 7.0 - x2 * (1.0 / 9.0 - x2 * (1.0 / 11.0))))))
-        return f * d0, f * d1, f * d2
-    x, y, z = quat_rotvec(d0, d1, d2, d3)
-    return x / dt, y / dt, z / dt
-
-
 # --------------------------------------------------------------------------------------------------
 # gyro (Basilisk imuSensor's rate channel), reads omega, R; writes gyro_B, gyro_bias
 # p: 0 seed, 1 stream, 2 dt (sample period, s), 3 sigma_v (ARW, rad/s^0.5), 4 sigma_u (RRW,
@@ -89,7 +61,7 @@ def mean_rate(d0, d1, d2, d3, dt):
 #    per axis (rad/s, inf: none; Basilisk's walkBoundsGyro), 27 sigma_v / sqrt(dt) (the white rate
 #    noise of a sample), 28 sigma_u sqrt(dt) (the walk's step per sample): 27 and 28 are set once by
 #    the Python class, so a sample computes no square root
-# s: 0 counter (normals), 1..3 rate-random-walk part of the bias (rad/s), 4..7 the quaternion of R
+# s: 0 counter (normals), 1..3 rate-random-walk part of the bias (rad/s), 4..7 the scaled quaternion of R
 #    at the last sample (mean-rate output), 8: 1 once a sample was taken
 # --------------------------------------------------------------------------------------------------
 @jit(inline="always")
@@ -109,12 +81,13 @@ def gyro_step(t, bus, p, s, w):
     x, y, z = bus[o], bus[o + 1], bus[o + 2]
     if p[23] != 0.0:
         # the rotation vector of R_prev^T R over the sample period: the mean rate, exactly; the
-        # quaternion of R is kept for the next sample (one conversion a sample; of unit norm to
-        # round-off, either sign: mean_rate takes d or -d alike)
-        f0, f1, f2, f3 = quat_from_matrix_unnormalised(bus, w[1])
+        # quaternion of R is kept for the next sample (one conversion a sample, scaled: norm 2 to 4,
+        # either sign; the rotation vector depends on neither: quat_rotvec_over, its series below
+        # 0.1 rad with no square root, no atan2 and one division)
+        f0, f1, f2, f3 = quat_from_matrix_scaled(bus, w[1])
         if s[8] != 0.0:
             d0, d1, d2, d3 = quat_mul(-s[4], -s[5], -s[6], s[7], f0, f1, f2, f3)
-            x, y, z = mean_rate(d0, d1, d2, d3, p[2])
+            x, y, z = quat_rotvec_over(d0, d1, d2, d3, p[2])
         s[4] = f0
         s[5] = f1
         s[6] = f2
