@@ -150,10 +150,9 @@ def field_step(t, bus, p, s, w):
     n1 = int(p[F_N1])
     q = n1 * n1
     o = F_COEF
-    for n in range(nmax + 1):           # the coefficients in use, m <= n <= nmax (the rest stay 0)
-        for i in range(n * n1, n * n1 + n + 1):
-            s[i] = p[o + i] + t * p[o + 2 * q + i]
-            s[q + i] = p[o + q + i] + t * p[o + 3 * q + i]
+    for i in range(q):
+        s[i] = p[o + i] + t * p[o + 2 * q + i]
+        s[q + i] = p[o + q + i] + t * p[o + 3 * q + i]
     r = w[0]
     x = bus[r]
     y = bus[r + 1]
