@@ -57,7 +57,7 @@ def main() -> None:
 
         def run():
             t0 = time.perf_counter()
-            sh_field_many(pts, g, h, model.degree, model.radius, P, dP, Q, out)
+            sh_field_many(pts, g, h, model.degree, model.radius, P, dP, Q, model._constants, out)
             return (time.perf_counter() - t0) / K
         return run
 

@@ -24,6 +24,8 @@ MRP feedback at 1 Hz to a fixed target, motor torques by ``RWMotorTorque``):
   loop's order (orbit; field; gravity gradient; sun; shadow; exponential atmosphere; facet drag;
   facet SRP; residual dipole: the last is ``all disturbances``), so the difference of two rows is
   what one component costs in the loop;
+* ``orbit, IGRF-13 field``: the orbit and the field of IGRF-14 at its full degree 13 (the 6U's
+  field is the centred dipole, degree 1): against ``orbit only``, what the full field costs a step;
 * ``all dist., env. at 1 s``: ``all disturbances`` with the orbit, the field, the sun, the shadow
   and the atmosphere every 10th step (1 s; ``environment_rate=1.0`` and each model's ``rate=1.0``),
   the attitude-dependent torques (drag, SRP, dipole, gravity gradient) every step; its accuracy
@@ -146,6 +148,11 @@ def cases(steps, components=True):
         for i, kind in enumerate(ADDED):
             sc_i = six_u(ADDED[:i + 1])[0]
             out[LABELS[kind]] = (lambda sc: lambda: lgvi.simulate(sc, R6, omega0=d["omega0"], **kw))(sc_i)
+        from lgvi.environment.field import IGRF
+
+        dip, _ = six_u(("field",))
+        igrf = Spacecraft(dip.body, orbit=dip.orbit, field=IGRF(), epoch=dip.epoch, environment=dip.environment)
+        out["orbit, IGRF-13 field"] = lambda: lgvi.simulate(igrf, R6, omega0=d["omega0"], **kw)
     return out
 
 
@@ -213,6 +220,7 @@ def main() -> None:
     }
     if "orbit only" in per_step:
         ratios["orbit only / 6U gyrostat step"] = ratio("orbit only", "6U gyrostat step")
+        ratios["orbit, IGRF-13 field / orbit only"] = ratio("orbit, IGRF-13 field", "orbit only")
     print(f"{steps} steps of h = {H} s a run, {rounds} rounds, CPU time, medians (cases alternating)")
     print(f"{'case':28s} {'us/step':>9s} {'added':>9s}")
     prev = None

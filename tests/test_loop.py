@@ -442,3 +442,38 @@ def test_a_python_controller_runs_at_its_period_beside_the_components():
     assert np.abs(tr.signals["wheel_command"]).max() > 0 and not np.any(tr.signals["tau_command_B"])
     assert np.array_equal(tr.signals["wheel_command"], ref.wheel_torque[:-1])      # no saturation here
     assert "R_ref" in tr.signals                      # the compiled guidance ran beside it
+
+
+def test_due_counters_are_the_modulo_rule_from_any_chunk_start():
+    """The loop's due check ``nxt[c] == k`` (``due_start`` once a chunk, ``due_advance`` after each
+    step) is ``k % spc[c] == 0`` at every step, from any chunk start (resumes, a Python controller's
+    periods, stream chunks start anywhere)."""
+    from lgvi._kernels.loop_kernels import due_advance, due_start
+
+    spc = np.array([1, 2, 3, 5, 7, 10, 20, 64], dtype=np.int64)
+    nxt = np.zeros_like(spc)
+    for k0 in (0, 1, 4, 9, 19, 63, 64, 1001):
+        due_start(k0, spc, nxt)
+        for k in range(k0, k0 + 200):
+            np.testing.assert_array_equal(nxt == k, k % spc == 0)
+            due_advance(k, spc, nxt)
+
+
+def test_finite_check_of_writes_finds_every_non_finite_value_and_no_finite_one():
+    """A component's writes are checked by one sum of ``x * 0``: any NaN or infinity among them (one
+    value of nine) is found, finite values as large as 1.7e308 (whose plain sum overflows) are not
+    flagged, and a slot with offset -1 (an optional signal absent) is skipped."""
+    from lgvi._kernels.loop_kernels import writes_finite
+
+    bus = np.zeros(20)
+    W = np.array([0, -1, 9, 12], dtype=np.int64)
+    WS = np.array([9, 3, 3, 8], dtype=np.int64)
+    bus[:] = 1.7e308
+    bus[3] = -1.7e308
+    assert writes_finite(bus, W, WS, 0, 4)
+    for bad in (np.nan, np.inf, -np.inf):
+        for i in (0, 4, 8, 9, 11, 12, 19):
+            b = bus.copy()
+            b[i] = bad
+            assert not writes_finite(b, W, WS, 0, 4), (bad, i)
+            assert writes_finite(b, W, WS, 1, 2)             # the absent slot alone: nothing to check

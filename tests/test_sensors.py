@@ -187,6 +187,79 @@ def test_gyro_bounded_walk_as_basilisk_walk_bounds():
     assert np.all(np.abs(free).max(axis=0) > bound)           # unbounded, it goes beyond the bounds
 
 
+def test_rotvec_series_is_atan2_to_round_off_near_identity_and_pi():
+    """``quat_rotvec_over`` (the gyro's mean rate, the MEKF's innovation and error; ``quat_rotvec`` is
+    it with ``dt = 1``): its series branch (below 0.1 rad: no square root, no ``atan2``) and its
+    ``atan2`` branch give ``2 atan2(s, w) / s (q0, q1, q2) / dt`` (in double precision, NumPy) to a
+    few ulp, from 1e-14 rad through the branches' edge (both sides) to pi, for ``q`` and ``-q`` and
+    at any scale."""
+    from lgvi._kernels.attitude_kernels import ROTVEC_SERIES, quat_rotvec, quat_rotvec_over
+
+    edge = 2.0 * math.atan(math.sqrt(ROTVEC_SERIES))      # the angle where the branches meet
+    assert edge == pytest.approx(0.1, rel=1e-3)
+    rng = np.random.default_rng(11)
+    angles = np.r_[np.logspace(-14, 0.5, 600), edge * (1 - 1e-9), edge * (1 + 1e-9), math.pi - 1e-6, math.pi - 1e-9]
+    dt = 0.1
+    for a in angles:
+        axis = rng.normal(size=3)
+        q = Rotation.from_rotvec(a * axis / np.linalg.norm(axis)).as_quat()
+        q = q if q[3] >= 0.0 else -q             # angle in [0, pi]
+        s = np.linalg.norm(q[:3])
+        want = 2.0 * math.atan2(s, q[3]) / s * q[:3] / dt
+        for d in (q, -q, 3.7 * q, -2.1 * q):     # either sign, any scale
+            got = np.array(quat_rotvec_over(*d, dt))
+            assert np.abs(got - want).max() <= 8 * 2.2e-16 * np.abs(want).max(), a
+        assert np.abs(np.array(quat_rotvec(*q)) - want * dt).max() <= 8 * 2.2e-16 * np.abs(want * dt).max()
+    assert quat_rotvec_over(0.0, 0.0, 0.0, 1.0, dt) == (0.0, 0.0, 0.0)
+    assert quat_rotvec_over(0.0, 0.0, 0.0, -4.0, dt) == (0.0, 0.0, 0.0)
+    np.testing.assert_allclose(quat_rotvec(1.0, 0.0, 0.0, 0.0), (math.pi, 0.0, 0.0), rtol=1e-15)
+
+
+def test_scaled_quaternion_is_shepperds_times_4c():
+    """``quat_from_matrix_scaled`` (no square root, no division) is ``quat_from_matrix`` times
+    ``4 c``, ``c`` its largest component (norm 2 to 4), to round-off: near the identity, near rotations
+    by pi about each axis (Shepperd's four branches) and at random."""
+    from lgvi._kernels.attitude_kernels import quat_from_matrix, quat_from_matrix_scaled
+
+    rng = np.random.default_rng(2)
+    vecs = [np.zeros(3), np.array([1e-9, -2e-9, 3e-9])] + [math.pi * e + 1e-7 * rng.normal(size=3) for e in np.eye(3)]
+    vecs += [math.pi * e for e in np.eye(3)] + list(rng.normal(size=(20, 3)))
+    for v in vecs:
+        R = so3.exp(v).ravel()
+        q = np.array(quat_from_matrix(R, 0))
+        qs = np.array(quat_from_matrix_scaled(R, 0))
+        n = np.linalg.norm(qs)
+        assert 2.0 - 1e-15 <= n <= 4.0 + 1e-15
+        assert n == pytest.approx(4.0 * np.abs(q).max(), rel=1e-15)
+        np.testing.assert_allclose(qs / n * np.sign(qs @ q), q, rtol=0, atol=4e-16)
+
+
+def test_mean_rate_gyro_follows_the_attitude_increments():
+    """``output="mean"`` without noise: each sample is ``log(R_prev^T R) / dt`` (the rotation vector of
+    the attitude's increment over the sample), near the identity, around the series' edge (0.1 rad)
+    and near pi, from attitudes near the identity and near a rotation by pi (Shepperd's other
+    branches, either sign of the kept quaternion); the first sample gives the rate."""
+    rng = np.random.default_rng(5)
+    dt = 0.1
+    steps = np.r_[0.0, 1e-13, 1e-9, 1e-6, 1e-3, 0.05, 0.0999, 0.1001, 0.7, 2.5, math.pi - 1e-6]
+    for start in (np.zeros(3), np.array([math.pi, 0.0, 0.0]), np.array([0.0, 0.0, math.pi - 1e-8]),
+                  np.array([1.2, -0.9, 2.0])):
+        inc = [a * v / np.linalg.norm(v) for a, v in zip(steps, rng.normal(size=(len(steps), 3)))]
+        R = [so3.exp(start)]
+        for v in inc:
+            R.append(R[-1] @ so3.exp(v))
+        R = np.array(R)
+        omega = np.tile([0.3, -0.2, 0.1], (len(R), 1))
+        out = run_components([Gyro(rate=dt, output="mean")], {"omega": omega, "R": R.reshape(-1, 9)}, dt,
+                             record=["gyro_B"]).records["gyro_B"]
+        np.testing.assert_array_equal(out[0], omega[0])
+        for k, v in enumerate(inc):
+            exact = so3.log(R[k].T @ R[k + 1]) / dt     # the increment as the matrices hold it
+            # a few ulp of the attitudes (2.2e-16 rad each) over dt
+            np.testing.assert_allclose(out[k + 1], exact, rtol=0, atol=1e-14 / dt, err_msg=f"start {start}, step {k}")
+            assert np.linalg.norm(out[k + 1] - v / dt) < 1e-13 / dt + 1e-12 * np.linalg.norm(v) / dt
+
+
 def test_gyro_walk_bound_validation():
     with pytest.raises(ValueError, match=r"walk_bound must be positive on each axis .* got \[ 0\.001 -0\.001"):
         Gyro(rate=0.1, rrw=1e-5, walk_bound=[1e-3, -1e-3, 1e-3])

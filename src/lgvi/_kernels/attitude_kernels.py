@@ -101,16 +101,61 @@ def quat_from_matrix(R, o):
 
 
 @jit(inline="always")
-def quat_rotvec(q0, q1, q2, q3):
-    """The rotation vector (angle in ``[0, pi]``) of the unit quaternion ``q`` (Taylor near 0)."""
+def quat_from_matrix_scaled(R, o):
+    """Shepperd's quaternion of ``R[o:o + 9]`` times ``4 c`` (``c`` its largest component, the one
+    :func:`quat_from_matrix` takes a square root for): ``4 c^2`` from the diagonal and the other three
+    from sums and differences of the off-diagonal entries, so no square root and no division. Its norm
+    is ``4 c``, between 2 and 4 for a rotation matrix; the sign is either. For functions of the
+    rotation that do not depend on the quaternion's scale (the mean rate of :mod:`.sensor_components`)."""
+    r00 = R[o]
+    r11 = R[o + 4]
+    r22 = R[o + 8]
+    tr = r00 + r11 + r22
+    if tr >= r00 and tr >= r11 and tr >= r22:
+        return R[o + 7] - R[o + 5], R[o + 2] - R[o + 6], R[o + 3] - R[o + 1], 1.0 + tr
+    if r00 >= r11 and r00 >= r22:
+        return 1.0 + 2.0 * r00 - tr, R[o + 1] + R[o + 3], R[o + 2] + R[o + 6], R[o + 7] - R[o + 5]
+    if r11 >= r22:
+        return R[o + 1] + R[o + 3], 1.0 + 2.0 * r11 - tr, R[o + 5] + R[o + 7], R[o + 2] - R[o + 6]
+    return R[o + 2] + R[o + 6], R[o + 5] + R[o + 7], 1.0 + 2.0 * r22 - tr, R[o + 3] - R[o + 1]
+
+
+#: ``x^2 = (s / w)^2 = tan^2(angle / 2)`` below which :func:`quat_rotvec_over` takes its series:
+#: angles below 0.1 rad (2 atan(0.05) = 0.0999), where the series to ``x^10`` is exact to round-off
+#: (the first term left out, ``x^12 / 13``, is below 2e-17 of the result).
+ROTVEC_SERIES = 2.5e-3
+
+
+@jit(inline="always")
+def quat_rotvec_over(q0, q1, q2, q3, dt):
+    """The rotation vector (angle in ``[0, pi]``) of the quaternion ``q`` divided by ``dt``:
+    ``2 atan2(s, w) / s (q0, q1, q2) / dt``, ``s = |(q0, q1, q2)|``, ``w = q3`` made nonnegative.
+    Independent of the norm of ``q`` (any nonzero scale, either sign: a product of scaled quaternions
+    of :func:`quat_from_matrix_scaled` is fine).
+
+    Below 0.1 rad (``x^2 = s^2 / w^2 < ROTVEC_SERIES``) ``atan(x) / x`` is its series ``1 - x^2/3 +
+    x^4/5 - ... - x^10/11`` (Horner in ``x^2``) and the result ``2 atan(x)/x (q0, q1, q2) / (w dt)``:
+    no square root, no ``atan2``, one division; the same value as ``atan2`` to round-off (a few ulp;
+    ``tests/test_sensors.py``). Larger angles, up to pi (``w`` near 0), take ``atan2``."""
     if q3 < 0.0:
         q0, q1, q2, q3 = -q0, -q1, -q2, -q3
-    s = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
-    if s < 1e-8:
-        f = 2.0 / q3 * (1.0 - s * s / (3.0 * q3 * q3))     # 2 atan(s/w)/s
-    else:
-        f = 2.0 * math.atan2(s, q3) / s
-    return f * q0, f * q1, f * q2
+    s2 = q0 * q0 + q1 * q1 + q2 * q2
+    if s2 < ROTVEC_SERIES * (q3 * q3):
+        g = 1.0 / (q3 * dt)
+        v = g * dt
+        x2 = s2 * (v * v)
+        f = 2.0 * g * (1.0 - x2 * (1.0 / 3.0 - x2 * (0.2 - x2 * (1.0 / 7.0 - x2 * (1.0 / 9.0 - x2 * (1.0 / 11.0))))))
+        return f * q0, f * q1, f * q2
+    s = math.sqrt(s2)
+    f = 2.0 * math.atan2(s, q3) / s
+    return f * q0 / dt, f * q1 / dt, f * q2 / dt
+
+
+@jit(inline="always")
+def quat_rotvec(q0, q1, q2, q3):
+    """The rotation vector (angle in ``[0, pi]``) of the quaternion ``q`` (:func:`quat_rotvec_over`
+    with ``dt = 1``: the series below 0.1 rad, ``atan2`` above)."""
+    return quat_rotvec_over(q0, q1, q2, q3, 1.0)
 
 
 @jit(inline="always")

@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 
 from .._jit import jit
-from .attitude_kernels import (exp_coefficients, mat_t_vec, quat_from_matrix, quat_from_rotvec, quat_mul,
+from .attitude_kernels import (exp_coefficients, mat_t_vec, quat_from_matrix_scaled, quat_from_rotvec, quat_mul,
                                quat_normalised, quat_rotvec, quat_to_matrix)
 from .navigation_components import SIMPLE_NAV, simple_nav_step
 
@@ -281,7 +281,9 @@ def mekf_step(t, bus, p, s, w):
         bus[o + i] = d
         if not (d > 0.0 and d <= p[18]):      # NaN fails too
             good = False
-    t0, t1, t2, t3 = quat_from_matrix(bus, w[11])
+    # the truth's quaternion scaled (no square root, no division): the error's rotation vector does
+    # not depend on the scale
+    t0, t1, t2, t3 = quat_from_matrix_scaled(bus, w[11])
     e0, e1, e2, e3 = quat_mul(-s[0], -s[1], -s[2], s[3], t0, t1, t2, t3)
     x, y, z = quat_rotvec(e0, e1, e2, e3)
     o = w[16]

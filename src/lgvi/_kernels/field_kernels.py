@@ -19,7 +19,10 @@ evaluated without a division by ``sin theta`` and is finite on the poles.
 
 Coefficients ``g``, ``h`` are (N+1, N+1) arrays indexed ``[n, m]`` (flat, row-major, in
 :func:`sh_field_flat`); the scratch arrays ``P``, ``dP``, ``Q`` have the same shape, so the kernels
-allocate nothing.
+allocate nothing. The recursions' factors ``sqrt((2n-1)/(2n))``, ``(2n-1)/sqrt(n^2 - m^2)`` and
+``sqrt((n-1)^2 - m^2)/sqrt(n^2 - m^2)`` are constants of the degree: :func:`sh_recursion_constants`
+computes them once (the same operations, so the same values), and an evaluation reads them (about
+180 square roots and divisions an evaluation fewer at degree 13).
 """
 
 from __future__ import annotations
@@ -29,14 +32,40 @@ import math
 from .._jit import jit
 
 
+def recursion_constants_size(n1):
+    """The length of :func:`sh_recursion_constants`' array for (n1, n1) coefficients: ``2 n1^2 + n1``."""
+    return 2 * n1 * n1 + n1
+
+
+@jit(_nrt=False)
+def sh_recursion_constants(n1, C):
+    """The recursions' factors for (n1, n1) coefficients into ``C`` (:func:`recursion_constants_size`):
+    ``e[n, m] = (2n-1) / sqrt(n^2 - m^2)`` at ``n n1 + m``, ``f[n, m] = sqrt((n-1)^2 - m^2) /
+    sqrt(n^2 - m^2)`` at ``n1^2 + n n1 + m`` (``n - 2 >= m``; 0 elsewhere) and ``k[n] =
+    sqrt((2n-1)/(2n))`` at ``2 n1^2 + n`` (``n >= 2``), for ``1 <= n < n1``, ``0 <= m < n``."""
+    q = n1 * n1
+    for i in range(2 * q + n1):
+        C[i] = 0.0
+    for n in range(1, n1):
+        if n >= 2:
+            C[2 * q + n] = math.sqrt((2.0 * n - 1.0) / (2.0 * n))
+        for m in range(0, n):
+            i = n * n1 + m
+            d = math.sqrt(float(n * n - m * m))
+            C[i] = (2.0 * n - 1.0) / d
+            if n - 2 >= m:
+                C[q + i] = math.sqrt(float((n - 1) * (n - 1) - m * m)) / d
+
+
 @jit(inline="always")
-def sh_field_flat(x, y, z, G, og, H, oh, n1, nmax, a, P, oP, dP, odP, Q, oQ):
+def sh_field_flat(x, y, z, G, og, H, oh, n1, nmax, a, P, oP, dP, odP, Q, oQ, C, oC):
     """Field of the expansion ``(g, h)`` at the Earth-fixed point ``(x, y, z)`` (same unit as ``a``).
 
     The (N+1, N+1) arrays are indexed flat, row-major with ``n1`` columns: ``g[n, m]`` is
     ``G[og + n n1 + m]``, ``h``, ``P``, ``dP``, ``Q`` likewise from ``H[oh]``, ``P[oP]``, ``dP[odP]``,
     ``Q[oQ]`` (one state array with offsets in the loop's field component: reshaped views of its
-    slices cost a call each). Returns ``(bx, by, bz)`` in Earth-fixed Cartesian components, in the
+    slices cost a call each); ``C[oC:]`` the recursions' factors, :func:`sh_recursion_constants` of
+    ``n1``. Returns ``(bx, by, bz)`` in Earth-fixed Cartesian components, in the
     unit of ``g`` and ``h``.
     """
     rho2 = x * x + y * y
@@ -62,7 +91,7 @@ def sh_field_flat(x, y, z, G, og, H, oh, n1, nmax, a, P, oP, dP, odP, Q, oQ):
             dP[odP + nn] = c
             Q[oQ + nn] = 1.0
         else:
-            k = math.sqrt((2.0 * n - 1.0) / (2.0 * n))
+            k = C[oC + 2 * n1 * n1 + n]
             P[oP + nn] = k * s * P[oP + pp]
             dP[odP + nn] = k * (c * P[oP + pp] + s * dP[odP + pp])
             Q[oQ + nn] = k * s * Q[oQ + pp]
@@ -70,10 +99,9 @@ def sh_field_flat(x, y, z, G, og, H, oh, n1, nmax, a, P, oP, dP, odP, Q, oQ):
             i = n * n1 + m              # [n, m]
             i1 = i - n1                 # [n - 1, m]
             i2 = i1 - n1                # [n - 2, m]
-            d = math.sqrt(float(n * n - m * m))
-            e = (2.0 * n - 1.0) / d
+            e = C[oC + i]
             if n - 2 >= m:
-                f = math.sqrt(float((n - 1) * (n - 1) - m * m)) / d
+                f = C[oC + n1 * n1 + i]
                 P[oP + i] = e * c * P[oP + i1] - f * P[oP + i2]
                 dP[odP + i] = e * (c * dP[odP + i1] - s * P[oP + i1]) - f * dP[odP + i2]
                 Q[oQ + i] = e * c * Q[oQ + i1] - f * Q[oQ + i2]
@@ -113,26 +141,27 @@ def sh_field_flat(x, y, z, G, og, H, oh, n1, nmax, a, P, oP, dP, odP, Q, oQ):
 
 
 @jit(inline="always")
-def sh_field_ecef(x, y, z, g, h, nmax, a, P, dP, Q):
-    """:func:`sh_field_flat` on (N+1, N+1) C-contiguous arrays ``g``, ``h`` and scratch ``P``, ``dP``, ``Q``."""
+def sh_field_ecef(x, y, z, g, h, nmax, a, P, dP, Q, C):
+    """:func:`sh_field_flat` on (N+1, N+1) C-contiguous arrays ``g``, ``h``, scratch ``P``, ``dP``,
+    ``Q`` and the recursions' factors ``C`` (:func:`sh_recursion_constants`)."""
     return sh_field_flat(x, y, z, g.reshape(-1), 0, h.reshape(-1), 0, g.shape[1], nmax, a, P.reshape(-1), 0,
-                         dP.reshape(-1), 0, Q.reshape(-1), 0)
+                         dP.reshape(-1), 0, Q.reshape(-1), 0, C, 0)
 
 
 @jit(_nrt=False)
-def sh_field_many(xyz, g, h, nmax, a, P, dP, Q, out):
+def sh_field_many(xyz, g, h, nmax, a, P, dP, Q, C, out):
     """``out[i] = field(xyz[i])`` for (K, 3) Earth-fixed points (see :func:`sh_field_ecef`)."""
     for i in range(xyz.shape[0]):
-        bx, by, bz = sh_field_ecef(xyz[i, 0], xyz[i, 1], xyz[i, 2], g, h, nmax, a, P, dP, Q)
+        bx, by, bz = sh_field_ecef(xyz[i, 0], xyz[i, 1], xyz[i, 2], g, h, nmax, a, P, dP, Q, C)
         out[i, 0] = bx
         out[i, 1] = by
         out[i, 2] = bz
 
 
 @jit(_nrt=False)
-def sh_field_one(x, y, z, g, h, nmax, a, P, dP, Q):
+def sh_field_one(x, y, z, g, h, nmax, a, P, dP, Q, C):
     """One point (a Python-callable wrapper of :func:`sh_field_ecef`)."""
-    return sh_field_ecef(x, y, z, g, h, nmax, a, P, dP, Q)
+    return sh_field_ecef(x, y, z, g, h, nmax, a, P, dP, Q, C)
 
 
 @jit(_nrt=False)

@@ -129,7 +129,8 @@ def orbit_step(t, bus, p, s, w):
 
 
 #: ``p`` of the field: degree, radius (m), Julian days from J2000.0 to the epoch, (N+1), then
-#: g, h at the epoch and their rates per second (each (N+1)^2, nT); ``s``: g, h, P, dP, Q scratch.
+#: g, h at the epoch and their rates per second (each (N+1)^2, nT), then the recursions' factors
+#: (:func:`.field_kernels.sh_recursion_constants`, 2 (N+1)^2 + N+1); ``s``: g, h, P, dP, Q scratch.
 F_NMAX, F_RADIUS, F_JD0, F_N1, F_COEF = 0, 1, 2, 3, 4
 
 
@@ -163,7 +164,7 @@ def field_step(t, bus, p, s, w):
     sn = math.sin(theta)
     # g, h, P, dP, Q: (n1, n1) blocks of s, indexed flat
     bx, by, bz = sh_field_flat(c * x + sn * y, -sn * x + c * y, z, s, 0, s, q, n1, nmax, p[F_RADIUS], s, 2 * q,
-                               s, 3 * q, s, 4 * q)
+                               s, 3 * q, s, 4 * q, p, o + 4 * q)
     put3(bus, w[1], (c * bx - sn * by) * 1e-9, (sn * bx + c * by) * 1e-9, bz * 1e-9)
     return OK
 

@@ -6,7 +6,8 @@ At step ``k`` (time ``t = t0 + k h``) the loop
    ``wheel_momentum``; ``-1`` for a signal the run does not carry);
 2. sets ``tau_dist_B`` to the sum of the held torques of the disturbances not due at ``k``
    (``io[IO_NDIST]`` of them, indices after it), then runs every component due at ``k``
-   (``k % spc[c] == 0``) and active in the current mode (bit ``mode`` of ``mask[c]``), in the order given (the Python side sorts them by family):
+   (``k % spc[c] == 0``, kept as each component's next due step ``nxt[c]``: :func:`due_start`) and
+   active in the current mode (bit ``mode`` of ``mask[c]``), in the order given (the Python side sorts them by family):
    ``<family>_dispatch(code, t, bus, p, s, w)`` on the component's slices of ``P`` (parameters),
    ``S`` (state) and ``W`` (bus offsets of the signals it reads, then writes); a user's component
    (code 0) is the function ``user``, a first-class function value (:func:`user_component`). A
@@ -103,9 +104,10 @@ def no_user_component():
 
 
 @jit(inline="always")
-def sum_held_disturbances(k, bus, io, spc, nr, W, wo):
+def sum_held_disturbances(k, bus, io, nxt, nr, W, wo):
     """Zero ``tau_dist_B`` and add the held torques of the disturbances not due at step ``k``
-    (those due add theirs when they run), so it is the sum of every disturbance's latest torque."""
+    (``nxt[c] != k``, :func:`due_start`; those due add theirs when they run), so it is the sum of
+    every disturbance's latest torque."""
     od = io[IO_DIST]
     if od < 0 or io.shape[0] <= IO_NDIST:
         return
@@ -114,11 +116,31 @@ def sum_held_disturbances(k, bus, io, spc, nr, W, wo):
     bus[od + 2] = 0.0
     for j in range(io[IO_NDIST]):
         c = io[IO_NDIST + 1 + j]
-        if k % spc[c] != 0:
+        if nxt[c] != k:
             o = W[wo[c] + nr[c]]
             bus[od] += bus[o]
             bus[od + 1] += bus[o + 1]
             bus[od + 2] += bus[o + 2]
+
+
+@jit(inline="always")
+def due_start(k0, spc, nxt):
+    """Before step ``k0``: each component's next due step ``nxt[c]``, the first multiple of its period
+    ``spc[c]`` from ``k0`` on. A component is due at step ``k`` when ``nxt[c] == k``
+    (``k % spc[c] == 0``: one integer division a component per chunk, not per step);
+    :func:`due_advance` moves the counters on after each step."""
+    for c in range(spc.shape[0]):
+        p = spc[c]
+        nxt[c] = ((k0 + p - 1) // p) * p
+
+
+@jit(inline="always")
+def due_advance(k, spc, nxt):
+    """After step ``k`` (before the step's end runs step ``k + 1``'s lookahead): the counters of the
+    components due at ``k`` move on by their period."""
+    for c in range(spc.shape[0]):
+        if nxt[c] == k:
+            nxt[c] = k + spc[c]
 
 
 @jit(inline="always")
@@ -163,7 +185,8 @@ def record_fast(k, c_rec, e, per, bus, sig_fast, sig_out):
     (``k == next``) goes into slot ``slot`` of its columns, then ``next += p``, ``slot += 1``; at
     the entry's first step the slots restart at 0, and a row whose period does not divide ``per``
     has them set to NaN first (a slot with no writer step in the entry stays NaN). No division
-    a step: the counters start at :func:`record_fast_start`."""
+    a step: the counters start at :func:`record_fast_start`. Returns the earliest ``next`` of the
+    rows, so the loop calls it again only at that step or at an entry's first step."""
     if c_rec == 0:
         for f in range(sig_fast.shape[0]):
             sig_fast[f, 6] = 0
@@ -180,6 +203,17 @@ def record_fast(k, c_rec, e, per, bus, sig_fast, sig_out):
             sig_out[e, col + i] = bus[o + i]
         sig_fast[f, 5] = k + sig_fast[f, 0]
         sig_fast[f, 6] += 1
+    return fast_next(sig_fast)
+
+
+@jit(inline="always")
+def fast_next(sig_fast):
+    """The earliest next writer step ``sig_fast[f, 5]`` of the rows (``-1`` with no row)."""
+    m = -1
+    for f in range(sig_fast.shape[0]):
+        if m < 0 or sig_fast[f, 5] < m:
+            m = sig_fast[f, 5]
+    return m
 
 
 @jit(_nrt=False)
@@ -219,15 +253,17 @@ def dispatch(user, code, t, bus, p, s, w):
 
 @jit(inline="always")
 def writes_finite(bus, W, WS, a, b):
-    """Whether the signals ``W[a:b]`` (sizes ``WS``) hold finite values."""
+    """Whether the signals ``W[a:b]`` (sizes ``WS``) hold finite values: the sum of ``x * 0`` over
+    them is 0 when every ``x`` is finite and NaN when one is NaN or infinite (no branch a value,
+    no false alarm: a sum of finite values that overflows does not count)."""
+    z = 0.0
     for j in range(a, b):
         o = W[j]
         if o < 0:
             continue
         for i in range(WS[j]):
-            if not math.isfinite(bus[o + i]):
-                return False
-    return True
+            z += bus[o + i] * 0.0
+    return z == 0.0
 
 
 @jit(inline="always")
@@ -254,9 +290,10 @@ def run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
 
 
 @jit(inline="always")
-def run_components(user, t, k, bus, io, codes, spc, mask, nr, P, po, S, so, W, wo, WS, fail, first):
+def run_components(user, t, k, bus, io, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail, first):
     """Step 2 of the loop at step ``k`` from component ``first`` on (those before it ran at the end
-    of the previous step: :func:`run_lookahead`); returns the status.
+    of the previous step: :func:`run_lookahead`); returns the status. Component ``c`` is due when
+    ``nxt[c] == k`` (:func:`due_start`).
 
     When a mode component changes the mode, the components active in the old mode and not in the
     new one have their outputs cleared (nothing they wrote stays held), and those of the new mode
@@ -266,7 +303,7 @@ def run_components(user, t, k, bus, io, codes, spc, mask, nr, P, po, S, so, W, w
     if io[IO_MODE] >= 0:
         mode = int(bus[io[IO_MODE]])
     for c in range(first, codes.shape[0]):
-        if k % spc[c] != 0 or ((mask[c] >> mode) & 1) == 0:
+        if nxt[c] != k or ((mask[c] >> mode) & 1) == 0:
             continue
         if run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
             return COMPONENT_FAILED
@@ -277,7 +314,7 @@ def run_components(user, t, k, bus, io, codes, spc, mask, nr, P, po, S, so, W, w
                     if ((mask[d] >> mode) & 1) == 1 and ((mask[d] >> new) & 1) == 0:
                         clear_writes(bus, W, WS, wo[d] + nr[d], wo[d + 1])
                 for d in range(c):
-                    if k % spc[d] == 0 and ((mask[d] >> mode) & 1) == 0 and ((mask[d] >> new) & 1) == 1:
+                    if nxt[d] == k and ((mask[d] >> mode) & 1) == 0 and ((mask[d] >> new) & 1) == 1:
                         if run_one(user, d, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
                             return COMPONENT_FAILED
                 mode = new
@@ -285,7 +322,7 @@ def run_components(user, t, k, bus, io, codes, spc, mask, nr, P, po, S, so, W, w
 
 
 @jit(inline="always")
-def run_lookahead(user, t, k, L, R, bus, io, codes, spc, mask, nr, P, po, S, so, W, wo, WS, fail):
+def run_lookahead(user, t, k, L, R, bus, io, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail):
     """The components ``0 .. L - 1`` due at step ``k`` (time ``t``) on the attitude ``R`` written on
     the bus, after ``tau_dist_B`` is set to the held disturbances' sum (:func:`sum_held_disturbances`):
     the environment and the disturbance torque at the end of step ``k - 1``, which step ``k`` then
@@ -295,9 +332,9 @@ def run_lookahead(user, t, k, L, R, bus, io, codes, spc, mask, nr, P, po, S, so,
         for a in range(3):
             for b in range(3):
                 bus[oR + 3 * a + b] = R[a, b]
-    sum_held_disturbances(k, bus, io, spc, nr, W, wo)
+    sum_held_disturbances(k, bus, io, nxt, nr, W, wo)
     for c in range(L):
-        if k % spc[c] == 0:
+        if nxt[c] == k:
             if run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
                 return COMPONENT_FAILED
     return OK
@@ -319,10 +356,11 @@ def advance_gg(ggp, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now, ta0, ta1
 
 def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cmd, u_now, bus, io, codes, spc,
                mask, nr, P, po, S, so, W, wo, WS, sig_idx, sig_fast, k0, n, kb, tol, max_iter, save_every, per, R_out, Pi_out,
-               rho_out, u_out, it_out, res_out, sig_out, counts, fail):
+               rho_out, u_out, it_out, res_out, sig_out, counts, fail, nxt):
     """Steps ``k0 .. k0 + n - 1`` of the loop (see the module's text) in place on ``R``, ``Pi``,
     ``rho``, ``G``, ``bus``, ``S``; buffers as :func:`.gyrostat_kernels.gyro_steps` plus ``sig_out``
-    (entries, len(sig_idx) + the columns of ``sig_fast``). Returns ``(status, k, iterations_total, residual_max, its, residual)``."""
+    (entries, len(sig_idx) + the columns of ``sig_fast``) and ``nxt`` (one int64 a component: the
+    next due steps, set here from ``k0``, :func:`due_start`). Returns ``(status, k, iterations_total, residual_max, its, residual)``."""
     N = rho.shape[0]
     it_sum = 0
     rmax = 0.0
@@ -353,8 +391,11 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
     L = lookahead_count(io)
     ogg = gravity_gradient_slot(io)
     nfast = sig_fast.shape[0]
+    kfast = -1
     if nfast > 0:
         record_fast_start(k0, c_rec, sig_fast)
+        kfast = fast_next(sig_fast)
+    due_start(k0, spc, nxt)
     hh = 0.5 * h
     for k in range(k0, k0 + n):
         t = t0 + k * h
@@ -381,9 +422,9 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
         # at the end of the previous step, except at a chunk's first step (and all run here when L = 0)
         first = L
         if k == k0 or L == 0:
-            sum_held_disturbances(k, bus, io, spc, nr, W, wo)
+            sum_held_disturbances(k, bus, io, nxt, nr, W, wo)
             first = 0
-        st = run_components(user, t, k, bus, io, codes, spc, mask, nr, P, po, S, so, W, wo, WS, fail, first)
+        st = run_components(user, t, k, bus, io, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail, first)
         if st != OK:
             return st, k, it_sum, rmax, 0, 0.0
         # 3. the step, with what the bus holds
@@ -430,12 +471,14 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
         if c_rec == 0:
             for q in range(nsig):
                 sig_out[e, q] = bus[sig_idx[q]]
-        if nfast > 0:
-            record_fast(k, c_rec, e, per, bus, sig_fast, sig_out)
+        if nfast > 0 and (k == kfast or c_rec == 0):
+            kfast = record_fast(k, c_rec, e, per, bus, sig_fast, sig_out)
+        due_advance(k, spc, nxt)
         # 5. the symmetric forcing: the disturbances at the step's end (t_k+1, R_k+1), and
         # Pi_k+1 += h/2 (tau_dist_k+1 - tau_dist_k) (the step held tau_dist_k at both ends)
         if L > 0:
-            st = run_lookahead(user, t0 + (k + 1) * h, k + 1, L, R, bus, io, codes, spc, mask, nr, P, po, S, so, W, wo, WS, fail)
+            st = run_lookahead(user, t0 + (k + 1) * h, k + 1, L, R, bus, io, codes, nxt, mask, nr, P, po, S, so, W, wo, WS,
+                               fail)
             if st == OK and odist >= 0:
                 Pi[0] += hh * (bus[odist] - d0)
                 Pi[1] += hh * (bus[odist + 1] - d1)

@@ -17,7 +17,8 @@ from __future__ import annotations
 import math
 
 from .._jit import jit
-from .attitude_kernels import mat_t_vec, mat_vec, quat_from_matrix, quat_from_rotvec, quat_mul, quat_rotvec
+from .attitude_kernels import (mat_t_vec, mat_vec, quat_from_matrix, quat_from_matrix_scaled, quat_from_rotvec, quat_mul,
+                                quat_rotvec_over)
 from .random import normal_at, stream_key
 
 GYRO = 301
@@ -60,7 +61,7 @@ def sun_in_body(bus, w):
 #    per axis (rad/s, inf: none; Basilisk's walkBoundsGyro), 27 sigma_v / sqrt(dt) (the white rate
 #    noise of a sample), 28 sigma_u sqrt(dt) (the walk's step per sample): 27 and 28 are set once by
 #    the Python class, so a sample computes no square root
-# s: 0 counter (normals), 1..3 rate-random-walk part of the bias (rad/s), 4..7 the quaternion of R
+# s: 0 counter (normals), 1..3 rate-random-walk part of the bias (rad/s), 4..7 the scaled quaternion of R
 #    at the last sample (mean-rate output), 8: 1 once a sample was taken
 # --------------------------------------------------------------------------------------------------
 @jit(inline="always")
@@ -80,15 +81,13 @@ def gyro_step(t, bus, p, s, w):
     x, y, z = bus[o], bus[o + 1], bus[o + 2]
     if p[23] != 0.0:
         # the rotation vector of R_prev^T R over the sample period: the mean rate, exactly; the
-        # quaternion of R is kept for the next sample (one conversion a sample)
-        f0, f1, f2, f3 = quat_from_matrix(bus, w[1])
+        # quaternion of R is kept for the next sample (one conversion a sample, scaled: norm 2 to 4,
+        # either sign; the rotation vector depends on neither: quat_rotvec_over, its series below
+        # 0.1 rad with no square root, no atan2 and one division)
+        f0, f1, f2, f3 = quat_from_matrix_scaled(bus, w[1])
         if s[8] != 0.0:
             d0, d1, d2, d3 = quat_mul(-s[4], -s[5], -s[6], s[7], f0, f1, f2, f3)
-            dt = p[2]
-            x, y, z = quat_rotvec(d0, d1, d2, d3)
-            x /= dt
-            y /= dt
-            z /= dt
+            x, y, z = quat_rotvec_over(d0, d1, d2, d3, p[2])
         s[4] = f0
         s[5] = f1
         s[6] = f2

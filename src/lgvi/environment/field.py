@@ -28,7 +28,8 @@ from typing import Any
 
 import numpy as np
 
-from .._kernels.field_kernels import sh_coefficients_at, sh_field_many, sh_field_one
+from .._kernels.field_kernels import (recursion_constants_size, sh_coefficients_at, sh_field_many, sh_field_one,
+                                      sh_recursion_constants)
 from .._validation import as_float, as_float_array, as_int
 
 __all__ = ["CentredDipole", "IGRF", "WMM", "SphericalHarmonicField", "decimal_year", "geodetic_to_ecef",
@@ -165,6 +166,8 @@ class SphericalHarmonicField:
         self.valid: tuple[Any | float, Any | float] = (lo, hi)
         n1 = nmax + 1
         self._scratch = tuple(np.zeros((n1, n1)) for _ in range(5))   # g, h, P, dP, Q
+        self._constants = np.zeros(recursion_constants_size(n1))      # the recursions' factors, once
+        sh_recursion_constants(n1, self._constants)
         self._year: float | None = None
 
     def __repr__(self) -> str:
@@ -206,13 +209,13 @@ class SphericalHarmonicField:
                              f"{int(zero[0])} is")
         g, h, P, dP, Q = self._at(self._check_year(when))
         out = np.empty_like(flat)
-        sh_field_many(flat, g, h, self.degree, self.radius, P, dP, Q, out)
+        sh_field_many(flat, g, h, self.degree, self.radius, P, dP, Q, self._constants, out)
         return (out * _NT).reshape(r.shape)
 
     def ecef_one(self, x: float, y: float, z: float, year: float) -> tuple[float, float, float]:
         """One point, no validation (for loops that validated already): ``(bx, by, bz)`` tesla."""
         g, h, P, dP, Q = self._at(year)
-        bx, by, bz = sh_field_one(x, y, z, g, h, self.degree, self.radius, P, dP, Q)
+        bx, by, bz = sh_field_one(x, y, z, g, h, self.degree, self.radius, P, dP, Q, self._constants)
         return bx * _NT, by * _NT, bz * _NT
 
     def geodetic(self, lat: Any, lon: Any, height: Any, when: Any) -> np.ndarray:

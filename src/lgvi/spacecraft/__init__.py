@@ -72,6 +72,7 @@ class FieldModel(Component):
 
     def setup(self, ctx: LoopContext) -> None:
         from ..environment.field import decimal_year
+        from .._kernels.field_kernels import recursion_constants_size, sh_recursion_constants
 
         sc = ctx.spacecraft
         model, epoch = sc.field, sc.epoch
@@ -95,8 +96,10 @@ class FieldModel(Component):
         jd0 = (epoch - _dt.datetime(2000, 1, 1, 12)).total_seconds() / 86400.0
         n1 = g0.shape[0]
         self._n1 = n1
+        constants = np.zeros(recursion_constants_size(n1))     # the recursions' factors: once, not per evaluation
+        sh_recursion_constants(n1, constants)
         self._row = np.concatenate([[float(model.degree), float(model.radius), jd0, float(n1)], g0.ravel(),
-                                    h0.ravel(), gd.ravel(), hd.ravel()])
+                                    h0.ravel(), gd.ravel(), hd.ravel(), constants])
 
     def params(self) -> np.ndarray:
         return self._row

@@ -467,6 +467,7 @@ class LoopRun(GyrostatRun):
         self.sig_idx: np.ndarray = np.array(idx, i64)
         self.offsets, self.sizes = offsets, sizes
         self.fail: np.ndarray = np.zeros(2, i64)
+        self.nxt: np.ndarray = np.zeros(len(codes), i64)     # the loop's next due step of each component
 
     @staticmethod
     def _lookahead(wired: list[Any], dist: list[int]) -> int:
@@ -517,7 +518,7 @@ class LoopRun(GyrostatRun):
             self.wheel_momentum, self.G, self.wheels.axes, self.wp, self.cmd, self.u_now, self.bus, self.io, self.codes,
             self.spc_c, self.mask, self.nr, self.P, self.po, self.S, self.so, self.W, self.wo, self.WS, self.sig_idx,
             self.sig_fast, k0, n, kb, self.tol, self.max_iter, self.save_every, per, R_out, Pi_out, rho_out, u_out, it_out, res_out,
-            sig_out, self.counts, self.fail)
+            sig_out, self.counts, self.fail, self.nxt)
         self.k: int = int(k)
         self.it_total += int(it_sum) - (int(its) if status != 0 else 0)
         self.res_max: float = max(self.res_max, float(rmax))
