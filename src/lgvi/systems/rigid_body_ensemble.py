@@ -986,6 +986,10 @@ class _LocalRun:
         self.Jd = np.ascontiguousarray(np.stack([b.Jd for b in s.bodies]))
         self.J = np.ascontiguousarray(np.stack([b.J for b in s.bodies]))
         self.J_inv = np.ascontiguousarray(np.stack([b.J_inv for b in s.bodies]))
+        for a in (self.Jd, self.J, self.J_inv):
+            # read-only as a body's own (RigidBody's arrays are): a body's views are then of the types
+            # lgvi.simulate passes, and one compiled loop serves both (run_chunk_forced, run_chunk_user)
+            a.flags.writeable = False
         stages = 1 if s.legacy else len(s.gam)
         hs = np.array([h]) if s.legacy else s.gam * h
         self.G = np.zeros((B, stages, 5, 3))
@@ -1004,12 +1008,13 @@ class _LocalRun:
         self.fail_res = np.zeros(B)
         self.fail_its = np.zeros(B, dtype=np.int64)
         self.chunk = max(1, CHUNK_BODY_STEPS // (B * stages))
-        # a user's compiled model (lgvi.torques.Compiled) runs its bodies in a pool of this many threads
-        self.user_threads = 1
-        if parallel and getattr(s.model, "moment_func", None) is not None:
+        # the built-in models and a user's compiled model (lgvi.torques.Compiled) run their bodies in
+        # a pool of this many Python threads, one contiguous group each (_run_groups)
+        self.threads = 1
+        if parallel and not s.legacy:
             import numba
 
-            self.user_threads = numba.get_num_threads()
+            self.threads = numba.get_num_threads()
         # the free body with Cayley runs LANES bodies in lockstep (SIMD), the same values bit for bit
         self.lockstep = self.lockstep_allowed and s.legacy and s.code == METHOD_CAYLEY
         if self.lockstep:
@@ -1020,16 +1025,52 @@ class _LocalRun:
         """The user's parameter rows of this run's bodies: (B, P), or (1, P) for all (C-contiguous)."""
         m, body0 = self.s.model, getattr(self.s, "body0", 0)
         table = m.params[body0:body0 + len(self.s)] if m.params.ndim == 2 else m.params.reshape(1, -1)
-        return np.ascontiguousarray(table, dtype=np.float64)
+        table = np.ascontiguousarray(table, dtype=np.float64)
+        if table.flags.writeable:           # read-only as simulate's row: one compiled loop serves both
+            table = table.copy()
+            table.flags.writeable = False
+        return table
+
+    def _run_groups(self, call: Any) -> None:
+        """``call(group)`` for the bodies split into ``self.threads`` contiguous groups (int64 arrays),
+        each group on a thread of a pool (one compiled call a group: the compiled loops release the
+        GIL; a call per body cost tens of microseconds of dispatch under the GIL, which serialised
+        the threads). Each body has its own state and ``call`` gives each thread its own scratch
+        arrays, so the numbers do not depend on the threads."""
+        B = len(self.s)
+        workers = min(self.threads, B)
+        with quiet_function_argument():
+            if workers <= 1:
+                call(np.arange(B, dtype=np.int64))
+                return
+            with ThreadPoolExecutor(max_workers=workers) as pool:
+                list(pool.map(call, np.array_split(np.arange(B, dtype=np.int64), workers)))
+
+    def _advance_forced(self, n: int, R_out: np.ndarray, Pi_out: np.ndarray) -> None:
+        """Steps ``k .. k + n - 1`` of the built-in models: each body runs the loop of
+        :func:`lgvi.simulate` (:func:`lgvi._kernels.stepping.run_chunk_forced`, through
+        :func:`lgvi._kernels.ensemble_kernels.advance_forced`), the bodies in groups on threads
+        (:meth:`_run_groups`, :func:`lgvi._kernels.ensemble_kernels.advance_forced_group`)."""
+        from .._kernels.ensemble_kernels import advance_forced_group
+
+        s, k, se = self.s, self.k, self.save_every
+        gidx = np.arange(self.G.shape[1], dtype=np.int64)
+        counts = np.zeros(0, dtype=np.int64)
+
+        def bodies(group: np.ndarray) -> None:
+            advance_forced_group(group, s.code, self.Jd, self.J, self.J_inv, s.ib, s.h, s.t0, s.gam, s.cum, self.ia,
+                                 self.A, self.R, self.Pi, self.G, gidx, self.S, s.codes, s.ptab, int(s.sym), k, n,
+                                 s.tol, s.max_iter, s.alpha, se, 0, R_out, Pi_out, np.zeros(n, np.int32), np.zeros(n),
+                                 self.its, self.res, self.status, self.fail_step, self.fail_res, self.fail_its,
+                                 _NO_HIST, counts)
+
+        self._run_groups(bodies)
 
     def _advance_user(self, n: int, R_out: np.ndarray, Pi_out: np.ndarray) -> None:
         """Steps ``k .. k + n - 1`` of a user's compiled model: one compiled call per body
         (:func:`lgvi._kernels.user_kernels.advance_user`, which the GPU's kernel calls too), with the
-        body's parameter row, the same loop and values as :func:`lgvi.simulate`. The bodies are split
-        into ``threads`` contiguous groups run in a pool of threads, one compiled call a group
-        (:func:`lgvi._kernels.user_kernels.advance_users`) (the compiled loop releases the
-        GIL; each thread has its own scratch arrays and each body its own state, so the numbers do not
-        depend on the threads)."""
+        body's parameter row, the same loop and values as :func:`lgvi.simulate`, the bodies in groups
+        on threads (:meth:`_run_groups`, :func:`lgvi._kernels.user_kernels.advance_users`)."""
         from .._kernels.user_kernels import advance_users, guarded
 
         s, k, se = self.s, self.k, self.save_every
@@ -1040,21 +1081,14 @@ class _LocalRun:
 
         def bodies(group: np.ndarray) -> None:
             Rs, Ps, it_buf, res_buf = np.zeros((3, 3)), np.zeros(3), np.zeros(n, np.int32), np.zeros(n)
-            advance_users(np.ascontiguousarray(group, dtype=np.int64), guarded(m.moment_func), table, Rs, Ps,
+            advance_users(group, guarded(m.moment_func), table, Rs, Ps,
                           m.conservative, m.depends_on_momentum, s.code, self.Jd, self.J, self.J_inv, s.ib, s.h, s.t0,
                           s.gam, s.cum, self.ia, self.A, self.R, self.Pi, self.G, gidx, self.S, s.codes, s.params,
                           int(s.sym), k, n, s.tol, s.max_iter, s.alpha, se, 0, R_out, Pi_out, it_buf, res_buf,
                           self.its, self.res, self.status, self.fail_step, self.fail_res, self.fail_its, _NO_HIST,
                           counts)
 
-        B = len(s)
-        workers = min(self.user_threads, B)
-        with quiet_function_argument():
-            if workers <= 1:
-                bodies(np.arange(B))
-                return
-            with ThreadPoolExecutor(max_workers=workers) as pool:
-                list(pool.map(bodies, np.array_split(np.arange(B), workers)))
+        self._run_groups(bodies)
 
     def advance(self, n: int, R_out: np.ndarray, Pi_out: np.ndarray, partial: Any) -> int:
         """Steps ``k .. k + n - 1`` of every body; on a failure ``k`` is the first failed step."""
@@ -1072,10 +1106,7 @@ class _LocalRun:
         elif getattr(s.model, "moment_func", None) is not None:    # lgvi.torques.Compiled
             self._advance_user(n, R_out, Pi_out)
         else:
-            run = ek.run_forced_parallel if parallel else ek.run_forced_serial
-            run(s.code, self.Jd, self.J, self.J_inv, s.ib, h, s.t0, s.gam, s.cum, self.ia, self.A, self.R, self.Pi,
-                self.G, self.S, s.codes, s.ptab, int(s.sym), k, n, s.tol, s.max_iter, s.alpha, se, R_out, Pi_out,
-                self.its, self.res, self.status, self.fail_step, self.fail_res, self.fail_its, _NO_HIST)
+            self._advance_forced(n, R_out, Pi_out)
         failed = np.flatnonzero(self.status != OK)
         if failed.size:
             b = int(failed[np.argmin(self.fail_step[failed])])

@@ -697,8 +697,9 @@ class Run:
             status, self.k, *tot = run_chunk_forced(self.code, body.Jd, body.J, body.J_inv, self.h, self.t0,
                                                     self.gam, self.cum, self.A, self.R, self.Pi, self.G, self.gidx,
                                                     self.S, self.codes, self.params, self.U, int(self.sym), self.k, n,
-                                                    self.tol, self.max_iter, self.alpha, self.save_every, R_out,
-                                                    Pi_out, it_out, res_out, _NO_HIST, self.counts)
+                                                    self.tol, self.max_iter, self.alpha, self.save_every,
+                                                    self.save_every, R_out, Pi_out, it_out, res_out, _NO_HIST,
+                                                    self.counts)
             self.tally(status, *tot)
         return int(status)
 
