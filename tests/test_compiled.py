@@ -414,7 +414,7 @@ def test_one_cached_loop_serves_every_compiled_model():
     if numba.config.DISABLE_JIT:
         pytest.skip("the loops run as Python: nothing is compiled")
     from lgvi._kernels.gyrostat_kernels import run_gyro_model
-    from lgvi._kernels.user_kernels import advance_users, run_chunk_user
+    from lgvi._kernels.user_kernels import advance_user, run_chunk_user
 
     def runs(model):
         one = run(model, steps=20, forcing="symmetric")
@@ -425,7 +425,7 @@ def test_one_cached_loop_serves_every_compiled_model():
         return one, ens, wheels
 
     first = runs(user_gravity())
-    kernels = (run_chunk_user, advance_users, run_gyro_model)
+    kernels = (run_chunk_user, advance_user, run_gyro_model)
     compiled = [set(k.signatures) for k in kernels]
     second = runs(Compiled(spring_moment, params=[0.4]))
     assert [set(k.signatures) for k in kernels] == compiled       # the same compiled loops for both models

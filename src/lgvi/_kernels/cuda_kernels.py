@@ -41,9 +41,9 @@ def forced_kernel(method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, gi
     its row of the record scratch ``it_rec``, ``res_rec`` (B, r)."""
     b = cuda.grid(1)
     if b < R.shape[0] and status[b] == OK:
-        advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, gidx, S, codes, params, sym, k0,
-                       n, tol, max_iter, alpha, save_every, out0, R_out, Pi_out, it_rec[b], res_rec[b], its, res,
-                       status, fail_step, fail_res, fail_its, hist, counts)
+        advance_forced(b, b + 1, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, gidx, S, codes, params,
+                       sym, k0, n, tol, max_iter, alpha, save_every, out0, R_out, Pi_out, it_rec[b], res_rec[b], its,
+                       res, status, fail_step, fail_res, fail_its, hist, counts)
 
 
 def user_kernel(moment):
@@ -65,9 +65,9 @@ def user_kernel(moment):
         if b < R.shape[0] and status[b] == OK:
             Rs = cuda.local.array((3, 3), numba.float64)
             Ps = cuda.local.array(3, numba.float64)
-            Rs[0, 0] = 0.0      # not NaN: the mark of a user function that raised (user_kernels.user_moment)
-            advance_user(b, moment, table, Rs, Ps, cons, mdep, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R,
-                         Pi, G, gidx, S, codes, params, sym, k0, n, tol, max_iter, alpha, save_every, out0, R_out,
-                         Pi_out, it_rec[b], res_rec[b], its, res, status, fail_step, fail_res, fail_its, hist, counts)
+            advance_user(b, b + 1, moment, table, Rs, Ps, cons, mdep, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia,
+                         A, R, Pi, G, gidx, S, codes, params, sym, k0, n, tol, max_iter, alpha, save_every, out0,
+                         R_out, Pi_out, it_rec[b], res_rec[b], its, res, status, fail_step, fail_res, fail_its, hist,
+                         counts)
 
     return kernel

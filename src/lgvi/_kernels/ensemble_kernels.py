@@ -34,8 +34,8 @@ chunk start ``k0`` need not be a multiple of ``save_every``.
 The free body's drivers come twice: ``*_parallel`` (``numba.prange`` over bodies or groups) and
 ``*_serial`` (a plain loop, used for ``threads=1``, which never touches Numba's threading layer and so
 is safe to call from many Python threads at once, as Dask workers do). The forced scheme has one,
-:func:`advance_forced_group` (a plain loop over a group of bodies), which the CPU ensemble calls from
-a pool of Python threads, one group each (see its notes).
+:func:`advance_forced` (a plain loop over a range of bodies), which the CPU ensemble calls from a
+pool of Python threads, one range each, and the GPU's kernel for one body a thread (see its notes).
 """
 
 from __future__ import annotations
@@ -99,30 +99,6 @@ def advance_free(b, method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, sa
     record_body(b, its, res, status, fail_step, fail_res, fail_its, it_sum, rmax, st, k, it, rn)
 
 
-@jit(_nrt=False)
-def advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, gidx, S, codes, params, sym, k0, n,
-                   tol, max_iter, alpha, save_every, out0, R_out, Pi_out, it_rec, res_rec, its, res, status, fail_step,
-                   fail_res, fail_its, hist, counts):
-    """Torque model and/or composition: body ``b`` through steps ``k0 .. k0+n-1`` of
-    :func:`.stepping.run_chunk_forced` itself (no explicit torque arrays), with the body's views and
-    its parameter row (``params[b]``, or ``params[0]`` for all): the loop :func:`lgvi.simulate`
-    compiles, of the same types, so a cold ensemble compiles only this call around it and a cached
-    loop serves both. ``gidx`` (s,) int64 is ``0 .. s-1`` (one solver history per substep);
-    ``it_rec``, ``res_rec`` are the caller's scratch for the solver's record (``n`` entries, or the
-    chunk's samples; not kept: the ensemble keeps totals), ``counts`` an empty int64 array. After a
-    failure the body's state is that at the start of the failed step (as in ``simulate``).
-    ``R_out[:, 0]`` holds sample ``out0`` (see :func:`advance_free`).
-    """
-    q = ib[b]
-    pb = params[b] if params.shape[0] > 1 else params[0]
-    j = k0 // save_every + 1 - out0
-    st, kend, it_total, rmax, it, rn = run_chunk_forced(
-        method, Jd[q], J[q], J_inv[q], h, t0, gam, cum, A[ia[b]], R[b], Pi[b], G[b], gidx, S[b], codes, pb,
-        hist[:0, None], sym, k0, n, tol, max_iter, alpha, save_every, save_every - k0 % save_every, R_out[b, j:],
-        Pi_out[b, j:], it_rec, res_rec, hist, counts)
-    record_body(b, its, res, status, fail_step, fail_res, fail_its, it_total, rmax, st, kend, it, rn)
-
-
 @jit_parallel
 def run_free_parallel(method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out,
                       its, res, status, fail_step, fail_res, fail_its, hist):
@@ -146,21 +122,29 @@ def run_free_serial(method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, sa
 
 
 @jit(_nrt=False)
-def advance_forced_group(group, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, gidx, S, codes, params,
-                         sym, k0, n, tol, max_iter, alpha, save_every, out0, R_out, Pi_out, it_rec, res_rec, its, res,
-                         status, fail_step, fail_res, fail_its, hist, counts):
-    """:func:`advance_forced` for the bodies ``group`` (int64) whose status is still ``OK``, in one
-    compiled call. The CPU ensemble runs its bodies in contiguous groups, one Python thread a group
-    (the kernel releases the GIL; each thread has its own scratch ``it_rec``, ``res_rec``), rather
-    than in a ``numba.prange`` loop: Numba's parallel compilation of such a loop (its type inference
-    and parfor lowering) was more than half of an ensemble's cold first call.
+def advance_forced(b0, b1, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, gidx, S, codes, params, sym, k0,
+                   n, tol, max_iter, alpha, save_every, out0, R_out, Pi_out, it_rec, res_rec, its, res, status,
+                   fail_step, fail_res, fail_its, hist, counts):
+    """Torque model and/or composition: the bodies ``b0 .. b1-1`` whose status is still ``OK`` through
+    steps ``k0 .. k0+n-1`` of :func:`.stepping.run_chunk_forced` itself (no explicit torque arrays),
+    each with its views and its parameter row (``params[b]``, or ``params[0]`` for all): the loop
+    :func:`lgvi.simulate` compiles, of the same types, so a cold ensemble compiles only this call
+    around it and a cached loop serves both. ``gidx`` (s,) int64 is ``0 .. s-1`` (one solver history
+    per substep); ``it_rec``, ``res_rec`` are the caller's scratch for the solver's record (``n``
+    entries, or the chunk's samples; not kept: the ensemble keeps totals), ``counts`` an empty int64
+    array. After a failure the body's state is that at the start of the failed step (as in
+    ``simulate``). ``R_out[:, 0]`` holds sample ``out0`` (see :func:`advance_free`).
 
-    The body is :func:`advance_forced`'s, written out rather than called: a call of a compiled
-    function links the callee's code into the caller, where LLVM optimises all of it again, so a
-    level of calls between this loop and :func:`.stepping.run_chunk_forced` would cost one more
-    optimisation of that loop (and a call of more than 30 arguments cannot be inlined)."""
-    for i in range(group.shape[0]):
-        b = group[i]
+    The CPU ensemble runs its bodies in contiguous ranges, one Python thread a range (the kernel
+    releases the GIL; each thread has its own scratch), rather than in a ``numba.prange`` loop:
+    Numba's parallel compilation of such a loop (its type inference and parfor lowering) was more
+    than half of an ensemble's cold first call. The GPU's kernel runs one body a thread
+    (``b1 = b0 + 1``). The step loop is called from here directly: a call of a compiled function
+    links the callee's code into the caller, where LLVM optimises all of it again, so each level of
+    calls between this loop and :func:`.stepping.run_chunk_forced` would cost one more optimisation
+    of the step loop.
+    """
+    for b in range(b0, b1):
         if status[b] != OK:
             continue
         q = ib[b]

@@ -233,7 +233,7 @@ def run_chunk_user(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, h, t0, 
     A step whose user function raised fails with ``USER_RAISED`` (``Rs`` (3, 3) zeros on entry,
     ``Ps`` (3,) scratch; ``moment`` of :data:`MOMENT_SIGNATURE`, see :func:`guarded`). Cached on
     disk: one compiled loop for every user's model, of :func:`lgvi.simulate` and of each body of an
-    ensemble (:func:`advance_users`; the ensemble's views are of the same types).
+    ensemble (:func:`advance_user`; the ensemble's views are of the same types).
 
     The first sample is stored after ``countdown`` steps (``save_every`` when ``k0`` is a multiple
     of it) at ``R_out[0]``, then every ``save_every`` steps.
@@ -329,38 +329,20 @@ def user_potential_series(potential, t, R, up, Rs, out):
 
 
 @jit(_nrt=False)
-def advance_user(b, moment, table, Rs, Ps, cons, mdep, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G,
-                 gidx, S, codes, params, sym, k0, n, tol, max_iter, alpha, save_every, out0, R_out, Pi_out, it_rec,
+def advance_user(b0, b1, moment, table, Rs, Ps, cons, mdep, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi,
+                 G, gidx, S, codes, params, sym, k0, n, tol, max_iter, alpha, save_every, out0, R_out, Pi_out, it_rec,
                  res_rec, its, res, status, fail_step, fail_res, fail_its, hist, counts):
-    """Body ``b`` of an ensemble through steps ``k0 .. k0+n-1`` of :func:`run_chunk_user`, with the
-    ensemble's per-body arrays (as :func:`.ensemble_kernels.advance_forced`): its parameter row
-    ``table[b]`` (``table`` (B, P), or (1, P) for all), ``R_out[:, 0]`` holding sample ``out0``.
-    ``Rs`` (3, 3), ``Ps`` (3,), ``it_rec`` and ``res_rec`` (at least ``n // save_every`` entries,
-    the solver's record, not kept) are the caller's scratch. The GPU's kernel calls this per thread
-    (:mod:`.cuda_kernels`); the CPU ensemble's :func:`advance_users` has the same body written out.
+    """The bodies ``b0 .. b1-1`` of an ensemble whose status is still ``OK`` through steps
+    ``k0 .. k0+n-1`` of :func:`run_chunk_user`, each with the ensemble's per-body arrays (as
+    :func:`.ensemble_kernels.advance_forced`) and its parameter row ``table[b]`` (``table`` (B, P), or
+    (1, P) for all); ``R_out[:, 0]`` holds sample ``out0``. ``Rs`` (3, 3), ``Ps`` (3,), ``it_rec`` and
+    ``res_rec`` (at least ``n // save_every`` entries, the solver's record, not kept) are the caller's
+    scratch. The CPU ensemble's threads each call this once a chunk with their range of bodies (a call
+    per body cost tens of microseconds of dispatch under the GIL, which serialised the threads); the
+    GPU's kernel once a thread, for one body (``b1 = b0 + 1``, :mod:`.cuda_kernels`). The step loop
+    is called from here directly (see :func:`.ensemble_kernels.advance_forced`).
     """
-    q = ib[b]
-    up = table[b] if table.shape[0] > 1 else table[0]
-    j = k0 // save_every + 1 - out0
-    st, kend, it_total, rmax, it, rn = run_chunk_user(
-        moment, up, Rs, Ps, cons, mdep, method, Jd[q], J[q], J_inv[q], h, t0, gam, cum, A[ia[b]], R[b], Pi[b], G[b],
-        gidx, S[b], codes, params, sym, k0, n, tol, max_iter, alpha, save_every, save_every - k0 % save_every,
-        R_out[b, j:], Pi_out[b, j:], it_rec[:n], res_rec[:n], hist, counts)
-    record_body(b, its, res, status, fail_step, fail_res, fail_its, it_total, rmax, st, kend, it, rn)
-
-
-@jit(_nrt=False)
-def advance_users(group, moment, table, Rs, Ps, cons, mdep, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi,
-                  G, gidx, S, codes, params, sym, k0, n, tol, max_iter, alpha, save_every, out0, R_out, Pi_out,
-                  it_rec, res_rec, its, res, status, fail_step, fail_res, fail_its, hist, counts):
-    """:func:`advance_user` for the bodies ``group`` (int64) whose status is still ``OK``, in one
-    compiled call: the CPU ensemble's threads each call this once a chunk with their group (a call per
-    body cost tens of microseconds of dispatch under the GIL, which serialised the threads). The body
-    is :func:`advance_user`'s written out, calling :func:`run_chunk_user` directly: each level of
-    calls between this loop and the step loop would have LLVM optimise the step loop once more (see
-    :func:`.ensemble_kernels.advance_forced_group`)."""
-    for i in range(group.shape[0]):
-        b = group[i]
+    for b in range(b0, b1):
         if status[b] != OK:
             continue
         Rs[0, 0] = 0.0          # the mark of a user function that raised (user_moment)

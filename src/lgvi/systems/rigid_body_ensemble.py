@@ -40,6 +40,9 @@ from ..trajectory import ARRAY_FIELDS, Trajectory, freeze_arrays
 
 #: Body-substeps per compiled call (about 0.1-0.5 s); Ctrl-C and progress are handled between calls.
 CHUNK_BODY_STEPS = 1 << 22
+#: Solver histories (bodies x substeps) up to which an ensemble cold-starts them in Python, as
+#: lgvi.simulate does (beyond it, the compiled init_histories).
+PYTHON_COLD_START_MAX = 4096
 #: Default size of one block's samples (``R`` and ``Pi``) with ``client=`` or ``out_dir=``.
 BLOCK_BYTES = 1 << 28
 
@@ -932,7 +935,7 @@ def _device_options(device: str, **options: Any) -> None:
 @contextlib.contextmanager
 def quiet_function_argument() -> Any:
     """Silence Numba's note that passing the user's function on to another compiled function (the
-    per-body :func:`lgvi._kernels.user_kernels.advance_user` to the loop it calls) is an experimental
+    ensemble's :func:`lgvi._kernels.user_kernels.advance_user` to the loop it calls) is an experimental
     feature: it is what a :class:`lgvi.torques.Compiled` model is, tested bit for bit."""
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="First-class function type feature is experimental")
@@ -993,7 +996,19 @@ class _LocalRun:
         stages = 1 if s.legacy else len(s.gam)
         hs = np.array([h]) if s.legacy else s.gam * h
         self.G = np.zeros((B, stages, 5, 3))
-        ek.init_histories(s.code, self.J, s.ib, hs, self.Pi, self.G)
+        if B * stages <= PYTHON_COLD_START_MAX:
+            # the cold start of simulate (rigid_body_run._cold_start, the kernel's operations in Python:
+            # the same bits), a few microseconds a history: a small ensemble's first call then does not
+            # compile init_histories (about half a second of CPU)
+            from .rigid_body_run import _cold_start, _cold_start_factors
+
+            factors = [_cold_start_factors(s.code, J) for J in self.J]
+            for b in range(B):
+                q = int(s.ib[b])
+                for i, hi in enumerate(hs.tolist()):
+                    _cold_start(factors[q], s.code, self.J[q], hi, self.Pi[b], self.G[b, i, 0])
+        else:
+            ek.init_histories(s.code, self.J, s.ib, hs, self.Pi, self.G)
         if not s.legacy:
             # momentum matrices per group of bodies with the same inertia and model (A[ia[b]])
             self.ia, reps = s.groups()
@@ -1032,8 +1047,8 @@ class _LocalRun:
         return table
 
     def _run_groups(self, call: Any) -> None:
-        """``call(group)`` for the bodies split into ``self.threads`` contiguous groups (int64 arrays),
-        each group on a thread of a pool (one compiled call a group: the compiled loops release the
+        """``call(b0, b1)`` for the bodies split into ``self.threads`` contiguous ranges ``b0 .. b1-1``,
+        each range on a thread of a pool (one compiled call a range: the compiled loops release the
         GIL; a call per body cost tens of microseconds of dispatch under the GIL, which serialised
         the threads). Each body has its own state and ``call`` gives each thread its own scratch
         arrays, so the numbers do not depend on the threads."""
@@ -1041,24 +1056,24 @@ class _LocalRun:
         workers = min(self.threads, B)
         with quiet_function_argument():
             if workers <= 1:
-                call(np.arange(B, dtype=np.int64))
+                call(0, B)
                 return
+            ends = [int(g[-1]) + 1 for g in np.array_split(np.arange(B), workers)]
             with ThreadPoolExecutor(max_workers=workers) as pool:
-                list(pool.map(call, np.array_split(np.arange(B, dtype=np.int64), workers)))
+                list(pool.map(call, [0] + ends[:-1], ends))
 
     def _advance_forced(self, n: int, R_out: np.ndarray, Pi_out: np.ndarray) -> None:
         """Steps ``k .. k + n - 1`` of the built-in models: each body runs the loop of
-        :func:`lgvi.simulate` (:func:`lgvi._kernels.stepping.run_chunk_forced`, through
-        :func:`lgvi._kernels.ensemble_kernels.advance_forced`), the bodies in groups on threads
-        (:meth:`_run_groups`, :func:`lgvi._kernels.ensemble_kernels.advance_forced_group`)."""
-        from .._kernels.ensemble_kernels import advance_forced_group
+        :func:`lgvi.simulate` (:func:`lgvi._kernels.stepping.run_chunk_forced`), the bodies in ranges
+        on threads (:meth:`_run_groups`, :func:`lgvi._kernels.ensemble_kernels.advance_forced`)."""
+        from .._kernels.ensemble_kernels import advance_forced
 
         s, k, se = self.s, self.k, self.save_every
         gidx = np.arange(self.G.shape[1], dtype=np.int64)
         counts = np.zeros(0, dtype=np.int64)
 
-        def bodies(group: np.ndarray) -> None:
-            advance_forced_group(group, s.code, self.Jd, self.J, self.J_inv, s.ib, s.h, s.t0, s.gam, s.cum, self.ia,
+        def bodies(b0: int, b1: int) -> None:
+            advance_forced(b0, b1, s.code, self.Jd, self.J, self.J_inv, s.ib, s.h, s.t0, s.gam, s.cum, self.ia,
                                  self.A, self.R, self.Pi, self.G, gidx, self.S, s.codes, s.ptab, int(s.sym), k, n,
                                  s.tol, s.max_iter, s.alpha, se, 0, R_out, Pi_out, np.zeros(n, np.int32), np.zeros(n),
                                  self.its, self.res, self.status, self.fail_step, self.fail_res, self.fail_its,
@@ -1067,11 +1082,11 @@ class _LocalRun:
         self._run_groups(bodies)
 
     def _advance_user(self, n: int, R_out: np.ndarray, Pi_out: np.ndarray) -> None:
-        """Steps ``k .. k + n - 1`` of a user's compiled model: one compiled call per body
-        (:func:`lgvi._kernels.user_kernels.advance_user`, which the GPU's kernel calls too), with the
-        body's parameter row, the same loop and values as :func:`lgvi.simulate`, the bodies in groups
-        on threads (:meth:`_run_groups`, :func:`lgvi._kernels.user_kernels.advance_users`)."""
-        from .._kernels.user_kernels import advance_users, guarded
+        """Steps ``k .. k + n - 1`` of a user's compiled model: each body runs the loop of
+        :func:`lgvi.simulate` (:func:`lgvi._kernels.user_kernels.run_chunk_user`) with its parameter
+        row, the bodies in ranges on threads (:meth:`_run_groups`,
+        :func:`lgvi._kernels.user_kernels.advance_user`, which the GPU's kernel calls too)."""
+        from .._kernels.user_kernels import advance_user, guarded
 
         s, k, se = self.s, self.k, self.save_every
         m = s.model
@@ -1079,9 +1094,9 @@ class _LocalRun:
         counts = np.zeros(0, dtype=np.int64)
         table = self.user_table()
 
-        def bodies(group: np.ndarray) -> None:
+        def bodies(b0: int, b1: int) -> None:
             Rs, Ps, it_buf, res_buf = np.zeros((3, 3)), np.zeros(3), np.zeros(n, np.int32), np.zeros(n)
-            advance_users(group, guarded(m.moment_func), table, Rs, Ps,
+            advance_user(b0, b1, guarded(m.moment_func), table, Rs, Ps,
                           m.conservative, m.depends_on_momentum, s.code, self.Jd, self.J, self.J_inv, s.ib, s.h, s.t0,
                           s.gam, s.cum, self.ia, self.A, self.R, self.Pi, self.G, gidx, self.S, s.codes, s.params,
                           int(s.sym), k, n, s.tol, s.max_iter, s.alpha, se, 0, R_out, Pi_out, it_buf, res_buf,
