@@ -997,16 +997,11 @@ class _LocalRun:
         hs = np.array([h]) if s.legacy else s.gam * h
         self.G = np.zeros((B, stages, 5, 3))
         if B * stages <= PYTHON_COLD_START_MAX:
-            # the cold start of simulate (rigid_body_run._cold_start, the kernel's operations in Python:
-            # the same bits), a few microseconds a history: a small ensemble's first call then does not
-            # compile init_histories (about half a second of CPU)
-            from .rigid_body_run import _cold_start, _cold_start_factors
+            # the cold start of simulate (the kernel's operations in Python: the same bits), a few
+            # microseconds a history: a small ensemble's first call then does not compile init_histories
+            from .rigid_body_run import cold_start_histories
 
-            factors = [_cold_start_factors(s.code, J) for J in self.J]
-            for b in range(B):
-                q = int(s.ib[b])
-                for i, hi in enumerate(hs.tolist()):
-                    _cold_start(factors[q], s.code, self.J[q], hi, self.Pi[b], self.G[b, i, 0])
+            cold_start_histories(s.code, self.J, s.ib, hs, self.Pi, self.G)
         else:
             ek.init_histories(s.code, self.J, s.ib, hs, self.Pi, self.G)
         if not s.legacy:

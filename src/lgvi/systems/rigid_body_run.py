@@ -122,6 +122,18 @@ def _solver_states(code: int, body: RigidBody, hs: np.ndarray, Pi: np.ndarray) -
     return G
 
 
+def cold_start_histories(code: int, J: np.ndarray, ib: np.ndarray, hs: np.ndarray, Pi: np.ndarray,
+                         G: np.ndarray) -> None:
+    """The cold start of :func:`_solver_state` for a stack of bodies, in place: ``G[b, i, 0]`` from
+    ``J[ib[b]]``, ``hs[i]`` and ``Pi[b]`` (``G`` (B, s, 5, 3) zero on entry), the same bits as the
+    compiled ``ensemble_kernels.init_histories`` (a few microseconds a history, nothing compiled)."""
+    factors = [_cold_start_factors(code, Jq) for Jq in J]
+    for b in range(len(Pi)):
+        q = int(ib[b])
+        for i, hi in enumerate(hs.tolist()):
+            _cold_start(factors[q], code, J[q], hi, Pi[b], G[b, i, 0])
+
+
 @dataclass(frozen=True)
 class StepResult:
     """Result of :func:`step`: the next state and the solve that produced it."""
