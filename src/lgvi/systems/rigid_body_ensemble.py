@@ -1,8 +1,10 @@
 """Ensembles: many bodies propagated at once, the loop over bodies compiled and parallel.
 
 :func:`simulate_ensemble` runs ``B`` bodies (each with its own inertia if wanted) through the
-same attitude LGVI as :func:`lgvi.simulate`, in one compiled kernel that splits the bodies over
-the machine's cores (Numba ``prange``). With ``client=`` (a ``dask.distributed.Client``) the
+same attitude LGVI as :func:`lgvi.simulate`, the bodies split over the machine's cores (the free
+body in one compiled kernel with a Numba ``prange`` loop; torque models and compositions in
+contiguous ranges of bodies on a pool of threads, each running ``simulate``'s compiled loop, which
+releases the GIL). With ``client=`` (a ``dask.distributed.Client``) the
 bodies are split into blocks that run as Dask tasks; with ``out_dir=`` each block is written to
 its own file, for ensembles larger than memory. Every body gives bit for bit the trajectory
 :func:`lgvi.simulate` gives it, whichever path, thread or block runs it.
@@ -777,9 +779,10 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
 
     Notes
     -----
-    The loop over bodies runs inside the compiled kernel (Numba ``prange``); each thread takes
-    a contiguous block of bodies and advances each one through a whole chunk of steps with its
-    state in cache. Results do not depend on the number of threads, the chunking or the blocks.
+    The loop over bodies runs inside compiled code (for the free body a Numba ``prange`` loop; with
+    a torque model or a composition one compiled call a thread, each running ``simulate``'s loop
+    on its bodies); each thread takes a contiguous block of bodies and advances each one through a
+    whole chunk of steps with its state in cache. Results do not depend on the number of threads, the chunking or the blocks.
     The free body with ``method="cayley"`` (order 2) steps groups of 8 bodies in lockstep in SIMD
     registers, with the same floating-point operations per body as the scalar step (bodies whose
     step needs more than one Newton update take the scalar step): the fastest path, about four
@@ -1066,11 +1069,14 @@ class _LocalRun:
         s, k, se = self.s, self.k, self.save_every
         gidx = np.arange(self.G.shape[1], dtype=np.int64)
         counts = np.zeros(0, dtype=np.int64)
+        # the loop's record scratch, one entry a sample of the chunk (the loop then records per sample,
+        # not per step; it records per step only when this is n entries, and then it is long enough)
+        m = n // se + 1
 
         def bodies(b0: int, b1: int) -> None:
             advance_forced(b0, b1, s.code, self.Jd, self.J, self.J_inv, s.ib, s.h, s.t0, s.gam, s.cum, self.ia,
                                  self.A, self.R, self.Pi, self.G, gidx, self.S, s.codes, s.ptab, int(s.sym), k, n,
-                                 s.tol, s.max_iter, s.alpha, se, 0, R_out, Pi_out, np.zeros(n, np.int32), np.zeros(n),
+                                 s.tol, s.max_iter, s.alpha, se, 0, R_out, Pi_out, np.zeros(m, np.int32), np.zeros(m),
                                  self.its, self.res, self.status, self.fail_step, self.fail_res, self.fail_its,
                                  _NO_HIST, counts)
 
