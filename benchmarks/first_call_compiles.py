@@ -4,6 +4,7 @@ Usage::
 
     NUMBA_CACHE_DIR=$(mktemp -d) python benchmarks/first_call_compiles.py simulate-sum
     NUMBA_CACHE_DIR=$(mktemp -d) python benchmarks/first_call_compiles.py ensemble-model
+    D=$(mktemp -d); for i in 1 2; do NUMBA_CACHE_DIR=$D python benchmarks/first_call_compiles.py simulate-compiled; done
 
 The case runs once in this process (the cases of ``benchmarks/latency.py``); with an empty
 ``NUMBA_CACHE_DIR`` every kernel it needs is compiled. Numba's compile events name each kernel
@@ -13,6 +14,11 @@ locks (``compiler``: the whole front and middle end; ``llvm``: LLVM's optimisati
 code) and of its largest passes (``inline_inlinables``: copying the ``inline="always"`` helpers'
 IR into the caller; ``nopython_type_inference``; ``native_lowering``: the LLVM IR). On a loaded
 machine the wall times grow with the load; compare shares, and the CPU time of the call.
+
+The ``*-compiled`` cases run a user's :class:`lgvi.torques.Compiled` model. Run twice with one
+``NUMBA_CACHE_DIR`` (the third line above), the second process shows what every later process
+pays: the user's function and its ``cfunc`` (the loop comes from the cache; a loop specialised for
+the function, as before, was compiled again in memory by every process).
 """
 
 from __future__ import annotations
@@ -56,12 +62,30 @@ mine = UserComponent(guidance, family="guidance", writes=("R_ref", "omega_ref_N"
                      params=target.ravel())
 kw = dict(omega0=[0.01, -0.02, 0.015], h=0.1, steps=100, save_every=10)
 """
+#: a user's compiled model (lgvi.torques.Compiled): the gravity of SETUP written by the user
+COMPILED = """
+import numba
+from lgvi.torques import Compiled
+
+
+@numba.njit
+def user_gravity(t, R, Pi, p):
+    return (R[2, 1] * p[2] - R[2, 2] * p[1], R[2, 2] * p[0] - R[2, 0] * p[2], R[2, 0] * p[1] - R[2, 1] * p[0])
+
+
+user = Compiled(user_gravity, params=1.0 * 9.81 * np.array([0.0, 0.0, -0.3]))
+"""
 CASES = {
     "simulate-free": "lgvi.simulate(top, np.eye(3), omega0=[4.14, 4.14, 4.14], h=0.01, steps=100)",
     "simulate-sum": ("lgvi.simulate(top, np.eye(3), omega0=[4.14, 4.14, 4.14], h=0.01, steps=100, "
                      "torque=gravity + LinearDamping(0.01), forcing='symmetric')"),
     "ensemble-model": ("lgvi.simulate_ensemble(top, np.stack([np.eye(3)] * 4), omega0=np.ones((4, 3)), h=0.01, "
                        "steps=100, torque=gravity)"),
+    "simulate-compiled": "lgvi.simulate(top, np.eye(3), omega0=[4.14, 4.14, 4.14], h=0.01, steps=100, torque=user)",
+    "ensemble-compiled": ("lgvi.simulate_ensemble(top, np.stack([np.eye(3)] * 4), omega0=np.ones((4, 3)), h=0.01, "
+                          "steps=100, torque=user)"),
+    "gyrostat-compiled": ("lgvi.simulate(top, np.eye(3), omega0=[0.1, 0.2, 0.3], h=0.01, steps=100, torque=user, "
+                          "wheels=lgvi.ReactionWheels(np.eye(3), 1e-4))"),
     "loop-builtin": "lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(guidance=InertialPointing(target), **control), **kw)",
     "loop-user": "lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(guidance=mine, **control), **kw)",
 }
@@ -85,7 +109,8 @@ def main(argv: list[str] | None = None) -> int:
 
     event.register("numba:compile", Listener())
     namespace: dict = {}
-    exec(SETUP + (LOOP if args.case.startswith("loop") else ""), namespace)
+    exec(SETUP + (LOOP if args.case.startswith("loop") else "") + (COMPILED if args.case.endswith("compiled") else ""),
+         namespace)
     c0, w0 = time.process_time(), time.perf_counter()
     exec(CASES[args.case], namespace)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0

@@ -224,3 +224,11 @@ def test_mission_monte_carlo_quick():
     _check(proc, "members x 1 orbits", "1000 members x 3 orbits at this rate", "reached nadir pointing",
            "mean [95 % CI]", "95th percentile [95 % CI]", "control error p95 (deg)")
     assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
+def test_model_step_quick():
+    proc = _run("model_step.py", "--quick", "--compare", "src", "src")
+    _check(proc, "case", "old ns", "new ns", "new/old", "simulate gravity", "simulate Compiled", "gravity + damping",
+           "ensemble gravity", "ensemble Compiled", "Compiled / built-in")
+    assert "Traceback" not in proc.stderr

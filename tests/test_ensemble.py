@@ -119,9 +119,11 @@ def test_threads_and_chunks_do_not_change_results(options, monkeypatch):
     opts = dict(h=0.01, steps=90, save_every=9, **options)
     one = lgvi.simulate_ensemble(FULL, R0, Pi0, threads=1, **opts)
     two = lgvi.simulate_ensemble(FULL, R0, Pi0, threads=2, **opts)
+    monkeypatch.setattr(ensemble, "PYTHON_COLD_START_MAX", 0)       # the compiled cold start (large ensembles)
+    compiled_start = lgvi.simulate_ensemble(FULL, R0, Pi0, threads=2, **opts)
     monkeypatch.setattr(ensemble, "CHUNK_BODY_STEPS", 37 * 5 * 7)  # chunks of 7 (or 1) steps: not multiples of 9
     chunked = lgvi.simulate_ensemble(FULL, R0, Pi0, **opts)
-    for other in (two, chunked):
+    for other in (two, compiled_start, chunked):
         for name in ("R", "Pi", "iterations", "residual"):
             np.testing.assert_array_equal(getattr(one, name), getattr(other, name), err_msg=name)
 

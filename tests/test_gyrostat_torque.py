@@ -112,3 +112,25 @@ def test_a_momentum_dependent_model_is_refused_by_name():
     with pytest.raises(ValueError, match=r"torque= with wheels= or controller= must not depend on Pi"):
         lgvi.simulate(J, R0, omega0=W0, h=0.1, steps=5, wheels=WHEELS,
                       torque=Compiled(_pi_damping, momentum_dependent=True))
+
+
+@numba.njit
+def _fails_late(t, R, Pi, p):
+    # a spring about e3, and from t = p[0] on a division by zero (0 < p[0]: never at the first sample)
+    c = 0.0 if t < p[0] else 1.0 / (t - t)
+    return (-0.1 * R[2, 1] + c, 0.1 * R[2, 0], 0.0)
+
+
+def test_an_exception_in_the_compiled_loop_stops_at_its_step_and_keeps_the_part():
+    # the user's function is called through its guarded cfunc (one cached loop for every model): what
+    # it raises stops the run at its step with a TorqueError naming it, the part up to that step kept
+    kw = dict(omega0=W0, h=0.01, steps=300, save_every=3, wheels=WHEELS)
+    with pytest.raises(lgvi.TorqueError, match=r"Compiled\(_fails_late.*raised an exception inside the compiled "
+                                               r"loop at step 149 \(t = 1.49\).*ZeroDivisionError") as info:
+        lgvi.simulate(J, R0, torque=Compiled(_fails_late, params=[1.5]), **kw)
+    err = info.value
+    part = err.trajectory
+    clean = lgvi.simulate(J, R0, torque=Compiled(_fails_late, params=[1e9]), **kw)
+    assert err.step == 149 and part.meta["partial"] and len(part.t) == 50
+    for name in ("R", "Pi", "wheel_momentum"):
+        assert np.array_equal(getattr(part, name), getattr(clean, name)[:50]), name

@@ -154,18 +154,21 @@ class CudaRun(LocalRun):
             d["gam"], d["cum"] = dev(np.ascontiguousarray(s.gam)), dev(np.ascontiguousarray(s.cum))
             d["codes"], d["ptab"] = dev(np.ascontiguousarray(s.codes)), dev(np.ascontiguousarray(s.ptab))
             d["params"] = dev(np.ascontiguousarray(s.params))
-        self.user: bool = getattr(s.model, "moment_func", None) is not None
-        if self.user:
-            m = s.model
-            d["table"] = dev(self.user_table())
             d["gidx"] = dev(np.arange(stages, dtype=np.int64))
             d["counts"] = dev(np.zeros(0, dtype=np.int64))
             # the solver's record of a chunk, per body (not kept: the ensemble records totals)
             d["it_rec"] = cuda.device_array((B, self.m), dtype=np.int32)
             d["res_rec"] = cuda.device_array((B, self.m), dtype=np.float64)
-            key = m.moment_func
+        self.user: bool = getattr(s.model, "moment_func", None) is not None
+        if self.user:
+            m = s.model
+            d["table"] = dev(self.user_table())
+            key = (m.moment_func, self.sim)
             if key not in _USER_KERNELS:
-                _USER_KERNELS[key] = ck.user_kernel(key)
+                from ._kernels.user_kernels import guarded
+
+                # the simulator runs the CPU's compiled code: the guarded cfunc the CPU loops take
+                _USER_KERNELS[key] = ck.user_kernel(guarded(m.moment_func) if self.sim else m.moment_func)
             self.kernel: Any = _USER_KERNELS[key]
         else:
             self.kernel = ck.free_kernel if s.legacy else ck.forced_kernel
@@ -189,7 +192,8 @@ class CudaRun(LocalRun):
         if s.legacy:
             return (s.code, d["Jd"], d["ib"], s.h, d["R"], d["Pi"], d["G"], k, n, *common, *tail)
         return (s.code, d["Jd"], d["J"], d["J_inv"], d["ib"], s.h, s.t0, d["gam"], d["cum"], d["ia"], d["A"], d["R"],
-                d["Pi"], d["G"], d["S"], d["codes"], d["ptab"], int(s.sym), k, n, *common, *tail)
+                d["Pi"], d["G"], d["gidx"], d["S"], d["codes"], d["ptab"], int(s.sym), k, n, *common, d["it_rec"],
+                d["res_rec"], *tail, d["counts"])
 
     def _launch(self, n: int) -> None:
         args = tuple(self.wrap(a) for a in self._args(n))

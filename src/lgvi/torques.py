@@ -696,8 +696,9 @@ class Compiled(TorqueModel):
 
     Notes
     -----
-    The loop is specialised for the user's functions and compiled in memory (once per process
-    and function; Numba cannot cache it on disk). A trial call at ``R = I``, ``Pi = 0``,
+    The compiled loops take the user's moment as a value of one function type (a Numba ``cfunc``
+    made once per function and process: the user's function's own compilation), so one loop,
+    compiled once and cached on disk, serves every model. A trial call at ``R = I``, ``Pi = 0``,
     ``t = 0`` checks that the functions compile and return finite values of the right shape.
     Before each run the functions are tried once more in their Python form (``.py_func``) at
     the run's first sample (:meth:`check_sample`; each body's in an ensemble): an index past

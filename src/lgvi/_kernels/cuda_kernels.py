@@ -34,21 +34,24 @@ def free_kernel(method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, save_e
 
 
 @cuda.jit
-def forced_kernel(method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, S, codes, params, sym, k0, n, tol,
-                  max_iter, alpha, save_every, out0, R_out, Pi_out, its, res, status, fail_step, fail_res, fail_its,
-                  hist):
-    """Torque models and compositions: thread ``b`` runs :func:`.ensemble_kernels.advance_forced`."""
+def forced_kernel(method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, gidx, S, codes, params, sym, k0, n, tol,
+                  max_iter, alpha, save_every, out0, R_out, Pi_out, it_rec, res_rec, its, res, status, fail_step,
+                  fail_res, fail_its, hist, counts):
+    """Torque models and compositions: thread ``b`` runs :func:`.ensemble_kernels.advance_forced` with
+    its row of the record scratch ``it_rec``, ``res_rec`` (B, r)."""
     b = cuda.grid(1)
     if b < R.shape[0] and status[b] == OK:
-        advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, S, codes, params, sym, k0, n,
-                       tol, max_iter, alpha, save_every, out0, R_out, Pi_out, its, res, status, fail_step, fail_res,
-                       fail_its, hist)
+        advance_forced(b, b + 1, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, gidx, S, codes, params,
+                       sym, k0, n, tol, max_iter, alpha, save_every, out0, R_out, Pi_out, it_rec[b], res_rec[b], its,
+                       res, status, fail_step, fail_res, fail_its, hist, counts)
 
 
 def user_kernel(moment):
-    """A kernel for the user's compiled ``moment`` (:class:`lgvi.torques.Compiled`): thread ``b`` runs
-    :func:`.user_kernels.advance_user` with scratch ``R``, ``Pi`` in its local memory and its row of
-    the record scratch ``it_rec``, ``res_rec`` (B, r).
+    """A kernel for the user's compiled ``moment`` (:class:`lgvi.torques.Compiled`; on the GPU the user's
+    function itself, in the simulator, which runs the CPU's compiled code, the CPU loops'
+    :func:`.user_kernels.guarded` ``cfunc`` of it): thread ``b`` runs :func:`.user_kernels.advance_user`
+    with scratch ``R``, ``Pi`` in its local memory and its row of the record scratch ``it_rec``,
+    ``res_rec`` (B, r).
 
     A CUDA kernel cannot take a function as an argument, so the function is a free variable of the
     kernel, which is made (and compiled on its first launch) once per function.
@@ -62,9 +65,9 @@ def user_kernel(moment):
         if b < R.shape[0] and status[b] == OK:
             Rs = cuda.local.array((3, 3), numba.float64)
             Ps = cuda.local.array(3, numba.float64)
-            Rs[0, 0] = 0.0      # not NaN: the mark of a user function that raised (user_kernels.user_moment)
-            advance_user(b, moment, table, Rs, Ps, cons, mdep, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R,
-                         Pi, G, gidx, S, codes, params, sym, k0, n, tol, max_iter, alpha, save_every, out0, R_out,
-                         Pi_out, it_rec[b], res_rec[b], its, res, status, fail_step, fail_res, fail_its, hist, counts)
+            advance_user(b, b + 1, moment, table, Rs, Ps, cons, mdep, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia,
+                         A, R, Pi, G, gidx, S, codes, params, sym, k0, n, tol, max_iter, alpha, save_every, out0,
+                         R_out, Pi_out, it_rec[b], res_rec[b], its, res, status, fail_step, fail_res, fail_its, hist,
+                         counts)
 
     return kernel

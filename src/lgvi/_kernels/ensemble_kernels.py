@@ -2,8 +2,8 @@
 
 Each body runs exactly the per-step code of :func:`lgvi.simulate` on its own state: the free
 body at order 2 runs :func:`.stepping.free_steps` (the loop of :func:`.stepping.run_chunk`), every
-other scheme calls :func:`.stepping.forced_stage_s` per substep (as
-:func:`.stepping.run_chunk_forced` does), with the same arguments in the same order. With IEEE
+other scheme calls :func:`.stepping.run_chunk_forced` itself on the body's views
+(:func:`advance_forced`). With IEEE
 arithmetic (``fastmath`` is never on) a body of the ensemble therefore follows bit for bit the
 trajectory ``simulate`` gives it, whichever thread runs it and however the steps are chunked.
 The free body with the Cayley solver has a third path, :func:`run_lockstep_parallel`: groups of
@@ -31,9 +31,11 @@ bodies, each for a whole chunk of steps with its state in cache; the step loop a
 nothing (views are made once per body and chunk). Samples may fall anywhere in a chunk: the
 chunk start ``k0`` need not be a multiple of ``save_every``.
 
-Each driver comes twice: ``*_parallel`` (``numba.prange`` over bodies or groups) and ``*_serial`` (a plain
-loop, used for ``threads=1``, which never touches Numba's threading layer and so is safe to call
-from many Python threads at once, as Dask workers do).
+The free body's drivers come twice: ``*_parallel`` (``numba.prange`` over bodies or groups) and
+``*_serial`` (a plain loop, used for ``threads=1``, which never touches Numba's threading layer and so
+is safe to call from many Python threads at once, as Dask workers do). The forced scheme has one,
+:func:`advance_forced` (a plain loop over a range of bodies), which the CPU ensemble calls from a
+pool of Python threads, one range each, and the GPU's kernel for one body a thread (see its notes).
 """
 
 from __future__ import annotations
@@ -46,11 +48,10 @@ import numpy as np
 from .._jit import jit, jit_parallel
 from .codes import OK
 from .solvers import CHEBYSHEV_MIN, initial_guess
-from .stepping import forced_stage_s, free_steps, init_moments, lgvi_step, load_state, save_state, store
-from .torque_kernels import momentum_diag
+from .stepping import free_steps, lgvi_step, run_chunk_forced
 
 
-@jit
+@jit(_nrt=False)
 def init_histories(method, J, ib, hs, Pi, G):
     """Cold-start the solver histories: ``G[b, i, 0]`` from the linearisation ``J w = hs[i] Pi[b]``.
 
@@ -98,68 +99,6 @@ def advance_free(b, method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, sa
     record_body(b, its, res, status, fail_step, fail_res, fail_its, it_sum, rmax, st, k, it, rn)
 
 
-@jit(_nrt=False)
-def advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, S, codes, params, sym, k0, n,
-                   tol, max_iter, alpha, save_every, out0, R_out, Pi_out, its, res, status, fail_step, fail_res,
-                   fail_its, hist):
-    """Torque model and/or composition: body ``b`` through steps ``k0 .. k0+n-1``.
-
-    The same substeps as :func:`.stepping.run_chunk_forced` (no explicit torque arrays). After a
-    failure the body's state is left as the failing substep found it (the ensemble reports only
-    samples before the failing step). ``R_out[:, 0]`` holds sample ``out0`` (see :func:`advance_free`).
-    """
-    s = gam.shape[0]
-    Rb = R[b]
-    Pib = Pi[b]
-    Gb = G[b]
-    Sb = S[b]
-    q = ib[b]
-    Jdb = Jd[q]
-    Jb = J[q]
-    Jib = J_inv[q]
-    Ab = A[ia[b]]
-    pb = params[b] if params.shape[0] > 1 else params[0]
-    D0, D1, D2 = momentum_diag(codes, pb)
-    has_D = D0 != 0.0 or D1 != 0.0 or D2 != 0.0
-    if Sb[6] == 0.0:
-        init_moments(codes, pb, Jb, Jib, t0 + k0 * h, Rb, Pib, Sb, 0.0, 0.0, 0.0)
-    j = k0 // save_every + 1 - out0
-    countdown = save_every - k0 % save_every
-    it_sum = its[b]
-    rmax = res[b]
-    # the state in local tuples, as in run_chunk_forced; forced_stage_s is inlined here directly (not
-    # through forced_stage, whose copy of it would be copied once more: compile time)
-    Rt, Pt, Mt = load_state(Rb, Pib, Sb)
-    for k in range(k0, k0 + n):
-        failed = False
-        for i in range(s):
-            t1 = t0 + (k + cum[i + 1]) * h
-            it, rn, st, Rt, Pt, Mt = forced_stage_s(method, Jdb, Jb, Jib, gam[i] * h, t1, Rt, Pt, Mt, Gb, i, codes,
-                                                    pb, D0, D1, D2, has_D, Ab, i, sym, 0.0, 0.0, 0.0, tol, max_iter,
-                                                    alpha, hist)
-            it_sum += it
-            if st != OK:
-                status[b] = st
-                fail_step[b] = k
-                fail_res[b] = rn
-                fail_its[b] = it
-                failed = True
-                break
-            if rn > rmax:
-                rmax = rn
-        if failed:
-            break
-        countdown -= 1
-        if countdown == 0:
-            countdown = save_every
-            save_state(Rb, Pib, Sb, Rt, Pt, Mt)
-            store(R_out[b], Pi_out[b], j, Rb, Pib)
-            j += 1
-    save_state(Rb, Pib, Sb, Rt, Pt, Mt)
-    its[b] = it_sum
-    res[b] = rmax
-
-
 @jit_parallel
 def run_free_parallel(method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out,
                       its, res, status, fail_step, fail_res, fail_its, hist):
@@ -182,28 +121,40 @@ def run_free_serial(method, Jd, ib, h, R, Pi, G, k0, n, tol, max_iter, alpha, sa
                          its, res, status, fail_step, fail_res, fail_its, hist)
 
 
-@jit_parallel
-def run_forced_parallel(method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, S, codes, params, sym, k0,
-                        n, tol, max_iter, alpha, save_every, R_out, Pi_out, its, res, status, fail_step, fail_res,
-                        fail_its, hist):
-    """Every running body through steps ``k0 .. k0+n-1`` of the forced/composed scheme, in parallel."""
-    for b in numba.prange(R.shape[0]):
-        if status[b] == OK:
-            advance_forced(np.int64(b), method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, S, codes, params,
-                           sym, k0, n, tol, max_iter, alpha, save_every, 0, R_out, Pi_out, its, res, status,
-                           fail_step, fail_res, fail_its, hist)      # np.int64: see run_free_parallel
+@jit(_nrt=False)
+def advance_forced(b0, b1, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, gidx, S, codes, params, sym, k0,
+                   n, tol, max_iter, alpha, save_every, out0, R_out, Pi_out, it_rec, res_rec, its, res, status,
+                   fail_step, fail_res, fail_its, hist, counts):
+    """Torque model and/or composition: the bodies ``b0 .. b1-1`` whose status is still ``OK`` through
+    steps ``k0 .. k0+n-1`` of :func:`.stepping.run_chunk_forced` itself (no explicit torque arrays),
+    each with its views and its parameter row (``params[b]``, or ``params[0]`` for all): the loop
+    :func:`lgvi.simulate` compiles, of the same types, so a cold ensemble compiles only this call
+    around it and a cached loop serves both. ``gidx`` (s,) int64 is ``0 .. s-1`` (one solver history
+    per substep); ``it_rec``, ``res_rec`` are the caller's scratch for the solver's record (``n``
+    entries, or the chunk's samples; not kept: the ensemble keeps totals), ``counts`` an empty int64
+    array. After a failure the body's state is that at the start of the failed step (as in
+    ``simulate``). ``R_out[:, 0]`` holds sample ``out0`` (see :func:`advance_free`).
 
-
-@jit
-def run_forced_serial(method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, S, codes, params, sym, k0,
-                      n, tol, max_iter, alpha, save_every, R_out, Pi_out, its, res, status, fail_step, fail_res,
-                      fail_its, hist):
-    """:func:`run_forced_parallel` on the calling thread only."""
-    for b in range(R.shape[0]):
-        if status[b] == OK:
-            advance_forced(b, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G, S, codes, params, sym,
-                           k0, n, tol, max_iter, alpha, save_every, 0, R_out, Pi_out, its, res, status, fail_step,
-                           fail_res, fail_its, hist)
+    The CPU ensemble runs its bodies in contiguous ranges, one Python thread a range (the kernel
+    releases the GIL; each thread has its own scratch), rather than in a ``numba.prange`` loop:
+    Numba's parallel compilation of such a loop (its type inference and parfor lowering) was more
+    than half of an ensemble's cold first call. The GPU's kernel runs one body a thread
+    (``b1 = b0 + 1``). The step loop is called from here directly: a call of a compiled function
+    links the callee's code into the caller, where LLVM optimises all of it again, so each level of
+    calls between this loop and :func:`.stepping.run_chunk_forced` would cost one more optimisation
+    of the step loop.
+    """
+    for b in range(b0, b1):
+        if status[b] != OK:
+            continue
+        q = ib[b]
+        pb = params[b] if params.shape[0] > 1 else params[0]
+        j = k0 // save_every + 1 - out0
+        st, kend, it_total, rmax, it, rn = run_chunk_forced(
+            method, Jd[q], J[q], J_inv[q], h, t0, gam, cum, A[ia[b]], R[b], Pi[b], G[b], gidx, S[b], codes, pb,
+            hist[:0, None], sym, k0, n, tol, max_iter, alpha, save_every, save_every - k0 % save_every, R_out[b, j:],
+            Pi_out[b, j:], it_rec, res_rec, hist, counts)
+        record_body(b, its, res, status, fail_step, fail_res, fail_its, it_total, rmax, st, kend, it, rn)
 
 
 # ------------------------------------------------------------------------------------------------

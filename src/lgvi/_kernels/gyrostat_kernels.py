@@ -26,8 +26,8 @@ from __future__ import annotations
 
 import math
 
-from .._jit import jit
-from .codes import NOT_CONVERGED, NOT_FINITE, OK, OVERFLOW, SINGULAR
+from .._jit import jit, jit_copy
+from .codes import NOT_CONVERGED, NOT_FINITE, OK, OVERFLOW, SINGULAR, USER_RAISED
 from .solvers import EPS, SERIES_ANGLE, expm1_entries
 from .stepping import momentum_step, predict_at, push_at, rotate, rotated_row
 
@@ -541,12 +541,16 @@ def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cm
     m1 = 0.0
     m2 = 0.0
     if moment is not None:
-        mm = moment(t0 + k0 * h, R, Pi, up)
+        # the moment at the chunk's start, given a copy of R in the scratch Rs (as the substeps give it):
+        # a guarded user's function marks Rs[0, 0] with NaN when it raises (user_kernels.guarded)
+        for i in range(3):
+            Rs[i, 0], Rs[i, 1], Rs[i, 2] = R[i, 0], R[i, 1], R[i, 2]
+        mm = moment(t0 + k0 * h, Rs, Pi, up)
         m0 = float(mm[0])
         m1 = float(mm[1])
         m2 = float(mm[2])
         if not (math.isfinite(m0) and math.isfinite(m1) and math.isfinite(m2)):
-            return NOT_FINITE, k0, 0, 0.0, 0, 0.0
+            return USER_RAISED if Rs[0, 0] != Rs[0, 0] else NOT_FINITE, k0, 0, 0.0, 0, 0.0
     # counters instead of a division per step: k % spc, (k - kb) // per, (k - kb) % per, (k + 1 - kb) % save_every
     c_ctl = k0 % spc
     e = (k0 - kb) // per
@@ -567,6 +571,8 @@ def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cm
                                                       tau[0], tau[1], tau[2], m0, m1, m2, tol, max_iter)
         it_sum += it_add
         if st != OK:
+            if st == NOT_FINITE and moment is not None and Rs[0, 0] != Rs[0, 0]:
+                st = USER_RAISED            # the guarded user's function raised (its mark, see above)
             return st, k, it_sum, rmax, its, rn
         rmax, c_rec, e, c_save, j = after_step(its, rn, rmax, counts, c_rec, e, per, it_out, res_out, u_out, u_now,
                                                c_save, j, save_every, R, Pi, rho, R_out, Pi_out, rho_out)
@@ -576,5 +582,9 @@ def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cm
 #: :func:`gyro_steps` without a torque model (``moment=None``; cached on disk).
 run_gyro = jit(_nrt=False)(gyro_steps)
 #: :func:`gyro_steps` with a torque model ``moment(t, R, Pi, up)`` (an ``lgvi.torques.Compiled``, not
-#: depending on ``Pi``), specialised for it and compiled in memory.
-run_gyro_model = jit(cache=False)(gyro_steps)
+#: depending on ``Pi``): the user's function as a value of one function type
+#: (:func:`.user_kernels.guarded`, :data:`.user_kernels.MOMENT_SIGNATURE`), so one compiled loop,
+#: cached on disk, serves every user's model; an exception the function raises stops the run with
+#: ``USER_RAISED`` at its step.
+run_gyro_model = jit_copy(gyro_steps, "run_gyro_model", "gyro_steps compiled for a user's moment (see the "
+                          "module's run_gyro_model).", _nrt=False)

@@ -571,9 +571,13 @@ def step_done(k, k0, status, its_sum, rmax, rn, Rt, Pt, book, per_step, save_eve
     return it_total, rmax_all, rmax, imax, rimax, countdown, jout
 
 
-@jit
+@jit(inline="always")
 def init_moments(codes, params, J, J_inv, t, R, Pi, S, v0, v1, v2):
-    """Fill the moment cache ``S`` at the state ``(t, R, Pi)`` (``v`` an extra explicit moment)."""
+    """Fill the moment cache ``S`` at the state ``(t, R, Pi)`` (``v`` an extra explicit moment).
+
+    Inlined at its one call site (:func:`run_chunk_forced`'s start): as a function of its own it was
+    a fourth compilation of the first call, about 1 s of CPU on its own (it calls the models through
+    :func:`.torque_kernels.model_moments_call`, compiled once for both)."""
     P0, P1, P2, Q0, Q1, Q2 = model_moments_call(codes, params, J, t, R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1],
                                                 R[1, 2], R[2, 0], R[2, 1], R[2, 2])
     D0, D1, D2 = momentum_diag(codes, params)
@@ -588,7 +592,7 @@ def init_moments(codes, params, J, J_inv, t, R, Pi, S, v0, v1, v2):
 
 @jit(_nrt=False)
 def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S, codes, params, U, sym,
-                     k0, n, tol, max_iter, alpha, save_every, R_out, Pi_out, it_out, res_out, hist, counts):
+                     k0, n, tol, max_iter, alpha, save_every, countdown, R_out, Pi_out, it_out, res_out, hist, counts):
     """Advance ``n`` steps ``k0 .. k0+n-1`` of a forced and/or composed scheme (see notes above).
 
     Each step of size ``h`` is the composition of ``s = gam.shape[0]`` substeps of sizes
@@ -600,8 +604,14 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
     solutions of the same substep, equally spaced by ``h`` (a history shared by substeps of
     different sizes, or by equal substeps at unequal spacing, extrapolates badly). ``U`` (steps+1, 3) or empty: explicit
     moments at the grid points (symmetric forcing, ``s = 1``). Output buffers, ``counts`` and the
-    record's resolution are as in :func:`run_chunk`; a step's iterations are the solver updates
-    summed over its substeps, its residual the largest final residual of its substeps.
+    record's resolution are as in :func:`run_chunk`, except that the first sample is stored after
+    ``countdown`` steps (``save_every`` when ``k0`` is a multiple of it) at ``R_out[0]``, then every
+    ``save_every`` steps; a step's iterations are the solver updates summed over its substeps, its
+    residual the largest final residual of its substeps.
+
+    One compiled loop for every run of the built-in models: :func:`lgvi.simulate`, its streams and
+    each body of an ensemble (:func:`.ensemble_kernels.advance_forced` calls this with the body's
+    views, of the same types), so a cold first call of any of them compiles it once for all.
 
     Returns ``(status, k, it_sum, rmax, its, rn)`` as :func:`run_chunk`; after a failure ``R``,
     ``Pi`` and ``S`` are the state at the start of step ``k``.
@@ -610,21 +620,22 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
     has_u = U.shape[0] > 0
     D0, D1, D2 = momentum_diag(codes, params)
     has_D = D0 != 0.0 or D1 != 0.0 or D2 != 0.0
-    if S[6] == 0.0:
-        if has_u:
-            init_moments(codes, params, J, J_inv, t0 + k0 * h, R, Pi, S, U[k0, 0], U[k0, 1], U[k0, 2])
-        else:
-            init_moments(codes, params, J, J_inv, t0 + k0 * h, R, Pi, S, 0.0, 0.0, 0.0)
     v0 = 0.0
     v1 = 0.0
     v2 = 0.0
+    if S[6] == 0.0:
+        if has_u:
+            v0 = U[k0, 0]
+            v1 = U[k0, 1]
+            v2 = U[k0, 2]
+        init_moments(codes, params, J, J_inv, t0 + k0 * h, R, Pi, S, v0, v1, v2)
     # the state in local tuples (written back at the end, as in free_steps)
     Rt, Pt, Mt = load_state(R, Pi, S)
     status = OK
     kend = k0 + n
     per_step = it_out.shape[0] == n
     its_sum = 0
-    book = (0, 0.0, 0.0, 0, 0.0, save_every, 0)     # see step_done
+    book = (0, 0.0, 0.0, 0, 0.0, countdown, 0)     # see step_done
     for k in range(k0, k0 + n):
         if has_u:
             v0 = U[k + 1, 0]

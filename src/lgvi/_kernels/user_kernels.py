@@ -1,20 +1,25 @@
 """Stepping loop for a torque model the user compiles (:class:`lgvi.torques.Compiled`).
 
 :func:`run_chunk_user` is :func:`.stepping.run_chunk_forced` with one more moment: the user's
-``moment(t, R, Pi, params)``, a ``numba.njit`` function passed as an argument, so Numba
-specialises the loop for it. Only the substep differs (:func:`user_stage_s`); the state tuples,
+``moment(t, R, Pi, params)``. Only the substep differs (:func:`user_stage_s`); the state tuples,
 the per-step bookkeeping and the sample store are :func:`.stepping.load_state`,
 :func:`.stepping.stage_done`, :func:`.stepping.step_done` and :func:`.stepping.save_state`,
-written once for both loops. It is compiled without the on-disk cache (a user's function is not
-importable by a later process) and with reference counting on (the user's function may return a
-new array; a loop without reference counting would leak it).
+written once for both loops.
+
+The user's function reaches the loop as a value of one function type, :data:`MOMENT_SIGNATURE`
+(a Numba ``cfunc`` made once per function and process by :func:`guarded`, which calls the user's
+function and catches what it raises), not as a function
+the loop is specialised for: ONE compiled loop, cached on disk, serves every user's model (as the
+control loop's user components, :mod:`.loop_kernels`), and a new model costs only the compilation
+of its own function and of the small ``cfunc`` around it. The loop is compiled without Numba's
+reference counting: an array the user's function returns is made and freed inside the ``cfunc``.
 
 The user's moment goes into the conservative part ``P`` when the model has a potential, into
 ``N`` otherwise. A moment that depends on ``Pi`` (``mdep``) with symmetric forcing makes the
 momentum equation ``Pi = b + hs/2 (P + N(Pi))`` implicit; it is solved by fixed-point
 iteration (``NOT_CONVERGED`` when it does not converge in ``max_iter`` evaluations).
 The user's function receives ``R`` and ``Pi`` in the scratch arrays ``Rs`` (3,3), ``Ps`` (3,).
-An exception it raises inside the loop is caught (:func:`user_moment`): the step fails with
+An exception it raises inside the loop is caught (:func:`guarded`): the step fails with
 ``USER_RAISED`` and the part computed before it is kept.
 """
 
@@ -22,24 +27,57 @@ from __future__ import annotations
 
 import math
 
+from numba import cfunc, config, types
+
 from .._jit import jit
 from .codes import NOT_CONVERGED, OK, USER_RAISED
 from .ensemble_kernels import record_body
 from .solvers import EPS
 from .stepping import load_state, push_at, rotated_row, save_state, solve_warm, stage_done, step_done
-from .torque_kernels import model_moments, model_moments_s, momentum_diag
+from .torque_kernels import model_moments_call, momentum_diag
+
+
+#: ``moment(t, R, Pi, params) -> (m0, m1, m2)`` of a user's moment as the CPU loops call it: ``R``
+#: (3,3) and ``Pi`` (3,) C-contiguous (the loops' scratch copies of the state), ``params`` the model's
+#: read-only row; the body-frame moment as three floats.
+MOMENT_SIGNATURE = types.UniTuple(types.float64, 3)(types.float64, types.float64[:, ::1], types.float64[::1],
+                                                    types.Array(types.float64, 1, "C", readonly=True))
+_GUARDED: dict = {}
+
+
+def guarded(moment):
+    """The user's ``moment(t, R, Pi, params)`` as the CPU loops' ``moment`` argument: a ``cfunc`` of
+    :data:`MOMENT_SIGNATURE` (compiled in memory, once per function and process) that calls it and
+    returns the three numbers it returns (a tuple or a (3,) array; an array it makes is freed inside).
+    An exception it raises (a division by zero, an error it raises) is caught there (a ``cfunc``
+    cannot raise into its caller): the moment is NaN, so the step fails, and ``R[0, 0]`` (the loop's
+    scratch) is set to NaN, the mark :func:`user_raised` reads. A function that does not fit the
+    signature raises Numba's typing error here. With ``NUMBA_DISABLE_JIT=1`` (the kernels as Python)
+    the guard itself."""
+    call = _GUARDED.get(moment)
+    if call is None:
+        def guarded_moment(t, R, P, p):
+            try:
+                m = moment(t, R, P, p)
+                return float(m[0]), float(m[1]), float(m[2])
+            except Exception:
+                R[0, 0] = math.nan
+                return math.nan, math.nan, math.nan
+
+        call = guarded_moment if config.DISABLE_JIT else cfunc(MOMENT_SIGNATURE, error_model="numpy")(guarded_moment)
+        _GUARDED[moment] = call
+    return call
 
 
 @jit(inline="always")
 def user_moment(moment, up, Rs, Ps, t, Rt, p0, p1, p2):
-    """The user's moment at ``(t, R, Pi)`` as three numbers (a returned tuple or array).
+    """The user's moment at ``(t, R, Pi)`` as three numbers.
 
-    On the CPU ``moment`` is the user's function wrapped by :func:`guarded`: an exception it raises
-    (a division by zero, an error it raises) is caught there, the moment is NaN, so the step fails,
-    and ``Rs[0, 0]`` is set to NaN, the mark :func:`user_raised` reads (a rotation passed to the
-    function is never NaN); once marked, the function is not called again in that chunk. On the
-    GPU (:mod:`.cuda_kernels`) the user's function is called as it is: the CUDA target has no
-    exception handling."""
+    On the CPU ``moment`` is the user's function wrapped by :func:`guarded`: an exception it raises is
+    caught there, the moment is NaN, so the step fails, and ``Rs[0, 0]`` is set to NaN, the mark
+    :func:`user_raised` reads (a rotation passed to the function is never NaN); once marked, the
+    function is not called again in that chunk. On the GPU (:mod:`.cuda_kernels`) the user's function
+    is called as it is: the CUDA target has no exception handling (and cannot call a ``cfunc``)."""
     if Rs[0, 0] != Rs[0, 0]:
         return math.nan, math.nan, math.nan
     Rs[0, 0], Rs[0, 1], Rs[0, 2], Rs[1, 0], Rs[1, 1], Rs[1, 2], Rs[2, 0], Rs[2, 1], Rs[2, 2] = Rt
@@ -48,29 +86,6 @@ def user_moment(moment, up, Rs, Ps, t, Rt, p0, p1, p2):
     Ps[2] = p2
     m = moment(t, Rs, Ps, up)
     return float(m[0]), float(m[1]), float(m[2])
-
-
-_GUARDED: dict = {}
-
-
-def guarded(moment):
-    """The user's ``moment(t, R, Pi, params)`` wrapped for the CPU loops: an exception it raises is
-    caught, the moment is NaN and ``R[0, 0]`` (the loop's scratch ``Rs``) is set to NaN, the mark of
-    :func:`user_raised`. Compiled once per function (not inlined: Numba's exception handling inlined
-    at each call site of the loop would make its compilation about six times slower)."""
-    call = _GUARDED.get(moment)
-    if call is None:
-        @jit(cache=False)
-        def call(t, R, P, p):
-            try:
-                m = moment(t, R, P, p)
-                return float(m[0]), float(m[1]), float(m[2])
-            except Exception:
-                R[0, 0] = math.nan
-                return math.nan, math.nan, math.nan
-
-        _GUARDED[moment] = call
-    return call
 
 
 @jit(inline="always")
@@ -108,7 +123,7 @@ def user_stage_s(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, hs, t1, R
     b0 = m0 + (E00 * m0 + E10 * m1 + E20 * m2)
     b1 = m1 + (E01 * m0 + E11 * m1 + E21 * m2)
     b2 = m2 + (E02 * m0 + E12 * m1 + E22 * m2)
-    P0, P1, P2, Q0, Q1, Q2 = model_moments_s(codes, params, J, t1, r00, r01, r02, r10, r11, r12, r20, r21, r22)
+    P0, P1, P2, Q0, Q1, Q2 = model_moments_call(codes, params, J, t1, r00, r01, r02, r10, r11, r12, r20, r21, r22)
     u0 = 0.0
     u1 = 0.0
     u2 = 0.0
@@ -184,11 +199,13 @@ def user_stage_s(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, hs, t1, R
     return its, rn, st, R1, (b0, b1, b2), (P0, P1, P2, Q0, Q1, Q2)
 
 
-@jit(cache=False)
+@jit(inline="always")
 def init_user_moments(moment, up, Rs, Ps, cons, codes, params, J, J_inv, t, R, Pi, S):
-    """Fill the moment cache ``S`` at ``(t, R, Pi)`` (built-in terms plus the user's moment)."""
+    """Fill the moment cache ``S`` at ``(t, R, Pi)`` (built-in terms plus the user's moment); inlined
+    at its one call site (a function of its own is one more compilation of a first call)."""
     Rt = (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2])
-    P0, P1, P2, Q0, Q1, Q2 = model_moments(codes, params, J, t, R)
+    P0, P1, P2, Q0, Q1, Q2 = model_moments_call(codes, params, J, t, R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1],
+                                                R[1, 2], R[2, 0], R[2, 1], R[2, 2])
     D0, D1, D2 = momentum_diag(codes, params)
     u0, u1, u2 = user_moment(moment, up, Rs, Ps, t, Rt, Pi[0], Pi[1], Pi[2])
     if cons:
@@ -208,12 +225,15 @@ def init_user_moments(moment, up, Rs, Ps, cons, codes, params, J, J_inv, t, R, P
     S[6] = 1.0
 
 
-@jit(cache=False)
+@jit(_nrt=False)
 def run_chunk_user(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S,
                    codes, params, sym, k0, n, tol, max_iter, alpha, save_every, countdown, R_out, Pi_out, it_out,
                    res_out, hist, counts):
     """:func:`.stepping.run_chunk_forced` (no torque array) with the user's moment; same outputs.
-    A step whose user function raised fails with ``USER_RAISED`` (``Rs`` (3, 3) zeros on entry).
+    A step whose user function raised fails with ``USER_RAISED`` (``Rs`` (3, 3) zeros on entry,
+    ``Ps`` (3,) scratch; ``moment`` of :data:`MOMENT_SIGNATURE`, see :func:`guarded`). Cached on
+    disk: one compiled loop for every user's model, of :func:`lgvi.simulate` and of each body of an
+    ensemble (:func:`advance_user`; the ensemble's views are of the same types).
 
     The first sample is stored after ``countdown`` steps (``save_every`` when ``k0`` is a multiple
     of it) at ``R_out[0]``, then every ``save_every`` steps.
@@ -308,40 +328,29 @@ def user_potential_series(potential, t, R, up, Rs, out):
         out[i] = float(potential(t[i], Rs, up))
 
 
-@jit(cache=False)
-def advance_user(b, moment, table, Rs, Ps, cons, mdep, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi, G,
-                 gidx, S, codes, params, sym, k0, n, tol, max_iter, alpha, save_every, out0, R_out, Pi_out, it_rec,
+@jit(_nrt=False)
+def advance_user(b0, b1, moment, table, Rs, Ps, cons, mdep, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi,
+                 G, gidx, S, codes, params, sym, k0, n, tol, max_iter, alpha, save_every, out0, R_out, Pi_out, it_rec,
                  res_rec, its, res, status, fail_step, fail_res, fail_its, hist, counts):
-    """Body ``b`` of an ensemble through steps ``k0 .. k0+n-1`` of :func:`run_chunk_user`, with the
-    ensemble's per-body arrays (as :func:`.ensemble_kernels.advance_forced`): its parameter row
-    ``table[b]`` (``table`` (B, P), or (1, P) for all), ``R_out[:, 0]`` holding sample ``out0``.
-    ``Rs`` (3, 3), ``Ps`` (3,), ``it_rec`` and ``res_rec`` (at least ``n // save_every`` entries,
-    the solver's record, not kept) are the caller's scratch. ``k0`` must be a multiple of
-    ``save_every``. The CPU ensemble calls this per body from its threads, the GPU's kernel per
-    thread (:mod:`.cuda_kernels`): one compiled function for both in the simulator.
+    """The bodies ``b0 .. b1-1`` of an ensemble whose status is still ``OK`` through steps
+    ``k0 .. k0+n-1`` of :func:`run_chunk_user`, each with the ensemble's per-body arrays (as
+    :func:`.ensemble_kernels.advance_forced`) and its parameter row ``table[b]`` (``table`` (B, P), or
+    (1, P) for all); ``R_out[:, 0]`` holds sample ``out0``. ``Rs`` (3, 3), ``Ps`` (3,), ``it_rec`` and
+    ``res_rec`` (at least ``n // save_every`` entries, the solver's record, not kept) are the caller's
+    scratch. The CPU ensemble's threads each call this once a chunk with their range of bodies (a call
+    per body cost tens of microseconds of dispatch under the GIL, which serialised the threads); the
+    GPU's kernel once a thread, for one body (``b1 = b0 + 1``, :mod:`.cuda_kernels`). The step loop
+    is called from here directly (see :func:`.ensemble_kernels.advance_forced`).
     """
-    q = ib[b]
-    up = table[b] if table.shape[0] > 1 else table[0]
-    j = k0 // save_every + 1 - out0
-    st, kend, it_total, rmax, it, rn = run_chunk_user(
-        moment, up, Rs, Ps, cons, mdep, method, Jd[q], J[q], J_inv[q], h, t0, gam, cum, A[ia[b]], R[b], Pi[b], G[b],
-        gidx, S[b], codes, params, sym, k0, n, tol, max_iter, alpha, save_every, save_every - k0 % save_every,
-        R_out[b, j:], Pi_out[b, j:], it_rec[:n], res_rec[:n], hist, counts)
-    record_body(b, its, res, status, fail_step, fail_res, fail_its, it_total, rmax, st, kend, it, rn)
-
-
-@jit(cache=False)
-def advance_users(group, moment, table, Rs, Ps, cons, mdep, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi,
-                  G, gidx, S, codes, params, sym, k0, n, tol, max_iter, alpha, save_every, out0, R_out, Pi_out,
-                  it_rec, res_rec, its, res, status, fail_step, fail_res, fail_its, hist, counts):
-    """:func:`advance_user` for the bodies ``group`` (int64) whose status is still ``OK``, in one
-    compiled call: the CPU ensemble's threads each call this once a chunk with their group (a call per
-    body cost tens of microseconds of dispatch under the GIL, which serialised the threads)."""
-    for i in range(group.shape[0]):
-        b = group[i]
+    for b in range(b0, b1):
         if status[b] != OK:
             continue
         Rs[0, 0] = 0.0          # the mark of a user function that raised (user_moment)
-        advance_user(b, moment, table, Rs, Ps, cons, mdep, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, Pi,
-                     G, gidx, S, codes, params, sym, k0, n, tol, max_iter, alpha, save_every, out0, R_out, Pi_out,
-                     it_rec, res_rec, its, res, status, fail_step, fail_res, fail_its, hist, counts)
+        q = ib[b]
+        up = table[b] if table.shape[0] > 1 else table[0]
+        j = k0 // save_every + 1 - out0
+        st, kend, it_total, rmax, it, rn = run_chunk_user(
+            moment, up, Rs, Ps, cons, mdep, method, Jd[q], J[q], J_inv[q], h, t0, gam, cum, A[ia[b]], R[b], Pi[b],
+            G[b], gidx, S[b], codes, params, sym, k0, n, tol, max_iter, alpha, save_every,
+            save_every - k0 % save_every, R_out[b, j:], Pi_out[b, j:], it_rec[:n], res_rec[:n], hist, counts)
+        record_body(b, its, res, status, fail_step, fail_res, fail_its, it_total, rmax, st, kend, it, rn)

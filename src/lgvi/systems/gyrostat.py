@@ -23,6 +23,7 @@ import numpy as np
 from .._validation import as_float, as_float_array, as_int, as_rotation, choice
 from .._version import __version__
 from ..accuracy import check_options, with_estimate
+from .._kernels.codes import USER_RAISED
 from ..body import RigidBody
 from ..control import Command, Controller
 from ..driver import MemorySink, check_memory, drive, run_solver_options, sample_times, time_grid
@@ -593,6 +594,8 @@ class GyrostatRun:
 
         k = self.k
         t_fail = self.t0 + k * self.h
+        if status == USER_RAISED and self.model is not None:     # the Compiled model's function raised
+            return self.model.raised_error(k, t_fail, self.h, self.R, self.Pi, None, trajectory, where)
         hnorm = abs(self.h) * float(np.linalg.norm(self.Pi))
         msg = (f"step {k} (t = {t_fail:g}) failed: "
                + failure_message(status, residual, iterations, hnorm, self.tol, self.code, 1.0)
@@ -649,11 +652,12 @@ class GyrostatRun:
     # -------------------------------------------------------------- stepping
     def _kernel(self, k0: int, n: int, kb: int, R_out, Pi_out, rho_out, it_out, res_out, u_out) -> int:
         from .._kernels.gyrostat_kernels import run_gyro, run_gyro_model
+        from .._kernels.user_kernels import guarded
 
         per = 1 if self.full else self.save_every
         kernel, moment, up = run_gyro, None, self.cp
-        if self.model is not None:
-            kernel, moment, up = run_gyro_model, self.model.moment_func, self.model.row()
+        if self.model is not None:      # one cached loop for every user's model: the function as a value
+            kernel, moment, up = run_gyro_model, guarded(self.model.moment_func), self.model.row()
         status, k, it_sum, rmax, its, rn = kernel(
             moment, up, self.Rs, self.JdB, self.JB_inv, self.h, self.gam, self.t0, self.R, self.Pi, self.wheel_momentum, self.G, self.wheels.axes,
             self.wp, self.cmd, self.tau, self.u_now, self.ctrl, self.cp, self.cs, self.spc, k0, n, kb, self.tol,

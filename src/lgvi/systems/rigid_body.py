@@ -50,7 +50,7 @@ def _kernels() -> dict[str, Any]:
             "run_chunk_newton": stepping.run_chunk_newton,
             "run_chunk_forced": stepping.run_chunk_forced, "lgvi_step": stepping.lgvi_step,
             "shifted_step": stepping.shifted_step, "run_free_parallel": ensemble_kernels.run_free_parallel,
-            "run_forced_parallel": ensemble_kernels.run_forced_parallel}
+            "advance_forced": ensemble_kernels.advance_forced}
 
 
 RIGID_BODY = register(System(

@@ -1,8 +1,10 @@
 """Ensembles: many bodies propagated at once, the loop over bodies compiled and parallel.
 
 :func:`simulate_ensemble` runs ``B`` bodies (each with its own inertia if wanted) through the
-same attitude LGVI as :func:`lgvi.simulate`, in one compiled kernel that splits the bodies over
-the machine's cores (Numba ``prange``). With ``client=`` (a ``dask.distributed.Client``) the
+same attitude LGVI as :func:`lgvi.simulate`, the bodies split over the machine's cores (the free
+body in one compiled kernel with a Numba ``prange`` loop; torque models and compositions in
+contiguous ranges of bodies on a pool of threads, each running ``simulate``'s compiled loop, which
+releases the GIL). With ``client=`` (a ``dask.distributed.Client``) the
 bodies are split into blocks that run as Dask tasks; with ``out_dir=`` each block is written to
 its own file, for ensembles larger than memory. Every body gives bit for bit the trajectory
 :func:`lgvi.simulate` gives it, whichever path, thread or block runs it.
@@ -40,6 +42,9 @@ from ..trajectory import ARRAY_FIELDS, Trajectory, freeze_arrays
 
 #: Body-substeps per compiled call (about 0.1-0.5 s); Ctrl-C and progress are handled between calls.
 CHUNK_BODY_STEPS = 1 << 22
+#: Solver histories (bodies x substeps) up to which an ensemble cold-starts them in Python, as
+#: lgvi.simulate does (beyond it, the compiled init_histories).
+PYTHON_COLD_START_MAX = 4096
 #: Default size of one block's samples (``R`` and ``Pi``) with ``client=`` or ``out_dir=``.
 BLOCK_BYTES = 1 << 28
 
@@ -774,9 +779,10 @@ def simulate_ensemble(bodies: Any, R0: Any, Pi0: Any = None, *, omega0: Any = No
 
     Notes
     -----
-    The loop over bodies runs inside the compiled kernel (Numba ``prange``); each thread takes
-    a contiguous block of bodies and advances each one through a whole chunk of steps with its
-    state in cache. Results do not depend on the number of threads, the chunking or the blocks.
+    The loop over bodies runs inside compiled code (for the free body a Numba ``prange`` loop; with
+    a torque model or a composition one compiled call a thread, each running ``simulate``'s loop
+    on its bodies); each thread takes a contiguous block of bodies and advances each one through a
+    whole chunk of steps with its state in cache. Results do not depend on the number of threads, the chunking or the blocks.
     The free body with ``method="cayley"`` (order 2) steps groups of 8 bodies in lockstep in SIMD
     registers, with the same floating-point operations per body as the scalar step (bodies whose
     step needs more than one Newton update take the scalar step): the fastest path, about four
@@ -932,7 +938,7 @@ def _device_options(device: str, **options: Any) -> None:
 @contextlib.contextmanager
 def quiet_function_argument() -> Any:
     """Silence Numba's note that passing the user's function on to another compiled function (the
-    per-body :func:`lgvi._kernels.user_kernels.advance_user` to the loop it calls) is an experimental
+    ensemble's :func:`lgvi._kernels.user_kernels.advance_user` to the loop it calls) is an experimental
     feature: it is what a :class:`lgvi.torques.Compiled` model is, tested bit for bit."""
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="First-class function type feature is experimental")
@@ -986,10 +992,21 @@ class _LocalRun:
         self.Jd = np.ascontiguousarray(np.stack([b.Jd for b in s.bodies]))
         self.J = np.ascontiguousarray(np.stack([b.J for b in s.bodies]))
         self.J_inv = np.ascontiguousarray(np.stack([b.J_inv for b in s.bodies]))
+        for a in (self.Jd, self.J, self.J_inv):
+            # read-only as a body's own (RigidBody's arrays are): a body's views are then of the types
+            # lgvi.simulate passes, and one compiled loop serves both (run_chunk_forced, run_chunk_user)
+            a.flags.writeable = False
         stages = 1 if s.legacy else len(s.gam)
         hs = np.array([h]) if s.legacy else s.gam * h
         self.G = np.zeros((B, stages, 5, 3))
-        ek.init_histories(s.code, self.J, s.ib, hs, self.Pi, self.G)
+        if B * stages <= PYTHON_COLD_START_MAX:
+            # the cold start of simulate (the kernel's operations in Python: the same bits), a few
+            # microseconds a history: a small ensemble's first call then does not compile init_histories
+            from .rigid_body_run import cold_start_histories
+
+            cold_start_histories(s.code, self.J, s.ib, hs, self.Pi, self.G)
+        else:
+            ek.init_histories(s.code, self.J, s.ib, hs, self.Pi, self.G)
         if not s.legacy:
             # momentum matrices per group of bodies with the same inertia and model (A[ia[b]])
             self.ia, reps = s.groups()
@@ -1004,12 +1021,13 @@ class _LocalRun:
         self.fail_res = np.zeros(B)
         self.fail_its = np.zeros(B, dtype=np.int64)
         self.chunk = max(1, CHUNK_BODY_STEPS // (B * stages))
-        # a user's compiled model (lgvi.torques.Compiled) runs its bodies in a pool of this many threads
-        self.user_threads = 1
-        if parallel and getattr(s.model, "moment_func", None) is not None:
+        # the built-in models and a user's compiled model (lgvi.torques.Compiled) run their bodies in
+        # a pool of this many Python threads, one contiguous group each (_run_groups)
+        self.threads = 1
+        if parallel and not s.legacy:
             import numba
 
-            self.user_threads = numba.get_num_threads()
+            self.threads = numba.get_num_threads()
         # the free body with Cayley runs LANES bodies in lockstep (SIMD), the same values bit for bit
         self.lockstep = self.lockstep_allowed and s.legacy and s.code == METHOD_CAYLEY
         if self.lockstep:
@@ -1020,17 +1038,56 @@ class _LocalRun:
         """The user's parameter rows of this run's bodies: (B, P), or (1, P) for all (C-contiguous)."""
         m, body0 = self.s.model, getattr(self.s, "body0", 0)
         table = m.params[body0:body0 + len(self.s)] if m.params.ndim == 2 else m.params.reshape(1, -1)
-        return np.ascontiguousarray(table, dtype=np.float64)
+        table = np.ascontiguousarray(table, dtype=np.float64)
+        if table.flags.writeable:           # read-only as simulate's row: one compiled loop serves both
+            table = table.copy()
+            table.flags.writeable = False
+        return table
+
+    def _run_groups(self, call: Any) -> None:
+        """``call(b0, b1)`` for the bodies split into ``self.threads`` contiguous ranges ``b0 .. b1-1``,
+        each range on a thread of a pool (one compiled call a range: the compiled loops release the
+        GIL; a call per body cost tens of microseconds of dispatch under the GIL, which serialised
+        the threads). Each body has its own state and ``call`` gives each thread its own scratch
+        arrays, so the numbers do not depend on the threads."""
+        B = len(self.s)
+        workers = min(self.threads, B)
+        with quiet_function_argument():
+            if workers <= 1:
+                call(0, B)
+                return
+            ends = [int(g[-1]) + 1 for g in np.array_split(np.arange(B), workers)]
+            with ThreadPoolExecutor(max_workers=workers) as pool:
+                list(pool.map(call, [0] + ends[:-1], ends))
+
+    def _advance_forced(self, n: int, R_out: np.ndarray, Pi_out: np.ndarray) -> None:
+        """Steps ``k .. k + n - 1`` of the built-in models: each body runs the loop of
+        :func:`lgvi.simulate` (:func:`lgvi._kernels.stepping.run_chunk_forced`), the bodies in ranges
+        on threads (:meth:`_run_groups`, :func:`lgvi._kernels.ensemble_kernels.advance_forced`)."""
+        from .._kernels.ensemble_kernels import advance_forced
+
+        s, k, se = self.s, self.k, self.save_every
+        gidx = np.arange(self.G.shape[1], dtype=np.int64)
+        counts = np.zeros(0, dtype=np.int64)
+        # the loop's record scratch, one entry a sample of the chunk (the loop then records per sample,
+        # not per step; it records per step only when this is n entries, and then it is long enough)
+        m = n // se + 1
+
+        def bodies(b0: int, b1: int) -> None:
+            advance_forced(b0, b1, s.code, self.Jd, self.J, self.J_inv, s.ib, s.h, s.t0, s.gam, s.cum, self.ia,
+                                 self.A, self.R, self.Pi, self.G, gidx, self.S, s.codes, s.ptab, int(s.sym), k, n,
+                                 s.tol, s.max_iter, s.alpha, se, 0, R_out, Pi_out, np.zeros(m, np.int32), np.zeros(m),
+                                 self.its, self.res, self.status, self.fail_step, self.fail_res, self.fail_its,
+                                 _NO_HIST, counts)
+
+        self._run_groups(bodies)
 
     def _advance_user(self, n: int, R_out: np.ndarray, Pi_out: np.ndarray) -> None:
-        """Steps ``k .. k + n - 1`` of a user's compiled model: one compiled call per body
-        (:func:`lgvi._kernels.user_kernels.advance_user`, which the GPU's kernel calls too), with the
-        body's parameter row, the same loop and values as :func:`lgvi.simulate`. The bodies are split
-        into ``threads`` contiguous groups run in a pool of threads, one compiled call a group
-        (:func:`lgvi._kernels.user_kernels.advance_users`) (the compiled loop releases the
-        GIL; each thread has its own scratch arrays and each body its own state, so the numbers do not
-        depend on the threads)."""
-        from .._kernels.user_kernels import advance_users, guarded
+        """Steps ``k .. k + n - 1`` of a user's compiled model: each body runs the loop of
+        :func:`lgvi.simulate` (:func:`lgvi._kernels.user_kernels.run_chunk_user`) with its parameter
+        row, the bodies in ranges on threads (:meth:`_run_groups`,
+        :func:`lgvi._kernels.user_kernels.advance_user`, which the GPU's kernel calls too)."""
+        from .._kernels.user_kernels import advance_user, guarded
 
         s, k, se = self.s, self.k, self.save_every
         m = s.model
@@ -1038,23 +1095,16 @@ class _LocalRun:
         counts = np.zeros(0, dtype=np.int64)
         table = self.user_table()
 
-        def bodies(group: np.ndarray) -> None:
+        def bodies(b0: int, b1: int) -> None:
             Rs, Ps, it_buf, res_buf = np.zeros((3, 3)), np.zeros(3), np.zeros(n, np.int32), np.zeros(n)
-            advance_users(np.ascontiguousarray(group, dtype=np.int64), guarded(m.moment_func), table, Rs, Ps,
+            advance_user(b0, b1, guarded(m.moment_func), table, Rs, Ps,
                           m.conservative, m.depends_on_momentum, s.code, self.Jd, self.J, self.J_inv, s.ib, s.h, s.t0,
                           s.gam, s.cum, self.ia, self.A, self.R, self.Pi, self.G, gidx, self.S, s.codes, s.params,
                           int(s.sym), k, n, s.tol, s.max_iter, s.alpha, se, 0, R_out, Pi_out, it_buf, res_buf,
                           self.its, self.res, self.status, self.fail_step, self.fail_res, self.fail_its, _NO_HIST,
                           counts)
 
-        B = len(s)
-        workers = min(self.user_threads, B)
-        with quiet_function_argument():
-            if workers <= 1:
-                bodies(np.arange(B))
-                return
-            with ThreadPoolExecutor(max_workers=workers) as pool:
-                list(pool.map(bodies, np.array_split(np.arange(B), workers)))
+        self._run_groups(bodies)
 
     def advance(self, n: int, R_out: np.ndarray, Pi_out: np.ndarray, partial: Any) -> int:
         """Steps ``k .. k + n - 1`` of every body; on a failure ``k`` is the first failed step."""
@@ -1072,10 +1122,7 @@ class _LocalRun:
         elif getattr(s.model, "moment_func", None) is not None:    # lgvi.torques.Compiled
             self._advance_user(n, R_out, Pi_out)
         else:
-            run = ek.run_forced_parallel if parallel else ek.run_forced_serial
-            run(s.code, self.Jd, self.J, self.J_inv, s.ib, h, s.t0, s.gam, s.cum, self.ia, self.A, self.R, self.Pi,
-                self.G, self.S, s.codes, s.ptab, int(s.sym), k, n, s.tol, s.max_iter, s.alpha, se, R_out, Pi_out,
-                self.its, self.res, self.status, self.fail_step, self.fail_res, self.fail_its, _NO_HIST)
+            self._advance_forced(n, R_out, Pi_out)
         failed = np.flatnonzero(self.status != OK)
         if failed.size:
             b = int(failed[np.argmin(self.fail_step[failed])])

@@ -122,6 +122,18 @@ def _solver_states(code: int, body: RigidBody, hs: np.ndarray, Pi: np.ndarray) -
     return G
 
 
+def cold_start_histories(code: int, J: np.ndarray, ib: np.ndarray, hs: np.ndarray, Pi: np.ndarray,
+                         G: np.ndarray) -> None:
+    """The cold start of :func:`_solver_state` for a stack of bodies, in place: ``G[b, i, 0]`` from
+    ``J[ib[b]]``, ``hs[i]`` and ``Pi[b]`` (``G`` (B, s, 5, 3) zero on entry), the same bits as the
+    compiled ``ensemble_kernels.init_histories`` (a few microseconds a history, nothing compiled)."""
+    factors = [_cold_start_factors(code, Jq) for Jq in J]
+    for b in range(len(Pi)):
+        q = int(ib[b])
+        for i, hi in enumerate(hs.tolist()):
+            _cold_start(factors[q], code, J[q], hi, Pi[b], G[b, i, 0])
+
+
 @dataclass(frozen=True)
 class StepResult:
     """Result of :func:`step`: the next state and the solve that produced it."""
@@ -697,8 +709,9 @@ class Run:
             status, self.k, *tot = run_chunk_forced(self.code, body.Jd, body.J, body.J_inv, self.h, self.t0,
                                                     self.gam, self.cum, self.A, self.R, self.Pi, self.G, self.gidx,
                                                     self.S, self.codes, self.params, self.U, int(self.sym), self.k, n,
-                                                    self.tol, self.max_iter, self.alpha, self.save_every, R_out,
-                                                    Pi_out, it_out, res_out, _NO_HIST, self.counts)
+                                                    self.tol, self.max_iter, self.alpha, self.save_every,
+                                                    self.save_every, R_out, Pi_out, it_out, res_out, _NO_HIST,
+                                                    self.counts)
             self.tally(status, *tot)
         return int(status)
 
