@@ -32,6 +32,24 @@ from scipy.spatial.transform import Rotation
 
 import lgvi
 
+def pytest_configure(config: pytest.Config) -> None:
+    """Ctrl-C reaches the tests as it reaches a user: SIGINT raises KeyboardInterrupt in the main thread.
+
+    A process started in the background by a shell without job control (``cmd &`` in a script,
+    some CI runners and ``nohup`` wrappers) inherits SIGINT *ignored*, and Python then installs no
+    handler: the tests that press Ctrl-C with ``os.kill(pid, SIGINT)`` would see nothing (a test
+    whose member waits for the stop request would wait for ever). Python's own handler is put back
+    here, in the main thread of the controller and of each xdist worker; processes the tests start
+    inherit the default disposition and install it themselves. (tests/test_signals.py)
+    """
+    import signal
+    import threading
+
+    if (threading.current_thread() is threading.main_thread()
+            and signal.getsignal(signal.SIGINT) is signal.SIG_IGN):
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 settings.register_profile(
     "lgvi", deadline=None, max_examples=25, derandomize=True, suppress_health_check=[HealthCheck.too_slow]
 )
