@@ -9,6 +9,18 @@ from typing import Any
 
 import pytest
 
+#: The slosh hub of the scenario tests (tests/test_slosh.py, tests/test_slosh_wheels.py): its
+#: ``[slosh]`` lines before each test's own (``omega0``, ``damping``, wheels, order).
+SLOSH_HUB = """\
+inertia = [900.0, 800.0, 600.0]
+hub_mass = 1500.0
+pivots = [[0.5, 0.1, 0.2], [-0.3, 0.4, -0.1]]
+lengths = [0.3, 0.4]
+masses = [40.0, 60.0]
+q0 = [[0.0, 0.0, -1.0], [0.6, 0.0, -0.8]]
+qdot0 = [[0.5, 0.2, 0.0], [0.0, 1.0, 0.0]]
+"""
+
 
 def assert_scenario_error(tmp_path: Path, scenario: str, old: str, new: str, key: str, rule: str) -> None:
     """``scenario`` with ``old`` replaced by ``new`` is refused by ``load_scenario`` with a

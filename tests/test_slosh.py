@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 from jit_pair import interpreted_and_compiled
-from scenario_cases import assert_scenario_error, cut_and_resume
+from scenario_cases import SLOSH_HUB, assert_scenario_error, cut_and_resume
 import pytest
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
@@ -229,13 +229,7 @@ SCENARIO = """
 name = "slosh2"
 
 [slosh]
-inertia = [900.0, 800.0, 600.0]
-hub_mass = 1500.0
-pivots = [[0.5, 0.1, 0.2], [-0.3, 0.4, -0.1]]
-lengths = [0.3, 0.4]
-masses = [40.0, 60.0]
-q0 = [[0.0, 0.0, -1.0], [0.6, 0.0, -0.8]]
-qdot0 = [[0.5, 0.2, 0.0], [0.0, 1.0, 0.0]]
+""" + SLOSH_HUB + """\
 omega0 = [0.3, -0.2, 0.5]
 damping = [30.0, 50.0]
 order = 4

@@ -19,7 +19,7 @@ from scipy.integrate import solve_ivp
 import lgvi
 from lgvi.systems.gyrostat import simulate_gyrostat
 from lgvi.systems.slosh import newton_euler, newton_euler_split, newton_euler_state, slosh_parameters
-from scenario_cases import assert_scenario_error, cut_and_resume
+from scenario_cases import SLOSH_HUB, assert_scenario_error, cut_and_resume
 
 EPS = np.finfo(float).eps
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
@@ -246,13 +246,7 @@ SCENARIO = """
 name = "slosh_wheels"
 
 [slosh]
-inertia = [900.0, 800.0, 600.0]
-hub_mass = 1500.0
-pivots = [[0.5, 0.1, 0.2], [-0.3, 0.4, -0.1]]
-lengths = [0.3, 0.4]
-masses = [40.0, 60.0]
-q0 = [[0.0, 0.0, -1.0], [0.6, 0.0, -0.8]]
-qdot0 = [[0.5, 0.2, 0.0], [0.0, 1.0, 0.0]]
+""" + SLOSH_HUB + """\
 omega0 = [0.01, -0.02, 0.015]
 damping = [30.0, 50.0]
 wheels = {axes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], spin_inertia = 0.08, speed0 = [10.0, -20.0, 30.0], max_torque = 2.0}
