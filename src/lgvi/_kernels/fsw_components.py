@@ -15,7 +15,7 @@ import math
 
 from .._jit import jit
 from .gyrostat_kernels import mrp_error_at, mrp_request, reference_rates_at
-from .field_kernels import sh_field_flat
+from .field_kernels import dipole_field_turned, sh_field_flat
 from .orbit_table_kernels import hermite_interval, hermite_position_in
 
 OK = 0
@@ -104,11 +104,11 @@ def hermite_velocity_in(i, s, dt, p):
     s2 = s * s
     d00 = (6.0 * s2 - 6.0 * s) / dt
     d10 = 3.0 * s2 - 4.0 * s + 1.0
-    d01 = (-6.0 * s2 + 6.0 * s) / dt
     d11 = 3.0 * s2 - 2.0 * s
-    x = d00 * p[i] + d10 * p[i + 3] + d01 * p[i + 6] + d11 * p[i + 9]
-    y = d00 * p[i + 1] + d10 * p[i + 4] + d01 * p[i + 7] + d11 * p[i + 10]
-    z = d00 * p[i + 2] + d10 * p[i + 5] + d01 * p[i + 8] + d11 * p[i + 11]
+    # d01 = (-6 s^2 + 6 s) / dt is -d00 exactly (IEEE: b - a = -(a - b)): one division, the same values
+    x = d00 * p[i] + d10 * p[i + 3] - d00 * p[i + 6] + d11 * p[i + 9]
+    y = d00 * p[i + 1] + d10 * p[i + 4] - d00 * p[i + 7] + d11 * p[i + 10]
+    z = d00 * p[i + 2] + d10 * p[i + 5] - d00 * p[i + 8] + d11 * p[i + 11]
     return x, y, z
 
 
@@ -145,14 +145,12 @@ def gmst_angle(jd0, t):
 @jit(inline="always")
 def field_step(t, bus, p, s, w):
     """``B_N`` (tesla) at ``r_N``: the spherical-harmonic kernel in the Earth-fixed frame turned by
-    GMST, coefficients linear in time from the epoch."""
+    GMST, coefficients linear in time from the epoch; at degree 1 the dipole's Cartesian form
+    (:func:`.field_kernels.dipole_field_turned`)."""
     nmax = int(p[F_NMAX])
     n1 = int(p[F_N1])
     q = n1 * n1
     o = F_COEF
-    for i in range(q):
-        s[i] = p[o + i] + t * p[o + 2 * q + i]
-        s[q + i] = p[o + q + i] + t * p[o + 3 * q + i]
     r = w[0]
     x = bus[r]
     y = bus[r + 1]
@@ -162,6 +160,18 @@ def field_step(t, bus, p, s, w):
     theta = gmst_angle(p[F_JD0], t)
     c = math.cos(theta)
     sn = math.sin(theta)
+    if nmax == 1:
+        # the centred dipole in Cartesian form, its moment turned by GMST (field_kernels): the same
+        # field to round-off, without the spherical coordinates and the two frame turns
+        g10 = p[o + n1] + t * p[o + 2 * q + n1]
+        g11 = p[o + n1 + 1] + t * p[o + 2 * q + n1 + 1]
+        h11 = p[o + q + n1 + 1] + t * p[o + 3 * q + n1 + 1]
+        bx, by, bz = dipole_field_turned(x, y, z, g10, g11, h11, p[F_RADIUS], c, sn)
+        put3(bus, w[1], bx * 1e-9, by * 1e-9, bz * 1e-9)
+        return OK
+    for i in range(q):
+        s[i] = p[o + i] + t * p[o + 2 * q + i]
+        s[q + i] = p[o + q + i] + t * p[o + 3 * q + i]
     # g, h, P, dP, Q: (n1, n1) blocks of s, indexed flat
     bx, by, bz = sh_field_flat(c * x + sn * y, -sn * x + c * y, z, s, 0, s, q, n1, nmax, p[F_RADIUS], s, 2 * q,
                                s, 3 * q, s, 4 * q, p, o + 4 * q)
