@@ -32,6 +32,12 @@ MRP feedback at 1 Hz to a fixed target, motor torques by ``RWMotorTorque``):
   cost is printed by ``--accuracy``;
 * ``all dist., env. slow``: the same with the orbit every step and the sun, the shadow, the
   atmosphere and the field every 10th step (``SLOW``);
+* ``all dist., GNC rates``: the rates a GNC engineer would pick (``GNC``): the orbit, the field,
+  the shadow and the atmosphere at 1 s, the sun at 60 s (held in between), every torque every step;
+  ``--accuracy`` prints its cost, and the angle by which the held sun departs from the sun of every
+  step;
+* ``the loop, no component``: the 6U in the loop with nothing on it (no orbit, no wheels): what
+  the loop itself costs over the gyrostat step, the floor under every row that adds components;
 * ``gyrostat step``: ``lgvi.simulate`` of the same body with the same wheels and no controller
   (the gyrostat's compiled step); ``6U gyrostat step``: the same with the 6U's inertia and
   initial state.
@@ -112,6 +118,8 @@ def six_u(kinds, env_rate=None, rates=None):
 #: atmosphere and the field (SLOW, the benchmark's ``env. slow`` case); the orbit every step.
 SUN_SHADOW = {"sun": 1.0, "shadow": 1.0}
 SLOW = {"sun": 1.0, "shadow": 1.0, "exponential_atmosphere": 1.0, "field": 1.0}
+#: A GNC engineer's rates (s): the environment at 1 s (``env_rate=1.0``), the sun at 60 s.
+GNC = {"sun": 60.0}
 
 
 def cases(steps, components=True):
@@ -131,6 +139,8 @@ def cases(steps, components=True):
             c.modes = (0,)
     slow, _ = six_u(ADDED, env_rate=1.0)
     slower, _ = six_u(ADDED, rates=SLOW)
+    gnc, _ = six_u(ADDED, env_rate=1.0, rates=GNC)
+    nothing = Spacecraft(six.body)
     kw = dict(h=H, steps=steps, save_every=steps)
     out = {
         "sensors + MEKF": lambda: lgvi.simulate(sensed, np.eye(3), omega0=OMEGA0, fsw=_fsw(est), **kw),
@@ -139,6 +149,8 @@ def cases(steps, components=True):
         "all dist., held (1st order)": lambda: lgvi.simulate(held, R6, omega0=d["omega0"], **kw),
         "all dist., env. at 1 s": lambda: lgvi.simulate(slow, R6, omega0=d["omega0"], **kw),
         "all dist., env. slow": lambda: lgvi.simulate(slower, R6, omega0=d["omega0"], **kw),
+        "all dist., GNC rates": lambda: lgvi.simulate(gnc, R6, omega0=d["omega0"], **kw),
+        "the loop, no component": lambda: lgvi.simulate(nothing, R6, omega0=d["omega0"], **kw),
         "orbit, field, gravity grad.": lambda: lgvi.simulate(bare, R6, omega0=d["omega0"], **kw),
         "gyrostat step": lambda: lgvi.simulate(lgvi.RigidBody(J), np.eye(3), omega0=OMEGA0, wheels=_wheels(), **kw),
         "6U gyrostat step": lambda: lgvi.simulate(six.body, R6, omega0=d["omega0"], wheels=_wheels(), **kw),
@@ -166,7 +178,8 @@ def accuracy() -> None:
     configs = {"every step": six, "sun, shadow at 1 s": six_u(ADDED, rates=SUN_SHADOW)[0],
                "+ atmosphere at 1 s": six_u(ADDED, rates={**SUN_SHADOW, "exponential_atmosphere": 1.0})[0],
                "+ field at 1 s (env. slow)": six_u(ADDED, rates=SLOW)[0],
-               "env. at 1 s (+ the orbit)": six_u(ADDED, env_rate=1.0)[0]}
+               "env. at 1 s (+ the orbit)": six_u(ADDED, env_rate=1.0)[0],
+               "GNC rates (+ the sun at 60 s)": six_u(ADDED, env_rate=1.0, rates=GNC)[0]}
     runs = {}
     for h in (0.1, 0.05):
         for name, sc in configs.items():
@@ -183,6 +196,18 @@ def accuracy() -> None:
             print(f"{name:30s} {gap(('every step', 0.1), (name, 0.1)):10.2e} {gap(('every step', 0.05), (name, 0.05)):10.2e}")
     print(f"{'every step, h = 0.1 vs 0.05':30s} {gap(('every step', 0.1), ('every step', 0.05)):10.2e} "
           "(the step's own error is about 4/3 of it)")
+    # the sun held over 60 s: the direction from the spacecraft against the sun of every step, over
+    # the orbit at 1 s (the sun's own motion, 0.04 deg an hour, and the spacecraft's 450 km in a minute)
+    from lgvi.environment.sun import sun_position
+
+    t = np.arange(0.0, T, 1.0)
+    r, _ = six.orbit.position_velocity(t)
+    sun = sun_position(six.epoch, t)
+    held = sun_position(six.epoch, np.floor(t / 60.0) * 60.0) - six.orbit.position_velocity(np.floor(t / 60.0) * 60.0)[0]
+    now = sun - r
+    ang = np.arctan2(np.linalg.norm(np.cross(held, now), axis=1), np.sum(held * now, axis=1))
+    print(f"the sun held 60 s: largest angle from the sun of every step {np.degrees(ang.max()):.2e} deg "
+          "(goal 0.01 deg)")
 
 
 def main() -> None:
@@ -214,6 +239,8 @@ def main() -> None:
         "all dist., env. at 1 s / gyrostat step": ratio("all dist., env. at 1 s", "gyrostat step"),
         "all dist., env. at 1 s / 6U gyrostat step": ratio("all dist., env. at 1 s", "6U gyrostat step"),
         "all dist., env. slow / gyrostat step": ratio("all dist., env. slow", "gyrostat step"),
+        "all dist., GNC rates / gyrostat step": ratio("all dist., GNC rates", "gyrostat step"),
+        "the loop, no component / 6U gyrostat step": ratio("the loop, no component", "6U gyrostat step"),
         "all disturbances / orbit, field, g.g.": ratio("all disturbances", "orbit, field, gravity grad."),
         "all disturbances / all dist., held": ratio("all disturbances", "all dist., held (1st order)"),
         "true-state feedback / gyrostat step": ratio("true-state feedback", "gyrostat step"),
