@@ -38,6 +38,14 @@ MRP feedback at 1 Hz to a fixed target, motor torques by ``RWMotorTorque``):
   step;
 * ``the loop, no component``: the 6U in the loop with nothing on it (no orbit, no wheels): what
   the loop itself costs over the gyrostat step, the floor under every row that adds components;
+* ``all dist., records on grid`` and ``all dist., no records``: ``all disturbances`` with the
+  records on the record grid only (``FlightSoftware(record_rate="grid")``: each source's torque by
+  name at the save rate, what issue 26 part 4 asks) and with none (``record=[]``); the default
+  records every value at its writer's rate (every step here);
+* ``--overhead``: ``orbit, field, 1 dipole`` and ``orbit, field, 5 dipoles`` (residual dipoles,
+  records on the grid): their difference over four is what one more component costs the loop
+  (its call, its finite checks, its arithmetic of about 10 ns), the gain a fused component would
+  have per component it absorbs;
 * ``gyrostat step``: ``lgvi.simulate`` of the same body with the same wheels and no controller
   (the gyrostat's compiled step); ``6U gyrostat step``: the same with the 6U's inertia and
   initial state.
@@ -67,7 +75,7 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
 import lgvi  # noqa: E402
 from lgvi.fsw import MEKF, FlightSoftware, InertialPointing, MRPControl, RWMotorTorque  # noqa: E402
-from lgvi.spacecraft import Gyro, Spacecraft, StarTracker  # noqa: E402
+from lgvi.spacecraft import Gyro, ResidualDipole, Spacecraft, StarTracker  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_loop_integration import _basilisk_6u  # noqa: E402
@@ -122,7 +130,7 @@ SLOW = {"sun": 1.0, "shadow": 1.0, "exponential_atmosphere": 1.0, "field": 1.0}
 GNC = {"sun": 60.0}
 
 
-def cases(steps, components=True):
+def cases(steps, components=True, overhead=False):
     gyro = Gyro(rate=0.5, arw=1e-4, rrw=1e-5, bias=[2e-4, -1e-4, 5e-5], seed=7)
     st = StarTracker(rate=0.5, sigma_cross=5e-5, sigma_about=4e-4, seed=7)
     est = MEKF(rate=0.5, arw=1e-4, rrw=1e-5, star_tracker=st, P0=[0.03 ** 2] * 3 + [3e-4 ** 2] * 3)
@@ -154,7 +162,15 @@ def cases(steps, components=True):
         "orbit, field, gravity grad.": lambda: lgvi.simulate(bare, R6, omega0=d["omega0"], **kw),
         "gyrostat step": lambda: lgvi.simulate(lgvi.RigidBody(J), np.eye(3), omega0=OMEGA0, wheels=_wheels(), **kw),
         "6U gyrostat step": lambda: lgvi.simulate(six.body, R6, omega0=d["omega0"], wheels=_wheels(), **kw),
+        "all dist., records on grid": lambda: lgvi.simulate(six, R6, omega0=d["omega0"], fsw=_records("grid"), **kw),
+        "all dist., no records": lambda: lgvi.simulate(six, R6, omega0=d["omega0"], fsw=_records(None), **kw),
     }
+    if overhead:
+        for n in (1, 5):
+            sc_n = Spacecraft(six.body, orbit=six.orbit, field=six.field, epoch=six.epoch,
+                              disturbances=[ResidualDipole([0.01, 0.0, 0.0]) for _ in range(n)])
+            out[f"orbit, field, {n} dipole{'s' if n > 1 else ''}"] = (
+                lambda sc: lambda: lgvi.simulate(sc, R6, omega0=d["omega0"], fsw=_records("grid"), **kw))(sc_n)
     if components:
         out["orbit only"] = (lambda sc: lambda: lgvi.simulate(sc, R6, omega0=d["omega0"], **kw))(six_u(())[0])
         for i, kind in enumerate(ADDED):
@@ -166,6 +182,11 @@ def cases(steps, components=True):
         igrf = Spacecraft(dip.body, orbit=dip.orbit, field=IGRF(), epoch=dip.epoch, environment=dip.environment)
         out["orbit, IGRF-13 field"] = lambda: lgvi.simulate(igrf, R6, omega0=d["omega0"], **kw)
     return out
+
+
+def _records(rate):
+    """No flight software, the records on the grid (``"grid"``) or none (``None``)."""
+    return FlightSoftware(components=[], record_rate="grid") if rate else FlightSoftware(components=[], record=[])
 
 
 def accuracy() -> None:
@@ -215,11 +236,12 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--accuracy", action="store_true", help="also the accuracy cost of the environment at 1 s")
     ap.add_argument("--no-components", action="store_true", help="without the rows that add one component at a time")
+    ap.add_argument("--overhead", action="store_true", help="also 1 and 5 residual dipoles: one component's cost")
     ap.add_argument("--steps", type=int, default=20000, help="steps a run (default 20000)")
     ap.add_argument("--rounds", type=int, default=7, help="rounds (default 7)")
     args = ap.parse_args()
     steps, rounds = (2000, 3) if args.quick else (args.steps, args.rounds)
-    runs = cases(steps, components=not args.no_components)
+    runs = cases(steps, components=not args.no_components, overhead=args.overhead)
     for f in runs.values():                     # compile or load, once
         f()
     per_step = {name: [] for name in runs}
@@ -241,6 +263,8 @@ def main() -> None:
         "all dist., env. slow / gyrostat step": ratio("all dist., env. slow", "gyrostat step"),
         "all dist., GNC rates / gyrostat step": ratio("all dist., GNC rates", "gyrostat step"),
         "the loop, no component / 6U gyrostat step": ratio("the loop, no component", "6U gyrostat step"),
+        "all dist., records on grid / gyrostat step": ratio("all dist., records on grid", "gyrostat step"),
+        "all dist., no records / gyrostat step": ratio("all dist., no records", "gyrostat step"),
         "all disturbances / orbit, field, g.g.": ratio("all disturbances", "orbit, field, gravity grad."),
         "all disturbances / all dist., held": ratio("all disturbances", "all dist., held (1st order)"),
         "true-state feedback / gyrostat step": ratio("true-state feedback", "gyrostat step"),
@@ -257,6 +281,10 @@ def main() -> None:
         print(f"{name:28s} {med:9.3f} {added:>9s}")
         if name == "orbit only" or name.startswith("+ "):
             prev = med
+    if args.overhead:
+        one = [(a - b) / 4.0 * 1e6 for a, b in zip(per_step["orbit, field, 5 dipoles"], per_step["orbit, field, 1 dipole"])]
+        print(f"one more component (a residual dipole): {statistics.median(one):.3f} us/step (min {min(one):.3f}, "
+              f"max {max(one):.3f})")
     print(f"{'ratio':42s} {'median':>7s} {'min':>7s} {'max':>7s}")
     for name, v in ratios.items():
         print(f"{name:42s} {statistics.median(v):7.2f} {min(v):7.2f} {max(v):7.2f}")
