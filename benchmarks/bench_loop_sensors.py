@@ -32,6 +32,20 @@ MRP feedback at 1 Hz to a fixed target, motor torques by ``RWMotorTorque``):
   cost is printed by ``--accuracy``;
 * ``all dist., env. slow``: the same with the orbit every step and the sun, the shadow, the
   atmosphere and the field every 10th step (``SLOW``);
+* ``all dist., GNC rates``: the rates a GNC engineer would pick (``GNC``): the orbit, the field,
+  the shadow and the atmosphere at 1 s, the sun at 60 s (held in between), every torque every step;
+  ``--accuracy`` prints its cost, and the angle by which the held sun departs from the sun of every
+  step;
+* ``the loop, no component``: the 6U in the loop with nothing on it (no orbit, no wheels): what
+  the loop itself costs over the gyrostat step, the floor under every row that adds components;
+* ``all dist., records on grid`` and ``all dist., no records``: ``all disturbances`` with the
+  records on the record grid only (``FlightSoftware(record_rate="grid")``: each source's torque by
+  name at the save rate, what issue 26 part 4 asks) and with none (``record=[]``); the default
+  records every value at its writer's rate (every step here);
+* ``--overhead``: ``orbit, field, 1 dipole`` and ``orbit, field, 5 dipoles`` (residual dipoles,
+  records on the grid): their difference over four is what one more component costs the loop
+  (its call, its finite checks, its arithmetic of about 10 ns), the gain a fused component would
+  have per component it absorbs;
 * ``gyrostat step``: ``lgvi.simulate`` of the same body with the same wheels and no controller
   (the gyrostat's compiled step); ``6U gyrostat step``: the same with the 6U's inertia and
   initial state.
@@ -61,7 +75,7 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
 import lgvi  # noqa: E402
 from lgvi.fsw import MEKF, FlightSoftware, InertialPointing, MRPControl, RWMotorTorque  # noqa: E402
-from lgvi.spacecraft import Gyro, Spacecraft, StarTracker  # noqa: E402
+from lgvi.spacecraft import Gyro, ResidualDipole, Spacecraft, StarTracker  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_loop_integration import _basilisk_6u  # noqa: E402
@@ -112,9 +126,11 @@ def six_u(kinds, env_rate=None, rates=None):
 #: atmosphere and the field (SLOW, the benchmark's ``env. slow`` case); the orbit every step.
 SUN_SHADOW = {"sun": 1.0, "shadow": 1.0}
 SLOW = {"sun": 1.0, "shadow": 1.0, "exponential_atmosphere": 1.0, "field": 1.0}
+#: A GNC engineer's rates (s): the environment at 1 s (``env_rate=1.0``), the sun at 60 s.
+GNC = {"sun": 60.0}
 
 
-def cases(steps, components=True):
+def cases(steps, components=True, overhead=False):
     gyro = Gyro(rate=0.5, arw=1e-4, rrw=1e-5, bias=[2e-4, -1e-4, 5e-5], seed=7)
     st = StarTracker(rate=0.5, sigma_cross=5e-5, sigma_about=4e-4, seed=7)
     est = MEKF(rate=0.5, arw=1e-4, rrw=1e-5, star_tracker=st, P0=[0.03 ** 2] * 3 + [3e-4 ** 2] * 3)
@@ -131,6 +147,8 @@ def cases(steps, components=True):
             c.modes = (0,)
     slow, _ = six_u(ADDED, env_rate=1.0)
     slower, _ = six_u(ADDED, rates=SLOW)
+    gnc, _ = six_u(ADDED, env_rate=1.0, rates=GNC)
+    nothing = Spacecraft(six.body)
     kw = dict(h=H, steps=steps, save_every=steps)
     out = {
         "sensors + MEKF": lambda: lgvi.simulate(sensed, np.eye(3), omega0=OMEGA0, fsw=_fsw(est), **kw),
@@ -139,10 +157,20 @@ def cases(steps, components=True):
         "all dist., held (1st order)": lambda: lgvi.simulate(held, R6, omega0=d["omega0"], **kw),
         "all dist., env. at 1 s": lambda: lgvi.simulate(slow, R6, omega0=d["omega0"], **kw),
         "all dist., env. slow": lambda: lgvi.simulate(slower, R6, omega0=d["omega0"], **kw),
+        "all dist., GNC rates": lambda: lgvi.simulate(gnc, R6, omega0=d["omega0"], **kw),
+        "the loop, no component": lambda: lgvi.simulate(nothing, R6, omega0=d["omega0"], **kw),
         "orbit, field, gravity grad.": lambda: lgvi.simulate(bare, R6, omega0=d["omega0"], **kw),
         "gyrostat step": lambda: lgvi.simulate(lgvi.RigidBody(J), np.eye(3), omega0=OMEGA0, wheels=_wheels(), **kw),
         "6U gyrostat step": lambda: lgvi.simulate(six.body, R6, omega0=d["omega0"], wheels=_wheels(), **kw),
+        "all dist., records on grid": lambda: lgvi.simulate(six, R6, omega0=d["omega0"], fsw=_records("grid"), **kw),
+        "all dist., no records": lambda: lgvi.simulate(six, R6, omega0=d["omega0"], fsw=_records(None), **kw),
     }
+    if overhead:
+        for n in (1, 5):
+            sc_n = Spacecraft(six.body, orbit=six.orbit, field=six.field, epoch=six.epoch,
+                              disturbances=[ResidualDipole([0.01, 0.0, 0.0]) for _ in range(n)])
+            out[f"orbit, field, {n} dipole{'s' if n > 1 else ''}"] = (
+                lambda sc: lambda: lgvi.simulate(sc, R6, omega0=d["omega0"], fsw=_records("grid"), **kw))(sc_n)
     if components:
         out["orbit only"] = (lambda sc: lambda: lgvi.simulate(sc, R6, omega0=d["omega0"], **kw))(six_u(())[0])
         for i, kind in enumerate(ADDED):
@@ -156,6 +184,11 @@ def cases(steps, components=True):
     return out
 
 
+def _records(rate):
+    """No flight software, the records on the grid (``"grid"``) or none (``None``)."""
+    return FlightSoftware(components=[], record_rate="grid") if rate else FlightSoftware(components=[], record=[])
+
+
 def accuracy() -> None:
     """One orbit of the tumbling 6U: slower environments against every step, and h against h/2."""
     from scipy.spatial.transform import Rotation
@@ -166,7 +199,8 @@ def accuracy() -> None:
     configs = {"every step": six, "sun, shadow at 1 s": six_u(ADDED, rates=SUN_SHADOW)[0],
                "+ atmosphere at 1 s": six_u(ADDED, rates={**SUN_SHADOW, "exponential_atmosphere": 1.0})[0],
                "+ field at 1 s (env. slow)": six_u(ADDED, rates=SLOW)[0],
-               "env. at 1 s (+ the orbit)": six_u(ADDED, env_rate=1.0)[0]}
+               "env. at 1 s (+ the orbit)": six_u(ADDED, env_rate=1.0)[0],
+               "GNC rates (+ the sun at 60 s)": six_u(ADDED, env_rate=1.0, rates=GNC)[0]}
     runs = {}
     for h in (0.1, 0.05):
         for name, sc in configs.items():
@@ -183,6 +217,18 @@ def accuracy() -> None:
             print(f"{name:30s} {gap(('every step', 0.1), (name, 0.1)):10.2e} {gap(('every step', 0.05), (name, 0.05)):10.2e}")
     print(f"{'every step, h = 0.1 vs 0.05':30s} {gap(('every step', 0.1), ('every step', 0.05)):10.2e} "
           "(the step's own error is about 4/3 of it)")
+    # the sun held over 60 s: the direction from the spacecraft against the sun of every step, over
+    # the orbit at 1 s (the sun's own motion, 0.04 deg an hour, and the spacecraft's 450 km in a minute)
+    from lgvi.environment.sun import sun_position
+
+    t = np.arange(0.0, T, 1.0)
+    r, _ = six.orbit.position_velocity(t)
+    sun = sun_position(six.epoch, t)
+    held = sun_position(six.epoch, np.floor(t / 60.0) * 60.0) - six.orbit.position_velocity(np.floor(t / 60.0) * 60.0)[0]
+    now = sun - r
+    ang = np.arctan2(np.linalg.norm(np.cross(held, now), axis=1), np.sum(held * now, axis=1))
+    print(f"the sun held 60 s: largest angle from the sun of every step {np.degrees(ang.max()):.2e} deg "
+          "(goal 0.01 deg)")
 
 
 def main() -> None:
@@ -190,11 +236,12 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--accuracy", action="store_true", help="also the accuracy cost of the environment at 1 s")
     ap.add_argument("--no-components", action="store_true", help="without the rows that add one component at a time")
+    ap.add_argument("--overhead", action="store_true", help="also 1 and 5 residual dipoles: one component's cost")
     ap.add_argument("--steps", type=int, default=20000, help="steps a run (default 20000)")
     ap.add_argument("--rounds", type=int, default=7, help="rounds (default 7)")
     args = ap.parse_args()
     steps, rounds = (2000, 3) if args.quick else (args.steps, args.rounds)
-    runs = cases(steps, components=not args.no_components)
+    runs = cases(steps, components=not args.no_components, overhead=args.overhead)
     for f in runs.values():                     # compile or load, once
         f()
     per_step = {name: [] for name in runs}
@@ -214,6 +261,10 @@ def main() -> None:
         "all dist., env. at 1 s / gyrostat step": ratio("all dist., env. at 1 s", "gyrostat step"),
         "all dist., env. at 1 s / 6U gyrostat step": ratio("all dist., env. at 1 s", "6U gyrostat step"),
         "all dist., env. slow / gyrostat step": ratio("all dist., env. slow", "gyrostat step"),
+        "all dist., GNC rates / gyrostat step": ratio("all dist., GNC rates", "gyrostat step"),
+        "the loop, no component / 6U gyrostat step": ratio("the loop, no component", "6U gyrostat step"),
+        "all dist., records on grid / gyrostat step": ratio("all dist., records on grid", "gyrostat step"),
+        "all dist., no records / gyrostat step": ratio("all dist., no records", "gyrostat step"),
         "all disturbances / orbit, field, g.g.": ratio("all disturbances", "orbit, field, gravity grad."),
         "all disturbances / all dist., held": ratio("all disturbances", "all dist., held (1st order)"),
         "true-state feedback / gyrostat step": ratio("true-state feedback", "gyrostat step"),
@@ -230,6 +281,10 @@ def main() -> None:
         print(f"{name:28s} {med:9.3f} {added:>9s}")
         if name == "orbit only" or name.startswith("+ "):
             prev = med
+    if args.overhead:
+        one = [(a - b) / 4.0 * 1e6 for a, b in zip(per_step["orbit, field, 5 dipoles"], per_step["orbit, field, 1 dipole"])]
+        print(f"one more component (a residual dipole): {statistics.median(one):.3f} us/step (min {min(one):.3f}, "
+              f"max {max(one):.3f})")
     print(f"{'ratio':42s} {'median':>7s} {'min':>7s} {'max':>7s}")
     for name, v in ratios.items():
         print(f"{name:42s} {statistics.median(v):7.2f} {min(v):7.2f} {max(v):7.2f}")

@@ -19,7 +19,7 @@ from scipy.spatial.transform import Rotation
 from lgvi.components import COMPONENT_KINDS
 from lgvi.environment.atmosphere import ExponentialAtmosphere, TabulatedAtmosphere, ecef_to_geodetic
 from lgvi.environment.clock import J2000_UTC, Clock, tai_minus_utc
-from lgvi.environment.field import decimal_year, geodetic_to_ecef
+from lgvi.environment.field import CentredDipole, decimal_year, geodetic_to_ecef
 from lgvi.environment.orbits import CircularOrbit, gmst
 from lgvi.environment.sun import Shadow, Sun, shadow_fraction, sun_position
 from lgvi.spacecraft.disturbances import FacetDrag, FacetSRP, ResidualDipole
@@ -298,6 +298,73 @@ def test_facet_srp_agrees_with_basilisk():
     assert rel_err(F_B[lit], BSK["srp_force"][lit]) < 1e-9
 
 
+def _random_facets(rng, n=12):
+    normal = rng.normal(size=(n, 3))
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    return rng.uniform(0.01, 0.2, n), normal, rng.normal(size=(n, 3)) * 0.1
+
+
+def _ulp_bound(terms: np.ndarray) -> np.ndarray:
+    """What summing the rows' per-facet ``terms`` (n, N, 3) in another order and form may move the sum
+    by: 64 units of round-off of the sum of their magnitudes (each facet's term a few operations)."""
+    return 64.0 * np.finfo(float).eps * np.abs(terms).sum(axis=1)
+
+
+def test_facet_drag_sums_are_the_per_facet_forces_to_round_off():
+    """The kernel sums ``Cd A max(n . v, 0)`` and its moment about the centres once and applies
+    ``-rho/2 v`` after (no square root, no division); each facet's force of the class's Notes,
+    ``-1/2 rho |v|^2 Cd A (n . u) u`` at ``c``, summed facet by facet, is the same to round-off."""
+    rng = np.random.default_rng(11)
+    area, normal, centre = _random_facets(rng)
+    Cd = rng.uniform(1.8, 2.6, area.shape[0])
+    drag = FacetDrag(area, normal, centre, drag_coefficient=Cd)
+    n = 300
+    R = Rotation.random(n, random_state=3).as_matrix()
+    v = rng.normal(size=(n, 3)) * 7500.0
+    rho = 10.0 ** rng.uniform(-14, -10, n)
+    out = drag.evaluate(R, rho, v)
+    vb = np.einsum("nji,nj->ni", R, v)
+    V = np.linalg.norm(vb, axis=1)
+    u = vb / V[:, None]
+    A = area * Cd * np.clip(u @ normal.T, 0.0, None)                    # (n, N): facets facing away feel nothing
+    F = -0.5 * (rho * V ** 2)[:, None, None] * A[:, :, None] * u[:, None, :]
+    tau = np.cross(centre[None], F)
+    assert np.all((A > 0).sum(axis=1) > 0) and np.any(A == 0)
+    np.testing.assert_array_less(np.abs(out["tau_facet_drag_B"] - tau.sum(axis=1)), _ulp_bound(tau) + 1e-300)
+    F_B = np.einsum("nji,nj->ni", R, out["F_facet_drag_N"])
+    np.testing.assert_array_less(np.abs(F_B - F.sum(axis=1)), _ulp_bound(F) * 4.0 + 1e-300)
+
+
+def test_facet_srp_sums_are_the_per_facet_forces_to_round_off():
+    """The kernel's sums ``S s + N`` and ``C x s + M`` (per-facet constants from the class) are the
+    class's per-facet forces ``-P A cos(th) [(1 - spec) s + 2 (diff / 3 + spec cos(th)) n]`` at ``c``
+    summed facet by facet, to round-off; in the umbra (shadow 0) the force and the torque are zero."""
+    rng = np.random.default_rng(12)
+    area, normal, centre = _random_facets(rng)
+    spec = rng.uniform(0.0, 0.5, area.shape[0])
+    diff = rng.uniform(0.0, 0.5, area.shape[0])
+    srp = FacetSRP(area, normal, centre, absorbed=1.0 - spec - diff, specular=spec, diffuse=diff)
+    n = 300
+    R = Rotation.random(n, random_state=4).as_matrix()
+    s_N = rng.normal(size=(n, 3))
+    s_N /= np.linalg.norm(s_N, axis=1, keepdims=True)
+    dist = rng.uniform(0.98, 1.02, n) * 1.495978707e11
+    shadow = np.where(rng.uniform(size=n) < 0.2, 0.0, rng.uniform(0.3, 1.0, n))
+    out = srp.evaluate(R, s_N, dist, shadow)
+    s = np.einsum("nji,nj->ni", R, s_N)
+    P = srp.solar_flux / srp.speed_of_light * (srp.au / dist) ** 2 * shadow
+    cth = s @ normal.T                                                   # (n, N)
+    lit = np.where(cth > 0.0, area * cth, 0.0)
+    F = -(P[:, None] * lit)[:, :, None] * ((1.0 - spec)[None, :, None] * s[:, None, :]
+                                           + 2.0 * (diff / 3.0 + spec * cth)[:, :, None] * normal[None])
+    tau = np.cross(centre[None], F)
+    np.testing.assert_array_less(np.abs(out["tau_facet_srp_B"] - tau.sum(axis=1)), _ulp_bound(tau) + 1e-300)
+    F_B = np.einsum("nji,nj->ni", R, out["F_facet_srp_N"])
+    np.testing.assert_array_less(np.abs(F_B - F.sum(axis=1)), _ulp_bound(F) * 4.0 + 1e-300)
+    dark = shadow == 0.0
+    assert dark.sum() > 30 and np.all(out["tau_facet_srp_B"][dark] == 0.0) and np.all(out["F_facet_srp_N"][dark] == 0.0)
+
+
 def test_residual_dipole_agrees_with_basilisk_mtb():
     R = dcm_from_mrp(BSK["mtb_sigma"])
     out = ResidualDipole(BSK["mtb_dipole"]).evaluate(R, BSK["mtb_B"])
@@ -321,7 +388,8 @@ def test_per_member_rows():
     centre = [[0.1, 0.0, 0.0], [0.0, 0.05, 0.02]]
     ens = FacetDrag(area, normal, centre, drag_coefficient=[[2.2, 2.1], [2.3, 2.0]])
     rows = ens.params()
-    assert rows.shape == (2, 17)
+    assert rows.shape == (2, 1 + 2 * 7)                        # [N, then per facet Cd A, n, c]
+    np.testing.assert_array_equal(rows[1, [1, 8]], [0.07 * 2.3, 0.02 * 2.0])
     for i in range(2):
         one = FacetDrag(area[i], normal, centre, drag_coefficient=[[2.2, 2.1], [2.3, 2.0]][i])
         np.testing.assert_array_equal(rows[i], one.params())
@@ -329,8 +397,10 @@ def test_per_member_rows():
     assert m.params().shape == (2, 3)
     spec = np.array([[0.2, 0.3], [0.4, 0.1]])
     srp = FacetSRP(area, normal, centre, absorbed=0.5, specular=spec, diffuse=0.5 - spec)
-    assert srp.params().shape == (2, 4 + 18)
-    np.testing.assert_allclose(srp.params()[1, 4 + 7:4 + 9], [0.4, 0.1], rtol=1e-15)
+    rows = srp.params()
+    assert rows.shape == (2, 2 + 2 * 12)       # [N, P AU^2, then per facet A (1 - spec), 2 A diff / 3, 2 A spec, n, c, c x n]
+    np.testing.assert_allclose(rows[1, 14:17], [0.02 * 0.9, 2.0 * 0.02 * 0.4 / 3.0, 2.0 * 0.02 * 0.1], rtol=1e-15)
+    np.testing.assert_allclose(rows[1, 23:26], np.cross(centre[1], normal[1]), rtol=1e-15)
 
 
 def test_per_member_environment_rows():
@@ -409,3 +479,111 @@ def test_a_value_that_is_not_finite_stops_with_status_1():
         ResidualDipole([0.01, 0.0, 0.0]).evaluate(np.eye(3), [0.0, np.inf, 0.0])
     with pytest.raises(ValueError, match=r"shadow: status 1"):
         Shadow().evaluate([np.nan, 0.0, 0.0], [1.0, 0.0, 0.0], 1.496e11)
+
+
+# ------------------------------------------------------------------------------------------ field
+
+def _spherical_dipole(xyz, g10, g11, h11, a, c, s):
+    """The loop's field kind at degree 1 before round 7: ``r`` turned to the Earth-fixed frame, the
+    spherical-harmonic synthesis there (spherical coordinates), ``B`` turned back (nT)."""
+    from lgvi._kernels.field_kernels import recursion_constants_size, sh_field_one, sh_recursion_constants
+
+    g = np.array([[0.0, 0.0], [g10, g11]])
+    h = np.array([[0.0, 0.0], [0.0, h11]])
+    C = np.zeros(recursion_constants_size(2))
+    sh_recursion_constants(2, C)
+    P, dP, Q = np.zeros((2, 2)), np.zeros((2, 2)), np.zeros((2, 2))
+    out = np.empty_like(xyz)
+    for i, (x, y, z) in enumerate(xyz):
+        bx, by, bz = sh_field_one(c * x + s * y, -s * x + c * y, z, g, h, 1, a, P, dP, Q, C)
+        out[i] = c * bx - s * by, s * bx + c * by, bz
+    return out
+
+
+def test_dipole_in_cartesian_form_is_the_spherical_synthesis_to_round_off():
+    """The field kind at degree 1 takes ``B = a^3 / r^5 (3 (m . r) r - r^2 m)`` with the moment turned
+    by GMST (one square root, one division), not the synthesis in spherical coordinates with ``r`` and
+    ``B`` turned: the same field to round-off, on random points from 300 km to GEO, near and on the
+    poles, on the equator and on the axes, at Earth angles all round."""
+    from lgvi._kernels.field_kernels import dipole_field_many
+
+    rng = np.random.default_rng(21)
+    u = rng.normal(size=(3000, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    pts = [u * rng.uniform(6.678e6, 4.22e7, (3000, 1))]
+    pole = np.array([[1e-3, -2e-3, 7e6], [0.0, 0.0, -7e6], [3e-9, 0.0, 6.9e6], [7e6, 0.0, 0.0], [0.0, 7e6, 0.0],
+                     [5e6, -5e6, 0.0], [-7e6, 1e-6, 0.0]])
+    pts.append(pole)
+    xyz = np.concatenate(pts)
+    dip = CentredDipole()                       # IGRF-14's degree 1 at 2025.0
+    g, h = dip.coefficients(2026.0)
+    worst = 0.0
+    for theta in np.linspace(0.0, 2.0 * np.pi, 13)[:-1] + 0.1:
+        c, s = np.cos(theta), np.sin(theta)
+        ref = _spherical_dipole(xyz, g[1, 0], g[1, 1], h[1, 1], dip.radius, c, s)
+        new = np.empty_like(xyz)
+        dipole_field_many(xyz, g[1, 0], g[1, 1], h[1, 1], dip.radius, c, s, new)
+        err = np.linalg.norm(new - ref, axis=1) / np.linalg.norm(ref, axis=1)
+        worst = max(worst, float(err.max()))
+    assert worst < 1e-14, worst          # measured below: a few units of round-off of |B|
+
+
+def test_loop_field_kind_at_degree_1_is_the_dipole_to_round_off():
+    """End to end: the loop's ``B_N`` along an orbit with the centred dipole equals the former
+    spherical path evaluated at the recorded ``r_N`` and the kernel's Earth angle to round-off (the
+    angle itself: the test below)."""
+    import lgvi
+    from lgvi._kernels.fsw_components import earth_angle_many
+    from lgvi.fsw import FlightSoftware
+    from lgvi.spacecraft import Spacecraft
+
+    epoch = dt.datetime(2026, 3, 20, 6)
+    dip = CentredDipole()
+    sc = Spacecraft([0.2, 0.3, 0.4], orbit=CircularOrbit(6878137.0, np.radians(97.4)), field=dip, epoch=epoch)
+    tr = lgvi.simulate(sc, np.eye(3), omega0=np.zeros(3), h=10.0, steps=120, save_every=1,
+                       fsw=FlightSoftware(components=[], record=["B_N", "r_N"]))
+    jd0 = (epoch - dt.datetime(2000, 1, 1, 12)).total_seconds() / 86400.0
+    g, h = dip.coefficients(2026.0)
+    r, B = tr.signals["r_N"], tr.signals["B_N"]
+    cs = np.empty((len(B), 2))
+    earth_angle_many(jd0, np.asarray(tr.signal_t, dtype=float), np.zeros(5), cs)
+    ref = np.empty_like(B)
+    for i in range(len(B)):
+        ref[i] = _spherical_dipole(r[i:i + 1], g[1, 0], g[1, 1], h[1, 1], dip.radius, cs[i, 0], cs[i, 1])[0] * 1e-9
+    err = np.linalg.norm(B - ref, axis=1) / np.linalg.norm(ref, axis=1)
+    assert len(B) > 100 and err.max() < 1e-14, err.max()
+
+
+def test_earth_angle_from_the_minute_grid_is_the_gmst_to_its_own_rounding():
+    """The field kind of degree 1 takes the GMST's cosine and sine at whole minutes (``gmst_angle``,
+    then ``cos``, ``sin``) and turns them on by the angle's increment with its series: equal at the
+    grid times; between them within the rounding of ``gmst_angle``'s unreduced argument (its
+    ``sec 2 pi / 86400`` is about 6e4 rad, one unit in the last place 7.3e-12 rad): the two differ by
+    at most 3.1e-11 rad (measured), and against the same polynomial in extended precision the grid
+    form errs no more than ``gmst_angle`` itself (2.8e-11 rad both)."""
+    from lgvi._kernels.fsw_components import earth_angle_many, gmst_angle
+
+    jd0 = (dt.datetime(2026, 3, 20) - dt.datetime(2000, 1, 1, 12)).total_seconds() / 86400.0
+    rng = np.random.default_rng(1)
+    t = np.sort(np.concatenate([rng.uniform(-3600.0, 2 * 86400.0, 4000), np.arange(0.0, 7200.0, 60.0)]))
+    out = np.empty((t.size, 2))
+    earth_angle_many(jd0, t, np.zeros(5), out)
+    old = np.array([gmst_angle(jd0, float(x)) for x in t])
+    grid = np.fmod(t, 60.0) == 0.0
+    assert grid.sum() == 120
+    np.testing.assert_array_equal(out[grid], np.stack([np.cos(old[grid]), np.sin(old[grid])], axis=1))
+    gap = np.hypot(out[:, 0] - np.cos(old), out[:, 1] - np.sin(old))
+    assert gap.max() < 6 * 7.3e-12, gap.max()
+    # the same numbers whatever the order of the calls (a pure function of t: chunks, resumes)
+    again = np.empty_like(out)
+    earth_angle_many(jd0, t[::-1].copy(), np.zeros(5), again)
+    np.testing.assert_array_equal(again[::-1], out)
+    if np.finfo(np.longdouble).eps < 1e-18:           # 80-bit extended precision (x86)
+        L = np.longdouble
+        T = (L(jd0) + t.astype(L) / L(86400)) / L(36525)
+        sec = L("67310.54841") + (L(876600) * 3600 + L("8640184.812866")) * T + L("0.093104") * T * T - L("6.2e-6") * T ** 3
+        th = np.fmod(sec * L(2.0 * np.pi / 86400.0), L(2.0 * np.pi))
+        c, s_ = np.cos(th).astype(float), np.sin(th).astype(float)
+        e_new = np.hypot(out[:, 0] - c, out[:, 1] - s_).max()
+        e_old = np.hypot(np.cos(old) - c, np.sin(old) - s_).max()
+        assert e_new < e_old + 7.3e-12, (e_new, e_old)

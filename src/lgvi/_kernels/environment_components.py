@@ -177,24 +177,27 @@ def shadow_fraction(rx, ry, rz, ux, uy, uz, d, model, R_p, R_s):
         return math.nan                                 # (the clamps of asin and acos would hide it)
     if model == 0.0:
         return 1.0
-    hx = rx + d * ux                                    # sun from the planet
-    hy = ry + d * uy
-    hz = rz + d * uz
-    dh = math.sqrt(hx * hx + hy * hy + hz * hz)
+    r2 = rx * rx + ry * ry + rz * rz
+    ru = rx * ux + ry * uy + rz * uz
     if model == 1.0:
+        hx = rx + d * ux                                # sun from the planet
+        hy = ry + d * uy
+        hz = rz + d * uz
+        dh = math.sqrt(hx * hx + hy * hy + hz * hz)
         sr = (rx * hx + ry * hy + rz * hz) / dh         # r along the sun direction
         if sr >= 0.0:
             return 1.0
-        perp2 = rx * rx + ry * ry + rz * rz - sr * sr
+        perp2 = r2 - sr * sr
         return 0.0 if perp2 < R_p * R_p else 1.0
-    if d < dh:                                          # nearer the sun than the planet's centre
-        return 1.0
-    rn = math.sqrt(rx * rx + ry * ry + rz * rz)
+    if r2 + 2.0 * d * ru > 0.0:                         # nearer the sun than the planet's centre:
+        return 1.0                                      # d < |r + d u|, squared
+    rn = math.sqrt(r2)
+    inv = 1.0 / rn
     sa = R_s / d                                        # sin a, sin b, cos c: the cases without trigonometry
-    sb = R_p / rn
+    sb = R_p * inv
     ca = math.sqrt(max(1.0 - sa * sa, 0.0))
     cb = math.sqrt(max(1.0 - sb * sb, 0.0))
-    cc = -(rx * ux + ry * uy + rz * uz) / rn
+    cc = -ru * inv
     if cc <= ca * cb - sa * sb:                         # c >= a + b: sunlit
         return 1.0
     if sb > sa and cc > ca * cb + sa * sb:              # c < b - a: umbra
@@ -324,14 +327,6 @@ def _add_torque(bus, o, d, tx, ty, tz):
 
 
 @jit(inline="always")
-def _facet_add(fx, fy, fz, tx, ty, tz, cx, cy, cz, gx, gy, gz):
-    """The sums of force and moment with a facet's force ``g`` at ``c`` added: ``F + g``, ``tau + c x g``
-    (kept in registers: summing in the bus instead cost 60 ns an evaluation)."""
-    return (fx + gx, fy + gy, fz + gz, tx + (cy * gz - cz * gy), ty + (cz * gx - cx * gz),
-            tz + (cx * gy - cy * gx))
-
-
-@jit(inline="always")
 def _facet_finish(bus, Ro, ot, od, of, fx, fy, fz, tx, ty, tz):
     """``F_N = R F_B`` written at ``of``; the torque written at ``ot`` and added into ``tau_dist_B``
     at ``od``; the status."""
@@ -349,63 +344,80 @@ def _to_body(bus, Ro, v):
     return x, y, z
 
 
+#: Per-facet values in the parameter rows: facet drag ``[Cd A, n (3), c (3)]``, facet SRP
+#: ``[A (1 - specular), 2 A diffuse / 3, 2 A specular, n (3), c (3), c x n (3)]`` (computed once by the
+#: Python classes, ``lgvi.spacecraft.disturbances``).
+DRAG_FACET = 7
+SRP_FACET = 12
+
+
 @jit(inline="always")
 def facet_drag_step(t, bus, p, s, w):
-    """Facet drag (code 200; Basilisk's facetDragDynamicEffector). p = [N, then per facet: area,
-    Cd, normal (3, body), centre of pressure (3, body, from the centre of mass)]; reads R,
-    density, v_rel_N; writes tau_facet_drag_B, tau_dist_B (adds), F_facet_drag_N."""
+    """Facet drag (code 200; Basilisk's facetDragDynamicEffector). p = [N, then per facet: Cd A,
+    normal (3, body), centre of pressure (3, body, from the centre of mass)]; reads R, density,
+    v_rel_N; writes tau_facet_drag_B, tau_dist_B (adds), F_facet_drag_N.
+
+    Each facet's force ``-1/2 rho |v|^2 Cd A (n . u) u`` (``u = v / |v|``) is
+    ``-1/2 rho Cd A (n . v) v``: every force lies along ``v``, so the sums are
+    ``F = -rho/2 S v`` and ``tau = -rho/2 C x v`` with ``S = sum a_i``, ``C = sum a_i c_i``,
+    ``a_i = Cd_i A_i max(n_i . v, 0)``: no square root, no division, one cross product."""
     Ro = w[0]
     rho = bus[w[1]]
     vx, vy, vz = _to_body(bus, Ro, w[2])
-    V = math.sqrt(vx * vx + vy * vy + vz * vz)
-    fx = fy = fz = tx = ty = tz = 0.0
-    if V > 1e-12:
-        ux = vx / V
-        uy = vy / V
-        uz = vz / V
-        q = 0.5 * V * V * rho
+    S = cx = cy = cz = 0.0
+    if vx * vx + vy * vy + vz * vz > 1e-24:
         for i in range(int(p[0])):
-            j = 1 + 8 * i
-            A = p[j] * (p[j + 2] * ux + p[j + 3] * uy + p[j + 4] * uz)
-            if A > 0.0:
-                k = -q * p[j + 1] * A
-                fx, fy, fz, tx, ty, tz = _facet_add(fx, fy, fz, tx, ty, tz, p[j + 5], p[j + 6], p[j + 7], k * ux,
-                                                    k * uy, k * uz)
-    return _facet_finish(bus, Ro, w[3], w[4], w[5], fx, fy, fz, tx, ty, tz)
+            j = 1 + DRAG_FACET * i
+            a = p[j] * (p[j + 1] * vx + p[j + 2] * vy + p[j + 3] * vz)
+            if a > 0.0:
+                S += a
+                cx += a * p[j + 4]
+                cy += a * p[j + 5]
+                cz += a * p[j + 6]
+    k = -0.5 * rho
+    f = k * S
+    return _facet_finish(bus, Ro, w[3], w[4], w[5], f * vx, f * vy, f * vz, k * (cy * vz - cz * vy),
+                         k * (cz * vx - cx * vz), k * (cx * vy - cy * vx))
 
 
 @jit(inline="always")
 def facet_srp_step(t, bus, p, s, w):
     """Facet radiation pressure (code 201; Basilisk's facetSRPDynamicEffector). p = [N, solar flux
-    at 1 AU (W/m^2), speed of light (m/s), AU (m), then per facet: area, normal (3), centre of
-    pressure (3), specular, diffuse]; reads R, sun_N, sun_distance, shadow; writes
-    tau_facet_srp_B, tau_dist_B (adds), F_facet_srp_N.
+    at 1 AU / c AU^2 (N m^2), then per facet: A (1 - specular), 2 A diffuse / 3, 2 A specular,
+    normal (3), centre of pressure (3), centre x normal (3)]; reads R, sun_N (a unit vector),
+    sun_distance, shadow; writes tau_facet_srp_B, tau_dist_B (adds), F_facet_srp_N.
 
     ``F = -P A cos(th) [(1 - specular) s + 2 (diffuse / 3 + specular cos(th)) n]`` on each lit
-    facet (``cos(th) = n . s > 0``), ``P = flux / c (AU / d)^2`` times the visible fraction."""
+    facet (``cos(th) = n . s > 0``), ``P = flux / c (AU / d)^2`` times the visible fraction; summed
+    as ``F = -P (S s + N)``, ``tau = -P (C x s + M)`` with ``a_i = A_i (1 - spec_i) cos(th_i)``,
+    ``b_i = cos(th_i) (2 A_i diff_i / 3 + 2 A_i spec_i cos(th_i))``, ``S = sum a_i``,
+    ``C = sum a_i c_i``, ``N = sum b_i n_i``, ``M = sum b_i c_i x n_i``. In the shadow
+    (``P = 0``) the facets are not visited."""
     Ro = w[0]
     sx, sy, sz = _to_body(bus, Ro, w[1])
-    n = math.sqrt(sx * sx + sy * sy + sz * sz)
-    sx /= n
-    sy /= n
-    sz /= n
-    au = p[3] / bus[w[2]]
-    P = p[1] / p[2] * au * au * bus[w[3]]
-    fx = fy = fz = tx = ty = tz = 0.0
-    for i in range(int(p[0])):
-        j = 4 + 9 * i
-        nx = p[j + 1]
-        ny = p[j + 2]
-        nz = p[j + 3]
-        cth = nx * sx + ny * sy + nz * sz
-        A = p[j] * cth
-        if A > 0.0:
-            spec = p[j + 7]
-            a = -P * A * (1.0 - spec)
-            b = -P * A * 2.0 * (p[j + 8] / 3.0 + spec * cth)
-            fx, fy, fz, tx, ty, tz = _facet_add(fx, fy, fz, tx, ty, tz, p[j + 4], p[j + 5], p[j + 6],
-                                                a * sx + b * nx, a * sy + b * ny, a * sz + b * nz)
-    return _facet_finish(bus, Ro, w[4], w[5], w[6], fx, fy, fz, tx, ty, tz)
+    d = bus[w[2]]
+    P = p[1] * bus[w[3]] / (d * d)
+    S = cx = cy = cz = nx = ny = nz = mx = my = mz = 0.0
+    if P != 0.0:
+        for i in range(int(p[0])):
+            j = 2 + SRP_FACET * i
+            cth = p[j + 3] * sx + p[j + 4] * sy + p[j + 5] * sz
+            if cth > 0.0:
+                a = p[j] * cth
+                b = cth * (p[j + 1] + p[j + 2] * cth)
+                S += a
+                cx += a * p[j + 6]
+                cy += a * p[j + 7]
+                cz += a * p[j + 8]
+                nx += b * p[j + 3]
+                ny += b * p[j + 4]
+                nz += b * p[j + 5]
+                mx += b * p[j + 9]
+                my += b * p[j + 10]
+                mz += b * p[j + 11]
+    k = -P
+    return _facet_finish(bus, Ro, w[4], w[5], w[6], k * (S * sx + nx), k * (S * sy + ny), k * (S * sz + nz),
+                         k * (cy * sz - cz * sy + mx), k * (cz * sx - cx * sz + my), k * (cx * sy - cy * sx + mz))
 
 
 @jit(inline="always")

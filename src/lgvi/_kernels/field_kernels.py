@@ -180,3 +180,31 @@ def sh_coefficients_at(times, G, H, year, g, h):
         for m in range(G.shape[2]):
             g[n, m] = G[j, n, m] + w * (G[j + 1, n, m] - G[j, n, m])
             h[n, m] = H[j, n, m] + w * (H[j + 1, n, m] - H[j, n, m])
+
+
+@jit(inline="always")
+def dipole_field_turned(x, y, z, g10, g11, h11, a, c, s):
+    """The centred dipole's field (nT) at ``(x, y, z)`` of a frame turned by the angle whose cosine and
+    sine are ``c``, ``s`` about z from the Earth-fixed one (the inertial frame and the GMST, in the
+    loop): the degree-1 synthesis in Cartesian form, ``B = a^3 / r^5 (3 (m . r) r - r^2 m)`` with
+    ``m = Rz m_E``, ``m_E = (g11, h11, g10)`` (``V = a^3 m_E . r_E / r^3``, ``B = -grad V``). One
+    square root and one division; no spherical coordinates, no turning of ``r`` and ``B``. Equals
+    :func:`sh_field_flat` at degree 1 to round-off (``docs/environment.md``, the field)."""
+    mx = c * g11 - s * h11
+    my = s * g11 + c * h11
+    mz = g10
+    r2 = x * x + y * y + z * z
+    k = (a * a * a) / (r2 * r2 * math.sqrt(r2))
+    d = 3.0 * (mx * x + my * y + mz * z)
+    return k * (d * x - r2 * mx), k * (d * y - r2 * my), k * (d * z - r2 * mz)
+
+
+@jit(_nrt=False)
+def dipole_field_many(xyz, g10, g11, h11, a, c, s, out):
+    """``out[i]`` = :func:`dipole_field_turned` at ``xyz[i]`` (K, 3) (the tests compare it with the
+    spherical synthesis)."""
+    for i in range(xyz.shape[0]):
+        bx, by, bz = dipole_field_turned(xyz[i, 0], xyz[i, 1], xyz[i, 2], g10, g11, h11, a, c, s)
+        out[i, 0] = bx
+        out[i, 1] = by
+        out[i, 2] = bz

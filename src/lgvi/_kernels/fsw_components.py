@@ -15,7 +15,7 @@ import math
 
 from .._jit import jit
 from .gyrostat_kernels import mrp_error_at, mrp_request, reference_rates_at
-from .field_kernels import sh_field_flat
+from .field_kernels import dipole_field_turned, sh_field_flat
 from .orbit_table_kernels import hermite_interval, hermite_position_in
 
 OK = 0
@@ -104,11 +104,11 @@ def hermite_velocity_in(i, s, dt, p):
     s2 = s * s
     d00 = (6.0 * s2 - 6.0 * s) / dt
     d10 = 3.0 * s2 - 4.0 * s + 1.0
-    d01 = (-6.0 * s2 + 6.0 * s) / dt
     d11 = 3.0 * s2 - 2.0 * s
-    x = d00 * p[i] + d10 * p[i + 3] + d01 * p[i + 6] + d11 * p[i + 9]
-    y = d00 * p[i + 1] + d10 * p[i + 4] + d01 * p[i + 7] + d11 * p[i + 10]
-    z = d00 * p[i + 2] + d10 * p[i + 5] + d01 * p[i + 8] + d11 * p[i + 11]
+    # d01 = (-6 s^2 + 6 s) / dt is -d00 exactly (IEEE: b - a = -(a - b)): one division, the same values
+    x = d00 * p[i] + d10 * p[i + 3] - d00 * p[i + 6] + d11 * p[i + 9]
+    y = d00 * p[i + 1] + d10 * p[i + 4] - d00 * p[i + 7] + d11 * p[i + 10]
+    z = d00 * p[i + 2] + d10 * p[i + 5] - d00 * p[i + 8] + d11 * p[i + 11]
     return x, y, z
 
 
@@ -142,26 +142,86 @@ def gmst_angle(jd0, t):
     return (sec * (2.0 * math.pi / 86400.0)) % (2.0 * math.pi)
 
 
+#: Seconds between the grid times at which the field kind of degree 1 evaluates the Earth angle's
+#: cosine and sine (:func:`earth_angle_cs`).
+EARTH_ANGLE_GRID = 60.0
+_I6, _I20, _I42, _I2, _I12, _I30, _I56 = 1.0 / 6.0, 1.0 / 20.0, 1.0 / 42.0, 0.5, 1.0 / 12.0, 1.0 / 30.0, 1.0 / 56.0
+
+
+@jit(inline="always")
+def gmst_rate(jd0, tb):
+    """``d theta / dt`` (rad/s) of :func:`gmst_angle`'s polynomial at ``tb`` s after the epoch."""
+    Tb = (jd0 + tb / 86400.0) / 36525.0
+    dsec = (876600.0 * 3600.0 + 8640184.812866) + 2.0 * 0.093104 * Tb - 3.0 * 6.2e-6 * Tb * Tb
+    return dsec * (2.0 * math.pi / 86400.0) / (86400.0 * 36525.0)
+
+
+@jit(inline="always")
+def earth_angle_cs(jd0, t, s):
+    """``cos``, ``sin`` of the GMST at ``t``: at the grid time ``tb = k EARTH_ANGLE_GRID`` at or before ``t``
+    by :func:`gmst_angle` (kept in ``s = [k, cos, sin, k + 1/2, rate]``, recomputed when ``k`` changes),
+    then turned on by ``d = (t - tb) rate`` (:func:`gmst_rate` at ``tb``; the polynomial's curvature
+    adds 2e-21 rad over a minute) with ``sin d``, ``cos d`` from their series to ``d^7``, ``d^8``
+    (``|d| <= 4.4e-3`` rad: the rest below 1e-20). No ``fmod``, ``cos`` or ``sin`` and one division
+    a call between grid times; a pure function of ``t`` (the grid is fixed), so chunks and resumes
+    give the same numbers. Equal to ``cos``, ``sin`` of :func:`gmst_angle` at the grid times; between
+    them it differs by that function's own rounding of its large unreduced argument (up to about
+    3e-11 rad; ``docs/environment.md``)."""
+    k = math.floor(t / EARTH_ANGLE_GRID)
+    tb = k * EARTH_ANGLE_GRID
+    if not (s[0] == k and s[3] == k + 0.5):
+        th = gmst_angle(jd0, tb)
+        s[0] = k
+        s[1] = math.cos(th)
+        s[2] = math.sin(th)
+        s[3] = k + 0.5
+        s[4] = gmst_rate(jd0, tb)
+    d = (t - tb) * s[4]
+    d2 = d * d
+    sd = d * (1.0 - d2 * _I6 * (1.0 - d2 * _I20 * (1.0 - d2 * _I42)))
+    cd = 1.0 - d2 * _I2 * (1.0 - d2 * _I12 * (1.0 - d2 * _I30 * (1.0 - d2 * _I56)))
+    return s[1] * cd - s[2] * sd, s[2] * cd + s[1] * sd
+
+
+@jit(_nrt=False)
+def earth_angle_many(jd0, t, s, out):
+    """:func:`earth_angle_cs` at each of ``t`` (n,) in turn (state ``s`` (5,)): ``out`` (n, 2) cos, sin."""
+    for i in range(t.shape[0]):
+        out[i, 0], out[i, 1] = earth_angle_cs(jd0, t[i], s)
+
+
 @jit(inline="always")
 def field_step(t, bus, p, s, w):
     """``B_N`` (tesla) at ``r_N``: the spherical-harmonic kernel in the Earth-fixed frame turned by
-    GMST, coefficients linear in time from the epoch."""
+    GMST, coefficients linear in time from the epoch; at degree 1 the dipole's Cartesian form
+    (:func:`.field_kernels.dipole_field_turned`)."""
     nmax = int(p[F_NMAX])
     n1 = int(p[F_N1])
     q = n1 * n1
     o = F_COEF
-    for i in range(q):
-        s[i] = p[o + i] + t * p[o + 2 * q + i]
-        s[q + i] = p[o + q + i] + t * p[o + 3 * q + i]
     r = w[0]
     x = bus[r]
     y = bus[r + 1]
     z = bus[r + 2]
     if not (_finite3(x, y, z) and x * x + y * y + z * z > 0.0):
         return NOT_FINITE
+    if nmax == 1:
+        # the centred dipole in Cartesian form, its moment turned by GMST (field_kernels): the same
+        # field to round-off, without the spherical coordinates and the two frame turns; the Earth
+        # angle's cosine and sine from the grid kept in s[0:5] (the synthesis' scratch, unused here)
+        c, sn = earth_angle_cs(p[F_JD0], t, s)
+        g10 = p[o + n1] + t * p[o + 2 * q + n1]
+        g11 = p[o + n1 + 1] + t * p[o + 2 * q + n1 + 1]
+        h11 = p[o + q + n1 + 1] + t * p[o + 3 * q + n1 + 1]
+        bx, by, bz = dipole_field_turned(x, y, z, g10, g11, h11, p[F_RADIUS], c, sn)
+        put3(bus, w[1], bx * 1e-9, by * 1e-9, bz * 1e-9)
+        return OK
     theta = gmst_angle(p[F_JD0], t)
     c = math.cos(theta)
     sn = math.sin(theta)
+    for i in range(q):
+        s[i] = p[o + i] + t * p[o + 2 * q + i]
+        s[q + i] = p[o + q + i] + t * p[o + 3 * q + i]
     # g, h, P, dP, Q: (n1, n1) blocks of s, indexed flat
     bx, by, bz = sh_field_flat(c * x + sn * y, -sn * x + c * y, z, s, 0, s, q, n1, nmax, p[F_RADIUS], s, 2 * q,
                                s, 3 * q, s, 4 * q, p, o + 4 * q)
@@ -169,9 +229,11 @@ def field_step(t, bus, p, s, w):
     return OK
 
 
-@jit(_nrt=False)
+@jit(inline="always")
 def orbit_field_dispatch(code, t, bus, p, s, w):
-    """The orbit and field kinds (codes 190-199)."""
+    """The orbit and field kinds (codes 190-199); inlined where it is called (the loop's
+    ``dispatch``, a function of its own), as :func:`.environment_components.environment_dispatch`:
+    one call a component instead of two."""
     if code == ORBIT:
         return orbit_step(t, bus, p, s, w)
     if code == FIELD:

@@ -170,9 +170,10 @@ class FacetDrag(_Disturbance):
         return f"FacetDrag({self.area.shape[1]} facets)"
 
     def params(self) -> np.ndarray:
+        # per facet [Cd A, n, c]: the kernel's constants, computed once (_kernels.environment_components)
         B, N = self.area.shape
-        per = np.concatenate([self.area[..., None], self.drag_coefficient[..., None], self.normal, self.centre],
-                             axis=-1).reshape(B, 8 * N)
+        per = np.concatenate([(self.drag_coefficient * self.area)[..., None], self.normal, self.centre],
+                             axis=-1).reshape(B, 7 * N)
         return self._row(np.concatenate([np.full((B, 1), N), per], axis=1))
 
     def evaluate(self, R: Any, density: Any, v_rel_N: Any) -> dict[str, np.ndarray]:
@@ -241,10 +242,15 @@ class FacetSRP(_Disturbance):
         return f"FacetSRP({self.area.shape[1]} facets)"
 
     def params(self) -> np.ndarray:
+        # per facet [A (1 - specular), 2 A diffuse / 3, 2 A specular, n, c, c x n]: the kernel's
+        # constants, computed once (_kernels.environment_components); the head's pressure at 1 AU
+        # times AU^2, so that P = p[1] shadow / d^2
         B, N = self.area.shape
-        per = np.concatenate([self.area[..., None], self.normal, self.centre, self.specular[..., None],
-                              self.diffuse[..., None]], axis=-1).reshape(B, 9 * N)
-        head = np.tile([N, self.solar_flux, self.speed_of_light, self.au], (B, 1))
+        A, spec, diff = self.area, self.specular, self.diffuse
+        per = np.concatenate([(A * (1.0 - spec))[..., None], (2.0 * A * diff / 3.0)[..., None],
+                              (2.0 * A * spec)[..., None], self.normal, self.centre,
+                              np.cross(self.centre, self.normal)], axis=-1).reshape(B, 12 * N)
+        head = np.tile([N, self.solar_flux / self.speed_of_light * self.au * self.au], (B, 1))
         return self._row(np.concatenate([head, per], axis=1))
 
     def evaluate(self, R: Any, sun_N: Any, sun_distance: Any, shadow: Any = 1.0) -> dict[str, np.ndarray]:
