@@ -16,6 +16,9 @@ compilation options live in a single spot:
   ``stepping.py`` would keep the old solver inlined (an in-place upgrade or a development tree
   would silently mix versions); with the hash, any change of any kernel file recompiles them all.
 
+Numba's typing of built-in functions and operators is remembered for plain argument types
+(:func:`_install_typing_memo`: the same answers, found once; a fifth of a cold compilation).
+
 When a compilation of lgvi's kernels takes longer than a second (a fresh install, an upgrade, a
 new model), one line on the ``lgvi`` logger (shown on stderr unless logging is configured) says
 so; loading compiled kernels from the cache says nothing.
@@ -243,13 +246,14 @@ def _install_typing_memo() -> None:
         from numba.core import types as nbtypes
         from numba.core.target_extension import get_local_target
         from numba.core.types.functions import BaseFunction
-    except ImportError:  # pragma: no cover - a Numba without these internals
+
+        plain = tuple(getattr(nbtypes, name) for name in _PLAIN_TYPE_NAMES)
+        tuples = (nbtypes.UniTuple, nbtypes.Tuple)
+    except (ImportError, AttributeError):  # pragma: no cover - a Numba without these internals
         return
     original = getattr(BaseFunction, "get_call_type", None)
     if original is None or getattr(original, "_lgvi_memo", False) or not TYPING_MEMO:
         return
-    plain = tuple(getattr(nbtypes, name) for name in _PLAIN_TYPE_NAMES)
-    tuples = (nbtypes.UniTuple, nbtypes.Tuple)
     memo = _TYPING_MEMO
 
     def is_plain(a: Any) -> bool:
