@@ -15,6 +15,13 @@ code) and of its largest passes (``inline_inlinables``: copying the ``inline="al
 IR into the caller; ``nopython_type_inference``; ``native_lowering``: the LLVM IR). On a loaded
 machine the wall times grow with the load; compare shares, and the CPU time of the call.
 
+With ``--compare OLD_SRC NEW_SRC`` (two source trees, the folders holding ``lgvi/``) it runs each
+case in fresh processes with an empty ``NUMBA_CACHE_DIR`` each, the two trees alternated
+(``--rounds`` processes per tree and case), and prints a table of the first call's CPU seconds:
+each tree's runs, their medians and the ratio new/old::
+
+    python benchmarks/first_call_compiles.py --compare /tmp/base/src src --rounds 3 simulate-sum ensemble-model
+
 The ``*-compiled`` cases run a user's :class:`lgvi.torques.Compiled` model. Run twice with one
 ``NUMBA_CACHE_DIR`` (the third line above), the second process shows what every later process
 pays: the user's function and its ``cfunc`` (the loop comes from the cache; a loop specialised for
@@ -24,7 +31,11 @@ the function, as before, was compiled again in memory by every process).
 from __future__ import annotations
 
 import argparse
+import os
+import statistics
+import subprocess
 import sys
+import tempfile
 import time
 
 #: the cases of benchmarks/latency.py this script runs (same calls)
@@ -92,10 +103,48 @@ CASES = {
 PASSES = ("inline_inlinables", "nopython_type_inference", "native_lowering", "native_parfor_lowering")
 
 
+def first_call_cpu(src: str, case: str) -> float:
+    """CPU seconds of ``case``'s first call in a fresh process on ``src`` with an empty Numba cache."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.path.abspath(src) + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    with tempfile.TemporaryDirectory() as cache:
+        env["NUMBA_CACHE_DIR"] = cache
+        proc = subprocess.run([sys.executable, os.path.abspath(__file__), case], env=env, capture_output=True,
+                              text=True, check=True)
+    first = next(line for line in proc.stdout.splitlines() if line.startswith(f"{case}: first call"))
+    return float(first.split("first call ")[1].split(" s CPU")[0])
+
+
+def compare(old_src: str, new_src: str, cases: list[str], rounds: int) -> None:
+    """Each case's first call on both trees, in fresh processes, alternated (see the module notes)."""
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    from _trees import alternate
+
+    print(f"first call, CPU s, fresh process and empty cache each; old {old_src}, new {new_src}; "
+          f"load average {os.getloadavg()[0]:.1f} at the start")
+    print(f"{'case':<20} {'old runs':<24} {'new runs':<24} {'old':>6} {'new':>6} {'new/old':>8}")
+    for case in cases:
+        runs = alternate(old_src, new_src, rounds, lambda src: first_call_cpu(src, case))
+        old, new = statistics.median(runs[old_src]), statistics.median(runs[new_src])
+        print(f"{case:<20} {', '.join(f'{x:.2f}' for x in runs[old_src]):<24} "
+              f"{', '.join(f'{x:.2f}' for x in runs[new_src]):<24} {old:>6.2f} {new:>6.2f} {new / old:>8.2f}",
+              flush=True)
+    print(f"load average {os.getloadavg()[0]:.1f} at the end")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("case", choices=tuple(CASES))
+    parser.add_argument("case", nargs="+", choices=tuple(CASES))
+    parser.add_argument("--compare", nargs=2, metavar=("OLD_SRC", "NEW_SRC"),
+                        help="two source trees (the folders holding lgvi/), measured alternately")
+    parser.add_argument("--rounds", type=int, default=3, help="fresh processes per tree and case (default 3)")
     args = parser.parse_args(argv)
+    if args.compare:
+        compare(*args.compare, args.case, args.rounds)
+        return 0
+    if len(args.case) > 1:
+        parser.error("one case at a time without --compare")
+    args.case = args.case[0]
     from numba.core import event
 
     compiled: list = []

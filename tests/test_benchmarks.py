@@ -232,3 +232,11 @@ def test_model_step_quick():
     _check(proc, "case", "old ns", "new ns", "new/old", "simulate gravity", "simulate Compiled", "gravity + damping",
            "ensemble gravity", "ensemble Compiled", "Compiled / built-in")
     assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
+def test_first_call_compiles_compare_quick():
+    """One fresh process a tree with an empty Numba cache (two cold compiles of the free body's loop)."""
+    proc = _run("first_call_compiles.py", "--compare", "src", "src", "--rounds", "1", "simulate-free")
+    _check(proc, "first call, CPU s", "old runs", "new runs", "new/old", "simulate-free", "load average")
+    assert "Traceback" not in proc.stderr

@@ -123,7 +123,11 @@ def test_threads_and_chunks_do_not_change_results(options, monkeypatch):
     compiled_start = lgvi.simulate_ensemble(FULL, R0, Pi0, threads=2, **opts)
     monkeypatch.setattr(ensemble, "CHUNK_BODY_STEPS", 37 * 5 * 7)  # chunks of 7 (or 1) steps: not multiples of 9
     chunked = lgvi.simulate_ensemble(FULL, R0, Pi0, **opts)
-    for other in (two, compiled_start, chunked):
+    # the models' bodies in compiled ranges (ensemble_kernels.advance_forced, beyond PER_BODY_CALLS_MAX
+    # bodies) rather than one call of simulate's loop a body from Python
+    monkeypatch.setattr(ensemble, "PER_BODY_CALLS_MAX", 0)
+    ranges = lgvi.simulate_ensemble(FULL, R0, Pi0, threads=2, **opts)
+    for other in (two, compiled_start, chunked, ranges):
         for name in ("R", "Pi", "iterations", "residual"):
             np.testing.assert_array_equal(getattr(one, name), getattr(other, name), err_msg=name)
 
@@ -147,9 +151,12 @@ def test_progress_and_interrupt(monkeypatch):
     np.testing.assert_array_equal(part.R, full.R[:, :5])
 
 
-def test_failure_names_body_and_keeps_partial_result():
+@pytest.mark.parametrize("per_body_calls_max", [64, 0])
+def test_failure_names_body_and_keeps_partial_result(per_body_calls_max, monkeypatch):
     """A constant torque spins the bodies up until the implicit equation has no solution; the
-    body with the largest initial momentum fails first (as simulate says), the others are kept."""
+    body with the largest initial momentum fails first (as simulate says), the others are kept;
+    with one call of the step loop a body from Python (5 bodies) and in a compiled range (0)."""
+    monkeypatch.setattr(ensemble, "PER_BODY_CALLS_MAX", per_body_calls_max)
     R0 = np.stack([np.eye(3)] * 5)
     Pi0 = np.tile([0.1, 0.5, 0.2], (5, 1))
     Pi0[3, 1] = 4.0

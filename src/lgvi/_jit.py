@@ -16,6 +16,9 @@ compilation options live in a single spot:
   ``stepping.py`` would keep the old solver inlined (an in-place upgrade or a development tree
   would silently mix versions); with the hash, any change of any kernel file recompiles them all.
 
+Numba's typing of built-in functions and operators is remembered for plain argument types
+(:func:`_install_typing_memo`: the same answers, found once; a fifth of a cold compilation).
+
 When a compilation of lgvi's kernels takes longer than a second (a fresh install, an upgrade, a
 new model), one line on the ``lgvi`` logger (shown on stderr unless logging is configured) says
 so; loading compiled kernels from the cache says nothing.
@@ -210,6 +213,70 @@ def _install_compile_notice() -> None:
 
 
 _install_compile_notice()
+
+
+#: ``LGVI_TYPING_MEMO=0`` leaves Numba's typing of functions as it is (to measure what the memo saves).
+TYPING_MEMO: bool = os.environ.get("LGVI_TYPING_MEMO", "1").strip().lower() not in {"0", "false", "no", "off"}
+
+#: Numba types whose typing by a function's templates depends on nothing but the types themselves
+#: (see :func:`_install_typing_memo`).
+_PLAIN_TYPE_NAMES = ("Number", "Boolean", "Array", "NoneType", "SliceType")
+#: The memo: ``(function type, typing context, target, argument types)`` -> the signature Numba found.
+_TYPING_MEMO: dict[Any, Any] = {}
+
+
+def _install_typing_memo() -> None:
+    """Remember how Numba typed a built-in function or operator for given argument types.
+
+    Numba types every call site of a function by trying the function's templates in turn
+    (``types.Function.get_call_type``): ``a * b`` on two floats tries the NumPy ufunc templates, the
+    array operators and the scalar rules, each time, at every site; and it types each operator again
+    when it lowers it. In the stepping loops, thousands of scalar operations and array accesses of a
+    few dozen distinct kinds, this is a fifth of a cold first call's compilation. The answer depends
+    only on the function and the argument types (and the target), so it is memoised here for
+    arguments that are plain data types (numbers, booleans, arrays, ``None``, slices and tuples of
+    them; their literal values are part of the types and so of the key): the same signature and
+    implementation key, found once. Failures are not remembered (Numba raises them as before),
+    nor are calls with keywords or with other argument types (functions, records, ...). Should the
+    internals used here change, Numba's own typing runs as before; ``LGVI_TYPING_MEMO=0`` turns the
+    memo off. It serves every compilation in the process (a user's ``numba.njit`` functions too),
+    with the answers Numba would give.
+    """
+    try:
+        from numba.core import types as nbtypes
+        from numba.core.target_extension import get_local_target
+        from numba.core.types.functions import BaseFunction
+
+        plain = tuple(getattr(nbtypes, name) for name in _PLAIN_TYPE_NAMES)
+        tuples = (nbtypes.UniTuple, nbtypes.Tuple)
+    except (ImportError, AttributeError):  # pragma: no cover - a Numba without these internals
+        return
+    original = getattr(BaseFunction, "get_call_type", None)
+    if original is None or getattr(original, "_lgvi_memo", False) or not TYPING_MEMO:
+        return
+    memo = _TYPING_MEMO
+
+    def is_plain(a: Any) -> bool:
+        if type(a) in tuples:
+            return all(is_plain(x) for x in a.types)
+        return isinstance(a, plain)
+
+    def get_call_type(self: Any, context: Any, args: Any, kws: Any) -> Any:
+        if kws or not all(is_plain(a) for a in args):
+            return original(self, context, args, kws)
+        key = (self, context, get_local_target(context), tuple(args))
+        sig = memo.get(key)
+        if sig is None:
+            sig = original(self, context, args, kws)      # raises when no template matches
+            if sig is not None:
+                memo[key] = sig
+        return sig
+
+    get_call_type._lgvi_memo = True  # type: ignore[attr-defined]
+    BaseFunction.get_call_type = get_call_type
+
+
+_install_typing_memo()
 
 
 def _compile(func: Callable, options: dict[str, Any]) -> Callable:

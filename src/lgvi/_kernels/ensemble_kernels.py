@@ -136,7 +136,10 @@ def advance_forced(b0, b1, method, Jd, J, J_inv, ib, h, t0, gam, cum, ia, A, R, 
     ``simulate``). ``R_out[:, 0]`` holds sample ``out0`` (see :func:`advance_free`).
 
     The CPU ensemble runs its bodies in contiguous ranges, one Python thread a range (the kernel
-    releases the GIL; each thread has its own scratch), rather than in a ``numba.prange`` loop:
+    releases the GIL; each thread has its own scratch), rather than in a ``numba.prange`` loop
+    (up to ``PER_BODY_CALLS_MAX`` bodies, 64, the ensemble calls :func:`.stepping.run_chunk_forced` once a
+    body from Python with this loop's arguments instead, so a small ensemble's first call compiles
+    nothing that :func:`lgvi.simulate` does not):
     Numba's parallel compilation of such a loop (its type inference and parfor lowering) was more
     than half of an ensemble's cold first call. The GPU's kernel runs one body a thread
     (``b1 = b0 + 1``). The step loop is called from here directly: a call of a compiled function

@@ -611,7 +611,8 @@ def run_chunk_forced(method, Jd, J, J_inv, h, t0, gam, cum, A, R, Pi, G, gidx, S
 
     One compiled loop for every run of the built-in models: :func:`lgvi.simulate`, its streams and
     each body of an ensemble (:func:`.ensemble_kernels.advance_forced` calls this with the body's
-    views, of the same types), so a cold first call of any of them compiles it once for all.
+    views, of the same types; an ensemble of up to 64 bodies calls it from Python, a body at a
+    time), so a cold first call of any of them compiles it once for all.
 
     Returns ``(status, k, it_sum, rmax, its, rn)`` as :func:`run_chunk`; after a failure ``R``,
     ``Pi`` and ``S`` are the state at the start of step ``k``.

@@ -45,6 +45,12 @@ CHUNK_BODY_STEPS = 1 << 22
 #: Solver histories (bodies x substeps) up to which an ensemble cold-starts them in Python, as
 #: lgvi.simulate does (beyond it, the compiled init_histories).
 PYTHON_COLD_START_MAX = 4096
+#: Bodies up to which an ensemble of built-in models calls the loop of lgvi.simulate
+#: (``stepping.run_chunk_forced``) once a body from Python: its first call then compiles nothing beyond
+#: what simulate compiles (the range kernel ``ensemble_kernels.advance_forced`` is a compilation of its
+#: own, about a second). A body runs at least CHUNK_BODY_STEPS // 64 substeps a call, so the
+#: call's dispatch (tens of microseconds) is below 0.3 % of its time.
+PER_BODY_CALLS_MAX = 64
 #: Default size of one block's samples (``R`` and ``Pi``) with ``client=`` or ``out_dir=``.
 BLOCK_BYTES = 1 << 28
 
@@ -1063,8 +1069,12 @@ class _LocalRun:
     def _advance_forced(self, n: int, R_out: np.ndarray, Pi_out: np.ndarray) -> None:
         """Steps ``k .. k + n - 1`` of the built-in models: each body runs the loop of
         :func:`lgvi.simulate` (:func:`lgvi._kernels.stepping.run_chunk_forced`), the bodies in ranges
-        on threads (:meth:`_run_groups`, :func:`lgvi._kernels.ensemble_kernels.advance_forced`)."""
-        from .._kernels.ensemble_kernels import advance_forced
+        on threads (:meth:`_run_groups`, :func:`lgvi._kernels.ensemble_kernels.advance_forced`); up to
+        ``PER_BODY_CALLS_MAX`` bodies, the range's loop over bodies runs here in Python (one compiled
+        call a body, the arguments of :func:`~lgvi._kernels.ensemble_kernels.advance_forced`'s call),
+        so that the first call compiles only the step loop that :func:`lgvi.simulate` compiles."""
+        from .._kernels.ensemble_kernels import advance_forced, record_body
+        from .._kernels.stepping import run_chunk_forced
 
         s, k, se = self.s, self.k, self.save_every
         gidx = np.arange(self.G.shape[1], dtype=np.int64)
@@ -1072,6 +1082,26 @@ class _LocalRun:
         # the loop's record scratch, one entry a sample of the chunk (the loop then records per sample,
         # not per step; it records per step only when this is n entries, and then it is long enough)
         m = n // se + 1
+        if len(s) <= PER_BODY_CALLS_MAX:
+            record = getattr(record_body, "py_func", record_body)     # NUMBA_DISABLE_JIT: the function
+            j, U = k // se + 1, _NO_HIST[:0, None]
+
+            def each(b0: int, b1: int) -> None:
+                it_rec, res_rec = np.zeros(m, np.int32), np.zeros(m)
+                for b in range(b0, b1):
+                    if self.status[b] != OK:
+                        continue
+                    q = s.ib[b]
+                    st, kend, it_sum, rmax, it, rn = run_chunk_forced(
+                        s.code, self.Jd[q], self.J[q], self.J_inv[q], s.h, s.t0, s.gam, s.cum, self.A[self.ia[b]],
+                        self.R[b], self.Pi[b], self.G[b], gidx, self.S[b], s.codes,
+                        s.ptab[b] if len(s.ptab) > 1 else s.ptab[0], U, int(s.sym), k, n, s.tol, s.max_iter,
+                        s.alpha, se, se - k % se, R_out[b, j:], Pi_out[b, j:], it_rec, res_rec, _NO_HIST, counts)
+                    record(b, self.its, self.res, self.status, self.fail_step, self.fail_res, self.fail_its, it_sum,
+                           rmax, st, kend, it, rn)
+
+            self._run_groups(each)
+            return
 
         def bodies(b0: int, b1: int) -> None:
             advance_forced(b0, b1, s.code, self.Jd, self.J, self.J_inv, s.ib, s.h, s.t0, s.gam, s.cum, self.ia,
