@@ -4,7 +4,8 @@ Numba types each call of a built-in function or operator by trying its templates
 answer for plain argument types (a fifth of a cold first call's compilation). Here one kernel of the
 project and a function using integers, floats, literals, tuples, slices and arrays are compiled in
 two fresh processes, with and without the memo: every variable's type, every call's signature and
-the results must be the same, and the memo must have answered most calls in the second.
+the results must be the same; the memo must have served the project's kernel and not the user's
+function (its scope is the compilation of lgvi's own kernels).
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ def mixed(a, i, x):
     return s, t[1] + 1, b, a[::2].sum(), abs(i - 9), max(x, 0.25), np.sqrt(x)
 
 
+sizes = [len(_jit._TYPING_MEMO)]
 moment = numba.njit(cache=False)(tk.moment_kernel.py_func)
 codes = np.array([[tk.GRAVITY, 0], [tk.DAMPING, 3], [tk.ATTITUDE_PD, 6]], dtype=np.int64)
 params = np.arange(1.0, 22.0) / 10.0
@@ -53,7 +55,9 @@ J = np.diag([0.13, 0.28, 0.17])
 R = lgvi.so3.exp(np.array([0.3, -0.2, 0.5]))
 out = np.zeros(3)
 moment(codes, params, J, np.linalg.inv(J), 0.7, R, np.array([0.1, -0.4, 0.2]), out)
+sizes.append(len(_jit._TYPING_MEMO))
 res = mixed(np.arange(6.0), 7, 0.5)
+sizes.append(len(_jit._TYPING_MEMO))
 
 
 def name(t):
@@ -68,7 +72,7 @@ def typing_of(disp):
             "signature": str(cres.signature)}
 
 
-print(json.dumps({"memo": memo_in_place, "on": _jit.TYPING_MEMO, "mixed": typing_of(mixed),
+print(json.dumps({"memo": memo_in_place, "on": _jit.TYPING_MEMO, "sizes": sizes, "mixed": typing_of(mixed),
                   "moment": typing_of(moment), "out": out.tolist(),
                   "res": [float(res[0]), int(res[1]), res[2].tolist(), float(res[3]), int(res[4]), float(res[5]),
                           float(res[6])]}))
@@ -89,12 +93,17 @@ def test_the_typing_memo_changes_no_type_and_no_result():
         assert on[name] == off[name], name
         assert len(on[name]["calltypes"]) > 20          # the functions do type many calls
     assert on["out"] == off["out"] and on["res"] == off["res"]
+    # the memo serves lgvi's kernel (a function of an lgvi module) and not the user's own function
+    assert off["sizes"] == [0, 0, 0]
+    s0, s1, s2 = on["sizes"]
+    assert s1 - s0 > 20 and s2 == s1
 
 
 def test_the_memo_keeps_plain_calls_only():
-    """In this process (the memo is on unless LGVI_TYPING_MEMO=0): a typing of ``float * float`` is
-    remembered, with Numba's answer; a call with another kind of argument (a string), or one that
-    Numba cannot type, is not (Numba raises as before)."""
+    """In this process (the memo is on unless LGVI_TYPING_MEMO=0): outside a compilation of lgvi's
+    kernels nothing is remembered; inside one a typing of ``int * float`` is remembered, with Numba's
+    answer; a call with another kind of argument (a string), or one that Numba cannot type, is not
+    (Numba raises as before)."""
     import operator
 
     import lgvi._jit as _jit
@@ -104,11 +113,26 @@ def test_the_memo_keeps_plain_calls_only():
     from numba.core.types.functions import BaseFunction
 
     if not _jit.TYPING_MEMO:
-        return
+        pytest.skip("LGVI_TYPING_MEMO=0 in this process")
     ctx = cpu_target.typing_context
     ctx.refresh()
     fnty = ctx.resolve_value_type(operator.mul)
     assert getattr(BaseFunction.get_call_type, "_lgvi_memo", False)
+    before = len(_jit._TYPING_MEMO)
+    sig = fnty.get_call_type(ctx, (types.int32, types.float32), {})     # outside lgvi's compilations
+    assert sig is not None and len(_jit._TYPING_MEMO) == before
+    _jit._COMPILING.lgvi = True          # as the compile listener sets it while an lgvi kernel compiles
+    try:
+        _inside_an_lgvi_compilation(fnty, ctx)
+    finally:
+        _jit._COMPILING.lgvi = False
+
+
+def _inside_an_lgvi_compilation(fnty, ctx):
+    import lgvi._jit as _jit
+    from numba.core import types
+    from numba.core.errors import TypingError
+
     sig = fnty.get_call_type(ctx, (types.int64, types.float64), {})
     assert sig.return_type == types.float64 and sig.args == (types.float64, types.float64)
     remembered = [k for k in _jit._TYPING_MEMO if k[0] == fnty and k[3] == (types.int64, types.float64)]

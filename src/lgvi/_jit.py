@@ -160,6 +160,11 @@ COMPILE_NOTICE_AFTER = 1.0
 _log = logging.getLogger("lgvi")
 
 
+#: Per thread: ``depth`` of the compilations under way, ``compiling`` (the notice's timer) and ``lgvi``
+#: (True while the outermost compilation is one of lgvi's kernels: the typing memo's scope).
+_COMPILING = threading.local()
+
+
 def _install_compile_notice() -> None:
     """Say on the ``lgvi`` logger when compiling lgvi's kernels takes longer than a second.
 
@@ -172,7 +177,7 @@ def _install_compile_notice() -> None:
         from numba.core import event
     except ImportError:  # pragma: no cover - a Numba without the event API
         return
-    local = threading.local()
+    local = _COMPILING
 
     class Compiling:
         def __init__(self, name: str) -> None:
@@ -200,14 +205,17 @@ def _install_compile_notice() -> None:
             local.depth = depth + 1
             if depth == 0:
                 func = getattr((ev.data or {}).get("dispatcher"), "py_func", None)
-                local.compiling = (Compiling(func.__name__)
-                                   if (getattr(func, "__module__", None) or "").startswith("lgvi.") else None)
+                ours = (getattr(func, "__module__", None) or "").startswith("lgvi.")
+                local.compiling = Compiling(func.__name__) if ours else None
+                local.lgvi = ours         # the typing memo serves this compilation (and what it compiles)
 
         def on_end(self, ev: Any) -> None:
             local.depth = max(getattr(local, "depth", 1) - 1, 0)
-            if local.depth == 0 and getattr(local, "compiling", None) is not None:
-                local.compiling.end()
-                local.compiling = None
+            if local.depth == 0:
+                local.lgvi = False
+                if getattr(local, "compiling", None) is not None:
+                    local.compiling.end()
+                    local.compiling = None
 
     event.register("numba:compile", Listener())
 
@@ -239,8 +247,9 @@ def _install_typing_memo() -> None:
     implementation key, found once. Failures are not remembered (Numba raises them as before),
     nor are calls with keywords or with other argument types (functions, records, ...). Should the
     internals used here change, Numba's own typing runs as before; ``LGVI_TYPING_MEMO=0`` turns the
-    memo off. It serves every compilation in the process (a user's ``numba.njit`` functions too),
-    with the answers Numba would give.
+    memo off. It serves only the compilations of lgvi's own kernels (and what they compile inside
+    them): while the outermost compilation of the thread is one of lgvi's (``_COMPILING.lgvi``, set by
+    the compile listener above); a user's ``numba.njit`` function is typed by Numba alone.
     """
     try:
         from numba.core import types as nbtypes
@@ -261,8 +270,10 @@ def _install_typing_memo() -> None:
             return all(is_plain(x) for x in a.types)
         return isinstance(a, plain)
 
+    scope = _COMPILING
+
     def get_call_type(self: Any, context: Any, args: Any, kws: Any) -> Any:
-        if kws or not all(is_plain(a) for a in args):
+        if kws or not getattr(scope, "lgvi", False) or not all(is_plain(a) for a in args):
             return original(self, context, args, kws)
         key = (self, context, get_local_target(context), tuple(args))
         sig = memo.get(key)
