@@ -5,6 +5,7 @@ Usage::
     python benchmarks/bench_loop_sensors.py            # 20000 steps a run, 7 rounds
     python benchmarks/bench_loop_sensors.py --quick    # 2000 steps, 3 rounds (checks it runs)
     python benchmarks/bench_loop_sensors.py --steps 100000 --rounds 9 --accuracy   # the figures of docs/performance.md
+    python benchmarks/bench_loop_sensors.py --member --steps 50000 --rounds 9       # the two members only
 
 Cases (h = 0.1 s, the 6U of issue 25: inertia diag(0.18, 0.14, 0.06) kg m^2, four pyramid wheels,
 MRP feedback at 1 Hz to a fixed target, motor torques by ``RWMotorTorque``):
@@ -32,6 +33,8 @@ MRP feedback at 1 Hz to a fixed target, motor torques by ``RWMotorTorque``):
   cost is printed by ``--accuracy``;
 * ``all dist., env. slow``: the same with the orbit every step and the sun, the shadow, the
   atmosphere and the field every 10th step (``SLOW``);
+* ``--member``: only ``sensors + MEKF`` and ``true-state feedback``, and each again with no records
+  (``FlightSoftware(record=[])``): what the records at the writers' rates cost the member;
 * ``gyrostat step``: ``lgvi.simulate`` of the same body with the same wheels and no controller
   (the gyrostat's compiled step); ``6U gyrostat step``: the same with the 6U's inertia and
   initial state.
@@ -114,12 +117,34 @@ SUN_SHADOW = {"sun": 1.0, "shadow": 1.0}
 SLOW = {"sun": 1.0, "shadow": 1.0, "exponential_atmosphere": 1.0, "field": 1.0}
 
 
-def cases(steps, components=True):
+def _members():
+    """The sensors + MEKF member's spacecraft and estimator, and the true-state member's spacecraft."""
     gyro = Gyro(rate=0.5, arw=1e-4, rrw=1e-5, bias=[2e-4, -1e-4, 5e-5], seed=7)
     st = StarTracker(rate=0.5, sigma_cross=5e-5, sigma_about=4e-4, seed=7)
     est = MEKF(rate=0.5, arw=1e-4, rrw=1e-5, star_tracker=st, P0=[0.03 ** 2] * 3 + [3e-4 ** 2] * 3)
-    sensed = Spacecraft(J, wheels=_wheels(), sensors=[gyro, st])
-    plain = Spacecraft(J, wheels=_wheels())
+    return Spacecraft(J, wheels=_wheels(), sensors=[gyro, st]), est, Spacecraft(J, wheels=_wheels())
+
+
+def member_cases(steps):
+    """``--member``: the two members, with their records (at the writers' rates) and without any."""
+    sensed, est, plain = _members()
+    kw = dict(h=H, steps=steps, save_every=steps)
+
+    def fsw(estimator=None, **extra):
+        return FlightSoftware(estimator=estimator, guidance=InertialPointing(TARGET), control=MRPControl(K=0.004, P=0.04),
+                              actuators=RWMotorTorque(), rate=1.0, **extra)
+
+    return {
+        "sensors + MEKF": lambda: lgvi.simulate(sensed, np.eye(3), omega0=OMEGA0, fsw=fsw(est), **kw),
+        "true-state feedback": lambda: lgvi.simulate(plain, np.eye(3), omega0=OMEGA0, fsw=fsw(), **kw),
+        "sensors + MEKF, no records": lambda: lgvi.simulate(sensed, np.eye(3), omega0=OMEGA0, fsw=fsw(est, record=[]),
+                                                            **kw),
+        "true-state, no records": lambda: lgvi.simulate(plain, np.eye(3), omega0=OMEGA0, fsw=fsw(record=[]), **kw),
+    }
+
+
+def cases(steps, components=True):
+    sensed, est, plain = _members()
     six, d = _basilisk_6u()
     from scipy.spatial.transform import Rotation
 
@@ -190,11 +215,12 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--accuracy", action="store_true", help="also the accuracy cost of the environment at 1 s")
     ap.add_argument("--no-components", action="store_true", help="without the rows that add one component at a time")
+    ap.add_argument("--member", action="store_true", help="only the sensors + MEKF and true-state members")
     ap.add_argument("--steps", type=int, default=20000, help="steps a run (default 20000)")
     ap.add_argument("--rounds", type=int, default=7, help="rounds (default 7)")
     args = ap.parse_args()
     steps, rounds = (2000, 3) if args.quick else (args.steps, args.rounds)
-    runs = cases(steps, components=not args.no_components)
+    runs = member_cases(steps) if args.member else cases(steps, components=not args.no_components)
     for f in runs.values():                     # compile or load, once
         f()
     per_step = {name: [] for name in runs}
@@ -207,6 +233,14 @@ def main() -> None:
     def ratio(a, b):
         return [x / y for x, y in zip(per_step[a], per_step[b])]
 
+    if args.member:
+        print(f"{steps} steps of h = {H} s a run, {rounds} rounds, CPU time, medians (cases alternating)")
+        for name, v in per_step.items():
+            print(f"{name:28s} {statistics.median(v) * 1e6:9.3f} us/step")
+        for a, b in (("sensors + MEKF", "true-state feedback"), ("sensors + MEKF, no records", "true-state, no records")):
+            v = ratio(a, b)
+            print(f"{a + ' / ' + b:58s} {statistics.median(v):7.2f} (min {min(v):.2f}, max {max(v):.2f})")
+        return
     ratios = {
         "sensors + MEKF / true-state feedback": ratio("sensors + MEKF", "true-state feedback"),
         "all disturbances / gyrostat step": ratio("all disturbances", "gyrostat step"),
