@@ -179,7 +179,7 @@ def test_rotation_coefficients_equal_the_trigonometric_forms_near_zero_the_edge_
     the edge (``t - sin t``, 3 digits of it lost at 0.1 rad, hence 2e-13 there; it multiplies
     ``hat(phi)^2``, of size ``t^2``)."""
     mpmath = pytest.importorskip("mpmath")
-    from lgvi._kernels.attitude_kernels import ROTATION_SERIES, rotation_coefficients
+    from lgvi._kernels.attitude_kernels import ROTATION_SERIES, quat_from_rotvec, rotation_coefficients
 
     mpmath.mp.dps = 40
     edge = math.sqrt(ROTATION_SERIES)
@@ -193,6 +193,12 @@ def test_rotation_coefficients_equal_the_trigonometric_forms_near_zero_the_edge_
         for i, (g, w, at0) in enumerate(zip(got, want, (0.5, 1.0, 1.0, 0.5, 1.0 / 6.0))):
             tol = 6e-16 if (i < 4 or t2 < ROTATION_SERIES) else 2e-13
             assert abs(g - float(w)) <= tol * at0, (t, i, g, float(w))
+    # quat_from_rotvec (a star tracker's noise, the filter's reset) takes the first two: SciPy's quaternion
+    rng = np.random.default_rng(3)
+    for t in ts:
+        v = rng.normal(size=3)
+        v *= t / np.linalg.norm(v)
+        np.testing.assert_allclose(quat_from_rotvec(*v), Rotation.from_rotvec(v).as_quat(), rtol=0, atol=4e-16)
 
 
 def test_mekf_divergence_stops_with_status_2(tumbling):

@@ -48,15 +48,10 @@ def rotation_coefficients(t2):
 
 @jit(inline="always")
 def quat_from_rotvec(x, y, z):
-    """The unit quaternion ``(qx, qy, qz, qw)`` of the rotation vector ``(x, y, z)`` (Taylor near 0)."""
-    t2 = x * x + y * y + z * z
-    if t2 < 1e-8:
-        c = 0.5 - t2 / 48.0 + t2 * t2 / 3840.0
-        w = 1.0 - t2 / 8.0 + t2 * t2 / 384.0
-    else:
-        t = math.sqrt(t2)
-        c = math.sin(0.5 * t) / t
-        w = math.cos(0.5 * t)
+    """The unit quaternion ``(qx, qy, qz, qw)`` of the rotation vector ``(x, y, z)``: the series of
+    :func:`rotation_coefficients` below 0.1 rad (no trigonometric function: a star tracker's noise,
+    an estimator's correction), ``sin(t/2)/t`` and ``cos(t/2)`` above."""
+    c, w, _, _, _ = rotation_coefficients(x * x + y * y + z * z)
     return c * x, c * y, c * z, w
 
 
