@@ -178,7 +178,7 @@ def test_rotation_coefficients_equal_the_trigonometric_forms_near_zero_the_edge_
     1e-9 rad through the series' edge (both sides) to pi; the last one to its own cancellation above
     the edge (``t - sin t``, 3 digits of it lost at 0.1 rad, hence 2e-13 there; it multiplies
     ``hat(phi)^2``, of size ``t^2``)."""
-    mpmath = pytest.importorskip("mpmath")
+    import mpmath  # with sympy (the test extra)
     from lgvi._kernels.attitude_kernels import ROTATION_SERIES, quat_from_rotvec, rotation_coefficients
 
     mpmath.mp.dps = 40

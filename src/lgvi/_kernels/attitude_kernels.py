@@ -10,15 +10,6 @@ import math
 from .._jit import jit
 
 
-@jit(inline="always")
-def exp_coefficients(t2):
-    """``sin(t)/t`` and ``(1 - cos t)/t^2`` for ``t2 = t^2``, with Taylor branches near 0."""
-    if t2 < 1e-8:
-        return 1.0 - t2 / 6.0 + t2 * t2 / 120.0, 0.5 - t2 / 24.0 + t2 * t2 / 720.0
-    t = math.sqrt(t2)
-    return math.sin(t) / t, (1.0 - math.cos(t)) / t2
-
-
 #: ``t^2`` below which :func:`rotation_coefficients` takes its series: ``t < 0.1`` rad, where the
 #: series to ``t^8`` are exact to round-off (the first term left out is below 3e-18 of each value).
 ROTATION_SERIES = 1e-2
