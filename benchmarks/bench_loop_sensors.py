@@ -5,6 +5,7 @@ Usage::
     python benchmarks/bench_loop_sensors.py            # 20000 steps a run, 7 rounds
     python benchmarks/bench_loop_sensors.py --quick    # 2000 steps, 3 rounds (checks it runs)
     python benchmarks/bench_loop_sensors.py --steps 100000 --rounds 9 --accuracy   # the figures of docs/performance.md
+    python benchmarks/bench_loop_sensors.py --member --steps 50000 --rounds 9       # the two members only
 
 Cases (h = 0.1 s, the 6U of issue 25: inertia diag(0.18, 0.14, 0.06) kg m^2, four pyramid wheels,
 MRP feedback at 1 Hz to a fixed target, motor torques by ``RWMotorTorque``):
@@ -46,6 +47,8 @@ MRP feedback at 1 Hz to a fixed target, motor torques by ``RWMotorTorque``):
   records on the grid): their difference over four is what one more component costs the loop
   (its call, its finite checks, its arithmetic of about 10 ns), the gain a fused component would
   have per component it absorbs;
+* ``--member``: only ``sensors + MEKF`` and ``true-state feedback``, and each again with no records
+  (``FlightSoftware(record=[])``): what the records at the writers' rates cost the member;
 * ``gyrostat step``: ``lgvi.simulate`` of the same body with the same wheels and no controller
   (the gyrostat's compiled step); ``6U gyrostat step``: the same with the 6U's inertia and
   initial state.
@@ -130,12 +133,34 @@ SLOW = {"sun": 1.0, "shadow": 1.0, "exponential_atmosphere": 1.0, "field": 1.0}
 GNC = {"sun": 60.0}
 
 
-def cases(steps, components=True, overhead=False):
+def _members():
+    """The sensors + MEKF member's spacecraft and estimator, and the true-state member's spacecraft."""
     gyro = Gyro(rate=0.5, arw=1e-4, rrw=1e-5, bias=[2e-4, -1e-4, 5e-5], seed=7)
     st = StarTracker(rate=0.5, sigma_cross=5e-5, sigma_about=4e-4, seed=7)
     est = MEKF(rate=0.5, arw=1e-4, rrw=1e-5, star_tracker=st, P0=[0.03 ** 2] * 3 + [3e-4 ** 2] * 3)
-    sensed = Spacecraft(J, wheels=_wheels(), sensors=[gyro, st])
-    plain = Spacecraft(J, wheels=_wheels())
+    return Spacecraft(J, wheels=_wheels(), sensors=[gyro, st]), est, Spacecraft(J, wheels=_wheels())
+
+
+def member_cases(steps):
+    """``--member``: the two members, with their records (at the writers' rates) and without any."""
+    sensed, est, plain = _members()
+    kw = dict(h=H, steps=steps, save_every=steps)
+
+    def fsw(estimator=None, **extra):
+        return FlightSoftware(estimator=estimator, guidance=InertialPointing(TARGET), control=MRPControl(K=0.004, P=0.04),
+                              actuators=RWMotorTorque(), rate=1.0, **extra)
+
+    return {
+        "sensors + MEKF": lambda: lgvi.simulate(sensed, np.eye(3), omega0=OMEGA0, fsw=fsw(est), **kw),
+        "true-state feedback": lambda: lgvi.simulate(plain, np.eye(3), omega0=OMEGA0, fsw=fsw(), **kw),
+        "sensors + MEKF, no records": lambda: lgvi.simulate(sensed, np.eye(3), omega0=OMEGA0, fsw=fsw(est, record=[]),
+                                                            **kw),
+        "true-state, no records": lambda: lgvi.simulate(plain, np.eye(3), omega0=OMEGA0, fsw=fsw(record=[]), **kw),
+    }
+
+
+def cases(steps, components=True, overhead=False):
+    sensed, est, plain = _members()
     six, d = _basilisk_6u()
     from scipy.spatial.transform import Rotation
 
@@ -237,11 +262,13 @@ def main() -> None:
     ap.add_argument("--accuracy", action="store_true", help="also the accuracy cost of the environment at 1 s")
     ap.add_argument("--no-components", action="store_true", help="without the rows that add one component at a time")
     ap.add_argument("--overhead", action="store_true", help="also 1 and 5 residual dipoles: one component's cost")
+    ap.add_argument("--member", action="store_true", help="only the sensors + MEKF and true-state members")
     ap.add_argument("--steps", type=int, default=20000, help="steps a run (default 20000)")
     ap.add_argument("--rounds", type=int, default=7, help="rounds (default 7)")
     args = ap.parse_args()
     steps, rounds = (2000, 3) if args.quick else (args.steps, args.rounds)
-    runs = cases(steps, components=not args.no_components, overhead=args.overhead)
+    runs = (member_cases(steps) if args.member
+            else cases(steps, components=not args.no_components, overhead=args.overhead))
     for f in runs.values():                     # compile or load, once
         f()
     per_step = {name: [] for name in runs}

@@ -169,6 +169,38 @@ def test_mekf_propagation_without_noise_exact_or_second_order(tumbling):
     assert 1e-4 < e1 < 1e-2 and 3.6 < e1 / e2 < 4.4
 
 
+def test_rotation_coefficients_equal_the_trigonometric_forms_near_zero_the_edge_and_pi():
+    """The MEKF's propagation takes its quaternion (``sin(t/2)/t``, ``cos(t/2)``) and Rodrigues'
+    coefficients (``sin t / t``, ``(1 - cos t)/t^2``, ``(t - sin t)/t^3``) from one call: their
+    series below 0.1 rad, one sine and cosine of ``t/2`` above. Each equals the value computed in
+    high precision (mpmath, 40 digits, from the same ``t^2``) to a few ulp of its value at 0 (1/2, 1,
+    1, 1/2, 1/6: near pi ``cos(t/2)`` and ``sin t`` are near 0, and their error is absolute), from
+    1e-9 rad through the series' edge (both sides) to pi; the last one to its own cancellation above
+    the edge (``t - sin t``, 3 digits of it lost at 0.1 rad, hence 2e-13 there; it multiplies
+    ``hat(phi)^2``, of size ``t^2``)."""
+    import mpmath  # with sympy (the test extra)
+    from lgvi._kernels.attitude_kernels import ROTATION_SERIES, quat_from_rotvec, rotation_coefficients
+
+    mpmath.mp.dps = 40
+    edge = math.sqrt(ROTATION_SERIES)
+    ts = np.r_[np.logspace(-9, math.log10(math.pi), 300), edge * (1 - 1e-12), edge * (1 + 1e-12), math.pi]
+    for t in ts:
+        t2 = float(t) * float(t)
+        T = mpmath.sqrt(mpmath.mpf(t2))
+        want = [mpmath.sin(T / 2) / T, mpmath.cos(T / 2), mpmath.sin(T) / T, (1 - mpmath.cos(T)) / T ** 2,
+                (T - mpmath.sin(T)) / T ** 3]
+        got = rotation_coefficients(t2)
+        for i, (g, w, at0) in enumerate(zip(got, want, (0.5, 1.0, 1.0, 0.5, 1.0 / 6.0))):
+            tol = 6e-16 if (i < 4 or t2 < ROTATION_SERIES) else 2e-13
+            assert abs(g - float(w)) <= tol * at0, (t, i, g, float(w))
+    # quat_from_rotvec (a star tracker's noise, the filter's reset) takes the first two: SciPy's quaternion
+    rng = np.random.default_rng(3)
+    for t in ts:
+        v = rng.normal(size=3)
+        v *= t / np.linalg.norm(v)
+        np.testing.assert_allclose(quat_from_rotvec(*v), Rotation.from_rotvec(v).as_quat(), rtol=0, atol=4e-16)
+
+
 def test_mekf_divergence_stops_with_status_2(tumbling):
     st = StarTracker(sigma_cross=ST_CROSS, sigma_about=ST_ABOUT)
     comps = [Gyro(rate=H, arw=ARW), st, MEKF(arw=ARW, rrw=RRW, star_tracker=st, P0=np.ones(6) * 1e-4,

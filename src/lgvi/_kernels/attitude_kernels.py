@@ -10,26 +10,39 @@ import math
 from .._jit import jit
 
 
+#: ``t^2`` below which :func:`rotation_coefficients` takes its series: ``t < 0.1`` rad, where the
+#: series to ``t^8`` are exact to round-off (the first term left out is below 3e-18 of each value).
+ROTATION_SERIES = 1e-2
+
+
 @jit(inline="always")
-def exp_coefficients(t2):
-    """``sin(t)/t`` and ``(1 - cos t)/t^2`` for ``t2 = t^2``, with Taylor branches near 0."""
-    if t2 < 1e-8:
-        return 1.0 - t2 / 6.0 + t2 * t2 / 120.0, 0.5 - t2 / 24.0 + t2 * t2 / 720.0
+def rotation_coefficients(t2):
+    """For ``t2 = t^2``: ``sin(t/2)/t`` and ``cos(t/2)`` (the unit quaternion of a rotation vector
+    ``phi``, ``|phi| = t``, is ``(sin(t/2)/t phi, cos(t/2))``), and Rodrigues' ``sin(t)/t``,
+    ``(1 - cos t)/t^2`` and ``(t - sin t)/t^3``. Below ``ROTATION_SERIES`` (``t < 0.1``) their Taylor
+    series to ``t^8`` (no square root, no trigonometric function); above, one square root and the
+    sine and cosine of ``t/2`` (``sin t = 2 sin(t/2) cos(t/2)``, ``1 - cos t = 2 sin^2(t/2)``).
+    The same values as the separate ``sin``/``cos`` forms to a few ulp (``tests/test_estimation.py``)."""
+    if t2 < ROTATION_SERIES:
+        qc = 0.5 - t2 * (1.0 / 48.0 - t2 * (1.0 / 3840.0 - t2 * (1.0 / 645120.0 - t2 * (1.0 / 185794560.0))))
+        qw = 1.0 - t2 * (0.125 - t2 * (1.0 / 384.0 - t2 * (1.0 / 46080.0 - t2 * (1.0 / 10321920.0))))
+        sa = 1.0 - t2 * (1.0 / 6.0 - t2 * (1.0 / 120.0 - t2 * (1.0 / 5040.0 - t2 * (1.0 / 362880.0))))
+        ca = 0.5 - t2 * (1.0 / 24.0 - t2 * (1.0 / 720.0 - t2 * (1.0 / 40320.0 - t2 * (1.0 / 3628800.0))))
+        c2 = 1.0 / 6.0 - t2 * (1.0 / 120.0 - t2 * (1.0 / 5040.0 - t2 * (1.0 / 362880.0 - t2 * (1.0 / 39916800.0))))
+        return qc, qw, sa, ca, c2
     t = math.sqrt(t2)
-    return math.sin(t) / t, (1.0 - math.cos(t)) / t2
+    sh = math.sin(0.5 * t)
+    ch = math.cos(0.5 * t)
+    st = 2.0 * sh * ch
+    return sh / t, ch, st / t, 2.0 * sh * sh / t2, (t - st) / (t2 * t)
 
 
 @jit(inline="always")
 def quat_from_rotvec(x, y, z):
-    """The unit quaternion ``(qx, qy, qz, qw)`` of the rotation vector ``(x, y, z)`` (Taylor near 0)."""
-    t2 = x * x + y * y + z * z
-    if t2 < 1e-8:
-        c = 0.5 - t2 / 48.0 + t2 * t2 / 3840.0
-        w = 1.0 - t2 / 8.0 + t2 * t2 / 384.0
-    else:
-        t = math.sqrt(t2)
-        c = math.sin(0.5 * t) / t
-        w = math.cos(0.5 * t)
+    """The unit quaternion ``(qx, qy, qz, qw)`` of the rotation vector ``(x, y, z)``: the series of
+    :func:`rotation_coefficients` below 0.1 rad (no trigonometric function: a star tracker's noise,
+    an estimator's correction), ``sin(t/2)/t`` and ``cos(t/2)`` above."""
+    c, w, _, _, _ = rotation_coefficients(x * x + y * y + z * z)
     return c * x, c * y, c * z, w
 
 
@@ -134,17 +147,23 @@ def quat_rotvec_over(q0, q1, q2, q3, dt):
     of :func:`quat_from_matrix_scaled` is fine).
 
     Below 0.1 rad (``x^2 = s^2 / w^2 < ROTVEC_SERIES``) ``atan(x) / x`` is its series ``1 - x^2/3 +
-    x^4/5 - ... - x^10/11`` (Horner in ``x^2``) and the result ``2 atan(x)/x (q0, q1, q2) / (w dt)``:
-    no square root, no ``atan2``, one division; the same value as ``atan2`` to round-off (a few ulp;
-    ``tests/test_sensors.py``). Larger angles, up to pi (``w`` near 0), take ``atan2``."""
+    x^4/5 - ... - x^10/11`` and the result ``2 atan(x)/x (q0, q1, q2) / (w dt)``: no square root, no
+    ``atan2``, the division ``1 / w`` (and ``2 / dt``, off the chain); the same value as ``atan2`` to
+    round-off (a few ulp; ``tests/test_sensors.py``). The series is summed in Estrin's form, three
+    pairs ``(1 - x^2/3) + x^4 ((1/5 - x^2/7) + x^4 (1/9 - x^2/11))``: three dependent products and sums
+    after ``x^4`` instead of Horner's ten (the gyro's mean rate waits for it). Larger angles, up to pi
+    (``w`` near 0), take ``atan2``."""
     if q3 < 0.0:
         q0, q1, q2, q3 = -q0, -q1, -q2, -q3
     s2 = q0 * q0 + q1 * q1 + q2 * q2
     if s2 < ROTVEC_SERIES * (q3 * q3):
-        g = 1.0 / (q3 * dt)
-        v = g * dt
+        v = 1.0 / q3
         x2 = s2 * (v * v)
-        f = 2.0 * g * (1.0 - x2 * (1.0 / 3.0 - x2 * (0.2 - x2 * (1.0 / 7.0 - x2 * (1.0 / 9.0 - x2 * (1.0 / 11.0))))))
+        x4 = x2 * x2
+        a = 1.0 - x2 * (1.0 / 3.0)
+        b = 0.2 - x2 * (1.0 / 7.0)
+        c = 1.0 / 9.0 - x2 * (1.0 / 11.0)
+        f = (2.0 / dt) * v * (a + x4 * (b + x4 * c))
         return f * q0, f * q1, f * q2
     s = math.sqrt(s2)
     f = 2.0 * math.atan2(s, q3) / s

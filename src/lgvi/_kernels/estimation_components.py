@@ -13,7 +13,9 @@ p: 0 sigma_v (ARW, rad/s^0.5), 1 sigma_u (RRW, rad/s^1.5), 2 star tracker sigma 
    13 magnetometer sigma (T), 14 sun sensor sigma (rad), 15 use the star tracker (0/1),
    16 use the magnetometer, 17 use the sun sensor, 18 largest admissible covariance diagonal
    (beyond it, or not finite: status 2), 19 the gyro's output (0: rates at the samples, propagated
-   by the trapezoid; 1: mean rates over each sample interval, propagated as constant)
+   by the trapezoid; 1: mean rates over each sample interval, propagated as constant),
+   20..28 the star tracker's noise covariance in the body frame, C diag(sx^2, sx^2, sz^2) C^T
+   (row-major; set once by the Python class)
 s: 0..3 q, 4..6 b, 7..42 P (6x6 row-major), 43 time of the last run (NaN before the first),
    44..46 the gyro sample of the last run, 47..49 times of the last star tracker, magnetometer and
    sun measurements used (each measurement is used once)
@@ -24,15 +26,16 @@ from __future__ import annotations
 import math
 
 from .._jit import jit
-from .attitude_kernels import (exp_coefficients, mat_t_vec, quat_from_matrix_scaled, quat_from_rotvec, quat_mul,
-                               quat_normalised, quat_rotvec, quat_to_matrix)
+from .attitude_kernels import (mat_t_vec, quat_from_matrix_scaled, quat_from_rotvec, quat_mul, quat_normalised,
+                               quat_rotvec, quat_to_matrix, rotation_coefficients)
 from .navigation_components import SIMPLE_NAV, simple_nav_step
 
 MEKF = 401
 _P = 7          # offset of P in the state
 #: The state's work space (after the 50 entries of the filter): the small matrices of the
 #: propagation and the updates live there, so the kernel allocates nothing (the loop is compiled
-#: without Numba's runtime). Offsets: A, B (propagation), M; PH, S, Si, K, KS (update); H, Rm, R.
+#: without Numba's runtime). Offsets: A, B (propagation), M; PH, S, (Si: unused since S^-1 lives in
+#: scalars), K, U = K S / 2 - PH (update, the Joseph form's factor); H, Rm, R.
 #: They are indexed flat, row-major (``s[_WK + 3 * i + j]`` is ``K[i, j]``): reshaped views of
 #: slices cost a call each, which was a third of the filter's time.
 _WA, _WB, _WM = 50, 59, 68
@@ -62,15 +65,17 @@ def propagate(s, ax, ay, az, wx, wy, wz, dt, sv2, su2):
     px = 0.5 * dt * (ax + wx) + dt * dt / 12.0 * (ay * wz - az * wy)
     py = 0.5 * dt * (ay + wy) + dt * dt / 12.0 * (az * wx - ax * wz)
     pz = 0.5 * dt * (az + wz) + dt * dt / 12.0 * (ax * wy - ay * wx)
-    turn(s, px, py, pz)
-    # Phi = [[A, B], [0, I]]: A = Exp(-phi), B = -dt (I - c1 hat(phi) + c2 hat(phi)^2)
+    # the five coefficients of the step's rotation at once: its quaternion's and Rodrigues' (series
+    # below 0.1 rad, else one sine and cosine of half the angle)
     t2 = px * px + py * py + pz * pz
-    sa, ca = exp_coefficients(t2)                          # sin t / t, (1 - cos t) / t^2
-    if t2 < 1e-6:
-        c2 = 1.0 / 6.0 - t2 / 120.0 + t2 * t2 / 5040.0     # (t - sin t) / t^3
-    else:
-        t = math.sqrt(t2)
-        c2 = (t - math.sin(t)) / (t2 * t)
+    qc, qw, sa, ca, c2 = rotation_coefficients(t2)
+    q0, q1, q2, q3 = quat_mul(s[0], s[1], s[2], s[3], qc * px, qc * py, qc * pz, qw)
+    q0, q1, q2, q3 = quat_normalised(q0, q1, q2, q3)
+    s[0] = q0
+    s[1] = q1
+    s[2] = q2
+    s[3] = q3
+    # Phi = [[A, B], [0, I]]: A = Exp(-phi), B = -dt (I - c1 hat(phi) + c2 hat(phi)^2)
     h00 = -(py * py + pz * pz)                             # hat(phi)^2 = phi phi^T - t2 I
     h11 = -(px * px + pz * pz)
     h22 = -(px * px + py * py)
@@ -156,37 +161,53 @@ def update_attitude(s, y0, y1, y2):
 @jit(inline="always")
 def update_with(s, y0, y1, y2):
     """The gain, the Joseph-form covariance and the reset, from ``PH = P H^T`` and ``S``."""
-    # S^-1 by cofactors (S symmetric positive definite)
-    c00 = s[_WS + 4] * s[_WS + 8] - s[_WS + 5] * s[_WS + 7]
-    c01 = s[_WS + 5] * s[_WS + 6] - s[_WS + 3] * s[_WS + 8]
-    c02 = s[_WS + 3] * s[_WS + 7] - s[_WS + 4] * s[_WS + 6]
-    det = s[_WS] * c00 + s[_WS + 1] * c01 + s[_WS + 2] * c02
-    if not (det > 0.0 and s[_WS] > 0.0 and s[_WS] * s[_WS + 4] - s[_WS + 1] * s[_WS + 3] > 0.0):
+    # S^-1 by cofactors: S is symmetric (bit for bit: P is kept so, and R_m is), so six of them, and
+    # one division (1 / det)
+    S0 = s[_WS]
+    S1 = s[_WS + 1]
+    S2 = s[_WS + 2]
+    S4 = s[_WS + 4]
+    S5 = s[_WS + 5]
+    S8 = s[_WS + 8]
+    c00 = S4 * S8 - S5 * S5
+    c01 = S5 * S2 - S1 * S8
+    c02 = S1 * S5 - S4 * S2
+    det = S0 * c00 + S1 * c01 + S2 * c02
+    if not (det > 0.0 and S0 > 0.0 and S0 * S4 - S1 * S1 > 0.0):
         return False
-    s[_WSI] = c00 / det
-    s[_WSI + 3] = c01 / det
-    s[_WSI + 6] = c02 / det
-    s[_WSI + 1] = (s[_WS + 2] * s[_WS + 7] - s[_WS + 1] * s[_WS + 8]) / det
-    s[_WSI + 4] = (s[_WS] * s[_WS + 8] - s[_WS + 2] * s[_WS + 6]) / det
-    s[_WSI + 7] = (s[_WS + 1] * s[_WS + 6] - s[_WS] * s[_WS + 7]) / det
-    s[_WSI + 2] = (s[_WS + 1] * s[_WS + 5] - s[_WS + 2] * s[_WS + 4]) / det
-    s[_WSI + 5] = (s[_WS + 2] * s[_WS + 3] - s[_WS] * s[_WS + 5]) / det
-    s[_WSI + 8] = (s[_WS] * s[_WS + 4] - s[_WS + 1] * s[_WS + 3]) / det
+    r = 1.0 / det
+    i00 = c00 * r
+    i01 = c01 * r
+    i02 = c02 * r
+    i11 = (S0 * S8 - S2 * S2) * r
+    i12 = (S2 * S1 - S0 * S5) * r
+    i22 = (S0 * S4 - S1 * S1) * r
+    # K = PH S^-1 and, for the Joseph form, U = K S / 2 - PH: P - K PH^T - PH K^T + K S K^T
+    # = P + U K^T + K U^T (the same polynomial in K, so an error in K still enters at second order;
+    # six products an entry instead of nine)
     for i in range(6):
-        for j in range(3):
-            s[_WK + 3 * i + j] = (s[_WPH + 3 * i] * s[_WSI + j] + s[_WPH + 3 * i + 1] * s[_WSI + 3 + j]
-                                  + s[_WPH + 3 * i + 2] * s[_WSI + 6 + j])
-    # Joseph form: P - K (PH)^T - PH K^T + K S K^T
+        a0 = s[_WPH + 3 * i]
+        a1 = s[_WPH + 3 * i + 1]
+        a2 = s[_WPH + 3 * i + 2]
+        k0 = a0 * i00 + a1 * i01 + a2 * i02
+        k1 = a0 * i01 + a1 * i11 + a2 * i12
+        k2 = a0 * i02 + a1 * i12 + a2 * i22
+        s[_WK + 3 * i] = k0
+        s[_WK + 3 * i + 1] = k1
+        s[_WK + 3 * i + 2] = k2
+        s[_WKS + 3 * i] = 0.5 * (k0 * S0 + k1 * S1 + k2 * S2) - a0
+        s[_WKS + 3 * i + 1] = 0.5 * (k0 * S1 + k1 * S4 + k2 * S5) - a1
+        s[_WKS + 3 * i + 2] = 0.5 * (k0 * S2 + k1 * S5 + k2 * S8) - a2
     for i in range(6):
-        for j in range(3):
-            s[_WKS + 3 * i + j] = (s[_WK + 3 * i] * s[_WS + j] + s[_WK + 3 * i + 1] * s[_WS + 3 + j]
-                                   + s[_WK + 3 * i + 2] * s[_WS + 6 + j])
-    for i in range(6):
+        u0 = s[_WKS + 3 * i]
+        u1 = s[_WKS + 3 * i + 1]
+        u2 = s[_WKS + 3 * i + 2]
+        k0 = s[_WK + 3 * i]
+        k1 = s[_WK + 3 * i + 1]
+        k2 = s[_WK + 3 * i + 2]
         for j in range(i, 6):
-            v = s[_P + 6 * i + j]
-            for k in range(3):
-                v += (-s[_WK + 3 * i + k] * s[_WPH + 3 * j + k] - s[_WPH + 3 * i + k] * s[_WK + 3 * j + k]
-                      + s[_WKS + 3 * i + k] * s[_WK + 3 * j + k])
+            v = s[_P + 6 * i + j] + (u0 * s[_WK + 3 * j] + u1 * s[_WK + 3 * j + 1] + u2 * s[_WK + 3 * j + 2]
+                                     + k0 * s[_WKS + 3 * j] + k1 * s[_WKS + 3 * j + 1] + k2 * s[_WKS + 3 * j + 2])
             s[_P + 6 * i + j] = v
             s[_P + 6 * j + i] = v
     # the error estimate and the reset: q <- q Exp(dtheta), b <- b + db
@@ -247,12 +268,8 @@ def mekf_step(t, bus, p, s, w):
         o = w[1]
         e0, e1, e2, e3 = quat_mul(-s[0], -s[1], -s[2], s[3], bus[o], bus[o + 1], bus[o + 2], bus[o + 3])
         y0, y1, y2 = quat_rotvec(e0, e1, e2, e3)
-        vx = p[2] * p[2]
-        vz = p[3] * p[3]
-        for i in range(3):
-            for j in range(3):
-                s[_WRM + 3 * i + j] = vx * (p[4 + 3 * i] * p[4 + 3 * j] + p[5 + 3 * i] * p[5 + 3 * j]) \
-                    + vz * p[6 + 3 * i] * p[6 + 3 * j]
+        for i in range(9):                   # R_m = C diag(sx^2, sx^2, sz^2) C^T, computed once in the row
+            s[_WRM + i] = p[20 + i]
         ok = update_attitude(s, y0, y1, y2)
     if ok and p[16] != 0.0 and bus[w[5]] > s[48]:
         s[48] = bus[w[5]]

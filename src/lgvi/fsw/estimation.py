@@ -129,6 +129,17 @@ def _spd(value: Any, name: str, n: int) -> np.ndarray:
     return 0.5 * (arr + arr.T)
 
 
+def _star_tracker_noise(case: np.ndarray, sx: float, sz: float) -> list[float]:
+    """The star tracker's noise covariance in the body frame, ``R_m = C diag(sx^2, sx^2, sz^2) C^T``
+    (row-major), the kernel's row entries 20..28: the same IEEE operations, in the same order, as the
+    kernel computed it at each update before it moved here (so the same numbers)."""
+    c = [float(x) for x in np.asarray(case, dtype=np.float64).ravel()]
+    vx = sx * sx
+    vz = sz * sz
+    return [vx * (c[3 * i] * c[3 * j] + c[3 * i + 1] * c[3 * j + 1]) + vz * c[3 * i + 2] * c[3 * j + 2]
+            for i in range(3) for j in range(3)]
+
+
 class MEKF(Component):
     """The multiplicative extended Kalman filter (Lefferts, Markley and Shuster 1982) as a component.
 
@@ -211,11 +222,13 @@ class MEKF(Component):
             raise ValueError("MEKF(star_tracker=True): the star tracker is the spacecraft's, known once the run is "
                              "built (Component.setup); params() needs it")
         case = np.eye(3) if st is None else st.case
-        return np.concatenate([[self.arw, self.rrw, 0.0 if st is None else st.sigma_cross,
-                                0.0 if st is None else st.sigma_about], case.ravel(),
+        sx = 0.0 if st is None else float(st.sigma_cross)
+        sz = 0.0 if st is None else float(st.sigma_about)
+        return np.concatenate([[self.arw, self.rrw, sx, sz], case.ravel(),
                                [self.mag_sigma or 0.0, self.sun_sigma or 0.0, float(st is not None),
                                 float(self.mag_sigma is not None), float(self.sun_sigma is not None),
-                                self.max_variance, float(self.gyro_output == "mean")]])
+                                self.max_variance, float(self.gyro_output == "mean")],
+                               _star_tracker_noise(case, sx, sz)])
 
     def state0(self) -> np.ndarray:
         """The initial state: one row, or one row per member when ``R0`` or ``bias0`` has one per member."""

@@ -1,0 +1,130 @@
+"""Where a loop member's time goes, by compiled function: run it under Linux ``perf``.
+
+Usage::
+
+    perf record -o member.data python benchmarks/profile_loop_member.py sensors --steps 2000000
+    perf report -i member.data --sort sym --stdio | head -40
+    perf record -o plain.data python benchmarks/profile_loop_member.py true-state --steps 2000000
+
+The member is ``bench_loop_sensors.py``'s (``sensors``: a gyro, a star tracker and the MEKF at 2 Hz,
+the controller on the estimate; ``true-state``: the controller on the truth). Numba's compiled code
+has no symbols ``perf`` can see; this script keeps the object code of the loop's library as Numba
+loads it (from its cache or a compilation), reads the functions' offsets and sizes in it with
+``objdump -t`` and writes them, at the addresses where the code was loaded, into
+``/tmp/perf-<pid>.map``, which ``perf report`` reads. Each function the loop calls (``advance_free``,
+``sensor_dispatch``, ``estimator_dispatch``, ...) is a symbol; helpers inlined into one count in it
+(``record_fast`` and ``writes_finite`` in ``loop_steps``). Kernel time (page faults of new record
+memory: ``clear_page_erms``) shows under its own names. A sample is 250 us of CPU time at perf's
+default rate, so ``samples * 250 us / steps`` is the time a step. Needs ``perf`` and ``objdump``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numba.core.codegen as _codegen
+import numpy as np
+
+_OBJECTS: list = []
+_set_object = _codegen.CPUCodeLibrary._set_compiled_object
+_compiled_hook = _codegen.CPUCodeLibrary._object_compiled_hook.__func__
+
+
+def _keep_loaded(self, value):                 # a library loaded from Numba's cache
+    _OBJECTS.append((self, bytes(value)))
+    return _set_object(self, value)
+
+
+def _keep_compiled(cls, ll_module, buf):       # a library compiled in this process
+    lib = getattr(ll_module, "_CPUCodeLibrary__library", None)
+    if lib is not None:
+        _OBJECTS.append((lib, bytes(buf)))
+    return _compiled_hook(cls, ll_module, buf)
+
+
+_codegen.CPUCodeLibrary._set_compiled_object = _keep_loaded
+_codegen.CPUCodeLibrary._object_compiled_hook = classmethod(_keep_compiled)
+
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import bench_loop_sensors as bench  # noqa: E402
+
+
+def _short(name: str) -> str:
+    """``lgvi._kernels.loop_kernels.loop_steps`` for Numba's mangled ``_ZN4lgvi8_kernels12loop_kernels10loop_steps...``."""
+    i = name.find("_ZN")
+    if i < 0:
+        return name
+    i += 3
+    parts = []
+    while i < len(name) and name[i].isdigit():
+        j = i
+        while name[j].isdigit():
+            j += 1
+        n = int(name[i:j])
+        parts.append(name[j:j + n])
+        i = j + n
+    return (name[:name.find("_ZN")] + ".".join(parts)) if parts else name
+
+
+def write_perf_map() -> int:
+    """``/tmp/perf-<pid>.map`` with every function of the compiled libraries kept; their count."""
+    lines = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for i, (lib, obj) in enumerate(_OBJECTS):
+            path = os.path.join(tmp, f"lib{i}.o")
+            with open(path, "wb") as fh:
+                fh.write(obj)
+            table = subprocess.run(["objdump", "-t", path], capture_output=True, text=True).stdout
+            funcs = []
+            for ln in table.splitlines():
+                m = re.match(r"([0-9a-f]+)\s.*\sF\s+\S*text\s+([0-9a-f]+)\s+(\S+)$", ln)
+                if m:
+                    funcs.append((int(m.group(1), 16), int(m.group(2), 16), m.group(3)))
+            base = None
+            for off, _, name in funcs:          # where the library's code was loaded: one global symbol
+                try:
+                    addr = lib.get_pointer_to_function(name)
+                except Exception:  # noqa: BLE001 - a local symbol the engine does not export
+                    addr = 0
+                if addr:
+                    base = addr - off
+                    break
+            if base is None:
+                continue
+            for off, size, name in funcs:
+                lines.append(f"{base + off:x} {max(size, 1):x} {_short(name)}")
+    with open(f"/tmp/perf-{os.getpid()}.map", "w") as fh:
+        fh.write("\n".join(lines) + "\n")
+    return len(lines)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("member", choices=("sensors", "true-state"))
+    ap.add_argument("--steps", type=int, default=2_000_000)
+    args = ap.parse_args()
+    runs = bench.member_cases(1000)
+    run = runs["sensors + MEKF" if args.member == "sensors" else "true-state feedback"]
+    run()                                       # load or compile the loop
+    print(f"{write_perf_map()} compiled functions named in /tmp/perf-{os.getpid()}.map")
+    sensed, est, plain = bench._members()
+    fsw = bench.FlightSoftware(estimator=est if args.member == "sensors" else None,
+                               guidance=bench.InertialPointing(bench.TARGET),
+                               control=bench.MRPControl(K=0.004, P=0.04), actuators=bench.RWMotorTorque(), rate=1.0)
+    t = time.process_time()
+    bench.lgvi.simulate(sensed if args.member == "sensors" else plain, np.eye(3), omega0=bench.OMEGA0, fsw=fsw,
+                        h=bench.H, steps=args.steps, save_every=args.steps)
+    print(f"{args.member}: {(time.process_time() - t) / args.steps * 1e6:.3f} us a step (CPU time, {args.steps} steps)")
+
+
+if __name__ == "__main__":
+    main()
