@@ -27,11 +27,12 @@ from __future__ import annotations
 
 import math
 
-from numba import cfunc, config, types
+from numba import types
 
 from .._jit import jit
 from .codes import NOT_CONVERGED, OK, USER_RAISED
 from .ensemble_kernels import record_body
+from .guards import guarded_function
 from .solvers import EPS
 from .stepping import load_state, push_at, rotated_row, save_state, solve_warm, stage_done, step_done
 from .torque_kernels import model_moments_call, momentum_diag
@@ -42,31 +43,33 @@ from .torque_kernels import model_moments_call, momentum_diag
 #: read-only row; the body-frame moment as three floats.
 MOMENT_SIGNATURE = types.UniTuple(types.float64, 3)(types.float64, types.float64[:, ::1], types.float64[::1],
                                                     types.Array(types.float64, 1, "C", readonly=True))
-_GUARDED: dict = {}
+
+
+@jit(inline="always")
+def moment_result(m):
+    """The call adapter of :func:`guarded`: the three numbers of the user's moment (a tuple or a
+    (3,) array; an array it makes is freed inside the ``cfunc``)."""
+    return float(m[0]), float(m[1]), float(m[2])
+
+
+@jit(inline="always")
+def moment_failed(t, R, P, p):
+    """The failure marking of :func:`guarded`: NaN in the loop's scratch ``R[0, 0]`` (the mark
+    :func:`user_raised` reads) and a NaN moment, so the step fails."""
+    R[0, 0] = math.nan
+    return math.nan, math.nan, math.nan
 
 
 def guarded(moment):
     """The user's ``moment(t, R, Pi, params)`` as the CPU loops' ``moment`` argument: a ``cfunc`` of
-    :data:`MOMENT_SIGNATURE` (compiled in memory, once per function and process) that calls it and
-    returns the three numbers it returns (a tuple or a (3,) array; an array it makes is freed inside).
-    An exception it raises (a division by zero, an error it raises) is caught there (a ``cfunc``
-    cannot raise into its caller): the moment is NaN, so the step fails, and ``R[0, 0]`` (the loop's
-    scratch) is set to NaN, the mark :func:`user_raised` reads. A function that does not fit the
-    signature raises Numba's typing error here. With ``NUMBA_DISABLE_JIT=1`` (the kernels as Python)
-    the guard itself."""
-    call = _GUARDED.get(moment)
-    if call is None:
-        def guarded_moment(t, R, P, p):
-            try:
-                m = moment(t, R, P, p)
-                return float(m[0]), float(m[1]), float(m[2])
-            except Exception:
-                R[0, 0] = math.nan
-                return math.nan, math.nan, math.nan
-
-        call = guarded_moment if config.DISABLE_JIT else cfunc(MOMENT_SIGNATURE, error_model="numpy")(guarded_moment)
-        _GUARDED[moment] = call
-    return call
+    :data:`MOMENT_SIGNATURE` (compiled in memory, once per function and process, by
+    :func:`.guards.guarded_function`) that calls it and returns the three numbers it returns
+    (:func:`moment_result`). An exception it raises (a division by zero, an error it raises) is
+    caught there (a ``cfunc`` cannot raise into its caller): the moment is NaN, so the step fails,
+    and ``R[0, 0]`` (the loop's scratch) is set to NaN, the mark :func:`user_raised` reads
+    (:func:`moment_failed`). A function that does not fit the signature raises Numba's typing error
+    here. With ``NUMBA_DISABLE_JIT=1`` (the kernels as Python) the guard itself."""
+    return guarded_function(moment, MOMENT_SIGNATURE, moment_result, moment_failed)
 
 
 @jit(inline="always")
