@@ -8,6 +8,7 @@ table, so a broken benchmark cannot fail silently. Basilisk rows are exercised w
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -231,4 +232,22 @@ def test_model_step_quick():
     proc = _run("model_step.py", "--quick", "--compare", "src", "src")
     _check(proc, "case", "old ns", "new ns", "new/old", "simulate gravity", "simulate Compiled", "gravity + damping",
            "ensemble gravity", "ensemble Compiled", "Compiled / built-in")
+    assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
+def test_first_call_compiles_quick():
+    """The smallest case (the free body, whose kernels the suite has usually cached already): the
+    call's line, the table's header and one row of numbers per kernel it compiled."""
+    proc = _run("first_call_compiles.py", "simulate-free")
+    _check(proc, "kernel", "compiler s", "llvm s", "inline_inlinables", "nopython_type_infe", "native_lowering")
+    lines = proc.stdout.splitlines()
+    first = re.fullmatch(r"simulate-free: first call ([0-9.]+) s CPU, ([0-9.]+) s wall; (\d+) kernels compiled .*",
+                         lines[0])
+    assert first, proc.stdout
+    rows = lines[lines.index(next(line for line in lines if set(line) == {"-"})) + 1:]
+    assert (len(rows) >= 1) == (int(first[3]) >= 1), proc.stdout     # a kernel compiled has its row
+    for row in rows:
+        name, *numbers = row.split()
+        assert len(numbers) == 6 and all(float(x) >= 0.0 for x in numbers), row
     assert "Traceback" not in proc.stderr
