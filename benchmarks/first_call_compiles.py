@@ -84,6 +84,8 @@ CASES = {
     "simulate-compiled": "lgvi.simulate(top, np.eye(3), omega0=[4.14, 4.14, 4.14], h=0.01, steps=100, torque=user)",
     "ensemble-compiled": ("lgvi.simulate_ensemble(top, np.stack([np.eye(3)] * 4), omega0=np.ones((4, 3)), h=0.01, "
                           "steps=100, torque=user)"),
+    "splitting-compiled": ("lgvi.simulate(top, np.eye(3), omega0=[4.14, 4.14, 4.14], h=0.01, steps=100, torque=user, "
+                           "scheme='splitting', order=4)"),
     "gyrostat-compiled": ("lgvi.simulate(top, np.eye(3), omega0=[0.1, 0.2, 0.3], h=0.01, steps=100, torque=user, "
                           "wheels=lgvi.ReactionWheels(np.eye(3), 1e-4))"),
     "loop-builtin": "lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(guidance=InertialPointing(target), **control), **kw)",

@@ -84,6 +84,23 @@ def test_an_exception_in_the_compiled_loop_stops_at_its_step_and_keeps_the_part(
     assert len(part.t) == 50 and np.array_equal(part.R, clean.R[:50]) and np.array_equal(part.Pi, clean.Pi[:50])
 
 
+@pytest.mark.parametrize("order, composition", [(4, "aba84"), (8, "axes-kl8")])
+def test_an_exception_in_the_splittings_loop_stops_at_its_step_and_keeps_the_part(order, composition):
+    """The splitting's loops (the exact flows', the axis splitting's) take the guarded function too:
+    the step whose kick raised is undone, the part before it kept, and the error names the exception."""
+    kw = dict(h=0.01, steps=300, save_every=3, scheme="splitting", order=order, composition=composition)
+    with pytest.raises(lgvi.TorqueError, match=r"Compiled\(fails_late.*raised an exception inside the compiled loop "
+                                               r"at step 1(49|50) .*ZeroDivisionError") as info:
+        lgvi.simulate(BODY, np.eye(3), omega0=W0, torque=Compiled(fails_late, params=[1.5]), **kw)
+    err = info.value
+    part = err.trajectory
+    clean = lgvi.simulate(BODY, np.eye(3), omega0=W0, torque=Compiled(fails_late, params=[1e9]), **kw)
+    # the first step with a kick at t >= 1.5 (its last kick at its end, t = 1.5, or its first at its start)
+    assert err.step in (149, 150) and err.time == pytest.approx(0.01 * err.step) and part.meta["partial"]
+    n = err.step // 3 + 1
+    assert len(part.t) == n and np.array_equal(part.R, clean.R[:n]) and np.array_equal(part.Pi, clean.Pi[:n])
+
+
 def test_an_exception_in_one_body_of_an_ensemble_names_it_and_spares_the_others():
     rows = np.array([[1e9], [1.5], [1e9], [0.7]])       # bodies 1 and 3 fail, 3 first
     R0 = np.stack([np.eye(3)] * 4)
