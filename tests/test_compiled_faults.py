@@ -101,6 +101,22 @@ def test_an_exception_in_the_splittings_loop_stops_at_its_step_and_keeps_the_par
     assert len(part.t) == n and np.array_equal(part.R, clean.R[:n]) and np.array_equal(part.Pi, clean.Pi[:n])
 
 
+@numba.njit
+def shrinks_late(t, R, Pi, p):
+    return np.zeros(3 if t < p[0] else 2)       # 3 numbers at the trial and at the first sample
+
+
+def test_a_moment_of_another_length_inside_the_compiled_loop_stops_at_its_step():
+    """Never read past the user's array: a moment that is not 3 numbers fails its step as a raise does."""
+    kw = dict(h=0.01, steps=300, save_every=3)
+    with pytest.raises(lgvi.TorqueError, match=r"Compiled\(shrinks_late.*inside the compiled loop at step 149 "
+                                               r"\(t = 1.49\).*returns array\(\[0., 0.\]\), not 3 numbers") as info:
+        lgvi.simulate(BODY, np.eye(3), omega0=W0, torque=Compiled(shrinks_late, params=[1.5]), **kw)
+    part = info.value.trajectory
+    clean = lgvi.simulate(BODY, np.eye(3), omega0=W0, torque=Compiled(shrinks_late, params=[1e9]), **kw)
+    assert info.value.step == 149 and len(part.t) == 50 and np.array_equal(part.R, clean.R[:50])
+
+
 def test_an_exception_in_one_body_of_an_ensemble_names_it_and_spares_the_others():
     rows = np.array([[1e9], [1.5], [1e9], [0.7]])       # bodies 1 and 3 fail, 3 first
     R0 = np.stack([np.eye(3)] * 4)

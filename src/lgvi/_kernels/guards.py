@@ -52,3 +52,9 @@ def guarded_function(func, signature, result, failed):
         value = guard if config.DISABLE_JIT else cfunc(signature, error_model="numpy")(guard)
         _GUARDS[key] = value
     return value
+
+
+def made(func) -> bool:
+    """Whether a guard of ``func`` was made in this process (for any signature): a loop that takes it
+    then costs no compilation."""
+    return any(key[0] is func for key in _GUARDS)
