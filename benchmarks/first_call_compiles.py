@@ -20,7 +20,8 @@ The ``*-compiled`` cases run a user's :class:`lgvi.torques.Compiled` model. Run 
 pays: the user's function and its ``cfunc`` (the loop comes from the cache; a loop specialised for
 the function, as before, was compiled again in memory by every process). ``series-compiled``
 evaluates a model's moment and potential at 100000 samples (``Compiled.series_compile``: the
-compiled series loops of ``user_kernels``).
+compiled series loops of ``user_kernels``); ``run-series-compiled`` runs the model, then evaluates its
+moment at those samples.
 """
 
 from __future__ import annotations
@@ -96,6 +97,8 @@ CASES = {
     "splitting-compiled": ("lgvi.simulate(top, np.eye(3), omega0=[4.14, 4.14, 4.14], h=0.01, steps=100, torque=user, "
                            "scheme='splitting', order=4)"),
     "series-compiled": "user_p.moment(*many, np.zeros(3), None); user_p.potential(*many, None)",
+    "run-series-compiled": ("lgvi.simulate(top, np.eye(3), omega0=[4.14, 4.14, 4.14], h=0.01, steps=100, torque=user); "
+                        "user.moment(*many, np.zeros(3), None)"),
     "gyrostat-compiled": ("lgvi.simulate(top, np.eye(3), omega0=[0.1, 0.2, 0.3], h=0.01, steps=100, torque=user, "
                           "wheels=lgvi.ReactionWheels(np.eye(3), 1e-4))"),
     "loop-builtin": "lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(guidance=InertialPointing(target), **control), **kw)",
