@@ -25,7 +25,10 @@ each tree's runs, their medians and the ratio new/old::
 The ``*-compiled`` cases run a user's :class:`lgvi.torques.Compiled` model. Run twice with one
 ``NUMBA_CACHE_DIR`` (the third line above), the second process shows what every later process
 pays: the user's function and its ``cfunc`` (the loop comes from the cache; a loop specialised for
-the function, as before, was compiled again in memory by every process).
+the function, as before, was compiled again in memory by every process). ``series-compiled``
+evaluates a model's moment and potential at 100000 samples (``Compiled.series_compile``: the
+compiled series loops of ``user_kernels``); ``run-series-compiled`` runs the model, then evaluates its
+moment at those samples.
 """
 
 from __future__ import annotations
@@ -84,7 +87,14 @@ def user_gravity(t, R, Pi, p):
     return (R[2, 1] * p[2] - R[2, 2] * p[1], R[2, 2] * p[0] - R[2, 0] * p[2], R[2, 0] * p[1] - R[2, 1] * p[0])
 
 
+@numba.njit
+def user_height(t, R, p):
+    return R[2, 0] * p[0] + R[2, 1] * p[1] + R[2, 2] * p[2]
+
+
 user = Compiled(user_gravity, params=1.0 * 9.81 * np.array([0.0, 0.0, -0.3]))
+user_p = Compiled(user_gravity, potential=user_height, params=1.0 * 9.81 * np.array([0.0, 0.0, -0.3]))
+many = (np.zeros(100_000), np.broadcast_to(np.eye(3), (100_000, 3, 3)))     # Compiled.series_compile samples
 """
 CASES = {
     "simulate-free": "lgvi.simulate(top, np.eye(3), omega0=[4.14, 4.14, 4.14], h=0.01, steps=100)",
@@ -95,6 +105,11 @@ CASES = {
     "simulate-compiled": "lgvi.simulate(top, np.eye(3), omega0=[4.14, 4.14, 4.14], h=0.01, steps=100, torque=user)",
     "ensemble-compiled": ("lgvi.simulate_ensemble(top, np.stack([np.eye(3)] * 4), omega0=np.ones((4, 3)), h=0.01, "
                           "steps=100, torque=user)"),
+    "splitting-compiled": ("lgvi.simulate(top, np.eye(3), omega0=[4.14, 4.14, 4.14], h=0.01, steps=100, torque=user, "
+                           "scheme='splitting', order=4)"),
+    "series-compiled": "user_p.moment(*many, np.zeros(3), None); user_p.potential(*many, None)",
+    "run-series-compiled": ("lgvi.simulate(top, np.eye(3), omega0=[4.14, 4.14, 4.14], h=0.01, steps=100, torque=user); "
+                        "user.moment(*many, np.zeros(3), None)"),
     "gyrostat-compiled": ("lgvi.simulate(top, np.eye(3), omega0=[0.1, 0.2, 0.3], h=0.01, steps=100, torque=user, "
                           "wheels=lgvi.ReactionWheels(np.eye(3), 1e-4))"),
     "loop-builtin": "lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(guidance=InertialPointing(target), **control), **kw)",

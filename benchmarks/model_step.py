@@ -14,7 +14,9 @@ Cases (the heavy top of ``benchmarks/latency.py``, ``UniformGravity``, order 2, 
 * ``gravity + damping``: the built-in sum with the symmetric forcing (``simulate-sum`` of
   ``latency.py``);
 * ``ensemble gravity``: :func:`lgvi.simulate_ensemble` of 8 bodies, one thread (ns a body-step);
-* ``ensemble Compiled``: the same with the user's model.
+* ``ensemble Compiled``: the same with the user's model;
+* ``splitting gravity``, ``splitting Compiled``: ``scheme="splitting", order=4`` (the exact flows
+  and kicks, ``run_split`` and ``run_split_user``) with the built-in model and the user's.
 
 Each child process runs every case once untimed (compiling, or loading from the cache), then
 ``--repeat`` timed runs of each in turn; a case's figure is the median CPU time over the runs
@@ -62,6 +64,10 @@ cases = {{
                                                           threads=1, **kw), B),
     "ensemble Compiled": (lambda n: lgvi.simulate_ensemble(top, R0, omega0=np.ones((B, 3)), steps=n, torque=user,
                                                            threads=1, **kw), B),
+    "splitting gravity": (lambda n: lgvi.simulate(top, np.eye(3), omega0=[4.14, 4.14, 4.14], steps=n, torque=gravity,
+                                                   scheme="splitting", order=4, **kw), 1),
+    "splitting Compiled": (lambda n: lgvi.simulate(top, np.eye(3), omega0=[4.14, 4.14, 4.14], steps=n, torque=user,
+                                                    scheme="splitting", order=4, **kw), 1),
 }}
 for f, _ in cases.values():
     f(10 * (STEPS // 10 // 10 or 1))
@@ -104,14 +110,17 @@ def main(argv: list[str] | None = None) -> int:
         print(f"Compiled / built-in: simulate old {med[old]['simulate Compiled'] / med[old]['simulate gravity']:.3f}, "
               f"new {med[new]['simulate Compiled'] / med[new]['simulate gravity']:.3f}; ensemble old "
               f"{med[old]['ensemble Compiled'] / med[old]['ensemble gravity']:.3f}, new "
-              f"{med[new]['ensemble Compiled'] / med[new]['ensemble gravity']:.3f}")
+              f"{med[new]['ensemble Compiled'] / med[new]['ensemble gravity']:.3f}; splitting old "
+              f"{med[old]['splitting Compiled'] / med[old]['splitting gravity']:.3f}, new "
+              f"{med[new]['splitting Compiled'] / med[new]['splitting gravity']:.3f}")
     else:
         m = med[None]
         print(f"{'case':<20} {'ns':>9}")
         for n in names:
             print(f"{n:<20} {m[n]:>9.1f}")
         print(f"Compiled / built-in: simulate {m['simulate Compiled'] / m['simulate gravity']:.3f}, "
-              f"ensemble {m['ensemble Compiled'] / m['ensemble gravity']:.3f}")
+              f"ensemble {m['ensemble Compiled'] / m['ensemble gravity']:.3f}, "
+              f"splitting {m['splitting Compiled'] / m['splitting gravity']:.3f}")
     print(json.dumps({"medians": {str(k): v for k, v in med.items()}}))
     return 0
 

@@ -8,6 +8,7 @@ table, so a broken benchmark cannot fail silently. Basilisk rows are exercised w
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -239,4 +240,22 @@ def test_first_call_compiles_compare_quick():
     """One fresh process a tree with an empty Numba cache (two cold compiles of the free body's loop)."""
     proc = _run("first_call_compiles.py", "--compare", "src", "src", "--rounds", "1", "simulate-free")
     _check(proc, "first call, CPU s", "old runs", "new runs", "new/old", "simulate-free", "load average")
+    assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
+def test_first_call_compiles_quick():
+    """The smallest case (the free body, whose kernels the suite has usually cached already): the
+    call's line, the table's header and one row of numbers per kernel it compiled."""
+    proc = _run("first_call_compiles.py", "simulate-free")
+    _check(proc, "kernel", "compiler s", "llvm s", "inline_inlinables", "nopython_type_infe", "native_lowering")
+    lines = proc.stdout.splitlines()
+    first = re.fullmatch(r"simulate-free: first call ([0-9.]+) s CPU, ([0-9.]+) s wall; (\d+) kernels compiled .*",
+                         lines[0])
+    assert first, proc.stdout
+    rows = lines[lines.index(next(line for line in lines if set(line) == {"-"})) + 1:]
+    assert (len(rows) >= 1) == (int(first[3]) >= 1), proc.stdout     # a kernel compiled has its row
+    for row in rows:
+        name, *numbers = row.split()
+        assert len(numbers) == 6 and all(float(x) >= 0.0 for x in numbers), row
     assert "Traceback" not in proc.stderr

@@ -309,7 +309,7 @@ def series_model(moment, potential=None, params=None):
 @pytest.mark.parametrize("lead", [(), (1,), (5,), (300,), (4, 70)])
 @pytest.mark.parametrize("funcs", [(gravity_moment, gravity_potential), (wobbly_moment, wobbly_potential)])
 def test_series_equals_per_sample_bit_for_bit(lead, funcs):
-    from lgvi._kernels import user_kernels
+    from lgvi._kernels import guards, user_kernels
 
     p = np.array([0.7, 1.9, -0.4])
     model = series_model(*funcs, params=p)
@@ -322,11 +322,12 @@ def test_series_equals_per_sample_bit_for_bit(lead, funcs):
     assert np.array_equal(model.potential(1.25, R, None), per_sample_potential(funcs[1], 1.25, R, p))
     assert model.moment(t, R, Pi, None).shape == lead + (3,)
     assert model.potential(t, R, None).shape == lead
-    if lead:        # the compiled loops did run (a single sample stays one call from Python)
-        typ = numba.typeof(funcs[0])
-        assert any(sig[0] == typ for sig in user_kernels.user_moment_series.signatures)
-        typ = numba.typeof(funcs[1])
-        assert any(sig[0] == typ for sig in user_kernels.user_potential_series.signatures)
+    if lead:        # the compiled loops did run (a single sample stays one call from Python), through the
+        # guarded functions: compiled loops (cached on disk) for every user's function
+        assert guards.made(funcs[0]) and guards.made(funcs[1])
+        for kernel in (user_kernels.user_moment_series, user_kernels.user_potential_series):
+            assert kernel.signatures and all(isinstance(sig[0], numba.core.types.FunctionType)
+                                             for sig in kernel.signatures)      # never specialised for one
 
 
 def test_series_per_body_params_rows():
@@ -408,12 +409,14 @@ def spring_moment(t, R, Pi, p):
 def test_one_cached_loop_serves_every_compiled_model():
     """The user's moment reaches the loops as a value of one function type (a ``cfunc``,
     ``user_kernels.guarded``), not as a function the loop is specialised for: a second model, in
-    ``simulate``, in an ensemble and beside wheels, adds no specialisation of the loops (the ones
+    ``simulate``, in an ensemble, beside wheels and in both splittings, adds no specialisation of the
+    loops (the ones
     cached on disk: a later process compiles only the user's function), and gives each model its
     own numbers."""
     if numba.config.DISABLE_JIT:
         pytest.skip("the loops run as Python: nothing is compiled")
     from lgvi._kernels.gyrostat_kernels import run_gyro_model
+    from lgvi._kernels.splitting_kernels import run_axes_user, run_split_user
     from lgvi._kernels.user_kernels import advance_user, run_chunk_user
 
     def runs(model):
@@ -422,13 +425,15 @@ def test_one_cached_loop_serves_every_compiled_model():
                                      steps=20, torque=model, forcing="symmetric", threads=1)
         wheels = lgvi.simulate(lgvi.RigidBody(J), R0, omega0=OMEGA0, h=0.02, steps=20, torque=model,
                                wheels=lgvi.ReactionWheels(np.eye(3), 0.01))
-        return one, ens, wheels
+        split = [lgvi.simulate(lgvi.RigidBody(J), R0, omega0=OMEGA0, h=0.02, steps=20, torque=model, scheme="splitting",
+                               order=order, composition=name) for order, name in ((4, "aba84"), (8, "axes-kl8"))]
+        return one, ens, wheels, *split
 
     first = runs(user_gravity())
-    kernels = (run_chunk_user, advance_user, run_gyro_model)
+    kernels = (run_chunk_user, advance_user, run_gyro_model, run_split_user, run_axes_user)
     compiled = [set(k.signatures) for k in kernels]
     second = runs(Compiled(spring_moment, params=[0.4]))
     assert [set(k.signatures) for k in kernels] == compiled       # the same compiled loops for both models
     assert all(type(k._cache).__name__ != "NullCache" for k in kernels) or not lgvi._jit.CACHE
     assert np.array_equal(first[1].R[0], first[0].R) and np.array_equal(second[1].R[1], second[0].R)
-    assert not np.array_equal(first[0].R, second[0].R) and not np.array_equal(first[2].R, second[2].R)
+    assert all(not np.array_equal(first[i].R, second[i].R) for i in (0, 2, 3, 4))

@@ -71,17 +71,49 @@ def test_a_division_by_zero_or_a_wrong_shape_at_the_first_sample_is_refused():
         lgvi.simulate(BODY, np.eye(3), omega0=W0, h=0.01, steps=10, torque=Compiled(two_late))
 
 
-def test_an_exception_in_the_compiled_loop_stops_at_its_step_and_keeps_the_part():
-    kw = dict(h=0.01, steps=300, save_every=3)
-    with pytest.raises(lgvi.TorqueError, match=r"Compiled\(fails_late.*raised an exception inside the compiled loop "
-                                               r"at step 149 \(t = 1.49\).*ZeroDivisionError") as info:
-        lgvi.simulate(BODY, np.eye(3), omega0=W0, torque=Compiled(fails_late, params=[1.5]), **kw)
+def _stops_at_its_step(func, pattern, **kw):
+    """Run the model ``func`` failing from t = 1.5 (``params=[1.5]``): its TorqueError (matching
+    ``pattern``), whose part is the clean run's (``params=[1e9]``) up to the failed step."""
+    kw = dict(h=0.01, steps=300, save_every=3, **kw)
+    with pytest.raises(lgvi.TorqueError, match=pattern) as info:
+        lgvi.simulate(BODY, np.eye(3), omega0=W0, torque=Compiled(func, params=[1.5]), **kw)
     err = info.value
     part = err.trajectory
+    clean = lgvi.simulate(BODY, np.eye(3), omega0=W0, torque=Compiled(func, params=[1e9]), **kw)
+    n = err.step // 3 + 1
+    assert err.time == pytest.approx(0.01 * err.step) and part.meta["partial"]
+    assert len(part.t) == n and np.array_equal(part.R, clean.R[:n]) and np.array_equal(part.Pi, clean.Pi[:n])
+    return err
+
+
+def test_an_exception_in_the_compiled_loop_stops_at_its_step_and_keeps_the_part():
     # the step from t = 1.49 evaluates the moment at 1.5: it fails there, the part up to it is the clean run's
-    clean = lgvi.simulate(BODY, np.eye(3), omega0=W0, torque=Compiled(fails_late, params=[1e9]), **kw)
-    assert err.step == 149 and err.time == pytest.approx(1.49) and part.meta["partial"]
-    assert len(part.t) == 50 and np.array_equal(part.R, clean.R[:50]) and np.array_equal(part.Pi, clean.Pi[:50])
+    err = _stops_at_its_step(fails_late, r"Compiled\(fails_late.*raised an exception inside the compiled loop "
+                                         r"at step 149 \(t = 1.49\).*ZeroDivisionError")
+    assert err.step == 149 and len(err.trajectory.t) == 50
+
+
+@pytest.mark.parametrize("order, composition", [(4, "aba84"), (8, "axes-kl8")])
+def test_an_exception_in_the_splittings_loop_stops_at_its_step_and_keeps_the_part(order, composition):
+    """The splitting's loops (the exact flows', the axis splitting's) take the guarded function too:
+    the step whose kick raised is undone, the part before it kept, and the error names the exception."""
+    err = _stops_at_its_step(fails_late, r"Compiled\(fails_late.*raised an exception inside the compiled loop "
+                                         r"at step 1(49|50) .*ZeroDivisionError", scheme="splitting", order=order,
+                             composition=composition)
+    # the first step with a kick at t >= 1.5 (its last kick at its end, t = 1.5, or its first at its start)
+    assert err.step in (149, 150)
+
+
+@numba.njit
+def shrinks_late(t, R, Pi, p):
+    return np.zeros(3 if t < p[0] else 2)       # 3 numbers at the trial and at the first sample
+
+
+def test_a_moment_of_another_length_inside_the_compiled_loop_stops_at_its_step():
+    """Never read past the user's array: a moment that is not 3 numbers fails its step as a raise does."""
+    err = _stops_at_its_step(shrinks_late, r"Compiled\(shrinks_late.*inside the compiled loop at step 149 "
+                                           r"\(t = 1.49\).*returns array\(\[0., 0.\]\), not 3 numbers")
+    assert err.step == 149
 
 
 def test_an_exception_in_one_body_of_an_ensemble_names_it_and_spares_the_others():

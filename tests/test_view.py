@@ -75,17 +75,25 @@ def test_frames_turn_the_body_as_the_trajectory(traj):
 
 
 def test_long_run_is_decimated_with_a_note(traj):
-    assert view.decimation_note(traj, max_frames=5000, max_points=5000) is None
+    short = lgvi.simulate([1.0, 2.0, 3.0], np.eye(3), omega0=[1e-3, 1.0, 1e-3], h=0.01, steps=2 * view.RATE_BINS - 1)
+    assert view.decimation_note(short, max_frames=5000, max_points=5000) is None
+    # 3001 samples, more than twice RATE_BINS: only the rates are binned, and the note says so
+    note = view.decimation_note(traj, max_frames=5000, max_points=5000)
+    assert f"the body rates in {view.RATE_BINS} bins" in note and "animation" not in note
     note = view.decimation_note(traj, max_frames=100, max_points=500)
-    assert "3,001 saved samples" in note and "100" in note
+    assert "3,001 saved samples" in note and "100" in note and "the body rates in 166 bins" in note
     page = view.html(traj, include_plotlyjs=False, max_frames=100, max_points=500)
     assert note in page.replace("&#x27;", "'")
     fig = _figure_json(page)
-    rates = [d for d in fig["data"] if d.get("name") == "ωy"][0]
-    y = _decode(rates["y"])
-    assert len(y) <= 500
-    assert y.min() == pytest.approx(traj.omega[:, 1].min(), abs=1e-6)   # the envelope keeps extremes
+    band = [d for d in fig["data"] if d.get("name") == "ωy range"][0]
+    mid = _decode([d for d in fig["data"] if d.get("name") == "ωy"][0]["y"])
+    y = _decode(band["y"])
+    assert band["fill"] == "toself" and len(y) + len(mid) <= 500 and len(y) == 2 * len(mid) == 2 * 166
+    # the band keeps the extremes, and the line is the middle of each bin's range
+    assert y.min() == pytest.approx(traj.omega[:, 1].min(), abs=1e-6)
     assert y.max() == pytest.approx(traj.omega[:, 1].max(), abs=1e-6)
+    hi, lo = y[:len(mid)], y[len(mid):][::-1]
+    assert np.allclose(mid, 0.5 * (lo + hi), rtol=0, atol=1e-6) and np.any(lo < hi)
 
 
 def test_declared_invariants_are_drawn():

@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from ._kernels.codes import USER_RAISED
 from ._validation import as_rotation, choice
 from ._version import __version__
 from .body import RigidBody
@@ -102,7 +103,8 @@ _KERNELS: dict[bool, tuple[Any, Any]] = {}
 
 def _kernels(axes: bool) -> tuple[Any, Any]:
     """The compiled loops ``(run, run_user)`` of the exact or (``axes``) the axis splittings,
-    imported on a run's first step (importing this module loads no Numba)."""
+    imported on a run's first step (importing this module loads no Numba); ``run_user`` takes the
+    user's moment guarded (:func:`lgvi._kernels.user_kernels.guarded`)."""
     pair = _KERNELS.get(axes)
     if pair is None:
         from ._kernels.splitting_kernels import run_axes, run_axes_user, run_split, run_split_user
@@ -211,9 +213,11 @@ class SplittingRun(Run):
         self.Pi[:] = np.asarray(st["Pi"], dtype=np.float64)
 
     def failure(self, status: int, residual: float, iterations: int, trajectory: Any,
-                where: str = "") -> ConvergenceError:
+                where: str = "") -> Exception:
         k = self.k
         t_fail = self.t0 + k * self.h
+        if status == USER_RAISED:         # lgvi.torques.Compiled: its function raised in the compiled loop
+            return self.model.raised_error(k, t_fail, self.h, self.R, self.Pi, None, trajectory, where)
         return ConvergenceError(f"step {k} (t = {t_fail:g}) of the splitting failed: the torque model's moment "
                                 "made the state non-finite (overflow); reduce |h| or check the model. The run up "
                                 f"to step {k} is in .trajectory." + where, residual=float("nan"), iterations=0,
@@ -228,7 +232,9 @@ class SplittingRun(Run):
         m = self.model
         k0 = self.k
         if m is not None and getattr(m, "moment_func", None) is not None:   # lgvi.torques.Compiled
-            status, self.k = run_split_user(m.moment_func, m.row(), *args)
+            from ._kernels.user_kernels import guarded
+
+            status, self.k = run_split_user(guarded(m.moment_func), m.row(), *args)
         else:
             status, self.k = run_split(*args)
         self.counts[0] += self.k - k0          # the record's histogram: steps with no solver iteration

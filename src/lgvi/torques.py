@@ -834,10 +834,13 @@ class Compiled(TorqueModel):
         name = getattr(self.moment_func, "__name__", "moment")
         said = ""
         for when, tt in (("at the start of the step", t), ("at its end time with that state", t + h)):
-            _, exc = self._python_call(self.moment_func, (float(tt), np.array(R, dtype=np.float64),
-                                                          np.array(Pi, dtype=np.float64), self.row(b).copy()))
+            value, exc = self._python_call(self.moment_func, (float(tt), np.array(R, dtype=np.float64),
+                                                              np.array(Pi, dtype=np.float64), self.row(b).copy()))
             if exc is not None:
                 said = f" ({name}.py_func {when}, t = {tt:g}, raises {type(exc).__name__}: {exc})"
+                break
+            if np.shape(value) != (3,):     # the guard refuses a moment of another length as a raise
+                said = f" ({name}.py_func {when}, t = {tt:g}, returns {value!r}, not 3 numbers)"
                 break
         who = f"{self!r}{'' if b is None else f' of body {b}'}"
         return TorqueError(f"the moment of {who} raised an exception inside the compiled loop at step {step} "
@@ -884,22 +887,33 @@ class Compiled(TorqueModel):
         return np.ascontiguousarray(self.params[b])
 
     # moment / potential evaluate n samples in one compiled loop (user_kernels.user_moment_series /
-    # user_potential_series) when n >= series_min and that loop is already compiled for the user's
-    # function, or n >= series_compile (compiling it costs ~0.15 s, the per-sample Python calls
-    # ~1-3 us); otherwise with one call per sample from Python. See benchmarks/bench_compiled_energy.py
+    # user_potential_series, cached on disk, taking the user's function guarded) when n >= series_min
+    # and the guard of the user's function is already made in this process (a run made the moment's),
+    # or n >= series_compile (making it compiles the function and its cfunc, ~0.15 s; the per-sample
+    # Python calls cost ~1-3 us); otherwise with one call per sample from Python. See
+    # benchmarks/bench_compiled_energy.py
     series_min = 16
     series_compile = 100_000
 
-    def _series(self, kernel, func, n):
-        """The compiled series loop ``kernel`` is worth using for ``n`` samples of ``func``."""
+    def _series(self, func, n):
+        """The compiled series loop is worth using for ``n`` samples of ``func``."""
         if n < self.series_min:
             return False
         if n >= self.series_compile:
             return True
-        import numba
+        from ._kernels.guards import made
 
-        ftype = numba.typeof(func)
-        return any(sig[0] == ftype for sig in getattr(kernel, "signatures", ()))
+        return made(func)
+
+    @staticmethod
+    def _guard(make, func):
+        """``make(func)`` (the guarded ``cfunc``), or None for a return type the loops cannot convert."""
+        from numba.core.errors import TypingError
+
+        try:
+            return make(func)
+        except TypingError:
+            return None
 
     def potential_of_bodies(self, t: Any, R: Any, first: int = 0) -> np.ndarray | None:
         """The potential of an ensemble's saved samples: ``R`` (B, M, 3, 3) at times ``t`` (M,), body
@@ -910,19 +924,17 @@ class Compiled(TorqueModel):
         R = np.ascontiguousarray(R, dtype=np.float64)
         B, M = R.shape[:2]
         table = self.params[first:first + B] if self.params.ndim == 2 else self.params.reshape(1, -1)
-        from numba.core.errors import TypingError
-
-        from ._kernels.user_kernels import user_potential_bodies
+        from ._kernels.user_kernels import guarded_potential, user_potential_bodies
 
         out = np.empty((B, M))
-        try:
-            user_potential_bodies(self.potential_func, np.ascontiguousarray(_time(t), dtype=np.float64).reshape(M),
-                                  R, np.ascontiguousarray(table, dtype=np.float64), np.empty((3, 3)), out)
+        call = self._guard(guarded_potential, self.potential_func)
+        if call is not None and user_potential_bodies(
+                call, np.ascontiguousarray(_time(t), dtype=np.float64).reshape(M), R, table, np.empty((3, 3)), out) < 0:
             return out
-        except TypingError:             # a return type the loop cannot convert: body by body
-            for b in range(B):
-                out[b] = self.potential(t, R[b], None, b=first + b if self.params.ndim == 2 else None)
-            return out
+        # a return type the loop cannot convert, or the function raised: body by body (which raises)
+        for b in range(B):
+            out[b] = self.potential(t, R[b], None, b=first + b if self.params.ndim == 2 else None)
+        return out
 
     def moment(self, t: Any, R: Any, Pi: Any, body: Any, b: int | None = None) -> np.ndarray:
         R, Pi = _state(R, Pi)
@@ -931,19 +943,15 @@ class Compiled(TorqueModel):
         t = np.broadcast_to(_time(t), lead)
         Pi = np.broadcast_to(Pi, lead + (3,))
         n = int(np.prod(lead, dtype=np.int64))
-        from ._kernels.user_kernels import user_moment_series
-        if self._series(user_moment_series, self.moment_func, n):
-            from numba.core.errors import TypingError
-
+        from ._kernels.user_kernels import guarded, user_moment_series
+        call = self._guard(guarded, self.moment_func) if self._series(self.moment_func, n) else None
+        if call is not None:            # None: few samples, or a return type the loop cannot convert
             out = np.empty((n, 3))
-            try:
-                bad = user_moment_series(self.moment_func, np.ascontiguousarray(t).reshape(n),
-                                         np.ascontiguousarray(R).reshape(n, 3, 3),
-                                         np.ascontiguousarray(Pi).reshape(n, 3), p, np.empty((3, 3)),
-                                         np.empty(3), out)
-            except TypingError:
-                bad = 0                     # a return type the loop cannot convert: per sample below
-            if bad < 0:
+            bad = user_moment_series(call, np.ascontiguousarray(t, dtype=np.float64).reshape(n),
+                                     np.ascontiguousarray(R, dtype=np.float64).reshape(n, 3, 3),
+                                     np.ascontiguousarray(Pi, dtype=np.float64).reshape(n, 3), p, np.empty((3, 3)),
+                                     np.empty(3), out)
+            if bad < 0:                 # else the function raised or returned other than 3 numbers: per sample
                 return out.reshape(lead + (3,))
         out = np.empty(lead + (3,))
         for i in np.ndindex(*lead):
@@ -959,17 +967,14 @@ class Compiled(TorqueModel):
         lead = R.shape[:-2]
         t = np.broadcast_to(_time(t), lead)
         n = int(np.prod(lead, dtype=np.int64))
-        from ._kernels.user_kernels import user_potential_series
-        if self._series(user_potential_series, self.potential_func, n):
-            from numba.core.errors import TypingError
-
+        from ._kernels.user_kernels import guarded_potential, user_potential_series
+        call = self._guard(guarded_potential, self.potential_func) if self._series(self.potential_func, n) else None
+        if call is not None:            # None: few samples, or a return type the loop cannot convert
             out = np.empty(n)
-            try:
-                user_potential_series(self.potential_func, np.ascontiguousarray(t).reshape(n),
-                                      np.ascontiguousarray(R).reshape(n, 3, 3), p, np.empty((3, 3)), out)
-                return out.reshape(lead)
-            except TypingError:
-                pass                        # a return type the loop cannot convert: per sample below
+            if user_potential_series(call, np.ascontiguousarray(t, dtype=np.float64).reshape(n),
+                                     np.ascontiguousarray(R, dtype=np.float64).reshape(n, 3, 3), p, np.empty((3, 3)),
+                                     out) < 0:
+                return out.reshape(lead)    # else the function raised: per sample below (which raises)
         out = np.empty(lead)
         for i in np.ndindex(*lead):
             out[i] = float(self.potential_func(float(t[i]), np.array(R[i]), p))

@@ -23,8 +23,12 @@ plotly.js bundled inside the installed ``plotly`` Python package, embedded in th
   declared invariant with its kind, ``|R^T R - I|``, the error estimate, the modes, the scenario.
 
 Long runs are decimated for display, with a note on the page saying so: the animation shows at
-most ``max_frames`` evenly spread samples, each curve at most ``max_points`` points (rates: the
-minimum and maximum of every bin; errors: the maximum of every bin, so no excursion is hidden).
+most ``max_frames`` evenly spread samples, each curve at most ``max_points`` points (wheel speeds:
+the minimum and maximum of every bin; errors: the maximum of every bin, so no excursion is hidden).
+The body rates of a run with many samples (more than twice :data:`RATE_BINS`) are drawn per bin: a
+transparent band from the bin's minimum to its maximum, in the component's colour, with the middle
+of the bin's range as a line on top, so a fast tumble reads as its envelope and its trend, not a
+solid block.
 
 **In Jupyter** a trajectory displays this view inline (``Trajectory._repr_mimebundle_`` calls
 :func:`mimebundle`). To keep notebooks light, plotly.js (4.8 MB) is embedded only in the *first*
@@ -62,6 +66,17 @@ MAX_POINTS: int = 4000
 #: The same for the inline view in Jupyter.
 INLINE_FRAMES: int = 100
 INLINE_POINTS: int = 1500
+#: Most bins of a body rate's band (a panel is about 600 pixels wide: 3 or more a bin). A rate with
+#: more than twice as many samples is drawn per bin (at most ``max_points // 3`` bins): a transparent
+#: band from the bin's minimum to its maximum, and on top the line through the middle of each bin's
+#: range (:func:`_band`). A line through every sample of a detumble, or through each bin's minimum
+#: and maximum, fills the panel in solid colour where a rate turns faster than a few pixels, and the
+#: components that share a range hide one another; the band shows each one's envelope, the line its
+#: trend (the centre of an oscillation a bin spans; a bin's mean would alias an oscillation of about
+#: a bin's length into a slower one that is not there).
+RATE_BINS: int = 200
+#: The opacity of a band's fill.
+BAND_OPACITY: float = 0.25
 #: Errors below this are drawn at this value on the logarithmic axis (an exact zero has no log).
 ERROR_FLOOR: float = 1e-17
 
@@ -297,18 +312,65 @@ def _bin_max(t: np.ndarray, y: np.ndarray, max_points: int) -> tuple[np.ndarray,
     return _f32(t[idx], y[idx])
 
 
+def _rate_bins(m: int, max_points: int) -> int:
+    """The number of bins of a body rate's band (:data:`RATE_BINS`; band and mean line together at
+    most ``max_points`` points), or 0 when its ``m`` samples are drawn as they are."""
+    nb = min(RATE_BINS, max_points // 3)
+    return nb if m > 2 * nb else 0
+
+
+def _band(t: np.ndarray, y: np.ndarray, nb: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``nb`` bins of consecutive samples: each bin's mean time, and the minimum, maximum and middle of
+    the range of ``y`` in it."""
+    edges = np.unique(np.linspace(0, len(t), nb + 1).round().astype(np.int64))[:-1]
+    count = np.diff(np.append(edges, len(t)))
+    lo, hi = np.minimum.reduceat(y, edges), np.maximum.reduceat(y, edges)
+    return np.add.reduceat(t, edges) / count, lo, hi, 0.5 * (lo + hi)
+
+
+def _rgba(color: str, alpha: float) -> str:
+    """``#rrggbb`` as a CSS ``rgba()`` with opacity ``alpha``."""
+    r, g, b = (int(color[i:i + 2], 16) for i in (1, 3, 5))
+    return f"rgba({r}, {g}, {b}, {alpha})"
+
+
+def _rate_traces(go: Any, t: np.ndarray, y: np.ndarray, label: str, color: str, max_points: int) -> list[Any]:
+    """The traces of one body-rate component ``label`` (``ωx``): the line through its samples, or,
+    for many samples, its band (minimum to maximum of each bin, filled, no hover) and the line
+    through the middle of each bin's range."""
+    nb = _rate_bins(len(t), max_points)
+    if not nb:
+        tt, yy = _f32(t, y)
+        return [go.Scatter(x=tt, y=yy, mode="lines", line=dict(color=color, width=1.3), name=label,
+                           legendgroup="rates", showlegend=False,
+                           hovertemplate=f"{label} = %{{y:.4g}} rad/s<br>t = %{{x:.4g}} s<extra></extra>")]
+    tc, lo, hi, mid = _band(t, y, nb)
+    bx, by = _f32(np.concatenate([tc, tc[::-1]]), np.concatenate([hi, lo[::-1]]))
+    tt, yy = _f32(tc, mid)
+    return [go.Scatter(x=bx, y=by, mode="lines", fill="toself", fillcolor=_rgba(color, BAND_OPACITY),
+                       line=dict(width=0, color=color), name=f"{label} range", legendgroup="rates", showlegend=False,
+                       hoverinfo="skip"),
+            go.Scatter(x=tt, y=yy, mode="lines", line=dict(color=color, width=1.3), name=label, legendgroup="rates",
+                       showlegend=False, hovertemplate=f"{label} = %{{y:.4g}} rad/s (middle of the bin's range)<br>"
+                                                       "t = %{x:.4g} s<extra></extra>")]
+
+
 def decimation_note(traj: Any, max_frames: int = MAX_FRAMES, max_points: int = MAX_POINTS) -> str | None:
     """The note a page shows when it decimates the run for display, else ``None``."""
     m = len(traj.t)
-    if m <= max_frames and m <= max_points:
+    nb = _rate_bins(m, max_points) if _system_of(traj) is None else 0      # a scene has no body rates
+    if m <= max_frames and m <= max_points and not nb:
         return None
     nf = len(_frames(m, max_frames))
     parts = [f"Decimated for display: the run has {m:,} saved samples"]
     if m > max_frames:
         parts.append(f"the animation shows {nf} of them (about every {max(1, round((m - 1) / (nf - 1))):,}th)")
+    if nb:
+        parts.append(f"the body rates in {nb} bins of about {m / nb:.3g} samples (a band from each bin's minimum "
+                     "to its maximum, the line through its middle)")
     if m > max_points:
-        parts.append(f"each curve at most {max_points:,} points (rates: the minimum and maximum of every bin; "
-                     "errors: the maximum of every bin)")
+        parts.append(f"each other curve at most {max_points:,} points (wheel speeds: the minimum and maximum of "
+                     "every bin; errors: the maximum of every bin)")
     return "; ".join(parts) + ". The trajectory file holds every sample."
 
 
@@ -458,11 +520,8 @@ def figure(traj: Any, *, max_frames: int = MAX_FRAMES, max_points: int = MAX_POI
 
     # ---- linked plots (the rates on one axis, or on one each when a shared axis would flatten some)
     for i, lab in enumerate("xyz"):
-        tt, yy = _envelope(t, omega[:, i], max_points)
-        fig.add_trace(go.Scatter(x=tt, y=yy, mode="lines", line=dict(color=_AXIS_COLORS[i], width=1.3),
-                                 name=f"ω{lab}", legendgroup="rates", showlegend=False,
-                                 hovertemplate=f"ω{lab} = %{{y:.4g}} rad/s<br>t = %{{x:.4g}} s<extra></extra>"),
-                      row=1 + panels.index(rate_rows[i]), col=2)
+        for trace in _rate_traces(go, t, omega[:, i], f"ω{lab}", _AXIS_COLORS[i], max_points):
+            fig.add_trace(trace, row=1 + panels.index(rate_rows[i]), col=2)
     row = 1 + panels.index("invariants")
     keys = _invariant_traces(fig, go, traj, decl, t, row, max_points, {})
     if wheel_speed is not None:

@@ -48,6 +48,7 @@ from .codes import NOT_FINITE, OK
 from .environment_components import disturbance_dispatch, environment_dispatch
 from .estimation_components import estimator_dispatch
 from .fsw_components import actuator_dispatch, control_dispatch, guidance_dispatch, mode_dispatch, orbit_field_dispatch
+from .guards import guarded_function
 from .gyrostat_kernels import after_step, body_rate, gyro_advance, wheel_torque
 from .orbit_table_kernels import orbit_gravity_gradient_moment
 from .sensor_components import sensor_dispatch
@@ -68,27 +69,29 @@ NO_USER = 3
 #: user's: the slices of the loop's contiguous arrays.
 COMPONENT_SIGNATURE = types.int64(types.float64, types.float64[::1], types.float64[::1], types.float64[::1],
                                   types.int64[::1])
-_USER_COMPONENTS: dict = {}
 _NO_USER: list = []
+
+
+@jit(inline="always")
+def component_result(status):
+    """The call adapter of :func:`user_component`: the status the user's function returns."""
+    return status
+
+
+@jit(inline="always")
+def component_failed(t, bus, p, s, w):
+    """The failure marking of :func:`user_component`: the status :data:`USER_RAISED`."""
+    return USER_RAISED
 
 
 def user_component(step):
     """The user's ``numba.njit`` function ``step(t, bus, p, s, w) -> int`` as the loop's ``user``
     argument: a ``cfunc`` of :data:`COMPONENT_SIGNATURE` (compiled in memory, once per function and
-    process) that calls it and returns :data:`USER_RAISED` when it raises (a ``cfunc`` cannot raise
-    into its caller). A function that does not fit the signature raises Numba's typing error here."""
-    call = _USER_COMPONENTS.get(step)
-    if call is None:
-        def guarded_step(t, bus, p, s, w):
-            try:
-                return step(t, bus, p, s, w)
-            except Exception:
-                return USER_RAISED
-
-        # NUMBA_DISABLE_JIT=1 (the kernels as Python): the guard itself
-        call = guarded_step if config.DISABLE_JIT else cfunc(COMPONENT_SIGNATURE, error_model="numpy")(guarded_step)
-        _USER_COMPONENTS[step] = call
-    return call
+    process, by :func:`.guards.guarded_function`) that calls it and returns :data:`USER_RAISED` when
+    it raises (a ``cfunc`` cannot raise into its caller). A function that does not fit the signature
+    raises Numba's typing error here. With ``NUMBA_DISABLE_JIT=1`` (the kernels as Python) the guard
+    itself."""
+    return guarded_function(step, COMPONENT_SIGNATURE, component_result, component_failed)
 
 
 def _no_user(t, bus, p, s, w):

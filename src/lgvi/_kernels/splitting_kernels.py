@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 
 from .._jit import jit, jit_copy
-from .codes import OK, OVERFLOW
+from .codes import OK, OVERFLOW, USER_RAISED
 from .torque_kernels import model_moments_s
 
 # convergence of Carlson's duplication: relative spread of the arguments below which the
@@ -538,7 +538,11 @@ def _to_frame(R, Pi, Pax, forward, ws):
 
 @jit(inline="always")
 def kick(moment, up, user, diag, Pax, J, codes, params, t, hb, R, Pi, Rs, Ps):
-    """``Pi += hb M(t, R)`` with the moment in the principal frame (the models see the body frame)."""
+    """``Pi += hb M(t, R)`` with the moment in the principal frame (the models see the body frame).
+
+    Returns whether the user's function (``user``; ``moment`` guarded, :func:`.user_kernels.guarded`)
+    raised: the guard then marks its scratch ``Rs[0, 0]`` with NaN, and its moment is NaN (so the
+    step ends non-finite and is undone); a rotation given to it that was finite tells the two apart."""
     if diag:
         r00, r01, r02, r10, r11, r12, r20, r21, r22 = (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2],
                                                        R[2, 0], R[2, 1], R[2, 2])
@@ -568,9 +572,12 @@ def kick(moment, up, user, diag, Pax, J, codes, params, t, hb, R, Pi, Rs, Ps):
             Ps[1] = Pax[1, 0] * Pi[0] + Pax[1, 1] * Pi[1] + Pax[1, 2] * Pi[2]
             Ps[2] = Pax[2, 0] * Pi[0] + Pax[2, 1] * Pi[1] + Pax[2, 2] * Pi[2]
         u = moment(t, Rs, Ps, up)
+        raised = Rs[0, 0] != Rs[0, 0] and r00 == r00
         m0 += float(u[0])
         m1 += float(u[1])
         m2 += float(u[2])
+    else:
+        raised = False
     if diag:
         Pi[0] += hb * m0
         Pi[1] += hb * m1
@@ -579,6 +586,7 @@ def kick(moment, up, user, diag, Pax, J, codes, params, t, hb, R, Pi, Rs, Ps):
         Pi[0] += hb * (Pax[0, 0] * m0 + Pax[1, 0] * m1 + Pax[2, 0] * m2)
         Pi[1] += hb * (Pax[0, 1] * m0 + Pax[1, 1] * m1 + Pax[2, 1] * m2)
         Pi[2] += hb * (Pax[0, 2] * m0 + Pax[1, 2] * m1 + Pax[2, 2] * m2)
+    return raised
 
 
 @jit(inline="always")
@@ -615,7 +623,9 @@ def split_steps(moment, up, user, I, ax, symax, Pax, diag, J, drift, weight, nod
                 k0, n, save_every, R_out, Pi_out, ws, Rb, Pb, Rs, Ps):
     """Steps ``k0 .. k0+n-1`` of the splitting: per step, drifts (exact free flows) of
     ``drift[i] h`` and kicks ``Pi += weight[i] h M(t0 + (k + node[i]) h, R)``; the last drift of a
-    step and the first of the next are one flow, except at saved samples. Returns ``(status, k)``."""
+    step and the first of the next are one flow, except at saved samples. Returns ``(status, k)``:
+    ``OVERFLOW`` for a step that made the state non-finite, ``USER_RAISED`` when the user's function
+    raised in it (the state is then the step's start)."""
     s = weight.shape[0]
     fc = flow_constants(I, ax)
     if not diag:
@@ -632,9 +642,12 @@ def split_steps(moment, up, user, I, ax, symax, Pax, diag, J, drift, weight, nod
                 Rb[i, j] = R[i, j]
         pend_b = pend
         pend += drift[0] * h
+        raised = False
         for i in range(s):
             free_flow(I, ax, symax, R, Pi, pend, ws, fc)
-            kick(moment, up, user, diag, Pax, J, codes, params, t0 + (k + node[i]) * h, weight[i] * h, R, Pi, Rs, Ps)
+            if kick(moment, up, user, diag, Pax, J, codes, params, t0 + (k + node[i]) * h, weight[i] * h, R, Pi, Rs,
+                    Ps):
+                raised = True
             pend = drift[i + 1] * h
         countdown -= 1
         if countdown == 0:
@@ -643,7 +656,7 @@ def split_steps(moment, up, user, I, ax, symax, Pax, diag, J, drift, weight, nod
         ok, countdown, jout = step_end(R, Pi, Rb, Pb, countdown, save_every, jout, R_out, Pi_out, Pax, diag, ws)
         if not ok:
             free_flow(I, ax, symax, R, Pi, pend_b, ws, fc)
-            status = OVERFLOW
+            status = USER_RAISED if raised else OVERFLOW
             kend = k
             break
     if not diag:
@@ -678,7 +691,7 @@ def axes_steps(moment, up, user, I, ax, Pax, diag, J, weight, node, h, t0, R, Pi
     ``U(g/2) T_a(g/2) T_b(g/2) T_c(g) T_b(g/2) T_a(g/2) U(g/2)`` with ``g = weight[i] h``, ``(a, b, c) = ax``
     (smallest, middle, largest moment; ``T_i`` the rotation about principal axis ``i``) and the kicks
     at the stage's ends (``t0 + k h`` and ``t0 + (k + node[i]) h``); the kicks between two stages of a
-    step are one. Returns ``(status, k)``."""
+    step are one. Returns ``(status, k)`` (as :func:`split_steps`)."""
     s = weight.shape[0]
     oa = ax[0]
     ob = ax[1]
@@ -694,7 +707,7 @@ def axes_steps(moment, up, user, I, ax, Pax, diag, J, weight, node, h, t0, R, Pi
             Pb[i] = Pi[i]
             for j in range(3):
                 Rb[i, j] = R[i, j]
-        kick(moment, up, user, diag, Pax, J, codes, params, t0 + k * h, 0.5 * weight[0] * h, R, Pi, Rs, Ps)
+        raised = kick(moment, up, user, diag, Pax, J, codes, params, t0 + k * h, 0.5 * weight[0] * h, R, Pi, Rs, Ps)
         for i in range(s):
             g = weight[i] * h
             axis_flow(I, oa, R, Pi, 0.5 * g)
@@ -703,11 +716,12 @@ def axes_steps(moment, up, user, I, ax, Pax, diag, J, weight, node, h, t0, R, Pi
             axis_flow(I, ob, R, Pi, 0.5 * g)
             axis_flow(I, oa, R, Pi, 0.5 * g)
             hb = 0.5 * (weight[i] + weight[i + 1]) * h if i + 1 < s else 0.5 * g
-            kick(moment, up, user, diag, Pax, J, codes, params, t0 + (k + node[i]) * h, hb, R, Pi, Rs, Ps)
+            if kick(moment, up, user, diag, Pax, J, codes, params, t0 + (k + node[i]) * h, hb, R, Pi, Rs, Ps):
+                raised = True
         countdown -= 1
         ok, countdown, jout = step_end(R, Pi, Rb, Pb, countdown, save_every, jout, R_out, Pi_out, Pax, diag, ws)
         if not ok:
-            status = OVERFLOW
+            status = USER_RAISED if raised else OVERFLOW
             kend = k
             break
     if not diag:
@@ -728,11 +742,13 @@ def run_split(I, ax, symax, Pax, diag, J, drift, weight, node, h, t0, R, Pi, cod
                        codes, params, k0, n, save_every, R_out, Pi_out, ws, Rb, Pb, Rs, Ps)
 
 
-@jit(cache=False)
+@jit(_nrt=False)
 def run_split_user(moment, up, I, ax, symax, Pax, diag, J, drift, weight, node, h, t0, R, Pi, codes, params, k0,
                    n, save_every, R_out, Pi_out, ws, Rb, Pb, Rs, Ps):
-    """:func:`split_steps` with the user's compiled ``moment(t, R, Pi, up)`` added to the models
-    (compiled in memory per function, with reference counting: see :mod:`.user_kernels`)."""
+    """:func:`split_steps` with the user's compiled ``moment(t, R, Pi, up)`` added to the models, as a
+    value of :data:`.user_kernels.MOMENT_SIGNATURE` (:func:`.user_kernels.guarded`): one loop, cached on
+    disk, for every user's model, as :func:`.user_kernels.run_chunk_user`. A step whose function raised
+    fails with ``USER_RAISED``."""
     return split_steps(moment, up, True, I, ax, symax, Pax, diag, J, drift, weight, node, h, t0, R, Pi,
                        codes, params, k0, n, save_every, R_out, Pi_out, ws, Rb, Pb, Rs, Ps)
 
@@ -746,7 +762,7 @@ def run_axes(I, ax, symax, Pax, diag, J, drift, weight, node, h, t0, R, Pi, code
                       n, save_every, R_out, Pi_out, ws, Rb, Pb, Rs, Ps)
 
 
-@jit(cache=False)
+@jit(_nrt=False)
 def run_axes_user(moment, up, I, ax, symax, Pax, diag, J, drift, weight, node, h, t0, R, Pi, codes, params, k0,
                   n, save_every, R_out, Pi_out, ws, Rb, Pb, Rs, Ps):
     """:func:`axes_steps` with the user's compiled ``moment(t, R, Pi, up)`` (see :func:`run_split_user`)."""

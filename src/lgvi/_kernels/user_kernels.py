@@ -27,11 +27,12 @@ from __future__ import annotations
 
 import math
 
-from numba import cfunc, config, types
+from numba import types
 
 from .._jit import jit
 from .codes import NOT_CONVERGED, OK, USER_RAISED
 from .ensemble_kernels import record_body
+from .guards import guarded_function
 from .solvers import EPS
 from .stepping import load_state, push_at, rotated_row, save_state, solve_warm, stage_done, step_done
 from .torque_kernels import model_moments_call, momentum_diag
@@ -42,31 +43,63 @@ from .torque_kernels import model_moments_call, momentum_diag
 #: read-only row; the body-frame moment as three floats.
 MOMENT_SIGNATURE = types.UniTuple(types.float64, 3)(types.float64, types.float64[:, ::1], types.float64[::1],
                                                     types.Array(types.float64, 1, "C", readonly=True))
-_GUARDED: dict = {}
+
+
+#: ``potential(t, R, params) -> float`` of a user's potential as the series loops call it (``R``
+#: (3,3) C-contiguous scratch, ``params`` read-only).
+POTENTIAL_SIGNATURE = types.float64(types.float64, types.float64[:, ::1],
+                                    types.Array(types.float64, 1, "C", readonly=True))
+
+
+@jit
+def moment_result(m):
+    """The call adapter of :func:`guarded`: the three numbers of the user's moment (a tuple or a
+    (3,) array; an array it makes is freed inside the ``cfunc``). An array of another length raises
+    (inside the guard: the call fails as a raise does, never reading past the array). Not inlined:
+    Numba's ``try`` catches what a called function raises, not a ``raise`` inlined into its body."""
+    if len(m) != 3:
+        raise ValueError("a moment is 3 numbers")
+    return float(m[0]), float(m[1]), float(m[2])
+
+
+@jit(inline="always")
+def moment_failed(t, R, P, p):
+    """The failure marking of :func:`guarded`: NaN in the loop's scratch ``R[0, 0]`` (the mark
+    :func:`user_raised` reads) and a NaN moment, so the step fails."""
+    R[0, 0] = math.nan
+    return math.nan, math.nan, math.nan
 
 
 def guarded(moment):
     """The user's ``moment(t, R, Pi, params)`` as the CPU loops' ``moment`` argument: a ``cfunc`` of
-    :data:`MOMENT_SIGNATURE` (compiled in memory, once per function and process) that calls it and
-    returns the three numbers it returns (a tuple or a (3,) array; an array it makes is freed inside).
-    An exception it raises (a division by zero, an error it raises) is caught there (a ``cfunc``
-    cannot raise into its caller): the moment is NaN, so the step fails, and ``R[0, 0]`` (the loop's
-    scratch) is set to NaN, the mark :func:`user_raised` reads. A function that does not fit the
-    signature raises Numba's typing error here. With ``NUMBA_DISABLE_JIT=1`` (the kernels as Python)
-    the guard itself."""
-    call = _GUARDED.get(moment)
-    if call is None:
-        def guarded_moment(t, R, P, p):
-            try:
-                m = moment(t, R, P, p)
-                return float(m[0]), float(m[1]), float(m[2])
-            except Exception:
-                R[0, 0] = math.nan
-                return math.nan, math.nan, math.nan
+    :data:`MOMENT_SIGNATURE` (compiled in memory, once per function and process, by
+    :func:`.guards.guarded_function`) that calls it and returns the three numbers it returns
+    (:func:`moment_result`). An exception it raises (a division by zero, an error it raises) is
+    caught there (a ``cfunc`` cannot raise into its caller): the moment is NaN, so the step fails,
+    and ``R[0, 0]`` (the loop's scratch) is set to NaN, the mark :func:`user_raised` reads
+    (:func:`moment_failed`). A function that does not fit the signature raises Numba's typing error
+    here. With ``NUMBA_DISABLE_JIT=1`` (the kernels as Python) the guard itself."""
+    return guarded_function(moment, MOMENT_SIGNATURE, moment_result, moment_failed)
 
-        call = guarded_moment if config.DISABLE_JIT else cfunc(MOMENT_SIGNATURE, error_model="numpy")(guarded_moment)
-        _GUARDED[moment] = call
-    return call
+
+@jit(inline="always")
+def potential_result(v):
+    """The call adapter of :func:`guarded_potential`: the user's potential as a float."""
+    return float(v)
+
+
+@jit(inline="always")
+def potential_failed(t, R, p):
+    """The failure marking of :func:`guarded_potential`: NaN in the scratch ``R[0, 0]``, a NaN value."""
+    R[0, 0] = math.nan
+    return math.nan
+
+
+def guarded_potential(potential):
+    """The user's ``potential(t, R, params)`` as the series loops' ``potential`` argument: a ``cfunc``
+    of :data:`POTENTIAL_SIGNATURE` (as :func:`guarded` for the moment: an exception it raises marks
+    ``R[0, 0]`` with NaN)."""
+    return guarded_function(potential, POTENTIAL_SIGNATURE, potential_result, potential_failed)
 
 
 @jit(inline="always")
@@ -274,36 +307,40 @@ def run_chunk_user(moment, up, Rs, Ps, cons, mdep, method, Jd, J, J_inv, h, t0, 
     return status, kend, book[0], book[1], its_sum, book[2]
 
 
-@jit(cache=False)
+@jit(_nrt=False)
 def user_moment_series(moment, t, R, Pi, up, Rs, Ps, out):
     """The user's moment at each sample: ``out[i] = moment(t[i], R[i], Pi[i], up)``.
 
-    ``t`` (M,), ``R`` (M, 3, 3), ``Pi`` (M, 3), ``out`` (M, 3). Each sample is copied into the
-    scratch arrays ``Rs`` (3, 3), ``Ps`` (3,) (C-contiguous, as the per-sample evaluation passes
-    them) so the user's function cannot change the samples. Returns -1, or the index of the first
-    sample whose moment is not 3 numbers (``out`` is then incomplete; the caller re-evaluates in
-    Python to raise the per-sample error).
+    ``moment`` of :data:`MOMENT_SIGNATURE` (:func:`guarded`): one loop, cached on disk, for every
+    user's function. ``t`` (M,), ``R`` (M, 3, 3), ``Pi`` (M, 3), ``out`` (M, 3). Each sample is
+    copied into the scratch arrays ``Rs`` (3, 3), ``Ps`` (3,) (C-contiguous, as the per-sample
+    evaluation passes them) so the user's function cannot change the samples. Returns -1, or the
+    index of the first sample where the function raised or returned other than 3 numbers (the
+    guard's mark; ``out`` is then incomplete: the caller re-evaluates in Python to raise the
+    per-sample error).
     """
     for i in range(t.shape[0]):
         for a in range(3):
             for c in range(3):
                 Rs[a, c] = R[i, a, c]
             Ps[a] = Pi[i, a]
-        m = moment(t[i], Rs, Ps, up)
-        if len(m) != 3:
+        m0, m1, m2 = moment(t[i], Rs, Ps, up)
+        if Rs[0, 0] != Rs[0, 0] and R[i, 0, 0] == R[i, 0, 0]:
             return i
-        out[i, 0] = float(m[0])
-        out[i, 1] = float(m[1])
-        out[i, 2] = float(m[2])
+        out[i, 0] = m0
+        out[i, 1] = m1
+        out[i, 2] = m2
     return -1
 
 
-@jit(cache=False)
+@jit(_nrt=False)
 def user_potential_bodies(potential, t, R, table, Rs, out):
     """The user's potential of every body's samples in one compiled loop: ``out[b, i] =
-    potential(t[i], R[b, i], row)`` with ``row = table[b]`` (``table`` (B, P)) or ``table[0]`` for all.
+    potential(t[i], R[b, i], row)`` with ``row = table[b]`` (``table`` (B, P), read-only) or
+    ``table[0]`` for all; ``potential`` of :data:`POTENTIAL_SIGNATURE` (:func:`guarded_potential`).
 
-    ``t`` (M,), ``R`` (B, M, 3, 3), ``out`` (B, M); ``Rs`` (3, 3) scratch.
+    ``t`` (M,), ``R`` (B, M, 3, 3), ``out`` (B, M); ``Rs`` (3, 3) scratch. Returns -1, or the first
+    body whose function raised (``out`` is then incomplete from it on).
     """
     for b in range(R.shape[0]):
         up = table[b] if table.shape[0] > 1 else table[0]
@@ -311,21 +348,28 @@ def user_potential_bodies(potential, t, R, table, Rs, out):
             for a in range(3):
                 for c in range(3):
                     Rs[a, c] = R[b, i, a, c]
-            out[b, i] = float(potential(t[i], Rs, up))
+            out[b, i] = potential(t[i], Rs, up)
+            if Rs[0, 0] != Rs[0, 0] and R[b, i, 0, 0] == R[b, i, 0, 0]:
+                return b
+    return -1
 
 
-@jit(cache=False)
+@jit(_nrt=False)
 def user_potential_series(potential, t, R, up, Rs, out):
     """The user's potential at each sample: ``out[i] = potential(t[i], R[i], up)``.
 
-    ``t`` (M,), ``R`` (M, 3, 3), ``out`` (M,); ``Rs`` (3, 3) scratch as in
-    :func:`user_moment_series`.
+    ``potential`` of :data:`POTENTIAL_SIGNATURE` (:func:`guarded_potential`). ``t`` (M,), ``R``
+    (M, 3, 3), ``out`` (M,); ``Rs`` (3, 3) scratch as in :func:`user_moment_series`. Returns -1, or
+    the index of the first sample where the function raised.
     """
     for i in range(t.shape[0]):
         for a in range(3):
             for c in range(3):
                 Rs[a, c] = R[i, a, c]
-        out[i] = float(potential(t[i], Rs, up))
+        out[i] = potential(t[i], Rs, up)
+        if Rs[0, 0] != Rs[0, 0] and R[i, 0, 0] == R[i, 0, 0]:
+            return i
+    return -1
 
 
 @jit(_nrt=False)
