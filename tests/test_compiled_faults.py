@@ -151,3 +151,23 @@ def test_a_failing_row_past_the_tried_ones_stops_its_own_body_in_the_compiled_lo
     assert info.value.body == 50 and info.value.step == 0
     with pytest.raises(TypeError, match="ZeroDivisionError"):  # among the tried rows it is refused at once
         Compiled(inverse, params=rows[30:])
+
+
+@numba.njit
+def refuses_nan(t, R, Pi, p):
+    if R[0, 0] != R[0, 0]:
+        raise ValueError("a NaN attitude")
+    return (-0.1 * R[2, 1], 0.1 * R[2, 0], 0.0)
+
+
+def test_a_raise_at_a_sample_whose_own_attitude_is_nan_reaches_python():
+    """The series' compiled loop marks a raise with a NaN in its scratch attitude; a sample whose own
+    attitude holds that NaN must not hide the raise (it is evaluated again in Python, which raises)."""
+    model = Compiled(refuses_nan)
+    model.series_compile = 16           # the compiled series for these 40 samples
+    R = np.tile(np.eye(3), (40, 1, 1))
+    clean = model.moment(np.zeros(40), R, np.zeros((40, 3)), BODY)
+    np.testing.assert_array_equal(clean, np.zeros((40, 3)))
+    R[7, 0, 0] = np.nan
+    with pytest.raises(ValueError, match="a NaN attitude"):
+        model.moment(np.zeros(40), R, np.zeros((40, 3)), BODY)

@@ -587,3 +587,20 @@ def test_earth_angle_from_the_minute_grid_is_the_gmst_to_its_own_rounding():
         e_new = np.hypot(out[:, 0] - c, out[:, 1] - s_).max()
         e_old = np.hypot(np.cos(old) - c, np.sin(old) - s_).max()
         assert e_new < e_old + 7.3e-12, (e_new, e_old)
+
+
+def test_facet_srp_evaluate_takes_the_sun_direction_of_any_length():
+    """``FacetSRP.evaluate`` normalises ``sun_N`` (the loop's sun writes a unit vector; a user's
+    call need not): a vector ten times longer gives the same force and torque, and a zero one is
+    refused by name."""
+    srp = FacetSRP([0.1, 0.2], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], [[0.0, 0.05, 0.0], [0.1, 0.0, 0.0]],
+                   absorbed=0.5, specular=0.3, diffuse=0.2)
+    R = np.eye(3)
+    u = np.array([1.0, 1.0, 0.2]) / np.linalg.norm([1.0, 1.0, 0.2])
+    unit = srp.evaluate(R, u, 1.496e11)
+    long = srp.evaluate(R, 10.0 * u, 1.496e11)
+    for key in unit:
+        np.testing.assert_allclose(long[key], unit[key], rtol=1e-14, atol=0.0, err_msg=key)
+    assert np.abs(unit["F_facet_srp_N"]).max() > 0.0
+    with pytest.raises(ValueError, match="sun_N"):
+        srp.evaluate(R, [0.0, 0.0, 0.0], 1.496e11)

@@ -136,7 +136,12 @@ def _inside_an_lgvi_compilation(fnty, ctx):
     sig = fnty.get_call_type(ctx, (types.int64, types.float64), {})
     assert sig.return_type == types.float64 and sig.args == (types.float64, types.float64)
     remembered = [k for k in _jit._TYPING_MEMO if k[0] == fnty and k[3] == (types.int64, types.float64)]
-    assert len(remembered) == 1 and _jit._TYPING_MEMO[remembered[0]] is sig
+    assert len(remembered) == 1 and _jit._TYPING_MEMO[remembered[0]][0] is sig
+    # a hit puts back the implementation Numba recorded for the signature's arguments
+    impl = fnty._impl_keys[sig.args]
+    fnty._impl_keys[sig.args] = "another template's"
+    assert fnty.get_call_type(ctx, (types.int64, types.float64), {}) is sig
+    assert fnty._impl_keys[sig.args] == impl
     before = len(_jit._TYPING_MEMO)
     for args in ((types.unicode_type, types.float64), (types.float64, types.none)):   # not plain; no match
         with pytest.raises(TypingError):

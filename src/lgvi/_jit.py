@@ -229,7 +229,8 @@ TYPING_MEMO: bool = os.environ.get("LGVI_TYPING_MEMO", "1").strip().lower() not 
 #: Numba types whose typing by a function's templates depends on nothing but the types themselves
 #: (see :func:`_install_typing_memo`).
 _PLAIN_TYPE_NAMES = ("Number", "Boolean", "Array", "NoneType", "SliceType")
-#: The memo: ``(function type, typing context, target, argument types)`` -> the signature Numba found.
+#: The memo: ``(function type, typing context, target, argument types)`` -> the signature Numba found
+#: and the implementation key it recorded for the signature's arguments.
 _TYPING_MEMO: dict[Any, Any] = {}
 
 
@@ -276,11 +277,18 @@ def _install_typing_memo() -> None:
         if kws or not getattr(scope, "lgvi", False) or not all(is_plain(a) for a in args):
             return original(self, context, args, kws)
         key = (self, context, get_local_target(context), tuple(args))
-        sig = memo.get(key)
-        if sig is None:
+        hit = memo.get(key)
+        if hit is None:
             sig = original(self, context, args, kws)      # raises when no template matches
-            if sig is not None:
-                memo[key] = sig
+            keys = getattr(self, "_impl_keys", None)
+            if sig is not None and keys is not None and sig.args in keys:
+                memo[key] = (sig, keys[sig.args])
+            return sig
+        # Numba's own typing records which implementation serves the signature's arguments (the
+        # lowering reads it); two argument tuples typed to the same signature's arguments by
+        # different templates would leave the other's there: put this one's back, as Numba would
+        sig, impl = hit
+        self._impl_keys[sig.args] = impl
         return sig
 
     get_call_type._lgvi_memo = True  # type: ignore[attr-defined]

@@ -22,7 +22,10 @@ def rotation_coefficients(t2):
     ``(1 - cos t)/t^2`` and ``(t - sin t)/t^3``. Below ``ROTATION_SERIES`` (``t < 0.1``) their Taylor
     series to ``t^8`` (no square root, no trigonometric function); above, one square root and the
     sine and cosine of ``t/2`` (``sin t = 2 sin(t/2) cos(t/2)``, ``1 - cos t = 2 sin^2(t/2)``).
-    The same values as the separate ``sin``/``cos`` forms to a few ulp (``tests/test_estimation.py``)."""
+    Each within 1 ulp of the exact value (40 digits), except ``(t - sin t)/t^3`` just above the series'
+    edge, where the cancellation of ``t - sin t`` leaves about 100 ulp at ``t = 0.1`` (61 at 0.2, 1 at
+    0.5); it multiplies ``hat(phi)^2``, of size ``t^2``, so the rotation it builds is exact to
+    round-off (``tests/test_estimation.py``)."""
     if t2 < ROTATION_SERIES:
         qc = 0.5 - t2 * (1.0 / 48.0 - t2 * (1.0 / 3840.0 - t2 * (1.0 / 645120.0 - t2 * (1.0 / 185794560.0))))
         qw = 1.0 - t2 * (0.125 - t2 * (1.0 / 384.0 - t2 * (1.0 / 46080.0 - t2 * (1.0 / 10321920.0))))

@@ -161,8 +161,9 @@ def update_attitude(s, y0, y1, y2):
 @jit(inline="always")
 def update_with(s, y0, y1, y2):
     """The gain, the Joseph-form covariance and the reset, from ``PH = P H^T`` and ``S``."""
-    # S^-1 by cofactors: S is symmetric (bit for bit: P is kept so, and R_m is), so six of them, and
-    # one division (1 / det)
+    # S^-1 by cofactors of S's upper triangle (S is symmetric; bit for bit only for the star tracker,
+    # H = I: for H = hat(p) its two triangles are summed in different orders and differ by round-off,
+    # and reading one of them symmetrises it), so six of them, and one division (1 / det)
     S0 = s[_WS]
     S1 = s[_WS + 1]
     S2 = s[_WS + 2]

@@ -317,7 +317,8 @@ def user_moment_series(moment, t, R, Pi, up, Rs, Ps, out):
     evaluation passes them) so the user's function cannot change the samples. Returns -1, or the
     index of the first sample where the function raised or returned other than 3 numbers (the
     guard's mark; ``out`` is then incomplete: the caller re-evaluates in Python to raise the
-    per-sample error).
+    per-sample error). A sample whose own ``R[0, 0]`` is NaN is returned too (the mark cannot be
+    told from it): the caller's per-sample evaluation then gives what the function gives there.
     """
     for i in range(t.shape[0]):
         for a in range(3):
@@ -325,7 +326,7 @@ def user_moment_series(moment, t, R, Pi, up, Rs, Ps, out):
                 Rs[a, c] = R[i, a, c]
             Ps[a] = Pi[i, a]
         m0, m1, m2 = moment(t[i], Rs, Ps, up)
-        if Rs[0, 0] != Rs[0, 0] and R[i, 0, 0] == R[i, 0, 0]:
+        if Rs[0, 0] != Rs[0, 0]:
             return i
         out[i, 0] = m0
         out[i, 1] = m1
@@ -349,7 +350,7 @@ def user_potential_bodies(potential, t, R, table, Rs, out):
                 for c in range(3):
                     Rs[a, c] = R[b, i, a, c]
             out[b, i] = potential(t[i], Rs, up)
-            if Rs[0, 0] != Rs[0, 0] and R[b, i, 0, 0] == R[b, i, 0, 0]:
+            if Rs[0, 0] != Rs[0, 0]:
                 return b
     return -1
 
@@ -367,7 +368,7 @@ def user_potential_series(potential, t, R, up, Rs, out):
             for c in range(3):
                 Rs[a, c] = R[i, a, c]
         out[i] = potential(t[i], Rs, up)
-        if Rs[0, 0] != Rs[0, 0] and R[i, 0, 0] == R[i, 0, 0]:
+        if Rs[0, 0] != Rs[0, 0]:
             return i
     return -1
 

@@ -254,8 +254,18 @@ class FacetSRP(_Disturbance):
         return self._row(np.concatenate([head, per], axis=1))
 
     def evaluate(self, R: Any, sun_N: Any, sun_distance: Any, shadow: Any = 1.0) -> dict[str, np.ndarray]:
-        """Torque ``tau_facet_srp_B`` (n, 3) and force ``F_facet_srp_N`` (n, 3) (first member)."""
-        return _first(self, R=R, sun_N=sun_N, sun_distance=sun_distance, shadow=shadow)
+        """Torque ``tau_facet_srp_B`` (n, 3) and force ``F_facet_srp_N`` (n, 3) (first member).
+
+        ``sun_N`` (3,) or (n, 3) is the direction to the sun in the inertial frame, of any nonzero
+        length (it is normalised here: the compiled kernel takes the unit vector the loop's sun writes).
+        """
+        u = as_float_array(sun_N, "sun_N")
+        if u.shape[-1:] != (3,):
+            raise ValueError(f"sun_N must be a (3,) vector or (n, 3), got shape {u.shape}")
+        norm = np.linalg.norm(u, axis=-1, keepdims=True)
+        if not np.all(norm > 0.0):
+            raise ValueError("sun_N must be a nonzero direction to the sun (every row), got a zero vector")
+        return _first(self, R=R, sun_N=u / norm, sun_distance=sun_distance, shadow=shadow)
 
 
 class ResidualDipole(_Disturbance):
