@@ -28,17 +28,31 @@ _GUARDS: dict = {}
 
 
 def _guard(func, result, failed, nargs):
-    """``guard(a0, .., a{n-1})``: ``result(func(..))``, or ``failed(..)`` when ``func`` raises. Its
-    arity is the signature's (a ``cfunc`` takes no ``*args``), so its source is written here."""
-    names = ", ".join(f"a{i}" for i in range(nargs))
-    source = (f"def guard({names}):\n"
-              f"    try:\n"
-              f"        return result(func({names}))\n"
-              f"    except Exception:\n"
-              f"        return failed({names})\n")
-    scope = {"func": func, "result": result, "failed": failed}
-    exec(compile(source, f"<lgvi guard of {getattr(func, '__name__', 'a function')}>", "exec"), scope)
-    return scope["guard"]
+    """``guard(a0, .., a{n-1})``: ``result(func(..))``, or ``failed(..)`` when ``func`` raises. A
+    ``cfunc`` takes no ``*args`` (and Numba cannot compile ``func(*args)`` inside a ``try``), so there
+    is one closure for each arity the loops' signatures have (3, 4 and 5 arguments)."""
+    if nargs == 3:
+        def guard3(a0, a1, a2):
+            try:
+                return result(func(a0, a1, a2))
+            except Exception:
+                return failed(a0, a1, a2)
+        return guard3
+    if nargs == 4:
+        def guard4(a0, a1, a2, a3):
+            try:
+                return result(func(a0, a1, a2, a3))
+            except Exception:
+                return failed(a0, a1, a2, a3)
+        return guard4
+    if nargs == 5:
+        def guard5(a0, a1, a2, a3, a4):
+            try:
+                return result(func(a0, a1, a2, a3, a4))
+            except Exception:
+                return failed(a0, a1, a2, a3, a4)
+        return guard5
+    raise ValueError(f"a guarded function takes 3, 4 or 5 arguments (the loops' signatures), not {nargs}")
 
 
 def guarded_function(func, signature, result, failed):
