@@ -15,6 +15,12 @@ compilation options live in a single spot:
   the defining file's time stamp only, so after an edit of ``solvers.py`` a cached kernel of
   ``stepping.py`` would keep the old solver inlined (an in-place upgrade or a development tree
   would silently mix versions); with the hash, any change of any kernel file recompiles them all.
+  The hash covers this file too (the options above shape every kernel's code);
+* the cache is kept apart per Numba setting that changes the machine code (``NUMBA_OPT``,
+  ``NUMBA_BOUNDSCHECK``, ``NUMBA_DEBUGINFO``, the vectorisers, AVX: :data:`_CODEGEN_SETTINGS`), a
+  sub-folder each: Numba's own key (the signature, the CPU, the bytecode) holds none of them, so a
+  run with ``NUMBA_BOUNDSCHECK=1`` or ``NUMBA_OPT=0`` would leave its slower kernels in the cache and
+  every later run of the tree would load them.
 
 Numba's typing of built-in functions and operators is remembered for plain argument types
 (:func:`_install_typing_memo`: the same answers, found once; a fifth of a cold compilation).
@@ -47,14 +53,33 @@ _OPTIONS: dict[str, Any] = {"nogil": True, "error_model": "numpy"}
 _KERNELS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_kernels")
 
 
+def _key_files() -> list[str]:
+    """The files whose text keys the cache: every kernel source and this file (the options)."""
+    kernels = [os.path.join(_KERNELS, name) for name in sorted(os.listdir(_KERNELS)) if name.endswith(".py")]
+    return kernels + [os.path.abspath(__file__)]
+
+
 def _kernel_sources_hash() -> str:
     digest = hashlib.sha256()
-    for name in sorted(os.listdir(_KERNELS)):
-        if name.endswith(".py"):
-            digest.update(name.encode())
-            with open(os.path.join(_KERNELS, name), "rb") as fh:
-                digest.update(fh.read())
+    for path in _key_files():
+        digest.update(os.path.basename(path).encode())
+        with open(path, "rb") as fh:
+            digest.update(fh.read())
     return digest.hexdigest()
+
+
+#: Numba settings (``numba.core.config``) that change a kernel's machine code and are not in Numba's
+#: cache key: the cache of lgvi's kernels has a sub-folder per combination (:func:`_codegen_tag`).
+_CODEGEN_SETTINGS = ("OPT", "BOUNDSCHECK", "DEBUGINFO_DEFAULT", "LOOP_VECTORIZE", "SLP_VECTORIZE", "ENABLE_AVX",
+                     "EXTEND_VARIABLE_LIFETIMES")
+
+
+def _codegen_tag() -> str:
+    """The name of the cache sub-folder of this process's Numba settings (:data:`_CODEGEN_SETTINGS`)."""
+    from numba.core import config
+
+    values = repr([(name, str(getattr(config, name, None))) for name in _CODEGEN_SETTINGS])
+    return "cg-" + hashlib.sha256(values.encode()).hexdigest()[:12]
 
 
 def user_cache_dir() -> str:
@@ -78,6 +103,7 @@ def _install_cache_key() -> None:
         from numba.core import caching
 
         stamp = ("lgvi-kernels", _kernel_sources_hash())
+        tag = _codegen_tag()
         # public names in recent Numba; underscored (private) in 0.59 to 0.61. The order is the
         # preference: NUMBA_CACHE_DIR, the user's cache folder, next to the source as a last resort
         provided, in_tree, user_wide = [getattr(caching, name, None) or getattr(caching, "_" + name)
@@ -89,10 +115,13 @@ def _install_cache_key() -> None:
 
     def make(base: type) -> type:
         class Locator(base):  # type: ignore[misc, valid-type]
-            if base is user_wide:
-                def __init__(self, py_func, py_file):
-                    super().__init__(py_func, py_file)
+            def __init__(self, py_func, py_file):
+                super().__init__(py_func, py_file)
+                if base is user_wide:
                     self._cache_path = os.path.join(user_cache_dir(), self.get_suitable_cache_subpath(py_file))
+                # a sub-folder per code-shaping Numba setting: Numba's key would load one run's
+                # NUMBA_OPT=0 or bounds-checked kernels in every later run
+                self._cache_path = os.path.join(self._cache_path, tag)
 
             @classmethod
             def from_function(cls, py_func, py_file):
