@@ -281,6 +281,14 @@ def main() -> None:
     def ratio(a, b):
         return [x / y for x, y in zip(per_step[a], per_step[b])]
 
+    if args.member:
+        print(f"{steps} steps of h = {H} s a run, {rounds} rounds, CPU time, medians (cases alternating)")
+        for name, v in per_step.items():
+            print(f"{name:28s} {statistics.median(v) * 1e6:9.3f} us/step")
+        for a, b in (("sensors + MEKF", "true-state feedback"), ("sensors + MEKF, no records", "true-state, no records")):
+            v = ratio(a, b)
+            print(f"{a + ' / ' + b:58s} {statistics.median(v):7.2f} (min {min(v):.2f}, max {max(v):.2f})")
+        return
     ratios = {
         "sensors + MEKF / true-state feedback": ratio("sensors + MEKF", "true-state feedback"),
         "all disturbances / gyrostat step": ratio("all disturbances", "gyrostat step"),

@@ -187,6 +187,16 @@ def test_bench_estimation_quick():
 
 
 @pytest.mark.slow
+def test_bench_loop_sensors_member_quick():
+    """``--member``: the two members with and without records, and their two ratios (a merge once
+    dropped this branch of the script's output and it crashed on the full table's cases)."""
+    proc = _run("bench_loop_sensors.py", "--member", "--quick")
+    _check(proc, "sensors + MEKF", "true-state feedback", "sensors + MEKF, no records", "true-state, no records",
+           "sensors + MEKF / true-state feedback", "sensors + MEKF, no records / true-state, no records")
+    assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
 def test_loop_hill_pointing_quick():
     proc = _run("loop_hill_pointing.py", "--quick")
     _check(proc, "max attitude difference lgvi - Basilisk", "final pointing error")
