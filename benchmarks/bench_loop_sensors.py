@@ -95,9 +95,9 @@ def _wheels():
     return lgvi.ReactionWheels(PYRAMID, 1e-4, speed0=[10.0, -20.0, 5.0, 0.0], max_torque=0.004)
 
 
-def _fsw(estimator=None):
+def _fsw(estimator=None, **extra):
     return FlightSoftware(estimator=estimator, guidance=InertialPointing(TARGET), control=MRPControl(K=0.004, P=0.04),
-                          actuators=RWMotorTorque(), rate=1.0)
+                          actuators=RWMotorTorque(), rate=1.0, **extra)
 
 
 ADDED = ("field", "orbit_gravity_gradient", "sun", "shadow", "exponential_atmosphere", "facet_drag", "facet_srp",
@@ -145,17 +145,12 @@ def member_cases(steps):
     """``--member``: the two members, with their records (at the writers' rates) and without any."""
     sensed, est, plain = _members()
     kw = dict(h=H, steps=steps, save_every=steps)
-
-    def fsw(estimator=None, **extra):
-        return FlightSoftware(estimator=estimator, guidance=InertialPointing(TARGET), control=MRPControl(K=0.004, P=0.04),
-                              actuators=RWMotorTorque(), rate=1.0, **extra)
-
     return {
-        "sensors + MEKF": lambda: lgvi.simulate(sensed, np.eye(3), omega0=OMEGA0, fsw=fsw(est), **kw),
-        "true-state feedback": lambda: lgvi.simulate(plain, np.eye(3), omega0=OMEGA0, fsw=fsw(), **kw),
-        "sensors + MEKF, no records": lambda: lgvi.simulate(sensed, np.eye(3), omega0=OMEGA0, fsw=fsw(est, record=[]),
+        "sensors + MEKF": lambda: lgvi.simulate(sensed, np.eye(3), omega0=OMEGA0, fsw=_fsw(est), **kw),
+        "true-state feedback": lambda: lgvi.simulate(plain, np.eye(3), omega0=OMEGA0, fsw=_fsw(), **kw),
+        "sensors + MEKF, no records": lambda: lgvi.simulate(sensed, np.eye(3), omega0=OMEGA0, fsw=_fsw(est, record=[]),
                                                             **kw),
-        "true-state, no records": lambda: lgvi.simulate(plain, np.eye(3), omega0=OMEGA0, fsw=fsw(record=[]), **kw),
+        "true-state, no records": lambda: lgvi.simulate(plain, np.eye(3), omega0=OMEGA0, fsw=_fsw(record=[]), **kw),
     }
 
 
