@@ -12,7 +12,11 @@ At step ``k`` (time ``t = t0 + k h``) the loop
    ``S`` (state) and ``W`` (bus offsets of the signals it reads, then writes); a user's component
    (code 0) is the function ``user``, a first-class function value (:func:`user_component`). A
    nonzero status, or a written value that is not finite, stops the loop: ``fail = [component,
-   status]``, the state is that of the step's start;
+   status]``, the state is that of the step's start. The leading block of built-in environment
+   and disturbance kinds (the lookahead set ``L``, :func:`lookahead_count`) runs as one call,
+   :func:`run_block`, when the Python side fuses it (``B = L``, :func:`fused_count`): the same
+   arithmetic in the same order and the same finite tests, in one call (bit for bit the components
+   one by one, ``docs/loop.md``);
 3. takes the held wheel commands ``wheel_command`` and the body torque ``tau_dist_B +
    tau_control_B + tau_command_B`` (a Python controller's torque) and makes the gyrostat step (:func:`.gyrostat_kernels.gyro_advance`), with the
    gravity gradient along the tabulated orbit in the variational form when ``gg`` (``ggp`` the
@@ -169,6 +173,16 @@ def gravity_gradient_slot(io):
 
 
 @jit(inline="always")
+def fused_count(io):
+    """``B``: the leading components the loop runs as one block (:func:`run_block`), ``L`` or 0 (each
+    component on its own), stored in ``io`` after the gravity gradient's slot; 0 when absent."""
+    if io.shape[0] <= IO_NDIST:
+        return 0
+    i = IO_NDIST + 3 + io[IO_NDIST]
+    return io[i] if io.shape[0] > i else 0
+
+
+@jit(inline="always")
 def record_fast_start(k0, c_rec, sig_fast):
     """Before step ``k0`` (its place ``c_rec`` in its record entry): each row's next writer step
     ``sig_fast[f, 5]`` (the first multiple of its period ``p`` from ``k0`` on) and its slot in the
@@ -230,6 +244,17 @@ def fast_next(sig_fast):
     return m
 
 
+@jit(inline="always")
+def environment_kind(code, t, bus, p, s, w):
+    """A built-in environment (100-189), orbit or field (190-199) or disturbance (200-299) kind,
+    inlined: the one place the loop compiles them (:func:`run_block`)."""
+    if code < 190:
+        return environment_dispatch(code, t, bus, p, s, w)
+    if code < 200:
+        return orbit_field_dispatch(code, t, bus, p, s, w)
+    return disturbance_dispatch(code, t, bus, p, s, w)
+
+
 @jit(_nrt=False)
 def dispatch(user, code, t, bus, p, s, w):
     """One component: a user's (code 0) or a built-in kind by its family (``code // 100``).
@@ -244,12 +269,8 @@ def dispatch(user, code, t, bus, p, s, w):
     if code == 0:
         return user(t, bus, p, s, w)
     fam = code // 100
-    if fam == 1:
-        if code < 190:
-            return environment_dispatch(code, t, bus, p, s, w)
-        return orbit_field_dispatch(code, t, bus, p, s, w)
-    if fam == 2:
-        return disturbance_dispatch(code, t, bus, p, s, w)
+    if fam == 1 or fam == 2:
+        return environment_kind(code, t, bus, p, s, w)
     if fam == 3:
         return sensor_dispatch(code, t, bus, p, s, w)
     if fam == 4:
@@ -269,8 +290,15 @@ def dispatch(user, code, t, bus, p, s, w):
 def writes_finite(bus, W, WS, a, b):
     """Whether the signals ``W[a:b]`` (sizes ``WS``) hold finite values: the sum of ``x * 0`` over
     them is 0 when every ``x`` is finite and NaN when one is NaN or infinite (no branch a value,
-    no false alarm: a sum of finite values that overflows does not count). Two sums, of the even
-    and the odd values of each signal, so the additions do not wait for each other."""
+    no false alarm: a sum of finite values that overflows does not count)."""
+    return writes_zero(bus, W, WS, a, b) == 0.0
+
+
+@jit(inline="always")
+def writes_zero(bus, W, WS, a, b):
+    """The sum of ``x * 0`` over the signals ``W[a:b]`` (sizes ``WS``): 0 when every ``x`` is finite,
+    NaN otherwise (:func:`writes_finite`). Two sums, of the even and the odd values of each signal,
+    so the additions do not wait for each other."""
     z0 = 0.0
     z1 = 0.0
     for j in range(a, b):
@@ -285,7 +313,7 @@ def writes_finite(bus, W, WS, a, b):
             i += 2
         if i < n:
             z0 += bus[o + i] * 0.0
-    return z0 + z1 == 0.0
+    return z0 + z1
 
 
 @jit(inline="always")
@@ -296,6 +324,28 @@ def clear_writes(bus, W, WS, a, b):
             continue
         for i in range(WS[j]):
             bus[o + i] = 0.0
+
+
+@jit(_nrt=False)
+def run_block(t, k, c0, c1, bus, codes, nxt, nr, P, po, S, so, W, wo, WS, fail):
+    """The built-in environment, orbit, field and disturbance components ``c0 .. c1 - 1`` due at step
+    ``k`` (``nxt[c] == k``: each member keeps its own rate), in order, in one call: each kind's
+    arithmetic inlined (:func:`environment_kind`, on its own slices of ``P``, ``S``, ``W``, as one by
+    one). After each member the sum of ``x * 0`` over its writes (:func:`writes_zero`) is tested
+    (a compare the branch predictor passes: testing once after the block would name the wrong
+    member, since every disturbance writes ``tau_dist_B``). Returns the status; on a failure the
+    block stops at that member and sets ``fail``, as the components one by one do."""
+    for c in range(c0, c1):
+        if nxt[c] != k:
+            continue
+        st = environment_kind(codes[c], t, bus, P[po[c]:po[c + 1]], S[so[c]:so[c + 1]], W[wo[c]:wo[c + 1]])
+        if st == OK and writes_zero(bus, W, WS, wo[c] + nr[c], wo[c + 1]) != 0.0:
+            st = 1
+        if st != OK:
+            fail[0] = c
+            fail[1] = st
+            return st
+    return OK
 
 
 @jit(inline="always")
@@ -362,17 +412,20 @@ def run_components(user, t, k, bus, io, codes, nxt, mask, nr, P, po, S, so, W, w
 
 
 @jit(inline="always")
-def run_lookahead(user, t, k, L, R, bus, io, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail):
+def run_lookahead(user, t, k, L, B, R, bus, io, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail):
     """The components ``0 .. L - 1`` due at step ``k`` (time ``t``) on the attitude ``R`` written on
     the bus, after ``tau_dist_B`` is set to the held disturbances' sum (:func:`sum_held_disturbances`):
     the environment and the disturbance torque at the end of step ``k - 1``, which step ``k`` then
-    starts from. Returns the status (``fail`` set as :func:`run_one` does)."""
+    starts from. With ``B > 0`` (``B = L``, :func:`fused_count`) they run as one block
+    (:func:`run_block`), else one by one. Returns the status (``fail`` set as :func:`run_one` does)."""
     oR = io[IO_R]
     if oR >= 0:
         for a in range(3):
             for b in range(3):
                 bus[oR + 3 * a + b] = R[a, b]
     sum_held_disturbances(k, bus, io, nxt, nr, W, wo)
+    if B > 0:                  # the block fused: one call (B = L)
+        return OK if run_block(t, k, L - B, L, bus, codes, nxt, nr, P, po, S, so, W, wo, WS, fail) == OK else COMPONENT_FAILED
     for c in range(L):
         if nxt[c] == k:
             if run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
@@ -429,6 +482,7 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
     opy = io[IO_PY]
     nsig = sig_idx.shape[0]
     L = lookahead_count(io)
+    B = fused_count(io)
     ogg = gravity_gradient_slot(io)
     nfast = sig_fast.shape[0]
     kfast = -1
@@ -464,6 +518,10 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
         if k == k0 or L == 0:
             sum_held_disturbances(k, bus, io, nxt, nr, W, wo)
             first = 0
+            if B > 0:          # the leading block in one call (active in every mode: before the modes)
+                if run_block(t, k, L - B, L, bus, codes, nxt, nr, P, po, S, so, W, wo, WS, fail) != OK:
+                    return COMPONENT_FAILED, k, it_sum, rmax, 0, 0.0
+                first = B
         st = run_components(user, t, k, bus, io, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail, first)
         if st != OK:
             return st, k, it_sum, rmax, 0, 0.0
@@ -517,7 +575,7 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
         # 5. the symmetric forcing: the disturbances at the step's end (t_k+1, R_k+1), and
         # Pi_k+1 += h/2 (tau_dist_k+1 - tau_dist_k) (the step held tau_dist_k at both ends)
         if L > 0:
-            st = run_lookahead(user, t0 + (k + 1) * h, k + 1, L, R, bus, io, codes, nxt, mask, nr, P, po, S, so, W, wo, WS,
+            st = run_lookahead(user, t0 + (k + 1) * h, k + 1, L, B, R, bus, io, codes, nxt, mask, nr, P, po, S, so, W, wo, WS,
                                fail)
             if st == OK and odist >= 0:
                 Pi[0] += hh * (bus[odist] - d0)

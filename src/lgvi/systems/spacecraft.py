@@ -37,6 +37,11 @@ __all__ = ["SPACECRAFT", "LoopRun", "SpacecraftEnsemble", "SpacecraftTrajectory"
 _IO = ("R", "omega", "wheel_speed", "wheel_momentum", "wheel_command", "tau_dist_B", "tau_control_B", "mode",
        "tau_command_B")
 _TRUTH = ("R", "omega", "wheel_speed", "wheel_momentum")
+#: Whether the loop runs its leading block of built-in environment and disturbance components (the
+#: lookahead set of :meth:`LoopRun._lookahead`) in one compiled call (``docs/loop.md``, "The fused
+#: block"); ``False`` runs each on its own, the same numbers bit for bit (the tests and
+#: ``benchmarks/bench_loop_sensors.py --per-component`` compare them). Read when a run is built.
+FUSE_BLOCK = True
 
 
 def _compile_user(step: Any, name: str) -> Any:
@@ -448,9 +453,11 @@ class LoopRun(GyrostatRun):
         dist = [i for i, (c, kind, _, _) in enumerate(wired) if kind.family == "disturbance"
                 and "tau_dist_B" in kind.writes and kind.writes[0] != "tau_dist_B"
                 and SIGNALS.get(kind.writes[0]) is None and sizes.get(kind.writes[0]) == 3]
+        L = self._lookahead(wired, dist)
+        # the block in one call (the loop's fused_count): built-in kinds of the kernel's families 1 and 2
+        self.fused = L if FUSE_BLOCK and all(100 <= code < 300 for code in codes[:L]) else 0
         self.io: np.ndarray = np.array([offsets.get(name, -1) for name in _IO] + [len(dist)] + dist
-                                       + [self._lookahead(wired, dist), offsets.get("tau_gravity_gradient_B", -1)],
-                                       i64)
+                                       + [L, offsets.get("tau_gravity_gradient_B", -1), self.fused], i64)
         modes = [c for c, kind, _, _ in wired if kind.family == "mode"]
         if modes:
             self.bus[offsets["mode"]] = float(getattr(modes[0], "initial", 0))
