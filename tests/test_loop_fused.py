@@ -41,15 +41,21 @@ def _same(a, b):
     assert a.signals.keys() == b.signals.keys()
 
 
-@pytest.mark.parametrize("rates", ["every step", "GNC"])
+@pytest.mark.parametrize("rates", ["every step", "GNC", "held"])
 @pytest.mark.parametrize("record_rate", [None, "grid"])
 def test_the_block_fused_is_the_components_one_by_one_bit_for_bit(rates, record_rate, monkeypatch):
     """The tumbling 6U under every disturbance (orbit, field, sun, shadow, atmosphere, facet drag and
     SRP, residual dipole, gravity gradient): the fused block and the components one by one give the
     same attitude, momentum and records (by name, at the writers' rates and on the grid), bit for bit;
     at the GNC rates the block's members are due at different steps (sun every 600th, the
-    environment every 10th, the torques every step) and over 130 s the sun moves twice."""
-    sc, d = _basilisk_6u() if rates == "every step" else _gnc_6u()
+    environment every 10th, the torques every step) and over 130 s the sun moves twice; ``held``: the
+    residual dipole restricted to mode 0 (no lookahead: the block runs at each step's start, each
+    member's mode checked in it)."""
+    sc, d = _gnc_6u() if rates == "GNC" else _basilisk_6u()
+    if rates == "held":
+        for c in sc.disturbances:
+            if c.kind == "residual_dipole":
+                c.modes = (0,)
     R0 = Rotation.from_mrp(d["sigma0"]).as_matrix()
     fsw = None if record_rate is None else FlightSoftware(components=[], record_rate=record_rate)
     kw = dict(omega0=d["omega0"], h=0.1, steps=1300, save_every=50, fsw=fsw)
@@ -61,9 +67,9 @@ def test_the_block_fused_is_the_components_one_by_one_bit_for_bit(rates, record_
 
 
 def test_the_fused_block_is_chosen_when_it_qualifies(monkeypatch):
-    """The block is the loop's lookahead set (built-in environment and disturbance kinds, every mode):
-    all eight of the 6U; none when a disturbance runs in one mode only (the held, first-order
-    forcing: no lookahead), or when fusing is switched off."""
+    """The block is the leading built-in environment and disturbance components: all eight of the 6U,
+    also when one runs in one mode only (then no lookahead: the held, first-order forcing); none
+    when fusing is switched off."""
     from lgvi.systems.spacecraft import LoopRun
 
     sc, d = _basilisk_6u()
@@ -73,17 +79,18 @@ def test_the_fused_block_is_chosen_when_it_qualifies(monkeypatch):
 
     def spy(self, comps, ctx):
         real(self, comps, ctx)
-        built.append((self.fused, list(self.names)))
+        built.append((self.fused, list(self.names), int(self.io[-3])))
 
     monkeypatch.setattr(LoopRun, "_wire", spy)
     lgvi.simulate(sc, R0, omega0=d["omega0"], h=0.1, steps=2)
-    fused, names = built[-1]
-    assert fused == 8 and set(names[:8]) == set(ENVIRONMENT) | {"facet_drag", "facet_srp", "residual_dipole"}
+    fused, names, L = built[-1]
+    assert fused == 8 and L == 8
+    assert set(names[:8]) == set(ENVIRONMENT) | {"facet_drag", "facet_srp", "residual_dipole"}
     for c in sc.disturbances:
         if c.kind == "residual_dipole":
             c.modes = (0,)
     lgvi.simulate(sc, R0, omega0=d["omega0"], h=0.1, steps=2)
-    assert built[-1][0] == 0
+    assert built[-1][0] == 8 and built[-1][2] == 0
     monkeypatch.setattr(loop_system, "FUSE_BLOCK", False)
     lgvi.simulate(_basilisk_6u()[0], R0, omega0=d["omega0"], h=0.1, steps=2)
     assert built[-1][0] == 0

@@ -12,11 +12,12 @@ At step ``k`` (time ``t = t0 + k h``) the loop
    ``S`` (state) and ``W`` (bus offsets of the signals it reads, then writes); a user's component
    (code 0) is the function ``user``, a first-class function value (:func:`user_component`). A
    nonzero status, or a written value that is not finite, stops the loop: ``fail = [component,
-   status]``, the state is that of the step's start. The leading block of built-in environment
-   and disturbance kinds (the lookahead set ``L``, :func:`lookahead_count`) runs as one call,
-   :func:`run_block`, when the Python side fuses it (``B = L``, :func:`fused_count`): the same
-   arithmetic in the same order and the same finite tests, in one call (bit for bit the components
-   one by one, ``docs/loop.md``);
+   status]``, the state is that of the step's start. The leading components of the built-in
+   environment and disturbance kinds (``B`` of them, :func:`fused_count`; the lookahead set ``L``,
+   :func:`lookahead_count`, is among them) run as one call, :func:`run_block`, when the Python side
+   fuses them: the same arithmetic in the same order and the same finite tests (bit for bit the
+   components one by one, ``docs/loop.md``); these kinds are compiled there only (a component of
+   theirs run on its own is a block of one);
 3. takes the held wheel commands ``wheel_command`` and the body torque ``tau_dist_B +
    tau_control_B + tau_command_B`` (a Python controller's torque) and makes the gyrostat step (:func:`.gyrostat_kernels.gyro_advance`), with the
    gravity gradient along the tabulated orbit in the variational form when ``gg`` (``ggp`` the
@@ -174,8 +175,10 @@ def gravity_gradient_slot(io):
 
 @jit(inline="always")
 def fused_count(io):
-    """``B``: the leading components the loop runs as one block (:func:`run_block`), ``L`` or 0 (each
-    component on its own), stored in ``io`` after the gravity gradient's slot; 0 when absent."""
+    """``B``: the leading components of the built-in environment, orbit, field and disturbance kinds
+    (codes 100-299; the lookahead set ``L`` is among them) that the loop runs as blocks
+    (:func:`run_block`), or 0 (each component on its own); stored in ``io`` after the gravity
+    gradient's slot; 0 when absent."""
     if io.shape[0] <= IO_NDIST:
         return 0
     i = IO_NDIST + 3 + io[IO_NDIST]
@@ -257,7 +260,8 @@ def environment_kind(code, t, bus, p, s, w):
 
 @jit(_nrt=False)
 def dispatch(user, code, t, bus, p, s, w):
-    """One component: a user's (code 0) or a built-in kind by its family (``code // 100``).
+    """One component: a user's (code 0) or a built-in kind by its family (``code // 100``); the
+    environment's and the disturbances' (families 1 and 2) are not here but in :func:`run_block`.
 
     A function of its own (compiled once, cached), not inlined: :func:`run_one` is inlined at three
     places of the loop (the components due, those of a new mode, the step's end), and each inlined
@@ -269,8 +273,6 @@ def dispatch(user, code, t, bus, p, s, w):
     if code == 0:
         return user(t, bus, p, s, w)
     fam = code // 100
-    if fam == 1 or fam == 2:
-        return environment_kind(code, t, bus, p, s, w)
     if fam == 3:
         return sensor_dispatch(code, t, bus, p, s, w)
     if fam == 4:
@@ -327,7 +329,7 @@ def clear_writes(bus, W, WS, a, b):
 
 
 @jit(_nrt=False)
-def run_block(t, k, c0, c1, bus, codes, nxt, nr, P, po, S, so, W, wo, WS, fail):
+def run_block(t, k, mode, c0, c1, bus, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail):
     """The built-in environment, orbit, field and disturbance components ``c0 .. c1 - 1`` due at step
     ``k`` (``nxt[c] == k``: each member keeps its own rate), in order, in one call: each kind's
     arithmetic inlined (:func:`environment_kind`, on its own slices of ``P``, ``S``, ``W``, as one by
@@ -336,7 +338,7 @@ def run_block(t, k, c0, c1, bus, codes, nxt, nr, P, po, S, so, W, wo, WS, fail):
     member, since every disturbance writes ``tau_dist_B``). Returns the status; on a failure the
     block stops at that member and sets ``fail``, as the components one by one do."""
     for c in range(c0, c1):
-        if nxt[c] != k:
+        if nxt[c] != k or ((mask[c] >> mode) & 1) == 0:
             continue
         st = environment_kind(codes[c], t, bus, P[po[c]:po[c + 1]], S[so[c]:so[c + 1]], W[wo[c]:wo[c + 1]])
         if st == OK and writes_zero(bus, W, WS, wo[c] + nr[c], wo[c + 1]) != 0.0:
@@ -349,16 +351,18 @@ def run_block(t, k, c0, c1, bus, codes, nxt, nr, P, po, S, so, W, wo, WS, fail):
 
 
 @jit(inline="always")
-def run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
-    """Component ``c`` at ``t``; its status (1 when it wrote a value that is not finite), and
-    ``fail`` set when it is not 0."""
+def run_one(user, c, t, k, mode, bus, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail):
+    """Component ``c`` (due at step ``k``, active in ``mode``) at ``t``; its status (1 when it wrote a
+    value that is not finite), and ``fail`` set when it is not 0."""
     code = codes[c]
+    fam = code // 100
+    if fam == 1 or fam == 2:       # the environment's and the disturbances': a block of one (due, active)
+        return run_block(t, k, mode, c, c + 1, bus, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail)
     p = P[po[c]:po[c + 1]]
     s = S[so[c]:so[c + 1]]
     w = W[wo[c]:wo[c + 1]]
     # the flight-side families straight to their dispatchers (one call, not two: the arguments, four
-    # arrays, are passed once); the user's, the environment's and the disturbances' through dispatch
-    fam = code // 100
+    # arrays, are passed once); the user's and the modes' through dispatch
     if fam == 3:
         st = sensor_dispatch(code, t, bus, p, s, w)
     elif fam == 4:
@@ -395,7 +399,7 @@ def run_components(user, t, k, bus, io, codes, nxt, mask, nr, P, po, S, so, W, w
     for c in range(first, codes.shape[0]):
         if nxt[c] != k or ((mask[c] >> mode) & 1) == 0:
             continue
-        if run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
+        if run_one(user, c, t, k, mode, bus, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail) != OK:
             return COMPONENT_FAILED
         if io[IO_MODE] >= 0:
             new = int(bus[io[IO_MODE]])
@@ -405,7 +409,7 @@ def run_components(user, t, k, bus, io, codes, nxt, mask, nr, P, po, S, so, W, w
                         clear_writes(bus, W, WS, wo[d] + nr[d], wo[d + 1])
                 for d in range(c):
                     if nxt[d] == k and ((mask[d] >> mode) & 1) == 0 and ((mask[d] >> new) & 1) == 1:
-                        if run_one(user, d, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
+                        if run_one(user, d, t, k, new, bus, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail) != OK:
                             return COMPONENT_FAILED
                 mode = new
     return OK
@@ -416,7 +420,7 @@ def run_lookahead(user, t, k, L, B, R, bus, io, codes, nxt, mask, nr, P, po, S, 
     """The components ``0 .. L - 1`` due at step ``k`` (time ``t``) on the attitude ``R`` written on
     the bus, after ``tau_dist_B`` is set to the held disturbances' sum (:func:`sum_held_disturbances`):
     the environment and the disturbance torque at the end of step ``k - 1``, which step ``k`` then
-    starts from. With ``B > 0`` (``B = L``, :func:`fused_count`) they run as one block
+    starts from. With ``B > 0`` (fused, ``B >= L``: :func:`fused_count`) they run as one block
     (:func:`run_block`), else one by one. Returns the status (``fail`` set as :func:`run_one` does)."""
     oR = io[IO_R]
     if oR >= 0:
@@ -424,11 +428,13 @@ def run_lookahead(user, t, k, L, B, R, bus, io, codes, nxt, mask, nr, P, po, S, 
             for b in range(3):
                 bus[oR + 3 * a + b] = R[a, b]
     sum_held_disturbances(k, bus, io, nxt, nr, W, wo)
-    if B > 0:                  # the block fused: one call (B = L)
-        return OK if run_block(t, k, L - B, L, bus, codes, nxt, nr, P, po, S, so, W, wo, WS, fail) == OK else COMPONENT_FAILED
+    mode = int(bus[io[IO_MODE]]) if io[IO_MODE] >= 0 else 0      # (the members are active in every mode)
+    if B > 0:                  # fused: one call; c0 = B - B = 0 (a literal 0 would compile run_block again)
+        st = run_block(t, k, mode, B - B, L, bus, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail)
+        return OK if st == OK else COMPONENT_FAILED
     for c in range(L):
         if nxt[c] == k:
-            if run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
+            if run_one(user, c, t, k, mode, bus, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail) != OK:
                 return COMPONENT_FAILED
     return OK
 
@@ -518,10 +524,11 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
         if k == k0 or L == 0:
             sum_held_disturbances(k, bus, io, nxt, nr, W, wo)
             first = 0
-            if B > 0:          # the leading block in one call (active in every mode: before the modes)
-                if run_block(t, k, L - B, L, bus, codes, nxt, nr, P, po, S, so, W, wo, WS, fail) != OK:
-                    return COMPONENT_FAILED, k, it_sum, rmax, 0, 0.0
-                first = B
+        if B > first:          # the block's members still to run, in one call (before any mode component)
+            mode = int(bus[io[IO_MODE]]) if io[IO_MODE] >= 0 else 0
+            if run_block(t, k, mode, first, B, bus, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail) != OK:
+                return COMPONENT_FAILED, k, it_sum, rmax, 0, 0.0
+            first = B
         st = run_components(user, t, k, bus, io, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail, first)
         if st != OK:
             return st, k, it_sum, rmax, 0, 0.0

@@ -37,10 +37,11 @@ __all__ = ["SPACECRAFT", "LoopRun", "SpacecraftEnsemble", "SpacecraftTrajectory"
 _IO = ("R", "omega", "wheel_speed", "wheel_momentum", "wheel_command", "tau_dist_B", "tau_control_B", "mode",
        "tau_command_B")
 _TRUTH = ("R", "omega", "wheel_speed", "wheel_momentum")
-#: Whether the loop runs its leading block of built-in environment and disturbance components (the
-#: lookahead set of :meth:`LoopRun._lookahead`) in one compiled call (``docs/loop.md``, "The fused
-#: block"); ``False`` runs each on its own, the same numbers bit for bit (the tests and
-#: ``benchmarks/bench_loop_sensors.py --per-component`` compare them). Read when a run is built.
+#: Whether the loop runs its leading built-in environment and disturbance components (those before
+#: the first component of another kind; the lookahead set of :meth:`LoopRun._lookahead` is among
+#: them) in one compiled call (``docs/loop.md``, "The fused block"); ``False`` runs each on its own,
+#: the same numbers bit for bit (``tests/test_loop_fused.py`` and ``benchmarks/bench_loop_sensors.py``'s
+#: ``one by one`` cases compare them). Read when a run is built.
 FUSE_BLOCK = True
 
 
@@ -454,8 +455,10 @@ class LoopRun(GyrostatRun):
                 and "tau_dist_B" in kind.writes and kind.writes[0] != "tau_dist_B"
                 and SIGNALS.get(kind.writes[0]) is None and sizes.get(kind.writes[0]) == 3]
         L = self._lookahead(wired, dist)
-        # the block in one call (the loop's fused_count): built-in kinds of the kernel's families 1 and 2
-        self.fused = L if FUSE_BLOCK and all(100 <= code < 300 for code in codes[:L]) else 0
+        # the leading built-in environment and disturbance kinds (codes 100-299; the lookahead set is
+        # among them) run as one block (the loop's fused_count)
+        block = next((i for i, code in enumerate(codes) if not 100 <= code < 300), len(codes))
+        self.fused = block if FUSE_BLOCK else 0
         self.io: np.ndarray = np.array([offsets.get(name, -1) for name in _IO] + [len(dist)] + dist
                                        + [L, offsets.get("tau_gravity_gradient_B", -1), self.fused], i64)
         modes = [c for c, kind, _, _ in wired if kind.family == "mode"]
