@@ -455,10 +455,10 @@ class LoopRun(GyrostatRun):
                 and "tau_dist_B" in kind.writes and kind.writes[0] != "tau_dist_B"
                 and SIGNALS.get(kind.writes[0]) is None and sizes.get(kind.writes[0]) == 3]
         L = self._lookahead(wired, dist)
-        # the leading built-in environment and disturbance kinds (codes 100-299; the lookahead set is
-        # among them) run as one block (the loop's fused_count)
+        # the leading built-in environment and disturbance kinds (codes 100-299) run as one block (the
+        # loop's fused_count); the lookahead set must be among them (else nothing is fused)
         block = next((i for i, code in enumerate(codes) if not 100 <= code < 300), len(codes))
-        self.fused = block if FUSE_BLOCK else 0
+        self.fused = block if FUSE_BLOCK and block >= L else 0
         self.io: np.ndarray = np.array([offsets.get(name, -1) for name in _IO] + [len(dist)] + dist
                                        + [L, offsets.get("tau_gravity_gradient_B", -1), self.fused], i64)
         modes = [c for c, kind, _, _ in wired if kind.family == "mode"]
