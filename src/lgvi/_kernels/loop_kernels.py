@@ -12,12 +12,7 @@ At step ``k`` (time ``t = t0 + k h``) the loop
    ``S`` (state) and ``W`` (bus offsets of the signals it reads, then writes); a user's component
    (code 0) is the function ``user``, a first-class function value (:func:`user_component`). A
    nonzero status, or a written value that is not finite, stops the loop: ``fail = [component,
-   status]``, the state is that of the step's start. The leading components of the built-in
-   environment and disturbance kinds (``B`` of them, :func:`fused_count`; the lookahead set ``L``,
-   :func:`lookahead_count`, is among them) run as one call, :func:`run_block`, when the Python side
-   fuses them: the same arithmetic in the same order and the same finite tests (bit for bit the
-   components one by one, ``docs/loop.md``); these kinds are compiled there only (a component of
-   theirs run on its own is a block of one);
+   status]``, the state is that of the step's start;
 3. takes the held wheel commands ``wheel_command`` and the body torque ``tau_dist_B +
    tau_control_B + tau_command_B`` (a Python controller's torque) and makes the gyrostat step (:func:`.gyrostat_kernels.gyro_advance`), with the
    gravity gradient along the tabulated orbit in the variational form when ``gg`` (``ggp`` the
@@ -174,18 +169,6 @@ def gravity_gradient_slot(io):
 
 
 @jit(inline="always")
-def fused_count(io):
-    """``B``: the leading components of the built-in environment, orbit, field and disturbance kinds
-    (codes 100-299; the lookahead set ``L`` is among them) that the loop runs as blocks
-    (:func:`run_block`), or 0 (each component on its own); stored in ``io`` after the gravity
-    gradient's slot; 0 when absent."""
-    if io.shape[0] <= IO_NDIST:
-        return 0
-    i = IO_NDIST + 3 + io[IO_NDIST]
-    return io[i] if io.shape[0] > i else 0
-
-
-@jit(inline="always")
 def record_fast_start(k0, c_rec, sig_fast):
     """Before step ``k0`` (its place ``c_rec`` in its record entry): each row's next writer step
     ``sig_fast[f, 5]`` (the first multiple of its period ``p`` from ``k0`` on) and its slot in the
@@ -247,21 +230,9 @@ def fast_next(sig_fast):
     return m
 
 
-@jit(inline="always")
-def environment_kind(code, t, bus, p, s, w):
-    """A built-in environment (100-189), orbit or field (190-199) or disturbance (200-299) kind,
-    inlined: the one place the loop compiles them (:func:`run_block`)."""
-    if code < 190:
-        return environment_dispatch(code, t, bus, p, s, w)
-    if code < 200:
-        return orbit_field_dispatch(code, t, bus, p, s, w)
-    return disturbance_dispatch(code, t, bus, p, s, w)
-
-
 @jit(_nrt=False)
 def dispatch(user, code, t, bus, p, s, w):
-    """One component: a user's (code 0) or a built-in kind by its family (``code // 100``); the
-    environment's and the disturbances' (families 1 and 2) are not here but in :func:`run_block`.
+    """One component: a user's (code 0) or a built-in kind by its family (``code // 100``).
 
     A function of its own (compiled once, cached), not inlined: :func:`run_one` is inlined at three
     places of the loop (the components due, those of a new mode, the step's end), and each inlined
@@ -273,6 +244,12 @@ def dispatch(user, code, t, bus, p, s, w):
     if code == 0:
         return user(t, bus, p, s, w)
     fam = code // 100
+    if fam == 1:
+        if code < 190:
+            return environment_dispatch(code, t, bus, p, s, w)
+        return orbit_field_dispatch(code, t, bus, p, s, w)
+    if fam == 2:
+        return disturbance_dispatch(code, t, bus, p, s, w)
     if fam == 3:
         return sensor_dispatch(code, t, bus, p, s, w)
     if fam == 4:
@@ -292,15 +269,8 @@ def dispatch(user, code, t, bus, p, s, w):
 def writes_finite(bus, W, WS, a, b):
     """Whether the signals ``W[a:b]`` (sizes ``WS``) hold finite values: the sum of ``x * 0`` over
     them is 0 when every ``x`` is finite and NaN when one is NaN or infinite (no branch a value,
-    no false alarm: a sum of finite values that overflows does not count)."""
-    return writes_zero(bus, W, WS, a, b) == 0.0
-
-
-@jit(inline="always")
-def writes_zero(bus, W, WS, a, b):
-    """The sum of ``x * 0`` over the signals ``W[a:b]`` (sizes ``WS``): 0 when every ``x`` is finite,
-    NaN otherwise (:func:`writes_finite`). Two sums, of the even and the odd values of each signal,
-    so the additions do not wait for each other."""
+    no false alarm: a sum of finite values that overflows does not count). Two sums, of the even
+    and the odd values of each signal, so the additions do not wait for each other."""
     z0 = 0.0
     z1 = 0.0
     for j in range(a, b):
@@ -315,7 +285,7 @@ def writes_zero(bus, W, WS, a, b):
             i += 2
         if i < n:
             z0 += bus[o + i] * 0.0
-    return z0 + z1
+    return z0 + z1 == 0.0
 
 
 @jit(inline="always")
@@ -328,41 +298,17 @@ def clear_writes(bus, W, WS, a, b):
             bus[o + i] = 0.0
 
 
-@jit(_nrt=False)
-def run_block(t, k, mode, c0, c1, bus, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail):
-    """The built-in environment, orbit, field and disturbance components ``c0 .. c1 - 1`` due at step
-    ``k`` (``nxt[c] == k``: each member keeps its own rate), in order, in one call: each kind's
-    arithmetic inlined (:func:`environment_kind`, on its own slices of ``P``, ``S``, ``W``, as one by
-    one). After each member the sum of ``x * 0`` over its writes (:func:`writes_zero`) is tested
-    (a compare the branch predictor passes: testing once after the block would name the wrong
-    member, since every disturbance writes ``tau_dist_B``). Returns the status; on a failure the
-    block stops at that member and sets ``fail``, as the components one by one do."""
-    for c in range(c0, c1):
-        if nxt[c] != k or ((mask[c] >> mode) & 1) == 0:
-            continue
-        st = environment_kind(codes[c], t, bus, P[po[c]:po[c + 1]], S[so[c]:so[c + 1]], W[wo[c]:wo[c + 1]])
-        if st == OK and writes_zero(bus, W, WS, wo[c] + nr[c], wo[c + 1]) != 0.0:
-            st = 1
-        if st != OK:
-            fail[0] = c
-            fail[1] = st
-            return st
-    return OK
-
-
 @jit(inline="always")
-def run_one(user, c, t, k, mode, bus, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail):
-    """Component ``c`` (due at step ``k``, active in ``mode``) at ``t``; its status (1 when it wrote a
-    value that is not finite), and ``fail`` set when it is not 0."""
+def run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
+    """Component ``c`` at ``t``; its status (1 when it wrote a value that is not finite), and
+    ``fail`` set when it is not 0."""
     code = codes[c]
-    fam = code // 100
-    if fam == 1 or fam == 2:       # the environment's and the disturbances': a block of one (due, active)
-        return run_block(t, k, mode, c, c + 1, bus, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail)
     p = P[po[c]:po[c + 1]]
     s = S[so[c]:so[c + 1]]
     w = W[wo[c]:wo[c + 1]]
     # the flight-side families straight to their dispatchers (one call, not two: the arguments, four
-    # arrays, are passed once); the user's and the modes' through dispatch
+    # arrays, are passed once); the user's, the environment's and the disturbances' through dispatch
+    fam = code // 100
     if fam == 3:
         st = sensor_dispatch(code, t, bus, p, s, w)
     elif fam == 4:
@@ -399,7 +345,7 @@ def run_components(user, t, k, bus, io, codes, nxt, mask, nr, P, po, S, so, W, w
     for c in range(first, codes.shape[0]):
         if nxt[c] != k or ((mask[c] >> mode) & 1) == 0:
             continue
-        if run_one(user, c, t, k, mode, bus, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail) != OK:
+        if run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
             return COMPONENT_FAILED
         if io[IO_MODE] >= 0:
             new = int(bus[io[IO_MODE]])
@@ -409,32 +355,27 @@ def run_components(user, t, k, bus, io, codes, nxt, mask, nr, P, po, S, so, W, w
                         clear_writes(bus, W, WS, wo[d] + nr[d], wo[d + 1])
                 for d in range(c):
                     if nxt[d] == k and ((mask[d] >> mode) & 1) == 0 and ((mask[d] >> new) & 1) == 1:
-                        if run_one(user, d, t, k, new, bus, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail) != OK:
+                        if run_one(user, d, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
                             return COMPONENT_FAILED
                 mode = new
     return OK
 
 
 @jit(inline="always")
-def run_lookahead(user, t, k, L, B, R, bus, io, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail):
+def run_lookahead(user, t, k, L, R, bus, io, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail):
     """The components ``0 .. L - 1`` due at step ``k`` (time ``t``) on the attitude ``R`` written on
     the bus, after ``tau_dist_B`` is set to the held disturbances' sum (:func:`sum_held_disturbances`):
     the environment and the disturbance torque at the end of step ``k - 1``, which step ``k`` then
-    starts from. With ``B > 0`` (fused, ``B >= L``: :func:`fused_count`) they run as one block
-    (:func:`run_block`), else one by one. Returns the status (``fail`` set as :func:`run_one` does)."""
+    starts from. Returns the status (``fail`` set as :func:`run_one` does)."""
     oR = io[IO_R]
     if oR >= 0:
         for a in range(3):
             for b in range(3):
                 bus[oR + 3 * a + b] = R[a, b]
     sum_held_disturbances(k, bus, io, nxt, nr, W, wo)
-    mode = int(bus[io[IO_MODE]]) if io[IO_MODE] >= 0 else 0      # (the members are active in every mode)
-    if B > 0:                  # fused: one call; c0 = B - B = 0 (a literal 0 would compile run_block again)
-        st = run_block(t, k, mode, B - B, L, bus, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail)
-        return OK if st == OK else COMPONENT_FAILED
     for c in range(L):
         if nxt[c] == k:
-            if run_one(user, c, t, k, mode, bus, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail) != OK:
+            if run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
                 return COMPONENT_FAILED
     return OK
 
@@ -488,7 +429,6 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
     opy = io[IO_PY]
     nsig = sig_idx.shape[0]
     L = lookahead_count(io)
-    B = fused_count(io)
     ogg = gravity_gradient_slot(io)
     nfast = sig_fast.shape[0]
     kfast = -1
@@ -524,11 +464,6 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
         if k == k0 or L == 0:
             sum_held_disturbances(k, bus, io, nxt, nr, W, wo)
             first = 0
-        if B > first:          # the block's members still to run, in one call (before any mode component)
-            mode = int(bus[io[IO_MODE]]) if io[IO_MODE] >= 0 else 0
-            if run_block(t, k, mode, first, B, bus, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail) != OK:
-                return COMPONENT_FAILED, k, it_sum, rmax, 0, 0.0
-            first = B
         st = run_components(user, t, k, bus, io, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail, first)
         if st != OK:
             return st, k, it_sum, rmax, 0, 0.0
@@ -582,7 +517,7 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
         # 5. the symmetric forcing: the disturbances at the step's end (t_k+1, R_k+1), and
         # Pi_k+1 += h/2 (tau_dist_k+1 - tau_dist_k) (the step held tau_dist_k at both ends)
         if L > 0:
-            st = run_lookahead(user, t0 + (k + 1) * h, k + 1, L, B, R, bus, io, codes, nxt, mask, nr, P, po, S, so, W, wo, WS,
+            st = run_lookahead(user, t0 + (k + 1) * h, k + 1, L, R, bus, io, codes, nxt, mask, nr, P, po, S, so, W, wo, WS,
                                fail)
             if st == OK and odist >= 0:
                 Pi[0] += hh * (bus[odist] - d0)

@@ -37,12 +37,6 @@ __all__ = ["SPACECRAFT", "LoopRun", "SpacecraftEnsemble", "SpacecraftTrajectory"
 _IO = ("R", "omega", "wheel_speed", "wheel_momentum", "wheel_command", "tau_dist_B", "tau_control_B", "mode",
        "tau_command_B")
 _TRUTH = ("R", "omega", "wheel_speed", "wheel_momentum")
-#: Whether the loop runs its leading built-in environment and disturbance components (those before
-#: the first component of another kind; the lookahead set of :meth:`LoopRun._lookahead` is among
-#: them) in one compiled call (``docs/loop.md``, "The fused block"); ``False`` runs each on its own,
-#: the same numbers bit for bit (``tests/test_loop_fused.py`` and ``benchmarks/bench_loop_sensors.py``'s
-#: ``one by one`` cases compare them). Read when a run is built.
-FUSE_BLOCK = True
 
 
 def _compile_user(step: Any, name: str) -> Any:
@@ -454,13 +448,9 @@ class LoopRun(GyrostatRun):
         dist = [i for i, (c, kind, _, _) in enumerate(wired) if kind.family == "disturbance"
                 and "tau_dist_B" in kind.writes and kind.writes[0] != "tau_dist_B"
                 and SIGNALS.get(kind.writes[0]) is None and sizes.get(kind.writes[0]) == 3]
-        L = self._lookahead(wired, dist)
-        # the leading built-in environment and disturbance kinds (codes 100-299) run as one block (the
-        # loop's fused_count); the lookahead set must be among them (else nothing is fused)
-        block = next((i for i, code in enumerate(codes) if not 100 <= code < 300), len(codes))
-        self.fused = block if FUSE_BLOCK and block >= L else 0
         self.io: np.ndarray = np.array([offsets.get(name, -1) for name in _IO] + [len(dist)] + dist
-                                       + [L, offsets.get("tau_gravity_gradient_B", -1), self.fused], i64)
+                                       + [self._lookahead(wired, dist), offsets.get("tau_gravity_gradient_B", -1)],
+                                       i64)
         modes = [c for c, kind, _, _ in wired if kind.family == "mode"]
         if modes:
             self.bus[offsets["mode"]] = float(getattr(modes[0], "initial", 0))
