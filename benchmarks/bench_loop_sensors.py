@@ -45,8 +45,9 @@ MRP feedback at 1 Hz to a fixed target, motor torques by ``RWMotorTorque``):
   records every value at its writer's rate (every step here);
 * ``--overhead``: ``orbit, field, 1 dipole`` and ``orbit, field, 5 dipoles`` (residual dipoles,
   records on the grid): their difference over four is what one more component costs the loop
-  (its call, its finite checks, its arithmetic of about 10 ns), the gain a fused component would
-  have per component it absorbs;
+  (its call, its finite checks, its arithmetic of about 10 ns, its turn in the loop's per-component
+  bookkeeping); running the environment and the disturbances as one fused call (tried in round 8,
+  ``docs/performance.md``) saved only 4-8 ns of it, the call;
 * ``all dist., GNC rates, grid``: the GNC rates with the records on the grid. The goal of issue 26
   part 5 is read both ways: (a) the whole step with every disturbance over the gyrostat step, (b)
   what the disturbances add, ``(case - the loop, no component)``, over the gyrostat step;
