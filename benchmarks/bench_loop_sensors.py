@@ -45,8 +45,14 @@ MRP feedback at 1 Hz to a fixed target, motor torques by ``RWMotorTorque``):
   records every value at its writer's rate (every step here);
 * ``--overhead``: ``orbit, field, 1 dipole`` and ``orbit, field, 5 dipoles`` (residual dipoles,
   records on the grid): their difference over four is what one more component costs the loop
-  (its call, its finite checks, its arithmetic of about 10 ns), the gain a fused component would
-  have per component it absorbs;
+  (its call, its finite checks, its arithmetic of about 10 ns, its turn in the loop's per-component
+  bookkeeping); running the environment and the disturbances as one fused call (tried in round 8,
+  ``docs/performance.md``) saved only 4-8 ns of it, the call;
+* ``all dist., GNC rates, grid``: the GNC rates with the records on the grid. The goal of issue 26
+  part 5 is read both ways: (a) the whole step with every disturbance over the gyrostat step, (b)
+  what the disturbances add, ``(case - the loop, no component)``, over the gyrostat step;
+* ``calibration``: a pure-Python loop timed in each round beside the cases (the machine's own speed
+  in that round: a round on a slowed vCPU shows in it);
 * ``--member``: only ``sensors + MEKF`` and ``true-state feedback``, and each again with no records
   (``FlightSoftware(record=[])``): what the records at the writers' rates cost the member;
 * ``gyrostat step``: ``lgvi.simulate`` of the same body with the same wheels and no controller
@@ -154,6 +160,16 @@ def member_cases(steps):
     }
 
 
+#: The cases of issue 26 part 5's goal, read (a) the case / gyrostat step and (b) (case - the loop,
+#: no component) / gyrostat step.
+GOAL = ("all disturbances", "all dist., records on grid", "all dist., GNC rates", "all dist., GNC rates, grid")
+
+
+def calibration():
+    """A pure-Python loop (the machine's speed in this round)."""
+    return sum(i * i for i in range(100000))
+
+
 def cases(steps, components=True, overhead=False):
     sensed, est, plain = _members()
     six, d = _basilisk_6u()
@@ -184,7 +200,9 @@ def cases(steps, components=True, overhead=False):
         "6U gyrostat step": lambda: lgvi.simulate(six.body, R6, omega0=d["omega0"], wheels=_wheels(), **kw),
         "all dist., records on grid": lambda: lgvi.simulate(six, R6, omega0=d["omega0"], fsw=_records("grid"), **kw),
         "all dist., no records": lambda: lgvi.simulate(six, R6, omega0=d["omega0"], fsw=_records(None), **kw),
+        "all dist., GNC rates, grid": lambda: lgvi.simulate(gnc, R6, omega0=d["omega0"], fsw=_records("grid"), **kw),
     }
+    out["calibration (Python loop)"] = calibration
     if overhead:
         for n in (1, 5):
             sc_n = Spacecraft(six.body, orbit=six.orbit, field=six.field, epoch=six.epoch,
@@ -299,6 +317,10 @@ def main() -> None:
         "all disturbances / all dist., held": ratio("all disturbances", "all dist., held (1st order)"),
         "true-state feedback / gyrostat step": ratio("true-state feedback", "gyrostat step"),
     }
+    for name in GOAL:
+        ratios[f"(a) {name} / gyrostat step"] = ratio(name, "gyrostat step")
+        ratios[f"(b) {name} - loop / gyrostat step"] = [(x - z) / y for x, y, z in zip(
+            per_step[name], per_step["gyrostat step"], per_step["the loop, no component"])]
     if "orbit only" in per_step:
         ratios["orbit only / 6U gyrostat step"] = ratio("orbit only", "6U gyrostat step")
         ratios["orbit, IGRF-13 field / orbit only"] = ratio("orbit, IGRF-13 field", "orbit only")
@@ -306,6 +328,8 @@ def main() -> None:
     print(f"{'case':28s} {'us/step':>9s} {'added':>9s}")
     prev = None
     for name, v in per_step.items():
+        if name.startswith("calibration"):
+            continue
         med = statistics.median(v) * 1e6
         added = f"{med - prev:9.3f}" if name.startswith("+ ") and prev is not None else ""
         print(f"{name:28s} {med:9.3f} {added:>9s}")
@@ -315,9 +339,12 @@ def main() -> None:
         one = [(a - b) / 4.0 * 1e6 for a, b in zip(per_step["orbit, field, 5 dipoles"], per_step["orbit, field, 1 dipole"])]
         print(f"one more component (a residual dipole): {statistics.median(one):.3f} us/step (min {min(one):.3f}, "
               f"max {max(one):.3f})")
-    print(f"{'ratio':42s} {'median':>7s} {'min':>7s} {'max':>7s}")
+    cal = per_step.get("calibration (Python loop)")
+    if cal:
+        print("calibration (Python loop) per round, ms: " + " ".join(f"{x * steps * 1e3:.1f}" for x in cal))
+    print(f"{'ratio':58s} {'median':>7s} {'min':>7s} {'max':>7s}")
     for name, v in ratios.items():
-        print(f"{name:42s} {statistics.median(v):7.2f} {min(v):7.2f} {max(v):7.2f}")
+        print(f"{name:58s} {statistics.median(v):7.2f} {min(v):7.2f} {max(v):7.2f}")
     if args.accuracy:
         accuracy()
 
