@@ -403,6 +403,62 @@ def mrp_request(cp, jo, cs, t, s0, s1, s2, r0, r1, r2, e0, e1, e2, w0, w1, w2, H
 
 
 @jit(inline="always")
+def forcing_guess(q0, q1, q2, ng, nphi, hh2, c, a00, a01, a02, a10, a11, a12, a20, a21, a22, d00, d01, d02, d10, d11,
+                  d12, d20, d21, d22):
+    """The guess ``q`` of a substep (the extrapolation of its last solutions, :func:`.stepping.predict_at`)
+    with what a change of the hub's forcing does to the implicit equation (``docs/gyrostat.md``,
+    "The solver's guess").
+
+    The right side ``p = hs (Pi - G rho) + hs^2/2 phi`` of a substep moves with the hub's momentum,
+    which grows by ``h phi`` a step, and with ``phi`` itself (``phi = tau - G u``, held over a step):
+    the extrapolation of ``ng`` past solutions (2: linear, 3: quadratic) is exact for the smooth part
+    and misses ``dp = hs h [(d1 - d2) + c (d0 - 2 d1 + d2)]`` (quadratic) or ``hs h [d1 + c (d0 - d1)]``
+    (linear), ``d0 = phi_k - phi_k-1``, ``d1``, ``d2`` the earlier changes (``nphi`` of the ``phi`` kept
+    are valid), ``c`` the substep's middle in the step (1/2 for one substep), ``hh2 = hs h``. The
+    guess adds ``M^-1 dp``, ``M = tr(A) I - A`` the equation's derivative at ``F = I``. A forcing that
+    does not change (no torque, or a constant one) gives ``dp = 0`` exactly and the guess is the
+    extrapolation, bit for bit; the guess moves only the iteration count, never the solution beyond
+    the solver's tolerance."""
+    if ng >= 3.0 and nphi >= 3.0:
+        e0 = hh2 * ((d10 - d20) + c * ((d00 - d10) - (d10 - d20)))
+        e1 = hh2 * ((d11 - d21) + c * ((d01 - d11) - (d11 - d21)))
+        e2 = hh2 * ((d12 - d22) + c * ((d02 - d12) - (d12 - d22)))
+    elif ng >= 2.0 and nphi >= 2.0:
+        e0 = hh2 * (d10 + c * (d00 - d10))
+        e1 = hh2 * (d11 + c * (d01 - d11))
+        e2 = hh2 * (d12 + c * (d02 - d12))
+    else:
+        return q0, q1, q2
+    if e0 == 0.0 and e1 == 0.0 and e2 == 0.0:
+        return q0, q1, q2
+    tr = a00 + a11 + a22
+    m00 = tr - a00
+    m01 = -a01
+    m02 = -a02
+    m10 = -a10
+    m11 = tr - a11
+    m12 = -a12
+    m20 = -a20
+    m21 = -a21
+    m22 = tr - a22
+    c00 = m11 * m22 - m12 * m21
+    c01 = m12 * m20 - m10 * m22
+    c02 = m10 * m21 - m11 * m20
+    det = m00 * c00 + m01 * c01 + m02 * c02
+    if det == 0.0 or not math.isfinite(det):
+        return q0, q1, q2
+    c10 = m02 * m21 - m01 * m22
+    c11 = m00 * m22 - m02 * m20
+    c12 = m01 * m20 - m00 * m21
+    c20 = m01 * m12 - m02 * m11
+    c21 = m02 * m10 - m00 * m12
+    c22 = m00 * m11 - m01 * m10
+    inv = 1.0 / det
+    return (q0 + (c00 * e0 + c10 * e1 + c20 * e2) * inv, q1 + (c01 * e0 + c11 * e1 + c21 * e2) * inv,
+            q2 + (c02 * e0 + c12 * e1 + c22 * e2) * inv)
+
+
+@jit(inline="always")
 def gyro_advance(moment, up, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now, ta0, ta1, ta2, m0, m1, m2, tol,
                  max_iter):
     """Step ``k`` of the gyrostat in place on ``R``, ``Pi``, ``rho``, ``G`` (see :func:`gyro_steps`):
@@ -427,6 +483,30 @@ def gyro_advance(moment, up, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now,
     its_k = 0
     rn_k = 0.0
     cum = 0.0
+    # the hub's forcing of this step, phi = tau (+ m) - G u (the wheels' reaction), and its changes
+    # d0 = phi_k - phi_k-1, d1, d2 from the history G[0, 5:8] (G[0, 3, 1] of them valid): the guess
+    # of each substep adds what they do to the implicit equation's right side (:func:`forcing_guess`)
+    phi0 = ta0
+    phi1 = ta1
+    phi2 = ta2
+    if moment is not None:
+        phi0 += m0
+        phi1 += m1
+        phi2 += m2
+    for i in range(N):
+        phi0 -= axes[i, 0] * u_now[N + i]
+        phi1 -= axes[i, 1] * u_now[N + i]
+        phi2 -= axes[i, 2] * u_now[N + i]
+    nphi = G[0, 3, 1]
+    dd00 = phi0 - G[0, 5, 0]
+    dd01 = phi1 - G[0, 5, 1]
+    dd02 = phi2 - G[0, 5, 2]
+    dd10 = G[0, 5, 0] - G[0, 6, 0]
+    dd11 = G[0, 5, 1] - G[0, 6, 1]
+    dd12 = G[0, 5, 2] - G[0, 6, 2]
+    dd20 = G[0, 6, 0] - G[0, 7, 0]
+    dd21 = G[0, 6, 1] - G[0, 7, 1]
+    dd22 = G[0, 6, 2] - G[0, 7, 2]
     for sub in range(s):
         hs = gam[sub] * h
         hh = 0.5 * hs
@@ -456,6 +536,8 @@ def gyro_advance(moment, up, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now,
         p1 = hs * (Pi[1] - g1) + hs * hh * f1
         p2 = hs * (Pi[2] - g2) + hs * hh * f2
         q0, q1, q2 = predict_at(G, sub)
+        q0, q1, q2 = forcing_guess(q0, q1, q2, G[sub, 3, 0], nphi, hs * h, cum + 0.5 * gam[sub], d00, a01, a02,
+                                   a10, d11, a12, a20, a21, d22, dd00, dd01, dd02, dd10, dd11, dd12, dd20, dd21, dd22)
         (x0, x1, x2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its,
          rn, st) = solve_shifted(d00, a01, a02, a10, d11, a12, a20, a21, d22, p0, p1, p2, q0, q1, q2, tol,
                                  max_iter)
@@ -467,9 +549,9 @@ def gyro_advance(moment, up, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now,
         e0 = 0.0
         e1 = 0.0
         e2 = 0.0
+        cum += gam[sub]
         if moment is not None and st == OK:
             # the model's moment at the substep's end (R_k F, its time)
-            cum += gam[sub]
             t_end = t0 + (k + 1) * h if sub == s - 1 else t0 + k * h + cum * h
             for i in range(3):
                 Rs[i, 0], Rs[i, 1], Rs[i, 2] = rotated_row(R[i, 0], R[i, 1], R[i, 2], E00, E01, E02, E10, E11,
@@ -510,6 +592,14 @@ def gyro_advance(moment, up, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now,
             m0 = e0
             m1 = e1
             m2 = e2
+    for i in range(3):
+        G[0, 7, i] = G[0, 6, i]
+        G[0, 6, i] = G[0, 5, i]
+    G[0, 5, 0] = phi0
+    G[0, 5, 1] = phi1
+    G[0, 5, 2] = phi2
+    if nphi < 3.0:
+        G[0, 3, 1] = nphi + 1.0
     return OK, its_k, rn_k, it_sum, m0, m1, m2
 
 
@@ -518,7 +608,9 @@ def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cm
     """Steps ``k0 .. k0 + n - 1`` of the gyrostat in place on ``R``, ``Pi``, ``rho``, ``G``.
 
     Each step is the composition of substeps ``gam[i] h`` (``gam = [1]``: the second-order step;
-    a symmetric composition raises the order), ``G`` (s, 5, 3) one solver history per substep.
+    a symmetric composition raises the order), ``G`` (s, 8, 3) one solver history per substep (rows
+    0-4 as the rigid body's, :mod:`.stepping`) and, in ``G[0, 5:8]``, the hub's forcing of the last
+    three steps (``G[0, 3, 1]`` of them valid) for the solver's guess (:func:`forcing_guess`).
     The wheel torques (saturated command plus friction, from the state at the step's start) and
     ``tau`` are held over the whole step. The buffers start at step ``kb`` (a multiple of
     ``save_every``): sample ``j`` after step ``k`` with ``(k + 1 - kb) % save_every == 0`` is
