@@ -209,6 +209,7 @@ class MEKF(Component):
         if gyro_output not in ("rate", "mean"):
             raise ValueError(f"gyro_output must be 'rate' or 'mean' (the gyro's output), got {gyro_output!r}")
         self.gyro_output = gyro_output
+        self._quaternion0()                  # kept with the filter, so each run's copy of it has it
 
     @staticmethod
     def _check_star_tracker(st: StarTracker) -> None:
@@ -242,9 +243,10 @@ class MEKF(Component):
 
     def _quaternion0(self) -> np.ndarray:
         """``R0``'s quaternion (scalar last, ``w >= 0``), by SciPy's ``Rotation.from_matrix``, kept
-        with the bytes of the ``R0`` it came from: SciPy's conversion costs some 0.2 ms a call, which a
-        run of 20 000 steps would pay again at every ``lgvi.simulate`` with the same filter (0.01 us a
-        step); a new ``R0`` (the attribute reassigned or changed in place) is converted again."""
+        with the bytes of the ``R0`` it came from (computed at construction, so the copy of the filter
+        each run makes has it): SciPy's conversion costs some 0.2 ms a call, which a run of 20 000
+        steps would pay again at every ``lgvi.simulate`` with the same filter (0.01 us a step); a new
+        ``R0`` (the attribute reassigned or changed in place) is converted again."""
         R0 = np.ascontiguousarray(self.R0, dtype=np.float64)
         key = (R0.shape, R0.tobytes())
         kept = getattr(self, "_q0", None)
