@@ -402,35 +402,44 @@ def mrp_request(cp, jo, cs, t, s0, s1, s2, r0, r1, r2, e0, e1, e2, w0, w1, w2, H
     return L0, L1, L2
 
 
-@jit(inline="always")
-def forcing_guess(q0, q1, q2, ng, nphi, hh2, c, a00, a01, a02, a10, a11, a12, a20, a21, a22, d00, d01, d02, d10, d11,
-                  d12, d20, d21, d22):
-    """The guess ``q`` of a substep (the extrapolation of its last solutions, :func:`.stepping.predict_at`)
-    with what a change of the hub's forcing does to the implicit equation (``docs/gyrostat.md``,
-    "The solver's guess").
+#: The relative miss of the right side's extrapolation below which :func:`forcing_guess` keeps the
+#: extrapolated guess: from a guess that close, the one Newton iteration a step takes anyway reaches
+#: the tolerance (quadratic convergence: 1e-16 relative), so the correction would only cost its solve
+#: (a smooth torque, such as the disturbances', changes every step and misses by far less).
+GUESS_GATE = 1e-8
 
-    The right side ``p = hs (Pi - G rho) + hs^2/2 phi`` of a substep moves with the hub's momentum,
-    which grows by ``h phi`` a step, and with ``phi`` itself (``phi = tau - G u``, held over a step):
-    the extrapolation of ``ng`` past solutions (2: linear, 3: quadratic) is exact for the smooth part
-    and misses ``dp = hs h [(d1 - d2) + c (d0 - 2 d1 + d2)]`` (quadratic) or ``hs h [d1 + c (d0 - d1)]``
-    (linear), ``d0 = phi_k - phi_k-1``, ``d1``, ``d2`` the earlier changes (``nphi`` of the ``phi`` kept
-    are valid), ``c`` the substep's middle in the step (1/2 for one substep), ``hh2 = hs h``. The
-    guess adds ``M^-1 dp``, ``M = tr(A) I - A`` the equation's derivative at ``F = I``. A forcing that
-    does not change (no torque, or a constant one) gives ``dp = 0`` exactly and the guess is the
-    extrapolation, bit for bit; the guess moves only the iteration count, never the solution beyond
-    the solver's tolerance."""
-    if ng >= 3.0 and nphi >= 3.0:
-        e0 = hh2 * ((d10 - d20) + c * ((d00 - d10) - (d10 - d20)))
-        e1 = hh2 * ((d11 - d21) + c * ((d01 - d11) - (d11 - d21)))
-        e2 = hh2 * ((d12 - d22) + c * ((d02 - d12) - (d12 - d22)))
-    elif ng >= 2.0 and nphi >= 2.0:
-        e0 = hh2 * (d10 + c * (d00 - d10))
-        e1 = hh2 * (d11 + c * (d01 - d11))
-        e2 = hh2 * (d12 + c * (d02 - d12))
+
+@jit(inline="always")
+def forcing_guess(q0, q1, q2, G, sub, changed, p0, p1, p2, a00, a01, a02, a10, a11, a12, a20, a21, a22):
+    """The guess ``q`` of substep ``sub`` (the extrapolation of its last solutions,
+    :func:`.stepping.predict_at`), moved by what the extrapolation of the right-hand side ``p`` misses
+    while the hub's forcing changes (``docs/gyrostat.md``, "The solver's guess").
+
+    ``changed``: the hub's forcing ``phi = tau - G u`` changed over the last three steps (a control
+    update; those of its values kept, ``G[0, 3, 1]``, compared) and the miss ``p - p_hat`` is above
+    :data:`GUESS_GATE` ``|p|``. Then the right side ``p`` has a kink the extrapolation of the solutions does not see; the
+    same extrapolation of the last right sides ``G[sub, 8:11]`` (``G[sub, 3, 2]`` of them valid) gives
+    ``p_hat``, and the guess adds ``M^-1 (p - p_hat)``, ``M = tr(A) I - A`` the equation's derivative at
+    ``F = I``. Otherwise (no torque, or one that did not change: every step of a free or coasting
+    body; or a torque that changes smoothly, as the disturbances do) the guess is the extrapolation,
+    bit for bit. The guess moves only the iteration count, never
+    the solution beyond the solver's tolerance."""
+    if not changed:
+        return q0, q1, q2
+    ng = G[sub, 3, 0]
+    npp = G[sub, 3, 2]
+    if ng >= 3.0 and npp >= 3.0:
+        e0 = p0 - (3.0 * (G[sub, 8, 0] - G[sub, 9, 0]) + G[sub, 10, 0])
+        e1 = p1 - (3.0 * (G[sub, 8, 1] - G[sub, 9, 1]) + G[sub, 10, 1])
+        e2 = p2 - (3.0 * (G[sub, 8, 2] - G[sub, 9, 2]) + G[sub, 10, 2])
+    elif ng >= 2.0 and npp >= 2.0:
+        e0 = p0 - (2.0 * G[sub, 8, 0] - G[sub, 9, 0])
+        e1 = p1 - (2.0 * G[sub, 8, 1] - G[sub, 9, 1])
+        e2 = p2 - (2.0 * G[sub, 8, 2] - G[sub, 9, 2])
     else:
         return q0, q1, q2
-    if e0 == 0.0 and e1 == 0.0 and e2 == 0.0:
-        return q0, q1, q2
+    if e0 * e0 + e1 * e1 + e2 * e2 <= GUESS_GATE * GUESS_GATE * (p0 * p0 + p1 * p1 + p2 * p2):
+        return q0, q1, q2                        # a smooth change: the extrapolation is as good
     tr = a00 + a11 + a22
     m00 = tr - a00
     m01 = -a01
@@ -483,9 +492,9 @@ def gyro_advance(moment, up, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now,
     its_k = 0
     rn_k = 0.0
     cum = 0.0
-    # the hub's forcing of this step, phi = tau (+ m) - G u (the wheels' reaction), and its changes
-    # d0 = phi_k - phi_k-1, d1, d2 from the history G[0, 5:8] (G[0, 3, 1] of them valid): the guess
-    # of each substep adds what they do to the implicit equation's right side (:func:`forcing_guess`)
+    # the hub's forcing of this step, phi = tau (+ m) - G u (the wheels' reaction), against those of the
+    # last three steps in G[0, 5:8] (G[0, 3, 1] of them valid): while it changed, the guess of each
+    # substep adds what the extrapolation of its right side misses (:func:`forcing_guess`)
     phi0 = ta0
     phi1 = ta1
     phi2 = ta2
@@ -498,15 +507,13 @@ def gyro_advance(moment, up, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now,
         phi1 -= axes[i, 1] * u_now[N + i]
         phi2 -= axes[i, 2] * u_now[N + i]
     nphi = G[0, 3, 1]
-    dd00 = phi0 - G[0, 5, 0]
-    dd01 = phi1 - G[0, 5, 1]
-    dd02 = phi2 - G[0, 5, 2]
-    dd10 = G[0, 5, 0] - G[0, 6, 0]
-    dd11 = G[0, 5, 1] - G[0, 6, 1]
-    dd12 = G[0, 5, 2] - G[0, 6, 2]
-    dd20 = G[0, 6, 0] - G[0, 7, 0]
-    dd21 = G[0, 6, 1] - G[0, 7, 1]
-    dd22 = G[0, 6, 2] - G[0, 7, 2]
+    changed = False
+    if nphi >= 1.0:
+        changed = phi0 != G[0, 5, 0] or phi1 != G[0, 5, 1] or phi2 != G[0, 5, 2]
+    if nphi >= 2.0:
+        changed = changed or G[0, 5, 0] != G[0, 6, 0] or G[0, 5, 1] != G[0, 6, 1] or G[0, 5, 2] != G[0, 6, 2]
+    if nphi >= 3.0:
+        changed = changed or G[0, 6, 0] != G[0, 7, 0] or G[0, 6, 1] != G[0, 7, 1] or G[0, 6, 2] != G[0, 7, 2]
     for sub in range(s):
         hs = gam[sub] * h
         hh = 0.5 * hs
@@ -536,8 +543,8 @@ def gyro_advance(moment, up, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now,
         p1 = hs * (Pi[1] - g1) + hs * hh * f1
         p2 = hs * (Pi[2] - g2) + hs * hh * f2
         q0, q1, q2 = predict_at(G, sub)
-        q0, q1, q2 = forcing_guess(q0, q1, q2, G[sub, 3, 0], nphi, hs * h, cum + 0.5 * gam[sub], d00, a01, a02,
-                                   a10, d11, a12, a20, a21, d22, dd00, dd01, dd02, dd10, dd11, dd12, dd20, dd21, dd22)
+        q0, q1, q2 = forcing_guess(q0, q1, q2, G, sub, changed, p0, p1, p2, d00, a01, a02, a10, d11, a12, a20,
+                                   a21, d22)
         (x0, x1, x2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its,
          rn, st) = solve_shifted(d00, a01, a02, a10, d11, a12, a20, a21, d22, p0, p1, p2, q0, q1, q2, tol,
                                  max_iter)
@@ -579,6 +586,14 @@ def gyro_advance(moment, up, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now,
         if rn > rn_k:
             rn_k = rn
         push_at(G, sub, x0, x1, x2)
+        for i in range(3):                       # the right sides of the last three steps
+            G[sub, 10, i] = G[sub, 9, i]
+            G[sub, 9, i] = G[sub, 8, i]
+        G[sub, 8, 0] = p0
+        G[sub, 8, 1] = p1
+        G[sub, 8, 2] = p2
+        if G[sub, 3, 2] < 3.0:
+            G[sub, 3, 2] += 1.0
         G[sub, 4, 0] = l0
         G[sub, 4, 1] = l1
         G[sub, 4, 2] = l2
@@ -608,9 +623,10 @@ def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cm
     """Steps ``k0 .. k0 + n - 1`` of the gyrostat in place on ``R``, ``Pi``, ``rho``, ``G``.
 
     Each step is the composition of substeps ``gam[i] h`` (``gam = [1]``: the second-order step;
-    a symmetric composition raises the order), ``G`` (s, 8, 3) one solver history per substep (rows
-    0-4 as the rigid body's, :mod:`.stepping`) and, in ``G[0, 5:8]``, the hub's forcing of the last
-    three steps (``G[0, 3, 1]`` of them valid) for the solver's guess (:func:`forcing_guess`).
+    a symmetric composition raises the order), ``G`` (s, 11, 3) one solver history per substep (rows
+    0-4 as the rigid body's, :mod:`.stepping`; rows 8-10 its right sides of the last three steps,
+    ``G[i, 3, 2]`` of them valid) and, in ``G[0, 5:8]``, the hub's forcing of the last three steps
+    (``G[0, 3, 1]`` of them valid), for the solver's guess (:func:`forcing_guess`).
     The wheel torques (saturated command plus friction, from the state at the step's start) and
     ``tau`` are held over the whole step. The buffers start at step ``kb`` (a multiple of
     ``save_every``): sample ``j`` after step ``k`` with ``(k + 1 - kb) % save_every == 0`` is

@@ -530,7 +530,7 @@ class GyrostatRun:
         self.u_now: np.ndarray = np.zeros(2 * n)
         self.comp: Composition = composition_for(order, composition)
         self.gam: np.ndarray = np.array(self.comp.coefficients)     # comp.arrays()[0], without the cumulative sums
-        self.G = np.zeros((len(self.gam), 8, 3))     # rows 5-7 of G[0]: the hub's forcing (gyrostat_kernels)
+        self.G = np.zeros((len(self.gam), 11, 3))    # rows 5-10: the solver's guess (gyrostat_kernels.gyro_steps)
         guess, q, first = _cold_start(), self.Pi - a.T @ self.wheel_momentum, {}
         # the kernel's Python source on plain floats (J_B as a memoryview, lists): the same IEEE operations
         JB_view, q, h = memoryview(JB), q.tolist(), self.h
@@ -629,10 +629,11 @@ class GyrostatRun:
         self.k = int(st["k"])
         G = np.asarray(st["G"], dtype=np.float64)
         if G.ndim == 3 and G.shape[1] == 5 and G.shape[0] == self.G.shape[0]:
-            # a state saved before the solver's guess kept the hub's forcing (G rows 5-7): none valid,
-            # the guess starts again from the extrapolation alone (the solution within the tolerance)
-            G = np.concatenate([G, np.zeros((G.shape[0], 3, 3))], axis=1)
-            G[:, 3, 1] = 0.0
+            # a state saved before the solver's guess kept the forcing and the right sides (G rows 5-10):
+            # none valid, the guess starts again from the extrapolation alone (the solution within the
+            # tolerance)
+            G = np.concatenate([G, np.zeros((G.shape[0], 6, 3))], axis=1)
+            G[:, 3, 1:] = 0.0
         self.G[...] = G
         for name in ("R", "Pi", "wheel_momentum", "cmd", "tau", "cs"):
             getattr(self, name)[...] = np.asarray(st[name], dtype=np.float64)
