@@ -28,7 +28,7 @@ import math
 
 from .._jit import jit, jit_copy
 from .codes import NOT_CONVERGED, NOT_FINITE, OK, OVERFLOW, SINGULAR, USER_RAISED
-from .solvers import EPS, SERIES_ANGLE, expm1_entries
+from .solvers import EPS, SERIES_ANGLE, cramer3, expm1_entries
 from .stepping import momentum_step, predict_at, push_at, rotate, rotated_row
 
 # Taylor coefficients below SERIES_ANGLE, as in the rigid body's solver (:mod:`.solvers`)
@@ -101,22 +101,10 @@ def solve_shifted(a00, a01, a02, a10, a11, a12, a20, a21, a22, p0, p1, p2, g0, g
         m20 = -a20 - x20
         m21 = -a21 - x21
         m22 = tb - a22 - x22
-        c00 = m11 * m22 - m12 * m21
-        c01 = m12 * m20 - m10 * m22
-        c02 = m10 * m21 - m11 * m20
-        det = m00 * c00 + m01 * c01 + m02 * c02
-        if det == 0.0 or not math.isfinite(det):
+        # M s = -r (the products and sums of -r are those of r negated: the same numbers)
+        s0, s1, s2, ok = cramer3(m00, m01, m02, m10, m11, m12, m20, m21, m22, -r0, -r1, -r2)
+        if not ok:
             return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), SINGULAR
-        inv = 1.0 / det
-        c10 = m02 * m21 - m01 * m22
-        c11 = m00 * m22 - m02 * m20
-        c12 = m01 * m20 - m00 * m21
-        c20 = m01 * m12 - m02 * m11
-        c21 = m02 * m10 - m00 * m12
-        c22 = m00 * m11 - m01 * m10
-        s0 = -(c00 * r0 + c10 * r1 + c20 * r2) * inv
-        s1 = -(c01 * r0 + c11 * r1 + c21 * r2) * inv
-        s2 = -(c02 * r0 + c12 * r1 + c22 * r2) * inv
         if t2 < SERIES_ANGLE * SERIES_ANGLE:
             e = E0 + t2 * (E1 + t2 * (E2 + t2 * E3))
         else:
@@ -441,30 +429,10 @@ def forcing_guess(q0, q1, q2, G, sub, changed, p0, p1, p2, a00, a01, a02, a10, a
     if e0 * e0 + e1 * e1 + e2 * e2 <= GUESS_GATE * GUESS_GATE * (p0 * p0 + p1 * p1 + p2 * p2):
         return q0, q1, q2                        # a smooth change: the extrapolation is as good
     tr = a00 + a11 + a22
-    m00 = tr - a00
-    m01 = -a01
-    m02 = -a02
-    m10 = -a10
-    m11 = tr - a11
-    m12 = -a12
-    m20 = -a20
-    m21 = -a21
-    m22 = tr - a22
-    c00 = m11 * m22 - m12 * m21
-    c01 = m12 * m20 - m10 * m22
-    c02 = m10 * m21 - m11 * m20
-    det = m00 * c00 + m01 * c01 + m02 * c02
-    if det == 0.0 or not math.isfinite(det):
+    x0, x1, x2, ok = cramer3(tr - a00, -a01, -a02, -a10, tr - a11, -a12, -a20, -a21, tr - a22, e0, e1, e2)
+    if not ok:
         return q0, q1, q2
-    c10 = m02 * m21 - m01 * m22
-    c11 = m00 * m22 - m02 * m20
-    c12 = m01 * m20 - m00 * m21
-    c20 = m01 * m12 - m02 * m11
-    c21 = m02 * m10 - m00 * m12
-    c22 = m00 * m11 - m01 * m10
-    inv = 1.0 / det
-    return (q0 + (c00 * e0 + c10 * e1 + c20 * e2) * inv, q1 + (c01 * e0 + c11 * e1 + c21 * e2) * inv,
-            q2 + (c02 * e0 + c12 * e1 + c22 * e2) * inv)
+    return q0 + x0, q1 + x1, q2 + x2
 
 
 @jit(inline="always")
