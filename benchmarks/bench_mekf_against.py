@@ -4,8 +4,8 @@ sometimes runs a third slower throughout, so figures of separate processes misle
 
 The other tree's ``lgvi/_jit.py`` and ``lgvi/_kernels/`` are copied into a temporary package
 ``lgvi_other`` (the kernels import only ``_jit`` and each other, relatively) and compiled there.
-Each row calls ``estimator_dispatch`` ``--n`` times in a compiled loop, as ``bench_estimation.py``
-does (the same bus, rows and states: its ``rows()``), the two trees alternating run by run; CPU time
+Each row calls ``estimator_dispatch`` ``--n`` times in ``bench_estimation.py``'s compiled loop
+(the same bus, rows and states: its ``rows()``), the two trees alternating run by run; CPU time
 per call, medians over ``--repeat`` rounds, and the ratio this tree / other tree taken within each
 round (median, min, max). The two trees' final states are compared too (bit for bit, or the
 largest difference).
@@ -24,13 +24,11 @@ import sys
 import tempfile
 import time
 
-import numba
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
-from bench_estimation import rows  # noqa: E402
-from lgvi._kernels.estimation_components import estimator_dispatch  # noqa: E402
+from bench_estimation import make_loop, rows  # noqa: E402
 
 
 def other_dispatch(src):
@@ -44,27 +42,13 @@ def other_dispatch(src):
     return importlib.import_module("lgvi_other._kernels.estimation_components").estimator_dispatch
 
 
-def make_loop(dispatch):
-    @numba.njit(cache=False)
-    def calls(code, n, bus, p, s, w, bump):
-        st = 0
-        for k in range(n):
-            t = 0.1 * k
-            if bump >= 0:
-                bus[bump] = t
-            st += dispatch(code, t, bus, p, s, w)
-        return st
-
-    return calls
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("other", help="the other tree's src folder (e.g. from git archive <commit> src)")
     ap.add_argument("--repeat", type=int, default=11)
     ap.add_argument("--n", type=int, default=200_000)
     args = ap.parse_args()
-    loops = {"this tree": make_loop(estimator_dispatch), "other tree": make_loop(other_dispatch(args.other))}
+    loops = {"this tree": make_loop(False), "other tree": make_loop(False, other_dispatch(args.other))}
     cases = [(label, case, bump) for label, case, bump in rows() if label.startswith("MEKF")]
     finals = {}
     for name, loop in loops.items():          # compile, warm, and the final states of one run each
