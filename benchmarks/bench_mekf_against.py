@@ -16,6 +16,7 @@ largest difference).
 from __future__ import annotations
 
 import argparse
+import atexit
 import importlib
 import os
 import shutil
@@ -34,6 +35,7 @@ from bench_estimation import make_loop, rows  # noqa: E402
 def other_dispatch(src):
     """``estimator_dispatch`` of the tree whose ``src`` folder is given, as ``lgvi_other``."""
     tmp = tempfile.mkdtemp(prefix="lgvi_other_")
+    atexit.register(shutil.rmtree, tmp, True)
     pkg = os.path.join(tmp, "lgvi_other")
     shutil.copytree(os.path.join(src, "lgvi", "_kernels"), os.path.join(pkg, "_kernels"))
     shutil.copy(os.path.join(src, "lgvi", "_jit.py"), pkg)
