@@ -36,13 +36,14 @@ from lgvi.fsw._drive import bus_layout  # noqa: E402
 from lgvi.spacecraft import CoarseSunSensors, FineSunSensor, Gyro, Magnetometer, StarTracker  # noqa: E402
 
 
-def make_loop(inline):
+def make_loop(inline, estimator_kernel=estimator_dispatch):
     """A compiled loop of ``n`` calls of component ``code`` at t = 0, 0.1, ...: through the
     dispatchers as they are (one call a step), or with the dispatchers inlined into the loop (what
     a loop kernel that inlines them pays). ``bump >= 0``: the bus entry at that offset is set to t
-    before each call (a new star tracker measurement every call). ``code`` 0: the loop alone."""
+    before each call (a new star tracker measurement every call). ``code`` 0: the loop alone.
+    ``estimator_kernel``: another tree's ``estimator_dispatch`` (``bench_mekf_against.py``)."""
     sensor = numba.njit(inline="always")(sensor_dispatch.py_func) if inline else sensor_dispatch
-    estimator = numba.njit(inline="always")(estimator_dispatch.py_func) if inline else estimator_dispatch
+    estimator = numba.njit(inline="always")(estimator_kernel.py_func) if inline else estimator_kernel
 
     @numba.njit(cache=False)
     def calls(code, n, bus, p, s, w, bump):

@@ -54,7 +54,8 @@ MRP feedback at 1 Hz to a fixed target, motor torques by ``RWMotorTorque``):
 * ``calibration``: a pure-Python loop timed in each round beside the cases (the machine's own speed
   in that round: a round on a slowed vCPU shows in it);
 * ``--member``: only ``sensors + MEKF`` and ``true-state feedback``, and each again with no records
-  (``FlightSoftware(record=[])``): what the records at the writers' rates cost the member;
+  (``FlightSoftware(record=[])``): what the records at the writers' rates cost the member; each with
+  its Newton iterations a step (the solver's summary of the first run);
 * ``gyrostat step``: ``lgvi.simulate`` of the same body with the same wheels and no controller
   (the gyrostat's compiled step); ``6U gyrostat step``: the same with the 6U's inertia and
   initial state.
@@ -282,8 +283,7 @@ def main() -> None:
     steps, rounds = (2000, 3) if args.quick else (args.steps, args.rounds)
     runs = (member_cases(steps) if args.member
             else cases(steps, components=not args.no_components, overhead=args.overhead))
-    for f in runs.values():                     # compile or load, once
-        f()
+    its = {name: f().meta["solver_summary"] for name, f in runs.items()}     # compile or load, once
     per_step = {name: [] for name in runs}
     for _ in range(rounds):
         for name, f in runs.items():
@@ -297,7 +297,9 @@ def main() -> None:
     if args.member:
         print(f"{steps} steps of h = {H} s a run, {rounds} rounds, CPU time, medians (cases alternating)")
         for name, v in per_step.items():
-            print(f"{name:28s} {statistics.median(v) * 1e6:9.3f} us/step")
+            n = its[name]
+            print(f"{name:28s} {statistics.median(v) * 1e6:9.3f} us/step  "
+                  f"{n['iterations_total'] / n['steps']:.3f} Newton iterations a step")
         for a, b in (("sensors + MEKF", "true-state feedback"), ("sensors + MEKF, no records", "true-state, no records")):
             v = ratio(a, b)
             print(f"{a + ' / ' + b:58s} {statistics.median(v):7.2f} (min {min(v):.2f}, max {max(v):.2f})")

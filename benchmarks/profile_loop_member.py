@@ -5,6 +5,7 @@ Usage::
     perf record -o member.data python benchmarks/profile_loop_member.py sensors --steps 2000000
     perf report -i member.data --sort sym --stdio | head -40
     perf record -o plain.data python benchmarks/profile_loop_member.py true-state --steps 2000000
+    perf record -o member.data python benchmarks/profile_loop_member.py sensors --steps 20000 --repeat 100
 
 The member is ``bench_loop_sensors.py``'s (``sensors``: a gyro, a star tracker and the MEKF at 2 Hz,
 the controller on the estimate; ``true-state``: the controller on the truth). Numba's compiled code
@@ -15,7 +16,9 @@ loads it (from its cache or a compilation), reads the functions' offsets and siz
 ``sensor_dispatch``, ``estimator_dispatch``, ...) is a symbol; helpers inlined into one count in it
 (``record_fast`` and ``writes_finite`` in ``loop_steps``). Kernel time (page faults of new record
 memory: ``clear_page_erms``) shows under its own names. A sample is 250 us of CPU time at perf's
-default rate, so ``samples * 250 us / steps`` is the time a step. Needs ``perf`` and ``objdump``.
+default rate, so ``samples * 250 us / steps`` is the time a step (``steps`` times ``--repeat``). One long run
+writes all its records to new memory (the kernel's page zeroing shows); ``--repeat`` runs the
+benchmark's length again and again, as ``bench_loop_sensors.py`` does. Needs ``perf`` and ``objdump``.
 """
 
 from __future__ import annotations
@@ -111,6 +114,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("member", choices=("sensors", "true-state"))
     ap.add_argument("--steps", type=int, default=2_000_000)
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="runs of --steps steps (e.g. --steps 20000 --repeat 100: the benchmark's run length)")
     args = ap.parse_args()
     runs = bench.member_cases(1000)
     run = runs["sensors + MEKF" if args.member == "sensors" else "true-state feedback"]
@@ -121,9 +126,12 @@ def main() -> None:
                                guidance=bench.InertialPointing(bench.TARGET),
                                control=bench.MRPControl(K=0.004, P=0.04), actuators=bench.RWMotorTorque(), rate=1.0)
     t = time.process_time()
-    bench.lgvi.simulate(sensed if args.member == "sensors" else plain, np.eye(3), omega0=bench.OMEGA0, fsw=fsw,
-                        h=bench.H, steps=args.steps, save_every=args.steps)
-    print(f"{args.member}: {(time.process_time() - t) / args.steps * 1e6:.3f} us a step (CPU time, {args.steps} steps)")
+    for _ in range(args.repeat):
+        bench.lgvi.simulate(sensed if args.member == "sensors" else plain, np.eye(3), omega0=bench.OMEGA0, fsw=fsw,
+                            h=bench.H, steps=args.steps, save_every=args.steps)
+    n = args.steps * args.repeat
+    print(f"{args.member}: {(time.process_time() - t) / n * 1e6:.3f} us a step (CPU time, {args.repeat} x {args.steps} "
+          "steps)")
 
 
 if __name__ == "__main__":

@@ -264,6 +264,20 @@ def test_components_interpreted_match_compiled():
                                    err_msg=name)
 
 
+def test_mekf_initial_quaternion_follows_a_new_r0():
+    """The filter keeps R0's quaternion (SciPy's conversion costs more than a short run's steps): a new
+    R0, assigned or changed in place, is converted again, so the row is always a fresh filter's."""
+    Ra, Rb = Rotation.from_rotvec([0.1, 0.2, 0.3]).as_matrix(), Rotation.from_rotvec([3.0, 0.1, -0.2]).as_matrix()
+    est = MEKF(arw=1e-4, rrw=1e-6, R0=Ra, P0=np.ones(6))
+    fresh = MEKF(arw=1e-4, rrw=1e-6, R0=Rb, P0=np.ones(6)).state0()
+    est.R0 = Rb.copy()
+    assert np.array_equal(est.state0(), fresh, equal_nan=True)
+    est.R0[...] = Ra
+    assert np.array_equal(est.state0(), MEKF(arw=1e-4, rrw=1e-6, R0=Ra, P0=np.ones(6)).state0(), equal_nan=True)
+    est.R0 = np.stack([Ra, Rb])                  # one row per member
+    assert np.array_equal(est.state0()[1], fresh, equal_nan=True)
+
+
 def test_mekf_state_rows_per_member():
     R0 = Rotation.from_rotvec([[0.1, 0.2, 0.3], [3.0, 0.1, 0.0], [0.0, 0.0, 0.0]])
     est = MEKF(arw=1e-4, rrw=1e-6, R0=R0, P0=np.ones(6))

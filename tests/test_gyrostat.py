@@ -151,6 +151,33 @@ def test_zero_wheels_is_the_rigid_body_bit_for_bit():
     assert gyro.wheel_speed.shape == (4001, 0)
 
 
+@pytest.mark.parametrize("order", [2, 4])
+def test_the_guess_carries_the_torque_jump_of_each_control_update(order):
+    """MRP feedback at 1 Hz with h = 0.1: the wheels' torques jump every tenth step. The quadratic
+    extrapolation of the last solutions then misses by h^2/2 times the jump at the update and minus that
+    two steps later (docs/gyrostat.md, "The solver's guess"), and those steps took two Newton
+    iterations a substep (1.2 a step on average here before the guess carried the jump); with it they
+    take one, as the steps between updates do (a step's count is the sum over its substeps)."""
+    from lgvi.fsw import FlightSoftware, InertialPointing, MRPControl, RWMotorTorque
+    from lgvi.registry import composition_for
+
+    s3 = 1.0 / np.sqrt(3.0)
+    axes = np.array([[s3, s3, s3], [-s3, s3, s3], [s3, -s3, s3], [-s3, -s3, s3]])
+    sc = lgvi.Spacecraft(np.diag([0.18, 0.14, 0.06]),
+                         wheels=lgvi.ReactionWheels(axes, 1e-4, speed0=[10.0, -20.0, 5.0, 0.0], max_torque=0.004))
+    fsw = FlightSoftware(guidance=InertialPointing(lgvi.so3.exp(np.array([0.3, -0.2, 0.5]))),
+                         control=MRPControl(K=0.004, P=0.04), actuators=RWMotorTorque(), rate=1.0)
+    traj = lgvi.simulate(sc, np.eye(3), omega0=[0.01, -0.02, 0.015], h=0.1, steps=1000, fsw=fsw, order=order,
+                         solver_record="full")
+    it = traj.iterations[30:]                       # after the first updates' transient
+    k = np.arange(30, 1000)
+    one = len(composition_for(order, None).coefficients)       # one iteration a substep
+    assert it.min() == one
+    for phase in (0, 1, 2):                         # the update's step and the two after it
+        assert np.mean(it[k % 10 == phase] > one) <= 0.02, phase
+    assert it.mean() <= one + 0.01
+
+
 def test_single_wheel_spin_up_exact():
     """Basilisk's back-of-the-envelope case: one wheel on a principal axis, body at rest, constant
     motor torque: the body counter-rotates at -u t / (J_z - Js), the wheel at u t (1/Js + 1/(J_z - Js))."""

@@ -149,6 +149,32 @@ def test_gyrostat_stream_equals_memory_and_resumes_exactly(tmp_path, name):
     assert read_stream(tmp_path / "cut").meta["complete"]
 
 
+def test_gyrostat_resumes_a_state_saved_with_the_five_row_solver_history(tmp_path):
+    """A stream saved before the solver's guess kept the forcing and the right sides (``G`` (s, 5, 3)
+    then, (s, 11, 3) now) resumes: the guess's history starts empty, so the run continues from the
+    plain extrapolation and agrees with the uninterrupted one to the solver's tolerance."""
+    kw = GYRO_RUNS["mrp-integral"]()
+    ref = lgvi.simulate(BODY, R0, omega0=W0, **kw)
+
+    def interrupt(k, n):
+        if k >= 3 * 450:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        simulate_stream(tmp_path / "old", BODY, R0, omega0=W0, chunk_steps=450, progress=interrupt, **kw)
+    path = tmp_path / "old" / "manifest.json"
+    manifest = json.loads(path.read_text())
+    G = np.asarray(manifest["state"]["G"])
+    assert G.shape == (1, 11, 3) and G[0, 3, 1] == 3.0 and G[0, 3, 2] == 3.0
+    manifest["state"]["G"] = G[:, :5].tolist()
+    path.write_text(json.dumps(manifest))
+    simulate_stream(tmp_path / "old", BODY, R0, omega0=W0, chunk_steps=450, resume=True, **kw)
+    out = read_stream(tmp_path / "old")
+    assert out.meta["complete"] and out.R.shape == ref.R.shape
+    np.testing.assert_allclose(out.R, ref.R, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(out.wheel_momentum, ref.wheel_momentum, rtol=1e-12, atol=1e-15)
+
+
 def test_gyrostat_resume_refuses_other_wheels_and_unsaved_controllers(tmp_path):
     kw = GYRO_RUNS["mrp-integral"]()
     with pytest.raises(KeyboardInterrupt):

@@ -32,11 +32,12 @@ from .navigation_components import SIMPLE_NAV, simple_nav_step
 
 MEKF = 401
 _P = 7          # offset of P in the state
-#: The state's work space (after the 50 entries of the filter): the small matrices of the
-#: propagation and the updates live there, so the kernel allocates nothing (the loop is compiled
-#: without Numba's runtime). Offsets: A, B (propagation), M; PH, S, (Si: unused since S^-1 lives in
-#: scalars), K, U = K S / 2 - PH (update, the Joseph form's factor); H, Rm, R.
-#: They are indexed flat, row-major (``s[_WK + 3 * i + j]`` is ``K[i, j]``): reshaped views of
+#: The state's work space (after the 50 entries of the filter): the small matrices of the updates
+#: live there, so the kernel allocates nothing (the loop is compiled without Numba's runtime).
+#: Offsets: PH, S (update), H, Rm, R (vector updates). Unused since the propagation's Phi and Phi P
+#: and the update's K and U became locals (round 8), their slots kept so that the state's length and
+#: saved states stay as they were: A, B, M, Si, K, U.
+#: They are indexed flat, row-major (``s[_WPH + 3 * i + j]`` is ``PH[i, j]``): reshaped views of
 #: slices cost a call each, which was a third of the filter's time.
 _WA, _WB, _WM = 50, 59, 68
 _WPH, _WS, _WSI, _WK, _WKS = 86, 104, 113, 122, 140
@@ -55,6 +56,32 @@ def turn(s, x, y, z):
     s[1] = q1
     s[2] = q2
     s[3] = q3
+
+
+@jit(inline="always")
+def put_sym(s, i, j, v):
+    """``P[i, j] = P[j, i] = v`` in the state."""
+    s[_P + 6 * i + j] = v
+    s[_P + 6 * j + i] = v
+
+
+@jit(inline="always")
+def phi_row(a0, a1, a2, b0, b1, b2, p00, p01, p02, p03, p04, p05, p11, p12, p13, p14, p15, p22, p23, p24, p25,
+            p33, p34, p35, p44, p45, p55):
+    """Row ``(A[i], B[i]) P`` of ``Phi P`` from ``P``'s upper triangle (six sums of six products, the
+    products in the order of the row's entries)."""
+    return (a0 * p00 + a1 * p01 + a2 * p02 + b0 * p03 + b1 * p04 + b2 * p05,
+            a0 * p01 + a1 * p11 + a2 * p12 + b0 * p13 + b1 * p14 + b2 * p15,
+            a0 * p02 + a1 * p12 + a2 * p22 + b0 * p23 + b1 * p24 + b2 * p25,
+            a0 * p03 + a1 * p13 + a2 * p23 + b0 * p33 + b1 * p34 + b2 * p35,
+            a0 * p04 + a1 * p14 + a2 * p24 + b0 * p34 + b1 * p44 + b2 * p45,
+            a0 * p05 + a1 * p15 + a2 * p25 + b0 * p35 + b1 * p45 + b2 * p55)
+
+
+@jit(inline="always")
+def phi_col(m0, m1, m2, m3, m4, m5, a0, a1, a2, b0, b1, b2):
+    """``M[i] Phi[j]^T`` for a row ``M[i]`` of ``Phi P`` and the attitude row ``Phi[j] = (A[j], B[j])``."""
+    return (m0 * a0 + m3 * b0) + (m1 * a1 + m4 * b1) + (m2 * a2 + m5 * b2)
 
 
 @jit(inline="always")
@@ -82,49 +109,68 @@ def propagate(s, ax, ay, az, wx, wy, wz, dt, sv2, su2):
     h01 = px * py
     h02 = px * pz
     h12 = py * pz
-    s[_WA] = 1.0 + ca * h00
-    s[_WA + 4] = 1.0 + ca * h11
-    s[_WA + 8] = 1.0 + ca * h22
-    s[_WA + 1] = sa * pz + ca * h01
-    s[_WA + 3] = -sa * pz + ca * h01
-    s[_WA + 2] = -sa * py + ca * h02
-    s[_WA + 6] = sa * py + ca * h02
-    s[_WA + 5] = sa * px + ca * h12
-    s[_WA + 7] = -sa * px + ca * h12
-    s[_WB] = -dt * (1.0 + c2 * h00)
-    s[_WB + 4] = -dt * (1.0 + c2 * h11)
-    s[_WB + 8] = -dt * (1.0 + c2 * h22)
-    s[_WB + 1] = -dt * (ca * pz + c2 * h01)
-    s[_WB + 3] = -dt * (-ca * pz + c2 * h01)
-    s[_WB + 2] = -dt * (-ca * py + c2 * h02)
-    s[_WB + 6] = -dt * (ca * py + c2 * h02)
-    s[_WB + 5] = -dt * (ca * px + c2 * h12)
-    s[_WB + 7] = -dt * (-ca * px + c2 * h12)
-    # M = Phi P: rows 0..2 = A P[0:3, :] + B P[3:6, :], rows 3..5 = P[3:6, :]
-    for i in range(3):
-        for j in range(6):
-            s[_WM + 6 * i + j] = (s[_WA + 3 * i] * s[_P + j] + s[_WA + 3 * i + 1] * s[_P + 6 + j]
-                                  + s[_WA + 3 * i + 2] * s[_P + 12 + j] + s[_WB + 3 * i] * s[_P + 18 + j]
-                                  + s[_WB + 3 * i + 1] * s[_P + 24 + j] + s[_WB + 3 * i + 2] * s[_P + 30 + j])
-    # P' = M Phi^T + Qd
+    a00 = 1.0 + ca * h00
+    a11 = 1.0 + ca * h11
+    a22 = 1.0 + ca * h22
+    a01 = sa * pz + ca * h01
+    a10 = -sa * pz + ca * h01
+    a02 = -sa * py + ca * h02
+    a20 = sa * py + ca * h02
+    a12 = sa * px + ca * h12
+    a21 = -sa * px + ca * h12
+    b00 = -dt * (1.0 + c2 * h00)
+    b11 = -dt * (1.0 + c2 * h11)
+    b22 = -dt * (1.0 + c2 * h22)
+    b01 = -dt * (ca * pz + c2 * h01)
+    b10 = -dt * (-ca * pz + c2 * h01)
+    b02 = -dt * (-ca * py + c2 * h02)
+    b20 = -dt * (ca * py + c2 * h02)
+    b12 = -dt * (ca * px + c2 * h12)
+    b21 = -dt * (-ca * px + c2 * h12)
+    # P's upper triangle in locals (P is symmetric by construction: every write sets both triangles,
+    # so reading P[j, i] for P[i, j] gives the same numbers)
+    p00, p01, p02, p03, p04, p05 = s[_P], s[_P + 1], s[_P + 2], s[_P + 3], s[_P + 4], s[_P + 5]
+    p11, p12, p13, p14, p15 = s[_P + 7], s[_P + 8], s[_P + 9], s[_P + 10], s[_P + 11]
+    p22, p23, p24, p25 = s[_P + 14], s[_P + 15], s[_P + 16], s[_P + 17]
+    p33, p34, p35 = s[_P + 21], s[_P + 22], s[_P + 23]
+    p44, p45 = s[_P + 28], s[_P + 29]
+    p55 = s[_P + 35]
+    # M = Phi P, its rows 0..2 (rows 3..5 are P[3:6, :]): row i = A[i] P[0:3, :] + B[i] P[3:6, :]
+    m00, m01, m02, m03, m04, m05 = phi_row(a00, a01, a02, b00, b01, b02, p00, p01, p02, p03, p04, p05, p11, p12,
+                                           p13, p14, p15, p22, p23, p24, p25, p33, p34, p35, p44, p45, p55)
+    m10, m11, m12, m13, m14, m15 = phi_row(a10, a11, a12, b10, b11, b12, p00, p01, p02, p03, p04, p05, p11, p12,
+                                           p13, p14, p15, p22, p23, p24, p25, p33, p34, p35, p44, p45, p55)
+    m20, m21, m22, m23, m24, m25 = phi_row(a20, a21, a22, b20, b21, b22, p00, p01, p02, p03, p04, p05, p11, p12,
+                                           p13, p14, p15, p22, p23, p24, p25, p33, p34, p35, p44, p45, p55)
+    # P' = M Phi^T + Qd: the attitude block's upper triangle M[i] Phi[j]^T (j >= i), the coupling block
+    # M[0:3, 3:6] (Phi's bias rows are [0, I]), the bias block P22 + q22 I
     q11 = sv2 * dt + su2 * dt * dt * dt / 3.0
     q12 = -0.5 * su2 * dt * dt
     q22 = su2 * dt
-    for i in range(3):
-        for j in range(i, 3):
-            v = 0.0
-            for k in range(3):
-                v += s[_WM + 6 * i + k] * s[_WA + 3 * j + k] + s[_WM + 6 * i + 3 + k] * s[_WB + 3 * j + k]
-            if i == j:
-                v += q11
-            s[_P + 6 * i + j] = v
-            s[_P + 6 * j + i] = v
-        for j in range(3):
-            v = s[_WM + 6 * i + 3 + j] + (q12 if i == j else 0.0)
-            s[_P + 6 * i + 3 + j] = v
-            s[_P + 6 * (3 + j) + i] = v
-    for i in range(3):
-        s[_P + 6 * (3 + i) + 3 + i] += q22
+    v00 = phi_col(m00, m01, m02, m03, m04, m05, a00, a01, a02, b00, b01, b02) + q11
+    v01 = phi_col(m00, m01, m02, m03, m04, m05, a10, a11, a12, b10, b11, b12)
+    v02 = phi_col(m00, m01, m02, m03, m04, m05, a20, a21, a22, b20, b21, b22)
+    v11 = phi_col(m10, m11, m12, m13, m14, m15, a10, a11, a12, b10, b11, b12) + q11
+    v12 = phi_col(m10, m11, m12, m13, m14, m15, a20, a21, a22, b20, b21, b22)
+    v22 = phi_col(m20, m21, m22, m23, m24, m25, a20, a21, a22, b20, b21, b22) + q11
+    put_sym(s, 0, 0, v00)
+    put_sym(s, 0, 1, v01)
+    put_sym(s, 0, 2, v02)
+    put_sym(s, 1, 1, v11)
+    put_sym(s, 1, 2, v12)
+    put_sym(s, 2, 2, v22)
+    put_sym(s, 0, 3, m03 + q12)
+    put_sym(s, 0, 4, m04)
+    put_sym(s, 0, 5, m05)
+    put_sym(s, 1, 3, m13)
+    put_sym(s, 1, 4, m14 + q12)
+    put_sym(s, 1, 5, m15)
+    put_sym(s, 2, 3, m23)
+    put_sym(s, 2, 4, m24)
+    put_sym(s, 2, 5, m25 + q12)
+    s[_P + 21] = p33 + q22
+    s[_P + 28] = p44 + q22
+    s[_P + 35] = p55 + q22
 
 
 @jit(inline="always")
@@ -142,25 +188,41 @@ def update(s, y0, y1, y2):
         for j in range(3):
             s[_WS + 3 * i + j] = (s[_WH + 3 * i] * s[_WPH + j] + s[_WH + 3 * i + 1] * s[_WPH + 3 + j]
                                   + s[_WH + 3 * i + 2] * s[_WPH + 6 + j] + s[_WRM + 3 * i + j])
-    return update_with(s, y0, y1, y2)
+    return update_with(s, _WPH, 3, y0, y1, y2)
 
 
 @jit(inline="always")
 def update_attitude(s, y0, y1, y2):
-    """:func:`update` with ``H = I`` (the star tracker's): ``PH = P[:, 0:3]`` and
-    ``S = P[0:3, 0:3] + Rm`` taken as they are, the same numbers as the products with ``I``."""
-    for i in range(6):
-        for j in range(3):
-            s[_WPH + 3 * i + j] = s[_P + 6 * i + j]
+    """:func:`update` with ``H = I`` (the star tracker's): ``PH = P[:, 0:3]`` read where it is and
+    ``S = P[0:3, 0:3] + Rm``, the same numbers as the products with ``I``."""
     for i in range(3):
         for j in range(3):
-            s[_WS + 3 * i + j] = s[_WPH + 3 * i + j] + s[_WRM + 3 * i + j]
-    return update_with(s, y0, y1, y2)
+            s[_WS + 3 * i + j] = s[_P + 6 * i + j] + s[_WRM + 3 * i + j]
+    return update_with(s, _P, 6, y0, y1, y2)
 
 
 @jit(inline="always")
-def update_with(s, y0, y1, y2):
-    """The gain, the Joseph-form covariance and the reset, from ``PH = P H^T`` and ``S``."""
+def gain_row(a0, a1, a2, i00, i01, i02, i11, i12, i22, S0, S1, S2, S4, S5, S8):
+    """Row ``k = a S^-1`` of the gain for the row ``a`` of ``PH`` (``S^-1`` symmetric, from its upper
+    triangle), and the row ``u = k S / 2 - a`` of the Joseph form's factor ``U``."""
+    k0 = a0 * i00 + a1 * i01 + a2 * i02
+    k1 = a0 * i01 + a1 * i11 + a2 * i12
+    k2 = a0 * i02 + a1 * i12 + a2 * i22
+    return (k0, k1, k2, 0.5 * (k0 * S0 + k1 * S1 + k2 * S2) - a0, 0.5 * (k0 * S1 + k1 * S4 + k2 * S5) - a1,
+            0.5 * (k0 * S2 + k1 * S5 + k2 * S8) - a2)
+
+
+@jit(inline="always")
+def joseph(u0, u1, u2, k0, k1, k2, U0, U1, U2, K0, K1, K2):
+    """``(U K^T + K U^T)[i, j]`` from the rows ``u, k`` (i) and ``U, K`` (j)."""
+    return u0 * K0 + u1 * K1 + u2 * K2 + k0 * U0 + k1 * U1 + k2 * U2
+
+
+@jit(inline="always")
+def update_with(s, o, n, y0, y1, y2):
+    """The gain, the Joseph-form covariance and the reset, from ``PH = P H^T`` (6x3, row ``i`` at
+    ``s[o + n i:o + n i + 3]``: the work space, or ``P``'s own first three columns for ``H = I``; read
+    whole before ``P`` is written) and ``S`` (at ``_WS``). The gain and the factor ``U`` stay in locals."""
     # S^-1 by cofactors of S's upper triangle (S is symmetric; bit for bit only for the star tracker,
     # H = I: for H = hat(p) its two triangles are summed in different orders and differ by round-off,
     # and reading one of them symmetrises it), so six of them, and one division (1 / det)
@@ -185,38 +247,47 @@ def update_with(s, y0, y1, y2):
     i22 = (S0 * S4 - S1 * S1) * r
     # K = PH S^-1 and, for the Joseph form, U = K S / 2 - PH: P - K PH^T - PH K^T + K S K^T
     # = P + U K^T + K U^T (the same polynomial in K, so an error in K still enters at second order;
-    # six products an entry instead of nine)
-    for i in range(6):
-        a0 = s[_WPH + 3 * i]
-        a1 = s[_WPH + 3 * i + 1]
-        a2 = s[_WPH + 3 * i + 2]
-        k0 = a0 * i00 + a1 * i01 + a2 * i02
-        k1 = a0 * i01 + a1 * i11 + a2 * i12
-        k2 = a0 * i02 + a1 * i12 + a2 * i22
-        s[_WK + 3 * i] = k0
-        s[_WK + 3 * i + 1] = k1
-        s[_WK + 3 * i + 2] = k2
-        s[_WKS + 3 * i] = 0.5 * (k0 * S0 + k1 * S1 + k2 * S2) - a0
-        s[_WKS + 3 * i + 1] = 0.5 * (k0 * S1 + k1 * S4 + k2 * S5) - a1
-        s[_WKS + 3 * i + 2] = 0.5 * (k0 * S2 + k1 * S5 + k2 * S8) - a2
-    for i in range(6):
-        u0 = s[_WKS + 3 * i]
-        u1 = s[_WKS + 3 * i + 1]
-        u2 = s[_WKS + 3 * i + 2]
-        k0 = s[_WK + 3 * i]
-        k1 = s[_WK + 3 * i + 1]
-        k2 = s[_WK + 3 * i + 2]
-        for j in range(i, 6):
-            v = s[_P + 6 * i + j] + (u0 * s[_WK + 3 * j] + u1 * s[_WK + 3 * j + 1] + u2 * s[_WK + 3 * j + 2]
-                                     + k0 * s[_WKS + 3 * j] + k1 * s[_WKS + 3 * j + 1] + k2 * s[_WKS + 3 * j + 2])
-            s[_P + 6 * i + j] = v
-            s[_P + 6 * j + i] = v
+    # six products an entry instead of nine); one triangle computed, both written
+    a00, a01, a02 = s[o], s[o + 1], s[o + 2]
+    a10, a11, a12 = s[o + n], s[o + n + 1], s[o + n + 2]
+    a20, a21, a22 = s[o + 2 * n], s[o + 2 * n + 1], s[o + 2 * n + 2]
+    a30, a31, a32 = s[o + 3 * n], s[o + 3 * n + 1], s[o + 3 * n + 2]
+    a40, a41, a42 = s[o + 4 * n], s[o + 4 * n + 1], s[o + 4 * n + 2]
+    a50, a51, a52 = s[o + 5 * n], s[o + 5 * n + 1], s[o + 5 * n + 2]
+    k00, k01, k02, u00, u01, u02 = gain_row(a00, a01, a02, i00, i01, i02, i11, i12, i22, S0, S1, S2, S4, S5, S8)
+    k10, k11, k12, u10, u11, u12 = gain_row(a10, a11, a12, i00, i01, i02, i11, i12, i22, S0, S1, S2, S4, S5, S8)
+    k20, k21, k22, u20, u21, u22 = gain_row(a20, a21, a22, i00, i01, i02, i11, i12, i22, S0, S1, S2, S4, S5, S8)
+    k30, k31, k32, u30, u31, u32 = gain_row(a30, a31, a32, i00, i01, i02, i11, i12, i22, S0, S1, S2, S4, S5, S8)
+    k40, k41, k42, u40, u41, u42 = gain_row(a40, a41, a42, i00, i01, i02, i11, i12, i22, S0, S1, S2, S4, S5, S8)
+    k50, k51, k52, u50, u51, u52 = gain_row(a50, a51, a52, i00, i01, i02, i11, i12, i22, S0, S1, S2, S4, S5, S8)
+    put_sym(s, 0, 0, s[_P + 0] + joseph(u00, u01, u02, k00, k01, k02, u00, u01, u02, k00, k01, k02))
+    put_sym(s, 0, 1, s[_P + 1] + joseph(u00, u01, u02, k00, k01, k02, u10, u11, u12, k10, k11, k12))
+    put_sym(s, 0, 2, s[_P + 2] + joseph(u00, u01, u02, k00, k01, k02, u20, u21, u22, k20, k21, k22))
+    put_sym(s, 0, 3, s[_P + 3] + joseph(u00, u01, u02, k00, k01, k02, u30, u31, u32, k30, k31, k32))
+    put_sym(s, 0, 4, s[_P + 4] + joseph(u00, u01, u02, k00, k01, k02, u40, u41, u42, k40, k41, k42))
+    put_sym(s, 0, 5, s[_P + 5] + joseph(u00, u01, u02, k00, k01, k02, u50, u51, u52, k50, k51, k52))
+    put_sym(s, 1, 1, s[_P + 7] + joseph(u10, u11, u12, k10, k11, k12, u10, u11, u12, k10, k11, k12))
+    put_sym(s, 1, 2, s[_P + 8] + joseph(u10, u11, u12, k10, k11, k12, u20, u21, u22, k20, k21, k22))
+    put_sym(s, 1, 3, s[_P + 9] + joseph(u10, u11, u12, k10, k11, k12, u30, u31, u32, k30, k31, k32))
+    put_sym(s, 1, 4, s[_P + 10] + joseph(u10, u11, u12, k10, k11, k12, u40, u41, u42, k40, k41, k42))
+    put_sym(s, 1, 5, s[_P + 11] + joseph(u10, u11, u12, k10, k11, k12, u50, u51, u52, k50, k51, k52))
+    put_sym(s, 2, 2, s[_P + 14] + joseph(u20, u21, u22, k20, k21, k22, u20, u21, u22, k20, k21, k22))
+    put_sym(s, 2, 3, s[_P + 15] + joseph(u20, u21, u22, k20, k21, k22, u30, u31, u32, k30, k31, k32))
+    put_sym(s, 2, 4, s[_P + 16] + joseph(u20, u21, u22, k20, k21, k22, u40, u41, u42, k40, k41, k42))
+    put_sym(s, 2, 5, s[_P + 17] + joseph(u20, u21, u22, k20, k21, k22, u50, u51, u52, k50, k51, k52))
+    put_sym(s, 3, 3, s[_P + 21] + joseph(u30, u31, u32, k30, k31, k32, u30, u31, u32, k30, k31, k32))
+    put_sym(s, 3, 4, s[_P + 22] + joseph(u30, u31, u32, k30, k31, k32, u40, u41, u42, k40, k41, k42))
+    put_sym(s, 3, 5, s[_P + 23] + joseph(u30, u31, u32, k30, k31, k32, u50, u51, u52, k50, k51, k52))
+    put_sym(s, 4, 4, s[_P + 28] + joseph(u40, u41, u42, k40, k41, k42, u40, u41, u42, k40, k41, k42))
+    put_sym(s, 4, 5, s[_P + 29] + joseph(u40, u41, u42, k40, k41, k42, u50, u51, u52, k50, k51, k52))
+    put_sym(s, 5, 5, s[_P + 35] + joseph(u50, u51, u52, k50, k51, k52, u50, u51, u52, k50, k51, k52))
     # the error estimate and the reset: q <- q Exp(dtheta), b <- b + db
-    dx = s[_WK] * y0 + s[_WK + 1] * y1 + s[_WK + 2] * y2
-    dy = s[_WK + 3] * y0 + s[_WK + 4] * y1 + s[_WK + 5] * y2
-    dz = s[_WK + 6] * y0 + s[_WK + 7] * y1 + s[_WK + 8] * y2
-    for i in range(3):
-        s[4 + i] += s[_WK + 3 * (3 + i)] * y0 + s[_WK + 3 * (3 + i) + 1] * y1 + s[_WK + 3 * (3 + i) + 2] * y2
+    dx = k00 * y0 + k01 * y1 + k02 * y2
+    dy = k10 * y0 + k11 * y1 + k12 * y2
+    dz = k20 * y0 + k21 * y1 + k22 * y2
+    s[4] += k30 * y0 + k31 * y1 + k32 * y2
+    s[5] += k40 * y0 + k41 * y1 + k42 * y2
+    s[6] += k50 * y0 + k51 * y1 + k52 * y2
     turn(s, dx, dy, dz)
     return True
 

@@ -28,7 +28,7 @@ import math
 
 from .._jit import jit, jit_copy
 from .codes import NOT_CONVERGED, NOT_FINITE, OK, OVERFLOW, SINGULAR, USER_RAISED
-from .solvers import EPS, SERIES_ANGLE, expm1_entries
+from .solvers import EPS, SERIES_ANGLE, cramer3, expm1_entries
 from .stepping import momentum_step, predict_at, push_at, rotate, rotated_row
 
 # Taylor coefficients below SERIES_ANGLE, as in the rigid body's solver (:mod:`.solvers`)
@@ -101,22 +101,10 @@ def solve_shifted(a00, a01, a02, a10, a11, a12, a20, a21, a22, p0, p1, p2, g0, g
         m20 = -a20 - x20
         m21 = -a21 - x21
         m22 = tb - a22 - x22
-        c00 = m11 * m22 - m12 * m21
-        c01 = m12 * m20 - m10 * m22
-        c02 = m10 * m21 - m11 * m20
-        det = m00 * c00 + m01 * c01 + m02 * c02
-        if det == 0.0 or not math.isfinite(det):
+        # M s = -r (the products and sums of -r are those of r negated: the same numbers)
+        s0, s1, s2, ok = cramer3(m00, m01, m02, m10, m11, m12, m20, m21, m22, -r0, -r1, -r2)
+        if not ok:
             return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), SINGULAR
-        inv = 1.0 / det
-        c10 = m02 * m21 - m01 * m22
-        c11 = m00 * m22 - m02 * m20
-        c12 = m01 * m20 - m00 * m21
-        c20 = m01 * m12 - m02 * m11
-        c21 = m02 * m10 - m00 * m12
-        c22 = m00 * m11 - m01 * m10
-        s0 = -(c00 * r0 + c10 * r1 + c20 * r2) * inv
-        s1 = -(c01 * r0 + c11 * r1 + c21 * r2) * inv
-        s2 = -(c02 * r0 + c12 * r1 + c22 * r2) * inv
         if t2 < SERIES_ANGLE * SERIES_ANGLE:
             e = E0 + t2 * (E1 + t2 * (E2 + t2 * E3))
         else:
@@ -402,6 +390,51 @@ def mrp_request(cp, jo, cs, t, s0, s1, s2, r0, r1, r2, e0, e1, e2, w0, w1, w2, H
     return L0, L1, L2
 
 
+#: The relative miss of the right side's extrapolation below which :func:`forcing_guess` keeps the
+#: extrapolated guess: from a guess that close, the one Newton iteration a step takes anyway reaches
+#: the tolerance (quadratic convergence: 1e-16 relative), so the correction would only cost its solve
+#: (a smooth torque, such as the disturbances', changes every step and misses by far less).
+GUESS_GATE = 1e-8
+
+
+@jit(inline="always")
+def forcing_guess(q0, q1, q2, G, sub, changed, p0, p1, p2, a00, a01, a02, a10, a11, a12, a20, a21, a22):
+    """The guess ``q`` of substep ``sub`` (the extrapolation of its last solutions,
+    :func:`.stepping.predict_at`), moved by what the extrapolation of the right-hand side ``p`` misses
+    while the hub's forcing changes (``docs/gyrostat.md``, "The solver's guess").
+
+    ``changed``: the hub's forcing ``phi = tau - G u`` changed over the last three steps (a control
+    update; those of its values kept, ``G[0, 3, 1]``, compared) and the miss ``p - p_hat`` is above
+    :data:`GUESS_GATE` ``|p|``. Then the right side ``p`` has a kink the extrapolation of the solutions does not see; the
+    same extrapolation of the last right sides ``G[sub, 8:11]`` (``G[sub, 3, 2]`` of them valid) gives
+    ``p_hat``, and the guess adds ``M^-1 (p - p_hat)``, ``M = tr(A) I - A`` the equation's derivative at
+    ``F = I``. Otherwise (no torque, or one that did not change: every step of a free or coasting
+    body; or a torque that changes smoothly, as the disturbances do) the guess is the extrapolation,
+    bit for bit. The guess moves only the iteration count, never
+    the solution beyond the solver's tolerance."""
+    if not changed:
+        return q0, q1, q2
+    ng = G[sub, 3, 0]
+    npp = G[sub, 3, 2]
+    if ng >= 3.0 and npp >= 3.0:
+        e0 = p0 - (3.0 * (G[sub, 8, 0] - G[sub, 9, 0]) + G[sub, 10, 0])
+        e1 = p1 - (3.0 * (G[sub, 8, 1] - G[sub, 9, 1]) + G[sub, 10, 1])
+        e2 = p2 - (3.0 * (G[sub, 8, 2] - G[sub, 9, 2]) + G[sub, 10, 2])
+    elif ng >= 2.0 and npp >= 2.0:
+        e0 = p0 - (2.0 * G[sub, 8, 0] - G[sub, 9, 0])
+        e1 = p1 - (2.0 * G[sub, 8, 1] - G[sub, 9, 1])
+        e2 = p2 - (2.0 * G[sub, 8, 2] - G[sub, 9, 2])
+    else:
+        return q0, q1, q2
+    if e0 * e0 + e1 * e1 + e2 * e2 <= GUESS_GATE * GUESS_GATE * (p0 * p0 + p1 * p1 + p2 * p2):
+        return q0, q1, q2                        # a smooth change: the extrapolation is as good
+    tr = a00 + a11 + a22
+    x0, x1, x2, ok = cramer3(tr - a00, -a01, -a02, -a10, tr - a11, -a12, -a20, -a21, tr - a22, e0, e1, e2)
+    if not ok:
+        return q0, q1, q2
+    return q0 + x0, q1 + x1, q2 + x2
+
+
 @jit(inline="always")
 def gyro_advance(moment, up, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now, ta0, ta1, ta2, m0, m1, m2, tol,
                  max_iter):
@@ -427,6 +460,28 @@ def gyro_advance(moment, up, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now,
     its_k = 0
     rn_k = 0.0
     cum = 0.0
+    # the hub's forcing of this step, phi = tau (+ m) - G u (the wheels' reaction), against those of the
+    # last three steps in G[0, 5:8] (G[0, 3, 1] of them valid): while it changed, the guess of each
+    # substep adds what the extrapolation of its right side misses (:func:`forcing_guess`)
+    phi0 = ta0
+    phi1 = ta1
+    phi2 = ta2
+    if moment is not None:
+        phi0 += m0
+        phi1 += m1
+        phi2 += m2
+    for i in range(N):
+        phi0 -= axes[i, 0] * u_now[N + i]
+        phi1 -= axes[i, 1] * u_now[N + i]
+        phi2 -= axes[i, 2] * u_now[N + i]
+    nphi = G[0, 3, 1]
+    changed = False
+    if nphi >= 1.0:
+        changed = phi0 != G[0, 5, 0] or phi1 != G[0, 5, 1] or phi2 != G[0, 5, 2]
+    if nphi >= 2.0:
+        changed = changed or G[0, 5, 0] != G[0, 6, 0] or G[0, 5, 1] != G[0, 6, 1] or G[0, 5, 2] != G[0, 6, 2]
+    if nphi >= 3.0:
+        changed = changed or G[0, 6, 0] != G[0, 7, 0] or G[0, 6, 1] != G[0, 7, 1] or G[0, 6, 2] != G[0, 7, 2]
     for sub in range(s):
         hs = gam[sub] * h
         hh = 0.5 * hs
@@ -456,6 +511,8 @@ def gyro_advance(moment, up, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now,
         p1 = hs * (Pi[1] - g1) + hs * hh * f1
         p2 = hs * (Pi[2] - g2) + hs * hh * f2
         q0, q1, q2 = predict_at(G, sub)
+        q0, q1, q2 = forcing_guess(q0, q1, q2, G, sub, changed, p0, p1, p2, d00, a01, a02, a10, d11, a12, a20,
+                                   a21, d22)
         (x0, x1, x2, E00, E01, E02, E10, E11, E12, E20, E21, E22, its,
          rn, st) = solve_shifted(d00, a01, a02, a10, d11, a12, a20, a21, d22, p0, p1, p2, q0, q1, q2, tol,
                                  max_iter)
@@ -467,9 +524,9 @@ def gyro_advance(moment, up, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now,
         e0 = 0.0
         e1 = 0.0
         e2 = 0.0
+        cum += gam[sub]
         if moment is not None and st == OK:
             # the model's moment at the substep's end (R_k F, its time)
-            cum += gam[sub]
             t_end = t0 + (k + 1) * h if sub == s - 1 else t0 + k * h + cum * h
             for i in range(3):
                 Rs[i, 0], Rs[i, 1], Rs[i, 2] = rotated_row(R[i, 0], R[i, 1], R[i, 2], E00, E01, E02, E10, E11,
@@ -497,6 +554,14 @@ def gyro_advance(moment, up, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now,
         if rn > rn_k:
             rn_k = rn
         push_at(G, sub, x0, x1, x2)
+        for i in range(3):                       # the right sides of the last three steps
+            G[sub, 10, i] = G[sub, 9, i]
+            G[sub, 9, i] = G[sub, 8, i]
+        G[sub, 8, 0] = p0
+        G[sub, 8, 1] = p1
+        G[sub, 8, 2] = p2
+        if G[sub, 3, 2] < 3.0:
+            G[sub, 3, 2] += 1.0
         G[sub, 4, 0] = l0
         G[sub, 4, 1] = l1
         G[sub, 4, 2] = l2
@@ -510,6 +575,14 @@ def gyro_advance(moment, up, Rs, JdB, h, gam, t0, k, R, Pi, rho, G, axes, u_now,
             m0 = e0
             m1 = e1
             m2 = e2
+    for i in range(3):
+        G[0, 7, i] = G[0, 6, i]
+        G[0, 6, i] = G[0, 5, i]
+    G[0, 5, 0] = phi0
+    G[0, 5, 1] = phi1
+    G[0, 5, 2] = phi2
+    if nphi < 3.0:
+        G[0, 3, 1] = nphi + 1.0
     return OK, its_k, rn_k, it_sum, m0, m1, m2
 
 
@@ -518,7 +591,10 @@ def gyro_steps(moment, up, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp, cm
     """Steps ``k0 .. k0 + n - 1`` of the gyrostat in place on ``R``, ``Pi``, ``rho``, ``G``.
 
     Each step is the composition of substeps ``gam[i] h`` (``gam = [1]``: the second-order step;
-    a symmetric composition raises the order), ``G`` (s, 5, 3) one solver history per substep.
+    a symmetric composition raises the order), ``G`` (s, 11, 3) one solver history per substep (rows
+    0-4 as the rigid body's, :mod:`.stepping`; rows 8-10 its right sides of the last three steps,
+    ``G[i, 3, 2]`` of them valid) and, in ``G[0, 5:8]``, the hub's forcing of the last three steps
+    (``G[0, 3, 1]`` of them valid), for the solver's guess (:func:`forcing_guess`).
     The wheel torques (saturated command plus friction, from the state at the step's start) and
     ``tau`` are held over the whole step. The buffers start at step ``kb`` (a multiple of
     ``save_every``): sample ``j`` after step ``k`` with ``(k + 1 - kb) % save_every == 0`` is

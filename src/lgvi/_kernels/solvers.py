@@ -72,6 +72,27 @@ def expm1_entries(x, y, z, a, b):
 
 
 @jit(inline="always")
+def cramer3(m00, m01, m02, m10, m11, m12, m20, m21, m22, q0, q1, q2):
+    """``x = m^-1 q`` for a 3x3 ``m`` by Cramer's rule (cofactors, one division): ``(x0, x1, x2, ok)``,
+    ``ok`` False (and ``x`` zero) when the determinant is zero or not finite."""
+    c00 = m11 * m22 - m12 * m21
+    c01 = m12 * m20 - m10 * m22
+    c02 = m10 * m21 - m11 * m20
+    det = m00 * c00 + m01 * c01 + m02 * c02
+    if det == 0.0 or not math.isfinite(det):
+        return 0.0, 0.0, 0.0, False
+    inv = 1.0 / det
+    c10 = m02 * m21 - m01 * m22
+    c11 = m00 * m22 - m02 * m20
+    c12 = m01 * m20 - m00 * m21
+    c20 = m01 * m12 - m02 * m11
+    c21 = m02 * m10 - m00 * m12
+    c22 = m00 * m11 - m01 * m10
+    return ((c00 * q0 + c10 * q1 + c20 * q2) * inv, (c01 * q0 + c11 * q1 + c21 * q2) * inv,
+            (c02 * q0 + c12 * q1 + c22 * q2) * inv, True)
+
+
+@jit(inline="always")
 def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, tol, max_iter, alpha, hist,
                  eager=False):
     """Scalar core of every solver (no arrays touched but ``hist``): see the module docstring.

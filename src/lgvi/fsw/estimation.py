@@ -209,6 +209,7 @@ class MEKF(Component):
         if gyro_output not in ("rate", "mean"):
             raise ValueError(f"gyro_output must be 'rate' or 'mean' (the gyro's output), got {gyro_output!r}")
         self.gyro_output = gyro_output
+        self._quaternion0()                  # kept with the filter, so each run's copy of it has it
 
     @staticmethod
     def _check_star_tracker(st: StarTracker) -> None:
@@ -232,15 +233,30 @@ class MEKF(Component):
 
     def state0(self) -> np.ndarray:
         """The initial state: one row, or one row per member when ``R0`` or ``bias0`` has one per member."""
-        from scipy.spatial.transform import Rotation
-        q = Rotation.from_matrix(self.R0).as_quat()
-        q = np.where(q[..., 3:] < 0.0, -q, q)
+        q = self._quaternion0()
         B = max(q.shape[0] if q.ndim == 2 else 1, self.bias0.shape[0] if self.bias0.ndim == 2 else 1)
         tail = np.array([math.nan, 0.0, 0.0, 0.0, -math.inf, -math.inf, -math.inf])
         rows = np.concatenate([np.broadcast_to(q, (B, 4)), np.broadcast_to(self.bias0, (B, 3)),
                                np.broadcast_to(self.P0.ravel(), (B, 36)), np.broadcast_to(tail, (B, 7)),
                                np.zeros((B, _k.STATE_SIZE - 50))], axis=1)      # the kernel's work space
         return rows[0] if q.ndim == 1 and self.bias0.ndim == 1 else rows
+
+    def _quaternion0(self) -> np.ndarray:
+        """``R0``'s quaternion (scalar last, ``w >= 0``), by SciPy's ``Rotation.from_matrix``, kept
+        with the bytes of the ``R0`` it came from (computed at construction, so the copy of the filter
+        each run makes has it): SciPy's conversion costs some 0.2 ms a call, which a run of 20 000
+        steps would pay again at every ``lgvi.simulate`` with the same filter (0.01 us a step); a new
+        ``R0`` (the attribute reassigned or changed in place) is converted again."""
+        R0 = np.ascontiguousarray(self.R0, dtype=np.float64)
+        key = (R0.shape, R0.tobytes())
+        kept = getattr(self, "_q0", None)
+        if kept is None or kept[0] != key:
+            from scipy.spatial.transform import Rotation
+            q = Rotation.from_matrix(R0).as_quat()
+            q = np.where(q[..., 3:] < 0.0, -q, q)
+            q.flags.writeable = False
+            self._q0 = kept = (key, q)
+        return kept[1]
 
     def sizes(self) -> dict[str, int]:
         return {}

@@ -530,7 +530,7 @@ class GyrostatRun:
         self.u_now: np.ndarray = np.zeros(2 * n)
         self.comp: Composition = composition_for(order, composition)
         self.gam: np.ndarray = np.array(self.comp.coefficients)     # comp.arrays()[0], without the cumulative sums
-        self.G = np.zeros((len(self.gam), 5, 3))
+        self.G = np.zeros((len(self.gam), 11, 3))    # rows 5-10: the solver's guess (gyrostat_kernels.gyro_steps)
         guess, q, first = _cold_start(), self.Pi - a.T @ self.wheel_momentum, {}
         # the kernel's Python source on plain floats (J_B as a memoryview, lists): the same IEEE operations
         JB_view, q, h = memoryview(JB), q.tolist(), self.h
@@ -627,7 +627,15 @@ class GyrostatRun:
                                  "cannot be continued bit for bit; run it again from the start")
             load_controller_state(self.controller, saved)
         self.k = int(st["k"])
-        for name in ("R", "Pi", "wheel_momentum", "G", "cmd", "tau", "cs"):
+        G = np.asarray(st["G"], dtype=np.float64)
+        if G.ndim == 3 and G.shape[1] == 5 and G.shape[0] == self.G.shape[0]:
+            # a state saved before the solver's guess kept the forcing and the right sides (G rows 5-10):
+            # none valid, the guess starts again from the extrapolation alone (the solution within the
+            # tolerance)
+            G = np.concatenate([G, np.zeros((G.shape[0], 6, 3))], axis=1)
+            G[:, 3, 1:] = 0.0
+        self.G[...] = G
+        for name in ("R", "Pi", "wheel_momentum", "cmd", "tau", "cs"):
             getattr(self, name)[...] = np.asarray(st[name], dtype=np.float64)
         if "counts" in st:
             self.counts[...] = np.asarray(st["counts"], dtype=np.int64)
