@@ -420,8 +420,6 @@ class LoopRun(GyrostatRun):
             nr.append(len(reads))
             p = self._member_row(c.params(), kind.name, "params()", ctx.member, self._members)
             s = self._member_row(c.state0(), kind.name, "state0()", ctx.member, self._members)
-            if np.any(np.isnan(p)):             # inf is a value some rows hold (no saturation, no ceiling)
-                raise ValueError(f"{kind.name}: params() holds NaN")
             P.append(p)
             S.append(s)
             po.append(po[-1] + len(p))
@@ -441,6 +439,9 @@ class LoopRun(GyrostatRun):
         self.nr, self.po, self.so, self.wo = (np.array(nr, i64), np.array(po, i64), np.array(so, i64),
                                               np.array(wo, i64))
         self.P = np.concatenate(P) if P else np.zeros(0)
+        if np.isnan(self.P).any():              # inf is a value some rows hold (no saturation, no ceiling)
+            bad = next(i for i, p in enumerate(P) if np.isnan(p).any())
+            raise ValueError(f"{self.names[bad]}: params() holds NaN")
         self.S = np.concatenate(S) if S else np.zeros(0)
         self.W, self.WS = np.array(W, i64), np.array(WS, i64)
         self.bus: np.ndarray = np.zeros(max(nbus, 1))
