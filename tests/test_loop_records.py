@@ -161,6 +161,30 @@ def test_records_faster_than_the_grid_hold_every_value():
     assert np.array_equal(grid.signal_data, coarse.signal_data[:, :grid.signal_data.shape[1]])
 
 
+def test_records_of_interleaved_periods_in_chunks_hold_every_value(tmp_path):
+    """Records named in an order that interleaves their writers' periods (the control law every 3
+    steps, the gyro every 2, the guidance every 10) on a grid of 4 steps that 3 and 10 do not divide,
+    run in one call and as a stream of chunks of 7 steps (a chunk boundary inside an entry and between
+    writer steps): each record is bit for bit that of the run saved at every step, where the grid
+    itself holds every value (the loop visits the rows by period group: ``_fast_layout``)."""
+    from lgvi.io.streaming import read_stream, stream_system
+
+    order = ["sigma_BR", "gyro_B", "R_ref", "torque_request_B", "wheel_command", "omega_BR_B"]
+    sat, fsw = _sensed(record=order)
+    kw = dict(omega0=[0.01, -0.02, 0.015], h=0.1, steps=84)
+    fine = lgvi.simulate(sat, np.eye(3), fsw=fsw, save_every=1, **kw)
+    coarse = lgvi.simulate(sat, np.eye(3), fsw=fsw, save_every=4, **kw)
+    periods = [row[3] for row in coarse.meta["signal_fast"]]
+    assert [row[0] for row in coarse.meta["signal_fast"]] == ["sigma_BR", "gyro_B", "R_ref", "torque_request_B",
+                                                               "wheel_command", "omega_BR_B"]
+    assert periods == [3, 2, 10, 3, 10, 3]          # interleaved; 3 and 10 do not divide the grid of 4
+    _same_records(coarse.records, fine.records)
+    stream_system(tmp_path / "s", "spacecraft", sat, np.eye(3), fsw=fsw, chunk_steps=7, save_every=4, **kw)
+    back = read_stream(tmp_path / "s")
+    assert np.array_equal(back.signal_data, coarse.signal_data, equal_nan=True)
+    _same_records(back.records, fine.records)
+
+
 def test_the_gravity_gradient_is_recorded_by_name():
     """tau_gravity_gradient_B is the variational moment at each step's start: 3 mu / r^5 (r_B x J r_B)
     of the saved attitude and the orbit's position (the tabulated orbit: relative error about 4e-11)."""

@@ -443,3 +443,18 @@ def test_rows_per_member_and_sizes():
     assert CoarseSunSensors(np.eye(3)).sizes() == {"css": 3} and StarTracker(sigma_cross=0, sigma_about=0).sizes() == {}
     with pytest.raises(TypeError, match=r"seed must be an integer"):
         Gyro(rate=0.1, seed=1.5)
+
+
+def test_a_parameter_row_holding_nan_is_refused_naming_its_component():
+    """The loop checks the parameter rows once, together, and names the component whose row holds a
+    NaN (here the second sensor: a star tracker whose earth_radius was set to NaN after validation)."""
+    import lgvi
+    from lgvi.spacecraft import Spacecraft
+
+    st = StarTracker(rate=0.5, sigma_cross=5e-5, sigma_about=4e-4, seed=7)
+    st.earth_radius = math.nan
+    sat = Spacecraft([0.18, 0.14, 0.06], sensors=[Gyro(rate=0.5, arw=1e-4, seed=7), st])
+    with pytest.raises(ValueError, match=r"^star_tracker: params\(\) holds NaN"):
+        lgvi.simulate(sat, np.eye(3), omega0=[0.01, 0.0, 0.0], h=0.1, steps=10)
+    st.earth_radius = 6378137.0
+    assert lgvi.simulate(sat, np.eye(3), omega0=[0.01, 0.0, 0.0], h=0.1, steps=10).records["st_q"].values.shape == (2, 4)

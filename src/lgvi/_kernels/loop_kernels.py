@@ -20,8 +20,9 @@ At step ``k`` (time ``t = t0 + k h``) the loop
 4. records: the solver's and the wheels' records as the gyrostat does, and the bus entries
    ``sig_idx`` at each record entry's first step into ``sig_out``; a signal whose writer runs off
    the record grid (faster than it, or at a period that is not a multiple of it) has a row
-   ``(period, bus offset, size, column, slots, next, slot)`` of ``sig_fast`` (the last two the
-   kernel's counters): at each of its writer's steps
+   ``(period, bus offset, size, column, slots, next, slot, end)`` of ``sig_fast`` (``next`` and
+   ``slot`` the kernel's counters, kept per group of rows of one period, ``end`` the group's end):
+   at each of its writer's steps
    the loop writes it into slot ``j`` of its columns of the entry's row (the ``j``-th writer step
    of the entry, NaN for a slot the entry has no step for), so ``sig_out`` holds every value it
    wrote (:func:`record_fast`); the gravity gradient's moment at the step's start (``gg``) is on the bus at
@@ -172,7 +173,9 @@ def gravity_gradient_slot(io):
 def record_fast_start(k0, c_rec, sig_fast):
     """Before step ``k0`` (its place ``c_rec`` in its record entry): each row's next writer step
     ``sig_fast[f, 5]`` (the first multiple of its period ``p`` from ``k0`` on) and its slot in the
-    entry ``sig_fast[f, 6]`` (the writer steps of the entry before it)."""
+    entry ``sig_fast[f, 6]`` (the writer steps of the entry before it). Rows of one period have the
+    same counters (they depend on ``p``, ``k0`` and ``c_rec`` only): :func:`record_fast` keeps them
+    on the period group's first row."""
     ke = k0 - c_rec
     for f in range(sig_fast.shape[0]):
         p = sig_fast[f, 0]
@@ -184,16 +187,18 @@ def record_fast_start(k0, c_rec, sig_fast):
 @jit(inline="always")
 def record_fast(k, c_rec, e, per, bus, sig_fast, sig_out):
     """Step 4's records off the grid at step ``k`` (``c_rec`` its place in entry ``e`` of ``per``
-    steps): each row ``(p, offset, size, column, slots, next, slot)`` of ``sig_fast`` due at ``k``
-    (``k == next``) goes into slot ``slot`` of its columns, then ``next += p``, ``slot += 1``; at
-    the entry's first step the slots restart at 0, and a row whose period does not divide ``per``
-    has them set to NaN first (a slot with no writer step in the entry stays NaN). No division
-    a step: the counters start at :func:`record_fast_start`. Returns the earliest ``next`` of the
-    rows, so the loop calls it again only at that step or at an entry's first step.
+    steps). The rows ``(p, offset, size, column, slots, next, slot, end)`` of ``sig_fast`` come
+    in groups of one period ``p`` (rows ``f .. end - 1``, ``end`` in each row of the group; the
+    Python side sorts them, :func:`lgvi.systems.spacecraft._fast_layout`), whose counters are the
+    group's first row's: when ``k == next``, each row of the group goes into slot ``slot`` of its
+    columns, then ``next += p``, ``slot += 1``, once for the group. At the entry's first step the
+    slots restart at 0, and a row whose period does not divide ``per`` has them set to NaN first (a
+    slot with no writer step in the entry stays NaN). No division a step: the counters start at
+    :func:`record_fast_start`. Returns the earliest ``next`` of the groups, so the loop calls it
+    again only at that step or at an entry's first step.
 
-    A row's destination is computed once (its first column in the entry's row ``sig_out[e]``, a
-    1-D view) and its ``size`` values copied from the bus in one contiguous run; the earliest
-    ``next`` is found in the same pass (:func:`fast_next` is the same minimum)."""
+    A group not due costs two loads and a comparison; a due row's ``size`` values are copied from
+    the bus in one contiguous run into the entry's row ``sig_out[e]`` (a 1-D view)."""
     nf = sig_fast.shape[0]
     if c_rec == 0:
         for f in range(nf):
@@ -203,30 +208,36 @@ def record_fast(k, c_rec, e, per, bus, sig_fast, sig_out):
                     sig_out[e, sig_fast[f, 3] + i] = math.nan
     out = sig_out[e]
     m = -1
-    for f in range(nf):
-        row = sig_fast[f]
-        nx = row[5]
+    f = 0
+    while f < nf:
+        end = sig_fast[f, 7]
+        nx = sig_fast[f, 5]
         if k == nx:
-            size = row[2]
-            d = row[3] + row[6] * size
-            o = row[1]
-            for i in range(size):
-                out[d + i] = bus[o + i]
-            nx = k + row[0]
-            row[5] = nx
-            row[6] += 1
+            slot = sig_fast[f, 6]
+            for r in range(f, end):
+                size = sig_fast[r, 2]
+                d = sig_fast[r, 3] + slot * size
+                o = sig_fast[r, 1]
+                for i in range(size):
+                    out[d + i] = bus[o + i]
+            nx = k + sig_fast[f, 0]
+            sig_fast[f, 5] = nx
+            sig_fast[f, 6] = slot + 1
         if m < 0 or nx < m:
             m = nx
+        f = end
     return m
 
 
 @jit(inline="always")
 def fast_next(sig_fast):
-    """The earliest next writer step ``sig_fast[f, 5]`` of the rows (``-1`` with no row)."""
+    """The earliest next writer step ``sig_fast[f, 5]`` of the period groups (``-1`` with no row)."""
     m = -1
-    for f in range(sig_fast.shape[0]):
+    f = 0
+    while f < sig_fast.shape[0]:
         if m < 0 or sig_fast[f, 5] < m:
             m = sig_fast[f, 5]
+        f = sig_fast[f, 7]
     return m
 
 

@@ -105,7 +105,11 @@ class Sensor(Component):
     def _row(self, rest: np.ndarray) -> np.ndarray:
         rest = np.asarray(rest, dtype=np.float64)
         if self.seed.ndim == 0:
-            return np.concatenate([[float(self.seed), float(self.stream)], rest])
+            row = np.empty(2 + rest.size)
+            row[0] = float(self.seed)
+            row[1] = float(self.stream)
+            row[2:] = rest
+            return row
         rows = np.empty((self.seed.size, 2 + rest.size))
         rows[:, 0] = self.seed
         rows[:, 1] = self.stream
@@ -203,11 +207,12 @@ class Gyro(Sensor):
 
     def params(self) -> np.ndarray:
         bound = np.full(3, math.inf) if self.walk_bound is None else self.walk_bound
-        return self._row(np.concatenate([[self.rate, self.arw, self.rrw], self.misalignment.ravel(), self.bias,
-                                         self.scale, [self.saturation, self.lsb,
-                                                      float(self.rounding == "nearest"),
-                                                      float(self.output == "mean")], bound,
-                                         [self.arw / math.sqrt(self.rate), self.rrw * math.sqrt(self.rate)]]))
+        return self._row(np.array([self.rate, self.arw, self.rrw, *self.misalignment.ravel().tolist(),
+                                   *self.bias.tolist(), *self.scale.tolist(), self.saturation, self.lsb,
+                                   float(self.rounding == "nearest"), float(self.output == "mean"),
+                                   *np.asarray(bound, dtype=np.float64).tolist(),
+                                   self.arw / math.sqrt(self.rate), self.rrw * math.sqrt(self.rate)],
+                                  dtype=np.float64))
 
     def state0(self) -> np.ndarray:
         return np.zeros(9)
@@ -255,8 +260,9 @@ class StarTracker(Sensor):
     def params(self) -> np.ndarray:
         cos_sun = 2.0 if self.sun_exclusion is None else math.cos(self.sun_exclusion)
         earth = -1.0 if self.earth_exclusion is None else self.earth_exclusion
-        return self._row(np.concatenate([[self.sigma_cross, self.sigma_about], self.case.ravel(),
-                                         [cos_sun, earth, self.earth_radius, math.cos(earth), math.sin(earth)]]))
+        return self._row(np.array([self.sigma_cross, self.sigma_about, *self.case.ravel().tolist(),
+                                   cos_sun, earth, self.earth_radius, math.cos(earth), math.sin(earth)],
+                                  dtype=np.float64))
 
 
 class Magnetometer(Sensor):

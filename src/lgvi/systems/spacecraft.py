@@ -185,12 +185,15 @@ def _signal_periods(run: Any, comps: list[Any]) -> dict[str, int]:
 
 
 def _fast_layout(run: Any) -> tuple[np.ndarray, list[list[Any]]]:
-    """The kernel's ``sig_fast`` rows ``(period, bus offset, size, column, slots, 0, 0)`` (the last
-    two: the kernel's counters, the next writer step and the slot, set at each call) and
-    ``meta["signal_fast"]`` (``[name, column, size, period, slots]``): the recorded signals whose
+    """The kernel's ``sig_fast`` rows ``(period, bus offset, size, column, slots, 0, 0, end)`` (the
+    sixth and seventh: the kernel's counters, the next writer step and the slot, set at each call)
+    and ``meta["signal_fast"]`` (``[name, column, size, period, slots]``): the recorded signals whose
     writer runs off the record grid (a period that is not a multiple of the grid's), each with
     ``ceil(grid / period)`` slots a record entry after the grid's columns
-    (:mod:`lgvi.systems.loop_records`); none with ``FlightSoftware(record_rate="grid")``."""
+    (:mod:`lgvi.systems.loop_records`); none with ``FlightSoftware(record_rate="grid")``. The
+    kernel's rows are grouped by period (a stable sort: the columns stay those of ``meta``), ``end``
+    the row after the last of its group, so a due step visits only the groups' first rows and the
+    rows due (:func:`lgvi._kernels.loop_kernels.record_fast`)."""
     per = 1 if run.full else run.save_every
     rows: list[list[int]] = []
     meta: list[list[Any]] = []
@@ -201,10 +204,13 @@ def _fast_layout(run: Any) -> tuple[np.ndarray, list[list[Any]]]:
             if p % per == 0:
                 continue                         # the grid holds every value it writes
             slots = -(-per // p)
-            rows.append([p, run.offsets[name], size, col, slots, 0, 0])
+            rows.append([p, run.offsets[name], size, col, slots, 0, 0, 0])
             meta.append([name, col, size, p, slots])
             col += size * slots
-    return np.array(rows, np.int64).reshape(len(rows), 7), meta
+    rows.sort(key=lambda r: r[0])
+    for f in range(len(rows) - 1, -1, -1):
+        rows[f][7] = rows[f + 1][7] if f + 1 < len(rows) and rows[f + 1][0] == rows[f][0] else f + 1
+    return np.array(rows, np.int64).reshape(len(rows), 8), meta
 
 
 def signal_width(meta: dict[str, Any]) -> int:
@@ -414,8 +420,6 @@ class LoopRun(GyrostatRun):
             nr.append(len(reads))
             p = self._member_row(c.params(), kind.name, "params()", ctx.member, self._members)
             s = self._member_row(c.state0(), kind.name, "state0()", ctx.member, self._members)
-            if np.any(np.isnan(p)):             # inf is a value some rows hold (no saturation, no ceiling)
-                raise ValueError(f"{kind.name}: params() holds NaN")
             P.append(p)
             S.append(s)
             po.append(po[-1] + len(p))
@@ -435,6 +439,9 @@ class LoopRun(GyrostatRun):
         self.nr, self.po, self.so, self.wo = (np.array(nr, i64), np.array(po, i64), np.array(so, i64),
                                               np.array(wo, i64))
         self.P = np.concatenate(P) if P else np.zeros(0)
+        if np.isnan(self.P).any():              # inf is a value some rows hold (no saturation, no ceiling)
+            bad = next(i for i, p in enumerate(P) if np.isnan(p).any())
+            raise ValueError(f"{self.names[bad]}: params() holds NaN")
         self.S = np.concatenate(S) if S else np.zeros(0)
         self.W, self.WS = np.array(W, i64), np.array(WS, i64)
         self.bus: np.ndarray = np.zeros(max(nbus, 1))
