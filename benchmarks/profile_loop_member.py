@@ -122,9 +122,7 @@ def main() -> None:
     run()                                       # load or compile the loop
     print(f"{write_perf_map()} compiled functions named in /tmp/perf-{os.getpid()}.map")
     sensed, est, plain = bench._members()
-    fsw = bench.FlightSoftware(estimator=est if args.member == "sensors" else None,
-                               guidance=bench.InertialPointing(bench.TARGET),
-                               control=bench.MRPControl(K=0.004, P=0.04), actuators=bench.RWMotorTorque(), rate=1.0)
+    fsw = bench._fsw(est if args.member == "sensors" else None)
     t = time.process_time()
     for _ in range(args.repeat):
         bench.lgvi.simulate(sensed if args.member == "sensors" else plain, np.eye(3), omega0=bench.OMEGA0, fsw=fsw,

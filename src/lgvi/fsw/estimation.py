@@ -235,20 +235,15 @@ class MEKF(Component):
     def state0(self) -> np.ndarray:
         """The initial state: one row, or one row per member when ``R0`` or ``bias0`` has one per member."""
         q = self._quaternion0()
-        if q.ndim == 1 and self.bias0.ndim == 1:       # one row, filled in place (what the stack below gives)
-            row = np.zeros(_k.STATE_SIZE)
-            row[0:4] = q
-            row[4:7] = self.bias0
-            row[7:43] = self.P0.ravel()
-            row[43] = math.nan
-            row[47:50] = -math.inf
-            return row
-        B = max(q.shape[0] if q.ndim == 2 else 1, self.bias0.shape[0] if self.bias0.ndim == 2 else 1)
-        tail = np.array([math.nan, 0.0, 0.0, 0.0, -math.inf, -math.inf, -math.inf])
-        rows = np.concatenate([np.broadcast_to(q, (B, 4)), np.broadcast_to(self.bias0, (B, 3)),
-                               np.broadcast_to(self.P0.ravel(), (B, 36)), np.broadcast_to(tail, (B, 7)),
-                               np.zeros((B, _k.STATE_SIZE - 50))], axis=1)      # the kernel's work space
-        return rows[0] if q.ndim == 1 and self.bias0.ndim == 1 else rows
+        one = q.ndim == 1 and self.bias0.ndim == 1
+        B = 1 if one else max(q.shape[0] if q.ndim == 2 else 1, self.bias0.shape[0] if self.bias0.ndim == 2 else 1)
+        rows = np.zeros((B, _k.STATE_SIZE))          # entries 44-46 and the kernel's work space (50 on): 0
+        rows[:, 0:4] = q
+        rows[:, 4:7] = self.bias0
+        rows[:, 7:43] = self.P0.ravel()
+        rows[:, 43] = math.nan
+        rows[:, 47:50] = -math.inf
+        return rows[0] if one else rows
 
     def _quaternion0(self) -> np.ndarray:
         """``R0``'s quaternion (scalar last, ``w >= 0``), by SciPy's ``Rotation.from_matrix``, kept
