@@ -47,7 +47,7 @@ import numpy as np
 
 from .._jit import jit, jit_parallel
 from .codes import OK
-from .solvers import CHEBYSHEV_MIN, initial_guess
+from .solvers import CHEBYSHEV_MIN, cofactors3, initial_guess
 from .stepping import free_steps, lgvi_step, run_chunk_forced
 
 
@@ -264,17 +264,8 @@ def lockstep_cayley(X, h, tol, alpha):
         m20 = -p1 + g2 * p0 + 2.0 * d02
         m21 = p0 + g2 * p1 + 2.0 * d12
         m22 = pf + g2 * p2 - 2.0 * j22
-        c00 = m11 * m22 - m12 * m21
-        c01 = m12 * m20 - m10 * m22
-        c02 = m10 * m21 - m11 * m20
-        det = m00 * c00 + m01 * c01 + m02 * c02
+        c00, c01, c02, c10, c11, c12, c20, c21, c22, det = cofactors3(m00, m01, m02, m10, m11, m12, m20, m21, m22)
         inv = 1.0 / det
-        c10 = m02 * m21 - m01 * m22
-        c11 = m00 * m22 - m02 * m20
-        c12 = m01 * m20 - m00 * m21
-        c20 = m01 * m12 - m02 * m11
-        c21 = m02 * m10 - m00 * m12
-        c22 = m00 * m11 - m01 * m10
         s0 = (c00 * q0 + c10 * q1 + c20 * q2) * inv
         s1 = (c01 * q0 + c11 * q1 + c21 * q2) * inv
         s2 = (c02 * q0 + c12 * q1 + c22 * q2) * inv

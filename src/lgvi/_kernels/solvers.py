@@ -72,22 +72,31 @@ def expm1_entries(x, y, z, a, b):
 
 
 @jit(inline="always")
-def cramer3(m00, m01, m02, m10, m11, m12, m20, m21, m22, q0, q1, q2):
-    """``x = m^-1 q`` for a 3x3 ``m`` by Cramer's rule (cofactors, one division): ``(x0, x1, x2, ok)``,
-    ``ok`` False (and ``x`` zero) when the determinant is zero or not finite."""
+def cofactors3(m00, m01, m02, m10, m11, m12, m20, m21, m22):
+    """The cofactors of a 3x3 ``m`` (``c[i][j]``, so that ``m^-1 = c^T / det``) and its determinant
+    along the first row: ``(c00, c01, c02, c10, c11, c12, c20, c21, c22, det)``. Cramer's rule of
+    :func:`cramer3`, of the solvers' Newton steps and of the lockstep Cayley step (which reuse the
+    cofactors for Chebyshev's correction)."""
     c00 = m11 * m22 - m12 * m21
     c01 = m12 * m20 - m10 * m22
     c02 = m10 * m21 - m11 * m20
-    det = m00 * c00 + m01 * c01 + m02 * c02
-    if det == 0.0 or not math.isfinite(det):
-        return 0.0, 0.0, 0.0, False
-    inv = 1.0 / det
     c10 = m02 * m21 - m01 * m22
     c11 = m00 * m22 - m02 * m20
     c12 = m01 * m20 - m00 * m21
     c20 = m01 * m12 - m02 * m11
     c21 = m02 * m10 - m00 * m12
     c22 = m00 * m11 - m01 * m10
+    return c00, c01, c02, c10, c11, c12, c20, c21, c22, m00 * c00 + m01 * c01 + m02 * c02
+
+
+@jit(inline="always")
+def cramer3(m00, m01, m02, m10, m11, m12, m20, m21, m22, q0, q1, q2):
+    """``x = m^-1 q`` for a 3x3 ``m`` by Cramer's rule (cofactors, one division): ``(x0, x1, x2, ok)``,
+    ``ok`` False (and ``x`` zero) when the determinant is zero or not finite."""
+    c00, c01, c02, c10, c11, c12, c20, c21, c22, det = cofactors3(m00, m01, m02, m10, m11, m12, m20, m21, m22)
+    if det == 0.0 or not math.isfinite(det):
+        return 0.0, 0.0, 0.0, False
+    inv = 1.0 / det
     return ((c00 * q0 + c10 * q1 + c20 * q2) * inv, (c01 * q0 + c11 * q1 + c21 * q2) * inv,
             (c02 * q0 + c12 * q1 + c22 * q2) * inv, True)
 
@@ -223,19 +232,10 @@ def solve_scalar(method, d00, d01, d02, d11, d12, d22, p0, p1, p2, g0, g1, g2, t
             q1 = -r1
             q2 = -r2
         # Cramer's rule for m x = q
-        c00 = m11 * m22 - m12 * m21
-        c01 = m12 * m20 - m10 * m22
-        c02 = m10 * m21 - m11 * m20
-        det = m00 * c00 + m01 * c01 + m02 * c02
+        c00, c01, c02, c10, c11, c12, c20, c21, c22, det = cofactors3(m00, m01, m02, m10, m11, m12, m20, m21, m22)
         if det == 0.0 or not math.isfinite(det):
             return g0, g1, g2, E00, E01, E02, E10, E11, E12, E20, E21, E22, it, math.sqrt(rn2), SINGULAR
         inv = 1.0 / det
-        c10 = m02 * m21 - m01 * m22
-        c11 = m00 * m22 - m02 * m20
-        c12 = m01 * m20 - m00 * m21
-        c20 = m01 * m12 - m02 * m11
-        c21 = m02 * m10 - m00 * m12
-        c22 = m00 * m11 - m01 * m10
         s0 = (c00 * q0 + c10 * q1 + c20 * q2) * inv
         s1 = (c01 * q0 + c11 * q1 + c21 * q2) * inv
         s2 = (c02 * q0 + c12 * q1 + c22 * q2) * inv
