@@ -71,7 +71,7 @@ SPACECRAFT = register(System(
     doc="a spacecraft with its flight software in the compiled loop: the gyrostat's state and the bus signals",
     state=GYROSTAT.state,
     records=GYROSTAT.records + (Field("signals", (0,), np.float64, "the recorded bus signals at each entry's first "
-                                                                    "step"),),
+                                                                    "step", filled=True),),
     kernels=lambda: {"run_loop": _loop_kernel()},
     results=GYROSTAT.results + ("signals",),
     scenario_section="spacecraft",
@@ -330,8 +330,10 @@ class LoopRun(GyrostatRun):
         n = self.N
         self.system: System = dataclasses.replace(
             SPACECRAFT, state=self.system.state,
+            # filled: the loop writes each complete entry's every column (the grid's at its first step, each
+            # off-grid slot at its writer's step or NaN first: record_fast), so it is allocated uninitialised
             records=self.system.records + (Field("signals", (signal_width(self.meta),), np.float64,
-                                                 SPACECRAFT.records[-1].doc),))
+                                                 SPACECRAFT.records[-1].doc, filled=True),))
 
     # -------------------------------------------------------------- the bus
     def _size(self, name: str, comp: Any, own: dict[str, Any]) -> int:
