@@ -193,7 +193,8 @@ def _fast_layout(run: Any) -> tuple[np.ndarray, list[list[Any]]]:
     (:mod:`lgvi.systems.loop_records`); none with ``FlightSoftware(record_rate="grid")``. The
     kernel's rows are grouped by period (a stable sort: the columns stay those of ``meta``), ``end``
     the row after the last of its group, so a due step visits only the groups' first rows and the
-    rows due (:func:`lgvi._kernels.loop_kernels.record_fast`)."""
+    rows due (:func:`lgvi._kernels.loop_kernels.record_fast`); a signal of size 0 (nothing to copy) has
+    no row."""
     per = 1 if run.full else run.save_every
     rows: list[list[int]] = []
     meta: list[list[Any]] = []
@@ -204,7 +205,8 @@ def _fast_layout(run: Any) -> tuple[np.ndarray, list[list[Any]]]:
             if p % per == 0:
                 continue                         # the grid holds every value it writes
             slots = -(-per // p)
-            rows.append([p, run.offsets[name], size, col, slots, 0, 0, 0])
+            if size > 0:                         # the kernel copies at least one value a row
+                rows.append([p, run.offsets[name], size, col, slots, 0, 0, 0])
             meta.append([name, col, size, p, slots])
             col += size * slots
     rows.sort(key=lambda r: r[0])
