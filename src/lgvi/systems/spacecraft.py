@@ -502,6 +502,8 @@ class LoopRun(GyrostatRun):
     def _member_row(rows: Any, name: str, what: str, member: int | None, members: int | None) -> np.ndarray:
         """A component's row for this run: ``rows`` itself (1-D), or row ``member`` of a (B, n) array
         (one row per member of an ensemble; a lone run takes it only when B is 1)."""
+        if type(rows) is np.ndarray and rows.ndim == 1 and rows.dtype == np.float64 and rows.flags.c_contiguous:
+            return rows                          # what the checks below return for it, without them
         a = np.asarray(rows, dtype=np.float64)
         if a.ndim == 2:
             if member is None:
