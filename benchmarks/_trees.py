@@ -4,14 +4,21 @@
 ``PYTHONPATH`` and returns the JSON object the child prints on its last line. When that object
 names the imported package's ``file``, it is checked to lie in ``src``, so a comparison never
 measures the installed tree twice.
+
+``other_kernels(src)``: another tree's compiled kernels in this process, beside this tree's (a
+before/after in one process, free of the process-to-process changes of the machine's speed).
 """
 
 from __future__ import annotations
 
+import atexit
+import importlib
 import json
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 from typing import Any, Callable
 
 
@@ -55,3 +62,19 @@ def alternate(old_src: str, new_src: str, rounds: int, measure: Callable[[str], 
         for src in ((old_src, new_src) if r % 2 == 0 else (new_src, old_src)):
             runs[src].append(measure(src))
     return runs
+
+
+def other_kernels(src: str) -> str:
+    """Another tree's ``lgvi/_jit.py`` and ``lgvi/_kernels/`` (``src`` the folder holding ``lgvi/``)
+    copied into a temporary package ``lgvi_other`` (the kernels import only ``_jit`` and each other,
+    relatively) put on ``sys.path``: import ``lgvi_other._kernels.<module>`` for its kernels (compiled
+    there, apart from this tree's). Returns the package's name."""
+    tmp = tempfile.mkdtemp(prefix="lgvi_other_")
+    atexit.register(shutil.rmtree, tmp, True)
+    pkg = os.path.join(tmp, "lgvi_other")
+    shutil.copytree(os.path.join(src, "lgvi", "_kernels"), os.path.join(pkg, "_kernels"))
+    shutil.copy(os.path.join(src, "lgvi", "_jit.py"), pkg)
+    open(os.path.join(pkg, "__init__.py"), "w").close()
+    sys.path.insert(0, tmp)
+    importlib.invalidate_caches()
+    return "lgvi_other"

@@ -16,32 +16,23 @@ largest difference).
 from __future__ import annotations
 
 import argparse
-import atexit
 import importlib
 import os
-import shutil
 import statistics
 import sys
-import tempfile
 import time
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
+from _trees import other_kernels  # noqa: E402  (benchmarks/_trees.py)
 from bench_estimation import make_loop, rows  # noqa: E402
 
 
 def other_dispatch(src):
     """``estimator_dispatch`` of the tree whose ``src`` folder is given, as ``lgvi_other``."""
-    tmp = tempfile.mkdtemp(prefix="lgvi_other_")
-    atexit.register(shutil.rmtree, tmp, True)
-    pkg = os.path.join(tmp, "lgvi_other")
-    shutil.copytree(os.path.join(src, "lgvi", "_kernels"), os.path.join(pkg, "_kernels"))
-    shutil.copy(os.path.join(src, "lgvi", "_jit.py"), pkg)
-    open(os.path.join(pkg, "__init__.py"), "w").close()
-    sys.path.insert(0, tmp)
-    return importlib.import_module("lgvi_other._kernels.estimation_components").estimator_dispatch
+    return importlib.import_module(other_kernels(src) + "._kernels.estimation_components").estimator_dispatch
 
 
 def main() -> None:

@@ -283,3 +283,54 @@ def test_a_stream_saved_with_another_component_state_layout_refuses_to_resume(tm
                                          r"a stream resumes only"):
         resume(dict(saved["state"], bus=saved["state"]["bus"][:-1]))
     resume(saved["state"])                                  # the stream as saved resumes
+
+
+SENTINEL = -1.2345e300
+
+
+def test_the_records_are_allocated_uninitialised_and_the_loop_writes_every_value(monkeypatch):
+    """``signals`` is allocated uninitialised (``Field.filled``): the loop writes every value of each
+    complete entry (the grid's columns at its first step; each off-grid slot at its writer's step, or
+    NaN first where the period does not divide the grid). With the buffer filled with a sentinel, none
+    survives, and the records are bit for bit those of a zeroed buffer: writers off the grid whose
+    periods divide it (2 in 4) and do not (3 in 4, 2 and 3 in 5), the grid only, a Python
+    controller's chunks of 3 steps across entries of 4, and a run a filter stops (its partial result)."""
+    from lgvi.control import RotationPD
+    from lgvi.fsw import MEKF
+    from lgvi.systems import Field
+
+    kw = dict(omega0=[0.01, -0.02, 0.015], h=0.1, steps=60)
+    pd = dict(controller=RotationPD(0.004, 0.04, target=R_TARGET), control_period=0.3, rate=1.0)
+    sat, fsw = _sensed()
+    runs = {"writers off the grid of 5": (sat, fsw, 5), "of 4": (sat, fsw, 4),
+            "the grid only": (sat, _sensed(record_rate="grid")[1], 5),
+            "a Python controller": (sat, FlightSoftware(guidance=InertialPointing(R_TARGET), **pd), 4)}
+    zeroed = {name: lgvi.simulate(s, np.eye(3), fsw=f, save_every=se, **kw) for name, (s, f, se) in runs.items()}
+
+    def diverging(max_variance):
+        """The MEKF with no update: its attitude variance grows by arw^2 * 0.2 s a call past max_variance."""
+        return FlightSoftware(estimator=MEKF(rate=0.2, arw=1e-2, rrw=1e-5, P0=[1e-6] * 6, max_variance=max_variance),
+                              guidance=InertialPointing(R_TARGET), control=MRPControl(K=0.004, P=0.04, rate=0.3),
+                              actuators=RWMotorTorque(), rate=1.0)
+
+    whole = lgvi.simulate(sat, np.eye(3), fsw=diverging(1e6), save_every=4, **kw)
+    filled = []
+
+    def sentinel(self, n):
+        if self.name == "signals":
+            filled.append(self.shape)
+        return np.full((n,) + self.shape, SENTINEL, dtype=self.dtype)
+
+    monkeypatch.setattr(Field, "empty", sentinel)
+    for name, (s, f, se) in runs.items():
+        tr = lgvi.simulate(s, np.eye(3), fsw=f, save_every=se, **kw)
+        assert not np.any(tr.signal_data == SENTINEL), name
+        assert np.array_equal(tr.signal_data, zeroed[name].signal_data, equal_nan=True), name
+        assert np.array_equal(tr.R, zeroed[name].R), name
+    assert len(filled) == len(runs) and all(shape[0] > 0 for shape in filled)     # the sentinel was there
+    with pytest.raises(lgvi.ComponentError, match="mekf") as err:
+        lgvi.simulate(sat, np.eye(3), fsw=diverging(3e-4), save_every=4, **kw)
+    part = err.value.trajectory
+    assert 0 < part.signal_data.shape[0] < whole.signal_data.shape[0]
+    assert not np.any(part.signal_data == SENTINEL)
+    assert np.array_equal(part.signal_data, whole.signal_data[:part.signal_data.shape[0]], equal_nan=True)

@@ -267,7 +267,7 @@ class MemorySink:
         for buf, f in zip(self.state, state):
             buf[0] = getattr(run, f.name)
         self.per = per = record_every(run)
-        self.records: list[Any] = [f.zeros(run.steps // per) for f in records]
+        self.records: list[Any] = [f.record(run.steps // per) for f in records]
 
     def buffers(self, k0: int, n: int) -> list[np.ndarray]:
         j0 = k0 // self.se + 1

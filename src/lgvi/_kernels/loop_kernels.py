@@ -197,8 +197,9 @@ def record_fast(k, c_rec, e, per, bus, sig_fast, sig_out):
     :func:`record_fast_start`. Returns the earliest ``next`` of the groups, so the loop calls it
     again only at that step or at an entry's first step.
 
-    A group not due costs two loads and a comparison; a due row's ``size`` values are copied from
-    the bus in one contiguous run into the entry's row ``sig_out[e]`` (a 1-D view)."""
+    A group not due costs two loads and a comparison; a due row's ``size`` values (at least one: a
+    signal has a size) are copied from the bus in one contiguous run into the entry's row
+    ``sig_out[e]`` (a 1-D view)."""
     nf = sig_fast.shape[0]
     if c_rec == 0:
         for f in range(nf):
@@ -218,8 +219,16 @@ def record_fast(k, c_rec, e, per, bus, sig_fast, sig_out):
                 size = sig_fast[r, 2]
                 d = sig_fast[r, 3] + slot * size
                 o = sig_fast[r, 1]
-                for i in range(size):
-                    out[d + i] = bus[o + i]
+                # the first three values by branches, the rest (a quaternion's fourth, a matrix) by a
+                # loop: a signal has 1 to 9 values, and a loop over so few, vectorised with its checks,
+                # cost a fifth more (docs/performance.md, round 9)
+                out[d] = bus[o]
+                if size > 1:
+                    out[d + 1] = bus[o + 1]
+                    if size > 2:
+                        out[d + 2] = bus[o + 2]
+                        for i in range(3, size):
+                            out[d + i] = bus[o + i]
             nx = k + sig_fast[f, 0]
             sig_fast[f, 5] = nx
             sig_fast[f, 6] = slot + 1

@@ -133,7 +133,7 @@ def _star_tracker_noise(case: np.ndarray, sx: float, sz: float) -> list[float]:
     """The star tracker's noise covariance in the body frame, ``R_m = C diag(sx^2, sx^2, sz^2) C^T``
     (row-major), the kernel's row entries 20..28: the same IEEE operations, in the same order, as the
     kernel computed it at each update before it moved here (so the same numbers)."""
-    c = [float(x) for x in np.asarray(case, dtype=np.float64).ravel()]
+    c = np.asarray(case, dtype=np.float64).ravel().tolist()
     vx = sx * sx
     vz = sz * sz
     return [vx * (c[3 * i] * c[3 * j] + c[3 * i + 1] * c[3 * j + 1]) + vz * c[3 * i + 2] * c[3 * j + 2]

@@ -102,14 +102,19 @@ class Sensor(Component):
             raise ValueError(f"stream must be an integer in [0, 2^53), got {describe(stream)}")
         self.stream: int = int(stream)
 
-    def _row(self, rest: np.ndarray) -> np.ndarray:
-        rest = np.asarray(rest, dtype=np.float64)
+    def _row(self, rest: Any) -> np.ndarray:
+        """``(seed, stream, *rest)``: one row, or one per member's seed; ``rest`` a list of floats (one
+        array made of them) or an array."""
         if self.seed.ndim == 0:
+            if isinstance(rest, list):
+                return np.array([float(self.seed), float(self.stream), *rest], dtype=np.float64)
+            rest = np.asarray(rest, dtype=np.float64)
             row = np.empty(2 + rest.size)
             row[0] = float(self.seed)
             row[1] = float(self.stream)
             row[2:] = rest
             return row
+        rest = np.asarray(rest, dtype=np.float64)
         rows = np.empty((self.seed.size, 2 + rest.size))
         rows[:, 0] = self.seed
         rows[:, 1] = self.stream
@@ -206,13 +211,12 @@ class Gyro(Sensor):
             self.walk_bound = wb
 
     def params(self) -> np.ndarray:
-        bound = np.full(3, math.inf) if self.walk_bound is None else self.walk_bound
-        return self._row(np.array([self.rate, self.arw, self.rrw, *self.misalignment.ravel().tolist(),
-                                   *self.bias.tolist(), *self.scale.tolist(), self.saturation, self.lsb,
-                                   float(self.rounding == "nearest"), float(self.output == "mean"),
-                                   *np.asarray(bound, dtype=np.float64).tolist(),
-                                   self.arw / math.sqrt(self.rate), self.rrw * math.sqrt(self.rate)],
-                                  dtype=np.float64))
+        wb = self.walk_bound
+        bound = [math.inf] * 3 if wb is None else np.asarray(wb, dtype=np.float64).tolist()
+        return self._row([self.rate, self.arw, self.rrw, *self.misalignment.ravel().tolist(), *self.bias.tolist(),
+                          *self.scale.tolist(), self.saturation, self.lsb, float(self.rounding == "nearest"),
+                          float(self.output == "mean"), *bound, self.arw / math.sqrt(self.rate),
+                          self.rrw * math.sqrt(self.rate)])
 
     def state0(self) -> np.ndarray:
         return np.zeros(9)
@@ -260,9 +264,8 @@ class StarTracker(Sensor):
     def params(self) -> np.ndarray:
         cos_sun = 2.0 if self.sun_exclusion is None else math.cos(self.sun_exclusion)
         earth = -1.0 if self.earth_exclusion is None else self.earth_exclusion
-        return self._row(np.array([self.sigma_cross, self.sigma_about, *self.case.ravel().tolist(),
-                                   cos_sun, earth, self.earth_radius, math.cos(earth), math.sin(earth)],
-                                  dtype=np.float64))
+        return self._row([self.sigma_cross, self.sigma_about, *self.case.ravel().tolist(), cos_sun, earth,
+                          self.earth_radius, math.cos(earth), math.sin(earth)])
 
 
 class Magnetometer(Sensor):

@@ -26,12 +26,17 @@ from ..errors import CollisionError, ConvergenceError
 
 @dataclass(frozen=True)
 class Field:
-    """One array of a system's state or record: ``shape`` per sample (or per step) and dtype."""
+    """One array of a system's state or record: ``shape`` per sample (or per step) and dtype.
+
+    ``filled``: a record whose every value of each complete entry the kernel writes (the loop's
+    ``signals``): the sinks allocate it uninitialised (:meth:`record`), sparing the zeroing of a
+    buffer that is written over anyway."""
 
     name: str
     shape: tuple[int, ...]
     dtype: Any = np.float64
     doc: str = ""
+    filled: bool = False
 
     def empty(self, n: int) -> np.ndarray:
         """``(n, *shape)`` uninitialised (state) buffer."""
@@ -40,6 +45,10 @@ class Field:
     def zeros(self, n: int) -> np.ndarray:
         """``(n, *shape)`` zeroed (record) buffer."""
         return np.zeros((n,) + self.shape, dtype=self.dtype)
+
+    def record(self, n: int) -> np.ndarray:
+        """``(n, *shape)`` record buffer: uninitialised when the kernel fills it (``filled``), else zeroed."""
+        return self.empty(n) if self.filled else self.zeros(n)
 
 
 @dataclass(frozen=True)

@@ -71,7 +71,7 @@ SPACECRAFT = register(System(
     doc="a spacecraft with its flight software in the compiled loop: the gyrostat's state and the bus signals",
     state=GYROSTAT.state,
     records=GYROSTAT.records + (Field("signals", (0,), np.float64, "the recorded bus signals at each entry's first "
-                                                                    "step"),),
+                                                                    "step", filled=True),),
     kernels=lambda: {"run_loop": _loop_kernel()},
     results=GYROSTAT.results + ("signals",),
     scenario_section="spacecraft",
@@ -193,7 +193,8 @@ def _fast_layout(run: Any) -> tuple[np.ndarray, list[list[Any]]]:
     (:mod:`lgvi.systems.loop_records`); none with ``FlightSoftware(record_rate="grid")``. The
     kernel's rows are grouped by period (a stable sort: the columns stay those of ``meta``), ``end``
     the row after the last of its group, so a due step visits only the groups' first rows and the
-    rows due (:func:`lgvi._kernels.loop_kernels.record_fast`)."""
+    rows due (:func:`lgvi._kernels.loop_kernels.record_fast`); a signal of size 0 (nothing to copy) has
+    no row."""
     per = 1 if run.full else run.save_every
     rows: list[list[int]] = []
     meta: list[list[Any]] = []
@@ -204,7 +205,8 @@ def _fast_layout(run: Any) -> tuple[np.ndarray, list[list[Any]]]:
             if p % per == 0:
                 continue                         # the grid holds every value it writes
             slots = -(-per // p)
-            rows.append([p, run.offsets[name], size, col, slots, 0, 0, 0])
+            if size > 0:                         # the kernel copies at least one value a row
+                rows.append([p, run.offsets[name], size, col, slots, 0, 0, 0])
             meta.append([name, col, size, p, slots])
             col += size * slots
     rows.sort(key=lambda r: r[0])
@@ -330,8 +332,10 @@ class LoopRun(GyrostatRun):
         n = self.N
         self.system: System = dataclasses.replace(
             SPACECRAFT, state=self.system.state,
+            # filled: the loop writes each complete entry's every column (the grid's at its first step, each
+            # off-grid slot at its writer's step or NaN first: record_fast), so it is allocated uninitialised
             records=self.system.records + (Field("signals", (signal_width(self.meta),), np.float64,
-                                                 SPACECRAFT.records[-1].doc),))
+                                                 SPACECRAFT.records[-1].doc, filled=True),))
 
     # -------------------------------------------------------------- the bus
     def _size(self, name: str, comp: Any, own: dict[str, Any]) -> int:
@@ -498,6 +502,8 @@ class LoopRun(GyrostatRun):
     def _member_row(rows: Any, name: str, what: str, member: int | None, members: int | None) -> np.ndarray:
         """A component's row for this run: ``rows`` itself (1-D), or row ``member`` of a (B, n) array
         (one row per member of an ensemble; a lone run takes it only when B is 1)."""
+        if type(rows) is np.ndarray and rows.ndim == 1 and rows.dtype == np.float64 and rows.flags.c_contiguous:
+            return rows                          # what the checks below return for it, without them
         a = np.asarray(rows, dtype=np.float64)
         if a.ndim == 2:
             if member is None:
