@@ -242,25 +242,47 @@ def fast_next(sig_fast):
 
 
 @jit(_nrt=False)
+def environment_call(code, t, bus, p, s, w):
+    """An environment kind (family 1: the sun, the shadow, the atmospheres, then the orbit and the
+    field from code 190): a small function of its own, compiled once, which :func:`run_one` calls.
+
+    Not part of :func:`dispatch`: a large function pays, at each call, the zeroing of the return
+    slots of every call inside it (Numba writes them at its entry) and keeps Numba's helpers
+    (``int``, ``min``, ``max``) as calls, where a function of one family has a short entry and the
+    helpers inlined (``docs/performance.md``, round 9)."""
+    if code < 190:
+        return environment_dispatch(code, t, bus, p, s, w)
+    return orbit_field_dispatch(code, t, bus, p, s, w)
+
+
+@jit(_nrt=False)
+def disturbance_call(code, t, bus, p, s, w):
+    """A disturbance kind (family 2: facet drag, facet SRP, residual dipole), a small function of its
+    own as :func:`environment_call`. Each kind tests every value it writes (its torque, the force,
+    ``tau_dist_B`` after its addition) and returns 1 when one is not finite, so :func:`run_one` needs
+    no :func:`writes_finite` after it."""
+    return disturbance_dispatch(code, t, bus, p, s, w)
+
+
+@jit(_nrt=False)
 def dispatch(user, code, t, bus, p, s, w):
     """One component: a user's (code 0) or a built-in kind by its family (``code // 100``).
 
     A function of its own (compiled once, cached), not inlined: :func:`run_one` is inlined at three
     places of the loop (the components due, those of a new mode, the step's end), and each inlined
-    copy of this function held the families inlined into it (the environment's and the
-    disturbances' kinds, ``inline="always"`` in their files). Compiled without Numba's reference
+    copy of this function held the families inlined into it. Compiled without Numba's reference
     counting, as the loop is, so the call passes its four arrays as they are (no reference counts:
-    the 70 ns a call that ``environment_dispatch``'s inlining avoided). ``docs/performance.md``
-    (the test suite's time) has the cold compilation and the step measured both ways."""
+    the 70 ns a call that ``environment_dispatch``'s inlining avoided). :func:`run_one` calls the
+    families other than the user's and the mode rules' directly (:func:`environment_call`,
+    :func:`disturbance_call`, the flight-side dispatchers), so this function is the road of those
+    two only; the others are here for a caller that has only a code."""
     if code == 0:
         return user(t, bus, p, s, w)
     fam = code // 100
     if fam == 1:
-        if code < 190:
-            return environment_dispatch(code, t, bus, p, s, w)
-        return orbit_field_dispatch(code, t, bus, p, s, w)
+        return environment_call(code, t, bus, p, s, w)
     if fam == 2:
-        return disturbance_dispatch(code, t, bus, p, s, w)
+        return disturbance_call(code, t, bus, p, s, w)
     if fam == 3:
         return sensor_dispatch(code, t, bus, p, s, w)
     if fam == 4:
@@ -317,10 +339,14 @@ def run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
     p = P[po[c]:po[c + 1]]
     s = S[so[c]:so[c + 1]]
     w = W[wo[c]:wo[c + 1]]
-    # the flight-side families straight to their dispatchers (one call, not two: the arguments, four
-    # arrays, are passed once); the user's, the environment's and the disturbances' through dispatch
+    # every family but the user's and the mode rules' straight to its function (one call, not two: the
+    # arguments, four arrays, are passed once); the disturbances test their own writes (disturbance_call)
     fam = code // 100
-    if fam == 3:
+    if fam == 2:
+        st = disturbance_call(code, t, bus, p, s, w)
+    elif fam == 1:
+        st = environment_call(code, t, bus, p, s, w)
+    elif fam == 3:
         st = sensor_dispatch(code, t, bus, p, s, w)
     elif fam == 4:
         st = estimator_dispatch(code, t, bus, p, s, w)
@@ -332,7 +358,7 @@ def run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
         st = actuator_dispatch(code, t, bus, p, s, w)
     else:
         st = dispatch(user, code, t, bus, p, s, w)
-    if st == OK and not writes_finite(bus, W, WS, wo[c] + nr[c], wo[c + 1]):
+    if st == OK and fam != 2 and not writes_finite(bus, W, WS, wo[c] + nr[c], wo[c + 1]):
         st = 1
     if st != OK:
         fail[0] = c
@@ -451,8 +477,8 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
     for k in range(k0, k0 + n):
         t = t0 + k * h
         w0, w1, w2 = body_rate(JBi, Pi, axes, rho)
-        # 1. the truth
-        if oR >= 0:
+        # 1. the truth (R already on the bus when the previous step's end ran the lookahead)
+        if oR >= 0 and (L == 0 or k == k0):
             for a in range(3):
                 for b in range(3):
                     bus[oR + 3 * a + b] = R[a, b]
