@@ -268,9 +268,9 @@ def disturbance_call(code, t, bus, p, s, w):
 def dispatch(user, code, t, bus, p, s, w):
     """One component: a user's (code 0) or a built-in kind by its family (``code // 100``).
 
-    A function of its own (compiled once, cached), not inlined: :func:`run_one` is inlined at three
-    places of the loop (the components due, those of a new mode, the step's end), and each inlined
-    copy of this function held the families inlined into it. Compiled without Numba's reference
+    A function of its own (compiled once, cached), not inlined: the loop inlines :func:`run_one`
+    (the components due) and :func:`run_early` (the step's end), and each inlined copy of this
+    function held the families inlined into it. Compiled without Numba's reference
     counting, as the loop is, so the call passes its four arrays as they are (no reference counts:
     the 70 ns a call that ``environment_dispatch``'s inlining avoided). :func:`run_one` calls the
     families other than the user's and the mode rules' directly (:func:`environment_call`,
@@ -366,6 +366,42 @@ def run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
     return st
 
 
+@jit(_nrt=False)
+def run_one_call(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
+    """:func:`run_one` as a function of its own, for the rare road of a mode switch (the new mode's
+    components before the switching one, :func:`run_components`): one copy of :func:`run_one`
+    fewer inlined in the loop, which shortens the loop's cold compilation."""
+    return run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail)
+
+
+@jit(inline="always")
+def run_early(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
+    """:func:`run_one` for component ``c`` of the lookahead (:func:`run_lookahead`: built-in
+    environment and disturbance kinds), with the disturbance kinds inlined: this is the one place
+    of the loop where they are (the lookahead runs every disturbance at each step's end), so the
+    torques that run every step pay no call, no arguments on the stack and no slice passed whole;
+    everywhere else they go through :func:`disturbance_call`. Each disturbance kind tests its own
+    writes; the others are tested by :func:`writes_finite` as in :func:`run_one`."""
+    code = codes[c]
+    p = P[po[c]:po[c + 1]]
+    s = S[so[c]:so[c + 1]]
+    w = W[wo[c]:wo[c + 1]]
+    fam = code // 100
+    if fam == 2:
+        st = disturbance_dispatch(code, t, bus, p, s, w)
+    else:
+        if fam == 1:
+            st = environment_call(code, t, bus, p, s, w)
+        else:
+            st = dispatch(user, code, t, bus, p, s, w)
+        if st == OK and not writes_finite(bus, W, WS, wo[c] + nr[c], wo[c + 1]):
+            st = 1
+    if st != OK:
+        fail[0] = c
+        fail[1] = st
+    return st
+
+
 @jit(inline="always")
 def run_components(user, t, k, bus, io, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail, first):
     """Step 2 of the loop at step ``k`` from component ``first`` on (those before it ran at the end
@@ -392,7 +428,7 @@ def run_components(user, t, k, bus, io, codes, nxt, mask, nr, P, po, S, so, W, w
                         clear_writes(bus, W, WS, wo[d] + nr[d], wo[d + 1])
                 for d in range(c):
                     if nxt[d] == k and ((mask[d] >> mode) & 1) == 0 and ((mask[d] >> new) & 1) == 1:
-                        if run_one(user, d, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
+                        if run_one_call(user, d, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
                             return COMPONENT_FAILED
                 mode = new
     return OK
@@ -412,7 +448,7 @@ def run_lookahead(user, t, k, L, R, bus, io, codes, nxt, mask, nr, P, po, S, so,
     sum_held_disturbances(k, bus, io, nxt, nr, W, wo)
     for c in range(L):
         if nxt[c] == k:
-            if run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
+            if run_early(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
                 return COMPONENT_FAILED
     return OK
 
