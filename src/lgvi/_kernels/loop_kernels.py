@@ -246,10 +246,10 @@ def environment_call(code, t, bus, p, s, w):
     """An environment kind (family 1: the sun, the shadow, the atmospheres, then the orbit and the
     field from code 190): a small function of its own, compiled once, which :func:`run_one` calls.
 
-    Not part of :func:`dispatch`: a large function pays, at each call, the zeroing of the return
-    slots of every call inside it (Numba writes them at its entry) and keeps Numba's helpers
-    (``int``, ``min``, ``max``) as calls, where a function of one family has a short entry and the
-    helpers inlined (``docs/performance.md``, round 9)."""
+    Not part of :func:`dispatch`: a large function pays, at each call, the zeroing at its entry of
+    the return slots of every call inside it (Numba stores them there whichever branch runs: 20 in
+    ``dispatch`` when it held these kinds), where a function of one family has a short entry
+    (``docs/performance.md``, round 9)."""
     if code < 190:
         return environment_dispatch(code, t, bus, p, s, w)
     return orbit_field_dispatch(code, t, bus, p, s, w)
@@ -332,13 +332,26 @@ def clear_writes(bus, W, WS, a, b):
 
 
 @jit(inline="always")
+def component_rows(c, P, po, S, so, W, wo):
+    """Component ``c``'s parameter row, state and bus offsets: its slices of ``P``, ``S``, ``W``."""
+    return P[po[c]:po[c + 1]], S[so[c]:so[c + 1]], W[wo[c]:wo[c + 1]]
+
+
+@jit(inline="always")
+def marked(c, st, fail):
+    """``st``, with ``fail = [c, st]`` set when it is not 0 (the component that stopped the loop)."""
+    if st != OK:
+        fail[0] = c
+        fail[1] = st
+    return st
+
+
+@jit(inline="always")
 def run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
     """Component ``c`` at ``t``; its status (1 when it wrote a value that is not finite), and
     ``fail`` set when it is not 0."""
     code = codes[c]
-    p = P[po[c]:po[c + 1]]
-    s = S[so[c]:so[c + 1]]
-    w = W[wo[c]:wo[c + 1]]
+    p, s, w = component_rows(c, P, po, S, so, W, wo)
     # every family but the user's and the mode rules' straight to its function (one call, not two: the
     # arguments, four arrays, are passed once); the disturbances test their own writes (disturbance_call)
     fam = code // 100
@@ -360,10 +373,7 @@ def run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
         st = dispatch(user, code, t, bus, p, s, w)
     if st == OK and fam != 2 and not writes_finite(bus, W, WS, wo[c] + nr[c], wo[c + 1]):
         st = 1
-    if st != OK:
-        fail[0] = c
-        fail[1] = st
-    return st
+    return marked(c, st, fail)
 
 
 @jit(_nrt=False)
@@ -383,9 +393,7 @@ def run_early(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
     everywhere else they go through :func:`disturbance_call`. Each disturbance kind tests its own
     writes; the others are tested by :func:`writes_finite` as in :func:`run_one`."""
     code = codes[c]
-    p = P[po[c]:po[c + 1]]
-    s = S[so[c]:so[c + 1]]
-    w = W[wo[c]:wo[c + 1]]
+    p, s, w = component_rows(c, P, po, S, so, W, wo)
     fam = code // 100
     if fam == 2:
         st = disturbance_dispatch(code, t, bus, p, s, w)
@@ -396,10 +404,7 @@ def run_early(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
             st = dispatch(user, code, t, bus, p, s, w)
         if st == OK and not writes_finite(bus, W, WS, wo[c] + nr[c], wo[c + 1]):
             st = 1
-    if st != OK:
-        fail[0] = c
-        fail[1] = st
-    return st
+    return marked(c, st, fail)
 
 
 @jit(inline="always")
