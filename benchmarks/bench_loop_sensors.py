@@ -6,6 +6,7 @@ Usage::
     python benchmarks/bench_loop_sensors.py --quick    # 2000 steps, 3 rounds (checks it runs)
     python benchmarks/bench_loop_sensors.py --steps 100000 --rounds 9 --accuracy   # the figures of docs/performance.md
     python benchmarks/bench_loop_sensors.py --member --steps 50000 --rounds 9       # the two members only
+    python benchmarks/bench_loop_sensors.py --floor --steps 50000 --rounds 9        # what each disturbance costs a step
 
 Cases (h = 0.1 s, the 6U of issue 25: inertia diag(0.18, 0.14, 0.06) kg m^2, four pyramid wheels,
 MRP feedback at 1 Hz to a fixed target, motor torques by ``RWMotorTorque``):
@@ -51,6 +52,9 @@ MRP feedback at 1 Hz to a fixed target, motor torques by ``RWMotorTorque``):
 * ``all dist., GNC rates, grid``: the GNC rates with the records on the grid. The goal of issue 26
   part 5 is read both ways: (a) the whole step with every disturbance over the gyrostat step, (b)
   what the disturbances add, ``(case - the loop, no component)``, over the gyrostat step;
+* ``--goal``: only the goal's cases and what they are read against; ``--floor``: those and the GNC
+  rates on the grid without one item at a time (facet drag, facet SRP, residual dipole, gravity
+  gradient, the three torques, every disturbance), printed as what each item costs a step;
 * ``calibration``: a pure-Python loop timed in each round beside the cases (the machine's own speed
   in that round: a round on a slowed vCPU shows in it);
 * ``--member``: only ``sensors + MEKF`` and ``true-state feedback``, and each again with no records
@@ -164,6 +168,8 @@ def member_cases(steps):
 #: The cases of issue 26 part 5's goal, read (a) the case / gyrostat step and (b) (case - the loop,
 #: no component) / gyrostat step.
 GOAL = ("all disturbances", "all dist., records on grid", "all dist., GNC rates", "all dist., GNC rates, grid")
+#: What the goal's two readings divide by and subtract (``--goal`` runs these and GOAL only).
+GOAL_BASE = ("gyrostat step", "the loop, no component", "calibration (Python loop)")
 
 
 def calibration():
@@ -223,6 +229,29 @@ def cases(steps, components=True, overhead=False):
     return out
 
 
+#: ``--floor``: the GNC rates with the records on the grid without these kinds; the difference from
+#: ``all dist., GNC rates, grid`` is what they cost a step.
+FLOOR = {"facet drag": ("facet_drag",), "facet SRP": ("facet_srp",), "residual dipole": ("residual_dipole",),
+         "gravity gradient": ("orbit_gravity_gradient",),
+         "drag, SRP, dipole": ("facet_drag", "facet_srp", "residual_dipole"),
+         "every disturbance": ("facet_drag", "facet_srp", "residual_dipole", "orbit_gravity_gradient")}
+
+
+def floor_cases(steps):
+    """``--floor``'s runs: ``GNC grid without <item>`` for each item of :data:`FLOOR`."""
+    d = _basilisk_6u()[1]
+    from scipy.spatial.transform import Rotation
+
+    R6 = Rotation.from_mrp(d["sigma0"]).as_matrix()
+    kw = dict(h=H, steps=steps, save_every=steps)
+    out = {}
+    for item, drop in FLOOR.items():
+        sc, _ = six_u(tuple(k for k in ADDED if k not in drop), env_rate=1.0, rates=GNC)
+        out[f"GNC grid without {item}"] = (lambda sc: lambda: lgvi.simulate(sc, R6, omega0=d["omega0"],
+                                                                            fsw=_records("grid"), **kw))(sc)
+    return out
+
+
 def _records(rate):
     """No flight software, the records on the grid (``"grid"``) or none (``None``)."""
     return FlightSoftware(components=[], record_rate="grid") if rate else FlightSoftware(components=[], record=[])
@@ -277,13 +306,24 @@ def main() -> None:
     ap.add_argument("--no-components", action="store_true", help="without the rows that add one component at a time")
     ap.add_argument("--overhead", action="store_true", help="also 1 and 5 residual dipoles: one component's cost")
     ap.add_argument("--member", action="store_true", help="only the sensors + MEKF and true-state members")
+    ap.add_argument("--goal", action="store_true", help="only the cases of issue 26 part 5's goal (GOAL, GOAL_BASE)")
+    ap.add_argument("--floor", action="store_true",
+                    help="the goal's cases and the GNC rates on the grid without one item at a time (FLOOR)")
     ap.add_argument("--steps", type=int, default=20000, help="steps a run (default 20000)")
     ap.add_argument("--rounds", type=int, default=7, help="rounds (default 7)")
     args = ap.parse_args()
     steps, rounds = (2000, 3) if args.quick else (args.steps, args.rounds)
     runs = (member_cases(steps) if args.member
             else cases(steps, components=not args.no_components, overhead=args.overhead))
-    its = {name: f().meta["solver_summary"] for name, f in runs.items()}     # compile or load, once
+    if args.goal or args.floor:
+        runs = {name: f for name, f in runs.items() if name in GOAL + GOAL_BASE}
+    if args.floor:
+        runs.update(floor_cases(steps))
+    its = {}
+    for name, f in runs.items():                # compile or load, once (the calibration returns a number)
+        out = f()
+        if hasattr(out, "meta"):
+            its[name] = out.meta["solver_summary"]
     per_step = {name: [] for name in runs}
     for _ in range(rounds):
         for name, f in runs.items():
@@ -292,6 +332,8 @@ def main() -> None:
             per_step[name].append((time.process_time() - t) / steps)
 
     def ratio(a, b):
+        if a not in per_step or b not in per_step:
+            return []                           # a case --goal leaves out
         return [x / y for x, y in zip(per_step[a], per_step[b])]
 
     if args.member:
@@ -327,25 +369,38 @@ def main() -> None:
         ratios["orbit only / 6U gyrostat step"] = ratio("orbit only", "6U gyrostat step")
         ratios["orbit, IGRF-13 field / orbit only"] = ratio("orbit, IGRF-13 field", "orbit only")
     print(f"{steps} steps of h = {H} s a run, {rounds} rounds, CPU time, medians (cases alternating)")
-    print(f"{'case':28s} {'us/step':>9s} {'added':>9s}")
+    print(f"{'case':36s} {'us/step':>9s} {'added':>9s}")
     prev = None
     for name, v in per_step.items():
         if name.startswith("calibration"):
             continue
         med = statistics.median(v) * 1e6
         added = f"{med - prev:9.3f}" if name.startswith("+ ") and prev is not None else ""
-        print(f"{name:28s} {med:9.3f} {added:>9s}")
+        print(f"{name:36s} {med:9.3f} {added:>9s}")
         if name == "orbit only" or name.startswith("+ "):
             prev = med
-    if args.overhead:
+    if "orbit, field, 5 dipoles" in per_step:
         one = [(a - b) / 4.0 * 1e6 for a, b in zip(per_step["orbit, field, 5 dipoles"], per_step["orbit, field, 1 dipole"])]
         print(f"one more component (a residual dipole): {statistics.median(one):.3f} us/step (min {min(one):.3f}, "
               f"max {max(one):.3f})")
+    if args.floor:
+        full = statistics.median(per_step["all dist., GNC rates, grid"])
+        gyro = statistics.median(per_step["gyrostat step"])
+        print("what each item costs a step at the GNC rates on the grid (the case less the case without it):")
+        for item in FLOOR:
+            v = statistics.median(per_step[f"GNC grid without {item}"])
+            print(f"  {item:20s} {(full - v) * 1e9:7.1f} ns  {(full - v) / gyro:5.2f} gyrostat steps")
+        v = statistics.median(per_step["GNC grid without every disturbance"])
+        loop = statistics.median(per_step["the loop, no component"])
+        print(f"  {'the environment':20s} {(v - loop) * 1e9:7.1f} ns  {(v - loop) / gyro:5.2f} gyrostat steps "
+              "(orbit, field, shadow, atmosphere at 1 s, sun at 60 s: the case without every disturbance less the loop)")
     cal = per_step.get("calibration (Python loop)")
     if cal:
         print("calibration (Python loop) per round, ms: " + " ".join(f"{x * steps * 1e3:.1f}" for x in cal))
     print(f"{'ratio':58s} {'median':>7s} {'min':>7s} {'max':>7s}")
     for name, v in ratios.items():
+        if not v:
+            continue
         print(f"{name:58s} {statistics.median(v):7.2f} {min(v):7.2f} {max(v):7.2f}")
     if args.accuracy:
         accuracy()

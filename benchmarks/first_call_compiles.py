@@ -21,6 +21,7 @@ case in fresh processes with an empty ``NUMBA_CACHE_DIR`` each, the two trees al
 each tree's runs, their medians and the ratio new/old::
 
     python benchmarks/first_call_compiles.py --compare /tmp/base/src src --rounds 3 simulate-sum ensemble-model
+    python benchmarks/first_call_compiles.py --compare /tmp/base/src src --rounds 3 loop-disturbances
 
 The ``*-compiled`` cases run a user's :class:`lgvi.torques.Compiled` model. Run twice with one
 ``NUMBA_CACHE_DIR`` (the third line above), the second process shows what every later process
@@ -115,6 +116,18 @@ CASES = {
     "loop-builtin": "lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(guidance=InertialPointing(target), **control), **kw)",
     "loop-user": "lgvi.simulate(sc, np.eye(3), fsw=FlightSoftware(guidance=mine, **control), **kw)",
 }
+#: the tumbling 6U under every disturbance at a GNC engineer's rates, the records on the grid
+#: (``bench_loop_sensors.py``'s ``all dist., GNC rates, grid``: issue 26 part 5's case)
+DISTURBANCES = """
+sys.path.insert(0, HERE)
+import bench_loop_sensors as bls
+from scipy.spatial.transform import Rotation
+gnc, d6 = bls.six_u(bls.ADDED, env_rate=1.0, rates=bls.GNC)
+R6 = Rotation.from_mrp(d6["sigma0"]).as_matrix()
+grid = bls._records("grid")
+"""
+CASES["loop-disturbances"] = ("lgvi.simulate(gnc, R6, omega0=d6['omega0'], fsw=grid, h=0.1, steps=100, "
+                              "save_every=100)")
 PASSES = ("inline_inlinables", "nopython_type_inference", "native_lowering", "native_parfor_lowering")
 
 
@@ -172,9 +185,9 @@ def main(argv: list[str] | None = None) -> int:
             compiled.append(ev.data["dispatcher"])
 
     event.register("numba:compile", Listener())
-    namespace: dict = {}
-    exec(SETUP + (LOOP if args.case.startswith("loop") else "") + (COMPILED if args.case.endswith("compiled") else ""),
-         namespace)
+    namespace: dict = {"sys": sys, "HERE": os.path.dirname(os.path.abspath(__file__))}
+    exec(SETUP + (LOOP if args.case.startswith("loop") else "") + (COMPILED if args.case.endswith("compiled") else "")
+         + (DISTURBANCES if args.case == "loop-disturbances" else ""), namespace)
     c0, w0 = time.process_time(), time.perf_counter()
     exec(CASES[args.case], namespace)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0

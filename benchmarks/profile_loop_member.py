@@ -6,6 +6,7 @@ Usage::
     perf report -i member.data --sort sym --stdio | head -40
     perf record -o plain.data python benchmarks/profile_loop_member.py true-state --steps 2000000
     perf record -o member.data python benchmarks/profile_loop_member.py sensors --steps 20000 --repeat 100
+    perf record -o gnc.data python benchmarks/profile_loop_member.py gnc-grid --steps 20000 --repeat 100 --keep /tmp/objs
 
 The member is ``bench_loop_sensors.py``'s (``sensors``: a gyro, a star tracker and the MEKF at 2 Hz,
 the controller on the estimate; ``true-state``: the controller on the truth). Numba's compiled code
@@ -78,9 +79,14 @@ def _short(name: str) -> str:
     return (name[:name.find("_ZN")] + ".".join(parts)) if parts else name
 
 
-def write_perf_map() -> int:
-    """``/tmp/perf-<pid>.map`` with every function of the compiled libraries kept; their count."""
+def write_perf_map(keep: str | None = None) -> int:
+    """``/tmp/perf-<pid>.map`` with every function of the compiled libraries kept; their count. With
+    ``keep`` (a folder), each library's object file is also written there as ``lib<i>.o`` with its
+    load address in ``bases.txt`` (``<i> <base, hex>``), so that a sample's address less the base
+    is an offset ``objdump -d -l`` shows (line numbers when the kernels were compiled with
+    ``NUMBA_DEBUGINFO=1`` into a private ``NUMBA_CACHE_DIR``)."""
     lines = []
+    bases = []
     with tempfile.TemporaryDirectory() as tmp:
         for i, (lib, obj) in enumerate(_OBJECTS):
             path = os.path.join(tmp, f"lib{i}.o")
@@ -103,30 +109,54 @@ def write_perf_map() -> int:
                     break
             if base is None:
                 continue
+            if keep:
+                os.makedirs(keep, exist_ok=True)
+                with open(os.path.join(keep, f"lib{i}.o"), "wb") as fh:
+                    fh.write(obj)
+                bases.append(f"{i} {base:x}")
             for off, size, name in funcs:
                 lines.append(f"{base + off:x} {max(size, 1):x} {_short(name)}")
     with open(f"/tmp/perf-{os.getpid()}.map", "w") as fh:
         fh.write("\n".join(lines) + "\n")
+    if keep:
+        with open(os.path.join(keep, "bases.txt"), "w") as fh:
+            fh.write("\n".join(bases) + "\n")
     return len(lines)
+
+
+def _case(name: str, steps: int):
+    """The run of ``name``: a member of :func:`bench.member_cases`, or ``gnc-grid`` (the tumbling 6U
+    under every disturbance at a GNC engineer's rates, the records on the grid: issue 26 part 5's
+    case, ``bench_loop_sensors.py``'s ``all dist., GNC rates, grid``)."""
+    if name == "gnc-grid":
+        from scipy.spatial.transform import Rotation
+
+        sc, _ = bench.six_u(bench.ADDED, env_rate=1.0, rates=bench.GNC)
+        d = bench._basilisk_6u()[1]
+        R6 = Rotation.from_mrp(d["sigma0"]).as_matrix()
+        fsw = bench._records("grid")
+        return lambda: bench.lgvi.simulate(sc, R6, omega0=d["omega0"], fsw=fsw, h=bench.H, steps=steps,
+                                           save_every=steps)
+    sensed, est, plain = bench._members()
+    fsw = bench._fsw(est if name == "sensors" else None)
+    return lambda: bench.lgvi.simulate(sensed if name == "sensors" else plain, np.eye(3), omega0=bench.OMEGA0,
+                                       fsw=fsw, h=bench.H, steps=steps, save_every=steps)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("member", choices=("sensors", "true-state"))
+    ap.add_argument("member", choices=("sensors", "true-state", "gnc-grid"))
     ap.add_argument("--steps", type=int, default=2_000_000)
     ap.add_argument("--repeat", type=int, default=1,
                     help="runs of --steps steps (e.g. --steps 20000 --repeat 100: the benchmark's run length)")
+    ap.add_argument("--keep", default=None, help="a folder for the object files and their load addresses")
     args = ap.parse_args()
-    runs = bench.member_cases(1000)
-    run = runs["sensors + MEKF" if args.member == "sensors" else "true-state feedback"]
-    run()                                       # load or compile the loop
-    print(f"{write_perf_map()} compiled functions named in /tmp/perf-{os.getpid()}.map")
-    sensed, est, plain = bench._members()
-    fsw = bench._fsw(est if args.member == "sensors" else None)
+    _case(args.member, 1000)()                  # load or compile the loop
+    print(f"{write_perf_map(args.keep)} compiled functions named in /tmp/perf-{os.getpid()}.map")
+    run = _case(args.member, args.steps)
     t = time.process_time()
     for _ in range(args.repeat):
-        bench.lgvi.simulate(sensed if args.member == "sensors" else plain, np.eye(3), omega0=bench.OMEGA0, fsw=fsw,
-                            h=bench.H, steps=args.steps, save_every=args.steps)
+        run()
     n = args.steps * args.repeat
     print(f"{args.member}: {(time.process_time() - t) / n * 1e6:.3f} us a step (CPU time, {args.repeat} x {args.steps} "
           "steps)")

@@ -316,23 +316,33 @@ def environment_dispatch(code, t, bus, p, s, w):
 
 @jit(inline="always")
 def _add_torque(bus, o, d, tx, ty, tz):
-    """Write the torque at ``o`` (the kind's own signal) and add it into ``d`` (tau_dist_B)."""
+    """Write the torque at ``o`` (the kind's own signal) and add it into ``d`` (tau_dist_B); the
+    status: 1 when the torque or the sum is not finite (the loop runs no other test of a
+    disturbance's writes, :func:`lgvi._kernels.loop_kernels.run_one`)."""
     bus[o] = tx
     bus[o + 1] = ty
     bus[o + 2] = tz
-    bus[d] += tx
-    bus[d + 1] += ty
-    bus[d + 2] += tz
-    return OK if _finite3(tx, ty, tz) else NOT_FINITE
+    s0 = bus[d] + tx
+    s1 = bus[d + 1] + ty
+    s2 = bus[d + 2] + tz
+    bus[d] = s0
+    bus[d + 1] = s1
+    bus[d + 2] = s2
+    return OK if (_finite3(tx, ty, tz) and _finite3(s0, s1, s2)) else NOT_FINITE
 
 
 @jit(inline="always")
 def _facet_finish(bus, Ro, ot, od, of, fx, fy, fz, tx, ty, tz):
     """``F_N = R F_B`` written at ``of``; the torque written at ``ot`` and added into ``tau_dist_B``
-    at ``od``; the status."""
-    for i in range(3):
-        bus[of + i] = bus[Ro + 3 * i] * fx + bus[Ro + 3 * i + 1] * fy + bus[Ro + 3 * i + 2] * fz
-    return _add_torque(bus, ot, od, tx, ty, tz)
+    at ``od``; the status (1 when the force, the torque or the sum is not finite)."""
+    g0 = bus[Ro] * fx + bus[Ro + 1] * fy + bus[Ro + 2] * fz
+    g1 = bus[Ro + 3] * fx + bus[Ro + 4] * fy + bus[Ro + 5] * fz
+    g2 = bus[Ro + 6] * fx + bus[Ro + 7] * fy + bus[Ro + 8] * fz
+    bus[of] = g0
+    bus[of + 1] = g1
+    bus[of + 2] = g2
+    st = _add_torque(bus, ot, od, tx, ty, tz)
+    return st if _finite3(g0, g1, g2) else NOT_FINITE
 
 
 @jit(inline="always")

@@ -251,25 +251,47 @@ def fast_next(sig_fast):
 
 
 @jit(_nrt=False)
+def environment_call(code, t, bus, p, s, w):
+    """An environment kind (family 1: the sun, the shadow, the atmospheres, then the orbit and the
+    field from code 190): a small function of its own, compiled once, which :func:`run_one` calls.
+
+    Not part of :func:`dispatch`: a large function pays, at each call, the zeroing at its entry of
+    the return slots of every call inside it (Numba stores them there whichever branch runs: 20 in
+    ``dispatch`` when it held these kinds), where a function of one family has a short entry
+    (``docs/performance.md``, round 9)."""
+    if code < 190:
+        return environment_dispatch(code, t, bus, p, s, w)
+    return orbit_field_dispatch(code, t, bus, p, s, w)
+
+
+@jit(_nrt=False)
+def disturbance_call(code, t, bus, p, s, w):
+    """A disturbance kind (family 2: facet drag, facet SRP, residual dipole), a small function of its
+    own as :func:`environment_call`. Each kind tests every value it writes (its torque, the force,
+    ``tau_dist_B`` after its addition) and returns 1 when one is not finite, so :func:`run_one` needs
+    no :func:`writes_finite` after it."""
+    return disturbance_dispatch(code, t, bus, p, s, w)
+
+
+@jit(_nrt=False)
 def dispatch(user, code, t, bus, p, s, w):
     """One component: a user's (code 0) or a built-in kind by its family (``code // 100``).
 
-    A function of its own (compiled once, cached), not inlined: :func:`run_one` is inlined at three
-    places of the loop (the components due, those of a new mode, the step's end), and each inlined
-    copy of this function held the families inlined into it (the environment's and the
-    disturbances' kinds, ``inline="always"`` in their files). Compiled without Numba's reference
+    A function of its own (compiled once, cached), not inlined: the loop inlines :func:`run_one`
+    (the components due) and :func:`run_early` (the step's end), and each inlined copy of this
+    function held the families inlined into it. Compiled without Numba's reference
     counting, as the loop is, so the call passes its four arrays as they are (no reference counts:
-    the 70 ns a call that ``environment_dispatch``'s inlining avoided). ``docs/performance.md``
-    (the test suite's time) has the cold compilation and the step measured both ways."""
+    the 70 ns a call that ``environment_dispatch``'s inlining avoided). :func:`run_one` calls the
+    families other than the user's and the mode rules' directly (:func:`environment_call`,
+    :func:`disturbance_call`, the flight-side dispatchers), so this function is the road of those
+    two only; the others are here for a caller that has only a code."""
     if code == 0:
         return user(t, bus, p, s, w)
     fam = code // 100
     if fam == 1:
-        if code < 190:
-            return environment_dispatch(code, t, bus, p, s, w)
-        return orbit_field_dispatch(code, t, bus, p, s, w)
+        return environment_call(code, t, bus, p, s, w)
     if fam == 2:
-        return disturbance_dispatch(code, t, bus, p, s, w)
+        return disturbance_call(code, t, bus, p, s, w)
     if fam == 3:
         return sensor_dispatch(code, t, bus, p, s, w)
     if fam == 4:
@@ -319,17 +341,34 @@ def clear_writes(bus, W, WS, a, b):
 
 
 @jit(inline="always")
+def component_rows(c, P, po, S, so, W, wo):
+    """Component ``c``'s parameter row, state and bus offsets: its slices of ``P``, ``S``, ``W``."""
+    return P[po[c]:po[c + 1]], S[so[c]:so[c + 1]], W[wo[c]:wo[c + 1]]
+
+
+@jit(inline="always")
+def marked(c, st, fail):
+    """``st``, with ``fail = [c, st]`` set when it is not 0 (the component that stopped the loop)."""
+    if st != OK:
+        fail[0] = c
+        fail[1] = st
+    return st
+
+
+@jit(inline="always")
 def run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
     """Component ``c`` at ``t``; its status (1 when it wrote a value that is not finite), and
     ``fail`` set when it is not 0."""
     code = codes[c]
-    p = P[po[c]:po[c + 1]]
-    s = S[so[c]:so[c + 1]]
-    w = W[wo[c]:wo[c + 1]]
-    # the flight-side families straight to their dispatchers (one call, not two: the arguments, four
-    # arrays, are passed once); the user's, the environment's and the disturbances' through dispatch
+    p, s, w = component_rows(c, P, po, S, so, W, wo)
+    # every family but the user's and the mode rules' straight to its function (one call, not two: the
+    # arguments, four arrays, are passed once); the disturbances test their own writes (disturbance_call)
     fam = code // 100
-    if fam == 3:
+    if fam == 2:
+        st = disturbance_call(code, t, bus, p, s, w)
+    elif fam == 1:
+        st = environment_call(code, t, bus, p, s, w)
+    elif fam == 3:
         st = sensor_dispatch(code, t, bus, p, s, w)
     elif fam == 4:
         st = estimator_dispatch(code, t, bus, p, s, w)
@@ -341,12 +380,40 @@ def run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
         st = actuator_dispatch(code, t, bus, p, s, w)
     else:
         st = dispatch(user, code, t, bus, p, s, w)
-    if st == OK and not writes_finite(bus, W, WS, wo[c] + nr[c], wo[c + 1]):
+    if st == OK and fam != 2 and not writes_finite(bus, W, WS, wo[c] + nr[c], wo[c + 1]):
         st = 1
-    if st != OK:
-        fail[0] = c
-        fail[1] = st
-    return st
+    return marked(c, st, fail)
+
+
+@jit(_nrt=False)
+def run_one_call(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
+    """:func:`run_one` as a function of its own, for the rare road of a mode switch (the new mode's
+    components before the switching one, :func:`run_components`): one copy of :func:`run_one`
+    fewer inlined in the loop, which shortens the loop's cold compilation."""
+    return run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail)
+
+
+@jit(inline="always")
+def run_early(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
+    """:func:`run_one` for component ``c`` of the lookahead (:func:`run_lookahead`: built-in
+    environment and disturbance kinds), with the disturbance kinds inlined: this is the one place
+    of the loop where they are (the lookahead runs every disturbance at each step's end), so the
+    torques that run every step pay no call, no arguments on the stack and no slice passed whole;
+    everywhere else they go through :func:`disturbance_call`. Each disturbance kind tests its own
+    writes; the others are tested by :func:`writes_finite` as in :func:`run_one`."""
+    code = codes[c]
+    p, s, w = component_rows(c, P, po, S, so, W, wo)
+    fam = code // 100
+    if fam == 2:
+        st = disturbance_dispatch(code, t, bus, p, s, w)
+    else:
+        if fam == 1:
+            st = environment_call(code, t, bus, p, s, w)
+        else:
+            st = dispatch(user, code, t, bus, p, s, w)
+        if st == OK and not writes_finite(bus, W, WS, wo[c] + nr[c], wo[c + 1]):
+            st = 1
+    return marked(c, st, fail)
 
 
 @jit(inline="always")
@@ -375,7 +442,7 @@ def run_components(user, t, k, bus, io, codes, nxt, mask, nr, P, po, S, so, W, w
                         clear_writes(bus, W, WS, wo[d] + nr[d], wo[d + 1])
                 for d in range(c):
                     if nxt[d] == k and ((mask[d] >> mode) & 1) == 0 and ((mask[d] >> new) & 1) == 1:
-                        if run_one(user, d, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
+                        if run_one_call(user, d, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
                             return COMPONENT_FAILED
                 mode = new
     return OK
@@ -395,7 +462,7 @@ def run_lookahead(user, t, k, L, R, bus, io, codes, nxt, mask, nr, P, po, S, so,
     sum_held_disturbances(k, bus, io, nxt, nr, W, wo)
     for c in range(L):
         if nxt[c] == k:
-            if run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
+            if run_early(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail) != OK:
                 return COMPONENT_FAILED
     return OK
 
@@ -460,8 +527,8 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
     for k in range(k0, k0 + n):
         t = t0 + k * h
         w0, w1, w2 = body_rate(JBi, Pi, axes, rho)
-        # 1. the truth
-        if oR >= 0:
+        # 1. the truth (R already on the bus when the previous step's end ran the lookahead)
+        if oR >= 0 and (L == 0 or k == k0):
             for a in range(3):
                 for b in range(3):
                     bus[oR + 3 * a + b] = R[a, b]
