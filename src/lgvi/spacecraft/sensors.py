@@ -103,17 +103,10 @@ class Sensor(Component):
         self.stream: int = int(stream)
 
     def _row(self, rest: Any) -> np.ndarray:
-        """``(seed, stream, *rest)``: one row, or one per member's seed; ``rest`` a list of floats (one
-        array made of them) or an array."""
+        """``(seed, stream, *rest)``: one row, or one per member's seed; ``rest`` the values (a list of
+        floats or a 1-D array)."""
         if self.seed.ndim == 0:
-            if isinstance(rest, list):
-                return np.array([float(self.seed), float(self.stream), *rest], dtype=np.float64)
-            rest = np.asarray(rest, dtype=np.float64)
-            row = np.empty(2 + rest.size)
-            row[0] = float(self.seed)
-            row[1] = float(self.stream)
-            row[2:] = rest
-            return row
+            return np.array([float(self.seed), float(self.stream), *rest], dtype=np.float64)
         rest = np.asarray(rest, dtype=np.float64)
         rows = np.empty((self.seed.size, 2 + rest.size))
         rows[:, 0] = self.seed
