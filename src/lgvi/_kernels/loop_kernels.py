@@ -29,7 +29,8 @@ At step ``k`` (time ``t = t0 + k h``) the loop
    ``io``'s slot after the lookahead count (:func:`gravity_gradient_slot`), recorded like the rest.
 
 A family absent from a run has no component in the list and costs nothing; adding a family is
-one import and one ``elif`` in :func:`dispatch`.
+one import and one ``elif`` in :func:`run_one` (and in :func:`run_early` when its kinds run in the
+lookahead).
 
 A user's component reaches the loop as a value of one function type, :data:`COMPONENT_SIGNATURE`
 (a Numba ``cfunc`` of the user's function, guarded, made once per function by
@@ -275,35 +276,19 @@ def disturbance_call(code, t, bus, p, s, w):
 
 @jit(_nrt=False)
 def dispatch(user, code, t, bus, p, s, w):
-    """One component: a user's (code 0) or a built-in kind by its family (``code // 100``).
+    """A user's component (code 0) or a mode rule (family 6, ``code // 100``); status 3 for any
+    other code (:func:`run_one` calls every other family's function itself).
 
     A function of its own (compiled once, cached), not inlined: the loop inlines :func:`run_one`
-    (the components due) and :func:`run_early` (the step's end), and each inlined copy of this
-    function held the families inlined into it. Compiled without Numba's reference
+    (the components due) and :func:`run_early` (the step's end). It holds only these two families: a
+    function pays, at each call, the zeroing at its entry of the return slots of every call inside
+    it, whichever branch runs (``docs/performance.md``, round 9). Compiled without Numba's reference
     counting, as the loop is, so the call passes its four arrays as they are (no reference counts:
-    the 70 ns a call that ``environment_dispatch``'s inlining avoided). :func:`run_one` calls the
-    families other than the user's and the mode rules' directly (:func:`environment_call`,
-    :func:`disturbance_call`, the flight-side dispatchers), so this function is the road of those
-    two only; the others are here for a caller that has only a code."""
+    the 70 ns a call that ``environment_dispatch``'s inlining avoided)."""
     if code == 0:
         return user(t, bus, p, s, w)
-    fam = code // 100
-    if fam == 1:
-        return environment_call(code, t, bus, p, s, w)
-    if fam == 2:
-        return disturbance_call(code, t, bus, p, s, w)
-    if fam == 3:
-        return sensor_dispatch(code, t, bus, p, s, w)
-    if fam == 4:
-        return estimator_dispatch(code, t, bus, p, s, w)
-    if fam == 5:
-        return guidance_dispatch(code, t, bus, p, s, w)
-    if fam == 6:
+    if code // 100 == 6:
         return mode_dispatch(code, t, bus, p, s, w)
-    if fam == 7:
-        return control_dispatch(code, t, bus, p, s, w)
-    if fam == 8:
-        return actuator_dispatch(code, t, bus, p, s, w)
     return 3
 
 
