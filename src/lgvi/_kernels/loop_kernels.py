@@ -6,7 +6,8 @@ At step ``k`` (time ``t = t0 + k h``) the loop
    ``wheel_momentum``; ``-1`` for a signal the run does not carry);
 2. sets ``tau_dist_B`` to the sum of the held torques of the disturbances not due at ``k``
    (``io[IO_NDIST]`` of them, indices after it), then runs every component due at ``k``
-   (``k % spc[c] == 0``, kept as each component's next due step ``nxt[c]``: :func:`due_start`) and
+   (``k % spc[c] == 0``, kept as each component's next due step ``nxt[c]``: :func:`due_start`; the
+   loop visits the components only at the earliest of these, :func:`earliest_due`) and
    active in the current mode (bit ``mode`` of ``mask[c]``), in the order given (the Python side sorts them by family):
    ``<family>_dispatch(code, t, bus, p, s, w)`` on the component's slices of ``P`` (parameters),
    ``S`` (state) and ``W`` (bus offsets of the signals it reads, then writes); a user's component
@@ -133,19 +134,34 @@ def due_start(k0, spc, nxt):
     """Before step ``k0``: each component's next due step ``nxt[c]``, the first multiple of its period
     ``spc[c]`` from ``k0`` on. A component is due at step ``k`` when ``nxt[c] == k``
     (``k % spc[c] == 0``: one integer division a component per chunk, not per step);
-    :func:`due_advance` moves the counters on after each step."""
+    :func:`due_advance` moves the counters on. Returns the earliest of them (-1 with no component):
+    the loop visits the components only at that step (:func:`earliest_due`)."""
     for c in range(spc.shape[0]):
         p = spc[c]
         nxt[c] = ((k0 + p - 1) // p) * p
+    return earliest_due(nxt)
+
+
+@jit(inline="always")
+def earliest_due(nxt):
+    """The earliest next due step of the components (-1 with none): at every step before it no
+    component is due, so the loop skips :func:`run_components` and :func:`due_advance` there (a
+    component at 1 Hz with h = 0.1 s is visited at one step in ten, not at each)."""
+    m = -1
+    for c in range(nxt.shape[0]):
+        if m < 0 or nxt[c] < m:
+            m = nxt[c]
+    return m
 
 
 @jit(inline="always")
 def due_advance(k, spc, nxt):
-    """After step ``k`` (before the step's end runs step ``k + 1``'s lookahead): the counters of the
-    components due at ``k`` move on by their period."""
+    """After step ``k`` (before the step's end runs step ``k + 1``'s lookahead), when a component was
+    due at ``k``: the counters of those due move on by their period. Returns the new earliest."""
     for c in range(spc.shape[0]):
         if nxt[c] == k:
             nxt[c] = k + spc[c]
+    return earliest_due(nxt)
 
 
 @jit(inline="always")
@@ -347,7 +363,7 @@ def run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
     code = codes[c]
     p, s, w = component_rows(c, P, po, S, so, W, wo)
     # every family but the user's and the mode rules' straight to its function (one call, not two: the
-    # arguments, four arrays, are passed once); the disturbances test their own writes (disturbance_call)
+    # arguments, four arrays, are passed once)
     fam = code // 100
     if fam == 2:
         st = disturbance_call(code, t, bus, p, s, w)
@@ -365,7 +381,9 @@ def run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
         st = actuator_dispatch(code, t, bus, p, s, w)
     else:
         st = dispatch(user, code, t, bus, p, s, w)
-    if st == OK and fam != 2 and not writes_finite(bus, W, WS, wo[c] + nr[c], wo[c + 1]):
+    # the disturbance (2), sensor (3) and estimator (4) kinds test their own writes (:mod:`.finite`); the
+    # others' writes are tested here
+    if st == OK and (fam < 2 or fam > 4) and not writes_finite(bus, W, WS, wo[c] + nr[c], wo[c + 1]):
         st = 1
     return marked(c, st, fail)
 
@@ -507,7 +525,7 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
     if nfast > 0:
         record_fast_start(k0, c_rec, sig_fast)
         kfast = fast_next(sig_fast)
-    due_start(k0, spc, nxt)
+    kdue = due_start(k0, spc, nxt)
     hh = 0.5 * h
     for k in range(k0, k0 + n):
         t = t0 + k * h
@@ -536,9 +554,10 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
         if k == k0 or L == 0:
             sum_held_disturbances(k, bus, io, nxt, nr, W, wo)
             first = 0
-        st = run_components(user, t, k, bus, io, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail, first)
-        if st != OK:
-            return st, k, it_sum, rmax, 0, 0.0
+        if k == kdue:                   # a component is due at k (none is before kdue)
+            st = run_components(user, t, k, bus, io, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail, first)
+            if st != OK:
+                return st, k, it_sum, rmax, 0, 0.0
         # 3. the step, with what the bus holds
         if ocmd >= 0:
             for i in range(N):
@@ -585,7 +604,8 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
                 sig_out[e, q] = bus[sig_idx[q]]
         if nfast > 0 and (k == kfast or c_rec == 0):
             kfast = record_fast(k, c_rec, e, per, bus, sig_fast, sig_out)
-        due_advance(k, spc, nxt)
+        if k == kdue:
+            kdue = due_advance(k, spc, nxt)
         # 5. the symmetric forcing: the disturbances at the step's end (t_k+1, R_k+1), and
         # Pi_k+1 += h/2 (tau_dist_k+1 - tau_dist_k) (the step held tau_dist_k at both ends)
         if L > 0:
