@@ -195,12 +195,13 @@ def update(s, y0, y1, y2):
 
 
 @jit(inline="always")
-def update_attitude(s, y0, y1, y2):
+def update_attitude(s, Rm, r, y0, y1, y2):
     """:func:`update` with ``H = I`` (the star tracker's): ``PH = P[:, 0:3]`` read where it is and
-    ``S = P[0:3, 0:3] + Rm``, the same numbers as the products with ``I``."""
+    ``S = P[0:3, 0:3] + Rm``, the same numbers as the products with ``I``; ``Rm`` (row-major) read
+    where it is, ``Rm[r:r + 9]`` (the parameter row's, computed once by the Python class)."""
     for i in range(3):
         for j in range(3):
-            s[_WS + 3 * i + j] = s[_P + 6 * i + j] + s[_WRM + 3 * i + j]
+            s[_WS + 3 * i + j] = s[_P + 6 * i + j] + Rm[r + 3 * i + j]
     return update_with(s, _P, 6, y0, y1, y2)
 
 
@@ -343,9 +344,7 @@ def mekf_step(t, bus, p, s, w):
         o = w[1]
         e0, e1, e2, e3 = quat_mul(-s[0], -s[1], -s[2], s[3], bus[o], bus[o + 1], bus[o + 2], bus[o + 3])
         y0, y1, y2 = quat_rotvec(e0, e1, e2, e3)
-        for i in range(9):                   # R_m = C diag(sx^2, sx^2, sz^2) C^T, computed once in the row
-            s[_WRM + i] = p[20 + i]
-        ok = update_attitude(s, y0, y1, y2)
+        ok = update_attitude(s, p, 20, y0, y1, y2)     # R_m = C diag(sx^2, sx^2, sz^2) C^T, in the row
     if ok and p[16] != 0.0 and bus[w[5]] > s[48]:
         s[48] = bus[w[5]]
         f = w[6]
