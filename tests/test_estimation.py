@@ -202,14 +202,27 @@ def test_rotation_coefficients_equal_the_trigonometric_forms_near_zero_the_edge_
 
 
 def test_mekf_divergence_stops_with_status_2(tumbling):
+    """A filter whose covariance stops being finite (its process noise overflows: an ARW of 1e200
+    rad/s^0.5 squared) stops at its first propagation (row 1) with status 2, the row before kept."""
+    st = StarTracker(sigma_cross=ST_CROSS, sigma_about=ST_ABOUT)
+    comps = [Gyro(rate=H, arw=ARW), st, MEKF(arw=1e200, rrw=RRW, star_tracker=st, P0=np.ones(6) * 1e-4)]
+    run = run_components(comps, tumbling, H, record=["R_est"])
+    assert run.status == 2 and run.rows == 1
+    assert np.all(np.isfinite(run.records["R_est"][:1]))
+
+
+def test_a_gyro_gone_wild_stops_the_components_at_its_own_sample(tumbling):
+    """A truth rate that turns infinite at row 50: the gyro writes an infinite rate and stops the run
+    there with status 1 ("wrote a value that is not finite"), before the filter reads it (a sensor
+    tests its own writes since round 10, as the loop always tested them); the rows before are kept."""
     st = StarTracker(sigma_cross=ST_CROSS, sigma_about=ST_ABOUT)
     comps = [Gyro(rate=H, arw=ARW), st, MEKF(arw=ARW, rrw=RRW, star_tracker=st, P0=np.ones(6) * 1e-4,
                                               max_variance=1.0)]
     bad = dict(tumbling)
     bad["omega"] = tumbling["omega"].copy()
-    bad["omega"][50:] = np.inf               # a gyro gone wild
+    bad["omega"][50:] = np.inf
     run = run_components(comps, bad, H, record=["R_est"])
-    assert run.status == 2 and run.rows == 50
+    assert run.status == 1 and run.rows == 50
     assert np.all(np.isfinite(run.records["R_est"][:50]))
 
 

@@ -7,7 +7,9 @@ estimate ``b`` and the 6x6 covariance ``P`` of the error ``x = (dtheta, db)`` wi
 ``R = R_est Exp(dtheta)`` (the error angles in the body frame) and ``b = b_est + db``.
 
 MEKF (code 401), reads gyro_B, st_q, st_valid, st_time, mag_B, mag_time, B_N, sun_B, sun_valid,
-sun_time, sun_N, R; writes R_est, omega_est, bias_est, P_diag, est_error.
+sun_time, sun_N, R; writes R_est, omega_est, bias_est, P_diag, est_error. Status 2 when the covariance or
+the state is not finite (or a diagonal exceeds p[18]), else 1 when a value it wrote is not finite
+(it tests its own writes, :mod:`.finite`; the loop tests nothing after an estimator), else 0.
 p: 0 sigma_v (ARW, rad/s^0.5), 1 sigma_u (RRW, rad/s^1.5), 2 star tracker sigma across the
    boresight (rad), 3 sigma about it (rad), 4..12 star tracker case -> body (row-major),
    13 magnetometer sigma (T), 14 sun sensor sigma (rad), 15 use the star tracker (0/1),
@@ -28,6 +30,7 @@ import math
 from .._jit import jit
 from .attitude_kernels import (mat_t_vec, quat_from_matrix_scaled, quat_from_rotvec, quat_mul, quat_normalised,
                                quat_rotvec, quat_to_matrix, rotation_coefficients)
+from .finite import finite_status, written, written_at
 from .navigation_components import SIMPLE_NAV, simple_nav_step
 
 MEKF = 401
@@ -192,12 +195,13 @@ def update(s, y0, y1, y2):
 
 
 @jit(inline="always")
-def update_attitude(s, y0, y1, y2):
+def update_attitude(s, Rm, r, y0, y1, y2):
     """:func:`update` with ``H = I`` (the star tracker's): ``PH = P[:, 0:3]`` read where it is and
-    ``S = P[0:3, 0:3] + Rm``, the same numbers as the products with ``I``."""
+    ``S = P[0:3, 0:3] + Rm``, the same numbers as the products with ``I``; ``Rm`` (row-major) read
+    where it is, ``Rm[r:r + 9]`` (the parameter row's, computed once by the Python class)."""
     for i in range(3):
         for j in range(3):
-            s[_WS + 3 * i + j] = s[_P + 6 * i + j] + s[_WRM + 3 * i + j]
+            s[_WS + 3 * i + j] = s[_P + 6 * i + j] + Rm[r + 3 * i + j]
     return update_with(s, _P, 6, y0, y1, y2)
 
 
@@ -340,9 +344,7 @@ def mekf_step(t, bus, p, s, w):
         o = w[1]
         e0, e1, e2, e3 = quat_mul(-s[0], -s[1], -s[2], s[3], bus[o], bus[o + 1], bus[o + 2], bus[o + 3])
         y0, y1, y2 = quat_rotvec(e0, e1, e2, e3)
-        for i in range(9):                   # R_m = C diag(sx^2, sx^2, sz^2) C^T, computed once in the row
-            s[_WRM + i] = p[20 + i]
-        ok = update_attitude(s, y0, y1, y2)
+        ok = update_attitude(s, p, 20, y0, y1, y2)     # R_m = C diag(sx^2, sx^2, sz^2) C^T, in the row
     if ok and p[16] != 0.0 and bus[w[5]] > s[48]:
         s[48] = bus[w[5]]
         f = w[6]
@@ -353,21 +355,29 @@ def mekf_step(t, bus, p, s, w):
         f = w[10]
         m = w[7]
         ok = vector_update(s, bus[f], bus[f + 1], bus[f + 2], bus[m], bus[m + 1], bus[m + 2], p[14])
-    # outputs: R_est, omega_est, bias_est, P_diag, est_error
+    # outputs: R_est, omega_est, bias_est, P_diag, est_error, each tested here (the loop tests nothing
+    # after an estimator): zw sums x * 0 over every value written (:mod:`.finite`)
     quat_to_matrix(s[0], s[1], s[2], s[3], bus, w[12])
+    zw = written_at(bus, w[12], 9)
     o = w[13]
-    bus[o] = mx - s[4]
-    bus[o + 1] = my - s[5]
-    bus[o + 2] = mz - s[6]
+    ox = mx - s[4]
+    oy = my - s[5]
+    oz = mz - s[6]
+    bus[o] = ox
+    bus[o + 1] = oy
+    bus[o + 2] = oz
+    zw += written(ox, oy, oz)
     o = w[14]
     bus[o] = s[4]
     bus[o + 1] = s[5]
     bus[o + 2] = s[6]
+    zw += written(s[4], s[5], s[6])
     o = w[15]
     good = ok
     for i in range(6):
         d = s[_P + 7 * i]
         bus[o + i] = d
+        zw += d * 0.0
         if not (d > 0.0 and d <= p[18]):      # NaN fails too
             good = False
     # the truth's quaternion scaled (no square root, no division): the error's rotation vector does
@@ -381,7 +391,7 @@ def mekf_step(t, bus, p, s, w):
     bus[o + 2] = z
     if not good or not (s[0] == s[0] and s[4] + s[5] + s[6] == s[4] + s[5] + s[6]):
         return 2
-    return 0
+    return finite_status(zw + written(x, y, z))
 
 
 @jit(_nrt=False)

@@ -6,7 +6,8 @@ At step ``k`` (time ``t = t0 + k h``) the loop
    ``wheel_momentum``; ``-1`` for a signal the run does not carry);
 2. sets ``tau_dist_B`` to the sum of the held torques of the disturbances not due at ``k``
    (``io[IO_NDIST]`` of them, indices after it), then runs every component due at ``k``
-   (``k % spc[c] == 0``, kept as each component's next due step ``nxt[c]``: :func:`due_start`) and
+   (``k % spc[c] == 0``, kept as each component's next due step ``nxt[c]``: :func:`due_start`; the
+   loop visits the components only at the earliest of these, :func:`earliest_due`) and
    active in the current mode (bit ``mode`` of ``mask[c]``), in the order given (the Python side sorts them by family):
    ``<family>_dispatch(code, t, bus, p, s, w)`` on the component's slices of ``P`` (parameters),
    ``S`` (state) and ``W`` (bus offsets of the signals it reads, then writes); a user's component
@@ -43,6 +44,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import cfunc, config, types
 
 from .._jit import CACHE, jit
@@ -55,6 +57,9 @@ from .gyrostat_kernels import after_step, body_rate, gyro_advance, wheel_torque
 from .orbit_table_kernels import orbit_gravity_gradient_moment
 from .sensor_components import sensor_dispatch
 
+#: Unsigned 1 and 2 (offsets added to an unsigned index stay unsigned: :func:`record_fast`).
+_U1 = np.uint64(1)
+_U2 = np.uint64(2)
 #: The status the loop returns when a component stopped it (``fail`` says which and why).
 COMPONENT_FAILED = 100
 #: ``io`` entries: bus offsets of the loop's own signals (``-1``: absent).
@@ -133,19 +138,34 @@ def due_start(k0, spc, nxt):
     """Before step ``k0``: each component's next due step ``nxt[c]``, the first multiple of its period
     ``spc[c]`` from ``k0`` on. A component is due at step ``k`` when ``nxt[c] == k``
     (``k % spc[c] == 0``: one integer division a component per chunk, not per step);
-    :func:`due_advance` moves the counters on after each step."""
+    :func:`due_advance` moves the counters on. Returns the earliest of them (-1 with no component):
+    the loop visits the components only at that step (:func:`earliest_due`)."""
     for c in range(spc.shape[0]):
         p = spc[c]
         nxt[c] = ((k0 + p - 1) // p) * p
+    return earliest_due(nxt)
+
+
+@jit(inline="always")
+def earliest_due(nxt):
+    """The earliest next due step of the components (-1 with none): at every step before it no
+    component is due, so the loop skips :func:`run_components` and :func:`due_advance` there (a
+    component at 1 Hz with h = 0.1 s is visited at one step in ten, not at each)."""
+    m = -1
+    for c in range(nxt.shape[0]):
+        if m < 0 or nxt[c] < m:
+            m = nxt[c]
+    return m
 
 
 @jit(inline="always")
 def due_advance(k, spc, nxt):
-    """After step ``k`` (before the step's end runs step ``k + 1``'s lookahead): the counters of the
-    components due at ``k`` move on by their period."""
+    """After step ``k`` (before the step's end runs step ``k + 1``'s lookahead), when a component was
+    due at ``k``: the counters of those due move on by their period. Returns the new earliest."""
     for c in range(spc.shape[0]):
         if nxt[c] == k:
             nxt[c] = k + spc[c]
+    return earliest_due(nxt)
 
 
 @jit(inline="always")
@@ -218,18 +238,23 @@ def record_fast(k, c_rec, e, per, bus, sig_fast, sig_out):
             slot = sig_fast[f, 6]
             for r in range(f, end):
                 size = sig_fast[r, 2]
-                d = sig_fast[r, 3] + slot * size
-                o = sig_fast[r, 1]
+                # the offsets as unsigned integers (they are never negative): an index of a signed type
+                # is wrapped around (a negative one counts from the end), three more instructions a
+                # load and a store; the copy of the member's ten rows took 32 ns with them, 18.5 without
+                # (docs/performance.md, round 10)
+                d = np.uint64(sig_fast[r, 3] + slot * size)
+                o = np.uint64(sig_fast[r, 1])
                 # the first three values by branches, the rest (a quaternion's fourth, a matrix) by a
                 # loop: a signal has 1 to 9 values, and a loop over so few, vectorised with its checks,
                 # cost a fifth more (docs/performance.md, round 9)
                 out[d] = bus[o]
                 if size > 1:
-                    out[d + 1] = bus[o + 1]
+                    out[d + _U1] = bus[o + _U1]
                     if size > 2:
-                        out[d + 2] = bus[o + 2]
+                        out[d + _U2] = bus[o + _U2]
                         for i in range(3, size):
-                            out[d + i] = bus[o + i]
+                            u = np.uint64(i)
+                            out[d + u] = bus[o + u]
             nx = k + sig_fast[f, 0]
             sig_fast[f, 5] = nx
             sig_fast[f, 6] = slot + 1
@@ -347,7 +372,7 @@ def run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
     code = codes[c]
     p, s, w = component_rows(c, P, po, S, so, W, wo)
     # every family but the user's and the mode rules' straight to its function (one call, not two: the
-    # arguments, four arrays, are passed once); the disturbances test their own writes (disturbance_call)
+    # arguments, four arrays, are passed once)
     fam = code // 100
     if fam == 2:
         st = disturbance_call(code, t, bus, p, s, w)
@@ -365,7 +390,9 @@ def run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
         st = actuator_dispatch(code, t, bus, p, s, w)
     else:
         st = dispatch(user, code, t, bus, p, s, w)
-    if st == OK and fam != 2 and not writes_finite(bus, W, WS, wo[c] + nr[c], wo[c + 1]):
+    # the disturbance (2), sensor (3) and estimator (4) kinds test their own writes (:mod:`.finite`); the
+    # others' writes are tested here
+    if st == OK and (fam < 2 or fam > 4) and not writes_finite(bus, W, WS, wo[c] + nr[c], wo[c + 1]):
         st = 1
     return marked(c, st, fail)
 
@@ -507,7 +534,7 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
     if nfast > 0:
         record_fast_start(k0, c_rec, sig_fast)
         kfast = fast_next(sig_fast)
-    due_start(k0, spc, nxt)
+    kdue = due_start(k0, spc, nxt)
     hh = 0.5 * h
     for k in range(k0, k0 + n):
         t = t0 + k * h
@@ -536,9 +563,10 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
         if k == k0 or L == 0:
             sum_held_disturbances(k, bus, io, nxt, nr, W, wo)
             first = 0
-        st = run_components(user, t, k, bus, io, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail, first)
-        if st != OK:
-            return st, k, it_sum, rmax, 0, 0.0
+        if k == kdue:                   # a component is due at k (none is before kdue)
+            st = run_components(user, t, k, bus, io, codes, nxt, mask, nr, P, po, S, so, W, wo, WS, fail, first)
+            if st != OK:
+                return st, k, it_sum, rmax, 0, 0.0
         # 3. the step, with what the bus holds
         if ocmd >= 0:
             for i in range(N):
@@ -585,7 +613,8 @@ def loop_steps(user, gg, ggp, Rs, JdB, JBi, h, gam, t0, R, Pi, rho, G, axes, wp,
                 sig_out[e, q] = bus[sig_idx[q]]
         if nfast > 0 and (k == kfast or c_rec == 0):
             kfast = record_fast(k, c_rec, e, per, bus, sig_fast, sig_out)
-        due_advance(k, spc, nxt)
+        if k == kdue:
+            kdue = due_advance(k, spc, nxt)
         # 5. the symmetric forcing: the disturbances at the step's end (t_k+1, R_k+1), and
         # Pi_k+1 += h/2 (tau_dist_k+1 - tau_dist_k) (the step held tau_dist_k at both ends)
         if L > 0:

@@ -23,6 +23,7 @@ import math
 
 from .._jit import jit
 from .attitude_kernels import quat_from_matrix, quat_from_rotvec, quat_mul, quat_to_matrix
+from .finite import finite_status, written, written_at
 from .random import normal_at, stream_key
 
 SIMPLE_NAV = 402
@@ -49,11 +50,15 @@ def simple_nav_step(t, bus, p, s, w):
     quat_to_matrix(q0, q1, q2, q3, bus, w[2])
     o = w[1]
     d = w[3]
-    bus[d] = bus[o] + s[4]
-    bus[d + 1] = bus[o + 1] + s[5]
-    bus[d + 2] = bus[o + 2] + s[6]
+    v0 = bus[o] + s[4]
+    v1 = bus[o + 1] + s[5]
+    v2 = bus[o + 2] + s[6]
+    bus[d] = v0
+    bus[d + 1] = v1
+    bus[d + 2] = v2
     g = w[4]
     bus[g] = -x
     bus[g + 1] = -y
     bus[g + 2] = -z
-    return 0
+    # every value written tested here (the loop tests nothing after an estimator, :mod:`.finite`)
+    return finite_status(written_at(bus, w[2], 9) + written(v0, v1, v2) + written(x, y, z))

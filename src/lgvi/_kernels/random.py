@@ -140,6 +140,27 @@ def normal_at(key, counter):
     return _normal_slow(key, counter, u, i)
 
 
+@jit(inline="always")
+def normals3_at(key, counter):
+    """The normals ``counter``, ``counter + 1``, ``counter + 2`` of the stream ``key`` (:func:`normal_at`),
+    drawn in a loop: one call site of the ziggurat's slow path (:func:`_normal_slow`, not inlined) for the
+    three. A compiled function zeroes at its entry the return slot of every call inside it, whichever
+    branch runs: the sensors' fifteen sites were about a tenth of their time (``docs/performance.md``,
+    round 10)."""
+    n0 = 0.0
+    n1 = 0.0
+    n2 = 0.0
+    for i in range(3):
+        x = normal_at(key, counter + i)
+        if i == 0:
+            n0 = x
+        elif i == 1:
+            n1 = x
+        else:
+            n2 = x
+    return n0, n1, n2
+
+
 @jit
 def uniforms(seed, stream, counter0, n):
     """``n`` uniforms of ``(seed, stream)`` from counter ``counter0`` (for tests and tables)."""
@@ -160,4 +181,4 @@ def normals(seed, stream, counter0, n):
     return out
 
 
-__all__ = ["mix64", "stream_key", "bits_at", "uniform_at", "normal_at", "uniforms", "normals"]
+__all__ = ["mix64", "stream_key", "bits_at", "uniform_at", "normal_at", "normals3_at", "uniforms", "normals"]

@@ -9,7 +9,8 @@ from :mod:`lgvi._kernels.random` with ``(seed, stream) = (p[0], p[1])`` and the 
 stream and the sample number.
 
 All measurements are taken at the step's time from the truth on the bus ("instantaneous"
-sampling, as Basilisk's sensors do).
+sampling, as Basilisk's sensors do). Each kind tests the values it writes (:mod:`.finite`) and
+returns 1 when one is not finite; the loop runs no test after a sensor.
 """
 
 from __future__ import annotations
@@ -19,7 +20,8 @@ import math
 from .._jit import jit
 from .attitude_kernels import (mat_t_vec, mat_vec, quat_from_matrix, quat_from_matrix_scaled, quat_from_rotvec, quat_mul,
                                 quat_rotvec_over)
-from .random import normal_at, stream_key
+from .finite import finite_status, written
+from .random import normal_at, normals3_at, stream_key
 
 GYRO = 301
 STAR_TRACKER = 302
@@ -68,12 +70,8 @@ def sun_in_body(bus, w):
 def gyro_step(t, bus, p, s, w):
     key = stream_key(p[0], p[1])
     c = s[0]
-    n0 = normal_at(key, c)
-    n1 = normal_at(key, c + 1)
-    n2 = normal_at(key, c + 2)
-    n3 = normal_at(key, c + 3)
-    n4 = normal_at(key, c + 4)
-    n5 = normal_at(key, c + 5)
+    n0, n1, n2 = normals3_at(key, c)
+    n3, n4, n5 = normals3_at(key, c + 3)
     s[0] = c + 6
     sv = p[27]                              # white rate noise of the sample: ARW / sqrt(dt)
     su = p[28]                              # bias increment over a sample: RRW sqrt(dt)
@@ -99,9 +97,12 @@ def gyro_step(t, bus, p, s, w):
     b2 = p[16] + s[3]
     g = w[2]
     near = p[22] != 0.0
-    bus[g] = saturate(quantise(p[17] * (x + b0 + sv * n0), p[21], near), p[20])
-    bus[g + 1] = saturate(quantise(p[18] * (y + b1 + sv * n1), p[21], near), p[20])
-    bus[g + 2] = saturate(quantise(p[19] * (z + b2 + sv * n2), p[21], near), p[20])
+    g0 = saturate(quantise(p[17] * (x + b0 + sv * n0), p[21], near), p[20])
+    g1 = saturate(quantise(p[18] * (y + b1 + sv * n1), p[21], near), p[20])
+    g2 = saturate(quantise(p[19] * (z + b2 + sv * n2), p[21], near), p[20])
+    bus[g] = g0
+    bus[g + 1] = g1
+    bus[g + 2] = g2
     b = w[3]
     bus[b] = b0
     bus[b + 1] = b1
@@ -110,7 +111,7 @@ def gyro_step(t, bus, p, s, w):
     s[1] = saturate(s[1] + su * n3, p[24])
     s[2] = saturate(s[2] + su * n4, p[25])
     s[3] = saturate(s[3] + su * n5, p[26])
-    return 0
+    return finite_status(written(g0, g1, g2) + written(b0, b1, b2))
 
 
 # --------------------------------------------------------------------------------------------------
@@ -158,9 +159,7 @@ def star_tracker_step(t, bus, p, s, w):
     if not valid:
         bus[v] = 0.0
         return 0
-    n0 = normal_at(key, c)
-    n1 = normal_at(key, c + 1)
-    n2 = normal_at(key, c + 2)
+    n0, n1, n2 = normals3_at(key, c)
     ex, ey, ez = mat_vec(p, 4, p[2] * n0, p[2] * n1, p[3] * n2)
     d0, d1, d2, d3 = quat_from_rotvec(ex, ey, ez)
     q0, q1, q2, q3 = quat_from_matrix(bus, o)
@@ -174,7 +173,7 @@ def star_tracker_step(t, bus, p, s, w):
     bus[q + 3] = m3
     bus[v] = 1.0
     bus[w[5]] = t
-    return 0
+    return finite_status(written(m0, m1, m2) + written(m3, t, 0.0))
 
 
 # --------------------------------------------------------------------------------------------------
@@ -192,12 +191,16 @@ def magnetometer_step(t, bus, p, s, w):
     key = stream_key(p[0], p[1])
     c = s[0]
     s[0] = c + 3
+    n0, n1, n2 = normals3_at(key, c)
     m = w[2]
-    bus[m] = x + p[12] + p[2] * normal_at(key, c)
-    bus[m + 1] = y + p[13] + p[2] * normal_at(key, c + 1)
-    bus[m + 2] = z + p[14] + p[2] * normal_at(key, c + 2)
+    x = x + p[12] + p[2] * n0
+    y = y + p[13] + p[2] * n1
+    z = z + p[14] + p[2] * n2
+    bus[m] = x
+    bus[m + 1] = y
+    bus[m + 2] = z
     bus[w[3]] = t
-    return 0
+    return finite_status(written(x, y, z) + t * 0.0)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -216,14 +219,17 @@ def coarse_sun_sensors_step(t, bus, p, s, w):
     N = int(p[3])
     c0 = s[0]
     out = w[3]
+    z = 0.0
     for i in range(N):
         n0 = normal_at(key, c0 + i)
         k = 7 + 3 * i
         c = p[k] * sx + p[k + 1] * sy + p[k + 2] * sz
         signal = lit * c if c >= p[5] and c > 0.0 else 0.0
-        bus[out + i] = min(max(p[4] * signal + p[2] * n0, 0.0), p[6])
+        v = min(max(p[4] * signal + p[2] * n0, 0.0), p[6])
+        bus[out + i] = v
+        z += v * 0.0
     s[0] = c0 + N
-    return 0
+    return finite_status(z)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -276,12 +282,15 @@ def fine_sun_sensor_step(t, bus, p, s, w):
         k = 1.0
         cs = 1.0
     r = w[3]
-    bus[r] = cs * sx + k * (a * e1x + b * e2x)
-    bus[r + 1] = cs * sy + k * (a * e1y + b * e2y)
-    bus[r + 2] = cs * sz + k * (a * e1z + b * e2z)
+    ux = cs * sx + k * (a * e1x + b * e2x)
+    uy = cs * sy + k * (a * e1y + b * e2y)
+    uz = cs * sz + k * (a * e1z + b * e2z)
+    bus[r] = ux
+    bus[r + 1] = uy
+    bus[r + 2] = uz
     bus[v] = 1.0
     bus[w[5]] = t
-    return 0
+    return finite_status(written(ux, uy, uz) + t * 0.0)
 
 
 @jit(_nrt=False)
