@@ -13,6 +13,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 from functools import cached_property
+from operator import itemgetter
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -25,6 +26,7 @@ from . import Field, System, register
 from .._validation import as_float_array
 from .gyrostat import GYROSTAT, GyrostatRun, GyrostatTrajectory, gyrostat_from_file, gyrostat_from_stream
 from .gyrostat_ensemble import ENSEMBLE_TYPES, GyrostatEnsemble, drive_members, per_member, thread_count
+from .loop_records import signal_periods
 
 if TYPE_CHECKING:  # annotations only: imported where used at run time
     from ..fsw import FlightSoftware
@@ -37,6 +39,8 @@ __all__ = ["SPACECRAFT", "LoopRun", "SpacecraftEnsemble", "SpacecraftTrajectory"
 _IO = ("R", "omega", "wheel_speed", "wheel_momentum", "wheel_command", "tau_dist_B", "tau_control_B", "mode",
        "tau_command_B")
 _TRUTH = ("R", "omega", "wheel_speed", "wheel_momentum")
+#: What a component of a kind marked ``navigation`` reads in place of the truth when an estimator runs.
+_NAV = {"R": "R_est", "omega": "omega_est"}
 
 
 def _compile_user(step: Any, name: str) -> Any:
@@ -169,22 +173,7 @@ def _period(rate: Any, h: float, what: str) -> int:
     return m
 
 
-def _signal_periods(run: Any, comps: list[Any]) -> dict[str, int]:
-    """The writers' periods (steps) of the run's recorded signals (:mod:`lgvi.systems.loop_records`)."""
-    from .loop_records import signal_periods
-
-    writers: dict[str, list[int]] = {}
-    for (_, kind, _), spc in zip(comps, run.spc_c.tolist()):
-        for name in kind.writes:
-            writers.setdefault(name, []).append(int(spc))
-    writers["tau_dist_B"] = [1]                 # the loop sums the held disturbance torques at every step
-    writers["tau_gravity_gradient_B"] = [1]     # the loop writes the variational moment at every step
-    if run.python_controller:
-        writers["tau_command_B"] = writers["wheel_command"] = [int(run.spc)]
-    return signal_periods(run.record_layout, writers)
-
-
-def _fast_layout(run: Any) -> tuple[np.ndarray, list[list[Any]]]:
+def _fast_layout(run: Any) -> tuple[np.ndarray, list[list[Any]], int]:
     """The kernel's ``sig_fast`` rows ``(period, bus offset, size, column, slots, 0, 0, end)`` (the
     sixth and seventh: the kernel's counters, the next writer step and the slot, set at each call)
     and ``meta["signal_fast"]`` (``[name, column, size, period, slots]``): the recorded signals whose
@@ -194,25 +183,31 @@ def _fast_layout(run: Any) -> tuple[np.ndarray, list[list[Any]]]:
     kernel's rows are grouped by period (a stable sort: the columns stay those of ``meta``), ``end``
     the row after the last of its group, so a due step visits only the groups' first rows and the
     rows due (:func:`lgvi._kernels.loop_kernels.record_fast`); a signal of size 0 (nothing to copy) has
-    no row."""
+    no row. The third value: the columns of ``signal_data`` (:func:`signal_width` of the meta)."""
     per = 1 if run.full else run.save_every
     rows: list[list[int]] = []
     meta: list[list[Any]] = []
     col = len(run.sig_idx)
     if run.fsw.record_rate == "writer":
+        periods, offsets = run.meta["signal_periods"], run.offsets
         for name, _, size in run.record_layout:
-            p = int(run.meta["signal_periods"][name])
+            p = periods[name]
             if p % per == 0:
                 continue                         # the grid holds every value it writes
             slots = -(-per // p)
             if size > 0:                         # the kernel copies at least one value a row
-                rows.append([p, run.offsets[name], size, col, slots, 0, 0, 0])
+                rows.append([p, offsets[name], size, col, slots, 0, 0, 0])
             meta.append([name, col, size, p, slots])
             col += size * slots
-    rows.sort(key=lambda r: r[0])
-    for f in range(len(rows) - 1, -1, -1):
-        rows[f][7] = rows[f + 1][7] if f + 1 < len(rows) and rows[f + 1][0] == rows[f][0] else f + 1
-    return np.array(rows, np.int64).reshape(len(rows), 8), meta
+    if rows:
+        rows.sort(key=itemgetter(0))
+        end = len(rows)
+        for f in range(len(rows) - 2, -1, -1):
+            if rows[f + 1][0] != rows[f][0]:
+                end = f + 1
+            rows[f][7] = end
+        rows[-1][7] = len(rows)
+    return np.array(rows, np.int64).reshape(len(rows), 8), meta, col
 
 
 def signal_width(meta: dict[str, Any]) -> int:
@@ -301,7 +296,7 @@ class LoopRun(GyrostatRun):
                 self.gg, self.ggp = 1, np.ascontiguousarray(c.params(), dtype=np.float64)
                 continue
             comps.append((c, kind, rate))
-        self._wire(comps, ctx)
+        periods = self._wire(comps, ctx)
         self.label = "simulation"
         self.meta["system"] = "spacecraft"
         self.meta["spacecraft"] = repr(spacecraft)
@@ -313,8 +308,9 @@ class LoopRun(GyrostatRun):
             self.meta["pointing_modes"] = (None if any(getattr(c, "modes", None) is None for c in laws)
                                            else sorted({int(m) for c in laws for m in c.modes}))
         self.meta["signals"] = [list(x) for x in self.record_layout]
-        self.meta["signal_periods"] = _signal_periods(self, comps)      # traj.records: each at its writer's rate
-        self.sig_fast, self.meta["signal_fast"] = _fast_layout(self)
+        # traj.records: each at its writer's rate
+        self.meta["signal_periods"] = signal_periods(self.record_layout, periods)
+        self.sig_fast, self.meta["signal_fast"], width = _fast_layout(self)
         self.meta["components"] = [f"{kind.name} every {spc * abs(self.h):g} s" for (c, kind, _), spc in
                                    zip(comps, self.spc_c.tolist())]
         self.meta["torque_model"] = "the spacecraft loop (" + ", ".join(self.meta["components"]) + ")" + (
@@ -334,7 +330,7 @@ class LoopRun(GyrostatRun):
             SPACECRAFT, state=self.system.state,
             # filled: the loop writes each complete entry's every column (the grid's at its first step, each
             # off-grid slot at its writer's step or NaN first: record_fast), so it is allocated uninitialised
-            records=self.system.records + (Field("signals", (signal_width(self.meta),), np.float64,
+            records=self.system.records + (Field("signals", (width,), np.float64,
                                                  SPACECRAFT.records[-1].doc, filled=True),))
 
     # -------------------------------------------------------------- the bus
@@ -351,57 +347,65 @@ class LoopRun(GyrostatRun):
             raise ValueError(f"signal {name!r} has a size set by the spacecraft, and no component gives it (sizes())")
         return int(got)
 
-    def _wire(self, comps: list[Any], ctx: LoopContext) -> None:
+    def _wire(self, comps: list[Any], ctx: LoopContext) -> dict[str, list[int]]:
+        """Place the signals on the bus and build the kernel's rows of the components (``comps``:
+        ``(component, kind, rate)`` in the loop's order) and the record layout; returns the periods
+        (steps) of each signal's writers (:func:`lgvi.systems.loop_records.signal_periods`)."""
         offsets: dict[str, int] = {}
         sizes: dict[str, int] = {}
         nbus = 0
-        own: dict[str, Any] = {}
-        for c, kind, _ in comps:
-            for sig in kind.own:
-                own[sig.name] = sig
+        own: dict[str, Any] = {sig.name: sig for _, kind, _ in comps for sig in kind.own}
 
-        def place(name: str, comp: Any) -> int:
+        def place(name: str, comp: Any) -> None:
             nonlocal nbus
             if name not in offsets:
-                sizes[name] = self._size(name, comp, own)
+                sizes[name] = size = self._size(name, comp, own)
                 offsets[name] = nbus
-                nbus += sizes[name]
-            return offsets[name]
+                nbus += size
 
         for name in ("R", "omega") + (("wheel_speed", "wheel_momentum") if self.N else ()):
             place(name, None)
-        writers: dict[str, list[str]] = {name: ["the loop (truth)"] for name in offsets}
-        if self.gg:                             # the variational moment, recorded by name (the momentum budget)
+        # the signals something writes: the loop (the truth; the gravity gradient's variational moment,
+        # recorded by name for the momentum budget), the Python controller, the components; each is on the bus
+        written = set(offsets)
+        if self.gg:
             place("tau_gravity_gradient_B", None)
-            writers["tau_gravity_gradient_B"] = ["the loop (gravity gradient)"]
+            written.add("tau_gravity_gradient_B")
         if self.python_controller:
             for name in ("tau_command_B",) + (("wheel_command",) if self.N else ()):
                 place(name, None)
-                writers[name] = ["the Python controller"]
+                written.add(name)
         wired = []
         for c, kind, rate in comps:
-            nav = ctx.navigation and kind.extra.get("navigation", False)
-            reads = tuple({"R": "R_est", "omega": "omega_est"}.get(r, r) if nav else r for r in kind.reads)
+            # the controllers read the estimate where an estimator runs
+            reads = (tuple(_NAV.get(r, r) for r in kind.reads) if ctx.navigation and kind.extra.get("navigation", False)
+                     else tuple(kind.reads))
             for name in kind.writes:
                 if self.python_controller and name == "wheel_command":
                     raise ValueError(f"{kind.name} writes wheel_command, which the Python controller "
                                      f"{self.controller!r} commands: give one of the two")
                 place(name, c)
-                writers.setdefault(name, []).append(kind.name)
+            written.update(kind.writes)
             wired.append((c, kind, rate, reads))
-        W, WS = [], []
+        W: list[int] = []
+        WS: list[int] = []
         codes, spc, mask, nr, po, so, wo = [], [], [], [], [0], [0], [0]
         P, S = [], []
         users = []
         initial: dict[str, float] = {}
         for c, kind, rate, reads in wired:
-            initial.update(kind.extra.get("initial", {}))
-            for name in reads:
-                if name not in writers and name in kind.extra.get("zeros", ()):
-                    place(name, c)          # nothing writes it: a slot held at its initial value
+            if "initial" in kind.extra:
+                initial.update(kind.extra["initial"])
+            zeros = kind.extra.get("zeros")
+            if zeros:
+                for name in reads:
+                    if name not in written and name in zeros:
+                        place(name, c)          # nothing writes it: a slot held at its initial value
+        periods: dict[str, list[int]] = {}      # the periods (steps) of each signal's writers
         for c, kind, rate, reads in wired:
             for name in reads:
-                if name not in writers and name not in offsets:
+                o = offsets.get(name)           # every signal written is on the bus
+                if o is None:
                     if name in kind.extra.get("optional", ()):
                         W.append(-1)
                         WS.append(0)
@@ -412,13 +416,15 @@ class LoopRun(GyrostatRun):
                     raise ValueError(f"{kind.name}: reads the signal {name!r}, which no component of the spacecraft "
                                      "or the flight software writes (a family missing: an orbit for r_N, v_N, a "
                                      "field for B_N, a guidance law for R_ref, an estimator for R_est)")
-                W.append(offsets[name])
+                W.append(o)
                 WS.append(sizes[name])
+            k = _period(rate, self.h, kind.name)
             for name in kind.writes:
                 W.append(offsets[name])
                 WS.append(sizes[name])
+                periods.setdefault(name, []).append(k)
             codes.append(kind.code)
-            spc.append(_period(rate, self.h, f"{kind.name}"))
+            spc.append(k)
             modes = getattr(c, "modes", None)
             mask.append(-1 if modes is None else sum(1 << m for m in modes))
             nr.append(len(reads))
@@ -453,7 +459,7 @@ class LoopRun(GyrostatRun):
             # a reader's initial value (the MEKF's NaN time: "nothing measured yet") is for a slot nothing
             # writes; a slot a component writes starts at zero, as its writer's state does, since the loop
             # refuses a writer leaving a value that is not finite (a star tracker excluded at its first sample)
-            if name in offsets and name not in writers:
+            if name in offsets and name not in written:
                 self.bus[offsets[name]:offsets[name] + sizes[name]] = value
         # the disturbances that add into tau_dist_B (their own torque first): the loop sums the held ones
         dist = [i for i, (c, kind, _, _) in enumerate(wired) if kind.family == "disturbance"
@@ -467,18 +473,25 @@ class LoopRun(GyrostatRun):
             self.bus[offsets["mode"]] = float(getattr(modes[0], "initial", 0))
         record = self.fsw.record
         if record is None:
-            record = [name for name in offsets if name not in _TRUTH and name in writers]
+            record = [name for name in offsets if name not in _TRUTH and name in written]
         layout, idx = [], []
         for name in record:
-            if name not in offsets:
+            o = offsets.get(name)
+            if o is None:
                 raise ValueError(f"record names {name!r}, which is not on this run's bus; on it: {sorted(offsets)}")
-            layout.append((name, len(idx), sizes[name]))
-            idx += range(offsets[name], offsets[name] + sizes[name])
+            size = sizes[name]
+            layout.append((name, len(idx), size))
+            idx.extend(range(o, o + size))
         self.record_layout = layout
         self.sig_idx: np.ndarray = np.array(idx, i64)
+        periods["tau_dist_B"] = [1]             # the loop sums the held disturbance torques at every step
+        periods["tau_gravity_gradient_B"] = [1]  # the loop writes the variational moment at every step
+        if self.python_controller:
+            periods["tau_command_B"] = periods["wheel_command"] = [int(self.spc)]
         self.offsets, self.sizes = offsets, sizes
         self.fail: np.ndarray = np.zeros(2, i64)
         self.nxt: np.ndarray = np.zeros(len(codes), i64)     # the loop's next due step of each component
+        return periods
 
     @staticmethod
     def _lookahead(wired: list[Any], dist: list[int]) -> int:
