@@ -13,6 +13,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 from functools import cached_property
+from itertools import accumulate
 from operator import itemgetter
 from typing import TYPE_CHECKING, Any
 
@@ -185,29 +186,23 @@ def _fast_layout(run: Any) -> tuple[np.ndarray, list[list[Any]], int]:
     rows due (:func:`lgvi._kernels.loop_kernels.record_fast`); a signal of size 0 (nothing to copy) has
     no row. The third value: the columns of ``signal_data`` (:func:`signal_width` of the meta)."""
     per = 1 if run.full else run.save_every
-    rows: list[list[int]] = []
     meta: list[list[Any]] = []
     col = len(run.sig_idx)
+    periods, offsets = run.meta["signal_periods"], run.offsets
     if run.fsw.record_rate == "writer":
-        periods, offsets = run.meta["signal_periods"], run.offsets
         for name, _, size in run.record_layout:
             p = periods[name]
             if p % per == 0:
                 continue                         # the grid holds every value it writes
             slots = -(-per // p)
-            if size > 0:                         # the kernel copies at least one value a row
-                rows.append([p, offsets[name], size, col, slots, 0, 0, 0])
             meta.append([name, col, size, p, slots])
             col += size * slots
-    if rows:
-        rows.sort(key=itemgetter(0))
-        end = len(rows)
-        for f in range(len(rows) - 2, -1, -1):
-            if rows[f + 1][0] != rows[f][0]:
-                end = f + 1
-            rows[f][7] = end
-        rows[-1][7] = len(rows)
-    return np.array(rows, np.int64).reshape(len(rows), 8), meta, col
+    # a signal of size 0 has no row (the kernel copies at least one value a row)
+    rows = [[p, offsets[name], size, c, slots, 0, 0, 0] for name, c, size, p, slots in meta if size > 0]
+    rows.sort(key=itemgetter(0))
+    out = np.array(rows, np.int64).reshape(len(rows), 8)
+    out[:, 7] = np.searchsorted(out[:, 0], out[:, 0], side="right")     # the row after its period group's last
+    return out, meta, col
 
 
 def signal_width(meta: dict[str, Any]) -> int:
@@ -303,11 +298,21 @@ class LoopRun(GyrostatRun):
         self.meta["fsw"] = repr(fsw)
         if fsw.modes and getattr(fsw.modes[0], "names", None):
             self.meta["mode_names"] = list(fsw.modes[0].names)       # figures, summary and page name the modes
-        laws = [c for c, kind, _ in comps if "sigma_BR" in kind.writes]
+        # the control laws (they write sigma_BR), the kinds whose torque acts from outside (on tau_dist_B or
+        # tau_control_B) and whether a component commands the wheels, in one pass over the components
+        laws, pushing, commanded = [], [], False
+        for c, kind, _ in comps:
+            writes = kind.writes
+            if "sigma_BR" in writes:
+                laws.append(c)
+            if "tau_dist_B" in writes or "tau_control_B" in writes:
+                pushing.append(kind.name)
+            if "wheel_command" in writes:
+                commanded = True
         if laws:       # the modes with a control law (pointing); None: every mode (loop_summary reads it)
             self.meta["pointing_modes"] = (None if any(getattr(c, "modes", None) is None for c in laws)
                                            else sorted({int(m) for c in laws for m in c.modes}))
-        self.meta["signals"] = [list(x) for x in self.record_layout]
+        self.meta["signals"] = list(map(list, self.record_layout))
         # traj.records: each at its writer's rate
         self.meta["signal_periods"] = signal_periods(self.record_layout, periods)
         self.sig_fast, self.meta["signal_fast"], width = _fast_layout(self)
@@ -317,13 +322,11 @@ class LoopRun(GyrostatRun):
             " with the gravity gradient along the orbit" if self.gg else "")
         # a body torque can act (no invariant declared): the gravity gradient, a disturbance or the
         # rods on the bus; a Python controller's body torque sets it when it acts (GyrostatRun)
-        self.external = bool(self.gg) or self.external or any(
-            name in ("tau_dist_B", "tau_control_B") for _, kind, _ in comps for name in kind.writes)
+        self.external = bool(self.gg) or self.external or bool(pushing)
         # what acts from outside, by kind (the conservation figure, the summary and the page name them)
-        self.meta["external_torques"] = [kind.name for _, kind, _ in comps if {"tau_dist_B", "tau_control_B"}
-                                         & set(kind.writes)] + (["gravity_gradient"] if self.gg else []) + (
+        self.meta["external_torques"] = pushing + (["gravity_gradient"] if self.gg else []) + (
             ["python_controller"] if self.python_controller and self.external else [])
-        self.motors_off = self.motors_off and not any("wheel_command" in kind.writes for _, kind, _ in comps)
+        self.motors_off = self.motors_off and not commanded
         self.meta["invariants"] = GYROSTAT.invariants(self)
         n = self.N
         self.system: System = dataclasses.replace(
@@ -376,15 +379,17 @@ class LoopRun(GyrostatRun):
                 place(name, None)
                 written.add(name)
         wired = []
+        py = self.python_controller
         for c, kind, rate in comps:
             # the controllers read the estimate where an estimator runs
             reads = (tuple(_NAV.get(r, r) for r in kind.reads) if ctx.navigation and kind.extra.get("navigation", False)
                      else tuple(kind.reads))
             for name in kind.writes:
-                if self.python_controller and name == "wheel_command":
+                if py and name == "wheel_command":
                     raise ValueError(f"{kind.name} writes wheel_command, which the Python controller "
                                      f"{self.controller!r} commands: give one of the two")
-                place(name, c)
+                if name not in offsets:
+                    place(name, c)
             written.update(kind.writes)
             wired.append((c, kind, rate, reads))
         W: list[int] = []
@@ -402,26 +407,33 @@ class LoopRun(GyrostatRun):
                     if name not in written and name in zeros:
                         place(name, c)          # nothing writes it: a slot held at its initial value
         periods: dict[str, list[int]] = {}      # the periods (steps) of each signal's writers
+        offset, size = offsets.__getitem__, sizes.__getitem__
         for c, kind, rate, reads in wired:
-            for name in reads:
-                o = offsets.get(name)           # every signal written is on the bus
-                if o is None:
-                    if name in kind.extra.get("optional", ()):
-                        W.append(-1)
-                        WS.append(0)
-                        continue
-                    if name.startswith("wheel_") and self.N == 0:
-                        raise ValueError(f"{kind.name}: reads {name!r}, and the spacecraft has no wheels: give "
-                                         "Spacecraft(..., wheels=lgvi.ReactionWheels(...))")
-                    raise ValueError(f"{kind.name}: reads the signal {name!r}, which no component of the spacecraft "
-                                     "or the flight software writes (a family missing: an orbit for r_N, v_N, a "
-                                     "field for B_N, a guidance law for R_ref, an estimator for R_est)")
-                W.append(o)
-                WS.append(sizes[name])
+            ro = list(map(offsets.get, reads))  # every signal written is on the bus
+            if None in ro:                      # one nothing writes: an optional read (-1, size 0), or refused
+                ro, rs = [], []
+                for name in reads:
+                    if name not in offsets:
+                        if name in kind.extra.get("optional", ()):
+                            ro.append(-1)
+                            rs.append(0)
+                            continue
+                        if name.startswith("wheel_") and self.N == 0:
+                            raise ValueError(f"{kind.name}: reads {name!r}, and the spacecraft has no wheels: give "
+                                             "Spacecraft(..., wheels=lgvi.ReactionWheels(...))")
+                        raise ValueError(f"{kind.name}: reads the signal {name!r}, which no component of the "
+                                         "spacecraft or the flight software writes (a family missing: an orbit for "
+                                         "r_N, v_N, a field for B_N, a guidance law for R_ref, an estimator for R_est)")
+                    ro.append(offsets[name])
+                    rs.append(sizes[name])
+            else:
+                rs = list(map(size, reads))
+            W += ro
+            WS += rs
             k = _period(rate, self.h, kind.name)
+            W += map(offset, kind.writes)
+            WS += map(size, kind.writes)
             for name in kind.writes:
-                W.append(offsets[name])
-                WS.append(sizes[name])
                 periods.setdefault(name, []).append(k)
             codes.append(kind.code)
             spc.append(k)
@@ -472,18 +484,18 @@ class LoopRun(GyrostatRun):
         if modes:
             self.bus[offsets["mode"]] = float(getattr(modes[0], "initial", 0))
         record = self.fsw.record
-        if record is None:
-            record = [name for name in offsets if name not in _TRUTH and name in written]
-        layout, idx = [], []
-        for name in record:
-            o = offsets.get(name)
-            if o is None:
-                raise ValueError(f"record names {name!r}, which is not on this run's bus; on it: {sorted(offsets)}")
-            size = sizes[name]
-            layout.append((name, len(idx), size))
-            idx.extend(range(o, o + size))
-        self.record_layout = layout
-        self.sig_idx: np.ndarray = np.array(idx, i64)
+        if record is None:                      # what is written, in the bus's order, but the truth
+            record = list(filter(written.difference(_TRUTH).__contains__, offsets))
+        start = list(map(offsets.get, record))
+        if None in start:
+            name = record[start.index(None)]
+            raise ValueError(f"record names {name!r}, which is not on this run's bus; on it: {sorted(offsets)}")
+        width = list(map(size, record))
+        cols = list(accumulate(width, initial=0))
+        self.record_layout = list(zip(record, cols, width))     # (name, its first column, size)
+        # the bus slot of each column: a signal's columns hold its slots from its offset on
+        self.sig_idx: np.ndarray = np.arange(cols[-1], dtype=i64) + np.repeat(
+            np.array(start, i64) - np.array(cols[:-1], i64), width)
         periods["tau_dist_B"] = [1]             # the loop sums the held disturbance torques at every step
         periods["tau_gravity_gradient_B"] = [1]  # the loop writes the variational moment at every step
         if self.python_controller:
