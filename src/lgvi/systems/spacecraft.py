@@ -9,6 +9,7 @@ gyrostat (:mod:`lgvi.systems.gyrostat`) stepped by the compiled loop
 from __future__ import annotations
 
 import copy
+import copyreg
 import dataclasses
 import math
 from dataclasses import dataclass
@@ -163,6 +164,31 @@ def _from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state: dic
 RESULT_TYPES["spacecraft"] = (RESULT_TYPES["gyrostat"][0] + ("signal_data",), _from_file)
 
 
+#: The names by which a class changes how ``copy.copy`` copies its instances (``copy``, ``copyreg``).
+_COPY_HOOKS = frozenset(("__copy__", "__reduce_ex__", "__reduce__", "__getstate__", "__setstate__", "__new__",
+                         "__getnewargs_ex__", "__getnewargs__", "__slots__"))
+
+
+def _run_copy(c: Any) -> Any:
+    """``copy.copy(c)``: the run's own copy of a component (its ``setup`` is this run's, a shared
+    description stays as given). An instance of a class that leaves copying to Python's default
+    protocol (no class of its MRO but ``object`` defines one of ``_COPY_HOOKS``, its metaclass is
+    ``type``, no ``copyreg`` entry: every built-in component) is copied here as that protocol copies
+    it, ``cls.__new__(cls)`` given the same ``__dict__`` entries, without ``copy.copy``'s road
+    through ``__reduce_ex__`` and ``copyreg``; any other object by ``copy.copy``."""
+    cls = type(c)
+    if type(cls) is not type or cls in copyreg.dispatch_table:
+        return copy.copy(c)
+    for b in cls.__mro__:
+        if b is object:
+            break
+        if not _COPY_HOOKS.isdisjoint(b.__dict__):
+            return copy.copy(c)
+    new = object.__new__(cls)
+    new.__dict__.update(c.__dict__)
+    return new
+
+
 def _period(rate: Any, h: float, what: str) -> int:
     if rate is None:
         return 1
@@ -276,11 +302,11 @@ class LoopRun(GyrostatRun):
             if py is not None and kind.name == "magnetorquers":
                 continue                        # the Python controller's dipole goes to the rods in Python
             in_fsw = id(c) in own_fsw
-            c = copy.copy(c)                   # its setup is this run's (a shared description stays as given)
+            c = _run_copy(c)                   # its setup is this run's (a shared description stays as given)
             c.setup(ctx)
             rate = c.rate if c.rate is not None or not in_fsw else fsw.rate
             items.append((FAMILIES.index(kind.family), len(items), c, kind, rate))
-        items.sort(key=lambda x: (x[0], x[1]))
+        items.sort(key=itemgetter(0))           # by family; a stable sort keeps the order given within one
         self.gg: int = 0
         self.ggp: np.ndarray = np.zeros(13 + 12)
         comps = []
@@ -362,7 +388,12 @@ class LoopRun(GyrostatRun):
         def place(name: str, comp: Any) -> None:
             nonlocal nbus
             if name not in offsets:
-                sizes[name] = size = self._size(name, comp, own)
+                sig = own.get(name)
+                if sig is not None:             # a kind's own signal
+                    size = int(sig.size)
+                else:                           # a standard one; of size 0: set by the spacecraft (_size)
+                    size = SIGNALS[name].size or self._size(name, comp, own)
+                sizes[name] = size
                 offsets[name] = nbus
                 nbus += size
 
