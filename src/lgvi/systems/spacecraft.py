@@ -14,7 +14,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 from functools import cached_property
-from itertools import accumulate
+from itertools import accumulate, chain
 from operator import itemgetter
 from typing import TYPE_CHECKING, Any
 
@@ -193,8 +193,8 @@ def _period(rate: Any, h: float, what: str) -> int:
     if rate is None:
         return 1
     ratio = float(rate) / abs(h)
-    m = int(round(ratio))
-    if m < 1 or abs(ratio - m) > 1e-9 * max(1.0, ratio):
+    m = round(ratio)                            # an int
+    if m < 1 or abs(ratio - m) > 1e-9 * (ratio if ratio > 1.0 else 1.0):
         raise ValueError(f"{what}: rate must be a positive multiple of |h|; got rate={float(rate):g}, h={h:g} "
                          f"(ratio {ratio:.12g})")
     return m
@@ -224,10 +224,12 @@ def _fast_layout(run: Any) -> tuple[np.ndarray, list[list[Any]], int]:
             meta.append([name, col, size, p, slots])
             col += size * slots
     # a signal of size 0 has no row (the kernel copies at least one value a row)
-    rows = [[p, offsets[name], size, c, slots, 0, 0, 0] for name, c, size, p, slots in meta if size > 0]
-    rows.sort(key=itemgetter(0))
-    out = np.array(rows, np.int64).reshape(len(rows), 8)
-    out[:, 7] = np.searchsorted(out[:, 0], out[:, 0], side="right")     # the row after its period group's last
+    rows = sorted(((p, offsets[name], size, c, slots) for name, c, size, p, slots in meta if size > 0),
+                  key=itemgetter(0))
+    out = np.zeros((len(rows), 8), np.int64)
+    if rows:                                 # one flat run of integers: NumPy reads it faster than nested rows
+        out[:, :5] = np.fromiter(chain.from_iterable(rows), np.int64, 5 * len(rows)).reshape(len(rows), 5)
+        out[:, 7] = np.searchsorted(out[:, 0], out[:, 0], side="right")     # the row after its period group's last
     return out, meta, col
 
 
@@ -413,8 +415,8 @@ class LoopRun(GyrostatRun):
         py = self.python_controller
         for c, kind, rate in comps:
             # the controllers read the estimate where an estimator runs
-            reads = (tuple(_NAV.get(r, r) for r in kind.reads) if ctx.navigation and kind.extra.get("navigation", False)
-                     else tuple(kind.reads))
+            reads = (tuple(map(_NAV.get, kind.reads, kind.reads)) if ctx.navigation
+                     and kind.extra.get("navigation", False) else tuple(kind.reads))
             for name in kind.writes:
                 if py and name == "wheel_command":
                     raise ValueError(f"{kind.name} writes wheel_command, which the Python controller "
@@ -503,7 +505,11 @@ class LoopRun(GyrostatRun):
             # writes; a slot a component writes starts at zero, as its writer's state does, since the loop
             # refuses a writer leaving a value that is not finite (a star tracker excluded at its first sample)
             if name in offsets and name not in written:
-                self.bus[offsets[name]:offsets[name] + sizes[name]] = value
+                o, n = offsets[name], sizes[name]
+                if n == 1 and type(value) is float:
+                    self.bus[o] = value
+                else:
+                    self.bus[o:o + n] = value
         # the disturbances that add into tau_dist_B (their own torque first): the loop sums the held ones
         dist = [i for i, (c, kind, _, _) in enumerate(wired) if kind.family == "disturbance"
                 and "tau_dist_B" in kind.writes and kind.writes[0] != "tau_dist_B"
