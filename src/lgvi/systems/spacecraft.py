@@ -440,7 +440,7 @@ class LoopRun(GyrostatRun):
                     if name not in written and name in zeros:
                         place(name, c)          # nothing writes it: a slot held at its initial value
         periods: dict[str, list[int]] = {}      # the periods (steps) of each signal's writers
-        offset, size = offsets.__getitem__, sizes.__getitem__
+        offset_of, size_of = offsets.__getitem__, sizes.__getitem__
         for c, kind, rate, reads in wired:
             ro = list(map(offsets.get, reads))  # every signal written is on the bus
             if None in ro:                      # one nothing writes: an optional read (-1, size 0), or refused
@@ -460,12 +460,12 @@ class LoopRun(GyrostatRun):
                     ro.append(offsets[name])
                     rs.append(sizes[name])
             else:
-                rs = list(map(size, reads))
+                rs = list(map(size_of, reads))
             W += ro
             WS += rs
             k = _period(rate, self.h, kind.name)
-            W += map(offset, kind.writes)
-            WS += map(size, kind.writes)
+            W += map(offset_of, kind.writes)
+            WS += map(size_of, kind.writes)
             for name in kind.writes:
                 periods.setdefault(name, []).append(k)
             codes.append(kind.code)
@@ -527,7 +527,7 @@ class LoopRun(GyrostatRun):
         if None in start:
             name = record[start.index(None)]
             raise ValueError(f"record names {name!r}, which is not on this run's bus; on it: {sorted(offsets)}")
-        width = list(map(size, record))
+        width = list(map(size_of, record))
         cols = list(accumulate(width, initial=0))
         self.record_layout = list(zip(record, cols, width))     # (name, its first column, size)
         # the bus slot of each column: a signal's columns hold its slots from its offset on
