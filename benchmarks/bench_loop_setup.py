@@ -17,6 +17,7 @@ totals of each; the machine's speed changes from process to process (a third or 
 development machine), so compare the trees by the counts and by the extra over the true-state build.
 
     python benchmarks/bench_loop_setup.py [--top 25] [--pairs 2000]
+    python benchmarks/bench_loop_setup.py --quick                       # 50 pairs (checks it runs)
     python benchmarks/bench_loop_setup.py --compare /tmp/base/src src [--rounds 3]
 """
 
@@ -124,8 +125,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--pairs", type=int, default=2000, help="timed pairs of builds (default 2000)")
     ap.add_argument("--compare", nargs=2, metavar=("OLD_SRC", "NEW_SRC"))
     ap.add_argument("--rounds", type=int, default=3, help="child processes per tree with --compare (default 3)")
+    ap.add_argument("--quick", action="store_true", help="50 pairs, one process per tree (checks it runs)")
     ap.add_argument("--json", action="store_true", help=argparse.SUPPRESS)      # a child's answer
     args = ap.parse_args(argv)
+    if args.quick:
+        args.pairs, args.rounds = 50, 1
     if args.compare:
         from _trees import alternate, run_child
 
