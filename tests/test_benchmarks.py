@@ -197,6 +197,19 @@ def test_bench_loop_sensors_member_quick():
 
 
 @pytest.mark.slow
+def test_bench_loop_setup_quick():
+    """The member's set-up against the true-state member's: the totals, the table by function, and
+    ``--compare`` of a tree with itself (the same counts twice)."""
+    proc = _run("bench_loop_setup.py", "--quick")
+    _check(proc, "one LoopRun build, sensors + MEKF / true-state feedback: opcodes", "_wire")
+    proc = _run("bench_loop_setup.py", "--quick", "--compare", "src", "src")
+    _check(proc, "src: the member's extra, median over the processes")
+    counts = re.findall(r"opcodes (\d+) / (\d+)", proc.stdout)
+    assert len(counts) == 2 and counts[0] == counts[1], proc.stdout
+    assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
 def test_loop_hill_pointing_quick():
     proc = _run("loop_hill_pointing.py", "--quick")
     _check(proc, "max attitude difference lgvi - Basilisk", "final pointing error")

@@ -28,6 +28,13 @@ EST_ERROR = Signal("est_error", 3, "rad", "B", "attitude estimation error: R = R
 
 _PARALLEL = 1e-10       # |b1 x b2| / (|b1| |b2|) below this: parallel for TRIAD
 
+#: The MEKF's initial state after its quaternion, bias and covariance (entries 43 on): no measurement
+#: time yet (NaN), 0, the last sample times -inf, the kernel's work space 0 (``MEKF.state0``).
+_STATE_TAIL = np.zeros(_k.STATE_SIZE - 43)
+_STATE_TAIL[0] = math.nan
+_STATE_TAIL[4:7] = -math.inf
+_STATE_TAIL.flags.writeable = False
+
 
 def _unit_rows(v: Any, name: str, n: int | None = None) -> np.ndarray:
     arr = as_float_array(v, name, (n, 3))
@@ -129,15 +136,15 @@ def _spd(value: Any, name: str, n: int) -> np.ndarray:
     return 0.5 * (arr + arr.T)
 
 
-def _star_tracker_noise(case: np.ndarray, sx: float, sz: float) -> list[float]:
+def _star_tracker_noise(c: list[float], sx: float, sz: float) -> list[float]:
     """The star tracker's noise covariance in the body frame, ``R_m = C diag(sx^2, sx^2, sz^2) C^T``
-    (row-major), the kernel's row entries 20..28: the same IEEE operations, in the same order, as the
-    kernel computed it at each update before it moved here (so the same numbers)."""
-    c = np.asarray(case, dtype=np.float64).ravel().tolist()
+    (row-major), the kernel's row entries 20..28, from ``c``, the case matrix ``C`` row-major as nine
+    floats: the same IEEE operations, in the same order, as the kernel computed it at each update
+    before it moved here (so the same numbers)."""
     vx = sx * sx
     vz = sz * sz
-    return [vx * (c[3 * i] * c[3 * j] + c[3 * i + 1] * c[3 * j + 1]) + vz * c[3 * i + 2] * c[3 * j + 2]
-            for i in range(3) for j in range(3)]
+    rows = (c[0:3], c[3:6], c[6:9])
+    return [vx * (a0 * b0 + a1 * b1) + vz * a2 * b2 for a0, a1, a2 in rows for b0, b1, b2 in rows]
 
 
 class MEKF(Component):
@@ -225,25 +232,26 @@ class MEKF(Component):
         case = np.eye(3) if st is None else st.case
         sx = 0.0 if st is None else float(st.sigma_cross)
         sz = 0.0 if st is None else float(st.sigma_about)
+        c = np.asarray(case, dtype=np.float64).ravel().tolist()
         # one list of Python floats, one array (the values of a concatenation, at a third of its cost)
-        return np.array([self.arw, self.rrw, sx, sz, *np.asarray(case, dtype=np.float64).ravel().tolist(),
-                         self.mag_sigma or 0.0, self.sun_sigma or 0.0, float(st is not None),
-                         float(self.mag_sigma is not None), float(self.sun_sigma is not None),
-                         self.max_variance, float(self.gyro_output == "mean"),
-                         *_star_tracker_noise(case, sx, sz)], dtype=np.float64)
+        return np.array([self.arw, self.rrw, sx, sz, *c, self.mag_sigma or 0.0, self.sun_sigma or 0.0,
+                         float(st is not None), float(self.mag_sigma is not None), float(self.sun_sigma is not None),
+                         self.max_variance, float(self.gyro_output == "mean"), *_star_tracker_noise(c, sx, sz)],
+                        dtype=np.float64)
 
     def state0(self) -> np.ndarray:
         """The initial state: one row, or one row per member when ``R0`` or ``bias0`` has one per member."""
         q = self._quaternion0()
-        one = q.ndim == 1 and self.bias0.ndim == 1
-        B = 1 if one else max(q.shape[0] if q.ndim == 2 else 1, self.bias0.shape[0] if self.bias0.ndim == 2 else 1)
+        if q.ndim == 1 and self.bias0.ndim == 1:      # one row: that of the rows below, built at once
+            return np.concatenate((q, self.bias0, self.P0.ravel(), _STATE_TAIL))
+        B = max(q.shape[0] if q.ndim == 2 else 1, self.bias0.shape[0] if self.bias0.ndim == 2 else 1)
         rows = np.zeros((B, _k.STATE_SIZE))          # entries 44-46 and the kernel's work space (50 on): 0
         rows[:, 0:4] = q
         rows[:, 4:7] = self.bias0
         rows[:, 7:43] = self.P0.ravel()
         rows[:, 43] = math.nan
         rows[:, 47:50] = -math.inf
-        return rows[0] if one else rows
+        return rows
 
     def _quaternion0(self) -> np.ndarray:
         """``R0``'s quaternion (scalar last, ``w >= 0``), by SciPy's ``Rotation.from_matrix``, kept

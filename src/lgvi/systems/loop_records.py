@@ -63,7 +63,8 @@ def signal_periods(record_layout: list[tuple[str, int, int]], writers: dict[str,
     """``{name: steps}``: for each recorded signal the period (steps) at which one of the components
     that write it (``writers[name]``: their periods) may run, the greatest common divisor of
     theirs; 1 for the loop's own signals (the truth)."""
-    return {name: int(math.gcd(*(writers.get(name) or [1]))) for name, _, _ in record_layout}
+    gcd = math.gcd                                          # an int, whatever integers it is given
+    return {name: gcd(*(writers.get(name) or [1])) for name, _, _ in record_layout}
 
 
 def records_of(traj: Any) -> dict[str, Record]:

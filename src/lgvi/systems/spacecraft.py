@@ -9,10 +9,13 @@ gyrostat (:mod:`lgvi.systems.gyrostat`) stepped by the compiled loop
 from __future__ import annotations
 
 import copy
+import copyreg
 import dataclasses
 import math
 from dataclasses import dataclass
 from functools import cached_property
+from itertools import accumulate, chain
+from operator import itemgetter
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -25,6 +28,7 @@ from . import Field, System, register
 from .._validation import as_float_array
 from .gyrostat import GYROSTAT, GyrostatRun, GyrostatTrajectory, gyrostat_from_file, gyrostat_from_stream
 from .gyrostat_ensemble import ENSEMBLE_TYPES, GyrostatEnsemble, drive_members, per_member, thread_count
+from .loop_records import signal_periods
 
 if TYPE_CHECKING:  # annotations only: imported where used at run time
     from ..fsw import FlightSoftware
@@ -37,6 +41,8 @@ __all__ = ["SPACECRAFT", "LoopRun", "SpacecraftEnsemble", "SpacecraftTrajectory"
 _IO = ("R", "omega", "wheel_speed", "wheel_momentum", "wheel_command", "tau_dist_B", "tau_control_B", "mode",
        "tau_command_B")
 _TRUTH = ("R", "omega", "wheel_speed", "wheel_momentum")
+#: What a component of a kind marked ``navigation`` reads in place of the truth when an estimator runs.
+_NAV = {"R": "R_est", "omega": "omega_est"}
 
 
 def _compile_user(step: Any, name: str) -> Any:
@@ -158,33 +164,43 @@ def _from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state: dic
 RESULT_TYPES["spacecraft"] = (RESULT_TYPES["gyrostat"][0] + ("signal_data",), _from_file)
 
 
+#: The names by which a class changes how ``copy.copy`` copies its instances (``copy``, ``copyreg``).
+_COPY_HOOKS = frozenset(("__copy__", "__reduce_ex__", "__reduce__", "__getstate__", "__setstate__", "__new__",
+                         "__getnewargs_ex__", "__getnewargs__", "__slots__"))
+
+
+def _run_copy(c: Any) -> Any:
+    """``copy.copy(c)``: the run's own copy of a component (its ``setup`` is this run's, a shared
+    description stays as given). An instance of a class that leaves copying to Python's default
+    protocol (no class of its MRO but ``object`` defines one of ``_COPY_HOOKS``, its metaclass is
+    ``type``, no ``copyreg`` entry: every built-in component) is copied here as that protocol copies
+    it, ``cls.__new__(cls)`` given the same ``__dict__`` entries, without ``copy.copy``'s road
+    through ``__reduce_ex__`` and ``copyreg``; any other object by ``copy.copy``."""
+    cls = type(c)
+    if type(cls) is not type or cls in copyreg.dispatch_table:
+        return copy.copy(c)
+    for b in cls.__mro__:
+        if b is object:
+            break
+        if not _COPY_HOOKS.isdisjoint(b.__dict__):
+            return copy.copy(c)
+    new = object.__new__(cls)
+    new.__dict__.update(c.__dict__)
+    return new
+
+
 def _period(rate: Any, h: float, what: str) -> int:
     if rate is None:
         return 1
     ratio = float(rate) / abs(h)
-    m = int(round(ratio))
-    if m < 1 or abs(ratio - m) > 1e-9 * max(1.0, ratio):
+    m = round(ratio)                            # an int
+    if m < 1 or abs(ratio - m) > 1e-9 * (ratio if ratio > 1.0 else 1.0):
         raise ValueError(f"{what}: rate must be a positive multiple of |h|; got rate={float(rate):g}, h={h:g} "
                          f"(ratio {ratio:.12g})")
     return m
 
 
-def _signal_periods(run: Any, comps: list[Any]) -> dict[str, int]:
-    """The writers' periods (steps) of the run's recorded signals (:mod:`lgvi.systems.loop_records`)."""
-    from .loop_records import signal_periods
-
-    writers: dict[str, list[int]] = {}
-    for (_, kind, _), spc in zip(comps, run.spc_c.tolist()):
-        for name in kind.writes:
-            writers.setdefault(name, []).append(int(spc))
-    writers["tau_dist_B"] = [1]                 # the loop sums the held disturbance torques at every step
-    writers["tau_gravity_gradient_B"] = [1]     # the loop writes the variational moment at every step
-    if run.python_controller:
-        writers["tau_command_B"] = writers["wheel_command"] = [int(run.spc)]
-    return signal_periods(run.record_layout, writers)
-
-
-def _fast_layout(run: Any) -> tuple[np.ndarray, list[list[Any]]]:
+def _fast_layout(run: Any) -> tuple[np.ndarray, list[list[Any]], int]:
     """The kernel's ``sig_fast`` rows ``(period, bus offset, size, column, slots, 0, 0, end)`` (the
     sixth and seventh: the kernel's counters, the next writer step and the slot, set at each call)
     and ``meta["signal_fast"]`` (``[name, column, size, period, slots]``): the recorded signals whose
@@ -194,25 +210,27 @@ def _fast_layout(run: Any) -> tuple[np.ndarray, list[list[Any]]]:
     kernel's rows are grouped by period (a stable sort: the columns stay those of ``meta``), ``end``
     the row after the last of its group, so a due step visits only the groups' first rows and the
     rows due (:func:`lgvi._kernels.loop_kernels.record_fast`); a signal of size 0 (nothing to copy) has
-    no row."""
+    no row. The third value: the columns of ``signal_data`` (:func:`signal_width` of the meta)."""
     per = 1 if run.full else run.save_every
-    rows: list[list[int]] = []
     meta: list[list[Any]] = []
     col = len(run.sig_idx)
+    periods, offsets = run.meta["signal_periods"], run.offsets
     if run.fsw.record_rate == "writer":
         for name, _, size in run.record_layout:
-            p = int(run.meta["signal_periods"][name])
+            p = periods[name]
             if p % per == 0:
                 continue                         # the grid holds every value it writes
             slots = -(-per // p)
-            if size > 0:                         # the kernel copies at least one value a row
-                rows.append([p, run.offsets[name], size, col, slots, 0, 0, 0])
             meta.append([name, col, size, p, slots])
             col += size * slots
-    rows.sort(key=lambda r: r[0])
-    for f in range(len(rows) - 1, -1, -1):
-        rows[f][7] = rows[f + 1][7] if f + 1 < len(rows) and rows[f + 1][0] == rows[f][0] else f + 1
-    return np.array(rows, np.int64).reshape(len(rows), 8), meta
+    # a signal of size 0 has no row (the kernel copies at least one value a row)
+    rows = sorted(((p, offsets[name], size, c, slots) for name, c, size, p, slots in meta if size > 0),
+                  key=itemgetter(0))
+    out = np.zeros((len(rows), 8), np.int64)
+    if rows:                                 # one flat run of integers: NumPy reads it faster than nested rows
+        out[:, :5] = np.fromiter(chain.from_iterable(rows), np.int64, 5 * len(rows)).reshape(len(rows), 5)
+        out[:, 7] = np.searchsorted(out[:, 0], out[:, 0], side="right")     # the row after its period group's last
+    return out, meta, col
 
 
 def signal_width(meta: dict[str, Any]) -> int:
@@ -286,11 +304,11 @@ class LoopRun(GyrostatRun):
             if py is not None and kind.name == "magnetorquers":
                 continue                        # the Python controller's dipole goes to the rods in Python
             in_fsw = id(c) in own_fsw
-            c = copy.copy(c)                   # its setup is this run's (a shared description stays as given)
+            c = _run_copy(c)                   # its setup is this run's (a shared description stays as given)
             c.setup(ctx)
             rate = c.rate if c.rate is not None or not in_fsw else fsw.rate
             items.append((FAMILIES.index(kind.family), len(items), c, kind, rate))
-        items.sort(key=lambda x: (x[0], x[1]))
+        items.sort(key=itemgetter(0))           # by family; a stable sort keeps the order given within one
         self.gg: int = 0
         self.ggp: np.ndarray = np.zeros(13 + 12)
         comps = []
@@ -301,40 +319,49 @@ class LoopRun(GyrostatRun):
                 self.gg, self.ggp = 1, np.ascontiguousarray(c.params(), dtype=np.float64)
                 continue
             comps.append((c, kind, rate))
-        self._wire(comps, ctx)
+        periods = self._wire(comps, ctx)
         self.label = "simulation"
         self.meta["system"] = "spacecraft"
         self.meta["spacecraft"] = repr(spacecraft)
         self.meta["fsw"] = repr(fsw)
         if fsw.modes and getattr(fsw.modes[0], "names", None):
             self.meta["mode_names"] = list(fsw.modes[0].names)       # figures, summary and page name the modes
-        laws = [c for c, kind, _ in comps if "sigma_BR" in kind.writes]
+        # the control laws (they write sigma_BR), the kinds whose torque acts from outside (on tau_dist_B or
+        # tau_control_B) and whether a component commands the wheels, in one pass over the components
+        laws, pushing, commanded = [], [], False
+        for c, kind, _ in comps:
+            writes = kind.writes
+            if "sigma_BR" in writes:
+                laws.append(c)
+            if "tau_dist_B" in writes or "tau_control_B" in writes:
+                pushing.append(kind.name)
+            if "wheel_command" in writes:
+                commanded = True
         if laws:       # the modes with a control law (pointing); None: every mode (loop_summary reads it)
             self.meta["pointing_modes"] = (None if any(getattr(c, "modes", None) is None for c in laws)
                                            else sorted({int(m) for c in laws for m in c.modes}))
-        self.meta["signals"] = [list(x) for x in self.record_layout]
-        self.meta["signal_periods"] = _signal_periods(self, comps)      # traj.records: each at its writer's rate
-        self.sig_fast, self.meta["signal_fast"] = _fast_layout(self)
+        self.meta["signals"] = list(map(list, self.record_layout))
+        # traj.records: each at its writer's rate
+        self.meta["signal_periods"] = signal_periods(self.record_layout, periods)
+        self.sig_fast, self.meta["signal_fast"], width = _fast_layout(self)
         self.meta["components"] = [f"{kind.name} every {spc * abs(self.h):g} s" for (c, kind, _), spc in
                                    zip(comps, self.spc_c.tolist())]
         self.meta["torque_model"] = "the spacecraft loop (" + ", ".join(self.meta["components"]) + ")" + (
             " with the gravity gradient along the orbit" if self.gg else "")
         # a body torque can act (no invariant declared): the gravity gradient, a disturbance or the
         # rods on the bus; a Python controller's body torque sets it when it acts (GyrostatRun)
-        self.external = bool(self.gg) or self.external or any(
-            name in ("tau_dist_B", "tau_control_B") for _, kind, _ in comps for name in kind.writes)
+        self.external = bool(self.gg) or self.external or bool(pushing)
         # what acts from outside, by kind (the conservation figure, the summary and the page name them)
-        self.meta["external_torques"] = [kind.name for _, kind, _ in comps if {"tau_dist_B", "tau_control_B"}
-                                         & set(kind.writes)] + (["gravity_gradient"] if self.gg else []) + (
+        self.meta["external_torques"] = pushing + (["gravity_gradient"] if self.gg else []) + (
             ["python_controller"] if self.python_controller and self.external else [])
-        self.motors_off = self.motors_off and not any("wheel_command" in kind.writes for _, kind, _ in comps)
+        self.motors_off = self.motors_off and not commanded
         self.meta["invariants"] = GYROSTAT.invariants(self)
         n = self.N
         self.system: System = dataclasses.replace(
             SPACECRAFT, state=self.system.state,
             # filled: the loop writes each complete entry's every column (the grid's at its first step, each
             # off-grid slot at its writer's step or NaN first: record_fast), so it is allocated uninitialised
-            records=self.system.records + (Field("signals", (signal_width(self.meta),), np.float64,
+            records=self.system.records + (Field("signals", (width,), np.float64,
                                                  SPACECRAFT.records[-1].doc, filled=True),))
 
     # -------------------------------------------------------------- the bus
@@ -351,74 +378,98 @@ class LoopRun(GyrostatRun):
             raise ValueError(f"signal {name!r} has a size set by the spacecraft, and no component gives it (sizes())")
         return int(got)
 
-    def _wire(self, comps: list[Any], ctx: LoopContext) -> None:
+    def _wire(self, comps: list[Any], ctx: LoopContext) -> dict[str, list[int]]:
+        """Place the signals on the bus and build the kernel's rows of the components (``comps``:
+        ``(component, kind, rate)`` in the loop's order) and the record layout; returns the periods
+        (steps) of each signal's writers (:func:`lgvi.systems.loop_records.signal_periods`)."""
         offsets: dict[str, int] = {}
         sizes: dict[str, int] = {}
         nbus = 0
-        own: dict[str, Any] = {}
-        for c, kind, _ in comps:
-            for sig in kind.own:
-                own[sig.name] = sig
+        own: dict[str, Any] = {sig.name: sig for _, kind, _ in comps for sig in kind.own}
 
-        def place(name: str, comp: Any) -> int:
+        def place(name: str, comp: Any) -> None:
             nonlocal nbus
             if name not in offsets:
-                sizes[name] = self._size(name, comp, own)
+                sig = own.get(name)
+                if sig is not None:             # a kind's own signal
+                    size = int(sig.size)
+                else:                           # a standard one; of size 0: set by the spacecraft (_size)
+                    size = SIGNALS[name].size or self._size(name, comp, own)
+                sizes[name] = size
                 offsets[name] = nbus
-                nbus += sizes[name]
-            return offsets[name]
+                nbus += size
 
         for name in ("R", "omega") + (("wheel_speed", "wheel_momentum") if self.N else ()):
             place(name, None)
-        writers: dict[str, list[str]] = {name: ["the loop (truth)"] for name in offsets}
-        if self.gg:                             # the variational moment, recorded by name (the momentum budget)
+        # the signals something writes: the loop (the truth; the gravity gradient's variational moment,
+        # recorded by name for the momentum budget), the Python controller, the components; each is on the bus
+        written = set(offsets)
+        if self.gg:
             place("tau_gravity_gradient_B", None)
-            writers["tau_gravity_gradient_B"] = ["the loop (gravity gradient)"]
+            written.add("tau_gravity_gradient_B")
         if self.python_controller:
             for name in ("tau_command_B",) + (("wheel_command",) if self.N else ()):
                 place(name, None)
-                writers[name] = ["the Python controller"]
+                written.add(name)
         wired = []
+        py = self.python_controller
         for c, kind, rate in comps:
-            nav = ctx.navigation and kind.extra.get("navigation", False)
-            reads = tuple({"R": "R_est", "omega": "omega_est"}.get(r, r) if nav else r for r in kind.reads)
+            # the controllers read the estimate where an estimator runs
+            reads = (tuple(map(_NAV.get, kind.reads, kind.reads)) if ctx.navigation
+                     and kind.extra.get("navigation", False) else tuple(kind.reads))
             for name in kind.writes:
-                if self.python_controller and name == "wheel_command":
+                if py and name == "wheel_command":
                     raise ValueError(f"{kind.name} writes wheel_command, which the Python controller "
                                      f"{self.controller!r} commands: give one of the two")
-                place(name, c)
-                writers.setdefault(name, []).append(kind.name)
+                if name not in offsets:
+                    place(name, c)
+            written.update(kind.writes)
             wired.append((c, kind, rate, reads))
-        W, WS = [], []
+        W: list[int] = []
+        WS: list[int] = []
         codes, spc, mask, nr, po, so, wo = [], [], [], [], [0], [0], [0]
         P, S = [], []
         users = []
         initial: dict[str, float] = {}
         for c, kind, rate, reads in wired:
-            initial.update(kind.extra.get("initial", {}))
-            for name in reads:
-                if name not in writers and name in kind.extra.get("zeros", ()):
-                    place(name, c)          # nothing writes it: a slot held at its initial value
+            if "initial" in kind.extra:
+                initial.update(kind.extra["initial"])
+            zeros = kind.extra.get("zeros")
+            if zeros:
+                for name in reads:
+                    if name not in written and name in zeros:
+                        place(name, c)          # nothing writes it: a slot held at its initial value
+        periods: dict[str, list[int]] = {}      # the periods (steps) of each signal's writers
+        offset_of, size_of = offsets.__getitem__, sizes.__getitem__
         for c, kind, rate, reads in wired:
-            for name in reads:
-                if name not in writers and name not in offsets:
-                    if name in kind.extra.get("optional", ()):
-                        W.append(-1)
-                        WS.append(0)
-                        continue
-                    if name.startswith("wheel_") and self.N == 0:
-                        raise ValueError(f"{kind.name}: reads {name!r}, and the spacecraft has no wheels: give "
-                                         "Spacecraft(..., wheels=lgvi.ReactionWheels(...))")
-                    raise ValueError(f"{kind.name}: reads the signal {name!r}, which no component of the spacecraft "
-                                     "or the flight software writes (a family missing: an orbit for r_N, v_N, a "
-                                     "field for B_N, a guidance law for R_ref, an estimator for R_est)")
-                W.append(offsets[name])
-                WS.append(sizes[name])
+            ro = list(map(offsets.get, reads))  # every signal written is on the bus
+            if None in ro:                      # one nothing writes: an optional read (-1, size 0), or refused
+                ro, rs = [], []
+                for name in reads:
+                    if name not in offsets:
+                        if name in kind.extra.get("optional", ()):
+                            ro.append(-1)
+                            rs.append(0)
+                            continue
+                        if name.startswith("wheel_") and self.N == 0:
+                            raise ValueError(f"{kind.name}: reads {name!r}, and the spacecraft has no wheels: give "
+                                             "Spacecraft(..., wheels=lgvi.ReactionWheels(...))")
+                        raise ValueError(f"{kind.name}: reads the signal {name!r}, which no component of the "
+                                         "spacecraft or the flight software writes (a family missing: an orbit for "
+                                         "r_N, v_N, a field for B_N, a guidance law for R_ref, an estimator for R_est)")
+                    ro.append(offsets[name])
+                    rs.append(sizes[name])
+            else:
+                rs = list(map(size_of, reads))
+            W += ro
+            WS += rs
+            k = _period(rate, self.h, kind.name)
+            W += map(offset_of, kind.writes)
+            WS += map(size_of, kind.writes)
             for name in kind.writes:
-                W.append(offsets[name])
-                WS.append(sizes[name])
+                periods.setdefault(name, []).append(k)
             codes.append(kind.code)
-            spc.append(_period(rate, self.h, f"{kind.name}"))
+            spc.append(k)
             modes = getattr(c, "modes", None)
             mask.append(-1 if modes is None else sum(1 << m for m in modes))
             nr.append(len(reads))
@@ -453,8 +504,12 @@ class LoopRun(GyrostatRun):
             # a reader's initial value (the MEKF's NaN time: "nothing measured yet") is for a slot nothing
             # writes; a slot a component writes starts at zero, as its writer's state does, since the loop
             # refuses a writer leaving a value that is not finite (a star tracker excluded at its first sample)
-            if name in offsets and name not in writers:
-                self.bus[offsets[name]:offsets[name] + sizes[name]] = value
+            if name in offsets and name not in written:
+                o, n = offsets[name], sizes[name]
+                if n == 1 and type(value) is float:
+                    self.bus[o] = value
+                else:
+                    self.bus[o:o + n] = value
         # the disturbances that add into tau_dist_B (their own torque first): the loop sums the held ones
         dist = [i for i, (c, kind, _, _) in enumerate(wired) if kind.family == "disturbance"
                 and "tau_dist_B" in kind.writes and kind.writes[0] != "tau_dist_B"
@@ -466,19 +521,26 @@ class LoopRun(GyrostatRun):
         if modes:
             self.bus[offsets["mode"]] = float(getattr(modes[0], "initial", 0))
         record = self.fsw.record
-        if record is None:
-            record = [name for name in offsets if name not in _TRUTH and name in writers]
-        layout, idx = [], []
-        for name in record:
-            if name not in offsets:
-                raise ValueError(f"record names {name!r}, which is not on this run's bus; on it: {sorted(offsets)}")
-            layout.append((name, len(idx), sizes[name]))
-            idx += range(offsets[name], offsets[name] + sizes[name])
-        self.record_layout = layout
-        self.sig_idx: np.ndarray = np.array(idx, i64)
+        if record is None:                      # what is written, in the bus's order, but the truth
+            record = list(filter(written.difference(_TRUTH).__contains__, offsets))
+        start = list(map(offsets.get, record))
+        if None in start:
+            name = record[start.index(None)]
+            raise ValueError(f"record names {name!r}, which is not on this run's bus; on it: {sorted(offsets)}")
+        width = list(map(size_of, record))
+        cols = list(accumulate(width, initial=0))
+        self.record_layout = list(zip(record, cols, width))     # (name, its first column, size)
+        # the bus slot of each column: a signal's columns hold its slots from its offset on
+        self.sig_idx: np.ndarray = np.arange(cols[-1], dtype=i64) + np.repeat(
+            np.array(start, i64) - np.array(cols[:-1], i64), width)
+        periods["tau_dist_B"] = [1]             # the loop sums the held disturbance torques at every step
+        periods["tau_gravity_gradient_B"] = [1]  # the loop writes the variational moment at every step
+        if self.python_controller:
+            periods["tau_command_B"] = periods["wheel_command"] = [int(self.spc)]
         self.offsets, self.sizes = offsets, sizes
         self.fail: np.ndarray = np.zeros(2, i64)
         self.nxt: np.ndarray = np.zeros(len(codes), i64)     # the loop's next due step of each component
+        return periods
 
     @staticmethod
     def _lookahead(wired: list[Any], dist: list[int]) -> int:
