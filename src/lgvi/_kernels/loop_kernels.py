@@ -239,9 +239,8 @@ def record_fast(k, c_rec, e, per, bus, sig_fast, sig_out):
             for r in range(f, end):
                 size = sig_fast[r, 2]
                 # the offsets as unsigned integers (they are never negative): an index of a signed type
-                # is wrapped around (a negative one counts from the end), three more instructions a
-                # load and a store; the copy of the member's ten rows took 32 ns with them, 18.5 without
-                # (docs/performance.md, round 10)
+                # is wrapped around (a negative one counts from the end), three more instructions at each
+                # load and each store
                 d = np.uint64(sig_fast[r, 3] + slot * size)
                 o = np.uint64(sig_fast[r, 1])
                 # the first three values by branches, the rest (a quaternion's fourth, a matrix) by a
