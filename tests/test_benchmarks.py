@@ -210,6 +210,19 @@ def test_bench_loop_setup_quick():
 
 
 @pytest.mark.slow
+def test_member_iterations_quick():
+    """The member's Newton iterations at six tolerances and its guess's miss: the tables are printed whole
+    (a row a tolerance, two members a row; the misses at the steps asked for)."""
+    proc = _run("member_iterations.py", "--steps", "400")
+    _check(proc, "Newton iterations a step, 400 steps", "the guess's miss")
+    rows = re.findall(r"^\s+1e-(\d\d)\s+(\d\.\d{4})\s+(\d\.\d{4})$", proc.stdout, re.M)
+    assert [r[0] for r in rows] == ["14", "13", "12", "11", "10", "09"], proc.stdout
+    misses = re.findall(r"^\s+(\d+)\s+(\d\.\de-\d\d)\s+(\d\.\de-\d\d)$", proc.stdout, re.M)
+    assert [int(m[0]) for m in misses] == [20, 100, 200, 300, 390], proc.stdout
+    assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
 def test_loop_hill_pointing_quick():
     proc = _run("loop_hill_pointing.py", "--quick")
     _check(proc, "max attitude difference lgvi - Basilisk", "final pointing error")
