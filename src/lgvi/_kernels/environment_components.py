@@ -19,6 +19,7 @@ import math
 import numpy as np
 
 from .._jit import jit
+from .finite import finite_status, written
 
 SUN = 100
 SHADOW = 101
@@ -106,11 +107,6 @@ def sun_many(days, corrected):
     for i in range(days.shape[0]):
         out[i, 0], out[i, 1], out[i, 2] = sun_teme(days[i], corrected)
     return out
-
-
-@jit(inline="always")
-def _finite3(a, b, c):
-    return math.isfinite(a) and math.isfinite(b) and math.isfinite(c)
 
 
 @jit(inline="always")
@@ -328,7 +324,7 @@ def _add_torque(bus, o, d, tx, ty, tz):
     bus[d] = s0
     bus[d + 1] = s1
     bus[d + 2] = s2
-    return OK if (_finite3(tx, ty, tz) and _finite3(s0, s1, s2)) else NOT_FINITE
+    return finite_status(written(tx, ty, tz) + written(s0, s1, s2))
 
 
 @jit(inline="always")
@@ -342,7 +338,7 @@ def _facet_finish(bus, Ro, ot, od, of, fx, fy, fz, tx, ty, tz):
     bus[of + 1] = g1
     bus[of + 2] = g2
     st = _add_torque(bus, ot, od, tx, ty, tz)
-    return st if _finite3(g0, g1, g2) else NOT_FINITE
+    return st if written(g0, g1, g2) == 0.0 else NOT_FINITE
 
 
 @jit(inline="always")

@@ -7,8 +7,8 @@ read from the wiring, a loop over each signal). A built-in kind that has its val
 tests them itself for less: ``x * 0`` is 0 for a finite ``x`` and NaN for NaN or an infinity, so a
 sum of such terms is 0 exactly when every value is finite (no branch a value, and no false alarm: a
 sum of finite values that overflows does not count). The sensor and estimator kinds do this
-(``sensor_components``, ``estimation_components``, ``navigation_components``); the disturbance kinds
-test theirs with ``math.isfinite`` (``environment_components``).
+(``sensor_components``, ``estimation_components``, ``navigation_components``) and so do the
+disturbance kinds (``environment_components``).
 """
 
 from __future__ import annotations

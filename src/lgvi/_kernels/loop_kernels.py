@@ -340,6 +340,13 @@ def writes_finite(bus, W, WS, a, b):
 
 
 @jit(inline="always")
+def tests_own_writes(fam):
+    """Whether the kinds of family ``fam`` test their own writes (:mod:`.finite`: the disturbances,
+    2, the sensors, 3, the estimators, 4): the loop runs :func:`writes_finite` after the others."""
+    return 2 <= fam <= 4
+
+
+@jit(inline="always")
 def clear_writes(bus, W, WS, a, b):
     for j in range(a, b):
         o = W[j]
@@ -391,7 +398,7 @@ def run_one(user, c, t, bus, codes, nr, P, po, S, so, W, wo, WS, fail):
         st = dispatch(user, code, t, bus, p, s, w)
     # the disturbance (2), sensor (3) and estimator (4) kinds test their own writes (:mod:`.finite`); the
     # others' writes are tested here
-    if st == OK and (fam < 2 or fam > 4) and not writes_finite(bus, W, WS, wo[c] + nr[c], wo[c + 1]):
+    if st == OK and not tests_own_writes(fam) and not writes_finite(bus, W, WS, wo[c] + nr[c], wo[c + 1]):
         st = 1
     return marked(c, st, fail)
 
