@@ -3,17 +3,13 @@ the bus and of the records, and that nothing of a run is kept on the user's obje
 
 from __future__ import annotations
 
-import copy
-import copyreg
-
 import numpy as np
 import pytest
 
 import lgvi
-from lgvi.components import Component
 from lgvi.fsw import MEKF, FlightSoftware, InertialPointing, MRPControl, RWMotorTorque
 from lgvi.spacecraft import Gyro, Spacecraft, StarTracker
-from lgvi.systems.spacecraft import LoopRun, _run_copy, signal_width
+from lgvi.systems.spacecraft import LoopRun, signal_width
 
 S3 = 1.0 / np.sqrt(3.0)
 PYRAMID = np.array([[S3, S3, S3], [-S3, S3, S3], [S3, -S3, S3], [-S3, -S3, S3]])
@@ -35,47 +31,6 @@ def _member(**fsw_kw):
 def _run(sc, fsw, **kw):
     kw = dict(h=0.1, steps=120, save_every=10) | kw
     return LoopRun(sc, np.eye(3), omega0=[0.01, -0.02, 0.015], fsw=fsw, **kw)
-
-
-class _Slotted(Component):
-    __slots__ = ("a",)
-
-
-class _Reducing(Component):
-    def __reduce__(self):
-        return (_Reducing, ())
-
-
-class _Copying(Component):
-    def __copy__(self):
-        return "its own copy"
-
-
-class _Registered(Component):
-    pass
-
-
-def test_the_runs_copy_of_a_component_is_copy_copys():
-    """``_run_copy`` builds the copy ``copy.copy`` makes (a new object of the class, holding the same
-    attribute objects) for every component of the member, and leaves a class that customises its
-    copies (slots, ``__reduce__``, ``__copy__``, a ``copyreg`` entry) to ``copy.copy``."""
-    sc, fsw = _member()
-    copyreg.pickle(_Registered, lambda o: (_Registered, ()))
-    try:
-        slotted = _Slotted(rate=1.0)
-        slotted.a, slotted.b = 3, 4
-        given = sc.components() + fsw.components() + [slotted, _Reducing(rate=2.0), _Copying(), _Registered(rate=1.0)]
-        for c in given:
-            mine, ref = _run_copy(c), copy.copy(c)
-            if isinstance(ref, str):
-                assert mine == ref
-                continue
-            assert type(mine) is type(ref) is type(c) and mine is not c
-            assert list(vars(mine)) == list(vars(ref)) and all(vars(mine)[k] is vars(ref)[k] for k in vars(ref))
-        assert _run_copy(slotted).a == 3 and _run_copy(slotted).b == 4
-        assert _run_copy(_Registered(rate=1.0)).rate is None           # the registered reducer's: built anew
-    finally:
-        copyreg.dispatch_table.pop(_Registered, None)
 
 
 def test_a_run_sees_each_component_as_it_is_now_and_leaves_it_as_given():

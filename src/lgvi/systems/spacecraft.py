@@ -9,9 +9,7 @@ gyrostat (:mod:`lgvi.systems.gyrostat`) stepped by the compiled loop
 from __future__ import annotations
 
 import copy
-import copyreg
 import dataclasses
-import math
 from dataclasses import dataclass
 from functools import cached_property
 from itertools import accumulate, chain
@@ -164,31 +162,6 @@ def _from_stream(meta: dict[str, Any], arrays: dict[str, np.ndarray], state: dic
 RESULT_TYPES["spacecraft"] = (RESULT_TYPES["gyrostat"][0] + ("signal_data",), _from_file)
 
 
-#: The names by which a class changes how ``copy.copy`` copies its instances (``copy``, ``copyreg``).
-_COPY_HOOKS = frozenset(("__copy__", "__reduce_ex__", "__reduce__", "__getstate__", "__setstate__", "__new__",
-                         "__getnewargs_ex__", "__getnewargs__", "__slots__"))
-
-
-def _run_copy(c: Any) -> Any:
-    """``copy.copy(c)``: the run's own copy of a component (its ``setup`` is this run's, a shared
-    description stays as given). An instance of a class that leaves copying to Python's default
-    protocol (no class of its MRO but ``object`` defines one of ``_COPY_HOOKS``, its metaclass is
-    ``type``, no ``copyreg`` entry: every built-in component) is copied here as that protocol copies
-    it, ``cls.__new__(cls)`` given the same ``__dict__`` entries, without ``copy.copy``'s road
-    through ``__reduce_ex__`` and ``copyreg``; any other object by ``copy.copy``."""
-    cls = type(c)
-    if type(cls) is not type or cls in copyreg.dispatch_table:
-        return copy.copy(c)
-    for b in cls.__mro__:
-        if b is object:
-            break
-        if not _COPY_HOOKS.isdisjoint(b.__dict__):
-            return copy.copy(c)
-    new = object.__new__(cls)
-    new.__dict__.update(c.__dict__)
-    return new
-
-
 def _period(rate: Any, h: float, what: str) -> int:
     if rate is None:
         return 1
@@ -304,7 +277,7 @@ class LoopRun(GyrostatRun):
             if py is not None and kind.name == "magnetorquers":
                 continue                        # the Python controller's dipole goes to the rods in Python
             in_fsw = id(c) in own_fsw
-            c = _run_copy(c)                   # its setup is this run's (a shared description stays as given)
+            c = copy.copy(c)                   # its setup is this run's (a shared description stays as given)
             c.setup(ctx)
             rate = c.rate if c.rate is not None or not in_fsw else fsw.rate
             items.append((FAMILIES.index(kind.family), len(items), c, kind, rate))
@@ -356,7 +329,6 @@ class LoopRun(GyrostatRun):
             ["python_controller"] if self.python_controller and self.external else [])
         self.motors_off = self.motors_off and not commanded
         self.meta["invariants"] = GYROSTAT.invariants(self)
-        n = self.N
         self.system: System = dataclasses.replace(
             SPACECRAFT, state=self.system.state,
             # filled: the loop writes each complete entry's every column (the grid's at its first step, each
@@ -390,11 +362,7 @@ class LoopRun(GyrostatRun):
         def place(name: str, comp: Any) -> None:
             nonlocal nbus
             if name not in offsets:
-                sig = own.get(name)
-                if sig is not None:             # a kind's own signal
-                    size = int(sig.size)
-                else:                           # a standard one; of size 0: set by the spacecraft (_size)
-                    size = SIGNALS[name].size or self._size(name, comp, own)
+                size = self._size(name, comp, own)
                 sizes[name] = size
                 offsets[name] = nbus
                 nbus += size
@@ -442,27 +410,20 @@ class LoopRun(GyrostatRun):
         periods: dict[str, list[int]] = {}      # the periods (steps) of each signal's writers
         offset_of, size_of = offsets.__getitem__, sizes.__getitem__
         for c, kind, rate, reads in wired:
-            ro = list(map(offsets.get, reads))  # every signal written is on the bus
-            if None in ro:                      # one nothing writes: an optional read (-1, size 0), or refused
-                ro, rs = [], []
-                for name in reads:
-                    if name not in offsets:
-                        if name in kind.extra.get("optional", ()):
-                            ro.append(-1)
-                            rs.append(0)
-                            continue
-                        if name.startswith("wheel_") and self.N == 0:
-                            raise ValueError(f"{kind.name}: reads {name!r}, and the spacecraft has no wheels: give "
-                                             "Spacecraft(..., wheels=lgvi.ReactionWheels(...))")
-                        raise ValueError(f"{kind.name}: reads the signal {name!r}, which no component of the "
-                                         "spacecraft or the flight software writes (a family missing: an orbit for "
-                                         "r_N, v_N, a field for B_N, a guidance law for R_ref, an estimator for R_est)")
-                    ro.append(offsets[name])
-                    rs.append(sizes[name])
-            else:
-                rs = list(map(size_of, reads))
-            W += ro
-            WS += rs
+            for name in reads:                  # every signal written is on the bus
+                if name not in offsets:         # one nothing writes: an optional read (-1, size 0), or refused
+                    if name in kind.extra.get("optional", ()):
+                        W.append(-1)
+                        WS.append(0)
+                        continue
+                    if name.startswith("wheel_") and self.N == 0:
+                        raise ValueError(f"{kind.name}: reads {name!r}, and the spacecraft has no wheels: give "
+                                         "Spacecraft(..., wheels=lgvi.ReactionWheels(...))")
+                    raise ValueError(f"{kind.name}: reads the signal {name!r}, which no component of the "
+                                     "spacecraft or the flight software writes (a family missing: an orbit for "
+                                     "r_N, v_N, a field for B_N, a guidance law for R_ref, an estimator for R_est)")
+                W.append(offsets[name])
+                WS.append(sizes[name])
             k = _period(rate, self.h, kind.name)
             W += map(offset_of, kind.writes)
             WS += map(size_of, kind.writes)
@@ -505,11 +466,7 @@ class LoopRun(GyrostatRun):
             # writes; a slot a component writes starts at zero, as its writer's state does, since the loop
             # refuses a writer leaving a value that is not finite (a star tracker excluded at its first sample)
             if name in offsets and name not in written:
-                o, n = offsets[name], sizes[name]
-                if n == 1 and type(value) is float:
-                    self.bus[o] = value
-                else:
-                    self.bus[o:o + n] = value
+                self.bus[offsets[name]:offsets[name] + sizes[name]] = value
         # the disturbances that add into tau_dist_B (their own torque first): the loop sums the held ones
         dist = [i for i, (c, kind, _, _) in enumerate(wired) if kind.family == "disturbance"
                 and "tau_dist_B" in kind.writes and kind.writes[0] != "tau_dist_B"
